@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# Installs everything hpddo needs on a Debian/Ubuntu machine, idempotently:
+# system packages through apt-get (when root; otherwise prints the command),
+# Python packages into the project venv at .venv.
+# Usage: scripts/bootstrap.sh [--with-browser]
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+
+apt_pkgs=(cmake g++ make python3 python3-venv python3-pip git
+          googletest libgtest-dev libeigen3-dev
+          gcc-avr avr-libc arduino-core-avr simavr libsimavr-dev
+          gcc-xtensa-lx106 binutils-xtensa-lx106 picolibc-xtensa-lx106-elf
+          clang libclang-rt-14-dev)
+if [[ "${1:-}" == "--with-browser" ]]; then apt_pkgs+=(chromium); fi
+
+missing=()
+for p in "${apt_pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]})); then
+  if [[ $(id -u) -eq 0 ]]; then
+    echo "bootstrap: installing system packages: ${missing[*]}"
+    export DEBIAN_FRONTEND=noninteractive
+    apt-get update -qq
+    apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  else
+    echo "bootstrap: missing system packages; run as root:" >&2
+    echo "  sudo apt-get update && sudo apt-get install -y ${missing[*]}" >&2
+    exit 1
+  fi
+fi
+
+# Project venv, refreshed only when requirements.txt changes.
+stamp=.venv/.requirements.sha256
+want=$(sha256sum requirements.txt | cut -d' ' -f1)
+if [[ ! -x .venv/bin/python || ! -f $stamp || $(cat "$stamp") != "$want" ]]; then
+  echo "bootstrap: installing Python packages into .venv"
+  python3 -m venv .venv
+  .venv/bin/pip install -q --disable-pip-version-check -r requirements.txt
+  echo "$want" > "$stamp"
+fi

@@ -1,0 +1,1 @@
+"""hpddo tools: bench log I/O, the bench twin, identification, training, export, diagnosis."""
