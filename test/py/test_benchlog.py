@@ -1,0 +1,187 @@
+"""Bench log reader/writer: round trip, every named fault, column order and extras."""
+import math
+import os
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hpddo.benchlog import BenchLogError, read_log, write_log
+
+GOOD = """\
+# condition=sweep
+# sample_rate_hz=2
+# motor=25GA371 1:4.4
+t_s,duty,v_V,i_A,rpm_ref,temp_C,load
+0.0,0.000,0.012,0.003,0.0,31.7,0
+0.5,0.200,2.391,0.214,41.2,31.7,0
+1.0,0.200,2.401,0.210,,,1
+"""
+
+
+def _write(tmp_path, text, name="log.csv", encoding="utf-8"):
+    p = tmp_path / name
+    p.write_bytes(text.encode(encoding))
+    return p
+
+
+def test_reads_spec_example(tmp_path):
+    log = read_log(_write(tmp_path, GOOD))
+    assert log.meta == {"condition": "sweep", "sample_rate_hz": "2", "motor": "25GA371 1:4.4"}
+    assert log.condition == "sweep"
+    assert log.sample_rate_hz == 2.0
+    assert list(log.df.columns) == ["t_s", "duty", "v_V", "i_A", "rpm_ref", "temp_C", "load"]
+    assert len(log.df) == 3
+    assert math.isnan(log.df["rpm_ref"].iloc[2]) and math.isnan(log.df["temp_C"].iloc[2])
+    assert log.df["load"].tolist() == [0, 0, 1]
+    assert log.df["load"].dtype == np.int64
+
+
+def test_condition_falls_back_to_stem(tmp_path):
+    log = read_log(_write(tmp_path, "t_s,duty,v_V,i_A\n0,0,0,0\n", name="myrun.csv"))
+    assert log.condition == "myrun"
+    assert "rpm_ref" not in log.df.columns  # absent optional column stays absent
+
+
+def test_round_trip(tmp_path):
+    rng = np.random.default_rng(3)
+    n = 500
+    df = pd.DataFrame(
+        {
+            "t_s": np.arange(n) * 0.5,
+            "duty": rng.choice([0.0, 0.2, 0.4, 0.8, 1.0], n),
+            "v_V": rng.uniform(-0.7, 12, n),
+            "i_A": rng.uniform(0, 2, n),
+            "rpm_ref": rng.uniform(0, 280, n),
+            "temp_C": 31.7 + rng.integers(0, 600, n) * 0.0625,
+            "load": rng.integers(0, 3, n),
+            "seq": np.arange(n),
+        }
+    )
+    df.loc[7, "rpm_ref"] = np.nan
+    meta = {"condition": "rt", "sample_rate_hz": "2", "note": "a, note with = signs"}
+    p = write_log(tmp_path / "rt.csv", df, meta)
+    log = read_log(p)
+    assert log.meta == meta
+    assert list(log.df.columns) == list(df.columns)
+    for c, tol in [("t_s", 5e-5), ("duty", 5e-5), ("v_V", 5e-7), ("i_A", 5e-7),
+                   ("rpm_ref", 5e-4), ("temp_C", 5e-5)]:
+        np.testing.assert_allclose(log.df[c], df[c], atol=tol, rtol=0, err_msg=c)
+    assert math.isnan(log.df["rpm_ref"].iloc[7])
+    assert (log.df["load"].to_numpy() == df["load"].to_numpy()).all()
+    # writing what was read gives the same bytes: the formats are a fixed point
+    p2 = write_log(tmp_path / "rt2.csv", log.df, log.meta)
+    assert p.read_bytes() == p2.read_bytes()
+    # no temporary files left behind
+    assert sorted(os.listdir(tmp_path)) == ["rt.csv", "rt2.csv"]
+
+
+def test_other_column_order_and_extra_columns(tmp_path):
+    text = "# condition=x\nnote_col,i_A,extra_num,t_s,v_V,duty\nhello,0.1,3,0,1.0,0.5\nworld,0.2,4,1,2.0,0.6\n"
+    log = read_log(_write(tmp_path, text))
+    assert list(log.df.columns) == ["note_col", "i_A", "extra_num", "t_s", "v_V", "duty"]
+    assert log.df["note_col"].tolist() == ["hello", "world"]
+    assert log.df["extra_num"].tolist() == [3.0, 4.0]
+    assert log.df["duty"].tolist() == [0.5, 0.6]
+
+
+def test_bom_and_crlf_tolerated(tmp_path):
+    text = "\ufeff" + GOOD.replace("\n", "\r\n")
+    log = read_log(_write(tmp_path, text))
+    assert log.meta["condition"] == "sweep" and len(log.df) == 3
+
+
+def test_nullable_int_with_empty_cells(tmp_path):
+    log = read_log(_write(tmp_path, "t_s,duty,v_V,i_A,seq\n0,0,0,0,1\n1,0,0,0,\n"))
+    assert str(log.df["seq"].dtype) == "Int64"
+    assert log.df["seq"].iloc[0] == 1 and pd.isna(log.df["seq"].iloc[1])
+
+
+HDR = "t_s,duty,v_V,i_A,rpm_ref,temp_C,load,seq\n"
+ROW0 = "0.0,0.5,6.0,0.3,100.0,31.7,0,0\n"
+
+FAULTS = [
+    # (name, text, expected line, words in the message)
+    ("empty file", "", 1, "empty file"),
+    ("only newlines", "\n\n", 1, "empty file"),
+    ("only metadata", "# condition=x\n", 1, "no header"),
+    ("header no rows", "# condition=x\n" + HDR, 2, "header with no rows"),
+    ("malformed metadata", "# condition=x\n# just words\n" + HDR + ROW0, 2, "malformed metadata"),
+    ("metadata empty key", "#=3\n" + HDR + ROW0, 1, "malformed metadata"),
+    ("missing column", "t_s,duty,v_V\n0,0,0\n", 1, "missing required column(s) i_A"),
+    ("non-numeric required", HDR + ROW0 + "0.5,0.5,abc,0.3,100,31.7,0,1\n", 3, "non-numeric value 'abc' in column v_V"),
+    ("empty required", HDR + ROW0 + "0.5,0.5,6.0,,100,31.7,0,1\n", 3, "empty value in required column i_A"),
+    ("non-finite required", HDR + ROW0 + "0.5,0.5,inf,0.3,100,31.7,0,1\n", 3, "non-finite value 'inf' in column v_V"),
+    ("nan required", HDR + ROW0 + "nan,0.5,6,0.3,100,31.7,0,1\n", 3, "non-finite value 'nan' in column t_s"),
+    ("t_s equal", HDR + ROW0 + "0.0,0.5,6,0.3,100,31.7,0,1\n", 3, "t_s not strictly increasing"),
+    ("t_s decreasing", HDR + ROW0 + "1.0,0.5,6,0.3,100,31.7,0,1\n0.5,0.5,6,0.3,100,31.7,0,2\n", 4, "t_s not strictly increasing"),
+    ("duty > 1", HDR + ROW0 + "0.5,1.2,6,0.3,100,31.7,0,1\n", 3, "duty 1.2 outside 0..1"),
+    ("duty < 0", HDR + "0.0,-0.1,6,0.3,100,31.7,0,1\n", 2, "outside 0..1"),
+    ("too many fields", HDR + ROW0 + "0.5,0.5,6,0.3,100,31.7,0,1,9\n", 3, "row has 9 fields, header has 8"),
+    ("too few fields", HDR + ROW0 + "0.5,0.5,6,0.3\n", 3, "row has 4 fields, header has 8"),
+    ("blank line inside", HDR + ROW0 + "\n" + "0.5,0.5,6,0.3,100,31.7,0,1\n", 3, "blank line"),
+    ("comment after header", HDR + ROW0 + "# late=1\n", 3, "after the header"),
+    ("non-integer load", HDR + ROW0 + "0.5,0.5,6,0.3,100,31.7,1.5,1\n", 3, "non-integer value '1.5' in column load"),
+    ("non-integer seq", HDR + ROW0 + "0.5,0.5,6,0.3,100,31.7,1,x\n", 3, "non-integer value 'x' in column seq"),
+    ("text in rpm_ref", HDR + ROW0 + "0.5,0.5,6,0.3,fast,31.7,1,1\n", 3, "non-numeric value 'fast' in column rpm_ref"),
+    ("text in temp_C", HDR + ROW0 + "0.5,0.5,6,0.3,100,hot,1,1\n", 3, "non-numeric value 'hot' in column temp_C"),
+    ("duplicate column", "t_s,duty,v_V,i_A,t_s\n0,0,0,0,0\n", 1, "duplicate column"),
+]
+
+
+@pytest.mark.parametrize("name,text,line,words", FAULTS, ids=[f[0] for f in FAULTS])
+def test_faults_are_named(tmp_path, name, text, line, words):
+    p = _write(tmp_path, text, name="bad.csv")
+    with pytest.raises(BenchLogError) as ei:
+        read_log(p)
+    msg = str(ei.value)
+    assert str(p) in msg
+    assert f"{p}:{line}:" in msg, msg
+    assert words in msg, msg
+    assert ei.value.line == line
+    assert isinstance(ei.value, ValueError)
+
+
+def test_metadata_line_numbers_count(tmp_path):
+    # the reported line is the line in the file, metadata and header included
+    text = "# a=1\n# b=2\n# c=3\n" + HDR + ROW0 + ROW0.replace("0.0,", "1.0,", 1).replace(",0\n", ",1\n").replace("6.0", "bad")
+    p = _write(tmp_path, text)
+    with pytest.raises(BenchLogError) as ei:
+        read_log(p)
+    assert ei.value.line == 6
+
+
+def test_not_utf8(tmp_path):
+    p = tmp_path / "latin.csv"
+    p.write_bytes(("# note=caf\xe9\n" + HDR + ROW0).encode("latin-1"))
+    with pytest.raises(BenchLogError) as ei:
+        read_log(p)
+    assert ei.value.line == 1 and "UTF-8" in str(ei.value)
+
+
+def test_writer_refuses_bad_frames(tmp_path):
+    good = pd.DataFrame({"t_s": [0.0, 0.5], "duty": [0.1, 0.2], "v_V": [1.0, 2.0], "i_A": [0.1, 0.1]})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.drop(columns="i_A"), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.assign(duty=[0.1, 1.5]), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.assign(t_s=[0.5, 0.5]), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good, {"note": "two\nlines"})
+    assert not any(tmp_path.iterdir())  # nothing written, no temp files
+
+
+def test_atomic_replace_keeps_old_file_on_failure(tmp_path, monkeypatch):
+    df = pd.DataFrame({"t_s": [0.0], "duty": [0.1], "v_V": [1.0], "i_A": [0.1]})
+    p = write_log(tmp_path / "a.csv", df, {"condition": "a"})
+    before = p.read_bytes()
+
+    def boom(*a, **k):
+        raise OSError("disk full")
+
+    monkeypatch.setattr(os, "replace", boom)
+    with pytest.raises(OSError):
+        write_log(p, df.assign(v_V=[9.0]), {"condition": "a"})
+    assert p.read_bytes() == before
+    assert sorted(os.listdir(tmp_path)) == ["a.csv"]
