@@ -1,0 +1,30 @@
+// Training envelope: the per-feature range seen in training, widened by a
+// margin at export. Outside it the residual is an extrapolation, and the
+// observer falls back to the physics model.
+#ifndef HPDDO_ENVELOPE_H
+#define HPDDO_ENVELOPE_H
+
+#include <stdint.h>
+
+#include "platform.h"
+
+namespace hpddo {
+
+/// Per-feature closed interval [lo, hi] in the features' own units (flash).
+template <uint8_t kN>
+struct Envelope {
+  const float* lo;
+  const float* hi;
+
+  /// True when every feature lies inside its interval (NaN never does).
+  bool contains(const float (&x)[kN]) const {
+    for (uint8_t j = 0; j < kN; ++j) {
+      if (!(x[j] >= flash_float(lo + j) && x[j] <= flash_float(hi + j))) return false;
+    }
+    return true;
+  }
+};
+
+}  // namespace hpddo
+
+#endif  // HPDDO_ENVELOPE_H

@@ -1,0 +1,87 @@
+// A deployed model: physics parameters, scaler, network, envelope and clamp.
+// Generated headers (tools/gen_weights.py) define one `Model<Net>` each, with
+// the arrays in flash and a CRC-32 over them that a test recomputes.
+#ifndef HPDDO_MODEL_H
+#define HPDDO_MODEL_H
+
+#include <stdint.h>
+
+#include "crc.h"
+#include "envelope.h"
+#include "mlp.h"
+#include "physics.h"
+#include "scaler.h"
+
+namespace hpddo {
+
+/// Number of residual features: [v_V, i_A, n_M2, i_A(t-1), n_M2(t-1)].
+static const uint8_t kFeatureCount = 5;
+
+/// Indices of the residual features.
+enum Feature : uint8_t { kFeatV = 0, kFeatI = 1, kFeatM2 = 2, kFeatILag = 3, kFeatM2Lag = 4 };
+
+/// Readings outside these limits are not measurements but faults.
+struct InputLimits {
+  float v_max_V;       ///< largest |v_V| the voltage channel can report, V
+  float i_max_A;       ///< largest |i_A| the current channel can report, A
+  float temp_min_C;    ///< temperature sensor range, C (outside: treated as absent)
+  float temp_max_C;
+};
+
+/// Everything the observer needs, for a network type Net (an Mlp<...>).
+template <class Net>
+struct Model {
+  PhysicsParams physics;            ///< M2 with its effect terms
+  Scaler<kFeatureCount> scaler;     ///< standardisation of the features
+  MlpWeights weights;               ///< residual network, in flash
+  Envelope<kFeatureCount> envelope; ///< training range of the features
+  float clamp_rpm;                  ///< residual bound, RPM
+  InputLimits limits;               ///< fault limits of the readings
+};
+
+namespace detail {
+inline uint32_t crc_float(uint32_t crc, float f) {
+  uint32_t u = 0;
+  __builtin_memcpy(&u, &f, sizeof u);
+  const uint8_t b[4] = {static_cast<uint8_t>(u), static_cast<uint8_t>(u >> 8),
+                        static_cast<uint8_t>(u >> 16), static_cast<uint8_t>(u >> 24)};
+  return crc32_update(crc, b, 4);
+}
+inline uint32_t crc_flash(uint32_t crc, const float* p, uint16_t n) {
+  for (uint16_t k = 0; k < n; ++k) crc = crc_float(crc, flash_float(p + k));
+  return crc;
+}
+}  // namespace detail
+
+/// CRC-32 over the float32 little-endian bytes of everything a model stores,
+/// in the exporter's order: physics fields, effects, scaler, network layers,
+/// envelope, clamp and limits. A generated header's kChecksum must equal it.
+template <class Net>
+uint32_t model_checksum(const Model<Net>& m) {
+  const PhysicsParams& p = m.physics;
+  const float phys[] = {p.ra_ohm,      p.ke_vs_per_rad, p.t_ref_C, p.ra_tc_per_K,  p.ke_tc_per_K,
+                        p.brush_V,     p.ke_sat_per_A,  p.i_offset_A, p.v_gain,    p.la_H,
+                        p.th_r_K_per_W, p.th_tau_s,     p.t_amb_C, static_cast<float>(p.effects)};
+  uint32_t crc = 0xFFFFFFFFu;
+  for (uint8_t k = 0; k < sizeof phys / sizeof phys[0]; ++k) crc = detail::crc_float(crc, phys[k]);
+  crc = detail::crc_flash(crc, m.scaler.mean, kFeatureCount);
+  crc = detail::crc_flash(crc, m.scaler.scale, kFeatureCount);
+  crc = detail::crc_flash(crc, m.weights.w0, Net::kW0Count);
+  crc = detail::crc_flash(crc, m.weights.b0, Net::kHidden1);
+  crc = detail::crc_flash(crc, m.weights.w1, Net::kW1Count);
+  crc = detail::crc_flash(crc, m.weights.b1, Net::kHidden2 ? Net::kHidden2 : 1);
+  if (Net::kHidden2) {
+    crc = detail::crc_flash(crc, m.weights.w2, Net::kW2Count);
+    crc = detail::crc_flash(crc, m.weights.b2, 1);
+  }
+  crc = detail::crc_flash(crc, m.envelope.lo, kFeatureCount);
+  crc = detail::crc_flash(crc, m.envelope.hi, kFeatureCount);
+  const float tail[] = {m.clamp_rpm, m.limits.v_max_V, m.limits.i_max_A, m.limits.temp_min_C,
+                        m.limits.temp_max_C};
+  for (uint8_t k = 0; k < sizeof tail / sizeof tail[0]; ++k) crc = detail::crc_float(crc, tail[k]);
+  return crc ^ 0xFFFFFFFFu;
+}
+
+}  // namespace hpddo
+
+#endif  // HPDDO_MODEL_H

@@ -1,0 +1,162 @@
+// The observer step: one sample (V, I, temperature where present) in, one
+// speed estimate with its status out. Keeps the one-step lags of I and n_M2
+// and a thermal state; resets the lags after invalid input or a seq gap.
+//
+//   n_M2  = physics model with effect terms (physics.h)
+//   x     = [v, i, n_M2, i(t-1), n_M2(t-1)]   (lags = current values after a reset)
+//   n_M3  = n_M2 + clamp(MLP(scale(x)))       inside the training envelope
+//   n_M3  = n_M2                              outside it (fallback)
+#ifndef HPDDO_OBSERVER_H
+#define HPDDO_OBSERVER_H
+
+#include <stdint.h>
+
+#include "clamp.h"
+#include "model.h"
+#include "physics.h"
+#include "platform.h"
+#include "thermal.h"
+
+namespace hpddo {
+
+/// What the observer did with a sample.
+enum Status : uint8_t {
+  kStatusOk = 0,        ///< physics plus the learned residual
+  kStatusClamped = 1,   ///< residual limited to the clamp bound
+  kStatusFallback = 2,  ///< outside the training envelope: physics alone
+  kStatusInvalid = 3,   ///< reading not usable: estimate held, lags reset
+};
+
+/// Short lower-case name of a status, for logs and telemetry.
+inline const char* status_name(Status s) {
+  switch (s) {
+    case kStatusOk: return "ok";
+    case kStatusClamped: return "clamped";
+    case kStatusFallback: return "fallback";
+    default: return "invalid";
+  }
+}
+
+/// One sample: means over the sample period.
+struct Sample {
+  float v_V;      ///< terminal voltage, V
+  float i_A;      ///< armature current, A
+  float temp_C;   ///< case temperature, C; NaN where not read
+  float dt_s;     ///< time since the previous sample, s
+  uint16_t seq;   ///< sample counter of the acquisition board
+  bool has_seq;   ///< false where the source carries no counter
+};
+
+/// One estimate. rpm is always finite.
+struct Estimate {
+  float rpm;           ///< output-shaft speed estimate, RPM
+  float rpm_m2;        ///< physics model alone, RPM (held when invalid)
+  float residual_rpm;  ///< learned correction applied, RPM
+  float temp_C;        ///< temperature the thermal effects used, C
+  Status status;
+};
+
+/// Per-sample observer over a Model; no heap, a few dozen bytes of state.
+template <class Net>
+class Observer {
+ public:
+  explicit Observer(const Model<Net>& model) : model_(model), thermal_(model.physics) { reset(); }
+
+  /// Forgets the lags and the held estimate; the thermal state restarts at ambient.
+  void reset() {
+    has_lag_ = false;
+    has_seq_ = false;
+    last_seq_ = 0;
+    last_ = Estimate();
+    last_.status = kStatusInvalid;
+    thermal_.reset(model_.physics);
+    seq_gaps_ = 0;
+  }
+
+  /// Number of seq gaps seen since reset().
+  uint32_t seq_gaps() const { return seq_gaps_; }
+
+  /// Turns one sample into an estimate.
+  Estimate step(const Sample& s) {
+    const PhysicsParams& p = model_.physics;
+    if (s.has_seq) {
+      if (has_seq_ && s.seq != static_cast<uint16_t>(last_seq_ + 1u)) {
+        ++seq_gaps_;
+        has_lag_ = false;
+      }
+      has_seq_ = true;
+      last_seq_ = s.seq;
+    }
+    if (!reading_valid(s)) return invalid();
+
+    const float i_true_A = true_current_A(p, s.i_A);
+    const float dt_s = s.dt_s;
+    const bool temp_read = is_finite(s.temp_C) && s.temp_C >= model_.limits.temp_min_C &&
+                           s.temp_C <= model_.limits.temp_max_C;
+    thermal_.step(p, i_true_A, dt_s);
+    PhysicsInput in;
+    in.v_V = s.v_V;
+    in.i_A = s.i_A;
+    in.di_dt_A_per_s = has_lag_ ? (s.i_A - i_lag_A_) / dt_s : 0.0f;
+    in.temp_C = temp_read ? s.temp_C : (ThermalEstimator::enabled(p) ? thermal_.temp_C() : p.t_ref_C);
+    float m2 = 0.0f;
+    if (!physics_rpm(p, in, &m2)) return invalid();
+
+    float x[kFeatureCount];
+    x[kFeatV] = s.v_V;
+    x[kFeatI] = s.i_A;
+    x[kFeatM2] = m2;
+    x[kFeatILag] = has_lag_ ? i_lag_A_ : s.i_A;
+    x[kFeatM2Lag] = has_lag_ ? m2_lag_rpm_ : m2;
+    i_lag_A_ = s.i_A;
+    m2_lag_rpm_ = m2;
+    has_lag_ = true;
+
+    Estimate e;
+    e.rpm_m2 = m2;
+    e.temp_C = in.temp_C;
+    e.residual_rpm = 0.0f;
+    e.status = kStatusFallback;
+    if (model_.envelope.contains(x)) {
+      float z[kFeatureCount];
+      model_.scaler.transform(x, z);
+      float r = Net::forward(model_.weights, z);
+      if (is_finite(r)) {
+        e.status = clamp_residual(model_.clamp_rpm, &r) ? kStatusClamped : kStatusOk;
+        e.residual_rpm = r;
+      }
+    }
+    e.rpm = m2 + e.residual_rpm;
+    last_ = e;
+    return e;
+  }
+
+ private:
+  bool reading_valid(const Sample& s) const {
+    const InputLimits& lim = model_.limits;
+    return is_finite(s.v_V) && is_finite(s.i_A) && s.v_V <= lim.v_max_V && s.v_V >= -lim.v_max_V &&
+           s.i_A <= lim.i_max_A && s.i_A >= -lim.i_max_A && s.dt_s > 0.0f && is_finite(s.dt_s);
+  }
+
+  Estimate invalid() {
+    has_lag_ = false;
+    Estimate e = last_;
+    e.residual_rpm = 0.0f;
+    e.status = kStatusInvalid;
+    return e;
+  }
+
+  const Model<Net>& model_;
+  ThermalEstimator thermal_;
+  Estimate last_;
+  float i_lag_A_ = 0.0f;
+  float m2_lag_rpm_ = 0.0f;
+  uint16_t last_seq_ = 0;
+  bool has_lag_ = false;
+  bool has_seq_ = false;
+  uint32_t seq_gaps_ = 0;
+};
+
+}  // namespace hpddo
+
+#endif  // HPDDO_OBSERVER_H

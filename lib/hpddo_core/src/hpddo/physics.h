@@ -1,0 +1,122 @@
+// The physics models M1 and M2: shaft speed from the armature voltage balance
+//
+//   v_true = ra(T) i_true + brush(i_true) + la di/dt + ke(T, i_true) w
+//
+// solved for w (rad/s) and returned in RPM of the output shaft. M1 uses the
+// nameplate Ke with every effect off; M2 uses the identified Ra and Ke, plus
+// any effect terms that diagnosis found missing. Each effect is one named
+// coefficient; zero switches it off. The same terms exist once in Python
+// (tools/hpddo/effects.py) and a parity test holds the two together.
+#ifndef HPDDO_PHYSICS_H
+#define HPDDO_PHYSICS_H
+
+#include <stdint.h>
+
+#include "platform.h"
+
+namespace hpddo {
+
+/// RPM per rad/s (60 / 2 pi).
+static const float kRpmPerRadS = 9.54929658551372f;
+
+/// Current at which the brush drop reaches half its full value, A.
+/// Smooths the sign of i so that the term is continuous at zero current.
+static const float kBrushKnee_A = 0.02f;
+
+/// Bit of each effect in PhysicsParams::effects, for reporting and telemetry.
+enum Effect : uint16_t {
+  kEffectThermalRa = 1u << 0,      ///< thermal_ra: copper resistance rises with T
+  kEffectMagnetThermal = 1u << 1,  ///< magnet_thermal: magnet flux falls with T
+  kEffectBrushDrop = 1u << 2,      ///< brush_drop: brush-commutator contact drop
+  kEffectSaturation = 1u << 3,     ///< saturation: armature reaction, Ke falls with |i|
+  kEffectCurrentOffset = 1u << 4,  ///< current_offset: offset of the current channel
+  kEffectVGain = 1u << 5,          ///< v_gain: gain error of the voltage channel
+  kEffectInductance = 1u << 6,     ///< inductance: la di/dt, visible at high rates
+};
+
+/// Lumped parameters of one motor-drivetrain assembly, all in SI units, speed
+/// at the output shaft. Effect coefficients at zero switch their effect off.
+struct PhysicsParams {
+  float ra_ohm;          ///< armature resistance at t_ref_C, ohm
+  float ke_vs_per_rad;   ///< back-EMF constant at t_ref_C and zero current, V s/rad
+  float t_ref_C;         ///< temperature at which ra_ohm and ke_vs_per_rad hold, C
+  float ra_tc_per_K;     ///< thermal_ra: relative change of Ra per kelvin (copper +0.00393)
+  float ke_tc_per_K;     ///< magnet_thermal: relative change of Ke per kelvin (ferrite ~ -0.002)
+  float brush_V;         ///< brush_drop: total brush contact drop at full conduction, V
+  float ke_sat_per_A;    ///< saturation: relative fall of Ke per ampere of |i|
+  float i_offset_A;      ///< current_offset: reading minus true current, A
+  float v_gain;          ///< v_gain: reading / true voltage - 1
+  float la_H;            ///< inductance: armature inductance, H
+  float th_r_K_per_W;    ///< thermal state: winding-to-ambient resistance, K/W (0: no estimate)
+  float th_tau_s;        ///< thermal state: time constant, s
+  float t_amb_C;         ///< thermal state: ambient temperature, C
+  uint16_t effects;      ///< Effect bits that are on (informative; zero coefficients are off)
+};
+
+/// One sample as the physics model sees it.
+struct PhysicsInput {
+  float v_V;            ///< terminal voltage reading, V
+  float i_A;            ///< armature current reading, A
+  float di_dt_A_per_s;  ///< rate of change of the true current, A/s
+  float temp_C;         ///< temperature used by the thermal effects, C
+};
+
+/// Armature current with the current-channel offset removed, A.
+inline float true_current_A(const PhysicsParams& p, float i_A) { return i_A - p.i_offset_A; }
+
+/// Terminal voltage with the voltage-channel gain error removed, V.
+inline float true_voltage_V(const PhysicsParams& p, float v_V) { return v_V / (1.0f + p.v_gain); }
+
+/// Armature resistance at temperature temp_C, ohm.
+inline float ra_at_ohm(const PhysicsParams& p, float temp_C) {
+  return p.ra_ohm * (1.0f + p.ra_tc_per_K * (temp_C - p.t_ref_C));
+}
+
+/// Brush contact drop at current i_A (true current), V.
+inline float brush_drop_V(const PhysicsParams& p, float i_A) {
+  const float mag = i_A < 0.0f ? -i_A : i_A;
+  return p.brush_V * i_A / (mag + kBrushKnee_A);
+}
+
+/// Effective back-EMF constant at temperature temp_C and current i_A, V s/rad.
+inline float ke_at_vs_per_rad(const PhysicsParams& p, float temp_C, float i_A) {
+  const float mag = i_A < 0.0f ? -i_A : i_A;
+  return p.ke_vs_per_rad * (1.0f + p.ke_tc_per_K * (temp_C - p.t_ref_C)) *
+         (1.0f - p.ke_sat_per_A * mag);
+}
+
+/// Back-EMF implied by the voltage balance, V.
+inline float back_emf_V(const PhysicsParams& p, const PhysicsInput& in) {
+  const float i = true_current_A(p, in.i_A);
+  return true_voltage_V(p, in.v_V) - ra_at_ohm(p, in.temp_C) * i - brush_drop_V(p, i) -
+         p.la_H * in.di_dt_A_per_s;
+}
+
+/// Output-shaft speed in RPM; false (and *rpm untouched) when the effective
+/// Ke is not positive or the result is not finite.
+inline bool physics_rpm(const PhysicsParams& p, const PhysicsInput& in, float* rpm) {
+  const float ke = ke_at_vs_per_rad(p, in.temp_C, true_current_A(p, in.i_A));
+  if (!(ke > 0.0f)) return false;
+  const float n = back_emf_V(p, in) / ke * kRpmPerRadS;
+  if (!is_finite(n)) return false;
+  *rpm = n;
+  return true;
+}
+
+/// Nameplate back-EMF constant (M1): rated voltage over rated no-load speed,
+/// the armature drop neglected, V s/rad.
+inline float nameplate_ke_vs_per_rad(float rated_V, float rated_rpm) {
+  return rated_V / (rated_rpm / kRpmPerRadS);
+}
+
+/// Parameters of the nameplate model M1: Ra and nameplate Ke, no effects.
+inline PhysicsParams nameplate_params(float ra_ohm, float rated_V, float rated_rpm) {
+  PhysicsParams p = PhysicsParams();
+  p.ra_ohm = ra_ohm;
+  p.ke_vs_per_rad = nameplate_ke_vs_per_rad(rated_V, rated_rpm);
+  return p;
+}
+
+}  // namespace hpddo
+
+#endif  // HPDDO_PHYSICS_H

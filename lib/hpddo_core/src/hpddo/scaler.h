@@ -1,0 +1,28 @@
+// StandardScaler: z_j = (x_j - mean_j) / scale_j, statistics fitted on the
+// training rows only and stored in flash by the model exporter.
+#ifndef HPDDO_SCALER_H
+#define HPDDO_SCALER_H
+
+#include <stdint.h>
+
+#include "platform.h"
+
+namespace hpddo {
+
+/// Feature standardisation with kN features; mean and scale point to flash.
+template <uint8_t kN>
+struct Scaler {
+  const float* mean;   ///< kN feature means, in the features' own units
+  const float* scale;  ///< kN standard deviations (never zero: exporter sets 1)
+
+  /// Writes the standardised features z from the raw features x.
+  void transform(const float (&x)[kN], float (&z)[kN]) const {
+    for (uint8_t j = 0; j < kN; ++j) {
+      z[j] = (x[j] - flash_float(mean + j)) / flash_float(scale + j);
+    }
+  }
+};
+
+}  // namespace hpddo
+
+#endif  // HPDDO_SCALER_H

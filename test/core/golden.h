@@ -1,0 +1,25 @@
+// Access to the golden vectors written by tools/gen_fixtures.py (numpy float32).
+#ifndef HPDDO_TEST_GOLDEN_H
+#define HPDDO_TEST_GOLDEN_H
+
+#include <cmath>
+
+#include "golden_tiny.h"
+#include "golden_tiny1.h"
+#include "hpddo_core.h"
+
+namespace golden {
+
+/// Value of row r, column c of a golden table.
+inline float at(const float* rows, int width, int r, int c) { return hpddo::flash_float(rows + r * width + c); }
+
+/// |got - want| within 1e-4 relative to max(|want|, 1): the tolerance of every stage.
+inline bool close(float got, float want) {
+  if (std::isnan(want)) return std::isnan(got);
+  const float scale = std::fabs(want) > 1.0f ? std::fabs(want) : 1.0f;
+  return std::fabs(got - want) <= 1e-4f * scale;
+}
+
+}  // namespace golden
+
+#endif

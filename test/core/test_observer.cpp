@@ -1,0 +1,127 @@
+#include <cmath>
+#include <limits>
+
+#include <gtest/gtest.h>
+
+#include "golden.h"
+#include "model_tiny.h"
+#include "model_tiny1.h"
+
+namespace {
+
+template <class Net>
+void replay_golden(const hpddo::Model<Net>& model, const float* rows, int count, int width) {
+  using namespace hpddo_golden_tiny;  // column indices are the same for every golden table
+  hpddo::Observer<Net> obs(model);
+  for (int r = 0; r < count; ++r) {
+    const auto g = [&](int c) { return golden::at(rows, width, r, c); };
+    hpddo::Sample s;
+    s.v_V = g(kCol_v_V);
+    s.i_A = g(kCol_i_A);
+    s.temp_C = g(kCol_temp_C);
+    s.dt_s = g(kCol_dt_s);
+    s.seq = static_cast<uint16_t>(g(kCol_seq));
+    s.has_seq = g(kCol_has_seq) != 0.0f;
+    const hpddo::Estimate e = obs.step(s);
+    ASSERT_EQ(static_cast<int>(e.status), static_cast<int>(g(kCol_status))) << "row " << r;
+    EXPECT_TRUE(hpddo::is_finite(e.rpm)) << "row " << r;
+    EXPECT_TRUE(golden::close(e.rpm_m2, g(kCol_rpm_m2))) << "row " << r << " m2 " << e.rpm_m2;
+    EXPECT_TRUE(golden::close(e.residual_rpm, g(kCol_residual_rpm))) << "row " << r;
+    EXPECT_TRUE(golden::close(e.rpm, g(kCol_rpm))) << "row " << r << " rpm " << e.rpm;
+    EXPECT_TRUE(golden::close(e.temp_C, g(kCol_temp_used_C))) << "row " << r << " T " << e.temp_C;
+  }
+}
+
+hpddo::Sample sample(float v, float i, uint16_t seq, float temp = NAN) {
+  hpddo::Sample s = {v, i, temp, 0.5f, seq, true};
+  return s;
+}
+
+}  // namespace
+
+TEST(Observer, TwoLayerModelMatchesGoldenStream) {
+  using namespace hpddo_golden_tiny;
+  replay_golden(hpddo_model_tiny::kModel, kRows, kCount, kWidth);
+}
+
+TEST(Observer, OneLayerModelMatchesGoldenStream) {
+  using namespace hpddo_golden_tiny1;
+  replay_golden(hpddo_model_tiny1::kModel, kRows, kCount, kWidth);
+}
+
+TEST(Observer, GoldenStreamsReachEveryStatus) {
+  using namespace hpddo_golden_tiny;
+  int seen[4] = {0, 0, 0, 0};
+  for (int r = 0; r < kCount; ++r) ++seen[static_cast<int>(golden::at(kRows, kWidth, r, kCol_status))];
+  for (int s = 0; s < 4; ++s) EXPECT_GT(seen[s], 0) << hpddo::status_name(static_cast<hpddo::Status>(s));
+}
+
+TEST(Observer, BadReadingsNeverGiveNan) {
+  using Net = hpddo_model_tiny::Net;
+  hpddo::Observer<Net> obs(hpddo_model_tiny::kModel);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  const float bad[] = {nan, inf, -inf, 1e30f, -1e30f, 41.0f};
+  uint16_t seq = 0;
+  obs.step(sample(9.0f, 0.8f, seq++));
+  for (float b : bad) {
+    hpddo::Estimate e = obs.step(sample(b, 0.8f, seq++));
+    EXPECT_EQ(e.status, hpddo::kStatusInvalid);
+    EXPECT_TRUE(hpddo::is_finite(e.rpm));
+    EXPECT_TRUE(hpddo::is_finite(e.rpm_m2));
+    e = obs.step(sample(9.0f, b, seq++));
+    EXPECT_EQ(e.status, hpddo::kStatusInvalid);
+    EXPECT_TRUE(hpddo::is_finite(e.rpm));
+    e = obs.step(sample(9.0f, 0.8f, seq++, b));  // a bad temperature is only an absent one
+    EXPECT_NE(e.status, hpddo::kStatusInvalid);
+    EXPECT_TRUE(hpddo::is_finite(e.rpm));
+    hpddo::Sample s = sample(9.0f, 0.8f, seq++);
+    s.dt_s = b;
+    e = obs.step(s);
+    EXPECT_TRUE(hpddo::is_finite(e.rpm));
+  }
+}
+
+TEST(Observer, InvalidHoldsTheLastEstimateAndResetsLags) {
+  using Net = hpddo_model_tiny::Net;
+  hpddo::Observer<Net> obs(hpddo_model_tiny::kModel);
+  const hpddo::Estimate a = obs.step(sample(9.0f, 0.8f, 1, 40.0f));
+  const hpddo::Estimate b = obs.step(sample(NAN, 0.8f, 2, 40.0f));
+  EXPECT_EQ(b.status, hpddo::kStatusInvalid);
+  EXPECT_EQ(b.rpm, a.rpm);
+  EXPECT_EQ(b.residual_rpm, 0.0f);
+  // After the reset the lags equal the current values, as on the first sample.
+  hpddo::Observer<Net> fresh(hpddo_model_tiny::kModel);
+  const hpddo::Estimate c = obs.step(sample(10.0f, 0.9f, 3, 40.0f));
+  const hpddo::Estimate d = fresh.step(sample(10.0f, 0.9f, 3, 40.0f));
+  EXPECT_FLOAT_EQ(c.rpm, d.rpm);
+}
+
+TEST(Observer, SeqGapResetsLagsAndIsCounted) {
+  using Net = hpddo_model_tiny::Net;
+  hpddo::Observer<Net> obs(hpddo_model_tiny::kModel);
+  hpddo::Observer<Net> fresh(hpddo_model_tiny::kModel);
+  obs.step(sample(9.0f, 0.8f, 10, 40.0f));
+  obs.step(sample(9.5f, 0.85f, 11, 40.0f));
+  EXPECT_EQ(obs.seq_gaps(), 0u);
+  const hpddo::Estimate after_gap = obs.step(sample(10.0f, 0.9f, 15, 40.0f));
+  EXPECT_EQ(obs.seq_gaps(), 1u);
+  EXPECT_FLOAT_EQ(after_gap.rpm, fresh.step(sample(10.0f, 0.9f, 15, 40.0f)).rpm);
+  obs.step(sample(10.0f, 0.9f, 16, 40.0f));
+  EXPECT_EQ(obs.seq_gaps(), 1u);
+}
+
+TEST(Observer, ResidualNeverExceedsTheClamp) {
+  using Net = hpddo_model_tiny::Net;
+  hpddo::Observer<Net> obs(hpddo_model_tiny::kModel);
+  uint16_t seq = 0;
+  for (float v = 0.0f; v <= 13.0f; v += 0.37f) {
+    for (float i = -0.1f; i <= 2.0f; i += 0.13f) {
+      const hpddo::Estimate e = obs.step(sample(v, i, seq++, 45.0f));
+      EXPECT_LE(std::fabs(e.residual_rpm), hpddo_model_tiny::kModel.clamp_rpm);
+      if (e.status == hpddo::kStatusFallback) {
+        EXPECT_EQ(e.rpm, e.rpm_m2);
+      }
+    }
+  }
+}

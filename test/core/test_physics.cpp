@@ -1,0 +1,101 @@
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "hpddo/physics.h"
+
+namespace {
+
+hpddo::PhysicsParams plain() {
+  hpddo::PhysicsParams p = hpddo::PhysicsParams();
+  p.ra_ohm = 4.5f;
+  p.ke_vs_per_rad = 0.406f;
+  p.t_ref_C = 31.0f;
+  return p;
+}
+
+hpddo::PhysicsInput at(float v_V, float i_A, float temp_C = 31.0f, float di_dt = 0.0f) {
+  hpddo::PhysicsInput in = {v_V, i_A, di_dt, temp_C};
+  return in;
+}
+
+float rpm(const hpddo::PhysicsParams& p, const hpddo::PhysicsInput& in) {
+  float n = -1.0f;
+  EXPECT_TRUE(hpddo::physics_rpm(p, in, &n));
+  return n;
+}
+
+}  // namespace
+
+TEST(Physics, PlainBackEmfModel) {
+  // (9.6 V - 0.8 A * 4.5 ohm) / 0.406 V s/rad = 14.7783 rad/s = 141.122 RPM
+  EXPECT_NEAR(rpm(plain(), at(9.6f, 0.8f)), 6.0 / 0.406 * 60.0 / (2.0 * M_PI), 1e-3);
+}
+
+TEST(Physics, NameplateKeIsRatedVoltageOverRatedSpeed) {
+  EXPECT_NEAR(hpddo::nameplate_ke_vs_per_rad(12.0f, 1000.0f), 12.0 / (1000.0 * 2.0 * M_PI / 60.0), 1e-6);
+  const hpddo::PhysicsParams m1 = hpddo::nameplate_params(4.5f, 12.0f, 1000.0f);
+  EXPECT_EQ(m1.effects, 0u);
+  EXPECT_NEAR(rpm(m1, at(12.0f, 0.0f)), 1000.0, 1e-2);
+}
+
+TEST(Physics, ThermalRaRaisesResistanceWithTemperature) {
+  hpddo::PhysicsParams p = plain();
+  p.ra_tc_per_K = 0.00393f;
+  EXPECT_NEAR(hpddo::ra_at_ohm(p, 71.0f), 4.5 * (1.0 + 0.00393 * 40.0), 1e-5);
+  // Hotter winding: more of V is resistive drop, so less speed for the same V and I.
+  EXPECT_LT(rpm(p, at(9.6f, 0.8f, 71.0f)), rpm(p, at(9.6f, 0.8f, 31.0f)));
+}
+
+TEST(Physics, MagnetThermalLowersKeSoSameEmfMeansMoreSpeed) {
+  hpddo::PhysicsParams p = plain();
+  p.ke_tc_per_K = -0.002f;
+  EXPECT_NEAR(hpddo::ke_at_vs_per_rad(p, 71.0f, 0.0f), 0.406 * (1.0 - 0.08), 1e-6);
+  EXPECT_GT(rpm(p, at(9.6f, 0.8f, 71.0f)), rpm(p, at(9.6f, 0.8f, 31.0f)));
+}
+
+TEST(Physics, BrushDropIsOddAndSaturates) {
+  hpddo::PhysicsParams p = plain();
+  p.brush_V = 1.0f;
+  EXPECT_EQ(hpddo::brush_drop_V(p, 0.0f), 0.0f);
+  EXPECT_NEAR(hpddo::brush_drop_V(p, 0.02f), 0.5, 1e-6);  // half at the knee
+  EXPECT_NEAR(hpddo::brush_drop_V(p, 2.0f), 2.0 / 2.02, 1e-6);
+  EXPECT_NEAR(hpddo::brush_drop_V(p, -2.0f), -2.0 / 2.02, 1e-6);
+  const float plain_n = rpm(plain(), at(9.6f, 0.8f));
+  EXPECT_NEAR(plain_n - rpm(p, at(9.6f, 0.8f)), 0.8 / 0.82 / 0.406 * 60.0 / (2.0 * M_PI), 1e-2);
+}
+
+TEST(Physics, SaturationLowersKeWithCurrentMagnitude) {
+  hpddo::PhysicsParams p = plain();
+  p.ke_sat_per_A = 0.05f;
+  EXPECT_NEAR(hpddo::ke_at_vs_per_rad(p, 31.0f, 2.0f), 0.406 * 0.9, 1e-6);
+  EXPECT_NEAR(hpddo::ke_at_vs_per_rad(p, 31.0f, -2.0f), 0.406 * 0.9, 1e-6);
+}
+
+TEST(Physics, SensorErrorsAreRemovedFromTheReadings) {
+  hpddo::PhysicsParams p = plain();
+  p.i_offset_A = 0.05f;
+  p.v_gain = 0.02f;
+  EXPECT_NEAR(hpddo::true_current_A(p, 0.85f), 0.8, 1e-6);
+  EXPECT_NEAR(hpddo::true_voltage_V(p, 9.792f), 9.6, 1e-5);
+  EXPECT_NEAR(rpm(p, at(9.792f, 0.85f)), rpm(plain(), at(9.6f, 0.8f)), 1e-2);
+}
+
+TEST(Physics, InductanceSubtractsLdiDt) {
+  hpddo::PhysicsParams p = plain();
+  p.la_H = 0.004f;
+  // di/dt = 100 A/s -> 0.4 V less back-EMF
+  const float d = rpm(plain(), at(9.6f, 0.8f)) - rpm(p, at(9.6f, 0.8f, 31.0f, 100.0f));
+  EXPECT_NEAR(d, 0.4 / 0.406 * 60.0 / (2.0 * M_PI), 1e-2);
+}
+
+TEST(Physics, NonPositiveKeOrNonFiniteResultIsRefused) {
+  hpddo::PhysicsParams p = plain();
+  p.ke_sat_per_A = 1.0f;  // Ke reaches zero at 1 A
+  float n = 123.0f;
+  EXPECT_FALSE(hpddo::physics_rpm(p, at(9.6f, 1.0f), &n));
+  EXPECT_FALSE(hpddo::physics_rpm(p, at(9.6f, 1.5f), &n));
+  EXPECT_FALSE(hpddo::physics_rpm(plain(), at(NAN, 0.5f), &n));
+  EXPECT_FALSE(hpddo::physics_rpm(plain(), at(9.6f, INFINITY), &n));
+  EXPECT_EQ(n, 123.0f);
+}

@@ -1,0 +1,160 @@
+"""Writes generated C++ headers for lib/hpddo_core: a model header and golden vectors.
+
+Both carry a DO-NOT-EDIT banner with their provenance. The model header carries a CRC-32
+over the float32 little-endian bytes of everything it stores, in the order of
+`checksum_floats`; hpddo::model_checksum() recomputes it on any target. Floats are written
+with %.9g, which round-trips every float32 exactly.
+"""
+from __future__ import annotations
+
+import hashlib
+import pathlib
+import zlib
+
+import numpy as np
+
+from . import physics as ph
+from .observer_ref import ModelData, ReferenceObserver
+
+GENERATOR = "hpddo.export 1"
+
+
+def c_float(x, allow_nonfinite: bool = False) -> str:
+    """A float32 as a C++ literal that parses back to the same float."""
+    x = np.float32(x)
+    if allow_nonfinite and np.isnan(x):
+        return '__builtin_nanf("")'
+    if allow_nonfinite and np.isinf(x):
+        return "__builtin_inff()" if x > 0 else "-__builtin_inff()"
+    if not np.isfinite(x):
+        raise ValueError(f"non-finite value {x} cannot be exported")
+    s = "%.9g" % float(x)
+    if not any(c in s for c in ".en"):
+        s += ".0"
+    return s + "f"
+
+
+def c_array(name: str, values, per_line: int = 6, flash: bool = True, allow_nonfinite: bool = False) -> str:
+    vals = [c_float(v, allow_nonfinite) for v in np.asarray(values, np.float32).ravel()]
+    lines = [", ".join(vals[k:k + per_line]) for k in range(0, len(vals), per_line)]
+    attr = "HPDDO_FLASH " if flash else ""
+    body = ",\n    ".join(lines)
+    return f"{attr}static const float {name}[{len(vals)}] = {{\n    {body}}};\n"
+
+
+def sha256_of_files(paths) -> str:
+    h = hashlib.sha256()
+    for p in sorted(str(p) for p in paths):
+        h.update(pathlib.Path(p).read_bytes())
+    return h.hexdigest()
+
+
+def network_arrays(model: ModelData):
+    """(name, array) of the network in the C++ MlpWeights order w0 b0 w1 b1 [w2 b2]."""
+    out = []
+    for k, (w, b) in enumerate(model.layers):
+        out += [(f"kW{k}", np.asarray(w, np.float32)), (f"kB{k}", np.asarray(b, np.float32))]
+    return out
+
+
+def checksum_floats(model: ModelData) -> np.ndarray:
+    """The float32 sequence the model checksum covers (must match hpddo::model_checksum)."""
+    p = model.physics
+    parts = [np.array([getattr(p, f) for f in ph.PhysicsParams.FIELDS] + [float(p.effects)], np.float32),
+             np.asarray(model.scaler_mean, np.float32), np.asarray(model.scaler_scale, np.float32)]
+    parts += [a.ravel() for _, a in network_arrays(model)]
+    lim = model.limits
+    parts += [np.asarray(model.env_lo, np.float32), np.asarray(model.env_hi, np.float32),
+              np.array([model.clamp_rpm, lim.v_max_V, lim.i_max_A, lim.temp_min_C, lim.temp_max_C], np.float32)]
+    return np.concatenate(parts).astype("<f4")
+
+
+def model_checksum(model: ModelData) -> int:
+    return zlib.crc32(checksum_floats(model).tobytes()) & 0xFFFFFFFF
+
+
+def _banner(kind: str, provenance: dict) -> str:
+    lines = [f"// GENERATED {kind}: DO NOT EDIT. Regenerate with the command below."]
+    lines += [f"// {k}: {v}" for k, v in provenance.items()]
+    return "\n".join(lines) + "\n"
+
+
+def model_header(model: ModelData, name: str, provenance: dict) -> str:
+    """Text of the model header `model_<name>.h`; namespace hpddo_model_<name>."""
+    hidden = model.hidden
+    if len(hidden) not in (1, 2):
+        raise ValueError(f"the core supports one or two hidden layers, got {hidden}")
+    h2 = hidden[1] if len(hidden) == 2 else 0
+    shape = "-".join(str(n) for n in (5, *hidden, 1))
+    crc = model_checksum(model)
+    prov = dict(provenance)
+    prov.update(generator=GENERATOR, shapes=shape, checksum=f"crc32 0x{crc:08x}")
+    guard = f"HPDDO_MODEL_{name.upper()}_H"
+    p = model.physics
+    out = [_banner("model header", prov), f"#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n",
+           '#include "hpddo_core.h"\n\n', f"namespace hpddo_model_{name} {{\n\n",
+           f"typedef hpddo::Mlp<5, {hidden[0]}, {h2}> Net;\n\n",
+           f"/// CRC-32 over the stored floats (see hpddo::model_checksum).\nstatic const uint32_t kChecksum = 0x{crc:08x}u;\n\n",
+           f"/// Effects in the physics model: {', '.join(p.effect_names()) or 'none'}.\n",
+           f"static const uint16_t kEffects = 0x{p.effects:04x}u;\n\n",
+           c_array("kScalerMean", model.scaler_mean), c_array("kScalerScale", model.scaler_scale)]
+    for cname, arr in network_arrays(model):
+        out.append(c_array(cname, arr))
+    out += [c_array("kEnvLo", model.env_lo), c_array("kEnvHi", model.env_hi), "\n"]
+    counts = ["kW0Count", "kW1Count", "kW2Count"]
+    for k, (cname, arr) in enumerate(network_arrays(model)):
+        if cname.startswith("kW"):
+            out.append(f'static_assert(sizeof({cname}) / sizeof(float) == Net::{counts[k // 2]}, "{cname} shape");\n')
+    nlayers = len(model.layers)
+    ptr = lambda k: (f"kW{k}", f"kB{k}") if k < nlayers else ("nullptr", "nullptr")
+    w_init = ", ".join(f"{a}, {b}" for a, b in (ptr(0), ptr(1), ptr(2)))
+    phys = ", ".join([c_float(getattr(p, f)) for f in ph.PhysicsParams.FIELDS] + [f"0x{p.effects:04x}u"])
+    lim = model.limits
+    out += ["\n/// The deployed model.\nstatic const hpddo::Model<Net> kModel = {\n",
+            f"    {{{phys}}},\n", "    {kScalerMean, kScalerScale},\n", f"    {{{w_init}}},\n",
+            "    {kEnvLo, kEnvHi},\n", f"    {c_float(model.clamp_rpm)},\n",
+            f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
+            "};\n\n", f"}}  // namespace hpddo_model_{name}\n\n#endif  // {guard}\n"]
+    return "".join(out)
+
+
+# Columns of a golden row: inputs, then the expected output of every stage.
+GOLDEN_INPUTS = ["v_V", "i_A", "temp_C", "dt_s", "seq", "has_seq"]
+GOLDEN_STAGES = ["x0", "x1", "x2", "x3", "x4", "z0", "z1", "z2", "z3", "z4", "mlp_rpm",
+                 "rpm_m2", "residual_rpm", "rpm", "temp_used_C", "status"]
+
+
+def golden_rows(model: ModelData, samples) -> np.ndarray:
+    """Runs the float32 reference over samples (v, i, temp, dt, seq-or-None); one row each."""
+    obs = ReferenceObserver(model)
+    rows = []
+    for v, i, t, dt, seq in samples:
+        o = obs.step(v, i, t, dt, seq)
+        rows.append([v, i, np.nan if t is None else t, dt, 0 if seq is None else seq, 0 if seq is None else 1,
+                     *o["x"], *o["z"], o["mlp_rpm"], o["rpm_m2"], o["residual_rpm"], o["rpm"], o["temp_C"],
+                     o["status"]])
+    return np.asarray(rows, np.float32)
+
+
+def golden_header(rows: np.ndarray, name: str, provenance: dict) -> str:
+    """Text of `golden_<name>.h`: one flat float table kRows[kCount * kWidth] in flash."""
+    guard = f"HPDDO_GOLDEN_{name.upper()}_H"
+    cols = GOLDEN_INPUTS + GOLDEN_STAGES
+    prov = dict(provenance)
+    prov.update(generator=GENERATOR, rows=len(rows), columns=" ".join(cols))
+    enums = ",\n".join(f"  kCol_{c} = {k}" for k, c in enumerate(cols))
+    return "".join([
+        _banner("golden vectors", prov), f"#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n",
+        '#include "hpddo/platform.h"\n\n', f"namespace hpddo_golden_{name} {{\n\n",
+        f"enum Column : uint8_t {{\n{enums}\n}};\n\n",
+        f"static const uint16_t kCount = {len(rows)};\nstatic const uint8_t kWidth = {len(cols)};\n\n",
+        "/// Row r, column c is kRows[r * kWidth + c]; NaN marks an absent reading or an unreached stage.\n",
+        c_array("kRows", rows, per_line=len(cols), allow_nonfinite=True),
+        f"\n}}  // namespace hpddo_golden_{name}\n\n#endif  // {guard}\n"])
+
+
+def golden_csv(rows: np.ndarray) -> str:
+    """The same golden rows as CSV, for Python tests and people."""
+    cols = GOLDEN_INPUTS + GOLDEN_STAGES
+    lines = [",".join(cols)] + [",".join("%.9g" % float(v) for v in r) for r in rows]
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,71 @@
+"""Small hand-made models and sample streams for the core's unit tests.
+
+They exist so that hpddo_core is tested against independently computed expectations
+(numpy float32, observer_ref.py) before, and beside, any trained model. Every stage and
+every observer status is reached by the streams below.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import physics as ph
+from .observer_ref import Limits, ModelData
+
+SEED = 20261121
+
+
+def _layers(rng, sizes):
+    return [(rng.normal(0, 0.8, (o, i)).astype(np.float32), rng.normal(0, 0.3, o).astype(np.float32))
+            for i, o in zip(sizes[:-1], sizes[1:])]
+
+
+def tiny_model(hidden=(4, 3), seed=SEED, out_gain=8.0) -> ModelData:
+    """A 5-h1-h2-1 (or 5-h1-1) model with every effect term on and a thermal network."""
+    rng = np.random.default_rng(seed)
+    bits = sum(b for b, _ in ph.EFFECT_BITS.values())
+    p = ph.PhysicsParams(ra_ohm=4.5, ke_vs_per_rad=0.406, t_ref_C=31.0, ra_tc_per_K=0.00393,
+                         ke_tc_per_K=-0.002, brush_V=0.8, ke_sat_per_A=0.03, i_offset_A=0.012,
+                         v_gain=0.015, la_H=0.0032, th_r_K_per_W=6.0, th_tau_s=900.0, t_amb_C=31.0,
+                         effects=bits)
+    mean = np.array([8.0, 0.5, 180.0, 0.5, 180.0], np.float32)
+    scale = np.array([3.0, 0.3, 60.0, 0.3, 60.0], np.float32)
+    lo = np.array([0.0, -0.1, -10.0, -0.1, -10.0], np.float32)
+    hi = np.array([13.0, 2.0, 320.0, 2.0, 320.0], np.float32)
+    layers = _layers(rng, (5, *hidden, 1))
+    layers[-1] = (layers[-1][0] * np.float32(out_gain), layers[-1][1])  # residuals of a few RPM, some clamped
+    return ModelData(physics=p, scaler_mean=mean, scaler_scale=scale, layers=layers, env_lo=lo, env_hi=hi,
+                     clamp_rpm=6.0, limits=Limits())
+
+
+def tiny_stream(seed=SEED):
+    """(v_V, i_A, temp_C or None, dt_s, seq or None) covering ok, clamped, fallback, invalid,
+    seq gaps, absent and out-of-range temperatures, and the thermal estimate."""
+    rng = np.random.default_rng(seed + 1)
+    out = []
+    seq = 100
+    for k in range(40):  # a ramp with temperature read
+        v = 2.0 + 0.25 * k + rng.normal(0, 0.05)
+        i = 0.2 + 0.02 * k + rng.normal(0, 0.01)
+        out.append((v, i, 31.0 + 0.5 * k, 0.5, seq)); seq += 1
+    for k in range(20):  # no temperature: the thermal estimate takes over
+        out.append((9.6 + rng.normal(0, 0.1), 0.9 + rng.normal(0, 0.05), None, 0.5, seq)); seq += 1
+    out.append((9.6, 0.9, 300.0, 0.5, seq)); seq += 1       # temperature out of sensor range
+    out.append((9.6, 0.9, None, 0.5, seq + 3)); seq += 4    # seq gap: lags reset
+    out.append((float("nan"), 0.9, 40.0, 0.5, seq)); seq += 1  # invalid voltage
+    out.append((9.6, float("inf"), 40.0, 0.5, seq)); seq += 1  # invalid current
+    out.append((55.0, 0.9, 40.0, 0.5, seq)); seq += 1        # beyond the voltage channel
+    out.append((9.6, 0.9, 40.0, 0.0, seq)); seq += 1         # zero period
+    out.append((9.6, 0.9, 40.0, 0.5, seq)); seq += 1         # recovers
+    out.append((12.5, 2.5, 40.0, 0.5, seq)); seq += 1        # outside the envelope: fallback
+    out.append((12.0, 1.9, 40.0, 0.5, seq)); seq += 1
+    for k in range(10):  # without seq, large swings
+        out.append((rng.uniform(0, 12.5), rng.uniform(-0.05, 1.8), 45.0, 0.01, None))
+    out.append((9.0, 0.8, 45.0, 0.5, 65535))
+    out.append((9.0, 0.8, 45.0, 0.5, 0))  # wraps without a gap
+    return out
+
+
+FIXTURES = {  # name: (hidden sizes, weight seed, output gain)
+    "tiny": ((4, 3), SEED, 20.0),
+    "tiny1": ((6,), SEED + 7, 0.25),
+}

@@ -1,0 +1,112 @@
+"""Reference of the board observer (lib/hpddo_core/src/hpddo/observer.h) in numpy float32.
+
+Written from the equations, not from the C++ source, so that golden vectors computed here
+check the boards' code independently. Every intermediate stage is returned.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from . import physics as ph
+
+F32 = np.float32
+STATUS = {"ok": 0, "clamped": 1, "fallback": 2, "invalid": 3}
+
+
+@dataclasses.dataclass
+class Limits:
+    v_max_V: float = 40.0
+    i_max_A: float = 10.0
+    temp_min_C: float = -55.0
+    temp_max_C: float = 125.0
+
+
+@dataclasses.dataclass
+class ModelData:
+    """Everything a generated model header holds, in float32 where the boards store it."""
+
+    physics: ph.PhysicsParams
+    scaler_mean: np.ndarray
+    scaler_scale: np.ndarray
+    layers: list  # [(W[out,in], b[out]), ...], hidden layers ReLU, last linear
+    env_lo: np.ndarray
+    env_hi: np.ndarray
+    clamp_rpm: float
+    limits: Limits = dataclasses.field(default_factory=Limits)
+
+    @property
+    def hidden(self) -> tuple:
+        return tuple(w.shape[0] for w, _ in self.layers[:-1])
+
+
+def mlp_forward(layers, z):
+    """Dense ReLU network, float32, linear scalar output."""
+    h = np.asarray(z, F32)
+    for k, (w, b) in enumerate(layers):
+        h = (np.asarray(w, F32) @ h + np.asarray(b, F32)).astype(F32)
+        if k < len(layers) - 1:
+            h = np.maximum(h, F32(0.0))
+    return F32(h[0])
+
+
+class ReferenceObserver:
+    """Step-by-step float32 observer with the lag, seq and thermal rules of the boards."""
+
+    def __init__(self, model: ModelData):
+        self.m = model
+        self.reset()
+
+    def reset(self):
+        self.has_lag = False
+        self.has_seq = False
+        self.last_seq = 0
+        self.i_lag = F32(0)
+        self.m2_lag = F32(0)
+        self.temp_state = F32(self.m.physics.t_amb_C)
+        self.last = dict(rpm=F32(0), rpm_m2=F32(0), residual_rpm=F32(0), temp_C=F32(0))
+
+    def _invalid(self, out):
+        self.has_lag = False
+        out.update(self.last)
+        out.update(residual_rpm=F32(0), status=STATUS["invalid"])
+        return out
+
+    def step(self, v_V, i_A, temp_C, dt_s, seq=None):
+        m, p = self.m, self.m.physics
+        out = dict(x=np.full(5, np.nan, F32), z=np.full(5, np.nan, F32), mlp_rpm=F32(np.nan))
+        if seq is not None:
+            if self.has_seq and seq != (self.last_seq + 1) % 65536:
+                self.has_lag = False
+            self.has_seq = True
+            self.last_seq = seq
+        v, i, dt = F32(v_V), F32(i_A), F32(dt_s)
+        lim = m.limits
+        if not (np.isfinite(v) and np.isfinite(i) and np.isfinite(dt) and abs(v) <= F32(lim.v_max_V)
+                and abs(i) <= F32(lim.i_max_A) and dt > 0):
+            return self._invalid(out)
+        i_true = ph.true_current_A(p, i, F32)
+        if p.thermal_enabled():
+            self.temp_state = ph.thermal_trajectory(p, [i_true], [dt], F32, start_C=self.temp_state)[0]
+        t_read = temp_C is not None and np.isfinite(temp_C) and lim.temp_min_C <= temp_C <= lim.temp_max_C
+        temp_used = F32(temp_C) if t_read else (self.temp_state if p.thermal_enabled() else F32(p.t_ref_C))
+        di_dt = (i - self.i_lag) / dt if self.has_lag else F32(0)
+        m2 = ph.physics_rpm(p, i * 0 + v, i, di_dt, temp_used, F32)
+        m2 = F32(m2)
+        if not np.isfinite(m2):
+            return self._invalid(out)
+        x = np.array([v, i, m2, self.i_lag if self.has_lag else i, self.m2_lag if self.has_lag else m2], F32)
+        self.i_lag, self.m2_lag, self.has_lag = i, m2, True
+        out.update(x=x, rpm_m2=m2, temp_C=temp_used, residual_rpm=F32(0), status=STATUS["fallback"])
+        if np.all((x >= m.env_lo) & (x <= m.env_hi)):
+            z = ((x - m.scaler_mean.astype(F32)) / m.scaler_scale.astype(F32)).astype(F32)
+            r = mlp_forward(m.layers, z)
+            out.update(z=z, mlp_rpm=r)
+            if np.isfinite(r):
+                c = F32(m.clamp_rpm)
+                rc = F32(min(max(r, -c), c))
+                out.update(residual_rpm=rc, status=STATUS["clamped"] if rc != r else STATUS["ok"])
+        out["rpm"] = F32(m2 + out["residual_rpm"])
+        self.last = {k: out[k] for k in ("rpm", "rpm_m2", "residual_rpm", "temp_C")}
+        return out
