@@ -1,0 +1,5 @@
+"""Bench twin: a physical simulator of the paper's PMDC test bench that writes bench logs.
+
+See docs/twin.md. Entry points: `generate.generate` (one recording) and tools/twin.py (CLI).
+"""
+from .params import EFFECT_NAMES, EFFECTS, GENERATOR_VERSION, Bench, preset, with_effects  # noqa: F401

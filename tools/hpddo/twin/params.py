@@ -1,0 +1,178 @@
+"""Bench parameters, the eight switchable effects, and the presets.
+
+Units are in the names (``ra_ohm``, ``ke_vs_per_rad``, ``la_H``, ``j_kgm2``...).
+Mechanical quantities are lumped at the *output shaft* (after the 1:4.4 gearbox),
+which is the shaft the encoder speed ``rpm_ref`` refers to and the shaft the paper's
+lumped constant K_e,M2 = 0.406 V s/rad refers to. Sources are given per value:
+``paper`` (hpddo-pmdc, sections 3.4-3.6, 4.1-4.4, Appendix A) or ``assumed``
+(with the reasoning in docs/twin.md).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+GENERATOR_VERSION = "hpddo-twin 0.1.0"
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+    """One switchable physical effect: its magnitude in a physical unit (0 = off)."""
+
+    name: str
+    unit: str
+    default: float  # magnitude in the default preset
+    typical: tuple  # (low, high) typical range of the magnitude, physical unit
+    physics: str
+    m2: str  # what it does to the M2 estimate (with the true K_e)
+
+
+EFFECTS = {
+    e.name: e
+    for e in [
+        Effect(
+            "thermal_ra", "%/K", 0.393, (0.38, 0.40),
+            "armature (copper) resistance rises with winding temperature: "
+            "Ra(T) = Ra_ref (1 + a (T_w - T_ref)), copper a = 0.393 %/K",
+            "M2 uses the cold 4.50 ohm, so V - I Ra keeps I (Ra(T) - 4.50): "
+            "speed overestimated by I dRa / Ke, growing as the winding heats",
+        ),
+        Effect(
+            "magnet_thermal", "%/K", -0.2, (-0.20, -0.12),
+            "ferrite magnet flux falls with magnet (case) temperature: "
+            "Ke(T) = Ke_ref (1 + b (T_c - T_ref)), ferrite b about -0.2 %/K (NdFeB -0.12)",
+            "back-EMF per rad/s shrinks as the case warms: speed underestimated by "
+            "|b| dT n, growing with temperature",
+        ),
+        Effect(
+            "brush_drop", "V", 0.50, (0.1, 1.0),
+            "carbon/precious-metal brush contact drop, about constant while current "
+            "flows (both PWM phases), zero when the current is zero",
+            "V - I Ra keeps the drop: speed overestimated by about drop / Ke "
+            "(times the conduction fraction in discontinuous conduction)",
+        ),
+        Effect(
+            "saturation", "%/A", 4.0, (1.0, 8.0),
+            "armature reaction: armature current weakens the net air-gap flux, "
+            "Ke(I) = Ke (1 - s I) for torque and back-EMF alike",
+            "less back-EMF per rad/s at high current: speed underestimated by s I n, "
+            "error growing with current",
+        ),
+        Effect(
+            "current_offset", "mA", 8.0, (-20.0, 20.0),
+            "DC offset of the current channel (shunt amplifier / ADC offset): "
+            "i_A = I + offset",
+            "V - (I + offset) Ra: speed underestimated by Ra offset / Ke for a "
+            "positive offset, constant in speed",
+        ),
+        Effect(
+            "v_gain", "%", 0.8, (-2.0, 2.0),
+            "gain error of the voltage channel (divider tolerance, ADC reference): "
+            "v_V = (1 + g) V",
+            "speed overestimated by g V / Ke for g > 0: error proportional to V",
+        ),
+        Effect(
+            "ripple", "%", 15.0, (5.0, 30.0),
+            "commutation ripple: the current dips each time a brush shorts a coil, "
+            "6 times per motor revolution (3-slot rotor); amplitude in % of the mean "
+            "current; modelled as an EMF dip so V is unchanged",
+            "zero-mean noise on I, hence on M2; averages out over a long sample "
+            "period, visible at 100 Hz and above",
+        ),
+        Effect(
+            "inductance", "mH", 2.5, (1.0, 5.0),
+            "armature inductance La: current lags voltage with tau = La / R, PWM "
+            "current ripple, continuous/discontinuous conduction through the diode",
+            "no bias in steady state (La dI/dt averages out); at high sample rates "
+            "La dI/dt / Ke appears at every step of V or load",
+        ),
+    ]
+}
+
+EFFECT_NAMES = tuple(EFFECTS)
+
+
+@dataclasses.dataclass
+class Bench:
+    """Every physical and sensor parameter of the bench. Effects live in `effects`."""
+
+    # --- supply and power stage (paper 3.4-3.5, App. A) ---
+    supply_V: float = 12.0  # paper: 12 V gear motors, 12 V supply
+    pwm_hz: float = 490.196  # Arduino UNO analogWrite on pins 3/9/10/11: 16 MHz / 64 / 510
+    r_shunt_ohm: float = 0.5  # paper App. A item 5 (0.5 ohm 10 W), in the armature loop
+    r_dson_ohm: float = 0.07  # IRFZ24N datasheet 70 mOhm at Vgs 10 V (TLP250 gate drive)
+    diode_vf_V: float = 0.40  # MBR60100CT Schottky at < 1 A (datasheet curve), assumed
+    diode_r_ohm: float = 0.03  # assumed slope resistance
+    # --- motor under test, lumped at the output shaft (gearbox 1:4.4) ---
+    gear_ratio: float = 4.4  # paper App. A item 6
+    ra_ohm: float = 4.50  # paper 4.1: multimeter mean at about 31 C
+    ra_ref_C: float = 31.0  # temperature of that measurement (paper: ~31 C)
+    ke_vs_per_rad: float = 0.330  # true EMF constant at ra_ref_C, zero current; chosen so the
+    # paper's eq. 20 identification on the default set returns ~0.406 (see docs/twin.md)
+    # (torque constant = ke_vs_per_rad in SI; gearbox losses are in the friction terms)
+    # --- mechanics (output shaft; both machines + coupler), assumed ---
+    j_kgm2: float = 3.0e-4
+    b_motor_nms: float = 2.5e-3  # viscous, motor + its gearbox
+    tc_motor_nm: float = 0.055  # Coulomb, motor + its gearbox
+    b_gen_nms: float = 1.5e-3  # viscous, generator + its gearbox
+    tc_gen_nm: float = 0.040  # Coulomb, generator + its gearbox
+    # --- generator and relay loads ---
+    ke_gen_vs_per_rad: float = 0.15  # generator EMF constant at the shared shaft, assumed
+    r_gen_ohm: float = 1.5  # generator winding + brushes, assumed
+    r_relay_ohm: float = 0.05  # relay contact + wiring, assumed
+    load_ohm: tuple = (math.inf, 0.5, 0.01)  # load 0 = open, 1 = 0.5 ohm, 2 = 0.01 ohm (paper)
+    # --- thermal (two nodes: winding, case), assumed, tuned to the paper's 31.7 -> 71.3 C ---
+    ambient_C: float = 31.7  # paper 3.6.1: case at the start of the long run
+    c_winding_J_per_K: float = 6.0
+    r_winding_case_K_per_W: float = 4.0
+    c_case_J_per_K: float = 300.0
+    r_case_amb_K_per_W: float = 6.4
+    # --- measurement chain ---
+    adc_bits: int = 10
+    adc_vref_V: float = 5.0
+    adc_conv_per_s: float = 9615.0  # 16 MHz / 128 / 13 cycles, free running
+    v_div_gain: float = 0.30  # divider + level shift: ADC = 0.30 (v + v_shift)
+    v_shift_V: float = 1.5  # so the -0.4 V freewheel plateau stays inside the range
+    i_gain_V_per_A: float = 0.5  # the shunt itself
+    adc_noise_lsb: float = 0.5  # per conversion, rms
+    encoder_ppr: int = 11  # pulses per motor revolution, quadrature -> 44 counts
+    temp_step_C: float = 0.0625  # DS18B20 12-bit
+    temp_period_s: float = 0.75  # DS18B20 12-bit conversion time: a new reading each 750 ms
+    ripple_per_rev: int = 6  # commutation events per motor revolution (3 slots, 2 brushes)
+    noise: bool = True  # ADC noise / PWM aliasing / sensor noise on or off
+    glitches: int = 0  # rare single-sample sensor glitches per recording
+    # --- effects: magnitude in the unit of EFFECTS[name], 0 = off ---
+    effects: dict = dataclasses.field(default_factory=lambda: {n: 0.0 for n in EFFECT_NAMES})
+
+    def effect(self, name: str) -> float:
+        return float(self.effects.get(name, 0.0))
+
+    def to_dict(self) -> dict:
+        d = dataclasses.asdict(self)
+        d["load_ohm"] = [None if math.isinf(x) else x for x in self.load_ohm]
+        d["effects"] = {n: self.effect(n) for n in EFFECT_NAMES}
+        return d
+
+
+PRESETS = ("default", "ideal")
+
+
+def preset(name: str = "default") -> Bench:
+    """``default``: the paper's bench with every effect at its default magnitude and a
+    few sensor glitches. ``ideal``: same bench, every effect off, no glitches (the
+    sensor chain still quantises and adds noise)."""
+    if name == "default":
+        return Bench(effects={n: e.default for n, e in EFFECTS.items()}, glitches=3)
+    if name == "ideal":
+        return Bench()
+    raise ValueError(f"unknown preset {name!r} (known: {', '.join(PRESETS)})")
+
+
+def with_effects(bench: Bench, **magnitudes) -> Bench:
+    """A copy of ``bench`` with the given effects set (magnitude in physical unit)."""
+    eff = dict(bench.effects)
+    for k, v in magnitudes.items():
+        if k not in EFFECTS:
+            raise ValueError(f"unknown effect {k!r} (known: {', '.join(EFFECT_NAMES)})")
+        eff[k] = float(v)
+    return dataclasses.replace(bench, effects=eff)
