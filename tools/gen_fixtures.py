@@ -12,7 +12,7 @@ import sys
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from hpddo import export, fixtures  # noqa: E402
+from hpddo import benchlog, export, fixtures  # noqa: E402
 
 
 def main(argv=None):
@@ -29,6 +29,10 @@ def main(argv=None):
         (out / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
         (out / f"golden_{name}.csv").write_text(export.golden_csv(rows))
         print(f"wrote {out}/model_{name}.h, golden_{name}.h/.csv ({len(rows)} rows)")
+    df, meta = fixtures.short_log()
+    benchlog.write_log(out / "log_short.csv", df, meta)
+    (out / "log_bad_duty.csv").write_text(fixtures.BAD_DUTY_LOG)
+    print(f"wrote {out}/log_short.csv ({len(df)} rows), log_bad_duty.csv")
 
 
 if __name__ == "__main__":

@@ -79,6 +79,10 @@ def _banner(kind: str, provenance: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _c_physics(p: ph.PhysicsParams) -> str:
+    return ", ".join([c_float(getattr(p, f)) for f in ph.PhysicsParams.FIELDS] + [f"0x{p.effects:04x}u"])
+
+
 def model_header(model: ModelData, name: str, provenance: dict) -> str:
     """Text of the model header `model_<name>.h`; namespace hpddo_model_<name>."""
     hidden = model.hidden
@@ -108,13 +112,17 @@ def model_header(model: ModelData, name: str, provenance: dict) -> str:
     nlayers = len(model.layers)
     ptr = lambda k: (f"kW{k}", f"kB{k}") if k < nlayers else ("nullptr", "nullptr")
     w_init = ", ".join(f"{a}, {b}" for a, b in (ptr(0), ptr(1), ptr(2)))
-    phys = ", ".join([c_float(getattr(p, f)) for f in ph.PhysicsParams.FIELDS] + [f"0x{p.effects:04x}u"])
+    phys = _c_physics(p)
+    m1 = model.nameplate or ph.nameplate_params(p.ra_ohm)
     lim = model.limits
     out += ["\n/// The deployed model.\nstatic const hpddo::Model<Net> kModel = {\n",
             f"    {{{phys}}},\n", "    {kScalerMean, kScalerScale},\n", f"    {{{w_init}}},\n",
             "    {kEnvLo, kEnvHi},\n", f"    {c_float(model.clamp_rpm)},\n",
             f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
-            "};\n\n", f"}}  // namespace hpddo_model_{name}\n\n#endif  // {guard}\n"]
+            "};\n\n",
+            "/// The nameplate model M1 (rated voltage over rated speed), for comparison only.\n",
+            f"static const hpddo::PhysicsParams kNameplate = {{{_c_physics(m1)}}};\n\n",
+            f"}}  // namespace hpddo_model_{name}\n\n#endif  // {guard}\n"]
     return "".join(out)
 
 

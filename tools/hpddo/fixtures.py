@@ -69,3 +69,31 @@ FIXTURES = {  # name: (hidden sizes, weight seed, output gain)
     "tiny": ((4, 3), SEED, 20.0),
     "tiny1": ((6,), SEED + 7, 0.25),
 }
+
+
+def short_log(seed=SEED):
+    """A 240-row labelled log for the replay tests: duty steps, a seq gap, a stretch
+    without temperature. Speeds follow the plain back-EMF model plus noise."""
+    import pandas as pd
+    rng = np.random.default_rng(seed + 2)
+    n = 240
+    t = np.arange(n) * 0.5
+    duty = np.repeat([0.2, 0.4, 0.6, 0.8, 1.0, 0.8, 0.6, 0.4], n // 8)
+    i = 0.25 + 0.4 * duty + rng.normal(0, 0.01, n)
+    v = 12.0 * duty + rng.normal(0, 0.02, n)
+    rpm = (v - 4.5 * i) / 0.406 * ph.RPM_PER_RAD_S + rng.normal(0, 1.0, n)
+    temp = np.round((31.0 + 0.1 * t) * 16) / 16
+    temp[100:140] = np.nan
+    seq = np.arange(n)
+    seq[150:] += 3  # three samples lost on the link
+    df = pd.DataFrame(dict(t_s=t, duty=duty, v_V=v, i_A=i, rpm_ref=rpm, temp_C=temp, seq=seq))
+    return df, {"condition": "short", "sample_rate_hz": "2", "ra_ohm": "4.5", "note": "test fixture"}
+
+
+BAD_DUTY_LOG = """# condition=bad
+# sample_rate_hz=2
+t_s,duty,v_V,i_A,rpm_ref
+0.0,0.2,2.4,0.3,20.0
+0.5,0.2,2.4,0.3,20.0
+1.0,1.2,2.4,0.3,20.0
+"""

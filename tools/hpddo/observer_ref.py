@@ -35,6 +35,7 @@ class ModelData:
     env_hi: np.ndarray
     clamp_rpm: float
     limits: Limits = dataclasses.field(default_factory=Limits)
+    nameplate: ph.PhysicsParams | None = None  # M1, for comparison only; not in the checksum
 
     @property
     def hidden(self) -> tuple:
@@ -57,6 +58,10 @@ class ReferenceObserver:
     def __init__(self, model: ModelData):
         self.m = model
         self.reset()
+
+    def restart_lags(self):
+        """A new segment (seq gap, split): lags restart, the thermal state stays."""
+        self.has_lag = False
 
     def reset(self):
         self.has_lag = False
@@ -92,7 +97,7 @@ class ReferenceObserver:
         t_read = temp_C is not None and np.isfinite(temp_C) and lim.temp_min_C <= temp_C <= lim.temp_max_C
         temp_used = F32(temp_C) if t_read else (self.temp_state if p.thermal_enabled() else F32(p.t_ref_C))
         di_dt = (i - self.i_lag) / dt if self.has_lag else F32(0)
-        m2 = ph.physics_rpm(p, i * 0 + v, i, di_dt, temp_used, F32)
+        m2 = ph.physics_rpm(p, v, i, di_dt, temp_used, F32)
         m2 = F32(m2)
         if not np.isfinite(m2):
             return self._invalid(out)

@@ -73,6 +73,10 @@ class Observer {
     seq_gaps_ = 0;
   }
 
+  /// Forgets the one-step lags only: the next sample starts a new segment, as
+  /// after a seq gap (the thermal state and the held estimate stay).
+  void restart_lags() { has_lag_ = false; }
+
   /// Number of seq gaps seen since reset().
   uint32_t seq_gaps() const { return seq_gaps_; }
 

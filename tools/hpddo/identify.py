@@ -1,0 +1,88 @@
+"""Identification of the physics models from the training rows.
+
+M1: the nameplate Ke (rated voltage over rated no-load speed), the measured Ra.
+M2: the measured Ra and Ke from steady-state rows (rpm_ref > 10), by the paper's eq. 20
+(the mean of the per-row ratio) or by least squares; plus the coefficients of any named
+effects (effects.py), fitted on the same rows.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import physics as ph
+from .dataset import Recording
+
+RAD_S_PER_RPM = 2.0 * np.pi / 60.0  # the paper's 0.10472
+MIN_RPM = 10.0  # eq. 20 uses rows above 10 RPM: below, stiction and encoder quantisation rule
+
+
+class IdentificationError(ValueError):
+    pass
+
+
+def ra_from_logs(recs: list[Recording], ra_option: float | None) -> tuple[float, str]:
+    """Ra from the option, else from the logs' ra_ohm metadata (all must agree)."""
+    if ra_option is not None:
+        if not ra_option > 0:
+            raise IdentificationError(f"--ra-ohm must be positive, got {ra_option}")
+        return float(ra_option), "option --ra-ohm"
+    values = {}
+    for r in recs:
+        if "ra_ohm" in r.meta:
+            try:
+                values[r.source.name] = float(r.meta["ra_ohm"])
+            except ValueError:
+                raise IdentificationError(f"{r.source}: metadata ra_ohm={r.meta['ra_ohm']!r} is not a number") from None
+    if not values:
+        raise IdentificationError("no Ra: give --ra-ohm (a multimeter reading) or ra_ohm= metadata in the logs")
+    distinct = set(values.values())
+    if len(distinct) > 1:
+        raise IdentificationError(f"the logs disagree on ra_ohm: {values}; give --ra-ohm")
+    ra = distinct.pop()
+    if not ra > 0:
+        raise IdentificationError(f"ra_ohm must be positive, got {ra}")
+    return ra, "log metadata ra_ohm"
+
+
+def reference_temp_C(recs: list[Recording]) -> float:
+    """Temperature at which Ra was measured: the first reading of the first recording
+    that has one (the motor cold, as on the bench), else 25 C."""
+    for r in recs:
+        if r.has_temp():
+            t = r.df["temp_C"].dropna()
+            return float(t.iloc[0])
+    return 25.0
+
+
+def ke_eq20(v_V, i_A, rpm_ref, ra_ohm) -> float:
+    """Paper eq. 20: mean over rows of (V - I Ra) / (rpm_ref * 2 pi / 60)."""
+    return float(np.mean((v_V - i_A * ra_ohm) / (rpm_ref * RAD_S_PER_RPM)))
+
+
+def ke_lsq(v_V, i_A, rpm_ref, ra_ohm) -> float:
+    """Least squares: minimises sum (V - I Ra - Ke w)^2 over rows."""
+    w = rpm_ref * RAD_S_PER_RPM
+    return float(np.sum((v_V - i_A * ra_ohm) * w) / np.sum(w * w))
+
+
+def steady_rows(recs: list[Recording]):
+    """(v, i, rpm_ref) of the training rows with rpm_ref > MIN_RPM, pooled."""
+    parts = [r.part("train") for r in recs]
+    v = np.concatenate([p["v_V"].to_numpy(float) for p in parts if "rpm_ref" in p])
+    i = np.concatenate([p["i_A"].to_numpy(float) for p in parts if "rpm_ref" in p])
+    n = np.concatenate([p["rpm_ref"].to_numpy(float) for p in parts if "rpm_ref" in p])
+    keep = np.isfinite(n) & (n > MIN_RPM)
+    if keep.sum() < 5:
+        raise IdentificationError(f"only {int(keep.sum())} training rows with rpm_ref > {MIN_RPM} RPM: "
+                                  "M2 needs a labelled recording")
+    return v[keep], i[keep], n[keep]
+
+
+def m2_params(recs: list[Recording], ra_ohm: float, ke_fit: str = "eq20") -> ph.PhysicsParams:
+    """Plain M2: measured Ra, identified Ke, no effects."""
+    v, i, n = steady_rows(recs)
+    ke = ke_eq20(v, i, n, ra_ohm) if ke_fit == "eq20" else ke_lsq(v, i, n, ra_ohm)
+    if not ke > 0:
+        raise IdentificationError(f"identified Ke = {ke:.4g} V s/rad is not positive: check the V and I channels")
+    t_ref = reference_temp_C(recs)
+    return ph.PhysicsParams(ra_ohm=ra_ohm, ke_vs_per_rad=ke, t_ref_C=t_ref, t_amb_C=t_ref)

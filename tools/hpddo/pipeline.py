@@ -1,0 +1,140 @@
+"""The offline pipeline: bench logs -> M1, M2 (+ effects), M3 -> model header, golden
+vectors, native replay metrics. All outputs appear in the output folder together at
+the end, or not at all."""
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import pathlib
+import shutil
+import tempfile
+
+import numpy as np
+
+from . import dataset, export, identify, replay
+from . import physics as ph
+from .observer_ref import Limits, ModelData
+from .train import TrainConfig, Residual, train_residual
+
+GOLDEN_ROWS_PER_RECORDING = 24
+
+
+@dataclasses.dataclass
+class PipelineConfig:
+    name: str = "default"
+    ra_ohm: float | None = None
+    rated_V: float = 12.0
+    rated_rpm: float = 1000.0
+    ke_fit: str = "eq20"
+    effects: tuple = ()
+    train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
+    train_fraction: float = dataset.TRAIN_FRACTION
+    glitch_filter: bool = True
+    command: str = "tools/gen_weights.py"
+
+
+@dataclasses.dataclass
+class PipelineResult:
+    recordings: list
+    m1: ph.PhysicsParams
+    m2: ph.PhysicsParams
+    residual: Residual
+    model: ModelData
+    metrics: dict
+    table: str
+    out: pathlib.Path
+
+
+def data_hash(paths) -> str:
+    h = hashlib.sha256()
+    for p in sorted(paths, key=lambda q: pathlib.Path(q).name):
+        h.update(pathlib.Path(p).name.encode() + b"\0" + pathlib.Path(p).read_bytes())
+    return h.hexdigest()
+
+
+def model_data(m1, m2, res: Residual) -> ModelData:
+    layers = [(w.T.astype(np.float32), b.astype(np.float32)) for w, b in zip(res.mlp.coefs_, res.mlp.intercepts_)]
+    return ModelData(physics=m2, scaler_mean=res.scaler.mean_.astype(np.float32),
+                     scaler_scale=res.scaler.scale_.astype(np.float32), layers=layers,
+                     env_lo=res.env_lo.astype(np.float32), env_hi=res.env_hi.astype(np.float32),
+                     clamp_rpm=float(np.float32(res.clamp_rpm)), limits=Limits(), nameplate=m1)
+
+
+def golden_samples(recs):
+    """A stream of test rows from each recording, and faults the boards must survive."""
+    out = []
+    for r in recs:
+        test = r.part("test").iloc[:GOLDEN_ROWS_PER_RECORDING]
+        t = test["t_s"].to_numpy(float)
+        dt = np.diff(np.concatenate([[t[0] - (t[1] - t[0])], t]))
+        temp = test["temp_C"].to_numpy(float) if "temp_C" in test else np.full(len(test), np.nan)
+        seq0 = len(out) + 1000 * (len(out) // GOLDEN_ROWS_PER_RECORDING + 1)  # a gap between recordings
+        for k, (v, i) in enumerate(zip(test["v_V"], test["i_A"])):
+            out.append((float(v), float(i), None if np.isnan(temp[k]) else float(temp[k]), float(dt[k]), seq0 + k))
+    v, i, t, dt, seq = out[-1]
+    out += [(float("nan"), i, t, dt, seq + 1), (v, float("inf"), t, dt, seq + 2), (v, i, t, dt, seq + 3),
+            (v * 3.0, i * 4.0, t, dt, seq + 4), (v, i, None, dt, seq + 5)]
+    return out
+
+
+def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
+    """Runs everything; raises BenchLogError / IdentificationError / ValueError on bad input
+    before anything is written to out_dir."""
+    recs = [dataset.load_recording(p, cfg.train_fraction, cfg.glitch_filter) for p in log_paths]
+    names = [r.name for r in recs]
+    ra, ra_source = identify.ra_from_logs(recs, cfg.ra_ohm)
+    m1 = ph.nameplate_params(ra, cfg.rated_V, cfg.rated_rpm)
+    m2 = identify.m2_params(recs, ra, cfg.ke_fit)
+    if cfg.effects:
+        from . import effects
+        m2 = effects.identify(recs, m2, cfg.effects)
+    res = train_residual(recs, m2, cfg.train)
+    model = model_data(m1, m2, res)
+
+    out = pathlib.Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    stage = pathlib.Path(tempfile.mkdtemp(prefix=".gen_weights.", dir=out))
+    try:
+        prov = {"command": cfg.command, "seed": cfg.train.seed,
+                "data": ", ".join(sorted(pathlib.Path(p).name for p in log_paths)),
+                "data_sha256": data_hash(log_paths),
+                "ra_ohm": f"{ra:.6g} ({ra_source})", "ke_fit": cfg.ke_fit,
+                "effects": ",".join(m2.effect_names()) or "none",
+                "training": (f"Adam lr={cfg.train.learning_rate:g} batch={cfg.train.batch_size} "
+                             f"iterations={cfg.train.max_iter}, {res.n_train} rows, chronological "
+                             f"{cfg.train_fraction:.0%} of each recording")}
+        name = cfg.name
+        (stage / f"model_{name}.h").write_text(export.model_header(model, name, prov))
+        rows = export.golden_rows(model, golden_samples(recs))
+        (stage / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
+        (stage / f"golden_{name}.csv").write_text(export.golden_csv(rows))
+        (stage / "logs").mkdir()
+        clean = []
+        for r in recs:
+            clean.append(dataset.write_clean(r, stage / "logs" / f"{r.source.stem}.csv"))
+        exe = replay.build(stage, name, stage / "replay")
+        (stage / "estimates").mkdir()
+        metrics, table = replay.run(exe, clean, stage / "metrics.json", stage / "estimates")
+        metrics["identification"] = {
+            "ra_ohm": ra, "ra_source": ra_source, "ke_m1_vs_per_rad": m1.ke_vs_per_rad,
+            "ke_m2_vs_per_rad": m2.ke_vs_per_rad, "ke_fit": cfg.ke_fit, "t_ref_C": m2.t_ref_C,
+            "effects": {e: getattr(m2, ph.EFFECT_BITS[e][1]) for e in m2.effect_names()},
+            "clamp_rpm": model.clamp_rpm, "hidden": list(cfg.train.hidden), "train_rows": res.n_train,
+            "final_loss": res.loss_curve[-1] if res.loss_curve else None,
+        }
+        metrics["glitches_removed"] = {r.source.name: [{"line": ln, "reason": why} for ln, why in r.removed]
+                                       for r in recs}
+        metrics["recordings"] = names
+        (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+        (stage / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
+        for item in stage.iterdir():
+            dest = out / item.name
+            if dest.is_dir():
+                shutil.rmtree(dest)
+            elif dest.exists():
+                dest.unlink()
+            item.rename(dest)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
+    return PipelineResult(recs, m1, m2, res, model, metrics, table, out)

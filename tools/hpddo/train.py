@@ -1,0 +1,101 @@
+"""M3: the residual network, its scaler, the residual clamp and the training envelope."""
+from __future__ import annotations
+
+import dataclasses
+import warnings
+
+import numpy as np
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.neural_network import MLPRegressor
+from sklearn.preprocessing import StandardScaler
+from tqdm import tqdm
+
+from . import physics as ph
+from .dataset import Recording, dt_s, lagged, segment_starts
+
+FEATURES = ["v_V", "i_A", "n_M2", "i_A_lag1", "n_M2_lag1"]
+CLAMP_PERCENTILE = 99.0   # paper 4.10: the 99th percentile of absolute training residuals
+ENVELOPE_MARGIN = 0.10    # the envelope is the training range widened by 10 % of it each side
+
+
+@dataclasses.dataclass
+class TrainConfig:
+    hidden: tuple = (16, 8)
+    learning_rate: float = 1e-3
+    batch_size: int = 200
+    max_iter: int = 2000
+    seed: int = 1
+    progress: bool = True
+
+
+def temperature_used(rec: Recording, p: ph.PhysicsParams) -> np.ndarray:
+    """What the observer feeds the thermal effects: temp_C where read (within the sensor
+    range), else the copper-loss thermal state, else t_ref."""
+    n = rec.n
+    state = (ph.thermal_trajectory(p, ph.true_current_A(p, rec.df["i_A"].to_numpy(float)), dt_s(rec))
+             if p.thermal_enabled() else np.full(n, p.t_ref_C))
+    if "temp_C" in rec.df:
+        t = rec.df["temp_C"].to_numpy(float)
+        ok = np.isfinite(t) & (t >= -55.0) & (t <= 125.0)
+        return np.where(ok, t, state)
+    return state
+
+
+def physics_rpm(rec: Recording, p: ph.PhysicsParams) -> np.ndarray:
+    """n_M2 for every row of a recording, with the observer's lag and thermal rules."""
+    starts = segment_starts(rec)
+    i = rec.df["i_A"].to_numpy(float)
+    di_dt = np.where(starts, 0.0, (i - lagged(i, starts)) / dt_s(rec))
+    return ph.physics_rpm(p, rec.df["v_V"].to_numpy(float), i, di_dt, temperature_used(rec, p))
+
+
+def features(rec: Recording, p: ph.PhysicsParams) -> tuple[np.ndarray, np.ndarray]:
+    """Feature matrix [V, I, n_M2, I(t-1), n_M2(t-1)] and n_M2 of every row."""
+    starts = segment_starts(rec)
+    n2 = physics_rpm(rec, p)
+    i = rec.df["i_A"].to_numpy(float)
+    x = np.column_stack([rec.df["v_V"].to_numpy(float), i, n2, lagged(i, starts), lagged(n2, starts)])
+    return x, n2
+
+
+@dataclasses.dataclass
+class Residual:
+    scaler: StandardScaler
+    mlp: MLPRegressor
+    clamp_rpm: float
+    env_lo: np.ndarray
+    env_hi: np.ndarray
+    n_train: int
+    loss_curve: list
+
+
+def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig) -> Residual:
+    """Fits the residual e = rpm_ref - n_M2 on the training rows of every recording."""
+    xs, es = [], []
+    for r in recs:
+        x, n2 = features(r, p)
+        x, n2 = x[: r.n_train], n2[: r.n_train]
+        ref = r.part("train")["rpm_ref"].to_numpy(float) if "rpm_ref" in r.df else np.full(r.n_train, np.nan)
+        keep = np.isfinite(ref) & np.isfinite(x).all(axis=1)
+        xs.append(x[keep])
+        es.append((ref - n2)[keep])
+    x = np.concatenate(xs)
+    e = np.concatenate(es)
+    if len(x) < cfg.batch_size:
+        raise ValueError(f"only {len(x)} labelled training rows: too few to train the residual network")
+    scaler = StandardScaler().fit(x)
+    scaler.scale_ = np.where(scaler.scale_ > 0, scaler.scale_, 1.0)
+    z = scaler.transform(x)
+    mlp = MLPRegressor(hidden_layer_sizes=tuple(cfg.hidden), activation="relu", solver="adam",
+                       learning_rate_init=cfg.learning_rate, batch_size=cfg.batch_size, max_iter=1,
+                       shuffle=True, random_state=cfg.seed, early_stopping=False, tol=0.0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", ConvergenceWarning)
+        for _ in tqdm(range(cfg.max_iter), desc=f"train M3 {cfg.hidden}", unit="it", disable=not cfg.progress,
+                      mininterval=0.5, leave=False):
+            mlp.partial_fit(z, e)
+    lo, hi = x.min(axis=0), x.max(axis=0)
+    span = np.maximum(hi - lo, 1e-6)
+    return Residual(scaler=scaler, mlp=mlp, clamp_rpm=float(np.percentile(np.abs(e), CLAMP_PERCENTILE)),
+                    env_lo=lo - ENVELOPE_MARGIN * span, env_hi=hi + ENVELOPE_MARGIN * span, n_train=len(x),
+                    loss_curve=list(mlp.loss_curve_))
