@@ -13,7 +13,8 @@ features [V, I, n_M2, I(t-1), n_M2(t-1)], and writes into DIR:
   golden_<name>.h/.csv  golden vectors: inputs and every stage's float32 output
   metrics.json        RMSE of M1, M2, M3 per condition on the test parts, measured by
                       the native replay of the cleaned logs through the board observer
-  logs/, estimates/   the cleaned logs and the replay's per-sample estimates
+  work/               the cleaned logs, the replay built for this model and its
+                      per-sample estimates (work/estimates/*.estimates.csv)
 
 A malformed log is refused with its file, line and fault, and nothing is written.
 """

@@ -109,13 +109,12 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         rows = export.golden_rows(model, golden_samples(recs))
         (stage / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
         (stage / f"golden_{name}.csv").write_text(export.golden_csv(rows))
-        (stage / "logs").mkdir()
-        clean = []
-        for r in recs:
-            clean.append(dataset.write_clean(r, stage / "logs" / f"{r.source.stem}.csv"))
-        exe = replay.build(stage, name, stage / "replay")
-        (stage / "estimates").mkdir()
-        metrics, table = replay.run(exe, clean, stage / "metrics.json", stage / "estimates")
+        work = stage / "work"  # cleaned logs, the replay built for this model, its estimates
+        (work / "logs").mkdir(parents=True)
+        (work / "estimates").mkdir()
+        clean = [dataset.write_clean(r, work / "logs" / f"{r.source.stem}.csv") for r in recs]
+        exe = replay.build(stage, name, work / "replay")
+        metrics, table = replay.run(exe, clean, stage / "metrics.json", work / "estimates")
         metrics["identification"] = {
             "ra_ohm": ra, "ra_source": ra_source, "ke_m1_vs_per_rad": m1.ke_vs_per_rad,
             "ke_m2_vs_per_rad": m2.ke_vs_per_rad, "ke_fit": cfg.ke_fit, "t_ref_C": m2.t_ref_C,
@@ -127,7 +126,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
                                        for r in recs}
         metrics["recordings"] = names
         (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-        (stage / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
+        (work / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
         for item in stage.iterdir():
             dest = out / item.name
             if dest.is_dir():
