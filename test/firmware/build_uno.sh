@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Builds uno_acq for the ATmega328P with Debian's avr-gcc and Arduino core,
+# prints its flash and RAM use and fails above the budget (60 % of each).
+# Usage: build_uno.sh <repo root> <output dir>
+set -euo pipefail
+root=$1
+out=$2
+core=${ARDUINO_AVR:-/usr/share/arduino/hardware/arduino/avr}
+budget=60
+mkdir -p "$out/core"
+flags=(-mmcu=atmega328p -DF_CPU=16000000L -DARDUINO=10807 -DARDUINO_AVR_UNO -DARDUINO_ARCH_AVR
+       -DDECIMAL_DIG=__DECIMAL_DIG__ -Os -ffunction-sections -fdata-sections
+       -I"$core/cores/arduino" -I"$core/variants/standard")
+
+# The core, compiled once per output dir.
+if [[ ! -f $out/core/libcore.a ]]; then
+  objs=()
+  for src in "$core"/cores/arduino/*.c "$core"/cores/arduino/*.cpp "$core"/cores/arduino/*.S; do
+    [[ -f $src ]] || continue
+    obj=$out/core/$(basename "$src").o
+    case $src in
+      *.c) avr-gcc -std=gnu11 "${flags[@]}" -c "$src" -o "$obj" ;;
+      *.cpp) avr-g++ -std=gnu++11 -fno-exceptions -fno-threadsafe-statics "${flags[@]}" -c "$src" -o "$obj" ;;
+      *.S) avr-gcc -x assembler-with-cpp "${flags[@]}" -c "$src" -o "$obj" ;;
+    esac
+    objs+=("$obj")
+  done
+  rm -f "$out/core/libcore.a.tmp"
+  avr-ar rcs "$out/core/libcore.a.tmp" "${objs[@]}"
+  mv "$out/core/libcore.a.tmp" "$out/core/libcore.a"
+fi
+
+avr-g++ -std=gnu++11 -fno-exceptions -fno-threadsafe-statics "${flags[@]}" \
+  -Wall -Wextra -Werror -I"$root/lib/hpddo_core/src" -I"$root/uno_acq" \
+  -c "$root/uno_acq/uno_acq.cpp" -o "$out/uno_acq.o"
+avr-g++ -mmcu=atmega328p -Os -Wl,--gc-sections "$out/uno_acq.o" "$out/core/libcore.a" -o "$out/uno_acq.elf"
+
+# Flash = .text + .data; RAM = .data + .bss + .noinit (the stack takes the rest).
+read -r text data bss noinit < <(avr-size -A "$out/uno_acq.elf" |
+  awk '$1==".text"{t=$2} $1==".data"{d=$2} $1==".bss"{b=$2} $1==".noinit"{n=$2}
+       END{print t+0, d+0, b+0, n+0}')
+flash=$((text + data)); ram=$((data + bss + noinit))
+flash_max=32256; ram_max=2048   # 32 KB less the 512-byte Optiboot bootloader
+pf=$((flash * 1000 / flash_max)); pr=$((ram * 1000 / ram_max))
+printf 'uno_acq: flash %d / %d bytes (%d.%d %%), RAM %d / %d bytes (%d.%d %%), budget %d %%\n' \
+  "$flash" "$flash_max" $((pf / 10)) $((pf % 10)) "$ram" "$ram_max" $((pr / 10)) $((pr % 10)) "$budget"
+printf '%d %d %d %d\n' "$flash" "$flash_max" "$ram" "$ram_max" > "$out/uno_acq.size"
+if ((flash * 100 > flash_max * budget || ram * 100 > ram_max * budget)); then
+  echo "uno_acq: over the ${budget} % budget" >&2
+  exit 1
+fi

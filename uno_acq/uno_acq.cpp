@@ -1,0 +1,628 @@
+// hpddo acquisition board (Arduino UNO, ATmega328P), the bench of the paper's
+// sections 3.4-3.6: PWM drive, V and I sampling, encoder, DS18B20, load relays,
+// the three protocols; bench log lines to the host over USB, binary frames to
+// the ESP8266 on a second, transmit-only serial line (OC2A, D11).
+//
+// Interrupts do the time-critical work; the main loop formats and talks:
+//   TIMER1_OVF  end of a PWM period; closes the sample window every N periods
+//   ADC         one conversion done: add it to the open window, start the next
+//   INT0/INT1   encoder edge: x4 quadrature count
+//   TIMER2_COMPA next bit of the ESP8266 link (the pin itself is set by OC2A)
+// Pure logic is in the acq_*.h headers, tested on the host (test/firmware).
+#include <Arduino.h>
+#include <avr/interrupt.h>
+#include <avr/io.h>
+
+#include "acq_command.h"
+#include "acq_config.h"
+#include "acq_format.h"
+#include "acq_link.h"
+#include "acq_onewire.h"
+#include "acq_protocol.h"
+#include "acq_window.h"
+#include "hpddo/frame.h"
+
+using namespace acq;
+
+namespace {
+
+const char kVersion[] = "uno_acq 1";
+
+// Port bits of the pins in acq_config.h (checked against the UNO pin map).
+const uint8_t kBitPwm = _BV(PB1);     // D9
+const uint8_t kBitRelay2 = _BV(PB0);  // D8
+const uint8_t kBitLink = _BV(PB3);    // D11
+const uint8_t kBitRelay1 = _BV(PD7);  // D7
+const uint8_t kBitOneWire = _BV(PD4); // D4
+static_assert(kPinPwm == 9 && kPinRelay2 == 8 && kPinLinkTx == 11 && kPinRelay1 == 7 &&
+                  kPinOneWire == 4 && kPinEncoderA == 2 && kPinEncoderB == 3,
+              "port bits above follow the pins in acq_config.h");
+
+enum PwmMode : uint8_t { kPwmOff = 0, kPwmRun = 1, kPwmOn = 2 };
+
+// ---------------------------------------------------------------- interrupt state
+volatile uint32_t g_sum_v, g_sum_i, g_n_v, g_n_i;  // open window
+volatile uint8_t g_adc_chan;                        // channel being converted
+volatile int32_t g_enc_total;
+volatile uint8_t g_enc_ab;
+int32_t g_enc_open;                                 // g_enc_total when the window opened
+volatile uint16_t g_periods;                        // PWM periods done in the open window
+volatile uint16_t g_win_periods;                    // length of the open window
+volatile uint32_t g_win_us;
+volatile uint16_t g_next_win_periods;               // length of the windows to come
+volatile uint32_t g_next_win_us;
+volatile uint32_t g_seq;                            // seq of the open window
+volatile uint16_t g_duty_q;                         // in force in the open window
+volatile uint8_t g_load;
+volatile uint16_t g_next_duty_q;                    // requested by the main loop
+volatile uint8_t g_next_load;
+volatile uint16_t g_next_ocr;
+volatile uint8_t g_next_mode;
+uint16_t g_pre_duty_q;                              // latched for the next window
+uint8_t g_pre_load, g_pre_mode;
+volatile bool g_ready;                              // g_snap holds an unread window
+WindowSums g_snap;
+volatile uint16_t g_overruns;                       // windows overwritten before read
+
+TxQueue<64> g_txq;
+BitShifter g_shifter;
+
+// ---------------------------------------------------------------- main-loop state
+PwmTiming g_pwm;
+uint32_t g_pwm_hz = kDefaultPwmHz;
+float g_rate_hz = kDefaultRateHz;
+float g_hold_s = kDefaultHoldS;
+float g_long_s = kDefaultLongS;
+bool g_recording = false;
+uint32_t g_rec_start = 0;       // seq of the first recorded window
+ProtocolPlan g_plan;
+uint8_t g_manual_load = 0;
+uint16_t g_manual_duty_q = 0;
+TempSchedule g_temp;
+LineBuffer<48> g_cmd;
+
+inline void apply_relays(uint8_t load) {
+  const bool r1 = load == 1;
+  const bool r2 = load == 2;
+  if (r1 != kRelayActiveLow) PORTD |= kBitRelay1; else PORTD &= static_cast<uint8_t>(~kBitRelay1);
+  if (r2 != kRelayActiveLow) PORTB |= kBitRelay2; else PORTB &= static_cast<uint8_t>(~kBitRelay2);
+}
+
+inline void apply_pwm_mode(uint8_t mode) {
+  if (mode == kPwmRun) {
+    TCCR1A = _BV(COM1A1) | _BV(WGM11);
+  } else {
+    TCCR1A = _BV(WGM11);
+    if (mode == kPwmOn) PORTB |= kBitPwm; else PORTB &= static_cast<uint8_t>(~kBitPwm);
+  }
+}
+
+inline void preload_next_window() {
+  OCR1A = g_next_ocr;  // double-buffered: in force from the next PWM period on
+  g_pre_duty_q = g_next_duty_q;
+  g_pre_load = g_next_load;
+  g_pre_mode = g_next_mode;
+}
+
+}  // namespace
+
+ISR(TIMER1_OVF_vect) {
+  uint16_t p = static_cast<uint16_t>(g_periods + 1u);
+  if (p >= g_win_periods) {
+    GPIOR0 = static_cast<uint8_t>(g_seq);  // window-close marker (cycle-exact in simulation)
+    if (g_ready) ++g_overruns;
+    g_snap.seq = g_seq;
+    g_snap.sum_v = g_sum_v;
+    g_snap.sum_i = g_sum_i;
+    g_snap.n_v = g_n_v;
+    g_snap.n_i = g_n_i;
+    g_snap.enc_counts = g_enc_total - g_enc_open;
+    g_snap.period_us = g_win_us;
+    g_snap.duty_q = g_duty_q;
+    g_snap.load = g_load;
+    g_ready = true;
+    g_sum_v = 0;
+    g_sum_i = 0;
+    g_n_v = 0;
+    g_n_i = 0;
+    g_enc_open = g_enc_total;
+    g_seq = g_seq + 1u;
+    g_win_periods = g_next_win_periods;
+    g_win_us = g_next_win_us;
+    apply_pwm_mode(g_pre_mode);
+    apply_relays(g_pre_load);
+    g_duty_q = g_pre_duty_q;
+    g_load = g_pre_load;
+    p = 0;
+  }
+  g_periods = p;
+  if (static_cast<uint16_t>(p + 1u) == g_win_periods) preload_next_window();
+}
+
+ISR(ADC_vect) {
+  const uint16_t code = ADC;
+  if (g_adc_chan == 0) {
+    g_sum_v = g_sum_v + code;
+    g_n_v = g_n_v + 1u;
+  } else {
+    g_sum_i = g_sum_i + code;
+    g_n_i = g_n_i + 1u;
+  }
+  g_adc_chan ^= 1u;
+  ADMUX = static_cast<uint8_t>(_BV(REFS0) | (g_adc_chan ? kAdcChannelI : kAdcChannelV));
+  ADCSRA |= _BV(ADSC);
+}
+
+ISR(INT0_vect) {
+  const uint8_t pins = PIND;
+  const uint8_t ab = static_cast<uint8_t>(((pins >> 1) & 2u) | ((pins >> 3) & 1u));  // A = PD2, B = PD3
+  g_enc_total = g_enc_total + quadrature_step(g_enc_ab, ab);
+  g_enc_ab = ab;
+}
+
+ISR(INT1_vect, ISR_ALIASOF(INT0_vect));
+
+ISR(TIMER2_COMPA_vect) {
+  const uint8_t level = g_shifter.next(g_txq);
+  // The level of the next bit, put on OC2A by the next compare match.
+  TCCR2A = static_cast<uint8_t>(_BV(WGM21) | _BV(COM2A1) | (level ? _BV(COM2A0) : 0));
+  if (level && !g_shifter.busy() && g_txq.empty()) TIMSK2 &= static_cast<uint8_t>(~_BV(OCIE2A));
+}
+
+namespace {
+
+// ---------------------------------------------------------------- link
+void link_begin() {
+  DDRB |= kBitLink;
+  TCCR2B = 0;
+  TCNT2 = 0;
+  OCR2A = static_cast<uint8_t>(kCpuHz / 8 / kLinkBaud - 1);  // 34: 35 ticks of 0.5 us a bit
+  TCCR2A = _BV(WGM21) | _BV(COM2A1) | _BV(COM2A0);          // CTC, set OC2A on match: idle high
+  TCCR2B = _BV(FOC2A);                                       // force it now
+  TCCR2B = _BV(CS21);                                        // clk/8
+  TIMSK2 = 0;
+}
+
+void link_send(const uint8_t* data, uint8_t n) {
+  if (!g_txq.push(data, n)) return;
+  if (!(TIMSK2 & _BV(OCIE2A))) {
+    TIFR2 = _BV(OCF2A);
+    TIMSK2 |= _BV(OCIE2A);
+  }
+}
+
+bool link_idle() { return !(TIMSK2 & _BV(OCIE2A)); }
+
+// ---------------------------------------------------------------- sampling setup
+void set_next_setpoint(uint16_t duty_q, uint8_t load) {
+  const uint16_t ocr = pwm_compare(g_pwm, duty_q);
+  const uint8_t mode = duty_q == 0 ? kPwmOff : (duty_q >= 10000 ? kPwmOn : kPwmRun);
+  const uint8_t s = SREG;
+  cli();
+  g_next_duty_q = duty_q;
+  g_next_load = load;
+  g_next_ocr = ocr;
+  g_next_mode = mode;
+  SREG = s;
+}
+
+bool set_rate(float rate_hz) {
+  const uint16_t n = periods_per_window(g_pwm, rate_hz);
+  if (!n) return false;
+  const uint32_t us = window_us(g_pwm, n);
+  const uint8_t s = SREG;
+  cli();
+  g_next_win_periods = n;
+  g_next_win_us = us;
+  SREG = s;
+  g_rate_hz = rate_hz;
+  return true;
+}
+
+float actual_rate_hz() {
+  const uint8_t s = SREG;
+  cli();
+  const uint32_t us = g_next_win_us;
+  SREG = s;
+  return 1.0e6f / static_cast<float>(us);
+}
+
+/// (Re)starts Timer1 at pwm_hz and a fresh window; the window in progress is dropped.
+bool start_sampling(uint32_t pwm_hz) {
+  PwmTiming t;
+  if (!pwm_timing(pwm_hz, &t)) return false;
+  const uint16_t n = periods_per_window(t, g_rate_hz);
+  if (!n) return false;
+  const uint8_t s = SREG;
+  cli();
+  g_pwm = t;
+  g_pwm_hz = pwm_hz;
+  TCCR1B = 0;
+  TIMSK1 = 0;
+  TCNT1 = 0;
+  ICR1 = t.top;
+  g_next_win_periods = n;
+  g_next_win_us = window_us(t, n);
+  g_win_periods = n;
+  g_win_us = g_next_win_us;
+  g_periods = 0;
+  g_sum_v = g_sum_i = g_n_v = g_n_i = 0;
+  g_enc_open = g_enc_total;
+  g_seq = g_seq + 1u;  // the dropped window leaves a seq gap
+  g_next_ocr = pwm_compare(t, g_next_duty_q);
+  preload_next_window();
+  g_duty_q = g_pre_duty_q;
+  g_load = g_pre_load;
+  apply_pwm_mode(g_pre_mode);
+  apply_relays(g_pre_load);
+  TIFR1 = _BV(TOV1);
+  TIMSK1 = _BV(TOIE1);
+  TCCR1B = static_cast<uint8_t>(_BV(WGM13) | _BV(WGM12) | (t.prescale == 1 ? _BV(CS10) : _BV(CS11)));
+  SREG = s;
+  return true;
+}
+
+void adc_begin() {
+  ADCSRA = 0;
+  ADCSRB = 0;
+  DIDR0 = _BV(ADC0D) | _BV(ADC1D);
+  g_adc_chan = 0;
+  ADMUX = static_cast<uint8_t>(_BV(REFS0) | kAdcChannelV);  // AVcc reference
+  ADCSRA = _BV(ADEN) | _BV(ADIE) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0) | _BV(ADSC);  // 125 kHz
+}
+
+void encoder_begin() {
+  DDRD &= static_cast<uint8_t>(~(_BV(PD2) | _BV(PD3)));
+  PORTD |= _BV(PD2) | _BV(PD3);  // pull-ups for open-collector encoders
+  const uint8_t pins = PIND;
+  g_enc_ab = static_cast<uint8_t>(((pins >> 1) & 2u) | ((pins >> 3) & 1u));
+  EICRA = _BV(ISC00) | _BV(ISC10);  // any edge
+  EIFR = _BV(INTF0) | _BV(INTF1);
+  EIMSK = _BV(INT0) | _BV(INT1);
+}
+
+// ---------------------------------------------------------------- DS18B20, one small step at a time
+bool ow_reset() {
+  PORTD &= static_cast<uint8_t>(~kBitOneWire);
+  DDRD |= kBitOneWire;
+  delayMicroseconds(480);
+  DDRD &= static_cast<uint8_t>(~kBitOneWire);
+  delayMicroseconds(70);
+  const bool present = !(PIND & kBitOneWire);
+  delayMicroseconds(410);
+  return present;
+}
+
+void ow_write_byte(uint8_t b) {
+  for (uint8_t k = 0; k < 8; ++k, b = static_cast<uint8_t>(b >> 1)) {
+    const uint8_t s = SREG;
+    cli();
+    DDRD |= kBitOneWire;
+    if (b & 1u) {
+      delayMicroseconds(5);
+      DDRD &= static_cast<uint8_t>(~kBitOneWire);
+      SREG = s;
+      delayMicroseconds(60);
+    } else {
+      SREG = s;  // a longer low slot is still a valid 0 (60..120 us)
+      delayMicroseconds(62);
+      DDRD &= static_cast<uint8_t>(~kBitOneWire);
+      delayMicroseconds(4);
+    }
+  }
+}
+
+uint8_t ow_read_byte() {
+  uint8_t b = 0;
+  for (uint8_t k = 0; k < 8; ++k) {
+    const uint8_t s = SREG;
+    cli();
+    DDRD |= kBitOneWire;
+    delayMicroseconds(3);
+    DDRD &= static_cast<uint8_t>(~kBitOneWire);
+    delayMicroseconds(9);
+    const uint8_t bit = (PIND & kBitOneWire) ? 1u : 0u;
+    SREG = s;
+    b = static_cast<uint8_t>(b | (bit << k));
+    delayMicroseconds(55);
+  }
+  return b;
+}
+
+struct OneWireJob {
+  uint8_t step;   // 0: idle
+  bool reading;
+  uint8_t pad[9];
+} g_ow = {0, false, {0}};
+
+/// True when a bus step (at most ~1 ms, with interrupt-free slots of ~12 us)
+/// can neither delay a window close nor a link bit: the link is idle and the
+/// open window has more than 2 ms to go.
+bool onewire_slot_free() {
+  if (!link_idle()) return false;
+  const uint8_t s = SREG;
+  cli();
+  const uint16_t left = static_cast<uint16_t>(g_win_periods - g_periods);
+  SREG = s;
+  return static_cast<uint32_t>(left) * pwm_period_cycles(g_pwm) > 2UL * (kCpuHz / 1000UL);
+}
+
+void temperature_step() {
+  const uint32_t now = millis();
+  if (g_ow.step == 0) {
+    const TempSchedule::Action a = g_temp.poll(now);
+    if (a == TempSchedule::kIdle) return;
+    g_ow.reading = a == TempSchedule::kReadScratchpad;
+    g_ow.step = 1;
+  }
+  if (!onewire_slot_free()) return;
+  const uint8_t st = g_ow.step;
+  if (st == 1) {
+    if (!ow_reset()) {
+      if (g_ow.reading) g_temp.read(now, false, 0); else g_temp.started(now, false);
+      g_ow.step = 0;
+      return;
+    }
+  } else if (st == 2) {
+    ow_write_byte(0xCC);  // skip ROM: the one sensor on the bus
+  } else if (st == 3) {
+    ow_write_byte(g_ow.reading ? 0xBE : 0x44);  // read scratchpad / convert T
+    if (!g_ow.reading) {
+      g_temp.started(now, true);
+      g_ow.step = 0;
+      return;
+    }
+  } else {
+    g_ow.pad[st - 4] = ow_read_byte();
+    if (st == 12) {
+      int16_t t = 0;
+      const bool ok = ds18b20_decode(g_ow.pad, &t);
+      g_temp.read(now, ok, t);
+      g_ow.step = 0;
+      return;
+    }
+  }
+  g_ow.step = static_cast<uint8_t>(st + 1);
+}
+
+// ---------------------------------------------------------------- host output
+char g_line[kLineMax];
+
+void say(const char* text) {
+  Serial.write('!');
+  Serial.write(' ');
+  Serial.write(text);
+  Serial.write('\n');
+}
+
+void say(const __FlashStringHelper* text) {
+  Serial.write('!');
+  Serial.write(' ');
+  Serial.print(text);
+  Serial.write('\n');
+}
+
+void print_status(const char* head) {
+  LineWriter w(g_line, sizeof g_line);
+  w.str(head);
+  w.str(" rate=");
+  w.compact(actual_rate_hz());
+  w.str(" pwm=");
+  w.u32(g_pwm_hz);
+  w.str(" duty=");
+  w.fixed(g_next_duty_q, 4);
+  w.str(" load=");
+  w.u32(g_next_load);
+  w.str(" hold=");
+  w.compact(g_hold_s);
+  w.str(" long=");
+  w.compact(g_long_s);
+  w.str(" rec=");
+  w.u32(g_recording ? 1u : 0u);
+  w.str(" overruns=");
+  w.u32(g_overruns);
+  w.str(" link_drops=");
+  w.u32(g_txq.dropped());
+  say(w.c_str());
+}
+
+void meta(const __FlashStringHelper* key, const char* value) {
+  Serial.write('#');
+  Serial.write(' ');
+  Serial.print(key);
+  Serial.write('=');
+  Serial.write(value);
+  Serial.write('\n');
+}
+
+void begin_recording(const char* condition, uint32_t first_seq) {
+  meta(F("condition"), condition);
+  LineWriter w(g_line, sizeof g_line);
+  w.compact(actual_rate_hz());
+  meta(F("sample_rate_hz"), g_line);
+  w = LineWriter(g_line, sizeof g_line);
+  w.str(kMotor);
+  meta(F("motor"), g_line);
+  meta(F("firmware"), kVersion);
+  w = LineWriter(g_line, sizeof g_line);
+  w.u32(g_pwm_hz);
+  meta(F("pwm_hz"), g_line);
+  w = LineWriter(g_line, sizeof g_line);
+  w.compact(kCalibration.divider_ratio);
+  meta(F("divider_ratio"), g_line);
+  w = LineWriter(g_line, sizeof g_line);
+  w.compact(kCalibration.shunt_ohm);
+  meta(F("shunt_ohm"), g_line);
+  w = LineWriter(g_line, sizeof g_line);
+  w.compact(kCalibration.adc_ref_V);
+  meta(F("adc_ref_V"), g_line);
+  w = LineWriter(g_line, sizeof g_line);
+  w.u32(kEncoderCountsPerRev);
+  meta(F("encoder_cpr"), g_line);
+  Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeader));
+  Serial.write('\n');
+  g_rec_start = first_seq;
+  g_recording = true;
+}
+
+uint32_t open_seq() {
+  const uint8_t s = SREG;
+  cli();
+  const uint32_t q = g_seq;
+  SREG = s;
+  return q;
+}
+
+void end_recording(const char* why) {
+  if (!g_recording) return;
+  g_recording = false;
+  LineWriter w(g_line, sizeof g_line);
+  w.str("end ");
+  w.str(why);
+  w.str(" overruns=");
+  w.u32(g_overruns);
+  say(w.c_str());
+  if (g_plan.protocol() != kProtoNone) {
+    g_plan = ProtocolPlan();
+    set_next_setpoint(0, 0);
+  }
+}
+
+void handle_command(const char* line) {
+  const Command c = parse_command(line);
+  const bool busy = g_recording;
+  switch (c.kind) {
+    case kCmdNone: return;
+    case kCmdRun: {
+      if (busy) return say(F("error busy: stop first"));
+      const uint32_t hold = samples_for(g_hold_s, actual_rate_hz());
+      const uint32_t len = samples_for(g_long_s, actual_rate_hz());
+      g_plan = ProtocolPlan(c.protocol, hold, len);
+      // The window after the open one may already have its setpoint latched:
+      // the protocol starts with the one after that.
+      const uint32_t first = open_seq() + 2u;
+      Setpoint sp;
+      g_plan.at(0, &sp);
+      set_next_setpoint(sp.duty_q, sp.load);
+      begin_recording(protocol_name(c.protocol), first);
+      return;
+    }
+    case kCmdRec:
+      if (busy) return say(F("error busy: stop first"));
+      begin_recording(c.word, open_seq() + 1u);
+      return;
+    case kCmdStop:
+      if (g_recording) end_recording("stopped");
+      g_plan = ProtocolPlan();
+      g_manual_duty_q = 0;
+      g_manual_load = 0;
+      set_next_setpoint(0, 0);
+      return say(F("ok stop"));
+    case kCmdDuty:
+    case kCmdLoad:
+      if (g_plan.protocol() != kProtoNone) return say(F("error busy: a protocol runs"));
+      if (c.kind == kCmdDuty) g_manual_duty_q = static_cast<uint16_t>(c.value * 10000.0f + 0.5f);
+      else g_manual_load = static_cast<uint8_t>(c.value);
+      set_next_setpoint(g_manual_duty_q, g_manual_load);
+      return print_status("ok");
+    case kCmdRate:
+      if (busy) return say(F("error busy: stop first"));
+      if (!set_rate(c.value)) return say(F("error rate"));
+      return print_status("ok");
+    case kCmdPwm:
+      if (busy) return say(F("error busy: stop first"));
+      if (!start_sampling(static_cast<uint32_t>(c.value + 0.5f))) return say(F("error pwm"));
+      set_next_setpoint(g_manual_duty_q, g_manual_load);
+      return print_status("ok");
+    case kCmdHold:
+      g_hold_s = c.value;
+      return print_status("ok");
+    case kCmdLong:
+      g_long_s = c.value;
+      return print_status("ok");
+    case kCmdStatus:
+      return print_status("status");
+    case kCmdHelp:
+      return say(F("commands: run sweep|load|long, rec [condition], stop, duty <0..1>, load <0..2>, "
+                   "rate <Hz>, pwm <Hz>, hold <s>, long <s>, status"));
+    default:
+      return say(F("error unknown command (try help)"));
+  }
+}
+
+void process(const WindowSums& w) {
+  const Measurement m = measure(w, kCalibration, kEncoderCountsPerRev);
+  int16_t temp_c16 = 0;
+  const bool has_temp = g_temp.current(millis(), &temp_c16);
+
+  uint8_t frame[hpddo::kFrameSize];
+  hpddo::encode_frame(make_frame(w, m, has_temp, temp_c16), frame);
+  link_send(frame, hpddo::kFrameSize);
+
+  if (g_plan.protocol() != kProtoNone) {
+    // Setpoint of the window after the open one (latched at the end of the open one).
+    const uint32_t next = open_seq() + 1u;
+    Setpoint sp = {0, 0};
+    if (next >= g_rec_start) {
+      if (!g_plan.at(next - g_rec_start, &sp)) sp.duty_q = 0, sp.load = 0;
+    } else {
+      g_plan.at(0, &sp);
+    }
+    set_next_setpoint(sp.duty_q, sp.load);
+  }
+
+  if (g_recording && static_cast<int32_t>(w.seq - g_rec_start) >= 0) {
+    LogRow r;
+    r.elapsed_samples = w.seq - g_rec_start;
+    r.period_us = w.period_us;
+    r.duty_q = w.duty_q;
+    r.v_V = m.v_V;
+    r.i_A = m.i_A;
+    r.rpm = m.rpm;
+    r.has_temp = has_temp;
+    r.temp_c16 = temp_c16;
+    r.load = w.load;
+    r.seq = w.seq;
+    LineWriter lw(g_line, sizeof g_line);
+    format_row(lw, r);
+    lw.put('\n');
+    Serial.write(lw.c_str(), lw.length());
+    if (g_plan.protocol() != kProtoNone && r.elapsed_samples + 1u >= g_plan.total()) {
+      end_recording(protocol_name(g_plan.protocol()));
+    }
+  }
+}
+
+}  // namespace
+
+void setup() {
+  apply_relays(0);
+  DDRD |= kBitRelay1;
+  DDRB |= kBitRelay2 | kBitPwm;
+  PORTB &= static_cast<uint8_t>(~kBitPwm);
+  Serial.begin(kHostBaud);
+  link_begin();
+  encoder_begin();
+  set_next_setpoint(0, 0);
+  start_sampling(kDefaultPwmHz);
+  adc_begin();
+  print_status("uno_acq 1 ready");
+}
+
+void loop() {
+  while (Serial.available() > 0) {
+    if (g_cmd.push(static_cast<char>(Serial.read()))) {
+      handle_command(g_cmd.line());
+      g_cmd.clear();
+    }
+  }
+  if (g_ready) {
+    WindowSums w;
+    cli();
+    w = g_snap;
+    g_ready = false;
+    sei();
+    process(w);
+  }
+  temperature_step();
+}
