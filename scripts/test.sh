@@ -23,3 +23,6 @@ ctest --test-dir build-asan -j "$jobs" --output-on-failure
 
 echo "== pytest"
 .venv/bin/python -m pytest -q test/py
+
+echo "== benchmark (prints its figures; the targets are judged against peers measured in the same run)"
+.venv/bin/python tools/bench_pipeline.py

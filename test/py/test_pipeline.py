@@ -1,0 +1,92 @@
+"""The offline pipeline: refusal of bad logs, regeneration of the committed default model,
+the ordering M3 < M2 < M1, and agreement of the native replay with the Python model."""
+import json
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import ROOT
+
+import gen_weights
+from hpddo import dataset, train
+
+DATA = sorted(p for p in (ROOT / "data" / "default").glob("*.csv") if not p.name.endswith(".truth.csv"))
+MODEL = ROOT / "models" / "default"
+
+GOOD_HEAD = "# condition=x\n# ra_ohm=4.5\nt_s,duty,v_V,i_A,rpm_ref\n"
+BAD_LOGS = {
+    "missing_column.csv": ("# condition=x\nt_s,duty,v_V\n0,0.1,1\n", 2, "missing required column"),
+    "non_numeric.csv": (GOOD_HEAD + "0.0,0.1,1.0,0.1,2\n0.5,0.1,abc,0.1,2\n", 5, "v_V"),
+    "not_finite.csv": (GOOD_HEAD + "0.0,0.1,1.0,0.1,2\n0.5,0.1,1.0,inf,2\n", 5, "i_A"),
+    "t_not_increasing.csv": (GOOD_HEAD + "0.0,0.1,1.0,0.1,2\n0.0,0.1,1.0,0.1,2\n", 5, "t_s"),
+    "duty_range.csv": (GOOD_HEAD + "0.0,0.1,1.0,0.1,2\n0.5,1.5,1.0,0.1,2\n", 5, "duty"),
+    "header_only.csv": (GOOD_HEAD, 3, "no rows"),
+    "empty.csv": ("", None, "empty"),
+}
+
+
+@pytest.mark.parametrize("name", sorted(BAD_LOGS))
+def test_bad_log_is_refused_with_file_line_fault_and_no_output(tmp_path, capsys, name):
+    text, line, fault = BAD_LOGS[name]
+    bad = tmp_path / name
+    bad.write_text(text)
+    out = tmp_path / "out"
+    rc = gen_weights.main([str(DATA[0]), str(bad), "--out", str(out), "--quiet", "--max-iter", "2"])
+    err = capsys.readouterr().err
+    assert rc == 1
+    assert name in err and fault in err
+    if line is not None:
+        assert f"{name}:{line}:" in err
+    assert not out.exists(), "a refused run must write nothing"
+
+
+def test_glitch_filter_removes_exactly_the_twins_glitches():
+    """The bundled recordings carry a few simulated sensor glitches (listed in the truth
+    sidecar by data row); the filter removes those rows and no others, naming file lines."""
+    for path in DATA:
+        rec = dataset.load_recording(path)
+        truth = json.loads(path.with_suffix(".truth.json").read_text())
+        first_data_line = 1 + sum(1 for ln in path.read_text().splitlines() if ln.startswith("#")) + 1
+        want = sorted(first_data_line + g["row"] for g in truth["glitches"])
+        assert [ln for ln, _ in rec.removed] == want, path.name
+        assert all(reason for _, reason in rec.removed)
+        assert rec.n == truth["rows"] - len(want)
+
+
+@pytest.fixture(scope="module")
+def regenerated(tmp_path_factory):
+    out = tmp_path_factory.mktemp("regen")
+    rc = gen_weights.main([*map(str, DATA), "--out", str(out), "--quiet"])
+    assert rc == 0
+    return out
+
+
+def test_default_model_regenerates_byte_identical(regenerated):
+    for name in ("model_default.h", "golden_default.h", "golden_default.csv", "metrics.json"):
+        assert (regenerated / name).read_bytes() == (MODEL / name).read_bytes(), (
+            f"models/default/{name} differs from a regeneration: run "
+            "tools/gen_weights.py data/default/{load,long,sweep}.csv --out models/default")
+
+
+def test_replay_orders_m3_below_m2_below_m1_on_every_condition(regenerated):
+    rm = json.loads((regenerated / "metrics.json").read_text())["rmse_rpm"]
+    for cond in rm["M1"]:
+        assert rm["M3"][cond] < rm["M2"][cond] < rm["M1"][cond], cond
+    assert json.loads((regenerated / "metrics.json").read_text())["source"].startswith("native replay")
+
+
+def test_replay_agrees_with_the_python_model(regenerated):
+    """The C++ observer (float32) and the Python model (float64, scikit-learn) agree."""
+    from hpddo.identify import m2_params, ra_from_logs
+    recs = [dataset.load_recording(p) for p in DATA]
+    meta = json.loads((regenerated / "metrics.json").read_text())["identification"]
+    p = m2_params(recs, ra_from_logs(recs, None)[0])
+    assert p.ke_vs_per_rad == pytest.approx(meta["ke_m2_vs_per_rad"], rel=1e-12)
+    for rec in recs:
+        est = pd.read_csv(regenerated / "work" / "estimates" / f"{rec.source.stem}.estimates.csv")
+        _, n2 = train.features(rec, p)
+        assert np.max(np.abs(est["rpm_m2"].to_numpy() - n2)) < 0.02  # float32 of a few hundred RPM
