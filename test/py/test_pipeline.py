@@ -90,3 +90,19 @@ def test_replay_agrees_with_the_python_model(regenerated):
         est = pd.read_csv(regenerated / "work" / "estimates" / f"{rec.source.stem}.estimates.csv")
         _, n2 = train.features(rec, p)
         assert np.max(np.abs(est["rpm_m2"].to_numpy() - n2)) < 0.02  # float32 of a few hundred RPM
+
+
+def test_report_renders_in_headless_chromium(regenerated, tmp_path):
+    from hpddo import browser, report
+    if browser.chromium() is None:
+        pytest.skip("chromium not installed (scripts/bootstrap.sh --with-browser installs it)")
+    metrics = json.loads((regenerated / "metrics.json").read_text())
+    page = report.write(metrics, regenerated / "work" / "estimates", tmp_path / "report", "hpddo test report", [])
+    png = tmp_path / "report.png"
+    seen = browser.render(page, png)
+    assert seen["console_errors"] == []
+    assert png.stat().st_size > 20000, "the screenshot is (nearly) blank"
+    dom = seen["dom"]
+    assert dom.count("<img") == len(DATA)
+    for cond in ("sweep", "load", "long", "average"):
+        assert f"<td>{cond}</td>" in dom
