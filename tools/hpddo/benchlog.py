@@ -219,7 +219,11 @@ def read_log(path) -> BenchLog:
                     raise BenchLogError(
                         path, first_data_lineno + bad, f"empty value in required column {col}"
                     )
-            bad_nonnum = _first_bad(np.isnan(num) & ~empty & ~_nan_text(vals))
+            cand = np.isnan(num) & ~empty
+            if cand.any():  # a spelled-out NaN is non-finite, anything else non-numeric
+                idx = np.flatnonzero(cand)
+                cand[idx] = ~_nan_text(vals[idx])
+            bad_nonnum = _first_bad(cand)
             bad_nonfin = _first_bad(~np.isfinite(num) & ~empty)
             cands = [b for b in (bad_nonnum, bad_nonfin) if b is not None]
             if cands:
@@ -230,9 +234,7 @@ def read_log(path) -> BenchLog:
                 )
             out[col] = num
         elif col in OPTIONAL_INT_COLUMNS:
-            ok = np.fromiter(
-                (bool(_INT_RE.match(v)) for v in vals), dtype=bool, count=len(vals)
-            )
+            ok = s.str.fullmatch(r"[+-]?[0-9]+").to_numpy(dtype=bool)
             bad = _first_bad(~ok & ~empty)
             if bad is not None:
                 raise BenchLogError(

@@ -183,6 +183,8 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
 
     h = h0
     prev = None
+    prog_every = max(1, n // 500)
+    prog_done = 0
     dw_fd = 1e-3  # rad/s, finite difference for dI_ss/dw
     for k in range(n):
         d = float(duty[k])
@@ -293,8 +295,9 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
         out["tw"][k] = Tw
         out["tc"][k] = Tc
         thetas[k + 1] = theta
-        if progress is not None:
-            progress(Ts)
+        if progress is not None and (k % prog_every == prog_every - 1 or k == n - 1):
+            progress(Ts * (k + 1 - prog_done))
+            prog_done = k + 1
 
     en["kinetic_change"] = 0.5 * J * w * w - ke_start
     en["magnetic_change"] = 0.5 * la * ib * ib - wmag_start
