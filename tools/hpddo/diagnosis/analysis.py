@@ -1,0 +1,125 @@
+"""Residual analysis on held-out rows: noise level, whiteness (autocorrelation with its
+confidence band, Ljung-Box), cross-correlation with the inputs (with Bartlett bands),
+and where the squared error sits (by recording, time, operating point, temperature)."""
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+MAX_LAG = 20
+Z95 = 1.959963984540054
+
+
+def robust_noise_var(e_parts) -> float:
+    """Variance of the white part of the residual from first differences within each
+    contiguous part: a slow structured error hardly moves from one row to the next, a
+    white error of variance s2 gives differences of variance 2 s2. The median absolute
+    difference (scaled for a normal) keeps steps and transients from inflating it."""
+    d = np.concatenate([np.diff(e) for e in e_parts if len(e) > 2])
+    if len(d) < 5:
+        return float("nan")
+    mad = 1.4826 * np.median(np.abs(d - np.median(d)))
+    return float(mad * mad / 2.0)
+
+
+def acf(x: np.ndarray, max_lag: int = MAX_LAG) -> np.ndarray:
+    """Sample autocorrelation at lags 0..max_lag (biased estimator, as system
+    identification tools use)."""
+    x = np.asarray(x, float) - np.mean(x)
+    n = len(x)
+    c0 = float(np.dot(x, x)) / n
+    if n < 3 or c0 <= 0:
+        return np.zeros(max_lag + 1)
+    return np.array([float(np.dot(x[: n - k], x[k:])) / n / c0 for k in range(max_lag + 1)])
+
+
+def ccf(e: np.ndarray, u: np.ndarray, max_lag: int = MAX_LAG) -> np.ndarray:
+    """Cross-correlation of residual e(t) with input u(t - k), k = -max_lag..max_lag."""
+    e = np.asarray(e, float) - np.mean(e)
+    u = np.asarray(u, float) - np.mean(u)
+    n = len(e)
+    den = np.sqrt(np.dot(e, e) * np.dot(u, u))
+    out = np.zeros(2 * max_lag + 1)
+    if den <= 0 or n < 3:
+        return out
+    for j, k in enumerate(range(-max_lag, max_lag + 1)):
+        out[j] = (np.dot(e[k:], u[: n - k]) if k >= 0 else np.dot(e[: n + k], u[-k:])) / den
+    return out
+
+
+def ccf_band(e: np.ndarray, u: np.ndarray, max_lag: int = MAX_LAG) -> float:
+    """95 % band of the cross-correlation under 'e independent of u' (Bartlett's formula:
+    the variance of r_eu(k) is sum_j r_ee(j) r_uu(j) / N), so a smooth input does not
+    pass as a correlate."""
+    n = len(e)
+    if n < 3:
+        return float("nan")
+    ra, rb = acf(e, max_lag), acf(u, max_lag)
+    s = 1.0 + 2.0 * float(np.sum(ra[1:] * rb[1:]))
+    return Z95 * np.sqrt(max(s, 1.0) / n)
+
+
+def ljung_box(x: np.ndarray, lags: int = MAX_LAG) -> tuple[float, float]:
+    """Ljung-Box Q over lags 1..lags and its p-value (white noise: large p)."""
+    n = len(x)
+    if n <= lags + 2:
+        return float("nan"), float("nan")
+    r = acf(x, lags)[1:]
+    q = n * (n + 2) * float(np.sum(r * r / (n - np.arange(1, lags + 1))))
+    return q, float(stats.chi2.sf(q, lags))
+
+
+def whiteness(parts) -> dict:
+    """ACF of the pooled held-out residual (parts are contiguous pieces, each centred), its
+    95 % band, the share of lags outside it and the Ljung-Box test per part, combined."""
+    parts = [np.asarray(p, float) for p in parts if len(p) > MAX_LAG + 2]
+    if not parts:
+        return {"acf": [], "band": None, "outside": None, "q": None, "p": None, "white": None}
+    n = sum(len(p) for p in parts)
+    # pooled ACF: per-part lagged products, summed (no products across parts)
+    num = np.zeros(MAX_LAG + 1)
+    den = 0.0
+    for p in parts:
+        x = p - p.mean()
+        den += float(np.dot(x, x))
+        for k in range(MAX_LAG + 1):
+            num[k] += float(np.dot(x[: len(x) - k], x[k:]))
+    r = num / den if den > 0 else np.zeros(MAX_LAG + 1)
+    band = Z95 / np.sqrt(n)
+    outside = float(np.mean(np.abs(r[1:]) > band))
+    q = n * (n + 2) * float(np.sum(r[1:] ** 2 / (n - np.arange(1, MAX_LAG + 1))))
+    p = float(stats.chi2.sf(q, MAX_LAG))
+    return {"acf": r.tolist(), "band": float(band), "outside": outside, "q": q, "p": p,
+            "white": bool(p > 0.001 or outside <= 0.1)}
+
+
+def correlates(parts_e, parts_u: dict) -> list:
+    """Cross-correlation of the residual with each input, the largest |r| and its lag, and
+    whether it leaves the 95 % band; sorted strongest first (relative to the band)."""
+    out = []
+    e = np.concatenate([p - p.mean() for p in parts_e]) if parts_e else np.array([])
+    for name, parts in parts_u.items():
+        u = np.concatenate([p - p.mean() for p in parts])
+        if len(u) < 3 or not np.all(np.isfinite(u)) or np.std(u) <= 0:
+            continue
+        r = ccf(e, u)
+        band = ccf_band(e, u)
+        k = int(np.argmax(np.abs(r)))
+        out.append({"input": name, "ccf": r.tolist(), "band": band, "peak": float(r[k]),
+                    "peak_lag": k - MAX_LAG, "at_lag0": float(r[MAX_LAG]),
+                    "significant": bool(abs(r[k]) > band), "strength": float(abs(r[k]) / band) if band > 0 else 0.0})
+    out.sort(key=lambda d: -d["strength"])
+    return out
+
+
+def binned_mse(x: np.ndarray, e2: np.ndarray, bins: int = 8) -> dict:
+    """Mean squared error in quantile bins of x."""
+    ok = np.isfinite(x) & np.isfinite(e2)
+    x, e2 = x[ok], e2[ok]
+    if len(x) < bins * 3 or np.ptp(x) <= 0:
+        return {"edges": [], "mse": [], "count": []}
+    edges = np.unique(np.quantile(x, np.linspace(0, 1, bins + 1)))
+    idx = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2)
+    mse = [float(np.mean(e2[idx == b])) if np.any(idx == b) else float("nan") for b in range(len(edges) - 1)]
+    cnt = [int(np.sum(idx == b)) for b in range(len(edges) - 1)]
+    return {"edges": edges.tolist(), "mse": mse, "count": cnt}

@@ -1,0 +1,280 @@
+"""Which library effect is missing: forward selection scored on held-out rows, a block
+bootstrap for confidence, identifiability and confounding checks, and the verdict.
+
+Scoring. Every candidate is added to the current model and the model is refitted on the
+training rows (Ke and all coefficients, effects.fit); the score is what it removes from the
+held-out squared error. Each recording's held-out rows carry equal total weight, as the
+per-condition average RMSE does. The gain is tested against its own sampling noise with
+contiguous blocks of held-out rows (residuals are autocorrelated; blocks keep that).
+
+An effect is named when, at its step of the forward selection:
+  * its held-out gain is at least Z_MIN standard errors (block estimate),
+  * it removes at least REL_MIN of the current held-out mean squared error and at least
+    EXCESS_MIN of the part of it above the noise floor,
+  * its fitted coefficient is physical (sign and order of magnitude; effects.Effect.physical):
+    a wrong-signed coefficient is the fit using the term's inputs to chase noise.
+Selection stops when no candidate passes. Confidence: the selection is repeated on
+BOOTSTRAP resamples of blocks of the training rows; the inclusion frequency is the share
+of resamples in which the effect is named.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from .. import effects as fx
+from .. import physics as ph
+from . import analysis
+
+Z_MIN = 3.0
+REL_MIN = 0.02
+EXCESS_MIN = 0.10
+BLOCK_S = 15.0          # held-out block length for the standard error, seconds
+TRAIN_BLOCK_S = 30.0    # training block length for the bootstrap, seconds
+BOOTSTRAP = 12
+IDENT_SIGMAS = 4.0      # a plausible coefficient must be this many standard errors to be seen
+CONFOUND_CORR = 0.95    # partial correlation of two regressors above which they are confounded
+CONFOUND_GAIN = 0.6     # an alternative explaining this share of the chosen gain is confounded
+
+# Recordings that separate two effects which the data at hand cannot tell apart.
+SEPARATORS = {
+    frozenset({"thermal_ra", "magnet_thermal"}):
+        "a run in which the temperature changes at a different current-to-speed ratio: e.g. a "
+        "long warm-up at light load (low current, high speed) next to the heavy-load long run, "
+        "or load steps while the motor is hot",
+    frozenset({"brush_drop", "current_offset"}):
+        "rows at zero and at very low current with the motor turning (coasting at duty 0, or "
+        "a run at very light load): a brush drop vanishes with the current, an offset does not",
+    frozenset({"thermal_ra", "v_gain"}):
+        "a cold run with load steps (the resistance term at constant temperature), "
+        "or a check of the voltage channel against a calibrated meter",
+    frozenset({"thermal_ra", "saturation"}):
+        "load steps at constant temperature (short, from cold) and a slow warm-up at constant load",
+    frozenset({"magnet_thermal", "saturation"}):
+        "load steps at constant temperature (short, from cold) and a slow warm-up at constant load",
+    frozenset({"brush_drop", "v_gain"}):
+        "a sweep over the full duty range at light load: a gain error grows with the voltage, "
+        "a brush drop does not",
+    frozenset({"current_offset", "v_gain"}):
+        "a sweep over the full duty range at light load and rows at zero current",
+    frozenset({"saturation", "v_gain"}):
+        "load steps at one duty (same voltage, different currents)",
+}
+
+
+def separator(a: str, b: str) -> str:
+    s = SEPARATORS.get(frozenset({a, b}))
+    if s:
+        return s
+    ea, eb = fx.LIBRARY[a], fx.LIBRARY[b]
+    return (f"a recording in which {ea.signature} and {eb.signature} vary independently "
+            f"({ea.excited_by}; {eb.excited_by})")
+
+
+@dataclasses.dataclass
+class Data:
+    """The rows of every recording with their held-out weights and blocks."""
+
+    rows: list
+    w_test: list       # per recording: per-row weight of held-out rows (sums to 1 per recording)
+    blocks_test: list  # per recording: block id per row (-1 outside the held-out rows)
+    blocks_train: list  # per recording: block id per row (-1 outside the training rows)
+
+
+def make_data(rows) -> Data:
+    w, bt, btr = [], [], []
+    for r in rows:
+        n = int(r.test.sum())
+        w.append(np.where(r.test, 1.0 / max(n, 1), 0.0))
+        period = float(np.median(r.dt)) if len(r.dt) else 0.5
+        t = np.cumsum(r.dt) - r.dt[0]
+        bid = np.floor(t / max(BLOCK_S, period)).astype(int)
+        bt.append(np.where(r.test, bid, -1))
+        bid2 = np.floor(t / max(TRAIN_BLOCK_S, period)).astype(int)
+        btr.append(np.where(r.train, bid2, -1))
+    return Data(rows=list(rows), w_test=w, blocks_test=bt, blocks_train=btr)
+
+
+def residuals(d: Data, p: ph.PhysicsParams) -> list:
+    """rpm_ref - n_M2 for every row of every recording (NaN where undefined)."""
+    return [r.ref - fx.predict(r, p) for r in d.rows]
+
+
+def held_out_mse(d: Data, res) -> float:
+    """Weighted held-out MSE: the mean over recordings of each one's held-out MSE."""
+    tot = 0.0
+    for r, e, w in zip(d.rows, res, d.w_test):
+        tot += float(np.nansum(w * np.where(r.test, e * e, 0.0)))
+    return tot / len(d.rows)
+
+
+def gain_z(d: Data, res_a, res_b, sigma2: float) -> tuple[float, float]:
+    """Held-out MSE gain of model b over model a, and how many standard errors of noise it
+    is. With delta = e_a - e_b (the change of prediction), e_a^2 - e_b^2 = delta^2 +
+    2 delta e_b: the first term is what b explains; the second is what noise of variance
+    sigma2 alone would add, with standard error 2 sigma sqrt(sum w^2 delta^2)."""
+    g = 0.0
+    v = 0.0
+    for r, ea, eb, w in zip(d.rows, res_a, res_b, d.w_test):
+        m = r.test & np.isfinite(ea) & np.isfinite(eb)
+        if not m.any():
+            continue
+        ww = w[m] / len(d.rows)
+        g += float(np.sum(ww * (ea[m] ** 2 - eb[m] ** 2)))
+        v += float(np.sum((ww * (ea[m] - eb[m])) ** 2))
+    se = 2.0 * float(np.sqrt(max(sigma2, 1e-12) * v))
+    return g, (g / se if se > 0 else (np.inf if g > 0 else 0.0))
+
+
+def noise_var(d: Data, res) -> float:
+    parts = []
+    for r, e in zip(d.rows, res):
+        m = r.test & np.isfinite(e)
+        idx = np.flatnonzero(m)
+        if len(idx) < 3:
+            continue
+        # contiguous runs only
+        cuts = np.flatnonzero(np.diff(idx) != 1) + 1
+        parts += [e[c] for c in np.split(idx, cuts) if len(c) > 2]
+    return analysis.robust_noise_var(parts)
+
+
+def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, others) -> dict:
+    """Standard error of the coefficient of `name` on the training rows, with Ke and the
+    effects in `others` fitted alongside (their regressors projected out); the effect is
+    identifiable when the plausible magnitude is IDENT_SIGMAS standard errors or more."""
+    eff = fx.LIBRARY[name]
+    cols = {k: [] for k in ["ke_vs_per_rad", name] + list(others)}
+    for r in d.rows:
+        m = r.train
+        if not m.any():
+            continue
+        t = fx.temperature(r, p)
+        ke = p.ke_vs_per_rad
+        h = 1e-4 * ke
+        up = dataclasses.replace(p, ke_vs_per_rad=ke + h)
+        dn = dataclasses.replace(p, ke_vs_per_rad=ke - h)
+        cols["ke_vs_per_rad"].append(((ph.physics_rpm(up, r.v, r.i, r.di_dt, t) - ph.physics_rpm(dn, r.v, r.i, r.di_dt, t))
+                                     / (2 * h))[m])
+        for k in [name] + list(others):
+            pk = p
+            if k == name and fx.LIBRARY[k].thermal and r.needs_state and not p.thermal_enabled():
+                pk = dataclasses.replace(p, th_r_K_per_W=10.0, th_tau_s=600.0)
+            cols[k].append(fx.regressor(r, pk, k)[m])
+    x = {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
+    target = x.pop(name)
+    other = np.column_stack(list(x.values())) if x else np.zeros((len(target), 0))
+    ok = np.isfinite(target) & np.all(np.isfinite(other), axis=1)
+    target, other = target[ok], other[ok]
+    if other.shape[1]:
+        coef, *_ = np.linalg.lstsq(other, target, rcond=None)
+        target = target - other @ coef
+    info = float(np.dot(target, target))
+    se = float(np.sqrt(sigma2 / info)) if info > 0 else float("inf")
+    mag = max(abs(eff.plausible[0]), abs(eff.plausible[1]))
+    return {"se": se, "identifiable": bool(mag >= IDENT_SIGMAS * se)}
+
+
+def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
+    """Correlation of the regressors of a and b on the training and held-out rows after
+    Ke and the `given` effects are projected out."""
+    xa, xb, xo = [], [], []
+    for r in d.rows:
+        m = r.train | r.test
+        if not m.any():
+            continue
+        pp = p
+        if r.needs_state and not p.thermal_enabled():
+            pp = dataclasses.replace(p, th_r_K_per_W=10.0, th_tau_s=600.0)
+        t = fx.temperature(r, pp)
+        xa.append(fx.regressor(r, pp, a, t)[m])
+        xb.append(fx.regressor(r, pp, b, t)[m])
+        ke = p.ke_vs_per_rad
+        h = 1e-4 * ke
+        o = [(ph.physics_rpm(dataclasses.replace(pp, ke_vs_per_rad=ke + h), r.v, r.i, r.di_dt, t)
+              - ph.physics_rpm(dataclasses.replace(pp, ke_vs_per_rad=ke - h), r.v, r.i, r.di_dt, t)) / (2 * h)]
+        o += [fx.regressor(r, pp, g, t) for g in given if g not in (a, b)]
+        xo.append(np.column_stack(o)[m])
+    xa, xb, xo = np.concatenate(xa), np.concatenate(xb), np.concatenate(xo)
+    ok = np.isfinite(xa) & np.isfinite(xb) & np.all(np.isfinite(xo), axis=1)
+    xa, xb, xo = xa[ok], xb[ok], xo[ok]
+    for v in (xa, xb):
+        coef, *_ = np.linalg.lstsq(xo, v, rcond=None)
+        v -= xo @ coef
+    den = np.sqrt(np.dot(xa, xa) * np.dot(xb, xb))
+    return float(np.dot(xa, xb) / den) if den > 0 else 0.0
+
+
+@dataclasses.dataclass
+class Step:
+    name: str
+    params: ph.PhysicsParams
+    gain: float
+    z: float
+    mse_before: float
+    mse_after: float
+    alternatives: list  # [(name, gain, z, physical), ...] of every candidate tried at this step
+
+
+def _physical(name: str, value: float) -> bool:
+    lo, hi = fx.LIBRARY[name].physical
+    return lo < value < hi
+
+
+def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: float, weights=None,
+                   start=None) -> tuple[list, ph.PhysicsParams]:
+    """Forward selection from the model with `given` effects; returns (steps, final params)."""
+    chosen = list(given)
+    p = fx.fit(d.rows, m2, chosen, weights=weights, start=start)
+    res = residuals(d, p)
+    mse = held_out_mse(d, res)
+    steps = []
+    remaining = [c for c in candidates if c not in chosen]
+    while remaining:
+        tried = []
+        for c in remaining:
+            try:
+                pc = fx.fit(d.rows, m2, chosen + [c], weights=weights, start=p)
+            except Exception:  # a degenerate fit is simply not a candidate
+                continue
+            rc = residuals(d, pc)
+            g, z = gain_z(d, res, rc, sigma2)
+            val = getattr(pc, fx.LIBRARY[c].field)
+            tried.append((c, g, z, _physical(c, val), pc, rc))
+        ok = [t for t in tried if t[3] and t[2] >= Z_MIN and t[1] >= REL_MIN * mse
+              and t[1] >= EXCESS_MIN * max(mse - sigma2, 0.0)]
+        if not ok:
+            steps.append(Step("", p, 0.0, 0.0, mse, mse, [(t[0], t[1], t[2], t[3]) for t in tried]))
+            break
+        best = max(ok, key=lambda t: t[1])
+        c, g, z, _, pc, rc = best
+        new_mse = held_out_mse(d, rc)
+        steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried]))
+        chosen.append(c)
+        remaining.remove(c)
+        p, res, mse = pc, rc, new_mse
+    return steps, p
+
+
+def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7) -> dict:
+    """Inclusion frequency of each candidate over n block resamples of the training rows."""
+    rng = np.random.default_rng(seed)
+    counts = {c: 0 for c in candidates}
+    if n <= 0:
+        return {c: None for c in candidates}
+    for _ in range(n):
+        weights = []
+        for r, blk in zip(d.rows, d.blocks_train):
+            ids = np.unique(blk[blk >= 0])
+            w = np.zeros(len(blk))
+            if len(ids):
+                pick = rng.choice(ids, size=len(ids), replace=True)
+                mult = np.bincount(np.searchsorted(ids, pick), minlength=len(ids)).astype(float)
+                w[blk >= 0] = mult[np.searchsorted(ids, blk[blk >= 0])]
+            weights.append(w)
+        steps, _ = forward_select(d, m2, given, candidates, sigma2, weights=weights, start=start)
+        for s in steps:
+            if s.name:
+                counts[s.name] += 1
+    return {c: counts[c] / n for c in candidates}

@@ -1,0 +1,301 @@
+"""The effect library: physical effects that the plain model M2 leaves out, each as one
+named coefficient of the physics model, its regressor and its identification.
+
+Every effect is one PhysicsParams field (physics.EFFECT_BITS); the term itself exists
+once here (through tools/hpddo/physics.py) and once in lib/hpddo_core (physics.h), and
+test/py/test_effects_parity.py holds the two together.
+
+The regressor of an effect is the sensitivity of the speed estimate to its coefficient,
+d n_M2 / d c (RPM per unit of the coefficient), taken by central difference through
+physics.physics_rpm, so a new term needs no hand-written derivative.
+
+`identify` fits Ke and the named coefficients on the training rows (rpm_ref > 10, as
+eq. 20) with Ra held at its measured value, by least squares on the speed error.
+
+Temperature: the thermal effects use temp_C where the log has it (train.temperature_used).
+Where it has none, they use the copper-loss thermal state (physics.thermal_trajectory),
+whose network (th_r_K_per_W, th_tau_s) is then identified too. A thermal state and a
+temperature coefficient are not separable from speed alone (only their product shows), so
+the coefficient is held at its physical value and the network is fitted:
+thermal_ra at copper's +0.00393 /K; magnet_thermal alone at ferrite's -0.002 /K; with
+both, thermal_ra fixes the temperature scale and magnet_thermal's coefficient is fitted.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from . import physics as ph
+from .dataset import Recording, dt_s, lagged, segment_starts
+from .identify import MIN_RPM, IdentificationError
+
+COPPER_TC_PER_K = 0.00393
+FERRITE_TC_PER_K = -0.002
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+    """One entry of the library."""
+
+    name: str
+    field: str            # PhysicsParams field carrying the coefficient
+    unit: str             # unit of the field
+    show_scale: float     # field value x show_scale = value in show_unit
+    show_unit: str
+    meaning: str          # physical meaning, one sentence
+    typical: str          # typical values, in words
+    plausible: tuple      # (lo, hi) plausible range of the field value
+    physical: tuple       # (lo, hi): the plausible range widened 2x; a fit outside is not this effect
+    scale: float          # a typical magnitude of the field (parameter scaling in fits)
+    signature: str        # what the speed error of a missing effect scales with
+    excited_by: str       # which recording makes the effect visible
+    thermal: bool = False  # uses the temperature
+
+    @property
+    def bit(self) -> int:
+        return ph.EFFECT_BITS[self.name][0]
+
+    def show(self, value: float) -> str:
+        return f"{value * self.show_scale:+.3g} {self.show_unit}"
+
+    def plausibility(self, value: float) -> tuple[bool, str]:
+        lo, hi = self.plausible
+        ok = lo <= value <= hi
+        rng = f"{lo * self.show_scale:.3g}..{hi * self.show_scale:.3g} {self.show_unit}"
+        return ok, (f"{self.show(value)} within the plausible {rng}" if ok
+                    else f"{self.show(value)} outside the plausible {rng}")
+
+
+LIBRARY = {e.name: e for e in [
+    Effect("thermal_ra", "ra_tc_per_K", "1/K", 100.0, "%/K",
+           "copper resistance of the winding rises with temperature: Ra(T) = Ra (1 + a (T - T_ref))",
+           "copper +0.393 %/K", (0.002, 0.006), (0.001, 0.012), 0.004,
+           "temperature rise x current",
+           "a run in which the winding heats up (minutes at high current)", thermal=True),
+    Effect("magnet_thermal", "ke_tc_per_K", "1/K", 100.0, "%/K",
+           "magnet flux, hence Ke, falls with temperature: Ke(T) = Ke (1 + b (T - T_ref))",
+           "ferrite about -0.2 %/K, NdFeB -0.12 %/K", (-0.0035, -0.0003), (-0.007, -0.00015), -0.002,
+           "temperature rise x speed",
+           "a run in which the motor heats up (minutes at high current)", thermal=True),
+    Effect("brush_drop", "brush_V", "V", 1.0, "V",
+           "contact drop of the carbon brushes, about constant while current flows",
+           "0.3..2 V for both brushes together", (0.05, 2.5), (0.025, 5.0), 0.5,
+           "a constant voltage while current flows (sign of the current)",
+           "runs at several speeds, including light load"),
+    Effect("saturation", "ke_sat_per_A", "1/A", 100.0, "%/A",
+           "armature reaction weakens the field at high current: Ke(I) = Ke (1 - s |I|)",
+           "a few %/A", (0.002, 0.15), (0.001, 0.3), 0.04,
+           "current x speed",
+           "runs at different loads (currents) at similar speeds"),
+    Effect("current_offset", "i_offset_A", "A", 1000.0, "mA",
+           "DC offset of the current channel: the reading minus the true current",
+           "a few mA to tens of mA", (-0.05, 0.05), (-0.1, 0.1), 0.01,
+           "a constant voltage Ra x offset, at every current including zero",
+           "rows at zero or very low current with the motor turning (coasting at duty 0)"),
+    Effect("v_gain", "v_gain", "1", 100.0, "%",
+           "gain error of the voltage channel: reading / true voltage - 1",
+           "|g| below about 5 % (divider tolerance, ADC reference)", (-0.05, 0.05), (-0.1, 0.1), 0.01,
+           "the terminal voltage",
+           "runs at different voltages with different currents"),
+    Effect("inductance", "la_H", "H", 1000.0, "mH",
+           "armature inductance: La di/dt in the voltage balance",
+           "0.5..20 mH for small PMDC motors", (0.0005, 0.02), (0.00025, 0.04), 0.003,
+           "the rate of change of the current",
+           "a recording at 1 kHz or faster with steps of duty"),
+]}
+
+NAMES = tuple(LIBRARY)
+
+
+def check_names(names) -> tuple:
+    names = tuple(names)
+    unknown = [n for n in names if n not in LIBRARY]
+    if unknown:
+        raise IdentificationError(f"unknown effect(s) {unknown}; known: {', '.join(NAMES)}")
+    return names
+
+
+# ---------------------------------------------------------------------------------------
+# Rows: what the physics model sees, per recording
+
+
+@dataclasses.dataclass
+class Rows:
+    """Inputs of the physics model for every row of one recording, and its masks."""
+
+    rec: Recording
+    v: np.ndarray
+    i: np.ndarray
+    di_dt: np.ndarray
+    dt: np.ndarray
+    temp: np.ndarray      # temp_C where read (NaN elsewhere)
+    has_temp: np.ndarray  # bool per row
+    ref: np.ndarray       # rpm_ref (NaN where absent)
+    train: np.ndarray     # bool: training row usable for fitting (rpm_ref > MIN_RPM)
+    test: np.ndarray      # bool: held-out row usable for scoring (rpm_ref > MIN_RPM)
+    duty: np.ndarray
+
+    @property
+    def needs_state(self) -> bool:
+        return not bool(self.has_temp.all())
+
+
+def rows_of(rec: Recording) -> Rows:
+    df = rec.df
+    starts = segment_starts(rec)
+    i = df["i_A"].to_numpy(float)
+    dt = dt_s(rec)
+    di_dt = np.where(starts, 0.0, (i - lagged(i, starts)) / dt)
+    if "temp_C" in df:
+        t = df["temp_C"].to_numpy(float)
+        ok = np.isfinite(t) & (t >= -55.0) & (t <= 125.0)
+    else:
+        t = np.full(rec.n, np.nan)
+        ok = np.zeros(rec.n, bool)
+    ref = df["rpm_ref"].to_numpy(float) if "rpm_ref" in df else np.full(rec.n, np.nan)
+    good = np.isfinite(ref) & (ref > MIN_RPM)
+    idx = np.arange(rec.n)
+    return Rows(rec=rec, v=df["v_V"].to_numpy(float), i=i, di_dt=di_dt, dt=dt, temp=np.where(ok, t, np.nan),
+                has_temp=ok, ref=ref, train=good & (idx < rec.n_train), test=good & (idx >= rec.n_train),
+                duty=df["duty"].to_numpy(float))
+
+
+def temperature(r: Rows, p: ph.PhysicsParams) -> np.ndarray:
+    """temp_C where read, else the copper-loss state (as train.temperature_used)."""
+    if not r.needs_state:
+        return r.temp
+    state = (ph.thermal_trajectory(p, ph.true_current_A(p, r.i), r.dt) if p.thermal_enabled()
+             else np.full(len(r.i), p.t_ref_C))
+    return np.where(r.has_temp, r.temp, state)
+
+
+def predict(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:
+    """n_M2 (RPM) of every row, float64."""
+    t = temperature(r, p) if temp is None else temp
+    return ph.physics_rpm(p, r.v, r.i, r.di_dt, t)
+
+
+def regressor(r: Rows, p: ph.PhysicsParams, name: str, temp=None) -> np.ndarray:
+    """d n_M2 / d coefficient of effect `name` at p, RPM per unit of the field (central
+    difference through physics.physics_rpm)."""
+    eff = LIBRARY[name]
+    t = temperature(r, p) if temp is None else temp
+    c = getattr(p, eff.field)
+    h = 1e-3 * abs(eff.scale)
+    up = dataclasses.replace(p, **{eff.field: c + h})
+    dn = dataclasses.replace(p, **{eff.field: c - h})
+    return (ph.physics_rpm(up, r.v, r.i, r.di_dt, t) - ph.physics_rpm(dn, r.v, r.i, r.di_dt, t)) / (2 * h)
+
+
+# ---------------------------------------------------------------------------------------
+# Fitting
+
+
+@dataclasses.dataclass
+class FitSpec:
+    """Which parameters a fit moves, and how they map onto PhysicsParams."""
+
+    names: tuple          # effects switched on
+    free: list            # PhysicsParams fields fitted (ke first)
+    scales: list
+    fixed: dict           # fields held at a value
+    thermal_state: bool   # th_r_K_per_W, th_tau_s fitted too (log-parametrised)
+
+
+def spec_for(rows: list[Rows], names) -> FitSpec:
+    names = check_names(names)
+    thermal = [n for n in names if LIBRARY[n].thermal]
+    state = bool(thermal) and any(r.needs_state for r in rows)
+    free, scales, fixed = ["ke_vs_per_rad"], [0.3], {}
+    for n in names:
+        eff = LIBRARY[n]
+        if state and n == "thermal_ra":
+            fixed[eff.field] = COPPER_TC_PER_K
+        elif state and n == "magnet_thermal" and "thermal_ra" not in names:
+            fixed[eff.field] = FERRITE_TC_PER_K
+        else:
+            free.append(eff.field)
+            scales.append(abs(eff.scale))
+    return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state)
+
+
+def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsParams:
+    kw = dict(zip(spec.free, (float(v) for v in x[: len(spec.free)])))
+    kw.update(spec.fixed)
+    if spec.thermal_state:
+        kw["th_r_K_per_W"] = float(math.exp(x[len(spec.free)]))
+        kw["th_tau_s"] = float(math.exp(x[len(spec.free) + 1]))
+    return dataclasses.replace(base, **kw)
+
+
+def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
+    kw = {ph.EFFECT_BITS[n][1]: 0.0 for n in ph.EFFECT_BITS}
+    kw.update(effects=0, th_r_K_per_W=0.0, th_tau_s=0.0)
+    return dataclasses.replace(p, **kw)
+
+
+def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
+        start: ph.PhysicsParams | None = None) -> ph.PhysicsParams:
+    """Least squares of rpm_ref - n_M2 over the `mask` rows of `rows` (weights per row,
+    optional), moving Ke and the coefficients of `names`; Ra, t_ref stay at base's."""
+    spec = spec_for(rows, names)
+    p0 = _plain(base) if start is None else start
+    x0 = [getattr(p0, f) if (start is not None or f == "ke_vs_per_rad") else 0.0 for f in spec.free]
+    scales = list(spec.scales)
+    if spec.thermal_state:
+        r0 = p0.th_r_K_per_W if p0.th_r_K_per_W > 0 else 10.0
+        tau0 = p0.th_tau_s if p0.th_tau_s > 0 else 600.0
+        x0 += [math.log(r0), math.log(tau0)]
+        scales += [1.0, 1.0]
+    sel = [getattr(r, mask) for r in rows]
+    refs = [r.ref[m] for r, m in zip(rows, sel)]
+    if sum(int(m.sum()) for m in sel) < len(x0) + 5:
+        raise IdentificationError(f"too few labelled rows above {MIN_RPM} RPM to fit {', '.join(spec.free)}")
+    w = ([np.ones(int(m.sum())) for m in sel] if weights is None
+         else [np.asarray(wi, float)[m] for wi, m in zip(weights, sel)])
+    sw = [np.sqrt(wi) for wi in w]
+    fixed_temp = [None if r.needs_state else r.temp for r in rows]
+
+    def resid(x):
+        p = _params(base, spec, x)
+        out = []
+        for r, m, ref, s, t in zip(rows, sel, refs, sw, fixed_temp):
+            tt = temperature(r, p) if t is None else t
+            n = ph.physics_rpm(p, r.v[m], r.i[m], r.di_dt[m], tt[m])
+            out.append(s * np.where(np.isfinite(n), ref - n, 1e4))
+        return np.concatenate(out)
+
+    lo = [-np.inf] * len(x0)
+    hi = [np.inf] * len(x0)
+    lo[0] = 1e-6
+    if spec.thermal_state:
+        lo[-2], hi[-2] = math.log(0.05), math.log(500.0)
+        lo[-1], hi[-1] = math.log(5.0), math.log(1e5)
+        x0[-2] = min(max(x0[-2], lo[-2] + 1e-9), hi[-2] - 1e-9)
+        x0[-1] = min(max(x0[-1], lo[-1] + 1e-9), hi[-1] - 1e-9)
+    res = least_squares(resid, np.asarray(x0, float), x_scale=np.asarray(scales, float), bounds=(lo, hi),
+                        method="trf", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200)
+    p = _params(base, spec, res.x)
+    bits = 0
+    for n in spec.names:
+        bits |= LIBRARY[n].bit
+    return dataclasses.replace(p, effects=bits)
+
+
+def identify(recs: list[Recording], m2_plain: ph.PhysicsParams, names) -> ph.PhysicsParams:
+    """M2 with effects: Ke and the named coefficients fitted on the training rows
+    (rpm_ref > 10), Ra held at its measured value; sets the effect bits."""
+    names = check_names(names)
+    rows = [rows_of(r) for r in recs]
+    p = fit(rows, m2_plain, names)
+    if not p.ke_vs_per_rad > 0:
+        raise IdentificationError(f"identified Ke = {p.ke_vs_per_rad:.4g} V s/rad is not positive")
+    return p
+
+
+def coefficients(p: ph.PhysicsParams) -> dict:
+    """{effect: coefficient} of the effects switched on in p."""
+    return {n: getattr(p, LIBRARY[n].field) for n in NAMES if p.effects & LIBRARY[n].bit}
