@@ -1,0 +1,43 @@
+// effects_probe: evaluates hpddo_core's physics terms for the parameter sets and inputs
+// given on stdin, for the Python/C++ parity test (test/py/test_effects_parity.py).
+//
+// stdin, one case per line:
+//   P ra ke t_ref ra_tc ke_tc brush ke_sat i_off v_gain la th_r th_tau t_amb   (new parameters)
+//   X v_V i_A di_dt temp_C                   -> prints physics_rpm (or "invalid")
+//   T i_A dt_s                               -> prints the thermal state after one step
+// stdout: one value per X or T line, %.9g.
+#include <cstdio>
+#include <cstring>
+
+#include "hpddo/physics.h"
+#include "hpddo/thermal.h"
+
+int main() {
+  hpddo::PhysicsParams p = hpddo::PhysicsParams();
+  hpddo::ThermalEstimator th(p);
+  char tag[4];
+  while (std::scanf("%3s", tag) == 1) {
+    if (std::strcmp(tag, "P") == 0) {
+      float* f[13] = {&p.ra_ohm, &p.ke_vs_per_rad, &p.t_ref_C, &p.ra_tc_per_K, &p.ke_tc_per_K, &p.brush_V,
+                      &p.ke_sat_per_A, &p.i_offset_A, &p.v_gain, &p.la_H, &p.th_r_K_per_W, &p.th_tau_s,
+                      &p.t_amb_C};
+      for (float* x : f)
+        if (std::scanf("%f", x) != 1) return 2;
+      th.reset(p);
+    } else if (std::strcmp(tag, "X") == 0) {
+      hpddo::PhysicsInput in;
+      if (std::scanf("%f %f %f %f", &in.v_V, &in.i_A, &in.di_dt_A_per_s, &in.temp_C) != 4) return 2;
+      float n = 0.0f;
+      if (hpddo::physics_rpm(p, in, &n)) std::printf("%.9g\n", static_cast<double>(n));
+      else std::printf("invalid\n");
+    } else if (std::strcmp(tag, "T") == 0) {
+      float i = 0.0f, dt = 0.0f;
+      if (std::scanf("%f %f", &i, &dt) != 2) return 2;
+      th.step(p, i, dt);
+      std::printf("%.9g\n", static_cast<double>(th.temp_C()));
+    } else {
+      return 2;
+    }
+  }
+  return 0;
+}
