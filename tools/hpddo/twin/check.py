@@ -31,6 +31,21 @@ def identify_ke(v, i, rpm, ra=RA_OHM, min_rpm=10.0):
     return float(np.mean((v[m] - i[m] * ra) / (rpm[m] * 0.10472)))
 
 
+def pooled_ke(dfs, excludes=None, ra=RA_OHM, train_frac=0.8):
+    """Paper section 4.3: one Ke by eq. 20 over the training rows of every recording
+    together (sweep, load and long alike), as the project's pipeline identifies it."""
+    v, i, rpm = [], [], []
+    for k, df in enumerate(dfs):
+        keep = np.ones(len(df), dtype=bool)
+        if excludes is not None:
+            keep[np.asarray(list(excludes[k]), dtype=int)] = False
+        keep[split_index(len(df), train_frac):] = False
+        v.append(df["v_V"].to_numpy(float)[keep])
+        i.append(df["i_A"].to_numpy(float)[keep])
+        rpm.append(df["rpm_ref"].to_numpy(float)[keep])
+    return identify_ke(np.concatenate(v), np.concatenate(i), np.concatenate(rpm), ra)
+
+
 def m_errors(df, ra=RA_OHM, ke=None, exclude=None, train_frac=0.8):
     """Dict with ke_m2, rmse_m1, rmse_m2, bias_m2 (mean of n_M2 - rpm_ref) on the test part."""
     v = df["v_V"].to_numpy(float)

@@ -107,7 +107,7 @@ class Bench:
     gear_ratio: float = 4.4  # paper App. A item 6
     ra_ohm: float = 4.50  # paper 4.1: multimeter mean at about 31 C
     ra_ref_C: float = 31.0  # temperature of that measurement (paper: ~31 C)
-    ke_vs_per_rad: float = 0.330  # true EMF constant at ra_ref_C, zero current; chosen so the
+    ke_vs_per_rad: float = 0.355  # true EMF constant at ra_ref_C, zero current; chosen so the
     # paper's eq. 20 identification on the default set returns ~0.406 (see docs/twin.md)
     # (torque constant = ke_vs_per_rad in SI; gearbox losses are in the friction terms)
     # --- mechanics (output shaft; both machines + coupler), assumed ---
@@ -124,9 +124,9 @@ class Bench:
     # --- thermal (two nodes: winding, case), assumed, tuned to the paper's 31.7 -> 71.3 C ---
     ambient_C: float = 31.7  # paper 3.6.1: case at the start of the long run
     c_winding_J_per_K: float = 6.0
-    r_winding_case_K_per_W: float = 4.0
-    c_case_J_per_K: float = 300.0
-    r_case_amb_K_per_W: float = 6.4
+    r_winding_case_K_per_W: float = 1.5
+    c_case_J_per_K: float = 220.0
+    r_case_amb_K_per_W: float = 6.3
     # --- measurement chain ---
     adc_bits: int = 10
     adc_vref_V: float = 5.0
