@@ -42,7 +42,7 @@ static const uint16_t kEncoderCountsPerRev = 400;  // 100-line optical disc
 
 // ---------------------------------------------------------------- defaults
 static const uint32_t kHostBaud = 115200;   ///< USB serial to the host (bench log lines)
-static const uint32_t kLinkBaud = 57600;    ///< link to the ESP8266 (nominal; 57143 exact)
+static const uint32_t kLinkBaud = 38400;    ///< link to the ESP8266 (38462 exact: Timer2 /8, 52 ticks a bit)
 static const uint32_t kDefaultPwmHz = 1000; ///< PWM frequency at power-up, Hz
 static const float kDefaultRateHz = 2.0f;   ///< sample rate at power-up (the paper's 2 Hz)
 static const float kDefaultHoldS = 20.0f;   ///< step length of the sweep and load protocols, s

@@ -4,8 +4,10 @@
 // compare-match output (OC2A) puts it on the pin, so the bit edges keep
 // hardware timing whatever interrupt latency the other interrupts cause.
 //
-// 8N1, LSB first, idle high. At 57143 baud (Timer2 /8, 35 ticks a bit) a
-// 21-byte frame takes 3.7 ms: enough for 200 samples/s.
+// 8N1, LSB first, idle high. At 38462 baud (Timer2 /8, 52 ticks a bit) a
+// 21-byte frame takes 5.5 ms: the link carries up to 180 samples/s. The
+// interrupt has a whole bit (26 us) to program the next level, which covers
+// the longest chain of other interrupts ahead of it.
 #ifndef HPDDO_ACQ_LINK_H
 #define HPDDO_ACQ_LINK_H
 
@@ -21,7 +23,7 @@ class TxQueue {
   static_assert(N && (N & (N - 1)) == 0 && N <= 128, "N must be a power of two <= 128");
 
  public:
-  TxQueue() : head_(0), tail_(0), dropped_(0) {}
+  TxQueue() : buf_(), head_(0), tail_(0), dropped_(0) {}
 
   /// Queues all n bytes, or none (false) when they do not fit.
   bool push(const uint8_t* data, uint8_t n) {

@@ -16,7 +16,7 @@
 
 namespace acq {
 
-static const uint32_t kCpuHz = 16000000UL;
+static const uint32_t kCpuHz = 16000000u;
 static const uint16_t kAdcCounts = 1024;  ///< 10-bit ADC: code = floor(Vin / Vref * 1024)
 
 /// Raw sums of one closed window, copied out of the interrupts.
@@ -65,10 +65,10 @@ struct PwmTiming {
 
 /// Timer1 settings closest to pwm_hz, within 31 Hz .. 100 kHz; false outside.
 inline bool pwm_timing(uint32_t pwm_hz, PwmTiming* out) {
-  if (pwm_hz < 31 || pwm_hz > 100000UL) return false;
+  if (pwm_hz < 31 || pwm_hz > 100000u) return false;
   uint32_t ticks = (kCpuHz + pwm_hz / 2) / pwm_hz;
   out->prescale = 1;
-  if (ticks > 65536UL) {
+  if (ticks > 65536u) {
     out->prescale = 8;
     ticks = (kCpuHz / 8 + pwm_hz / 2) / pwm_hz;
   }
@@ -78,7 +78,7 @@ inline bool pwm_timing(uint32_t pwm_hz, PwmTiming* out) {
 
 /// Length of one PWM period in CPU cycles.
 inline uint32_t pwm_period_cycles(const PwmTiming& t) {
-  return (static_cast<uint32_t>(t.top) + 1UL) * t.prescale;
+  return (static_cast<uint32_t>(t.top) + 1u) * t.prescale;
 }
 
 /// Whole PWM periods per sample window for a sample rate (at least 1);
@@ -93,13 +93,13 @@ inline uint16_t periods_per_window(const PwmTiming& t, float rate_hz) {
 
 /// Window length in us (exact when the cycle count divides by 16).
 inline uint32_t window_us(const PwmTiming& t, uint16_t periods) {
-  return static_cast<uint32_t>((static_cast<uint64_t>(pwm_period_cycles(t)) * periods) / (kCpuHz / 1000000UL));
+  return static_cast<uint32_t>((static_cast<uint64_t>(pwm_period_cycles(t)) * periods) / (kCpuHz / 1000000u));
 }
 
 /// Compare value of OC1A for a duty of duty_q / 10000.
 inline uint16_t pwm_compare(const PwmTiming& t, uint16_t duty_q) {
-  const uint32_t ticks = (static_cast<uint32_t>(t.top) + 1UL) * duty_q;
-  return static_cast<uint16_t>((ticks + 5000UL) / 10000UL);
+  const uint32_t ticks = (static_cast<uint32_t>(t.top) + 1u) * duty_q;
+  return static_cast<uint16_t>((ticks + 5000u) / 10000u);
 }
 
 /// The link frame of a window. The encoder speed rides along for comparison
@@ -109,7 +109,7 @@ inline hpddo::SampleFrame make_frame(const WindowSums& w, const Measurement& m, 
   hpddo::SampleFrame f;
   f.seq = static_cast<uint16_t>(w.seq & 0xFFFFu);
   f.flags = static_cast<uint8_t>((has_temp ? hpddo::kFrameFlagTemp : 0) | hpddo::kFrameFlagRpm);
-  f.duty = static_cast<uint8_t>((static_cast<uint32_t>(w.duty_q) * 255UL + 5000UL) / 10000UL);
+  f.duty = static_cast<uint8_t>((static_cast<uint32_t>(w.duty_q) * 255u + 5000u) / 10000u);
   f.v_mV = static_cast<uint16_t>(hpddo::saturate_round(m.v_V * 1000.0f, 0, 65535));
   f.i_mA = static_cast<int16_t>(hpddo::saturate_round(m.i_A * 1000.0f, -32768, 32767));
   f.temp_c16 = has_temp ? temp_c16 : 0;

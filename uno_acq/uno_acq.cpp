@@ -5,7 +5,7 @@
 //
 // Interrupts do the time-critical work; the main loop formats and talks:
 //   TIMER1_OVF  end of a PWM period; closes the sample window every N periods
-//   ADC         one conversion done: add it to the open window, start the next
+//   ADC         one conversion done: start the next, add it to the open window
 //   INT0/INT1   encoder edge: x4 quadrature count
 //   TIMER2_COMPA next bit of the ESP8266 link (the pin itself is set by OC2A)
 // Pure logic is in the acq_*.h headers, tested on the host (test/firmware).
@@ -41,11 +41,15 @@ static_assert(kPinPwm == 9 && kPinRelay2 == 8 && kPinLinkTx == 11 && kPinRelay1 
 enum PwmMode : uint8_t { kPwmOff = 0, kPwmRun = 1, kPwmOn = 2 };
 
 // ---------------------------------------------------------------- interrupt state
-volatile uint32_t g_sum_v, g_sum_i, g_n_v, g_n_i;  // open window
+struct Bank {
+  uint32_t sum_v, sum_i, n_v, n_i;
+};
+Bank g_bank[2];                                     // the ADC adds to g_bank[g_bank_i]
+volatile uint8_t g_bank_i;
 volatile uint8_t g_adc_chan;                        // channel being converted
 volatile int32_t g_enc_total;
 volatile uint8_t g_enc_ab;
-int32_t g_enc_open;                                 // g_enc_total when the window opened
+int32_t g_enc_prev;                                 // g_enc_total at the previous close (main loop)
 volatile uint16_t g_periods;                        // PWM periods done in the open window
 volatile uint16_t g_win_periods;                    // length of the open window
 volatile uint32_t g_win_us;
@@ -60,8 +64,16 @@ volatile uint16_t g_next_ocr;
 volatile uint8_t g_next_mode;
 uint16_t g_pre_duty_q;                              // latched for the next window
 uint8_t g_pre_load, g_pre_mode;
-volatile bool g_ready;                              // g_snap holds an unread window
-WindowSums g_snap;
+struct Closed {
+  uint8_t bank;
+  uint32_t seq;
+  int32_t enc_total;
+  uint32_t period_us;
+  uint16_t duty_q;
+  uint8_t load;
+};
+volatile bool g_ready;                              // g_closed holds an unread window
+Closed g_closed;
 volatile uint16_t g_overruns;                       // windows overwritten before read
 
 TxQueue<64> g_txq;
@@ -81,14 +93,14 @@ uint16_t g_manual_duty_q = 0;
 TempSchedule g_temp;
 LineBuffer<48> g_cmd;
 
-inline void apply_relays(uint8_t load) {
+__attribute__((always_inline)) inline void apply_relays(uint8_t load) {
   const bool r1 = load == 1;
   const bool r2 = load == 2;
   if (r1 != kRelayActiveLow) PORTD |= kBitRelay1; else PORTD &= static_cast<uint8_t>(~kBitRelay1);
   if (r2 != kRelayActiveLow) PORTB |= kBitRelay2; else PORTB &= static_cast<uint8_t>(~kBitRelay2);
 }
 
-inline void apply_pwm_mode(uint8_t mode) {
+__attribute__((always_inline)) inline void apply_pwm_mode(uint8_t mode) {
   if (mode == kPwmRun) {
     TCCR1A = _BV(COM1A1) | _BV(WGM11);
   } else {
@@ -97,7 +109,7 @@ inline void apply_pwm_mode(uint8_t mode) {
   }
 }
 
-inline void preload_next_window() {
+__attribute__((always_inline)) inline void preload_next_window() {
   OCR1A = g_next_ocr;  // double-buffered: in force from the next PWM period on
   g_pre_duty_q = g_next_duty_q;
   g_pre_load = g_next_load;
@@ -109,23 +121,22 @@ inline void preload_next_window() {
 ISR(TIMER1_OVF_vect) {
   uint16_t p = static_cast<uint16_t>(g_periods + 1u);
   if (p >= g_win_periods) {
+    // Kept short: the link bit interrupt must never wait more than a bit time.
     GPIOR0 = static_cast<uint8_t>(g_seq);  // window-close marker (cycle-exact in simulation)
-    if (g_ready) ++g_overruns;
-    g_snap.seq = g_seq;
-    g_snap.sum_v = g_sum_v;
-    g_snap.sum_i = g_sum_i;
-    g_snap.n_v = g_n_v;
-    g_snap.n_i = g_n_i;
-    g_snap.enc_counts = g_enc_total - g_enc_open;
-    g_snap.period_us = g_win_us;
-    g_snap.duty_q = g_duty_q;
-    g_snap.load = g_load;
+    const uint8_t closed = g_bank_i;
+    g_bank_i = static_cast<uint8_t>(closed ^ 1u);  // the ADC fills the other bank from now on
+    if (g_ready) {
+      ++g_overruns;  // the main loop missed a window: clear the bank it did not read
+      Bank& b = g_bank[closed ^ 1u];
+      b.sum_v = b.sum_i = b.n_v = b.n_i = 0;
+    }
+    g_closed.bank = closed;
+    g_closed.seq = g_seq;
+    g_closed.enc_total = g_enc_total;
+    g_closed.period_us = g_win_us;
+    g_closed.duty_q = g_duty_q;
+    g_closed.load = g_load;
     g_ready = true;
-    g_sum_v = 0;
-    g_sum_i = 0;
-    g_n_v = 0;
-    g_n_i = 0;
-    g_enc_open = g_enc_total;
     g_seq = g_seq + 1u;
     g_win_periods = g_next_win_periods;
     g_win_us = g_next_win_us;
@@ -139,18 +150,23 @@ ISR(TIMER1_OVF_vect) {
   if (static_cast<uint16_t>(p + 1u) == g_win_periods) preload_next_window();
 }
 
+// About 150 cycles: the main source of window-close latency at high rates
+// (docs/firmware.md). Made interruptible (ISR_NOBLOCK) it counted conversions
+// twice in simulation, so it stays atomic.
 ISR(ADC_vect) {
   const uint16_t code = ADC;
-  if (g_adc_chan == 0) {
-    g_sum_v = g_sum_v + code;
-    g_n_v = g_n_v + 1u;
+  const uint8_t ch = g_adc_chan;
+  g_adc_chan = static_cast<uint8_t>(ch ^ 1u);
+  ADMUX = static_cast<uint8_t>(_BV(REFS0) | (ch ? kAdcChannelV : kAdcChannelI));
+  ADCSRA |= _BV(ADSC);  // the next conversion starts now, 13 ADC clocks
+  Bank& b = g_bank[g_bank_i];
+  if (ch == 0) {
+    b.sum_v += code;
+    ++b.n_v;
   } else {
-    g_sum_i = g_sum_i + code;
-    g_n_i = g_n_i + 1u;
+    b.sum_i += code;
+    ++b.n_i;
   }
-  g_adc_chan ^= 1u;
-  ADMUX = static_cast<uint8_t>(_BV(REFS0) | (g_adc_chan ? kAdcChannelI : kAdcChannelV));
-  ADCSRA |= _BV(ADSC);
 }
 
 ISR(INT0_vect) {
@@ -176,7 +192,7 @@ void link_begin() {
   DDRB |= kBitLink;
   TCCR2B = 0;
   TCNT2 = 0;
-  OCR2A = static_cast<uint8_t>(kCpuHz / 8 / kLinkBaud - 1);  // 34: 35 ticks of 0.5 us a bit
+  OCR2A = static_cast<uint8_t>((kCpuHz / 8 + kLinkBaud / 2) / kLinkBaud - 1);  // 51: 52 ticks of 0.5 us a bit
   TCCR2A = _BV(WGM21) | _BV(COM2A1) | _BV(COM2A0);          // CTC, set OC2A on match: idle high
   TCCR2B = _BV(FOC2A);                                       // force it now
   TCCR2B = _BV(CS21);                                        // clk/8
@@ -246,8 +262,8 @@ bool start_sampling(uint32_t pwm_hz) {
   g_win_periods = n;
   g_win_us = g_next_win_us;
   g_periods = 0;
-  g_sum_v = g_sum_i = g_n_v = g_n_i = 0;
-  g_enc_open = g_enc_total;
+  for (uint8_t k = 0; k < 2; ++k) g_bank[k].sum_v = g_bank[k].sum_i = g_bank[k].n_v = g_bank[k].n_i = 0;
+  g_enc_prev = g_enc_total;
   g_seq = g_seq + 1u;  // the dropped window leaves a seq gap
   g_next_ocr = pwm_compare(t, g_next_duty_q);
   preload_next_window();
@@ -617,12 +633,27 @@ void loop() {
     }
   }
   if (g_ready) {
-    WindowSums w;
     cli();
-    w = g_snap;
+    const Closed c = g_closed;
     g_ready = false;
     sei();
+    // The ADC fills the other bank now; this one is ours until the next close.
+    Bank& b = g_bank[c.bank];
+    WindowSums w;
+    w.seq = c.seq;
+    w.sum_v = b.sum_v;
+    w.sum_i = b.sum_i;
+    w.n_v = b.n_v;
+    w.n_i = b.n_i;
+    b.sum_v = b.sum_i = b.n_v = b.n_i = 0;
+    w.enc_counts = c.enc_total - g_enc_prev;
+    g_enc_prev = c.enc_total;
+    w.period_us = c.period_us;
+    w.duty_q = c.duty_q;
+    w.load = c.load;
     process(w);
   }
+#ifndef ACQ_NO_TEMP
   temperature_step();
+#endif
 }

@@ -1,0 +1,196 @@
+#!/usr/bin/env python3
+"""Runs uno_acq in simavr on a synthetic bench and checks what it sends.
+
+A short drive table (V, I, speed; fixed seed) is played into the simulated
+board, one row per sample window, through the divider and shunt gains and an
+encoder in quadrature. Then:
+
+* the host stream, without its "!" reply lines, is a valid bench log
+  (tools/hpddo/benchlog.read_log) at the requested rate;
+* every row's v_V and i_A equal the driven means within one ADC step;
+* every row's rpm_ref equals the encoder counts driven in its window within
+  one count (an edge at the very close), and the driven speed within two (one of quantisation, one at the close);
+* seq has no gap, t_s follows seq, the row count is right;
+* the window closes are periodic within --max-jitter-us;
+* the ESP8266 link bytes decode with hpddo::FrameDecoder with no CRC error or
+  dropped byte, one frame per window, each matching its log row;
+* with --protocol sweep: the duty column follows the paper's sweep.
+"""
+import argparse
+import math
+import pathlib
+import random
+import subprocess
+import sys
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "tools"))
+from hpddo.benchlog import read_log  # noqa: E402
+
+# Must match uno_acq/acq_config.h.
+RATIO = 3.0
+SHUNT_OHM = 0.5
+ADC_REF_V = 5.0
+CPR = 400
+F_CPU = 16_000_000
+
+
+def drive_table(n, seed):
+    rng = random.Random(seed)
+    rows = []
+    for k in range(n):
+        duty = rng.choice([0.0, 0.2, 0.4, 0.6, 0.8, 1.0])
+        v = round(duty * 12.0 + rng.uniform(0.0, 0.5), 4)  # V, pin below 4.3 V
+        i = round(rng.uniform(0.0, 2.0), 4)                   # A, pin below 1 V
+        rpm = round(rng.uniform(-30.0, 320.0), 3) if k % 7 else 0.0
+        rows.append((v, i, rpm))
+    return rows
+
+
+def fail(msg):
+    print("FAIL:", msg)
+    sys.exit(1)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--harness", required=True)
+    ap.add_argument("--elf", required=True)
+    ap.add_argument("--frame-dump", required=True)
+    ap.add_argument("--workdir", required=True)
+    ap.add_argument("--rate", type=float, default=2.0)
+    ap.add_argument("--rows", type=int, default=6)
+    ap.add_argument("--protocol", choices=["sweep", "load"], default=None)
+    ap.add_argument("--hold", type=float, default=0.05, help="protocol step, s")
+    ap.add_argument("--max-jitter-us", type=float, default=10.0)
+    a = ap.parse_args()
+
+    work = pathlib.Path(a.workdir)
+    work.mkdir(parents=True, exist_ok=True)
+    table = drive_table(37, seed=20261121)
+    (work / "drive.csv").write_text("".join(f"{v},{i},{r}\n" for v, i, r in table))
+
+    commands = [] if a.rate == 2.0 else [f"rate {a.rate:g}"]
+    rows_wanted = a.rows
+    if a.protocol:
+        commands += [f"hold {a.hold:g}", f"run {a.protocol}"]
+        hold_samples = max(1, round(a.hold * a.rate))
+        rows_wanted = {"sweep": 11, "load": 5}[a.protocol] * hold_samples
+    else:
+        commands += ["rec sim"]
+    cmd = [a.harness, a.elf, str(work / "drive.csv"), str(work), str(RATIO), str(SHUNT_OHM), str(CPR),
+           str(rows_wanted)] + commands
+    print(" ".join(cmd))
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    print(res.stdout.strip())
+    if res.returncode != 0:
+        fail(f"harness exit {res.returncode}: {res.stderr.strip()}")
+
+    # ---- host stream -> bench log
+    host = (work / "host.txt").read_text()
+    lines = host.splitlines()
+    start = max(k for k, l in enumerate(lines) if l.startswith("# condition="))
+    log_lines = [l for l in lines[start:] if not l.startswith("!")]
+    (work / "capture.csv").write_text("\n".join(log_lines) + "\n")
+    log = read_log(work / "capture.csv")
+    df = log.df
+    if abs(log.sample_rate_hz - a.rate) > 1e-6 * a.rate:
+        fail(f"sample_rate_hz {log.sample_rate_hz} != {a.rate}")
+    if (len(df) != rows_wanted) if a.protocol else (len(df) < rows_wanted):
+        fail(f"{len(df)} rows, want {rows_wanted}")
+    seq = df["seq"].to_numpy()
+    if any(seq[1:] - seq[:-1] != 1):
+        fail("seq has a gap: samples lost")
+    period = 1.0 / a.rate
+    t_err = max(abs(t - (s - seq[0]) * period) for t, s in zip(df["t_s"], seq))
+    if t_err > 1e-6:
+        fail(f"t_s does not follow seq (error {t_err})")
+    print(f"log: {len(df)} rows, seq {seq[0]}..{seq[-1]}, no gap, condition={log.condition}")
+
+    # ---- rows against what was driven
+    windows = {}
+    wl = (work / "windows.csv").read_text().splitlines()
+    for l in wl[1:]:
+        s, close, vmv, imv, rpm, edges = l.split(",")
+        windows[int(s)] = dict(close=int(close), v_mV=int(vmv), i_mV=int(imv), rpm=float(rpm), edges=int(edges))
+    lsb_v = ADC_REF_V / 1024 * RATIO
+    lsb_i = ADC_REF_V / 1024 / SHUNT_OHM
+    count_rpm = 60.0 / (CPR * period)
+    worst_v = worst_i = worst_rpm = 0.0
+    for row in df.itertuples():
+        w = windows.get(int(row.seq))
+        if w is None:
+            fail(f"seq {row.seq}: no such window in the simulation")
+        v_drv = w["v_mV"] / 1000 * RATIO
+        i_drv = w["i_mV"] / 1000 / SHUNT_OHM
+        # simavr converts code = floor(mV * 1023 / Vref); the firmware reports (code + 0.5) LSB.
+        for got, mv, lsb, name in ((row.v_V, w["v_mV"], lsb_v, "v_V"), (row.i_A, w["i_mV"], lsb_i, "i_A")):
+            exact = (mv * 1023 // 5000 + 0.5) * lsb
+            if abs(got - exact) > 6e-5:
+                fail(f"seq {row.seq}: {name} {got} is not the mean of the codes driven ({exact:.6f})")
+        rpm_counts = w["edges"] / CPR * 60.0 / period
+        worst_v = max(worst_v, abs(row.v_V - v_drv) / lsb_v)
+        worst_i = max(worst_i, abs(row.i_A - i_drv) / lsb_i)
+        # An edge within the close interrupt's first cycles may fall on either side.
+        if abs(row.rpm_ref - rpm_counts) > count_rpm + 1e-2:
+            fail(f"seq {row.seq}: rpm_ref {row.rpm_ref} != {rpm_counts} from the counts driven")
+        worst_rpm = max(worst_rpm, abs(row.rpm_ref - w["rpm"]) / count_rpm)
+    print(f"V error <= {worst_v:.3f} LSB, I error <= {worst_i:.3f} LSB, speed error <= {worst_rpm:.3f} counts")
+    if worst_v > 1.0 + 0.001 * 4.3 / (ADC_REF_V / 1024) or worst_i > 1.0:  # plus simavr's 1023/1024 scale
+        fail("V or I off by more than one ADC step")
+    if worst_rpm > 2.0 + 1e-6:
+        fail("encoder speed off by more than one count")
+
+    # ---- sample period jitter over the recorded windows
+    closes = [windows[s]["close"] for s in range(int(seq[0]) - 1, int(seq[-1]) + 1) if s in windows]
+    nominal = F_CPU * period
+    dev = [abs((b - a_) - nominal) / 16.0 for a_, b in zip(closes, closes[1:])]
+    jitter = max(dev)
+    print(f"sample period {period * 1e6:.0f} us over {len(dev)} windows: jitter max {jitter:.3f} us")
+    if jitter > a.max_jitter_us:
+        fail(f"period jitter {jitter:.3f} us > {a.max_jitter_us} us")
+
+    # ---- ESP8266 link frames
+    out = subprocess.run([a.frame_dump, str(work / "link.bin")], capture_output=True, text=True, check=True).stdout
+    flines = out.strip().splitlines()
+    summary = dict(kv.split("=") for kv in flines[-1][2:].split())
+    frames = {}
+    for l in flines[1:-1]:
+        f = [int(x) for x in l.split(",")]
+        frames[f[0]] = f
+    print(f"link: {summary}")
+    if int(summary["crc_errors"]) or int(summary["dropped_bytes"]):
+        fail("link frames with CRC errors or dropped bytes")
+    fseq = sorted(frames)
+    if fseq != list(range(fseq[0], fseq[0] + len(fseq))):
+        fail("link frames have a seq gap")
+    for row in df.itertuples():
+        f = frames.get(int(row.seq) & 0xFFFF)
+        if f is None:
+            fail(f"no frame for seq {row.seq}")
+        _, flags, duty, v_mV, i_mA, temp, rpm_x10, period_us = f
+        if (abs(v_mV - row.v_V * 1000) > 1 or abs(i_mA - row.i_A * 1000) > 1 or
+                abs(rpm_x10 - row.rpm_ref * 10) > 1 or period_us != round(period * 1e6) or
+                abs(duty - row.duty * 255) > 0.51):
+            fail(f"frame {f} does not match row {row}")
+    print(f"link: {len(frames)} frames, all CRCs valid, each recorded row matches its frame")
+
+    # ---- protocol
+    if a.protocol:
+        hold_samples = max(1, round(a.hold * a.rate))
+        for k, row in enumerate(df.itertuples()):
+            step = k // hold_samples
+            if a.protocol == "sweep":
+                want_duty, want_load = (step if step <= 5 else 10 - step) * 0.2, 0
+            else:
+                want_duty, want_load = 0.8, [0, 1, 2, 1, 0][step]
+            if abs(row.duty - want_duty) > 1e-9 or row.load != want_load:
+                fail(f"row {k}: duty {row.duty} load {row.load}, want {want_duty} {want_load}")
+        if not any(l.startswith(f"! end {a.protocol}") for l in lines):
+            fail("no end line after the protocol")
+        print(f"protocol {a.protocol}: {len(df)} rows follow the plan, then '! end'")
+    print("PASS")
+
+
+if __name__ == "__main__":
+    main()
