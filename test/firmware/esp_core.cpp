@@ -1,0 +1,27 @@
+// Everything of the ESP8266 sketch below its Arduino glue, in one translation
+// unit for xtensa-lx106-elf-g++: frame decoding, the observer with the
+// deployed model and the telemetry step. Its object size is what the glue adds
+// to the ESP8266 core (docs/firmware.md).
+#include "hpddo_core.h"
+#include "infer_link.h"
+#include "infer_model.h"
+#include "infer_telemetry.h"
+
+namespace {
+infer::LinkReceiver g_rx;
+hpddo::Observer<infer::model::Net> g_observer(infer::model::kModel);
+uint32_t (*g_clock)();
+uint32_t clock_us() { return g_clock(); }
+}  // namespace
+
+/// One received byte; true and *out filled when it completed a frame.
+extern "C" bool hpddo_esp_push(uint8_t byte, infer::Telemetry* out, uint32_t (*clock)()) {
+  hpddo::SampleFrame f;
+  if (!g_rx.push(byte, &f)) return false;
+  g_clock = clock;
+  *out = infer::infer_step(g_observer, f, g_rx, clock_us);
+  return true;
+}
+
+/// True when the model in flash matches its checksum.
+extern "C" bool hpddo_esp_model_ok() { return hpddo::model_checksum(infer::model::kModel) == infer::model::kChecksum; }
