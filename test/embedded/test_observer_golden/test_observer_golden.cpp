@@ -1,0 +1,57 @@
+// Unity test: the deployed model and its golden vectors (written by the
+// exporter, the same file every host test reads), on the ESP8266
+// (pio test -e esp8266) and on the desk (pio test -e native).
+#include <math.h>
+#include <unity.h>
+
+#include "golden_default.h"
+#include "infer_link.h"
+#include "model_default.h"
+
+namespace gold = hpddo_golden_default;
+namespace mdl = hpddo_model_default;
+
+void setUp() {}
+void tearDown() {}
+
+static float g(int r, int c) { return hpddo::flash_float(gold::kRows + r * gold::kWidth + c); }
+
+static void test_checksum() {
+  TEST_ASSERT_EQUAL_HEX32(mdl::kChecksum, hpddo::model_checksum(mdl::kModel));
+}
+
+static void test_golden_rows() {
+  static hpddo::Observer<mdl::Net> obs(mdl::kModel);
+  for (int r = 0; r < gold::kCount; ++r) {
+    hpddo::Sample s;
+    s.v_V = g(r, gold::kCol_v_V);
+    s.i_A = g(r, gold::kCol_i_A);
+    s.temp_C = g(r, gold::kCol_temp_C);
+    s.dt_s = g(r, gold::kCol_dt_s);
+    s.seq = static_cast<uint16_t>(g(r, gold::kCol_seq));
+    s.has_seq = g(r, gold::kCol_has_seq) != 0.0f;
+    const hpddo::Estimate e = obs.step(s);
+    const float want = g(r, gold::kCol_rpm);
+    const float tol = 1e-4f * (fabsf(want) > 1.0f ? fabsf(want) : 1.0f);
+    TEST_ASSERT_FLOAT_WITHIN(tol, want, e.rpm);
+    TEST_ASSERT_EQUAL_INT(static_cast<int>(g(r, gold::kCol_status)), static_cast<int>(e.status));
+  }
+}
+
+static int run() {
+  UNITY_BEGIN();
+  RUN_TEST(test_checksum);
+  RUN_TEST(test_golden_rows);
+  return UNITY_END();
+}
+
+#ifdef ARDUINO
+#include <Arduino.h>
+void setup() {
+  delay(2000);
+  run();
+}
+void loop() {}
+#else
+int main() { return run(); }
+#endif
