@@ -4,8 +4,6 @@
 
 #include <cmath>
 
-#include "golden_tiny.h"
-#include "golden_tiny1.h"
 #include "hpddo_core.h"
 
 namespace golden {

@@ -1,6 +1,8 @@
 #include <gtest/gtest.h>
 
 #include "golden.h"
+#include "golden_tiny.h"
+#include "golden_tiny1.h"
 #include "model_tiny.h"
 
 TEST(Scaler, StandardisesEachFeature) {
