@@ -27,7 +27,7 @@ from .. import effects as fx
 from .. import physics as ph
 from . import analysis
 
-Z_MIN = 3.0
+Z_MIN = 2.5
 REL_MIN = 0.02
 EXCESS_MIN = 0.10
 BLOCK_S = 15.0          # held-out block length for the standard error, seconds
