@@ -41,12 +41,18 @@ static_assert(kPinPwm == 9 && kPinRelay2 == 8 && kPinLinkTx == 11 && kPinRelay1 
 enum PwmMode : uint8_t { kPwmOff = 0, kPwmRun = 1, kPwmOn = 2 };
 
 // ---------------------------------------------------------------- interrupt state
-struct Bank {
-  uint32_t sum_v, sum_i, n_v, n_i;
+// Sums of one channel over a window; index 0 is A0 (V), 1 is A1 (I), so the
+// ADC interrupt picks the entry from the low bit of ADMUX.
+struct Acc {
+  uint32_t sum, n;
 };
-Bank g_bank[2];                                     // the ADC adds to g_bank[g_bank_i]
-volatile uint8_t g_bank_i;
-volatile uint8_t g_adc_chan;                        // channel being converted
+struct Bank {
+  Acc ch[2];
+};
+static_assert(kAdcChannelV == 0 && kAdcChannelI == 1, "the ADC interrupt toggles ADMUX bit 0 between V and I");
+Bank g_bank[2];
+volatile uint8_t g_bank_i;                          // bank of the open window
+Acc* volatile g_acc;                                // g_bank[g_bank_i].ch: where the ADC adds
 volatile int32_t g_enc_total;
 volatile uint8_t g_enc_ab;
 int32_t g_enc_prev;                                 // g_enc_total at the previous close (main loop)
@@ -124,11 +130,12 @@ ISR(TIMER1_OVF_vect) {
     // Kept short: the link bit interrupt must never wait more than a bit time.
     GPIOR0 = static_cast<uint8_t>(g_seq);  // window-close marker (cycle-exact in simulation)
     const uint8_t closed = g_bank_i;
-    g_bank_i = static_cast<uint8_t>(closed ^ 1u);  // the ADC fills the other bank from now on
+    g_acc = g_bank[closed ^ 1u].ch;  // the ADC fills the other bank from now on
+    g_bank_i = static_cast<uint8_t>(closed ^ 1u);
     if (g_ready) {
       ++g_overruns;  // the main loop missed a window: clear the bank it did not read
       Bank& b = g_bank[closed ^ 1u];
-      b.sum_v = b.sum_i = b.n_v = b.n_i = 0;
+      b.ch[0].sum = b.ch[0].n = b.ch[1].sum = b.ch[1].n = 0;
     }
     g_closed.bank = closed;
     g_closed.seq = g_seq;
@@ -150,30 +157,50 @@ ISR(TIMER1_OVF_vect) {
   if (static_cast<uint16_t>(p + 1u) == g_win_periods) preload_next_window();
 }
 
-// About 150 cycles: the main source of window-close latency at high rates
-// (docs/firmware.md). Made interruptible (ISR_NOBLOCK) it counted conversions
-// twice in simulation, so it stays atomic.
-ISR(ADC_vect) {
+// The window close must not wait behind the other interrupts: its latency is
+// the sample period jitter. So the ADC and encoder interrupts are
+// interruptible (ISR_NOBLOCK: sei is their first instruction) and keep
+// interrupts off only around the few instructions that must be atomic with
+// respect to a window close (the only other interrupt that touches their
+// data). Counted in the generated code: the close now waits at most about
+// 10 (ADC) and 52 (encoder) cycles behind them instead of their whole length,
+// about 150 and 120 cycles; docs/firmware.md has the measured jitter.
+//
+// ADC: a conversion belongs to the window open when its result is read.
+// Reading ADC and the bank pointer in one atomic step keeps the two
+// consistent. (An earlier interruptible version read ADC, then the bank
+// index with interrupts on: a close between the two put a code of the closed
+// window into the new one, which simavr shows at once because it samples the
+// input when ADCL is read and the test changes the input at the close.)
+// The conversion that just ended converted the channel in ADMUX (set when it
+// was started), so ADMUX bit 0 selects V or I and no channel variable is needed.
+static const uint8_t kAdcsraStart =
+    _BV(ADEN) | _BV(ADIE) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0) | _BV(ADSC);  // 125 kHz ADC clock
+ISR(ADC_vect, ISR_NOBLOCK) {
+  cli();
   const uint16_t code = ADC;
-  const uint8_t ch = g_adc_chan;
-  g_adc_chan = static_cast<uint8_t>(ch ^ 1u);
-  ADMUX = static_cast<uint8_t>(_BV(REFS0) | (ch ? kAdcChannelV : kAdcChannelI));
-  ADCSRA |= _BV(ADSC);  // the next conversion starts now, 13 ADC clocks
-  Bank& b = g_bank[g_bank_i];
-  if (ch == 0) {
-    b.sum_v += code;
-    ++b.n_v;
-  } else {
-    b.sum_i += code;
-    ++b.n_i;
-  }
+  Acc* const acc = g_acc;
+  sei();
+  const uint8_t mux = ADMUX;
+  ADMUX = static_cast<uint8_t>(mux ^ 1u);  // the other channel for the next conversion
+  ADCSRA = kAdcsraStart;                   // starts it: 13 ADC clocks
+  Acc* const a = (mux & 1u) ? acc + 1 : acc;  // not acc[mux & 1]: avr-gcc shifts in a loop
+  a->sum += code;
+  ++a->n;
 }
 
-ISR(INT0_vect) {
+// Encoder: each call compares the pins with the last state it saw, so calls
+// may come late or nest during the entry and exit code (an INT1 edge during
+// an INT0 prologue, say): the later call just sees no change. Only reading
+// the pins, the state update and the count update are atomic, so the close
+// latches a whole count and no step is counted twice.
+ISR(INT0_vect, ISR_NOBLOCK) {
+  cli();
   const uint8_t pins = PIND;
   const uint8_t ab = static_cast<uint8_t>(((pins >> 1) & 2u) | ((pins >> 3) & 1u));  // A = PD2, B = PD3
   g_enc_total = g_enc_total + quadrature_step(g_enc_ab, ab);
   g_enc_ab = ab;
+  sei();
 }
 
 ISR(INT1_vect, ISR_ALIASOF(INT0_vect));
@@ -262,7 +289,8 @@ bool start_sampling(uint32_t pwm_hz) {
   g_win_periods = n;
   g_win_us = g_next_win_us;
   g_periods = 0;
-  for (uint8_t k = 0; k < 2; ++k) g_bank[k].sum_v = g_bank[k].sum_i = g_bank[k].n_v = g_bank[k].n_i = 0;
+  for (uint8_t k = 0; k < 2; ++k) g_bank[k] = Bank();
+  g_acc = g_bank[g_bank_i].ch;
   g_enc_prev = g_enc_total;
   g_seq = g_seq + 1u;  // the dropped window leaves a seq gap
   g_next_ocr = pwm_compare(t, g_next_duty_q);
@@ -282,9 +310,8 @@ void adc_begin() {
   ADCSRA = 0;
   ADCSRB = 0;
   DIDR0 = _BV(ADC0D) | _BV(ADC1D);
-  g_adc_chan = 0;
   ADMUX = static_cast<uint8_t>(_BV(REFS0) | kAdcChannelV);  // AVcc reference
-  ADCSRA = _BV(ADEN) | _BV(ADIE) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0) | _BV(ADSC);  // 125 kHz
+  ADCSRA = kAdcsraStart;
 }
 
 void encoder_begin() {
@@ -641,11 +668,11 @@ void loop() {
     Bank& b = g_bank[c.bank];
     WindowSums w;
     w.seq = c.seq;
-    w.sum_v = b.sum_v;
-    w.sum_i = b.sum_i;
-    w.n_v = b.n_v;
-    w.n_i = b.n_i;
-    b.sum_v = b.sum_i = b.n_v = b.n_i = 0;
+    w.sum_v = b.ch[0].sum;
+    w.sum_i = b.ch[1].sum;
+    w.n_v = b.ch[0].n;
+    w.n_i = b.ch[1].n;
+    b = Bank();
     w.enc_counts = c.enc_total - g_enc_prev;
     g_enc_prev = c.enc_total;
     w.period_us = c.period_us;

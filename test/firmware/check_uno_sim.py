@@ -88,7 +88,9 @@ def main():
 
     # ---- host stream -> bench log
     host = (work / "host.txt").read_text()
-    lines = host.splitlines()
+    # The run stops 50 ms after the last wanted row, possibly in the middle of
+    # a later line: keep complete lines only.
+    lines = host[:host.rfind("\n") + 1].splitlines()
     start = max(k for k, l in enumerate(lines) if l.startswith("# condition="))
     log_lines = [l for l in lines[start:] if not l.startswith("!")]
     (work / "capture.csv").write_text("\n".join(log_lines) + "\n")
