@@ -78,7 +78,7 @@ hpddo::Sample sample_at(const hpddo_host::BenchLog& log, size_t k, float dt0) {
 }
 
 float m1_rpm(const hpddo::Sample& s) {
-  hpddo::PhysicsInput in = {s.v_V, s.i_A, 0.0f, model::kNameplate.t_ref_C};
+  hpddo::PhysicsInput in = {s.v_V, s.i_A, 0.0f, model::kNameplate.t_ref_C, model::kNameplate.t_ref_C};
   float n = 0.0f;
   return hpddo::physics_rpm(model::kNameplate, in, &n) ? n : 0.0f;
 }

@@ -39,6 +39,13 @@ hpddo::Sample sample(float v, float i, uint16_t seq, float temp = NAN) {
   return s;
 }
 
+/// The tiny model without its thermal network: the lags are then the only state.
+hpddo::Model<hpddo_model_tiny::Net> without_thermal_state() {
+  hpddo::Model<hpddo_model_tiny::Net> m = hpddo_model_tiny::kModel;
+  m.physics.th_r_K_per_W = 0.0f;
+  return m;
+}
+
 }  // namespace
 
 TEST(Observer, TwoLayerModelMatchesGoldenStream) {
@@ -86,14 +93,15 @@ TEST(Observer, BadReadingsNeverGiveNan) {
 
 TEST(Observer, InvalidHoldsTheLastEstimateAndResetsLags) {
   using Net = hpddo_model_tiny::Net;
-  hpddo::Observer<Net> obs(hpddo_model_tiny::kModel);
+  const hpddo::Model<Net> model = without_thermal_state();
+  hpddo::Observer<Net> obs(model);
   const hpddo::Estimate a = obs.step(sample(9.0f, 0.8f, 1, 40.0f));
   const hpddo::Estimate b = obs.step(sample(NAN, 0.8f, 2, 40.0f));
   EXPECT_EQ(b.status, hpddo::kStatusInvalid);
   EXPECT_EQ(b.rpm, a.rpm);
   EXPECT_EQ(b.residual_rpm, 0.0f);
   // After the reset the lags equal the current values, as on the first sample.
-  hpddo::Observer<Net> fresh(hpddo_model_tiny::kModel);
+  hpddo::Observer<Net> fresh(model);
   const hpddo::Estimate c = obs.step(sample(10.0f, 0.9f, 3, 40.0f));
   const hpddo::Estimate d = fresh.step(sample(10.0f, 0.9f, 3, 40.0f));
   EXPECT_FLOAT_EQ(c.rpm, d.rpm);
@@ -101,8 +109,9 @@ TEST(Observer, InvalidHoldsTheLastEstimateAndResetsLags) {
 
 TEST(Observer, SeqGapResetsLagsAndIsCounted) {
   using Net = hpddo_model_tiny::Net;
-  hpddo::Observer<Net> obs(hpddo_model_tiny::kModel);
-  hpddo::Observer<Net> fresh(hpddo_model_tiny::kModel);
+  const hpddo::Model<Net> model = without_thermal_state();
+  hpddo::Observer<Net> obs(model);
+  hpddo::Observer<Net> fresh(model);
   obs.step(sample(9.0f, 0.8f, 10, 40.0f));
   obs.step(sample(9.5f, 0.85f, 11, 40.0f));
   EXPECT_EQ(obs.seq_gaps(), 0u);

@@ -15,7 +15,7 @@ hpddo::PhysicsParams plain() {
 }
 
 hpddo::PhysicsInput at(float v_V, float i_A, float temp_C = 31.0f, float di_dt = 0.0f) {
-  hpddo::PhysicsInput in = {v_V, i_A, di_dt, temp_C};
+  hpddo::PhysicsInput in = {v_V, i_A, di_dt, temp_C, temp_C};
   return in;
 }
 

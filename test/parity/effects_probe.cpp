@@ -3,8 +3,9 @@
 //
 // stdin, one case per line:
 //   P ra ke t_ref ra_tc ke_tc brush ke_sat i_off v_gain la th_r th_tau t_amb   (new parameters)
-//   X v_V i_A di_dt temp_C                   -> prints physics_rpm (or "invalid")
-//   T i_A dt_s                               -> prints the thermal state after one step
+//   X v_V i_A di_dt winding_C magnet_C       -> prints physics_rpm (or "invalid")
+//   T i_A dt_s ref_C                         -> prints the winding temperature after one step
+//                                               above the reference ref_C
 // stdout: one value per X or T line, %.9g.
 #include <cstdio>
 #include <cstring>
@@ -14,7 +15,7 @@
 
 int main() {
   hpddo::PhysicsParams p = hpddo::PhysicsParams();
-  hpddo::ThermalEstimator th(p);
+  hpddo::ThermalEstimator th;
   char tag[4];
   while (std::scanf("%3s", tag) == 1) {
     if (std::strcmp(tag, "P") == 0) {
@@ -23,18 +24,18 @@ int main() {
                       &p.t_amb_C};
       for (float* x : f)
         if (std::scanf("%f", x) != 1) return 2;
-      th.reset(p);
+      th.reset();
     } else if (std::strcmp(tag, "X") == 0) {
       hpddo::PhysicsInput in;
-      if (std::scanf("%f %f %f %f", &in.v_V, &in.i_A, &in.di_dt_A_per_s, &in.temp_C) != 4) return 2;
+      if (std::scanf("%f %f %f %f %f", &in.v_V, &in.i_A, &in.di_dt_A_per_s, &in.temp_C, &in.magnet_C) != 5) return 2;
       float n = 0.0f;
       if (hpddo::physics_rpm(p, in, &n)) std::printf("%.9g\n", static_cast<double>(n));
       else std::printf("invalid\n");
     } else if (std::strcmp(tag, "T") == 0) {
-      float i = 0.0f, dt = 0.0f;
-      if (std::scanf("%f %f", &i, &dt) != 2) return 2;
-      th.step(p, i, dt);
-      std::printf("%.9g\n", static_cast<double>(th.temp_C()));
+      float i = 0.0f, dt = 0.0f, ref = 0.0f;
+      if (std::scanf("%f %f %f", &i, &dt, &ref) != 3) return 2;
+      th.step(p, i, dt, ref);
+      std::printf("%.9g\n", static_cast<double>(th.temp_C(ref)));
     } else {
       return 2;
     }

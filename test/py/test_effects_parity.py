@@ -59,10 +59,11 @@ def p_line(p):
 @pytest.mark.parametrize("label,p", cases(), ids=[c[0] for c in cases()])
 def test_physics_term_matches_the_board(probe, label, p):
     v, i, di, t = grid()
-    lines = [p_line(p)] + [f"X {a!r} {b!r} {c!r} {d!r}".replace("np.float32(", "").replace(")", "")
-                           for a, b, c, d in zip(v.tolist(), i.tolist(), di.tolist(), t.tolist())]
+    tm = (t[::-1] - F32(5.0)).astype(F32)  # the magnets at another temperature than the winding
+    lines = [p_line(p)] + [f"X {a!r} {b!r} {c!r} {d!r} {e!r}".replace("np.float32(", "").replace(")", "")
+                           for a, b, c, d, e in zip(v.tolist(), i.tolist(), di.tolist(), t.tolist(), tm.tolist())]
     got = run_probe(probe, lines)
-    want = ph.physics_rpm(p, v, i, di, t, F32)
+    want = ph.physics_rpm(p, v, i, di, ph.Temps(t, tm), F32)
     assert len(got) == len(want)
     for k, (g, w) in enumerate(zip(got, want)):
         if g == "invalid":
@@ -75,14 +76,19 @@ def test_physics_term_matches_the_board(probe, label, p):
 
 
 def test_thermal_state_matches_the_board(probe):
+    """The winding node above its reference: the ambient where no temperature is read,
+    the case reading where one is (both in one stream, as when a sensor drops out)."""
     p = dataclasses.replace(BASE, ra_tc_per_K=0.00393, th_r_K_per_W=12.0, th_tau_s=400.0)
     rng = np.random.default_rng(2)
     i = rng.uniform(0.0, 1.5, 300).astype(F32)
     dt = np.full(300, 0.5, F32)
-    got = np.array(run_probe(probe, [p_line(p)] + [f"T {float(a)!r} {float(b)!r}" for a, b in zip(i, dt)]), float)
-    want = ph.thermal_trajectory(p, i, dt, F32)
+    ref = np.where(np.arange(300) < 150, F32(p.t_amb_C), F32(35.0) + np.arange(300, dtype=F32) * F32(0.1))
+    lines = [f"T {float(a)!r} {float(b)!r} {float(c)!r}" for a, b, c in zip(i, dt, ref)]
+    got = np.array(run_probe(probe, [p_line(p)] + lines), float)
+    want = ph.thermal_trajectory(p, i, dt, F32, ref_C=ref)
     # expf and numpy's float32 exp may differ by an ulp; over 300 steps that stays below 1 mK
     assert np.max(np.abs(got - want)) <= 1e-3
+    assert np.max(want - ref) > 5.0  # the winding does rise above its reference
 
 
 def test_every_effect_has_a_field_a_bit_and_a_regressor():

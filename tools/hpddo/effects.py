@@ -163,13 +163,24 @@ def rows_of(rec: Recording) -> Rows:
                 duty=df["duty"].to_numpy(float))
 
 
-def temperature(r: Rows, p: ph.PhysicsParams) -> np.ndarray:
-    """temp_C where read, else the copper-loss state (as train.temperature_used)."""
-    if not r.needs_state:
-        return r.temp
-    state = (ph.thermal_trajectory(p, ph.true_current_A(p, r.i), r.dt) if p.thermal_enabled()
-             else np.full(len(r.i), p.t_ref_C))
-    return np.where(r.has_temp, r.temp, state)
+# Fields of PhysicsParams the temperatures depend on; a fit's Jacobian moves the others
+# without recomputing the thermal state.
+_THERMAL_FIELDS = ("ra_ohm", "ra_tc_per_K", "t_ref_C", "i_offset_A", "th_r_K_per_W", "th_tau_s", "t_amb_C")
+_temp_cache: dict = {}
+
+
+def temperature(r: Rows, p: ph.PhysicsParams) -> ph.Temps:
+    """The winding and magnet temperatures the thermal effects see, as the boards compute
+    them (physics.temperatures, observer.h); the last few are kept per recording."""
+    key = (id(r), tuple(getattr(p, f) for f in _THERMAL_FIELDS))
+    hit = _temp_cache.get(key)
+    if hit is not None and hit[0] is r:
+        return hit[1]
+    t = ph.temperatures(p, r.i, r.dt, r.temp)
+    if len(_temp_cache) > 64:
+        _temp_cache.clear()
+    _temp_cache[key] = (r, t)
+    return t
 
 
 def predict(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:
@@ -203,23 +214,29 @@ class FitSpec:
     scales: list
     fixed: dict           # fields held at a value
     thermal_state: bool   # th_r_K_per_W, th_tau_s fitted too (log-parametrised)
+    blind: bool = False   # some rows read no temperature: the node is the rise above ambient
 
 
 def spec_for(rows: list[Rows], names) -> FitSpec:
     names = check_names(names)
     thermal = [n for n in names if LIBRARY[n].thermal]
-    state = bool(thermal) and any(r.needs_state for r in rows)
+    # A thermal effect always brings the winding node: above the case reading it is the
+    # winding-to-case rise (the copper runs hotter than the sensor under load); where no
+    # temperature is read it is the whole rise above ambient, and then the temperature
+    # scale is unknown, so the coefficient is held at its material value.
+    state = bool(thermal)
+    blind = state and any(r.needs_state for r in rows)
     free, scales, fixed = ["ke_vs_per_rad"], [0.3], {}
     for n in names:
         eff = LIBRARY[n]
-        if state and n == "thermal_ra":
+        if blind and n == "thermal_ra":
             fixed[eff.field] = COPPER_TC_PER_K
-        elif state and n == "magnet_thermal" and "thermal_ra" not in names:
+        elif blind and n == "magnet_thermal" and "thermal_ra" not in names:
             fixed[eff.field] = FERRITE_TC_PER_K
         else:
             free.append(eff.field)
             scales.append(abs(eff.scale))
-    return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state)
+    return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state, blind=blind)
 
 
 def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsParams:
@@ -246,8 +263,8 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     x0 = [getattr(p0, f) if (start is not None or f == "ke_vs_per_rad") else 0.0 for f in spec.free]
     scales = list(spec.scales)
     if spec.thermal_state:
-        r0 = p0.th_r_K_per_W if p0.th_r_K_per_W > 0 else 10.0
-        tau0 = p0.th_tau_s if p0.th_tau_s > 0 else 600.0
+        r0 = p0.th_r_K_per_W if p0.th_r_K_per_W > 0 else (10.0 if spec.blind else 2.0)
+        tau0 = p0.th_tau_s if p0.th_tau_s > 0 else (600.0 if spec.blind else 30.0)
         x0 += [math.log(r0), math.log(tau0)]
         scales += [1.0, 1.0]
     sel = [getattr(r, mask) for r in rows]
@@ -257,7 +274,7 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     w = ([np.ones(int(m.sum())) for m in sel] if weights is None
          else [np.asarray(wi, float)[m] for wi, m in zip(weights, sel)])
     sw = [np.sqrt(wi) for wi in w]
-    fixed_temp = [None if r.needs_state else r.temp for r in rows]
+    fixed_temp = [None if (spec.thermal_state or r.needs_state) else r.temp for r in rows]
 
     def resid(x):
         p = _params(base, spec, x)
@@ -273,11 +290,11 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     lo[0] = 1e-6
     if spec.thermal_state:
         lo[-2], hi[-2] = math.log(0.05), math.log(500.0)
-        lo[-1], hi[-1] = math.log(5.0), math.log(1e5)
+        lo[-1], hi[-1] = math.log(1.0), math.log(1e5)
         x0[-2] = min(max(x0[-2], lo[-2] + 1e-9), hi[-2] - 1e-9)
         x0[-1] = min(max(x0[-1], lo[-1] + 1e-9), hi[-1] - 1e-9)
     res = least_squares(resid, np.asarray(x0, float), x_scale=np.asarray(scales, float), bounds=(lo, hi),
-                        method="trf", xtol=1e-10, ftol=1e-10, gtol=1e-10, max_nfev=200)
+                        method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=200)
     p = _params(base, spec, res.x)
     bits = 0
     for n in spec.names:

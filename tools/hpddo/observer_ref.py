@@ -69,7 +69,7 @@ class ReferenceObserver:
         self.last_seq = 0
         self.i_lag = F32(0)
         self.m2_lag = F32(0)
-        self.temp_state = F32(self.m.physics.t_amb_C)
+        self.rise_K = F32(0)
         self.last = dict(rpm=F32(0), rpm_m2=F32(0), residual_rpm=F32(0), temp_C=F32(0))
 
     def _invalid(self, out):
@@ -92,12 +92,18 @@ class ReferenceObserver:
                 and abs(i) <= F32(lim.i_max_A) and dt > 0):
             return self._invalid(out)
         i_true = ph.true_current_A(p, i, F32)
-        if p.thermal_enabled():
-            self.temp_state = ph.thermal_trajectory(p, [i_true], [dt], F32, start_C=self.temp_state)[0]
         t_read = temp_C is not None and np.isfinite(temp_C) and lim.temp_min_C <= temp_C <= lim.temp_max_C
-        temp_used = F32(temp_C) if t_read else (self.temp_state if p.thermal_enabled() else F32(p.t_ref_C))
+        ref = F32(temp_C) if t_read else F32(p.t_amb_C)
+        if p.thermal_enabled():
+            t_w, self.rise_K = ph.thermal_trajectory(p, [i_true], [dt], F32, ref_C=[ref], start_rise_K=self.rise_K,
+                                                     final_rise=True)
+            temp_used = F32(t_w[0])
+            magnet = ref if t_read else temp_used
+        else:
+            temp_used = ref if t_read else F32(p.t_ref_C)
+            magnet = temp_used
         di_dt = (i - self.i_lag) / dt if self.has_lag else F32(0)
-        m2 = ph.physics_rpm(p, v, i, di_dt, temp_used, F32)
+        m2 = ph.physics_rpm(p, v, i, di_dt, ph.Temps(temp_used, magnet), F32)
         m2 = F32(m2)
         if not np.isfinite(m2):
             return self._invalid(out)

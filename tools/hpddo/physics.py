@@ -97,45 +97,109 @@ def ke_at_vs_per_rad(p, temp_C, i_true_A, dtype=np.float64):
             * (dtype(1.0) - _f(p, "ke_sat_per_A", dtype) * np.abs(i)))
 
 
+@dataclasses.dataclass
+class Temps:
+    """The two temperatures of the physics model (C.f. hpddo::PhysicsInput): the copper
+    follows the winding, the magnets the case."""
+
+    winding_C: np.ndarray
+    magnet_C: np.ndarray
+
+    def __getitem__(self, rows):
+        return Temps(np.asarray(self.winding_C)[rows], np.asarray(self.magnet_C)[rows])
+
+
+def _split(temp_C):
+    """(winding, magnet) temperatures from a Temps or one temperature for both."""
+    return (temp_C.winding_C, temp_C.magnet_C) if isinstance(temp_C, Temps) else (temp_C, temp_C)
+
+
 def back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
     i = true_current_A(p, i_A, dtype)
-    return (true_voltage_V(p, v_V, dtype) - ra_at_ohm(p, temp_C, dtype) * i - brush_drop_V(p, i, dtype)
+    winding_C, _ = _split(temp_C)
+    return (true_voltage_V(p, v_V, dtype) - ra_at_ohm(p, winding_C, dtype) * i - brush_drop_V(p, i, dtype)
             - _f(p, "la_H", dtype) * np.asarray(di_dt_A_per_s, dtype))
 
 
 def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
-    """Output-shaft RPM; NaN where the effective Ke is not positive."""
-    ke = ke_at_vs_per_rad(p, temp_C, true_current_A(p, i_A, dtype), dtype)
+    """Output-shaft RPM; NaN where the effective Ke is not positive. temp_C: a Temps
+    (winding for Ra, magnets for Ke) or one temperature for both."""
+    ke = ke_at_vs_per_rad(p, _split(temp_C)[1], true_current_A(p, i_A, dtype), dtype)
     with np.errstate(divide="ignore", invalid="ignore"):
         n = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) / ke * dtype(RPM_PER_RAD_S)
     return np.where(ke > 0, n, np.nan).astype(dtype)
 
 
-def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, start_C=None):
-    """Winding temperature estimate per sample, as ThermalEstimator::step before each sample."""
+_BLOCK = 1024  # samples per block of the vectorised recursion
+
+
+def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
+    """The rise of thermal_trajectory in float64, vectorised. Each step is linear in the
+    previous rise, rise_k = alpha_k rise_(k-1) + beta_k, with (exp step d, loss at Ra(T_w))
+        alpha_k = d_k + (1 - d_k) r i_k^2 Ra a,   beta_k = (1 - d_k) r i_k^2 Ra (1 + a (ref_k - T_ref)),
+    so blocks of it are cumulative products and sums (equal to the step-by-step loop to
+    rounding)."""
+    r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
+    step = dt > 0
+    d = np.where(step, np.exp(-np.where(step, dt, 0.0) / tau), 1.0)
+    q = r * i * i * ra
+    alpha = np.where(step, d + (1.0 - d) * q * a, 1.0)
+    beta = np.where(step, (1.0 - d) * q * (1.0 + a * (ref - tref)), 0.0)
+    out = np.empty(len(i))
+    x = rise0
+    for s0 in range(0, len(i), _BLOCK):
+        al, be = alpha[s0:s0 + _BLOCK], beta[s0:s0 + _BLOCK]
+        prod = np.cumprod(al)
+        if prod.min() > 1e-250 and np.isfinite(prod[-1]):
+            blk = prod * (x + np.cumsum(be / prod))
+        else:  # the product left float64's range (long gaps, tiny tau): step by step
+            blk = np.empty(len(al))
+            for k, (ak, bk) in enumerate(zip(al.tolist(), be.tolist())):
+                x = ak * x + bk
+                blk[k] = x
+        out[s0:s0 + _BLOCK] = blk
+        x = float(blk[-1])
+    return out
+
+
+def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_rise_K=0.0, final_rise=False):
+    """Winding temperature per sample, as hpddo::ThermalEstimator::step before each sample:
+    ref + rise, the rise a first-order node heated by i^2 Ra(T_w) above the reference
+    ref_C (per sample: the case reading where read, else t_amb; None: t_amb throughout).
+    With final_rise, also returns the rise after the last sample."""
     i = np.asarray(i_true_A, dtype)
     dt = np.asarray(dt_s, dtype)
-    out = np.empty(len(i), dtype)
-    t = dtype(p.t_amb_C if start_C is None else start_C)
+    n = len(i)
+    ref = np.full(n, p.t_amb_C, dtype) if ref_C is None else np.asarray(ref_C, dtype)
+    out = np.empty(n, dtype)
+    rise = dtype(start_rise_K)
     if not p.thermal_enabled():
-        out[:] = t
-        return out
-    if np.dtype(dtype) == np.float64:  # same steps on Python floats: ~20x faster for fits
-        ra, a, tref = float(p.ra_ohm), float(p.ra_tc_per_K), float(p.t_ref_C)
-        r, tau, amb, tf = float(p.th_r_K_per_W), float(p.th_tau_s), float(p.t_amb_C), float(t)
-        for k, (ik, dk) in enumerate(zip(i.tolist(), dt.tolist())):
-            if dk > 0:
-                target = amb + r * (ik * ik * (ra * (1.0 + a * (tf - tref))))
-                tf = target + (tf - target) * math.exp(-dk / tau)
-            out[k] = tf
-        return out
+        out[:] = ref + rise
+        return (out, rise) if final_rise else out
+    if np.dtype(dtype) == np.float64:
+        out[:] = ref + _rise_float64(p, i, dt, ref, float(rise))
+        return (out, float(out[-1] - ref[-1]) if n else float(rise)) if final_rise else out
     r = dtype(p.th_r_K_per_W)
     tau = dtype(p.th_tau_s)
-    amb = dtype(p.t_amb_C)
-    for k in range(len(i)):
+    for k in range(n):
         if dt[k] > 0:
-            loss = i[k] * i[k] * ra_at_ohm(p, t, dtype)
-            target = amb + r * loss
-            t = dtype(target + (t - target) * np.exp(-dt[k] / tau).astype(dtype))
-        out[k] = t
-    return out
+            loss = i[k] * i[k] * ra_at_ohm(p, ref[k] + rise, dtype)
+            target = dtype(r * loss)
+            rise = dtype(target + (rise - target) * np.exp(-dt[k] / tau).astype(dtype))
+        out[k] = ref[k] + rise
+    return (out, rise) if final_rise else out
+
+
+def temperatures(p, i_A, dt_s, temp_read_C) -> Temps:
+    """What the observer feeds the thermal effects, per sample (observer.h): temp_read_C
+    is the case reading, NaN where none (or out of the sensor's range). With a thermal
+    network, the winding is the estimate above the reading (above t_amb where none); the
+    magnets follow the reading, else the winding estimate. Without a network, both are
+    the reading, else t_ref."""
+    t = np.asarray(temp_read_C, float)
+    read = np.isfinite(t)
+    if p.thermal_enabled():
+        winding = thermal_trajectory(p, true_current_A(p, i_A), dt_s, ref_C=np.where(read, t, p.t_amb_C))
+        return Temps(winding, np.where(read, t, winding))
+    both = np.where(read, t, p.t_ref_C)
+    return Temps(both, both)

@@ -28,17 +28,14 @@ class TrainConfig:
     progress: bool = True
 
 
-def temperature_used(rec: Recording, p: ph.PhysicsParams) -> np.ndarray:
-    """What the observer feeds the thermal effects: temp_C where read (within the sensor
-    range), else the copper-loss thermal state, else t_ref."""
-    n = rec.n
-    state = (ph.thermal_trajectory(p, ph.true_current_A(p, rec.df["i_A"].to_numpy(float)), dt_s(rec))
-             if p.thermal_enabled() else np.full(n, p.t_ref_C))
+def temperature_used(rec: Recording, p: ph.PhysicsParams) -> ph.Temps:
+    """The winding and magnet temperatures the observer feeds the thermal effects
+    (physics.temperatures): the case reading where it lies in the sensor's range."""
+    t = np.full(rec.n, np.nan)
     if "temp_C" in rec.df:
         t = rec.df["temp_C"].to_numpy(float)
-        ok = np.isfinite(t) & (t >= -55.0) & (t <= 125.0)
-        return np.where(ok, t, state)
-    return state
+        t = np.where(np.isfinite(t) & (t >= -55.0) & (t <= 125.0), t, np.nan)
+    return ph.temperatures(p, rec.df["i_A"].to_numpy(float), dt_s(rec), t)
 
 
 def physics_rpm(rec: Recording, p: ph.PhysicsParams) -> np.ndarray:

@@ -52,7 +52,7 @@ struct Estimate {
   float rpm;           ///< output-shaft speed estimate, RPM
   float rpm_m2;        ///< physics model alone, RPM (held when invalid)
   float residual_rpm;  ///< learned correction applied, RPM
-  float temp_C;        ///< temperature the thermal effects used, C
+  float temp_C;        ///< winding temperature the thermal effects used, C
   Status status;
 };
 
@@ -60,16 +60,16 @@ struct Estimate {
 template <class Net>
 class Observer {
  public:
-  explicit Observer(const Model<Net>& model) : model_(model), thermal_(model.physics) { reset(); }
+  explicit Observer(const Model<Net>& model) : model_(model) { reset(); }
 
-  /// Forgets the lags and the held estimate; the thermal state restarts at ambient.
+  /// Forgets the lags and the held estimate; the winding restarts at its reference.
   void reset() {
     has_lag_ = false;
     has_seq_ = false;
     last_seq_ = 0;
     last_ = Estimate();
     last_.status = kStatusInvalid;
-    thermal_.reset(model_.physics);
+    thermal_.reset();
     seq_gaps_ = 0;
   }
 
@@ -97,12 +97,16 @@ class Observer {
     const float dt_s = s.dt_s;
     const bool temp_read = is_finite(s.temp_C) && s.temp_C >= model_.limits.temp_min_C &&
                            s.temp_C <= model_.limits.temp_max_C;
-    thermal_.step(p, i_true_A, dt_s);
+    const float ref_C = temp_read ? s.temp_C : p.t_amb_C;
+    thermal_.step(p, i_true_A, dt_s, ref_C);
     PhysicsInput in;
     in.v_V = s.v_V;
     in.i_A = s.i_A;
     in.di_dt_A_per_s = has_lag_ ? (s.i_A - i_lag_A_) / dt_s : 0.0f;
-    in.temp_C = temp_read ? s.temp_C : (ThermalEstimator::enabled(p) ? thermal_.temp_C() : p.t_ref_C);
+    // The copper follows the winding (estimated above the case reading, or above the
+    // ambient); the magnets sit on the case: its reading, else the only thermal state.
+    in.temp_C = ThermalEstimator::enabled(p) ? thermal_.temp_C(ref_C) : (temp_read ? s.temp_C : p.t_ref_C);
+    in.magnet_C = temp_read ? s.temp_C : in.temp_C;
     float m2 = 0.0f;
     if (!physics_rpm(p, in, &m2)) return invalid();
 

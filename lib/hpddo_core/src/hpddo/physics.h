@@ -1,8 +1,9 @@
 // The physics models M1 and M2: shaft speed from the armature voltage balance
 //
-//   v_true = ra(T) i_true + brush(i_true) + la di/dt + ke(T, i_true) w
+//   v_true = ra(T_w) i_true + brush(i_true) + la di/dt + ke(T_m, i_true) w
 //
-// solved for w (rad/s) and returned in RPM of the output shaft. M1 uses the
+// with T_w the winding and T_m the magnet temperature, solved for w (rad/s) and
+// returned in RPM of the output shaft. M1 uses the
 // nameplate Ke with every effect off; M2 uses the identified Ra and Ke, plus
 // any effect terms that diagnosis found missing. Each effect is one named
 // coefficient; zero switches it off. The same terms exist once in Python
@@ -58,7 +59,8 @@ struct PhysicsInput {
   float v_V;            ///< terminal voltage reading, V
   float i_A;            ///< armature current reading, A
   float di_dt_A_per_s;  ///< rate of change of the true current, A/s
-  float temp_C;         ///< temperature used by the thermal effects, C
+  float temp_C;         ///< winding temperature, for thermal_ra, C
+  float magnet_C;       ///< magnet temperature, for magnet_thermal, C
 };
 
 /// Armature current with the current-channel offset removed, A.
@@ -95,7 +97,7 @@ inline float back_emf_V(const PhysicsParams& p, const PhysicsInput& in) {
 /// Output-shaft speed in RPM; false (and *rpm untouched) when the effective
 /// Ke is not positive or the result is not finite.
 inline bool physics_rpm(const PhysicsParams& p, const PhysicsInput& in, float* rpm) {
-  const float ke = ke_at_vs_per_rad(p, in.temp_C, true_current_A(p, in.i_A));
+  const float ke = ke_at_vs_per_rad(p, in.magnet_C, true_current_A(p, in.i_A));
   if (!(ke > 0.0f)) return false;
   const float n = back_emf_V(p, in) / ke * kRpmPerRadS;
   if (!is_finite(n)) return false;

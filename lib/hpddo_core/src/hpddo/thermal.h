@@ -1,7 +1,11 @@
-// Winding temperature estimated from copper losses, for the thermal effects
-// when a log carries no temperature: a first-order node heated by i^2 Ra,
-//   tau dT/dt = r_th i^2 Ra(T) - (T - T_amb),
-// advanced with the exact step of the linear ODE over dt (losses held).
+// Winding temperature from copper losses, for the thermal effects: the winding
+// is a first-order node heated by i^2 Ra above a reference, the case reading
+// where the sample carries one (the DS18B20 sits on the case, the copper runs
+// hotter under load), else the ambient:
+//   tau d(rise)/dt = r_th i^2 Ra(T_w) - rise,      T_w = reference + rise,
+// advanced with the exact step of the linear ODE over dt (losses held). With a
+// case reading, r_th and tau are the winding-to-case path (seconds); without,
+// the winding-to-ambient path (minutes).
 #ifndef HPDDO_THERMAL_H
 #define HPDDO_THERMAL_H
 
@@ -12,32 +16,35 @@
 
 namespace hpddo {
 
-/// First-order thermal state of the winding, C.
+/// First-order thermal rise of the winding above its reference, K.
 class ThermalEstimator {
  public:
-  /// Starts at ambient.
-  explicit ThermalEstimator(const PhysicsParams& p) : temp_C_(p.t_amb_C) {}
+  ThermalEstimator() : rise_K_(0.0f) {}
 
   /// True when the model has a thermal network to run.
   static bool enabled(const PhysicsParams& p) { return p.th_r_K_per_W > 0.0f && p.th_tau_s > 0.0f; }
 
-  /// Current estimate, C.
-  float temp_C() const { return temp_C_; }
+  /// Current rise of the winding above its reference, K.
+  float rise_K() const { return rise_K_; }
 
-  /// Restarts at ambient.
-  void reset(const PhysicsParams& p) { temp_C_ = p.t_amb_C; }
+  /// Winding temperature for the reference ref_C, C.
+  float temp_C(float ref_C) const { return ref_C + rise_K_; }
 
-  /// Advances by dt_s with the true armature current i_A held over the step.
-  void step(const PhysicsParams& p, float i_A, float dt_s) {
+  /// Restarts with the winding at its reference.
+  void reset() { rise_K_ = 0.0f; }
+
+  /// Advances by dt_s with the true armature current i_A held over the step,
+  /// above the reference ref_C of this sample.
+  void step(const PhysicsParams& p, float i_A, float dt_s, float ref_C) {
     if (!enabled(p) || !(dt_s > 0.0f)) return;
-    const float loss_W = i_A * i_A * ra_at_ohm(p, temp_C_);
-    const float target_C = p.t_amb_C + p.th_r_K_per_W * loss_W;
+    const float loss_W = i_A * i_A * ra_at_ohm(p, ref_C + rise_K_);
+    const float target_K = p.th_r_K_per_W * loss_W;
     const float decay = expf(-dt_s / p.th_tau_s);
-    temp_C_ = target_C + (temp_C_ - target_C) * decay;
+    rise_K_ = target_K + (rise_K_ - target_K) * decay;
   }
 
  private:
-  float temp_C_;
+  float rise_K_;
 };
 
 }  // namespace hpddo
