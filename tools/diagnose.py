@@ -12,13 +12,19 @@ after for the physics model and for the hybrid retrained on top. Writes DIR/inde
 and DIR/diagnosis.json together, or nothing (a malformed log is refused with its file,
 line and fault). See docs/diagnosis.md.
 """
-import argparse
 import os
-import pathlib
-import shutil
-import sys
-import tempfile
-import time
+
+# The fits are many small least-squares problems; the bootstrap runs them on every core.
+# One BLAS thread per process keeps the cores from fighting (43 s instead of 68 s here).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import pathlib  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 

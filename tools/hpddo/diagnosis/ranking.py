@@ -19,7 +19,10 @@ of resamples in which the effect is named.
 """
 from __future__ import annotations
 
+import concurrent.futures
 import dataclasses
+import multiprocessing
+import os
 
 import numpy as np
 
@@ -257,12 +260,20 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
     return steps, p
 
 
+def _select_names(args) -> list:
+    d, m2, given, candidates, sigma2, weights, start = args
+    steps, _ = forward_select(d, m2, given, candidates, sigma2, weights=weights, start=start)
+    return [s.name for s in steps if s.name]
+
+
 def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7) -> dict:
-    """Inclusion frequency of each candidate over n block resamples of the training rows."""
+    """Inclusion frequency of each candidate over n block resamples of the training rows.
+    The resamples are drawn in order from one seed, then selected on all cores."""
     rng = np.random.default_rng(seed)
     counts = {c: 0 for c in candidates}
     if n <= 0:
         return {c: None for c in candidates}
+    jobs = []
     for _ in range(n):
         weights = []
         for r, blk in zip(d.rows, d.blocks_train):
@@ -273,8 +284,15 @@ def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int =
                 mult = np.bincount(np.searchsorted(ids, pick), minlength=len(ids)).astype(float)
                 w[blk >= 0] = mult[np.searchsorted(ids, blk[blk >= 0])]
             weights.append(w)
-        steps, _ = forward_select(d, m2, given, candidates, sigma2, weights=weights, start=start)
-        for s in steps:
-            if s.name:
-                counts[s.name] += 1
+        jobs.append((d, m2, list(given), list(candidates), sigma2, weights, start))
+    workers = min(n, os.cpu_count() or 1)
+    if workers > 1:
+        with concurrent.futures.ProcessPoolExecutor(max_workers=workers,
+                                                    mp_context=multiprocessing.get_context("fork")) as pool:
+            chosen = list(pool.map(_select_names, jobs))
+    else:
+        chosen = [_select_names(j) for j in jobs]
+    for names in chosen:
+        for c in names:
+            counts[c] += 1
     return {c: counts[c] / n for c in candidates}
