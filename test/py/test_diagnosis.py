@@ -142,3 +142,25 @@ def test_report_renders_in_headless_chromium(root, tmp_path):
     assert shot.exists() and shot.stat().st_size > 20000
     errors = [ln for ln in r.stderr.splitlines() if "CONSOLE" in ln and "rror" in ln]
     assert not errors, errors
+
+
+def test_structured_residual_outside_the_library_is_not_forced_onto_a_name(root):
+    """A disturbance no library effect has (a slow sinusoidal drift of the voltage channel,
+    97 s period, while the motor is driven): nothing is named, and the verdict says the
+    residual is structured and shows its strongest correlates."""
+    import numpy as np
+
+    from hpddo import benchlog
+    src = bench_dir(root, "ideal", {}, SEEDS[0])
+    out = root / "unexplained"
+    out.mkdir(exist_ok=True)
+    paths = []
+    for p in src:
+        log = benchlog.read_log(p)
+        df = log.df.copy()
+        df["v_V"] = df["v_V"] + 0.25 * np.sin(2 * np.pi * df["t_s"] / 97.0) * (df["duty"] > 0)
+        paths.append(benchlog.write_log(out / p.name, df, log.meta))
+    res = run(paths)
+    assert res["missing_effects"] == [], res["verdict"]
+    assert "No library effect explains" in res["verdict"]
+    assert "strongest correlates" in res["verdict"]
