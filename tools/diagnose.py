@@ -33,19 +33,11 @@ from hpddo import effects as fx  # noqa: E402
 from hpddo.diagnosis import core, report  # noqa: E402
 
 
-def effect_names(text: str) -> tuple:
-    names = tuple(s.strip() for s in text.split(",") if s.strip())
-    unknown = [n for n in names if n not in fx.LIBRARY]
-    if unknown:
-        raise argparse.ArgumentTypeError(f"unknown effect(s) {unknown}; known: {', '.join(fx.NAMES)}")
-    return names
-
-
 def parser():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("logs", nargs="+", type=pathlib.Path, help="labelled bench logs (CSV)")
     ap.add_argument("--out", required=True, type=pathlib.Path, help="output folder (index.html, diagnosis.json)")
-    ap.add_argument("--effects", type=effect_names, default=(),
+    ap.add_argument("--effects", type=fx.parse_names, default=(),
                     help=f"effects already in the model under test: {', '.join(fx.NAMES)}")
     ap.add_argument("--ra-ohm", type=float, help="armature resistance, ohm (default: the logs' ra_ohm metadata)")
     ap.add_argument("--bootstrap", type=int, default=core.ranking.BOOTSTRAP,

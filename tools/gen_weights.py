@@ -26,6 +26,7 @@ import time
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
 from hpddo import benchlog, identify, physics  # noqa: E402
+from hpddo import effects as fx  # noqa: E402
 from hpddo.pipeline import PipelineConfig, run  # noqa: E402
 from hpddo.train import TrainConfig  # noqa: E402
 
@@ -40,14 +41,6 @@ def hidden_sizes(text: str) -> tuple:
     return sizes
 
 
-def effect_names(text: str) -> tuple:
-    names = tuple(s.strip() for s in text.split(",") if s.strip())
-    unknown = [n for n in names if n not in physics.EFFECT_BITS]
-    if unknown:
-        raise argparse.ArgumentTypeError(f"unknown effect(s) {unknown}; known: {', '.join(physics.EFFECT_BITS)}")
-    return names
-
-
 def parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("logs", nargs="+", type=pathlib.Path, help="labelled bench logs (CSV)")
@@ -58,7 +51,7 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--rated-rpm", type=float, default=1000.0, help="nameplate no-load speed for M1, RPM (1000)")
     ap.add_argument("--ke-fit", choices=["eq20", "lsq"], default="eq20",
                     help="M2 Ke: mean of per-row ratios (paper eq. 20) or least squares")
-    ap.add_argument("--effects", type=effect_names, default=(),
+    ap.add_argument("--effects", type=fx.parse_names, default=(),
                     help=f"effects to add to the physics model, comma separated: {', '.join(physics.EFFECT_BITS)}")
     ap.add_argument("--hidden", type=hidden_sizes, default=(16, 8), help="hidden layer sizes (16,8)")
     ap.add_argument("--max-iter", type=int, default=2000, help="training iterations (epochs), no early stop (2000)")

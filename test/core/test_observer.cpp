@@ -17,13 +17,8 @@ void replay_golden(const hpddo::Model<Net>& model, const float* rows, int count,
   hpddo::Observer<Net> obs(model);
   for (int r = 0; r < count; ++r) {
     const auto g = [&](int c) { return golden::at(rows, width, r, c); };
-    hpddo::Sample s;
-    s.v_V = g(kCol_v_V);
-    s.i_A = g(kCol_i_A);
-    s.temp_C = g(kCol_temp_C);
-    s.dt_s = g(kCol_dt_s);
-    s.seq = static_cast<uint16_t>(g(kCol_seq));
-    s.has_seq = g(kCol_has_seq) != 0.0f;
+    const hpddo::Sample s = golden::sample(rows, width, r, kCol_v_V, kCol_i_A, kCol_temp_C, kCol_dt_s, kCol_seq,
+                                           kCol_has_seq);
     const hpddo::Estimate e = obs.step(s);
     ASSERT_EQ(static_cast<int>(e.status), static_cast<int>(g(kCol_status))) << "row " << r;
     EXPECT_TRUE(hpddo::is_finite(e.rpm)) << "row " << r;

@@ -19,13 +19,8 @@ TEST(DefaultModel, EveryStageMatchesGoldenWithin1e4Relative) {
   int statuses[4] = {0, 0, 0, 0};
   for (int r = 0; r < kCount; ++r) {
     const auto g = [&](int c) { return golden::at(kRows, kWidth, r, c); };
-    hpddo::Sample s;
-    s.v_V = g(kCol_v_V);
-    s.i_A = g(kCol_i_A);
-    s.temp_C = g(kCol_temp_C);
-    s.dt_s = g(kCol_dt_s);
-    s.seq = static_cast<uint16_t>(g(kCol_seq));
-    s.has_seq = g(kCol_has_seq) != 0.0f;
+    const hpddo::Sample s = golden::sample(kRows, kWidth, r, kCol_v_V, kCol_i_A, kCol_temp_C, kCol_dt_s, kCol_seq,
+                                           kCol_has_seq);
     // The stages below the observer, from the golden inputs of each stage.
     if (!std::isnan(g(kCol_z0))) {
       float x[5], z[5];

@@ -48,6 +48,7 @@ __all__ = [
     "COLUMN_FORMATS",
     "read_log",
     "write_log",
+    "write_text_atomic",
 ]
 
 REQUIRED_COLUMNS = ("t_s", "duty", "v_V", "i_A")
@@ -348,6 +349,13 @@ def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
     parts.append(body + "\n")
     text = "".join(parts)
 
+    return write_text_atomic(path, text)
+
+
+def write_text_atomic(path, text: str) -> pathlib.Path:
+    """Writes text (UTF-8, LF) to a temporary file beside path, then renames it over path,
+    so a reader sees the old file or the whole new one, never a part."""
+    path = pathlib.Path(path)
     directory = path.parent if str(path.parent) else pathlib.Path(".")
     directory.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)

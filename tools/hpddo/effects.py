@@ -118,6 +118,15 @@ def check_names(names) -> tuple:
     return names
 
 
+def parse_names(text: str) -> tuple:
+    """Effect names from a comma-separated option value (an argparse type)."""
+    import argparse
+    try:
+        return check_names(s.strip() for s in text.split(",") if s.strip())
+    except IdentificationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 # ---------------------------------------------------------------------------------------
 # Rows: what the physics model sees, per recording
 

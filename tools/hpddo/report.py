@@ -14,6 +14,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from . import benchlog  # noqa: E402
+
 MODELS = ("M1", "M2", "M3")
 COLOURS = {"rpm_ref": "#222222", "rpm_m1": "#d62728", "rpm_m2": "#1f77b4", "rpm_m3": "#2ca02c"}
 
@@ -94,9 +96,4 @@ def write(metrics: dict, estimates_dir: pathlib.Path, out: pathlib.Path, title: 
         parts.append(f"<h2>{html.escape(name)}</h2>")
         parts.append(f"<img alt='estimates of {html.escape(name)}' src='{overlay_figure(est, name)}'>")
     parts.append("</body></html>\n")
-    out.mkdir(parents=True, exist_ok=True)
-    path = out / "index.html"
-    tmp = path.with_suffix(".html.tmp")
-    tmp.write_text("".join(parts), encoding="utf-8")
-    tmp.replace(path)
-    return path
+    return benchlog.write_text_atomic(out / "index.html", "".join(parts))

@@ -16,9 +16,7 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import pathlib
-import tempfile
 
 import numpy as np
 import pandas as pd
@@ -41,21 +39,6 @@ TRUTH_FORMATS = {
     "cond_frac": "%.4f",
     "glitch": "%d",
 }
-
-
-def _atomic_write_text(path: pathlib.Path, text: str):
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
-        os.chmod(tmp, 0o644)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
 
 
 def _r(x, nd=6):
@@ -153,7 +136,7 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
         row_fmt = ",".join(fmts)
         lines += [row_fmt % tuple(r) for r in zip(*arrs)]
         paths["truth_csv"] = out / f"{condition}.truth.csv"
-        _atomic_write_text(paths["truth_csv"], "\n".join(lines) + "\n")
+        benchlog.write_text_atomic(paths["truth_csv"], "\n".join(lines) + "\n")
         paths["truth_json"] = out / f"{condition}.truth.json"
-        _atomic_write_text(paths["truth_json"], json.dumps(info, indent=1, sort_keys=True) + "\n")
+        benchlog.write_text_atomic(paths["truth_json"], json.dumps(info, indent=1, sort_keys=True) + "\n")
     return {"log": log, "meta": meta, "truth": truth, "info": info, "paths": paths, "result": res}
