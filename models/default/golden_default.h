@@ -15,6 +15,7 @@
 
 #include <stdint.h>
 
+#include "hpddo/observer.h"
 #include "hpddo/platform.h"
 
 namespace hpddo_golden_default {
@@ -126,6 +127,21 @@ HPDDO_FLASH static const float kRows[1694] = {
     2.33260489f, 0.312240005f, 35.0f, 0.5f, 3074.0f, 1.0f, 2.33260489f, 0.312240005f, 21.3274994f, 0.312240005f, 21.3274994f, -5.65404415f, -3.64506388f, -4.18818283f, -3.63728976f, -4.17698956f, 0.325453341f, 21.3274994f, 0.325453341f, 21.6529522f, 35.0f, 0.0f,
     6.99781513f, 1.24896002f, 35.0f, 0.5f, 3075.0f, 1.0f, 6.99781513f, 1.24896002f, 31.6741066f, 0.312240005f, 21.3274994f, __builtin_nanf(""), __builtin_nanf(""), __builtin_nanf(""), __builtin_nanf(""), __builtin_nanf(""), __builtin_nanf(""), 31.6741066f, 0.0f, 31.6741066f, 35.0f, 2.0f,
     2.33260489f, 0.312240005f, __builtin_nanf(""), 0.5f, 3076.0f, 1.0f, 2.33260489f, 0.312240005f, 21.3274994f, 1.24896002f, 31.6741066f, __builtin_nanf(""), __builtin_nanf(""), __builtin_nanf(""), __builtin_nanf(""), __builtin_nanf(""), __builtin_nanf(""), 21.3274994f, 0.0f, 21.3274994f, 31.6875f, 2.0f};
+
+/// Value of row r, column c.
+inline float at(uint16_t r, uint8_t c) { return hpddo::flash_float(kRows + static_cast<uint32_t>(r) * kWidth + c); }
+
+/// The observer input of row r.
+inline hpddo::Sample sample(uint16_t r) {
+  hpddo::Sample s;
+  s.v_V = at(r, kCol_v_V);
+  s.i_A = at(r, kCol_i_A);
+  s.temp_C = at(r, kCol_temp_C);
+  s.dt_s = at(r, kCol_dt_s);
+  s.seq = static_cast<uint16_t>(at(r, kCol_seq));
+  s.has_seq = at(r, kCol_has_seq) != 0.0f;
+  return s;
+}
 
 }  // namespace hpddo_golden_default
 

@@ -19,8 +19,7 @@ TEST(DefaultModel, EveryStageMatchesGoldenWithin1e4Relative) {
   int statuses[4] = {0, 0, 0, 0};
   for (int r = 0; r < kCount; ++r) {
     const auto g = [&](int c) { return golden::at(kRows, kWidth, r, c); };
-    const hpddo::Sample s = golden::sample(kRows, kWidth, r, kCol_v_V, kCol_i_A, kCol_temp_C, kCol_dt_s, kCol_seq,
-                                           kCol_has_seq);
+    const hpddo::Sample s = sample(static_cast<uint16_t>(r));
     // The stages below the observer, from the golden inputs of each stage.
     if (!std::isnan(g(kCol_z0))) {
       float x[5], z[5];

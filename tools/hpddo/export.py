@@ -153,11 +153,18 @@ def golden_header(rows: np.ndarray, name: str, provenance: dict) -> str:
     enums = ",\n".join(f"  kCol_{c} = {k}" for k, c in enumerate(cols))
     return "".join([
         _banner("golden vectors", prov), f"#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n",
-        '#include "hpddo/platform.h"\n\n', f"namespace hpddo_golden_{name} {{\n\n",
+        '#include "hpddo/observer.h"\n#include "hpddo/platform.h"\n\n', f"namespace hpddo_golden_{name} {{\n\n",
         f"enum Column : uint8_t {{\n{enums}\n}};\n\n",
         f"static const uint16_t kCount = {len(rows)};\nstatic const uint8_t kWidth = {len(cols)};\n\n",
         "/// Row r, column c is kRows[r * kWidth + c]; NaN marks an absent reading or an unreached stage.\n",
         c_array("kRows", rows, per_line=len(cols), allow_nonfinite=True),
+        "\n/// Value of row r, column c.\n",
+        "inline float at(uint16_t r, uint8_t c) { return hpddo::flash_float(kRows + static_cast<uint32_t>(r) * kWidth + c); }\n\n",
+        "/// The observer input of row r.\n",
+        "inline hpddo::Sample sample(uint16_t r) {\n",
+        "  hpddo::Sample s;\n  s.v_V = at(r, kCol_v_V);\n  s.i_A = at(r, kCol_i_A);\n  s.temp_C = at(r, kCol_temp_C);\n",
+        "  s.dt_s = at(r, kCol_dt_s);\n  s.seq = static_cast<uint16_t>(at(r, kCol_seq));\n",
+        "  s.has_seq = at(r, kCol_has_seq) != 0.0f;\n  return s;\n}\n",
         f"\n}}  // namespace hpddo_golden_{name}\n\n#endif  // {guard}\n"])
 
 

@@ -23,13 +23,7 @@ static void test_checksum() {
 static void test_golden_rows() {
   static hpddo::Observer<mdl::Net> obs(mdl::kModel);
   for (int r = 0; r < gold::kCount; ++r) {
-    hpddo::Sample s;
-    s.v_V = g(r, gold::kCol_v_V);
-    s.i_A = g(r, gold::kCol_i_A);
-    s.temp_C = g(r, gold::kCol_temp_C);
-    s.dt_s = g(r, gold::kCol_dt_s);
-    s.seq = static_cast<uint16_t>(g(r, gold::kCol_seq));
-    s.has_seq = g(r, gold::kCol_has_seq) != 0.0f;
+    const hpddo::Sample s = gold::sample(static_cast<uint16_t>(r));
     const hpddo::Estimate e = obs.step(s);
     const float want = g(r, gold::kCol_rpm);
     const float tol = 1e-4f * (fabsf(want) > 1.0f ? fabsf(want) : 1.0f);
