@@ -21,8 +21,8 @@ cmake -S . -B build-asan "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DHPDDO_SANITIZE=O
 cmake --build build-asan -j "$jobs"
 ctest --test-dir build-asan -j "$jobs" --output-on-failure
 
-echo "== pytest"
-.venv/bin/python -m pytest -q test/py
-
 echo "== benchmark (prints its figures; the targets are judged against peers measured in the same run)"
 .venv/bin/python tools/bench_pipeline.py
+
+echo "== pytest"
+.venv/bin/python -m pytest -q test/py
