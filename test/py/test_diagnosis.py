@@ -164,3 +164,21 @@ def test_structured_residual_outside_the_library_is_not_forced_onto_a_name(root)
     assert res["missing_effects"] == [], res["verdict"]
     assert "No library effect explains" in res["verdict"]
     assert "strongest correlates" in res["verdict"]
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_thermal_ra_and_magnet_thermal_together_are_named_as_a_confounded_pair(root, seed):
+    """The issue's example: copper and magnets both follow the temperature. Fitted freely,
+    thermal_ra lands far from copper's coefficient; held at copper's, the rest is the magnets'.
+    Both are named, reported as confounded, and the separating recording is named."""
+    res = run(bench_dir(root, "thermal_pair", {"thermal_ra": 0.393, "magnet_thermal": -0.2}, seed))
+    assert set(res["missing_effects"]) >= {"thermal_ra", "magnet_thermal"}, res["verdict"]
+    assert ["thermal_ra", "magnet_thermal"] in res["confounded"]
+    sep = [s for s in res["separating_recordings"] if set(s["effects"]) == {"thermal_ra", "magnet_thermal"}]
+    assert sep and sep[0]["recording"]
+    named = {e["effect"]: e for e in res["ranking"] if e["named"]}
+    assert named["thermal_ra"]["params"]["ra_tc_per_K"] == pytest.approx(0.00393)
+    assert -0.0025 < named["magnet_thermal"]["params"]["ke_tc_per_K"] < -0.0015  # the bench: -0.2 %/K
+    ideal = run(bench_dir(root, "ideal", {}, seed))
+    ok, info = _halfway(res, ideal)
+    assert ok, info

@@ -72,7 +72,8 @@ class Effect:
 LIBRARY = {e.name: e for e in [
     Effect("thermal_ra", "ra_tc_per_K", "1/K", 100.0, "%/K",
            "copper resistance of the winding rises with temperature: Ra(T) = Ra (1 + a (T - T_ref))",
-           "copper +0.393 %/K", (0.002, 0.006), (0.001, 0.012), 0.004,
+           "copper +0.393 %/K (a material constant; the band allows for the sensor's lag)",
+           (0.0033, 0.0046), (0.001, 0.012), 0.004,
            "temperature rise x current",
            "a run in which the winding heats up (minutes at high current)", thermal=True),
     Effect("magnet_thermal", "ke_tc_per_K", "1/K", 100.0, "%/K",
@@ -226,8 +227,10 @@ class FitSpec:
     blind: bool = False   # some rows read no temperature: the node is the rise above ambient
 
 
-def spec_for(rows: list[Rows], names) -> FitSpec:
+def spec_for(rows: list[Rows], names, hold=None) -> FitSpec:
+    """hold: {effect: coefficient} held at a value instead of fitted."""
     names = check_names(names)
+    hold = dict(hold or {})
     thermal = [n for n in names if LIBRARY[n].thermal]
     # A thermal effect always brings the winding node: above the case reading it is the
     # winding-to-case rise (the copper runs hotter than the sensor under load); where no
@@ -236,9 +239,14 @@ def spec_for(rows: list[Rows], names) -> FitSpec:
     state = bool(thermal)
     blind = state and any(r.needs_state for r in rows)
     free, scales, fixed = ["ke_vs_per_rad"], [0.3], {}
+    # With both thermal effects named, only copper's coefficient, a material constant,
+    # tells the copper's temperature term from the magnets': it is held, the magnets fitted.
+    both = "thermal_ra" in names and "magnet_thermal" in names
     for n in names:
         eff = LIBRARY[n]
-        if blind and n == "thermal_ra":
+        if n in hold:
+            fixed[eff.field] = hold[n]
+        elif (blind or both) and n == "thermal_ra":
             fixed[eff.field] = COPPER_TC_PER_K
         elif blind and n == "magnet_thermal" and "thermal_ra" not in names:
             fixed[eff.field] = FERRITE_TC_PER_K
@@ -264,10 +272,11 @@ def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
 
 
 def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
-        start: ph.PhysicsParams | None = None) -> ph.PhysicsParams:
+        start: ph.PhysicsParams | None = None, hold=None) -> ph.PhysicsParams:
     """Least squares of rpm_ref - n_M2 over the `mask` rows of `rows` (weights per row,
-    optional), moving Ke and the coefficients of `names`; Ra, t_ref stay at base's."""
-    spec = spec_for(rows, names)
+    optional), moving Ke and the coefficients of `names` (but those in `hold`, {effect:
+    coefficient}, which stay at the value given); Ra, t_ref stay at base's."""
+    spec = spec_for(rows, names, hold)
     p0 = _plain(base) if start is None else start
     x0 = [getattr(p0, f) if (start is not None or f == "ke_vs_per_rad") else 0.0 for f in spec.free]
     scales = list(spec.scales)

@@ -68,6 +68,13 @@ def _parts(rows, arrays, which="test"):
     return out
 
 
+# Keys that _entry derives from the parameters (the rest are the caller's).
+_ENTRY_KEYS = ("effect", "params", "shown", "unit", "plausible", "plausibility", "meaning")
+# The copper-plus-magnets reading is taken when its held-out mean squared error is at most
+# this many noise variances above the freely fitted one's.
+MATERIAL_SLACK = 0.5
+
+
 def _entry(name, p, **kw):
     eff = fx.LIBRARY[name]
     val = getattr(p, eff.field)
@@ -103,6 +110,7 @@ def diagnose(paths, opt: Options) -> dict:
     steps, final = ranking.forward_select(d, m2, given, candidates, sigma2)
     named = [s for s in steps if s.name]
     missing = [s.name for s in named]
+    steps_final = final
     boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed)
 
     # single-effect gains on the base model (the first step's trial) for the ranking table
@@ -145,6 +153,44 @@ def diagnose(paths, opt: Options) -> dict:
             for other in group[1:]:
                 separators.append({"effects": [s.name, other], "recording": ranking.separator(s.name, other),
                                    "corr": ranking.partial_corr(d, base, s.name, other, given)})
+
+    # A material constant as a test of confounding: thermal_ra named with a coefficient far
+    # from copper's means another temperature term shares its work. If copper's value plus
+    # the magnets' term explains the held-out rows as well, the data cannot tell the two
+    # apart, and the physical reading (copper + magnets) is the one named.
+    if ("thermal_ra" in missing and "magnet_thermal" not in given + missing
+            and not fx.LIBRARY["thermal_ra"].plausibility(getattr(final, "ra_tc_per_K"))[0]):
+        try:
+            alt = fx.fit(rows, m2, given + missing + ["magnet_thermal"])
+        except Exception:
+            alt = None
+        if alt is not None:
+            mse_sel = ranking.held_out_mse(d, ranking.residuals(d, final))
+            mse_alt = ranking.held_out_mse(d, ranking.residuals(d, alt))
+            b = alt.ke_tc_per_K
+            if fx.LIBRARY["magnet_thermal"].plausibility(b)[0] and mse_alt <= mse_sel + MATERIAL_SLACK * sigma2:
+                missing.append("magnet_thermal")
+                final = alt
+                for e in ranking_rows:
+                    if e["named"]:
+                        e.update(_entry(e["effect"], final, **{k: e[k] for k in e if k not in _ENTRY_KEYS}))
+                ranking_rows = [e for e in ranking_rows if e["effect"] != "magnet_thermal"]
+                # its share: what it removes once copper's coefficient is held
+                copper = fx.fit(rows, m2, given + missing[:-1], hold={"thermal_ra": fx.COPPER_TC_PER_K})
+                res_copper = ranking.residuals(d, copper)
+                g, z = ranking.gain_z(d, res_copper, ranking.residuals(d, alt), sigma2)
+                ranking_rows.insert(len([e for e in ranking_rows if e["named"]]),
+                                    _entry("magnet_thermal", final, score=max(0.0, min(1.0, g / mse_base)),
+                                           gain_rpm2=g, z=z, named=True, inclusion=None, identifiable=True,
+                                           note="named with thermal_ra held at copper's coefficient, "
+                                                "which the free fit missed; not bootstrapped"))
+                confounded.append(["thermal_ra", "magnet_thermal"])
+                separators.append({"effects": ["thermal_ra", "magnet_thermal"],
+                                   "recording": ranking.separator("thermal_ra", "magnet_thermal"),
+                                   "corr": ranking.partial_corr(d, base, "thermal_ra", "magnet_thermal", given),
+                                   "material_check": {"thermal_ra_fitted_per_K": getattr(steps_final, "ra_tc_per_K"),
+                                                      "held_out_mse_fitted": mse_sel,
+                                                      "held_out_mse_copper_plus_magnets": mse_alt}})
 
     # residual analysis of the model under test and of the final model
     res_final = ranking.residuals(d, final)
