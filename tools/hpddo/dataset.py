@@ -137,6 +137,15 @@ def lagged(x: np.ndarray, starts: np.ndarray) -> np.ndarray:
     return out
 
 
+def temp_read_C(rec: Recording) -> np.ndarray:
+    """The case temperature per row as the observer takes it: the reading where the log has
+    one within the sensor's range (TEMP_RANGE_C), NaN elsewhere."""
+    if "temp_C" not in rec.df:
+        return np.full(rec.n, np.nan)
+    t = rec.df["temp_C"].to_numpy(float)
+    return np.where(np.isfinite(t) & (t >= TEMP_RANGE_C[0]) & (t <= TEMP_RANGE_C[1]), t, np.nan)
+
+
 def write_clean(rec: Recording, path) -> pathlib.Path:
     """Writes the cleaned rows as a bench log (the file the native replay reads)."""
     meta = dict(rec.meta)

@@ -12,13 +12,14 @@ physics.physics_rpm, so a new term needs no hand-written derivative.
 `identify` fits Ke and the named coefficients on the training rows (rpm_ref > 10, as
 eq. 20) with Ra held at its measured value, by least squares on the speed error.
 
-Temperature: the thermal effects use temp_C where the log has it (train.temperature_used).
-Where it has none, they use the copper-loss thermal state (physics.thermal_trajectory),
-whose network (th_r_K_per_W, th_tau_s) is then identified too. A thermal state and a
-temperature coefficient are not separable from speed alone (only their product shows), so
-the coefficient is held at its physical value and the network is fitted:
-thermal_ra at copper's +0.00393 /K; magnet_thermal alone at ferrite's -0.002 /K; with
-both, thermal_ra fixes the temperature scale and magnet_thermal's coefficient is fitted.
+Temperature (physics.temperatures, as the boards): a thermal effect brings the winding
+node (th_r_K_per_W, th_tau_s), fitted with the coefficients. Where the log reads the case
+temperature, the copper (thermal_ra) follows the node's rise above the reading and the
+magnets (magnet_thermal) the reading. Where it reads none, the node rises above ambient,
+the magnets follow it too, and a state and a coefficient only show as their product, so
+the coefficient is held at its material value: thermal_ra at copper's +0.00393 /K,
+magnet_thermal alone at ferrite's -0.002 /K. With both thermal effects named, copper's
+coefficient is always held (only the material constant tells the two apart).
 """
 from __future__ import annotations
 
@@ -29,7 +30,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import physics as ph
-from .dataset import Recording, dt_s, lagged, segment_starts
+from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
 from .identify import MIN_RPM, IdentificationError
 
 COPPER_TC_PER_K = 0.00393
@@ -159,12 +160,8 @@ def rows_of(rec: Recording) -> Rows:
     i = df["i_A"].to_numpy(float)
     dt = dt_s(rec)
     di_dt = np.where(starts, 0.0, (i - lagged(i, starts)) / dt)
-    if "temp_C" in df:
-        t = df["temp_C"].to_numpy(float)
-        ok = np.isfinite(t) & (t >= -55.0) & (t <= 125.0)
-    else:
-        t = np.full(rec.n, np.nan)
-        ok = np.zeros(rec.n, bool)
+    t = temp_read_C(rec)
+    ok = np.isfinite(t)
     ref = df["rpm_ref"].to_numpy(float) if "rpm_ref" in df else np.full(rec.n, np.nan)
     good = np.isfinite(ref) & (ref > MIN_RPM)
     idx = np.arange(rec.n)

@@ -11,7 +11,7 @@ from sklearn.preprocessing import StandardScaler
 from tqdm import tqdm
 
 from . import physics as ph
-from .dataset import Recording, dt_s, lagged, segment_starts
+from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
 
 FEATURES = ["v_V", "i_A", "n_M2", "i_A_lag1", "n_M2_lag1"]
 CLAMP_PERCENTILE = 99.0   # paper 4.10: the 99th percentile of absolute training residuals
@@ -31,11 +31,7 @@ class TrainConfig:
 def temperature_used(rec: Recording, p: ph.PhysicsParams) -> ph.Temps:
     """The winding and magnet temperatures the observer feeds the thermal effects
     (physics.temperatures): the case reading where it lies in the sensor's range."""
-    t = np.full(rec.n, np.nan)
-    if "temp_C" in rec.df:
-        t = rec.df["temp_C"].to_numpy(float)
-        t = np.where(np.isfinite(t) & (t >= -55.0) & (t <= 125.0), t, np.nan)
-    return ph.temperatures(p, rec.df["i_A"].to_numpy(float), dt_s(rec), t)
+    return ph.temperatures(p, rec.df["i_A"].to_numpy(float), dt_s(rec), temp_read_C(rec))
 
 
 def physics_rpm(rec: Recording, p: ph.PhysicsParams) -> np.ndarray:
