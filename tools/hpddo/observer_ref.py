@@ -42,11 +42,22 @@ class ModelData:
         return tuple(w.shape[0] for w, _ in self.layers[:-1])
 
 
+def dense_f32(w, b, h):
+    """out[o] = b[o] + w[o, 0] h[0] + w[o, 1] h[1] + ..., each product and each sum rounded
+    to float32 in that order: the order the boards use (mlp.h), and one that no BLAS kernel,
+    CPU or thread count can change (elementwise float32 operations are exact IEEE)."""
+    w = np.asarray(w, F32)
+    acc = np.array(b, F32, copy=True)
+    for k in range(w.shape[1]):
+        acc = (acc + (w[:, k] * F32(h[k])).astype(F32)).astype(F32)
+    return acc
+
+
 def mlp_forward(layers, z):
-    """Dense ReLU network, float32, linear scalar output."""
+    """Dense ReLU network, float32, linear scalar output (summed in the boards' order)."""
     h = np.asarray(z, F32)
     for k, (w, b) in enumerate(layers):
-        h = (np.asarray(w, F32) @ h + np.asarray(b, F32)).astype(F32)
+        h = dense_f32(w, b, h)
         if k < len(layers) - 1:
             h = np.maximum(h, F32(0.0))
     return F32(h[0])
