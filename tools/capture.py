@@ -5,17 +5,32 @@
     python tools/capture.py --port /dev/ttyACM0 --rec warmup --rows 600 -o warmup.csv
 
 The board writes metadata, the header and one row per sample; lines that start
-with "!" are its replies and are shown, not logged. The capture is written to
-a temporary file next to the output and renamed only when it is complete (the
-protocol's "! end" line, --rows or --seconds reached), so an interrupted
-capture never leaves a file that looks whole: it stays as <output>.partial.
+with "!" are its replies and are shown, not logged. Every line is checked as it
+arrives (metadata form, field count, numbers, t_s increasing, duty in 0..1); a
+garbled line is counted, reported with its stream line number and not written.
+
+The rows go to <output>.partial as they arrive. At the end the log is written
+to <output> atomically with the capture's own metadata first:
+"# complete=true" when the board ended the recording ("! end") and no line was
+garbled, else "# complete=false" with "# cut=--rows N" or "# cut=--seconds S"
+when a limit stopped it; "# garbled_rows=N" always. A capture that fails
+(port lost, disk full, Ctrl-C) writes nothing under <output>: the message
+names the fault, the port or file, and <output>.partial, which keeps the rows
+received so far for inspection.
+
+Exit status: 0 log written, 3 log written with garbled rows (complete=false),
+1 capture failed (nothing written to <output>), 130 interrupted.
 Lost samples are reported from gaps in the seq column.
 """
 from __future__ import annotations
 
 import argparse
+import errno
+import math
 import os
 import pathlib
+import re
+import shutil
 import sys
 import time
 
@@ -24,26 +39,70 @@ try:
 except ImportError:  # pragma: no cover
     tqdm = None
 
+try:
+    import serial  # pyserial
+except ImportError:  # pragma: no cover
+    serial = None
+
+#: What a serial port raises when it fails (unplugged, I/O error); SerialException is an OSError.
+PORT_ERRORS = (serial.SerialException, OSError) if serial is not None else (OSError,)
+
+#: Seconds to wait after opening the port: the UNO resets when the port opens.
+BOARD_RESET_S = 2.0
+
+#: Garbled lines reported one by one; the rest are only counted.
+MAX_GARBLED_SHOWN = 20
+
+EXIT_OK, EXIT_FAILED, EXIT_GARBLED, EXIT_INTERRUPTED = 0, 1, 3, 130
+
+REQUIRED_COLUMNS = ("t_s", "duty", "v_V", "i_A")
+OPTIONAL_FLOAT_COLUMNS = ("rpm_ref", "temp_C")
+INT_COLUMNS = ("load", "seq")
+_NUMBER_RE = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
+_INT_RE = re.compile(r"^[+-]?[0-9]+$")
+_META_RE = re.compile(r"^#\s*([A-Za-z0-9_.\-]+)\s*=([^\r\n]*)$")
+
 
 class CaptureError(RuntimeError):
-    pass
+    """A capture that produced no log; the message is one line naming the fault."""
+
+
+class PortError(CaptureError):
+    """The serial port failed (unplugged, I/O error) during the capture."""
+
+
+class OutputError(CaptureError):
+    """A file of the capture could not be written (disk full, permissions)."""
+
+
+def os_fault(exc: OSError) -> str:
+    """The reason of an OSError as text with its errno name, e.g. 'No space left on device (ENOSPC)'."""
+    reason = exc.strerror or str(exc) or type(exc).__name__
+    name = errno.errorcode.get(exc.errno) if exc.errno else None
+    return f"{reason} ({name})" if name else reason
 
 
 class Capture:
-    """State of one recording: the lines kept and the seq bookkeeping."""
+    """State of one recording: the lines kept, the garbled ones and the seq bookkeeping."""
 
     def __init__(self):
         self.meta: list[str] = []
         self.header: str | None = None
+        self.columns: list[str] = []
         self.rows = 0
         self.last_seq: int | None = None
+        self.last_t: float | None = None
         self.gaps: list[tuple[int, int]] = []  # (after seq, lost samples)
+        self.garbled: list[tuple[int, str, str]] = []  # (stream line, fault, text)
         self.ended = False
+        self.cut: str | None = None  # the limit that stopped the capture, e.g. "--rows 600"
         self.replies: list[str] = []
         self.seq_col: int | None = None
+        self.line_no = 0  # lines received from the port, 1-based once one arrived
 
     def feed(self, line: str) -> str | None:
-        """Takes one line; returns the text to write to the log, or None."""
+        """Takes one line; returns the text to write to the log, or None (reply, garbled, not ours)."""
+        self.line_no += 1
         line = line.rstrip("\r\n")
         if not line:
             return None
@@ -55,118 +114,313 @@ class Capture:
         if line.startswith("#"):
             if self.header is not None:  # a new recording started: keep the first one only
                 raise CaptureError("a second recording started before the first one ended")
+            if not _META_RE.match(line):
+                return self._garbled(line, "not a '# key=value' metadata line")
             self.meta.append(line)
             return line
         if self.header is None:
             if not self.meta:
                 return None  # rows of a recording whose start we missed
-            self.header = line
-            cols = line.split(",")
-            self.seq_col = cols.index("seq") if "seq" in cols else None
+            self._set_header(line)
             return line
-        if self.seq_col is not None:
-            try:
-                seq = int(line.split(",")[self.seq_col])
-            except (IndexError, ValueError):
-                raise CaptureError(f"malformed row: {line!r}") from None
-            if self.last_seq is not None and seq != self.last_seq + 1:
-                self.gaps.append((self.last_seq, seq - self.last_seq - 1))
-            self.last_seq = seq
+        fault = self._row_fault(line)
+        if fault is not None:
+            return self._garbled(line, fault)
         self.rows += 1
         return line
 
+    def _set_header(self, line: str) -> None:
+        """Checks and keeps the header; a header without the required columns ends the capture."""
+        cols = [c.strip() for c in line.split(",")]
+        missing = [c for c in REQUIRED_COLUMNS if c not in cols]
+        if missing or len(set(cols)) != len(cols) or "" in cols:
+            raise CaptureError(f"garbled header at stream line {self.line_no}: {line!r} "
+                               f"(needs {','.join(REQUIRED_COLUMNS)}, each column once)")
+        self.header = line
+        self.columns = cols
+        self.seq_col = cols.index("seq") if "seq" in cols else None
+
+    def _row_fault(self, line: str) -> str | None:
+        """What is wrong with a data row against the header and the previous row, or None."""
+        cells = [c.strip() for c in line.split(",")]
+        if len(cells) != len(self.columns):
+            return f"{len(cells)} fields, header has {len(self.columns)}"
+        values = {}
+        for name, cell in zip(self.columns, cells):
+            if name in REQUIRED_COLUMNS or name in OPTIONAL_FLOAT_COLUMNS:
+                if cell == "" and name in OPTIONAL_FLOAT_COLUMNS:
+                    continue
+                if not _NUMBER_RE.match(cell) or not math.isfinite(float(cell)):
+                    return f"{name} {cell!r} is not a finite number"
+                values[name] = float(cell)
+            elif name in INT_COLUMNS and cell != "":
+                if not _INT_RE.match(cell):
+                    return f"{name} {cell!r} is not an integer"
+                values[name] = int(cell)
+        if self.last_t is not None and values["t_s"] <= self.last_t:
+            return f"t_s {values['t_s']!r} not after {self.last_t!r}"
+        if not 0.0 <= values["duty"] <= 1.0:
+            return f"duty {values['duty']!r} outside 0..1"
+        self.last_t = values["t_s"]
+        seq = values.get("seq")
+        if seq is not None:
+            if self.last_seq is not None and seq != self.last_seq + 1:
+                self.gaps.append((self.last_seq, seq - self.last_seq - 1))
+            self.last_seq = seq
+        return None
+
+    def _garbled(self, line: str, fault: str) -> None:
+        """Counts a garbled line; it is not written."""
+        self.garbled.append((self.line_no, fault, line))
+        return None
+
+    def describe_garbled(self, index: int) -> str:
+        """One line saying where garbled line number index was and what was wrong with it."""
+        line_no, fault, text = self.garbled[index]
+        where = f"after row {self.rows} (t_s={self.last_t:g})" if self.last_t is not None else "before the first row"
+        shown = text if len(text) <= 80 else text[:77] + "..."
+        return f"garbled line at stream line {line_no}, {where}, not written: {fault}: {shown!r}"
+
     @property
     def lost(self) -> int:
+        """Samples missing from seq gaps (garbled rows count here too: they are not in the log)."""
         return sum(n for _, n in self.gaps if n > 0)
+
+    @property
+    def complete(self) -> bool:
+        """True when the board ended the recording and every line arrived intact."""
+        return self.ended and not self.garbled
+
+    def metadata(self) -> list[str]:
+        """The capture's own metadata lines, written before the board's."""
+        lines = [f"# complete={'true' if self.complete else 'false'}"]
+        if self.cut is not None:
+            lines.append(f"# cut={self.cut}")
+        lines.append(f"# garbled_rows={len(self.garbled)}")
+        return lines
+
+
+def read_line(port, port_name: str, partial: pathlib.Path) -> bytes:
+    """One readline() from the port; a port fault becomes a PortError naming the port and the partial file."""
+    try:
+        return port.readline()
+    except PORT_ERRORS as exc:
+        fault = str(exc) if serial is not None and isinstance(exc, serial.SerialException) else os_fault(exc)
+        raise PortError(f"lost serial port {port_name} while recording: {fault}; "
+                        f"rows so far kept in {partial} (not a complete log)") from None
+
+
+def write_final(partial: pathlib.Path, out: pathlib.Path, meta_lines: list[str]) -> None:
+    """Writes meta_lines then the partial capture to out atomically (temporary file, fsync, rename)."""
+    tmp = out.with_name(f".{out.name}.tmp")
+    try:
+        with open(tmp, "wb") as dst, open(partial, "rb") as src:
+            dst.write("".join(line + "\n" for line in meta_lines).encode("utf-8"))
+            shutil.copyfileobj(src, dst)
+            dst.flush()
+            os.fsync(dst.fileno())
+        os.replace(tmp, out)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
 
 
 def capture(port, out: pathlib.Path, command: str | None = None, rows: int | None = None,
-            seconds: float | None = None, progress: bool = True, log=print) -> Capture:
-    """Reads lines from an open serial port (anything with write() and readline())
-    into out. Raises KeyboardInterrupt/CaptureError unchanged after keeping the
-    partial file; returns the Capture on success."""
+            seconds: float | None = None, progress: bool = True, log=print, warn=None,
+            port_name: str | None = None) -> Capture:
+    """Reads lines from an open serial port (anything with write() and readline()) into out;
+    raises CaptureError (PortError, OutputError) or KeyboardInterrupt with nothing under out."""
     out = pathlib.Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
     partial = out.with_name(out.name + ".partial")
+    port_name = port_name or getattr(port, "port", None) or "the serial port"
+    if warn is None:
+        def warn(text):
+            (tqdm.write if tqdm else print)(text, file=sys.stderr)
     cap = Capture()
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        f = open(partial, "w", encoding="utf-8", newline="\n")
+    except OSError as exc:
+        raise OutputError(f"cannot create {partial}: {os_fault(exc)}; nothing recorded") from None
     if command:
-        port.write((command + "\n").encode())
+        try:
+            port.write((command + "\n").encode())
+        except PORT_ERRORS as exc:
+            f.close()
+            partial.unlink()
+            raise PortError(f"cannot send {command!r} to serial port {port_name}: {exc}; "
+                            f"nothing recorded") from None
     start = time.monotonic()
     bar = tqdm(total=rows, unit="row", disable=not progress) if tqdm else None
+    pending = b""  # the start of a line that a read timeout cut
     try:
-        with open(partial, "w", encoding="utf-8", newline="\n") as f:
+        with f:
             while True:
-                raw = port.readline()
+                raw = read_line(port, port_name, partial)
+                if raw and not raw.endswith(b"\n"):
+                    pending += raw
+                    raw = b""
+                elif raw:
+                    raw, pending = pending + raw, b""
                 if not raw:
                     if seconds is not None and time.monotonic() - start >= seconds:
+                        cap.cut = f"--seconds {seconds:g}"
                         break
                     continue
                 text = raw.decode("utf-8", errors="replace")
-                kept = cap.feed(text)
+                n_garbled, n_rows = len(cap.garbled), cap.rows
+                try:
+                    kept = cap.feed(text)
+                except CaptureError as exc:  # garbled header, a second recording
+                    raise CaptureError(f"{exc}; nothing written to {out}, what arrived is in {partial}") from None
                 if kept is not None:
                     f.write(kept + "\n")
-                    if cap.header is not None and not kept.startswith("#") and kept != cap.header:
-                        if bar is not None:
-                            bar.update(1)
-                            if cap.gaps:
-                                bar.set_postfix(lost=cap.lost)
+                    if cap.rows > n_rows and bar is not None:
+                        bar.update(1)
+                        if cap.gaps or cap.garbled:
+                            bar.set_postfix(lost=cap.lost, garbled=len(cap.garbled))
                 elif text.startswith("!"):
                     log(text.rstrip())
-                if cap.ended or (rows is not None and cap.rows >= rows):
+                if len(cap.garbled) > n_garbled:
+                    if len(cap.garbled) <= MAX_GARBLED_SHOWN:
+                        warn(cap.describe_garbled(-1))
+                    elif len(cap.garbled) == MAX_GARBLED_SHOWN + 1:
+                        warn(f"more garbled lines: counted, not shown (first at stream line {cap.line_no})")
+                if cap.ended:
+                    break
+                if rows is not None and cap.rows >= rows:
+                    cap.cut = f"--rows {rows}"
                     break
                 if seconds is not None and time.monotonic() - start >= seconds:
+                    cap.cut = f"--seconds {seconds:g}"
                     break
             f.flush()
             os.fsync(f.fileno())
+    except OSError as exc:  # port faults arrive as PortError, so this is the partial file
+        raise OutputError(f"cannot write {partial}: {os_fault(exc)}; nothing written to {out}, "
+                          f"rows so far kept in {partial} (not a complete log)") from None
     finally:
         if bar is not None:
             bar.close()
     if cap.header is None or cap.rows == 0:
-        raise CaptureError(f"no rows recorded; partial capture kept in {partial}")
-    os.replace(partial, out)
+        garbled = f", {len(cap.garbled)} garbled lines" if cap.garbled else ""
+        raise CaptureError(f"no rows recorded from {port_name}{garbled}; nothing written to {out}, "
+                           f"what arrived is in {partial}")
+    try:
+        write_final(partial, out, cap.metadata())
+    except OSError as exc:
+        raise OutputError(f"cannot write {out}: {os_fault(exc)}; nothing written to {out}, "
+                          f"the rows are in {partial} (not a complete log)") from None
+    try:
+        partial.unlink()
+    except OSError:
+        pass
     return cap
 
 
-def main(argv=None) -> int:
+def send_stop(port) -> None:
+    """Asks the board to stop recording; a port that is already gone is not an error here."""
+    try:
+        port.write(b"stop\n")
+    except PORT_ERRORS:
+        pass
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: an integer of at least 1."""
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text} is not a positive integer")
+    return value
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    """The command line options."""
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--port", required=True, help="serial port of the UNO, e.g. /dev/ttyACM0 or COM3")
-    ap.add_argument("--baud", type=int, default=115200)
+    ap.add_argument("--baud", type=int, default=115200, help="baud rate of the port (default 115200)")
     ap.add_argument("-o", "--output", required=True, type=pathlib.Path, help="bench log to write")
     what = ap.add_mutually_exclusive_group()
     what.add_argument("--run", choices=["sweep", "load", "long"], help="start this protocol and record it")
     what.add_argument("--rec", metavar="CONDITION", help="start a recording by hand with this condition")
     ap.add_argument("--rate", type=float, help="set the sample rate first (Hz)")
     ap.add_argument("--hold", type=float, help="set the protocol step length first (s)")
-    ap.add_argument("--rows", type=int, help="stop after this many rows")
-    ap.add_argument("--seconds", type=float, help="stop after this many seconds")
-    ap.add_argument("--no-progress", action="store_true")
-    a = ap.parse_args(argv)
-    import serial  # pyserial
+    ap.add_argument("--rows", type=positive_int, help="stop after this many rows (the log says complete=false, cut=--rows N)")
+    ap.add_argument("--seconds", type=float,
+                    help="stop after this many seconds (the log says complete=false, cut=--seconds S)")
+    ap.add_argument("--no-progress", action="store_true", help="no progress bar")
+    return ap.parse_args(argv)
 
-    with serial.Serial(a.port, a.baud, timeout=1.0) as port:
-        time.sleep(2.0)  # the UNO resets when the port opens
-        port.reset_input_buffer()
-        for cmd, val in (("rate", a.rate), ("hold", a.hold)):
-            if val is not None:
-                port.write(f"{cmd} {val:g}\n".encode())
-                print(port.readline().decode(errors="replace").rstrip())
+
+def record(a: argparse.Namespace) -> int:
+    """Opens the port, sets the board up, captures, and reports; returns the exit status."""
+    if serial is None:  # pragma: no cover
+        print("capture failed: pyserial is not installed (pip install pyserial)", file=sys.stderr)
+        return EXIT_FAILED
+    try:
+        port = serial.Serial(a.port, a.baud, timeout=1.0)
+    except PORT_ERRORS as exc:
+        print(f"capture failed: cannot open serial port {a.port}: {exc}", file=sys.stderr)
+        return EXIT_FAILED
+    try:
+        try:
+            time.sleep(BOARD_RESET_S)
+            port.reset_input_buffer()
+            for cmd, val in (("rate", a.rate), ("hold", a.hold)):
+                if val is not None:
+                    port.write(f"{cmd} {val:g}\n".encode())
+                    print(port.readline().decode(errors="replace").rstrip())
+        except PORT_ERRORS as exc:
+            print(f"capture failed: serial port {a.port} failed while setting up the board: {exc}; "
+                  f"nothing written to {a.output}", file=sys.stderr)
+            return EXIT_FAILED
         command = f"run {a.run}" if a.run else f"rec {a.rec}" if a.rec else None
         try:
-            cap = capture(port, a.output, command, a.rows, a.seconds, progress=not a.no_progress)
+            cap = capture(port, a.output, command, a.rows, a.seconds, progress=not a.no_progress,
+                          port_name=a.port)
         except KeyboardInterrupt:
-            port.write(b"stop\n")
-            print(f"interrupted: nothing written to {a.output}; partial rows in {a.output}.partial",
-                  file=sys.stderr)
-            return 130
+            send_stop(port)
+            print(f"interrupted: nothing written to {a.output}; rows so far kept in {a.output}.partial "
+                  f"(not a complete log)", file=sys.stderr)
+            return EXIT_INTERRUPTED
         except CaptureError as e:
+            send_stop(port)
             print(f"capture failed: {e}", file=sys.stderr)
-            return 1
+            return EXIT_FAILED
         if not cap.ended:
-            port.write(b"stop\n")
+            send_stop(port)
+    finally:
+        try:
+            port.close()
+        except PORT_ERRORS:
+            pass
     print(f"{a.output}: {cap.rows} rows, {len(cap.gaps)} seq gaps, {cap.lost} samples lost")
     for after, n in cap.gaps:
         print(f"  gap after seq {after}: {n} lost")
-    return 0
+    if cap.complete:
+        print(f"{a.output}: complete=true (the board ended the recording)", file=sys.stderr)
+        return EXIT_OK
+    why = [f"cut by {cap.cut} before the board ended the recording" if cap.cut else None,
+           f"{len(cap.garbled)} garbled row{'s' if len(cap.garbled) != 1 else ''} not written "
+           f"(stream lines {', '.join(str(n) for n, _, _ in cap.garbled[:10])}"
+           f"{', ...' if len(cap.garbled) > 10 else ''})" if cap.garbled else None]
+    print(f"{'WARNING: ' if cap.garbled else ''}{a.output}: complete=false, "
+          f"{'; '.join(w for w in why if w)}", file=sys.stderr)
+    return EXIT_GARBLED if cap.garbled else EXIT_OK
+
+
+def main(argv=None) -> int:
+    """Runs the capture from the command line; returns the exit status."""
+    a = parse_args(argv)
+    try:
+        return record(a)
+    except KeyboardInterrupt:
+        print(f"interrupted before recording started on {a.port}: nothing written to {a.output}",
+              file=sys.stderr)
+        return EXIT_INTERRUPTED
 
 
 if __name__ == "__main__":
