@@ -349,3 +349,21 @@ def test_main_garbled_rows_exit_3(tmp_path, monkeypatch, capsys):
     err = capsys.readouterr().err
     assert code == 3 and "1 garbled row" in err and "complete=false" in err
     assert read_log(out).meta["garbled_rows"] == "1"
+
+
+def test_garbled_header_fails_naming_the_partial(tmp_path):
+    stream = ["# condition=sweep", "t_s,du\ufffd,v_V,i_A"] + plain_rows(3)
+    out = tmp_path / "hdr.csv"
+    with pytest.raises(capture.CaptureError, match=r"garbled header at stream line 2.*hdr\.csv\.partial"):
+        capture.capture(FakePort(stream), out, seconds=0.05, progress=False, log=quiet, warn=quiet)
+    assert not out.exists()
+
+
+def test_a_flood_of_garbled_rows_is_counted_and_shown_only_in_part(tmp_path):
+    stream = HEAD_NO_SEQ + plain_rows(1) + ["x,y"] * 50 + plain_rows(2, start=1) + ["! end"]
+    warnings = []
+    cap = capture.capture(FakePort(stream), tmp_path / "f.csv", progress=False, log=quiet,
+                          warn=warnings.append)
+    assert len(cap.garbled) == 50 and cap.rows == 3
+    assert len(warnings) == capture.MAX_GARBLED_SHOWN + 1 and "not shown" in warnings[-1]
+    assert read_log(tmp_path / "f.csv").meta["garbled_rows"] == "50"
