@@ -1,4 +1,4 @@
-"""Bench log reader/writer: round trip, every named fault, column order and extras."""
+"""Bench log reader/writer (docs/bench-log.md): round trip, every named fault, column order and extras."""
 import math
 import os
 
@@ -91,10 +91,19 @@ def test_bom_and_crlf_tolerated(tmp_path):
     assert log.meta["condition"] == "sweep" and len(log.df) == 3
 
 
-def test_nullable_int_with_empty_cells(tmp_path):
-    log = read_log(_write(tmp_path, "t_s,duty,v_V,i_A,seq\n0,0,0,0,1\n1,0,0,0,\n"))
-    assert str(log.df["seq"].dtype) == "Int64"
-    assert log.df["seq"].iloc[0] == 1 and pd.isna(log.df["seq"].iloc[1])
+def test_empty_seq_cell_is_refused(tmp_path):
+    # a counter with holes cannot be checked for gaps: seq is in every row or absent
+    with pytest.raises(BenchLogError) as ei:
+        read_log(_write(tmp_path, "t_s,duty,v_V,i_A,seq\n0,0,0,0,1\n1,0,0,0,\n"))
+    assert ei.value.line == 3 and ei.value.kind == "empty value"
+
+
+def test_lines_are_file_lines(tmp_path):
+    text = "\ufeff# a=1\r\n# b=2\n" + HDR + ROW0 + "0.5,0.5,6.0,0.3,,31.7,0,1\r\n" + "1.0,0.5,6.0,0.3,1,,0,2"
+    log = read_log(_write(tmp_path, text))
+    assert log.lines.dtype == np.int64
+    assert log.lines.tolist() == [4, 5, 6]
+    assert log.df["seq"].dtype == np.int64 and log.df["load"].dtype == np.int64
 
 
 HDR = "t_s,duty,v_V,i_A,rpm_ref,temp_C,load,seq\n"
@@ -103,9 +112,9 @@ ROW0 = "0.0,0.5,6.0,0.3,100.0,31.7,0,0\n"
 FAULTS = [
     # (name, text, expected line, words in the message)
     ("empty file", "", 1, "empty file"),
-    ("only newlines", "\n\n", 1, "empty file"),
-    ("only metadata", "# condition=x\n", 1, "no header"),
-    ("header no rows", "# condition=x\n" + HDR, 2, "header with no rows"),
+    ("only newlines", "\n\n", 1, "blank line"),
+    ("only metadata", "# condition=x\n", 2, "no header"),
+    ("header no rows", "# condition=x\n" + HDR, 3, "header with no rows"),
     ("malformed metadata", "# condition=x\n# just words\n" + HDR + ROW0, 2, "malformed metadata"),
     ("metadata empty key", "#=3\n" + HDR + ROW0, 1, "malformed metadata"),
     ("missing column", "t_s,duty,v_V\n0,0,0\n", 1, "missing required column(s) i_A"),
@@ -113,14 +122,17 @@ FAULTS = [
     ("empty required", HDR + ROW0 + "0.5,0.5,6.0,,100,31.7,0,1\n", 3, "empty value in required column i_A"),
     ("non-finite required", HDR + ROW0 + "0.5,0.5,inf,0.3,100,31.7,0,1\n", 3, "non-finite value 'inf' in column v_V"),
     ("nan required", HDR + ROW0 + "nan,0.5,6,0.3,100,31.7,0,1\n", 3, "non-finite value 'nan' in column t_s"),
-    ("t_s equal", HDR + ROW0 + "0.0,0.5,6,0.3,100,31.7,0,1\n", 3, "t_s not strictly increasing"),
-    ("t_s decreasing", HDR + ROW0 + "1.0,0.5,6,0.3,100,31.7,0,1\n0.5,0.5,6,0.3,100,31.7,0,2\n", 4, "t_s not strictly increasing"),
-    ("duty > 1", HDR + ROW0 + "0.5,1.2,6,0.3,100,31.7,0,1\n", 3, "duty 1.2 outside 0..1"),
+    ("t_s equal", HDR + ROW0 + "0.0,0.5,6,0.3,100,31.7,0,1\n", 3, "t_s not increasing"),
+    ("t_s decreasing", HDR + ROW0 + "1.0,0.5,6,0.3,100,31.7,0,1\n0.5,0.5,6,0.3,100,31.7,0,2\n", 4, "t_s not increasing"),
+    ("duty > 1", HDR + ROW0 + "0.5,1.2,6,0.3,100,31.7,0,1\n", 3, "duty outside 0..1: 1.2"),
     ("duty < 0", HDR + "0.0,-0.1,6,0.3,100,31.7,0,1\n", 2, "outside 0..1"),
     ("too many fields", HDR + ROW0 + "0.5,0.5,6,0.3,100,31.7,0,1,9\n", 3, "row has 9 fields, header has 8"),
     ("too few fields", HDR + ROW0 + "0.5,0.5,6,0.3\n", 3, "row has 4 fields, header has 8"),
     ("blank line inside", HDR + ROW0 + "\n" + "0.5,0.5,6,0.3,100,31.7,0,1\n", 3, "blank line"),
-    ("comment after header", HDR + ROW0 + "# late=1\n", 3, "after the header"),
+    ("comment after header", HDR + ROW0 + "# late=1\n", 3, "metadata after header"),
+    ("cr inside a row", HDR + ROW0 + "0.5,0.5\r,6,0.3,100,31.7,0,1\n", 3, "carriage return"),
+    ("seq beyond int64", HDR + ROW0 + "0.5,0.5,6,0.3,100,31.7,0,99999999999999999999\n", 3, "out of range"),
+    ("load beyond int64", HDR + ROW0 + "0.5,0.5,6,0.3,100,31.7,99999999999999999999,1\n", 3, "out of range"),
     ("non-integer load", HDR + ROW0 + "0.5,0.5,6,0.3,100,31.7,1.5,1\n", 3, "non-integer value '1.5' in column load"),
     ("non-integer seq", HDR + ROW0 + "0.5,0.5,6,0.3,100,31.7,1,x\n", 3, "non-integer value 'x' in column seq"),
     ("text in rpm_ref", HDR + ROW0 + "0.5,0.5,6,0.3,fast,31.7,1,1\n", 3, "non-numeric value 'fast' in column rpm_ref"),
@@ -169,6 +181,22 @@ def test_writer_refuses_bad_frames(tmp_path):
         write_log(tmp_path / "a.csv", good.assign(t_s=[0.5, 0.5]), {})
     with pytest.raises(ValueError):
         write_log(tmp_path / "a.csv", good, {"note": "two\nlines"})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good, {"my key": "x"})
+    with pytest.raises(ValueError):  # increasing in float, equal once written with 4 decimals
+        write_log(tmp_path / "a.csv", good.assign(t_s=[0.00001, 0.00002]), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.assign(rpm_ref=[1.0, np.inf]), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.assign(seq=pd.array([0, None], dtype="Int64")), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.assign(seq=[0.0, 1.5]), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.assign(load=[0, 256]), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.assign(**{" pad": [1, 2]}), {})
+    with pytest.raises(ValueError):
+        write_log(tmp_path / "a.csv", good.assign(note=["a,b", "c"]), {})
     assert not any(tmp_path.iterdir())  # nothing written, no temp files
 
 

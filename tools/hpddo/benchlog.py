@@ -1,4 +1,4 @@
-"""Reader and writer for the bench log format (docs: /spec bench-log.md).
+"""Reader and writer for the bench log format, specified in docs/bench-log.md.
 
 A bench log is UTF-8 CSV text::
 
@@ -7,28 +7,29 @@ A bench log is UTF-8 CSV text::
     t_s,duty,v_V,i_A,rpm_ref,temp_C,load
     0.0,0.000,0.012,0.003,0.0,31.7,0
 
-`read_log` accepts every file that follows the format and refuses any other with a
-`BenchLogError` whose message names the file, the 1-based line number in the file
-and the fault. It never drops a row.
+`read_log` accepts every file that follows docs/bench-log.md and refuses any other with
+a `BenchLogError` whose message names the file, the 1-based line number in the file
+and the fault (``.line``, ``.kind`` the fault keyword of the specification). It never
+drops a row. The C++ reader host/bench_log.h follows the same page; the conformance
+corpus test/fixtures/logs/ and a differential fuzz test keep the two in agreement.
 
-Conventions of the returned DataFrame (``BenchLog.df``):
+Conventions of the returned `BenchLog`:
 
-* all columns of the file are kept, in file order; extra columns are kept too
-  (numeric where every non-empty cell is a number, text otherwise);
+* ``df``: all columns of the file, in file order; extra columns are kept too
+  (float where every non-empty cell is a number, text otherwise);
 * an optional column that is absent from the file is absent from ``df``
   (it is *not* added as an all-NaN column);
 * required columns ``t_s, duty, v_V, i_A`` are float64 and always finite;
 * ``rpm_ref`` and ``temp_C`` are float64, an empty cell is NaN;
-* ``load`` and ``seq`` are int64, or pandas' nullable ``Int64`` (empty cell = <NA>)
-  when the column has empty cells.
+* ``load`` and ``seq`` are int64 (the format has no empty cell there);
+* ``lines``: int64 array, the 1-based file line of each row of ``df``.
 
-`write_log` writes the exact format atomically (temporary file in the same
-directory, then ``os.replace``), so a reader never sees a partial file.
+`write_log` writes only files the format accepts, atomically (temporary file in the
+same directory, then ``os.replace``), so a reader never sees a partial file.
 """
 from __future__ import annotations
 
 import dataclasses
-import io
 import math
 import os
 import pathlib
@@ -46,6 +47,8 @@ __all__ = [
     "OPTIONAL_INT_COLUMNS",
     "KNOWN_COLUMNS",
     "COLUMN_FORMATS",
+    "INT_MAX",
+    "FAULTS",
     "read_log",
     "write_log",
     "write_text_atomic",
@@ -55,6 +58,18 @@ REQUIRED_COLUMNS = ("t_s", "duty", "v_V", "i_A")
 OPTIONAL_FLOAT_COLUMNS = ("rpm_ref", "temp_C")
 OPTIONAL_INT_COLUMNS = ("load", "seq")
 KNOWN_COLUMNS = REQUIRED_COLUMNS + OPTIONAL_FLOAT_COLUMNS + OPTIONAL_INT_COLUMNS
+
+#: Largest value of each integer column (docs/bench-log.md, Integers).
+INT_MAX = {"load": 255, "seq": 2**53 - 1}
+
+#: Fault keywords of docs/bench-log.md, in the order a line is checked.
+FAULTS = (
+    "not UTF-8", "empty file", "carriage return", "blank line", "malformed metadata",
+    "duplicate metadata key", "no header", "empty column name", "duplicate column",
+    "missing required column", "no rows", "metadata after header", "field count",
+    "empty value", "non-finite", "non-numeric", "non-integer", "out of range",
+    "t_s not increasing", "duty outside 0..1",
+)
 
 #: printf formats used by `write_log` for the known columns. The digits keep what
 #: the acquisition chain resolves (10-bit ADC, 0.0625 C sensor, encoder counts)
@@ -70,28 +85,44 @@ COLUMN_FORMATS = {
     "seq": "%d",
 }
 
-_INT_RE = re.compile(r"^[+-]?[0-9]+$")
-_META_KEY_RE = re.compile(r"^[A-Za-z0-9_.\-]+$")
+_PAD = " \t"  # the only padding the format knows
+_META_KEY_RE = re.compile(r"[A-Za-z0-9_.\-]+")
+_META_RE = re.compile(r"#[ \t]*([^=]*?)[ \t]*=(.*)", re.S)
+_NUMBER_RE = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+_NONFINITE_RE = r"[+-]?(?:[iI][nN][fF](?:[iI][nN][iI][tT][yY])?|[nN][aA][nN])"
+_NUMBER_CHARS = frozenset("0123456789+-.eE")
+_DIGITS = frozenset("0123456789")
+_DBL_MIN = 2.2250738585072014e-308
 
 
 class BenchLogError(ValueError):
     """A bench log that does not follow the format. The message names file, line, fault."""
 
-    def __init__(self, path, line, fault):
+    def __init__(self, path, line, fault, kind=None):
         self.path = str(path)
         self.line = line
         self.fault = fault
+        self.kind = kind  # the fault keyword of docs/bench-log.md, None for other errors
         where = f"{self.path}:{line}" if line is not None else self.path
         super().__init__(f"{where}: {fault}")
 
 
+class _Fault(Exception):
+    """A format fault found while parsing: its line, keyword and message."""
+
+    def __init__(self, line, kind, message):
+        super().__init__(message)
+        self.line, self.kind, self.message = line, kind, message
+
+
 @dataclasses.dataclass
 class BenchLog:
-    """One recording: its path, its ``# key=value`` metadata and its rows."""
+    """One recording: its path, its ``# key=value`` metadata, its rows and their file lines."""
 
     path: pathlib.Path
     meta: dict
     df: pd.DataFrame
+    lines: np.ndarray = None  # 1-based file line of each row of df
 
     @property
     def condition(self) -> str:
@@ -110,19 +141,6 @@ class BenchLog:
 # ----------------------------------------------------------------------------- reading
 
 
-def _decode(path, raw: bytes) -> str:
-    try:
-        return raw.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        line = raw[: exc.start].count(b"\n") + 1
-        raise BenchLogError(path, line, f"not UTF-8 text (byte 0x{raw[exc.start]:02x})") from None
-
-
-def _first_bad(mask: np.ndarray):
-    idx = np.flatnonzero(mask)
-    return int(idx[0]) if idx.size else None
-
-
 def read_log(path) -> BenchLog:
     """Read and validate a bench log; raise `BenchLogError` on any format fault."""
     path = pathlib.Path(path)
@@ -130,154 +148,239 @@ def read_log(path) -> BenchLog:
         raw = path.read_bytes()
     except OSError as exc:
         raise BenchLogError(path, None, f"cannot read file: {exc.strerror or exc}") from None
-    text = _decode(path, raw)
+    try:
+        meta, df, lines = parse_log_bytes(raw)
+    except _Fault as f:
+        raise BenchLogError(path, f.line, f.message, f.kind) from None
+    return BenchLog(path=path, meta=meta, df=df, lines=lines)
+
+
+def parse_log_bytes(raw: bytes):
+    """Parses the bytes of a bench log into (meta, df, lines); raises _Fault on a format fault."""
+    if raw[:3] == b"\xef\xbb\xbf":
+        raw = raw[3:]
+    if not raw:
+        raise _Fault(1, "empty file", "empty file")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise _Fault(line, "not UTF-8", f"not UTF-8 text (byte 0x{raw[exc.start]:02x})") from None
+
+    cr_line = None  # the first line with a CR that does not end it (checked first on its line)
+    if "\r" in text:
+        text = text.replace("\r\n", "\n")
+        k = text.find("\r")
+        if k >= 0:
+            cr_line = text.count("\n", 0, k) + 1
     lines = text.split("\n")
-    if lines and lines[-1] == "":
-        lines.pop()  # the newline that ends the last line
-    lines = [ln[:-1] if ln.endswith("\r") else ln for ln in lines]
-    # trailing blank lines at the end of the file carry nothing; tolerate them
-    while lines and lines[-1].strip() == "":
-        lines.pop()
-    if not lines:
-        raise BenchLogError(path, 1, "empty file (no header, no rows)")
+    if lines[-1] == "":
+        lines.pop()  # the line end of the last line
+    n = len(lines)
+
+    def fault(line, kind, message):
+        if cr_line is not None and cr_line <= line:
+            raise _Fault(cr_line, "carriage return",
+                         "carriage return inside a line (only CR LF ends a line)")
+        raise _Fault(line, kind, message)
 
     meta: dict = {}
     i = 0
-    n = len(lines)
-    while i < n and (lines[i].startswith("#") or lines[i].strip() == ""):
+    while i < n:
         ln = lines[i]
-        if ln.startswith("#"):
-            body = ln[1:].strip()
-            key, sep, value = body.partition("=")
-            key = key.strip()
-            if not sep or not key or not _META_KEY_RE.match(key):
-                raise BenchLogError(
-                    path, i + 1, f"malformed metadata line {ln!r} (expected '# key=value')"
-                )
-            meta[key] = value.strip()
+        if not ln.strip(_PAD):
+            fault(i + 1, "blank line", "blank line")
+        if not ln.startswith("#"):
+            break
+        m = _META_RE.fullmatch(ln)
+        if m is None or not _META_KEY_RE.fullmatch(m.group(1)):
+            fault(i + 1, "malformed metadata",
+                  f"malformed metadata line {ln!r} (expected '# key=value', key of A-Z a-z 0-9 _ . -)")
+        key = m.group(1)
+        if key in meta:
+            fault(i + 1, "duplicate metadata key", f"duplicate metadata key {key!r}")
+        meta[key] = m.group(2).strip(_PAD)
         i += 1
     if i >= n:
-        raise BenchLogError(path, n, "no header row (only metadata)")
+        fault(n + 1, "no header", "no header row after the metadata")
 
-    header_lineno = i + 1
-    columns = [c.strip() for c in lines[i].split(",")]
-    if any(c == "" for c in columns):
-        raise BenchLogError(path, header_lineno, "header has an empty column name")
+    hline = i + 1
+    columns = [c.strip(_PAD) for c in lines[i].split(",")]
     seen = set()
     for c in columns:
+        if c == "":
+            fault(hline, "empty column name", "empty column name in header")
         if c in seen:
-            raise BenchLogError(path, header_lineno, f"duplicate column {c!r} in header")
+            fault(hline, "duplicate column", f"duplicate column {c!r} in header")
         seen.add(c)
     missing = [c for c in REQUIRED_COLUMNS if c not in seen]
     if missing:
-        raise BenchLogError(
-            path, header_lineno, f"missing required column(s) {', '.join(missing)} in header"
-        )
-
-    data = lines[i + 1 :]
-    first_data_lineno = header_lineno + 1
+        fault(hline, "missing required column",
+              f"missing required column(s) {', '.join(missing)} in header")
+    data = lines[i + 1:]
     if not data:
-        raise BenchLogError(path, header_lineno, "header with no rows")
+        fault(hline + 1, "no rows", "header with no rows")
+    first = hline + 1  # file line of data[0]
 
+    # Structure of the row lines: the first line that is blank, metadata or of the wrong
+    # field count ends what the cells are read from (a cell fault before it comes first).
     ncomma = len(columns) - 1
-    for k, ln in enumerate(data):
-        if ln.count(",") != ncomma:
-            lineno = first_data_lineno + k
-            if ln.strip() == "":
-                fault = "blank line among the rows"
-            elif ln.startswith("#"):
-                fault = "metadata/comment line after the header"
-            else:
-                fault = (
-                    f"row has {ln.count(',') + 1} fields, header has {len(columns)}"
-                )
-            raise BenchLogError(path, lineno, fault)
+    counts = np.fromiter((ln.count(",") for ln in data), dtype=np.int64, count=len(data))
+    bad_row = _first(counts != ncomma)
+    hash_row = _first_hash_row(data)
+    if hash_row is not None and (bad_row is None or hash_row < bad_row):
+        bad_row = hash_row
+    struct = None
+    if bad_row is not None:
+        ln = data[bad_row]
+        if not ln.strip(_PAD):
+            struct = ("blank line", "blank line")
+        elif ln.startswith("#"):
+            struct = ("metadata after header", f"metadata after header: {ln!r}")
+        else:
+            struct = ("field count",
+                      f"field count: row has {ln.count(',') + 1} fields, header has {len(columns)}")
+        data = data[:bad_row]
+    if cr_line is not None and cr_line - first < len(data):
+        data = data[:max(cr_line - first, 0)]
 
-    frame = pd.read_csv(
-        io.StringIO("\n".join(data)),
-        header=None,
-        names=columns,
-        dtype=str,
-        keep_default_na=False,
-        na_filter=False,
-        skip_blank_lines=False,
-        engine="c",
-        quoting=3,  # csv.QUOTE_NONE: the format has no quoting
-    )
-    if len(frame) != len(data):  # cannot happen after the field check; never drop rows
-        raise BenchLogError(path, first_data_lineno, "rows could not be parsed one to one")
+    nrows = len(data)
+    joined = ",".join(data)
+    if nrows:  # every row has len(columns) fields: one split, one reshape
+        cells = np.array(joined.split(","), dtype=object).reshape(nrows, len(columns))
+    else:
+        cells = np.empty((0, len(columns)), dtype=object)
+    padded = " " in joined or "\t" in joined
 
     out = {}
-    for col in columns:
-        s = frame[col].str.strip()
-        vals = s.to_numpy(dtype=object)
-        empty = vals == ""
+    best = None  # (row, column index, kind, message) of the first cell fault
+    for j, col in enumerate(columns):
+        vals = cells[:, j]
+        if padded:
+            vals = pd.Series(vals, dtype=object).str.strip(_PAD).to_numpy(dtype=object)
         if col in REQUIRED_COLUMNS or col in OPTIONAL_FLOAT_COLUMNS:
-            num = pd.to_numeric(s, errors="coerce").to_numpy(dtype=float)
-            if col in REQUIRED_COLUMNS:
-                bad = _first_bad(empty)
-                if bad is not None:
-                    raise BenchLogError(
-                        path, first_data_lineno + bad, f"empty value in required column {col}"
-                    )
-            cand = np.isnan(num) & ~empty
-            if cand.any():  # a spelled-out NaN is non-finite, anything else non-numeric
-                idx = np.flatnonzero(cand)
-                cand[idx] = ~_nan_text(vals[idx])
-            bad_nonnum = _first_bad(cand)
-            bad_nonfin = _first_bad(~np.isfinite(num) & ~empty)
-            cands = [b for b in (bad_nonnum, bad_nonfin) if b is not None]
-            if cands:
-                b = min(cands)
-                kind = "non-numeric" if b == bad_nonnum else "non-finite"
-                raise BenchLogError(
-                    path, first_data_lineno + b, f"{kind} value {vals[b]!r} in column {col}"
-                )
-            out[col] = num
+            x, bad = _parse_numbers(vals, col, required=col in REQUIRED_COLUMNS)
+            if col == "t_s" and nrows > 1:
+                inc = np.zeros(nrows, bool)
+                inc[1:] = ~(x[1:] > x[:-1])
+                bad = _merge(bad, inc, "t_s not increasing",
+                             lambda r: f"t_s not increasing: {vals[r]} after {vals[r - 1]}")
+            elif col == "duty":
+                bad = _merge(bad, (x < 0) | (x > 1), "duty outside 0..1",
+                             lambda r: f"duty outside 0..1: {vals[r]}")
+            out[col] = x
         elif col in OPTIONAL_INT_COLUMNS:
-            ok = s.str.fullmatch(r"[+-]?[0-9]+").to_numpy(dtype=bool)
-            bad = _first_bad(~ok & ~empty)
-            if bad is not None:
-                raise BenchLogError(
-                    path, first_data_lineno + bad, f"non-integer value {vals[bad]!r} in column {col}"
-                )
-            if empty.any():
-                out[col] = pd.array(
-                    [None if e else int(v) for v, e in zip(vals, empty)], dtype="Int64"
-                )
-            else:
-                out[col] = s.astype(np.int64).to_numpy()
+            x, bad = _parse_ints(vals, col)
+            out[col] = x
         else:
-            num = pd.to_numeric(s, errors="coerce")
-            if not (num.isna().to_numpy() & ~empty).any():
-                out[col] = num.to_numpy(dtype=float)
-            else:
-                out[col] = s.to_numpy(dtype=object)
+            out[col] = _extra(vals)
+            bad = None
+        if bad is not None and (best is None or bad[0] < best[0]):
+            best = (bad[0], j, bad[1], bad[2])
+    if best is not None:
+        fault(first + best[0], best[2], best[3])
+    if struct is not None:
+        fault(first + bad_row, *struct)
+    if cr_line is not None:
+        fault(cr_line, "", "")
 
     df = pd.DataFrame(out, columns=columns)
-
-    t = df["t_s"].to_numpy()
-    if len(t) > 1:
-        bad = _first_bad(np.diff(t) <= 0)
-        if bad is not None:
-            raise BenchLogError(
-                path,
-                first_data_lineno + bad + 1,
-                f"t_s not strictly increasing ({float(t[bad + 1])!r} after {float(t[bad])!r})",
-            )
-    d = df["duty"].to_numpy()
-    bad = _first_bad((d < 0) | (d > 1))
-    if bad is not None:
-        raise BenchLogError(path, first_data_lineno + bad, f"duty {float(d[bad])!r} outside 0..1")
-
-    return BenchLog(path=path, meta=meta, df=df)
+    return meta, df, np.arange(first, first + nrows, dtype=np.int64)
 
 
-def _nan_text(vals: np.ndarray) -> np.ndarray:
-    """Cells that spell a NaN ('nan', 'NaN'): numeric but non-finite, not 'non-numeric'."""
-    return np.fromiter(
-        (v.lower() in ("nan", "+nan", "-nan") for v in vals), dtype=bool, count=len(vals)
-    )
+def _first(mask):
+    idx = np.flatnonzero(mask)
+    return int(idx[0]) if idx.size else None
+
+
+def _first_hash_row(data):
+    """Index of the first row line that starts with '#', or None."""
+    body = "\n" + "\n".join(data)
+    k = body.find("\n#")
+    return None if k < 0 else body.count("\n", 0, k + 1) - 1
+
+
+def _merge(bad, mask, kind, message):
+    """The earlier of a cell fault so far (row, kind, message) and the first row of mask."""
+    r = _first(mask)
+    if r is None or (bad is not None and bad[0] <= r):
+        return bad
+    return (r, kind, message(r))
+
+
+def _cells_off(vals, chars):
+    """True when some cell has a character outside chars (or is empty)."""
+    return not set("".join(vals)) <= chars
+
+
+def _parse_numbers(vals, col, required):
+    """Float values of a number column and its first cell fault (row, kind, message) or None."""
+    nrows = len(vals)
+    empty = vals == ""
+    has_empty = bool(empty.any())
+    x = np.full(nrows, np.nan)
+    bad = None
+    fast = not _cells_off(vals, _NUMBER_CHARS)
+    if fast:
+        try:
+            if has_empty:
+                x[~empty] = vals[~empty].astype(np.float64)
+            else:
+                x = vals.astype(np.float64)
+        except ValueError:
+            fast = False
+    if not fast:  # some cell is off the grammar: find it, cell by cell but in C loops
+        s = pd.Series(vals, dtype=object)
+        ok = s.str.fullmatch(_NUMBER_RE).to_numpy(dtype=bool)
+        nonfin = s.str.fullmatch(_NONFINITE_RE).to_numpy(dtype=bool)
+        x = np.full(nrows, np.nan)
+        x[ok] = vals[ok].astype(np.float64)
+        bad = _merge(bad, nonfin, "non-finite",
+                     lambda r: f"non-finite value {vals[r]!r} in column {col}")
+        bad = _merge(bad, ~ok & ~empty & ~nonfin, "non-numeric",
+                     lambda r: f"non-numeric value {vals[r]!r} in column {col}")
+    if required and has_empty:
+        bad = _merge(bad, empty, "empty value", lambda r: f"empty value in required column {col}")
+    ax = np.abs(x)
+    oor = np.isinf(x) | ((ax < _DBL_MIN) & (ax > 0))
+    zero = np.flatnonzero(x == 0)
+    if zero.size:
+        nonzero_text = pd.Series(vals[zero], dtype=object).str.contains(r"^[^eE]*[1-9]").to_numpy(dtype=bool)
+        oor[zero[nonzero_text]] = True
+    bad = _merge(bad, oor, "out of range", lambda r: f"out of range value {vals[r]!r} in column {col}")
+    return x, bad
+
+
+def _parse_ints(vals, col):
+    """int64 values of an integer column and its first cell fault (row, kind, message) or None."""
+    nrows = len(vals)
+    bad = None
+    if _cells_off(vals, _DIGITS) or (vals == "").any():
+        s = pd.Series(vals, dtype=object)
+        ok = s.str.fullmatch(r"[0-9]+").to_numpy(dtype=bool)
+        empty = vals == ""
+        bad = _merge(bad, empty, "empty value", lambda r: f"empty value in column {col}")
+        bad = _merge(bad, ~ok & ~empty, "non-integer",
+                     lambda r: f"non-integer value {vals[r]!r} in column {col} (digits only)")
+        vals = np.where(ok, vals, "0")
+    # digits only: a double is exact up to 2^53, and any larger decimal rounds to >= 2^53
+    x = vals.astype(np.float64) if nrows else np.zeros(0)
+    big = x > INT_MAX[col]
+    bad = _merge(bad, big, "out of range",
+                 lambda r: f"out of range value {vals[r]!r} in column {col} (0..{INT_MAX[col]})")
+    x[big] = 0
+    return x.astype(np.int64), bad
+
+
+def _extra(vals):
+    """An extra column: float where every non-empty cell is a number, text otherwise."""
+    s = pd.Series(vals, dtype=object)
+    nonempty = vals != ""
+    if s[nonempty].str.fullmatch(_NUMBER_RE).all():
+        x = np.full(len(vals), np.nan)
+        x[nonempty] = vals[nonempty].astype(np.float64)
+        return x
+    return vals
 
 
 # ----------------------------------------------------------------------------- writing
@@ -306,21 +409,24 @@ def _format_column(name: str, values) -> list:
 def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
     """Write ``df`` (and ``meta`` as ``# key=value`` lines) as a bench log, atomically.
 
-    Known columns are written in the order of the format page (t_s, duty, v_V, i_A,
-    rpm_ref, temp_C, load, seq), extra columns after them in ``df`` order. NaN in an
-    optional column is written as an empty cell. Raises ValueError for data the format
-    cannot hold (missing or non-finite required values, t_s not increasing, duty
-    outside 0..1, metadata with newlines).
+    Known columns are written in the order of docs/bench-log.md (t_s, duty, v_V, i_A,
+    rpm_ref, temp_C, load, seq), extra columns after them in ``df`` order. NaN in
+    rpm_ref, temp_C or an extra column is written as an empty cell. Raises ValueError
+    for data the format cannot hold (missing or non-finite required values, t_s not
+    increasing once written, duty outside 0..1, infinite rpm_ref/temp_C, missing,
+    fractional or out-of-range load/seq, metadata with line ends, bad column names);
+    the text is read back before it is written, so only files the format accepts are
+    written.
     """
     path = pathlib.Path(path)
-    meta = dict(meta or {})
+    meta = {str(k): str(v) for k, v in (meta or {}).items()}
+    if len(meta) != len(meta or {}):
+        raise ValueError("two metadata keys are the same text")
     for k, v in meta.items():
-        k = str(k)
-        v = str(v)
-        if not _META_KEY_RE.match(k):
-            raise ValueError(f"metadata key {k!r} is not a plain word")
+        if not _META_KEY_RE.fullmatch(k):
+            raise ValueError(f"metadata key {k!r} is not of A-Z a-z 0-9 _ . -")
         if "\n" in v or "\r" in v:
-            raise ValueError(f"metadata value for {k!r} contains a newline")
+            raise ValueError(f"metadata value for {k!r} contains a line end")
     missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
     if missing:
         raise ValueError(f"missing required column(s): {', '.join(missing)}")
@@ -335,19 +441,36 @@ def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
     duty = df["duty"].to_numpy(dtype=float)
     if ((duty < 0) | (duty > 1)).any():
         raise ValueError("duty outside 0..1")
+    for c in OPTIONAL_FLOAT_COLUMNS:
+        if c in df.columns and np.isinf(df[c].to_numpy(dtype=float)).any():
+            raise ValueError(f"infinite value in column {c} (NaN, written empty, means not measured)")
+    for c in OPTIONAL_INT_COLUMNS:
+        if c in df.columns:
+            if df[c].isna().any():
+                raise ValueError(f"missing value in column {c} (the format has no empty {c} cell)")
+            a = df[c].to_numpy(dtype=float)
+            if not ((a == np.round(a)) & (a >= 0) & (a <= INT_MAX[c])).all():
+                raise ValueError(f"column {c} holds a value that is not an integer in 0..{INT_MAX[c]}")
 
     cols = [c for c in KNOWN_COLUMNS if c in df.columns]
     cols += [c for c in df.columns if c not in KNOWN_COLUMNS]
-    for c in cols:
-        if "," in str(c) or not str(c).strip():
+    names = [str(c) for c in cols]
+    for c in names:
+        if (not c.strip(_PAD) or c != c.strip(_PAD) or any(ch in c for ch in ",\n\r")):
             raise ValueError(f"bad column name {c!r}")
+    if len(set(names)) != len(names):
+        raise ValueError("two columns have the same name")
     formatted = [_format_column(c, df[c]) for c in cols]
 
     parts = [f"# {k}={v}\n" for k, v in meta.items()]
-    parts.append(",".join(str(c) for c in cols) + "\n")
+    parts.append(",".join(names) + "\n")
     body = "\n".join(",".join(row) for row in zip(*formatted))
     parts.append(body + "\n")
     text = "".join(parts)
+    try:
+        parse_log_bytes(text.encode("utf-8"))
+    except _Fault as f:
+        raise ValueError(f"the text would not be a valid bench log (line {f.line}: {f.message})") from None
 
     return write_text_atomic(path, text)
 
