@@ -130,6 +130,14 @@ def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
     return np.where(ke > 0, n, np.nan).astype(dtype)
 
 
+def exp(x):
+    """e**x in float64 through the C library's exp, element by element. numpy's own
+    vectorised exp differs in the last bits between the SIMD paths it picks for the CPU
+    (AVX2, AVX-512, none); generated files must not depend on the machine."""
+    a = np.asarray(x, float)
+    return np.fromiter(map(math.exp, a.ravel().tolist()), float, a.size).reshape(a.shape)
+
+
 _BLOCK = 1024  # samples per block of the vectorised recursion
 
 
@@ -141,7 +149,7 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     rounding)."""
     r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
     step = dt > 0
-    d = np.where(step, np.exp(-np.where(step, dt, 0.0) / tau), 1.0)
+    d = np.where(step, exp(-np.where(step, dt, 0.0) / tau), 1.0)
     q = r * i * i * ra
     alpha = np.where(step, d + (1.0 - d) * q * a, 1.0)
     beta = np.where(step, (1.0 - d) * q * (1.0 + a * (ref - tref)), 0.0)
@@ -185,7 +193,7 @@ def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_ri
         if dt[k] > 0:
             loss = i[k] * i[k] * ra_at_ohm(p, ref[k] + rise, dtype)
             target = dtype(r * loss)
-            rise = dtype(target + (rise - target) * np.exp(-dt[k] / tau).astype(dtype))
+            rise = dtype(target + (rise - target) * dtype(exp(-dt[k] / tau)))
         out[k] = ref[k] + rise
     return (out, rise) if final_rise else out
 

@@ -17,7 +17,7 @@ def build(model_dir: pathlib.Path, name: str, out: pathlib.Path) -> pathlib.Path
         raise RuntimeError("no C++ compiler (g++): run scripts/bootstrap.sh")
     if not EIGEN.is_dir():
         raise RuntimeError(f"Eigen not found at {EIGEN}: run scripts/bootstrap.sh (libeigen3-dev)")
-    cmd = [cxx, "-std=c++17", "-O2", "-DNDEBUG", f"-I{ROOT / 'lib/hpddo_core/src'}", f"-I{ROOT / 'host'}",
+    cmd = [cxx, "-std=c++17", "-O2", "-ffp-contract=off", "-DNDEBUG", f"-I{ROOT / 'lib/hpddo_core/src'}", f"-I{ROOT / 'host'}",
            f"-isystem{EIGEN}", f"-I{model_dir}", f'-DHPDDO_MODEL_HEADER="model_{name}.h"',
            f"-DHPDDO_MODEL_NS=hpddo_model_{name}", str(ROOT / "host/replay.cpp"), "-o", str(out)]
     res = subprocess.run(cmd, capture_output=True, text=True)

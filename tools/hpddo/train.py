@@ -2,14 +2,12 @@
 from __future__ import annotations
 
 import dataclasses
-import warnings
+import functools
 
 import numpy as np
-from sklearn.exceptions import ConvergenceWarning
-from sklearn.neural_network import MLPRegressor
-from sklearn.preprocessing import StandardScaler
 from tqdm import tqdm
 
+from . import network
 from . import physics as ph
 from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
 
@@ -53,8 +51,8 @@ def features(rec: Recording, p: ph.PhysicsParams) -> tuple[np.ndarray, np.ndarra
 
 @dataclasses.dataclass
 class Residual:
-    scaler: StandardScaler
-    mlp: MLPRegressor
+    scaler: network.Scaler
+    mlp: network.Network
     clamp_rpm: float
     env_lo: np.ndarray
     env_hi: np.ndarray
@@ -76,19 +74,15 @@ def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig)
     e = np.concatenate(es)
     if len(x) < cfg.batch_size:
         raise ValueError(f"only {len(x)} labelled training rows: too few to train the residual network")
-    scaler = StandardScaler().fit(x)
-    scaler.scale_ = np.where(scaler.scale_ > 0, scaler.scale_, 1.0)
+    scaler = network.Scaler.fit(x)
     z = scaler.transform(x)
-    mlp = MLPRegressor(hidden_layer_sizes=tuple(cfg.hidden), activation="relu", solver="adam",
-                       learning_rate_init=cfg.learning_rate, batch_size=cfg.batch_size, max_iter=1,
-                       shuffle=True, random_state=cfg.seed, early_stopping=False, tol=0.0)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", ConvergenceWarning)
-        for _ in tqdm(range(cfg.max_iter), desc=f"train M3 {cfg.hidden}", unit="it", disable=not cfg.progress,
-                      mininterval=0.5, leave=False):
-            mlp.partial_fit(z, e)
+    bar = functools.partial(tqdm, desc=f"train M3 {cfg.hidden}", unit="epoch", disable=not cfg.progress,
+                            mininterval=0.5, leave=False)
+    mlp, losses = network.train(z, e, network.AdamConfig(hidden=tuple(cfg.hidden), learning_rate=cfg.learning_rate,
+                                                         batch_size=cfg.batch_size, epochs=cfg.max_iter,
+                                                         seed=cfg.seed), progress=bar)
     lo, hi = x.min(axis=0), x.max(axis=0)
     span = np.maximum(hi - lo, 1e-6)
     return Residual(scaler=scaler, mlp=mlp, clamp_rpm=float(np.percentile(np.abs(e), CLAMP_PERCENTILE)),
                     env_lo=lo - ENVELOPE_MARGIN * span, env_hi=hi + ENVELOPE_MARGIN * span, n_train=len(x),
-                    loss_curve=list(mlp.loss_curve_))
+                    loss_curve=losses)
