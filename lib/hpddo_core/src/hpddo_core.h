@@ -5,6 +5,7 @@
 
 #include "hpddo/platform.h"
 #include "hpddo/crc.h"
+#include "hpddo/limits.h"
 #include "hpddo/scaler.h"
 #include "hpddo/mlp.h"
 #include "hpddo/physics.h"

@@ -8,6 +8,7 @@
 
 #include "crc.h"
 #include "envelope.h"
+#include "limits.h"
 #include "mlp.h"
 #include "physics.h"
 #include "scaler.h"
@@ -19,14 +20,6 @@ static const uint8_t kFeatureCount = 5;
 
 /// Indices of the residual features.
 enum Feature : uint8_t { kFeatV = 0, kFeatI = 1, kFeatM2 = 2, kFeatILag = 3, kFeatM2Lag = 4 };
-
-/// Readings outside these limits are not measurements but faults.
-struct InputLimits {
-  float v_max_V;       ///< largest |v_V| the voltage channel can report, V
-  float i_max_A;       ///< largest |i_A| the current channel can report, A
-  float temp_min_C;    ///< temperature sensor range, C (outside: treated as absent)
-  float temp_max_C;
-};
 
 /// Everything the observer needs, for a network type Net (an Mlp<...>).
 template <class Net>

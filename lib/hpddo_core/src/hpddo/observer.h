@@ -6,6 +6,12 @@
 //   x     = [v, i, n_M2, i(t-1), n_M2(t-1)]   (lags = current values after a reset)
 //   n_M3  = n_M2 + clamp(MLP(scale(x)))       inside the training envelope
 //   n_M3  = n_M2                              outside it (fallback)
+//
+// Bounds (limits.h): a period outside [kPeriodMin_s, kPeriodMax_s] is no
+// sample-to-sample step, so the sample starts a new segment (no di/dt; lags
+// restart) but is used; an n_M2 beyond the model's speed range
+// (speed_limit_rpm) is no speed, so the sample is invalid; the winding stays
+// within [reference, kWindingMax_C] (thermal.h).
 #ifndef HPDDO_OBSERVER_H
 #define HPDDO_OBSERVER_H
 
@@ -60,7 +66,10 @@ struct Estimate {
 template <class Net>
 class Observer {
  public:
-  explicit Observer(const Model<Net>& model) : model_(model) { reset(); }
+  explicit Observer(const Model<Net>& model)
+      : model_(model), speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)) {
+    reset();
+  }
 
   /// Forgets the lags and the held estimate; the winding restarts at its reference.
   void reset() {
@@ -71,6 +80,7 @@ class Observer {
     last_.status = kStatusInvalid;
     thermal_.reset();
     seq_gaps_ = 0;
+    period_breaks_ = 0;
   }
 
   /// Forgets the one-step lags only: the next sample starts a new segment, as
@@ -79,6 +89,13 @@ class Observer {
 
   /// Number of seq gaps seen since reset().
   uint32_t seq_gaps() const { return seq_gaps_; }
+
+  /// Number of usable samples since reset() whose period lay outside
+  /// [kPeriodMin_s, kPeriodMax_s]; each started a new segment.
+  uint32_t period_breaks() const { return period_breaks_; }
+
+  /// Largest |n_M2| the model's limits allow, RPM; beyond it a sample is invalid.
+  float speed_limit() const { return speed_limit_rpm_; }
 
   /// Turns one sample into an estimate.
   Estimate step(const Sample& s) {
@@ -95,6 +112,10 @@ class Observer {
 
     const float i_true_A = true_current_A(p, s.i_A);
     const float dt_s = s.dt_s;
+    if (dt_s < kPeriodMin_s || dt_s > kPeriodMax_s) {
+      ++period_breaks_;
+      has_lag_ = false;
+    }
     const bool temp_read = is_finite(s.temp_C) && s.temp_C >= model_.limits.temp_min_C &&
                            s.temp_C <= model_.limits.temp_max_C;
     const float ref_C = temp_read ? s.temp_C : p.t_amb_C;
@@ -108,7 +129,7 @@ class Observer {
     in.temp_C = ThermalEstimator::enabled(p) ? thermal_.temp_C(ref_C) : (temp_read ? s.temp_C : p.t_ref_C);
     in.magnet_C = temp_read ? s.temp_C : in.temp_C;
     float m2 = 0.0f;
-    if (!physics_rpm(p, in, &m2)) return invalid();
+    if (!physics_rpm(p, in, &m2) || !(m2 <= speed_limit_rpm_ && m2 >= -speed_limit_rpm_)) return invalid();
 
     float x[kFeatureCount];
     x[kFeatV] = s.v_V;
@@ -155,6 +176,7 @@ class Observer {
   }
 
   const Model<Net>& model_;
+  float speed_limit_rpm_;
   ThermalEstimator thermal_;
   Estimate last_;
   float i_lag_A_ = 0.0f;
@@ -163,6 +185,7 @@ class Observer {
   bool has_lag_ = false;
   bool has_seq_ = false;
   uint32_t seq_gaps_ = 0;
+  uint32_t period_breaks_ = 0;
 };
 
 }  // namespace hpddo

@@ -13,6 +13,7 @@
 
 #include <stdint.h>
 
+#include "limits.h"
 #include "platform.h"
 
 namespace hpddo {
@@ -103,6 +104,15 @@ inline bool physics_rpm(const PhysicsParams& p, const PhysicsInput& in, float* r
   if (!is_finite(n)) return false;
   *rpm = n;
   return true;
+}
+
+/// Edge of the model's physical speed range, RPM: kSpeedLimitFactor times the speed at
+/// which the back-EMF would balance the largest voltage the channel reports plus the
+/// largest resistive drop, (v_max + i_max Ra) / Ke; 0 when Ke is not positive.
+inline float speed_limit_rpm(const PhysicsParams& p, const InputLimits& lim) {
+  if (!(p.ke_vs_per_rad > 0.0f)) return 0.0f;
+  const float emf_V = lim.v_max_V + lim.i_max_A * p.ra_ohm;
+  return kSpeedLimitFactor * emf_V / p.ke_vs_per_rad * kRpmPerRadS;
 }
 
 /// Nameplate back-EMF constant (M1): rated voltage over rated no-load speed,

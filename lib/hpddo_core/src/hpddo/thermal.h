@@ -6,11 +6,18 @@
 // advanced with the exact step of the linear ODE over dt (losses held). With a
 // case reading, r_th and tau are the winding-to-case path (seconds); without,
 // the winding-to-ambient path (minutes).
+//
+// Copper's Ra(T) makes the node unstable at high current (the loss grows faster
+// than the node sheds it: a runaway), so after each step the rise is held
+// within [0, kWindingMax_C - reference]: the node only heats, and no winding is
+// hotter than its insulation class allows. Once the current falls back, the
+// rise decays from there with tau as usual.
 #ifndef HPDDO_THERMAL_H
 #define HPDDO_THERMAL_H
 
 #include <math.h>
 
+#include "limits.h"
 #include "physics.h"
 #include "platform.h"
 
@@ -34,13 +41,18 @@ class ThermalEstimator {
   void reset() { rise_K_ = 0.0f; }
 
   /// Advances by dt_s with the true armature current i_A held over the step,
-  /// above the reference ref_C of this sample.
+  /// above the reference ref_C of this sample; the rise stays within
+  /// [0, kWindingMax_C - ref_C].
   void step(const PhysicsParams& p, float i_A, float dt_s, float ref_C) {
     if (!enabled(p) || !(dt_s > 0.0f)) return;
     const float loss_W = i_A * i_A * ra_at_ohm(p, ref_C + rise_K_);
     const float target_K = p.th_r_K_per_W * loss_W;
     const float decay = expf(-dt_s / p.th_tau_s);
-    rise_K_ = target_K + (rise_K_ - target_K) * decay;
+    float next_K = target_K + (rise_K_ - target_K) * decay;
+    const float hottest_K = kWindingMax_C - ref_C;
+    if (next_K > hottest_K) next_K = hottest_K;
+    if (!(next_K >= 0.0f)) next_K = 0.0f;  // also catches a NaN
+    rise_K_ = next_K;
   }
 
  private:
