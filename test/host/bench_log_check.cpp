@@ -21,7 +21,10 @@ int main(int argc, char** argv) {
     try {
       const hpddo_host::BenchLog log = hpddo_host::read_bench_log(argv[a]);
       std::printf("OK %zu %d %d %d %d\n", log.size(), log.has_rpm_ref, log.has_temp_C, log.has_load, log.has_seq);
-      for (const auto& kv : log.meta) std::printf("M %s=%s\n", kv.first.c_str(), kv.second.c_str());
+      for (const auto& kv : log.meta) {  // values are any text, NUL included: written whole
+        const std::string line = "M " + kv.first + "=" + kv.second + "\n";
+        std::fwrite(line.data(), 1, line.size(), stdout);
+      }
       for (size_t k = 0; k < log.size(); ++k)
         std::printf("R %zu %.17g %.17g %.17g %.17g %.17g %.17g %lld %lld\n", log.lines[k], log.t_s[k], log.duty[k],
                     log.v_V[k], log.i_A[k], log.rpm_ref[k], log.temp_C[k], static_cast<long long>(log.load[k]),
