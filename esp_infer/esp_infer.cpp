@@ -18,7 +18,7 @@ const uint32_t kLinkBaud = 38400;
 const uint32_t kHostBaud = 115200;
 
 SoftwareSerial g_link(kPinLinkRx, -1);
-infer::LinkReceiver g_rx;
+infer::LinkReceiver g_rx(&infer::model::kModel.limits);  // frames beyond the model's channels are damage
 hpddo::Observer<infer::model::Net> g_observer(infer::model::kModel);
 
 uint32_t now_us() { return micros(); }
@@ -53,7 +53,7 @@ void setup() {
 void loop() {
   while (g_link.available() > 0) {
     hpddo::SampleFrame f;
-    if (g_rx.push(static_cast<uint8_t>(g_link.read()), &f)) {
+    if (g_rx.push(static_cast<uint8_t>(g_link.read()), millis(), &f)) {
       write_json(infer::infer_step(g_observer, f, g_rx, now_us));
     }
   }

@@ -30,12 +30,14 @@ struct Telemetry {
   uint32_t crc_errors;
 };
 
-/// Runs the observer on one frame. now_us() is a clock in microseconds (the
+/// Runs the observer on one frame, restarting its lags first when the frame
+/// followed a gap the link saw. now_us() is a clock in microseconds (the
 /// sketch passes micros); the time of the observer step goes into infer_us.
 template <class Net, class Clock>
 Telemetry infer_step(hpddo::Observer<Net>& obs, const hpddo::SampleFrame& f, const LinkReceiver& link,
                      Clock now_us) {
   const hpddo::Sample s = sample_from_frame(f);
+  if (link.new_segment()) obs.restart_lags();
   const uint32_t t0 = now_us();
   const hpddo::Estimate e = obs.step(s);
   const uint32_t t1 = now_us();

@@ -83,13 +83,19 @@ float m1_rpm(const hpddo::Sample& s) {
   return hpddo::physics_rpm(model::kNameplate, in, &n) ? n : 0.0f;
 }
 
+/// True when row k does not follow row k-1 by the log's full seq. The observer sees
+/// only its low 16 bits (as on the link), which hide a jump by a multiple of 65536.
+bool full_seq_gap(const hpddo_host::BenchLog& log, size_t k) {
+  return k > 0 && log.seq[k] != log.seq[k - 1] + 1;
+}
+
 /// The board path: one Observer::step per sample.
 void run_per_sample(const hpddo_host::BenchLog& log, size_t split, std::vector<Row>& out) {
   hpddo::Observer<Net> obs(model::kModel);
   const float dt0 = first_dt(log);
   out.resize(log.size());
   for (size_t k = 0; k < log.size(); ++k) {
-    if (k == split) obs.restart_lags();
+    if (k == split || full_seq_gap(log, k)) obs.restart_lags();
     const hpddo::Sample s = sample_at(log, k, dt0);
     const hpddo::Estimate e = obs.step(s);
     out[k] = Row{m1_rpm(s), e.rpm_m2, e.rpm, e.residual_rpm, e.temp_C, e.status};
@@ -115,14 +121,14 @@ void run_batched(const hpddo_host::BenchLog& log, size_t split, std::vector<Row>
   bool has_lag = false;
   const hpddo::Envelope<5>& env = model::kModel.envelope;
   for (size_t k = 0; k < n; ++k) {
-    if (k == split) {
+    if (k == split || full_seq_gap(log, k)) {
       obs.restart_lags();
       has_lag = false;
     }
     const hpddo::Sample s = sample_at(log, k, dt0);
-    const uint32_t gaps = obs.seq_gaps();
+    const uint32_t gaps = obs.seq_gaps(), breaks = obs.period_breaks();
     const hpddo::Estimate e = obs.step(s);
-    if (obs.seq_gaps() != gaps) has_lag = false;
+    if (obs.seq_gaps() != gaps || obs.period_breaks() != breaks) has_lag = false;
     out[k] = Row{m1_rpm(s), e.rpm_m2, e.rpm, 0.0f, e.temp_C, e.status};
     if (e.status == hpddo::kStatusInvalid) {
       has_lag = false;
@@ -172,6 +178,26 @@ struct Acc {
   double se[3] = {0, 0, 0};
   size_t n = 0, n_rows = 0, clamped = 0, fallback = 0, invalid = 0;
 };
+
+/// s as a JSON string literal, quotes included (RFC 8259: quote, backslash and
+/// control characters escaped).
+std::string json_str(const std::string& s) {
+  std::string out = "\"";
+  for (const char ch : s) {
+    const unsigned char c = static_cast<unsigned char>(ch);
+    if (c == '"' || c == '\\') {
+      out += '\\';
+      out += ch;
+    } else if (c < 0x20) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\u%04x", static_cast<unsigned>(c));
+      out += buf;
+    } else {
+      out += ch;
+    }
+  }
+  return out + "\"";
+}
 
 std::string json_num(double x) {
   if (!std::isfinite(x)) return "null";
@@ -308,7 +334,7 @@ int main(int argc, char** argv) {
       j += std::string(m ? ",\n    " : "\n    ") + "\"" + names[m] + "\": {";
       for (const auto& c : order) {
         const Acc& a = acc[c];
-        j += "\"" + c + "\": " + json_num(a.n ? std::sqrt(a.se[m] / static_cast<double>(a.n)) : NAN) + ", ";
+        j += json_str(c) + ": " + json_num(a.n ? std::sqrt(a.se[m] / static_cast<double>(a.n)) : NAN) + ", ";
       }
       j += "\"average\": " + json_num(avg[m]) + "}";
     }
@@ -318,10 +344,10 @@ int main(int argc, char** argv) {
     for (const auto& c : order) {
       const Acc& a = acc[c];
       const double nr = static_cast<double>(a.n_rows);
-      j += "\"" + c + "\": " + json_num(static_cast<double>(a.clamped) / nr) + ", ";
-      fb += "\"" + c + "\": " + json_num(static_cast<double>(a.fallback) / nr) + ", ";
-      inv += "\"" + c + "\": " + json_num(static_cast<double>(a.invalid) / nr) + ", ";
-      rows += "\"" + c + "\": " + std::to_string(a.n_rows) + ", ";
+      j += json_str(c) + ": " + json_num(static_cast<double>(a.clamped) / nr) + ", ";
+      fb += json_str(c) + ": " + json_num(static_cast<double>(a.fallback) / nr) + ", ";
+      inv += json_str(c) + ": " + json_num(static_cast<double>(a.invalid) / nr) + ", ";
+      rows += json_str(c) + ": " + std::to_string(a.n_rows) + ", ";
       tot += a.n_rows, tc += a.clamped, tf += a.fallback, ti += a.invalid;
     }
     const double nt = static_cast<double>(tot);

@@ -16,6 +16,7 @@
 #include <stdint.h>
 
 #include "acq_protocol.h"
+#include "hpddo/limits.h"
 
 namespace acq {
 
@@ -148,7 +149,7 @@ inline Command parse_command(const char* line) {
   c.value = v;
   if (detail::word_eq(s, e, "duty")) c.kind = (v >= 0.0f && v <= 1.0f) ? kCmdDuty : kCmdBad;
   else if (detail::word_eq(s, e, "load")) c.kind = (v == 0.0f || v == 1.0f || v == 2.0f) ? kCmdLoad : kCmdBad;
-  else if (detail::word_eq(s, e, "rate")) c.kind = (v >= 0.5f && v <= 1000.0f) ? kCmdRate : kCmdBad;
+  else if (detail::word_eq(s, e, "rate")) c.kind = (v >= hpddo::kAcqRateMin_Hz && v <= hpddo::kAcqRateMax_Hz) ? kCmdRate : kCmdBad;
   else if (detail::word_eq(s, e, "pwm")) c.kind = (v >= 31.0f && v <= 100000.0f) ? kCmdPwm : kCmdBad;
   else if (detail::word_eq(s, e, "hold")) c.kind = (v > 0.0f && v <= 86400.0f) ? kCmdHold : kCmdBad;
   else if (detail::word_eq(s, e, "long")) c.kind = (v > 0.0f && v <= 604800.0f) ? kCmdLong : kCmdBad;

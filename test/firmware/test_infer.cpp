@@ -74,8 +74,11 @@ TEST(InferLink, FramePathEqualsTheObserverOnTheSameSamples) {
   uint32_t clock = 0;
   int checked = 0;
   for (int r = 0; r < gold::kCount; ++r) {
+    // Rows a frame can carry: seq, finite readings, a period of the board's range.
+    const float dt = g(r, gold::kCol_dt_s);
     if (g(r, gold::kCol_has_seq) == 0.0f || !hpddo::is_finite(g(r, gold::kCol_v_V)) ||
-        !hpddo::is_finite(g(r, gold::kCol_i_A)) || !(g(r, gold::kCol_dt_s) > 0.0f))
+        !hpddo::is_finite(g(r, gold::kCol_i_A)) || !(dt >= 1e-6f * static_cast<float>(hpddo::kFramePeriodMin_us)) ||
+        !(dt <= 1e-6f * static_cast<float>(hpddo::kFramePeriodMax_us)))
       continue;
     const hpddo::SampleFrame f = frame_of(static_cast<uint16_t>(g(r, gold::kCol_seq)), g(r, gold::kCol_v_V),
                                           g(r, gold::kCol_i_A), g(r, gold::kCol_temp_C), g(r, gold::kCol_dt_s), 0);
@@ -159,4 +162,62 @@ TEST(InferLink, SeqWrapIsNoGapAndCorruptFramesAreCounted) {
   EXPECT_EQ(rx.crc_errors(), 1u);
   EXPECT_EQ(rx.gaps(), 1u);  // 65535 -> 1: the damaged frame 0 is a lost sample
   EXPECT_EQ(rx.lost(), 1u);
+}
+
+TEST(InferLink, FramesBeyondTheModelsChannelsAreRejectedAndTheNextSurvives) {
+  const hpddo::InputLimits& lim = infer::model::kModel.limits;
+  std::vector<uint8_t> bytes;
+  append(bytes, frame_of(1, lim.v_max_V + 0.5f, 0.5f, NAN, 0.5f, 0));   // beyond the voltage channel
+  append(bytes, frame_of(2, 9.0f, -lim.i_max_A - 0.5f, NAN, 0.5f, 0));  // beyond the current channel
+  append(bytes, frame_of(3, 9.0f, 0.5f, lim.temp_max_C + 1.0f, 0.5f, 0));  // beyond the sensor
+  append(bytes, frame_of(4, 9.0f, 0.5f, NAN, 990.0f, 0));               // a period no window has
+  append(bytes, frame_of(5, 9.0f, 0.5f, 40.0f, 0.5f, 0));
+  infer::LinkReceiver rx(&lim);
+  hpddo::SampleFrame f;
+  std::vector<uint16_t> got;
+  for (uint8_t b : bytes)
+    if (rx.push(b, &f)) got.push_back(f.seq);
+  ASSERT_EQ(got.size(), 1u);
+  EXPECT_EQ(got[0], 5);
+  EXPECT_EQ(rx.rejected(), 4u);
+}
+
+TEST(InferLink, ASeqCycleLostIsSeenFromTheArrivalTimeAndRestartsTheLags) {
+  // 65536 samples lost at 2 Hz: the next seq follows on 16 bits, nine hours later.
+  infer::LinkReceiver rx;
+  hpddo::Observer<Net> obs(infer::model::kModel);
+  hpddo::SampleFrame f;
+  uint32_t clock = 0;
+  uint32_t now_ms = 1000;
+  const auto send = [&](const hpddo::SampleFrame& fr) {
+    std::vector<uint8_t> bytes;
+    append(bytes, fr);
+    bool done = false;
+    for (uint8_t b : bytes) done = rx.push(b, now_ms, &f);
+    EXPECT_TRUE(done);
+    return infer::infer_step(obs, f, rx, FakeClock{&clock});
+  };
+  send(frame_of(7, 8.0f, 0.5f, 40.0f, 0.5f, 0));
+  now_ms += 500;
+  send(frame_of(8, 8.5f, 0.6f, 40.0f, 0.5f, 0));
+  EXPECT_FALSE(rx.new_segment());
+  EXPECT_EQ(rx.gaps(), 0u);
+  now_ms += 65536u * 500u;
+  const hpddo::SampleFrame after = frame_of(9, 9.5f, 1.2f, 40.0f, 0.5f, 0);
+  const infer::Telemetry t = send(after);
+  EXPECT_TRUE(rx.new_segment());
+  EXPECT_EQ(rx.gaps(), 1u);
+  EXPECT_GE(rx.lost(), 65536u);
+  // Lags restarted: the estimate equals that of an observer at the start of a segment.
+  hpddo::Observer<Net> ref(infer::model::kModel);
+  ref.step(infer::sample_from_frame(frame_of(7, 8.0f, 0.5f, 40.0f, 0.5f, 0)));
+  ref.step(infer::sample_from_frame(frame_of(8, 8.5f, 0.6f, 40.0f, 0.5f, 0)));
+  ref.restart_lags();
+  const hpddo::Estimate e = ref.step(infer::sample_from_frame(after));
+  EXPECT_EQ(t.rpm, e.rpm);
+  EXPECT_EQ(t.status, e.status);
+  // Frames on time are no gap.
+  now_ms += 520;
+  send(frame_of(10, 9.5f, 1.2f, 40.0f, 0.5f, 0));
+  EXPECT_FALSE(rx.new_segment());
 }

@@ -16,6 +16,8 @@
 //   19      2     crc           CRC-16/CCITT-FALSE over bytes 2..18
 //
 // 21 bytes a sample: 100 Hz needs 21 kbit/s, well inside 115200 baud.
+// A frame is accepted only when its CRC matches and its fields are ones the
+// acquisition board can send (frame_plausible).
 #ifndef HPDDO_FRAME_H
 #define HPDDO_FRAME_H
 
@@ -23,6 +25,7 @@
 #include <stdint.h>
 
 #include "crc.h"
+#include "limits.h"
 #include "platform.h"
 
 namespace hpddo {
@@ -33,6 +36,7 @@ static const uint8_t kFramePayloadSize = 16;
 static const uint8_t kFrameSize = 3 + kFramePayloadSize + 2;
 static const uint8_t kFrameFlagTemp = 1u << 0;
 static const uint8_t kFrameFlagRpm = 1u << 1;
+static const uint8_t kFrameFlagsKnown = kFrameFlagTemp | kFrameFlagRpm;
 
 /// One sample as it crosses the link, in the frame's fixed-point units.
 struct SampleFrame {
@@ -97,12 +101,39 @@ inline float frame_temp_C(const SampleFrame& f) {
 /// Sample period in s from a frame.
 inline float frame_dt_s(const SampleFrame& f) { return static_cast<float>(f.period_us) * 1e-6f; }
 
+/// True when f is a frame the acquisition board can send: no unknown flag bits,
+/// absent fields zero, a period within [kFramePeriodMin_us, kFramePeriodMax_us]
+/// and, given limits (the model's channel and sensor limits), V, I and the
+/// temperature within them. A CRC-valid frame that is not is damage.
+inline bool frame_plausible(const SampleFrame& f, const InputLimits* limits) {
+  if (f.flags & static_cast<uint8_t>(~kFrameFlagsKnown)) return false;
+  if (!(f.flags & kFrameFlagTemp) && f.temp_c16 != 0) return false;
+  if (!(f.flags & kFrameFlagRpm) && f.rpm_x10 != 0) return false;
+  if (f.period_us < kFramePeriodMin_us || f.period_us > kFramePeriodMax_us) return false;
+  if (!limits) return true;
+  const float i_A = frame_i_A(f);
+  if (frame_v_V(f) > limits->v_max_V || i_A > limits->i_max_A || i_A < -limits->i_max_A) return false;
+  if (f.flags & kFrameFlagTemp) {
+    const float t_C = frame_temp_C(f);
+    if (t_C < limits->temp_min_C || t_C > limits->temp_max_C) return false;
+  }
+  return true;
+}
+
 /// Byte-at-a-time frame decoder that resynchronises after corrupt bytes: on a
-/// bad length or CRC it rescans the bytes it held for the next sync pattern,
-/// so a frame that starts inside a damaged one is not lost.
+/// bad length, a bad CRC or an implausible frame (frame_plausible) it rescans
+/// the bytes it held from the one after the failed sync, so a frame that starts
+/// inside a damaged one is not lost. A decoded frame whose last bytes could be
+/// the start of the next one (a frame that lost its last byte completes on the
+/// next frame's sync) keeps them as such, so a truncated frame never costs the
+/// frame after it.
 class FrameDecoder {
  public:
-  FrameDecoder() : len_(0), frames_(0), crc_errors_(0), dropped_bytes_(0) {}
+  /// limits: the channel and sensor limits frames are checked against (the
+  /// model's InputLimits); without, only flags, absent fields and period.
+  explicit FrameDecoder(const InputLimits* limits = nullptr)
+      : limits_(limits), len_(0), held_(0), frames_(0), crc_errors_(0), rejected_(0), dropped_bytes_(0),
+        reused_bytes_(0) {}
 
   /// Feeds one byte; true when it completed a valid frame, written to *out.
   bool push(uint8_t byte, SampleFrame* out) {
@@ -111,20 +142,29 @@ class FrameDecoder {
       const uint8_t verdict = check();
       if (verdict == kNeedMore) return false;
       if (verdict == kComplete) {
-        parse(out);
-        len_ = 0;
-        ++frames_;
-        return true;
+        SampleFrame f;
+        parse(&f);
+        if (frame_plausible(f, limits_)) {
+          *out = f;
+          ++frames_;
+          reused_bytes_ += held_;
+          keep_sync_tail();
+          return true;
+        }
+        ++rejected_;
+      } else if (verdict == kBadCrc) {
+        ++crc_errors_;
       }
-      // kBad: drop the first byte and rescan what remains.
-      if (verdict == kBadCrc) ++crc_errors_;
+      // Not a frame: drop the first byte and rescan what remains.
       shift_one();
     }
   }
 
   uint32_t frames() const { return frames_; }              ///< valid frames decoded
   uint32_t crc_errors() const { return crc_errors_; }      ///< candidates with a bad CRC
+  uint32_t rejected() const { return rejected_; }          ///< CRC-valid candidates that were implausible
   uint32_t dropped_bytes() const { return dropped_bytes_; }///< bytes discarded while resyncing
+  uint32_t reused_bytes() const { return reused_bytes_; }  ///< bytes that ended one frame and began the next
 
  private:
   enum : uint8_t { kNeedMore = 0, kComplete = 1, kBadSync = 2, kBadCrc = 3 };
@@ -141,10 +181,28 @@ class FrameDecoder {
     return crc16(buf_ + 2, 1u + kFramePayloadSize) == want ? kComplete : kBadCrc;
   }
 
+  /// Keeps the longest tail of a decoded frame that is a start of a frame header.
+  void keep_sync_tail() {
+    const uint8_t head[3] = {kFrameSync0, kFrameSync1, kFramePayloadSize};
+    uint8_t keep = 3;
+    for (; keep > 0; --keep) {
+      uint8_t k = 0;
+      while (k < keep && buf_[kFrameSize - keep + k] == head[k]) ++k;
+      if (k == keep) break;
+    }
+    for (uint8_t k = 0; k < keep; ++k) buf_[k] = buf_[kFrameSize - keep + k];
+    len_ = keep;
+    held_ = keep;
+  }
+
   void shift_one() {
     for (uint8_t k = 1; k < len_; ++k) buf_[k - 1] = buf_[k];
     --len_;
-    ++dropped_bytes_;
+    if (held_) {
+      --held_;  // a byte of the last frame: not dropped
+    } else {
+      ++dropped_bytes_;
+    }
   }
 
   void parse(SampleFrame* f) const {
@@ -158,11 +216,15 @@ class FrameDecoder {
     f->period_us = detail::get_u32(buf_ + 15);
   }
 
+  const InputLimits* limits_;
   uint8_t buf_[kFrameSize];
   uint8_t len_;
+  uint8_t held_;
   uint32_t frames_;
   uint32_t crc_errors_;
+  uint32_t rejected_;
   uint32_t dropped_bytes_;
+  uint32_t reused_bytes_;
 };
 
 }  // namespace hpddo
