@@ -338,8 +338,8 @@ inline BenchLog parse_bench_log(const std::string& path, std::string_view text) 
     log.seq.push_back(seq);
     log.lines.push_back(lineno);
   }
-  if (!header_line) fail(lineno + 1, "no header", "no header row after the metadata");
-  if (log.size() == 0) fail(header_line + 1, "no rows", "header with no rows");
+  if (!header_line) fail(lineno, "no header", "no header row after the metadata");
+  if (log.size() == 0) fail(header_line, "no rows", "header with no rows");
   return log;
 }
 

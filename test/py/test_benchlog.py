@@ -113,8 +113,8 @@ FAULTS = [
     # (name, text, expected line, words in the message)
     ("empty file", "", 1, "empty file"),
     ("only newlines", "\n\n", 1, "blank line"),
-    ("only metadata", "# condition=x\n", 2, "no header"),
-    ("header no rows", "# condition=x\n" + HDR, 3, "header with no rows"),
+    ("only metadata", "# condition=x\n", 1, "no header"),
+    ("header no rows", "# condition=x\n" + HDR, 2, "header with no rows"),
     ("malformed metadata", "# condition=x\n# just words\n" + HDR + ROW0, 2, "malformed metadata"),
     ("metadata empty key", "#=3\n" + HDR + ROW0, 1, "malformed metadata"),
     ("missing column", "t_s,duty,v_V\n0,0,0\n", 1, "missing required column(s) i_A"),

@@ -202,7 +202,7 @@ def parse_log_bytes(raw: bytes):
         meta[key] = m.group(2).strip(_PAD)
         i += 1
     if i >= n:
-        fault(n + 1, "no header", "no header row after the metadata")
+        fault(n, "no header", "no header row after the metadata")
 
     hline = i + 1
     columns = [c.strip(_PAD) for c in lines[i].split(",")]
@@ -219,7 +219,7 @@ def parse_log_bytes(raw: bytes):
               f"missing required column(s) {', '.join(missing)} in header")
     data = lines[i + 1:]
     if not data:
-        fault(hline + 1, "no rows", "header with no rows")
+        fault(hline, "no rows", "header with no rows")
     first = hline + 1  # file line of data[0]
 
     # Structure of the row lines: the first line that is blank, metadata or of the wrong
