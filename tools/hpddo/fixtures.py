@@ -39,7 +39,9 @@ def tiny_model(hidden=(4, 3), seed=SEED, out_gain=8.0) -> ModelData:
 
 def tiny_stream(seed=SEED):
     """(v_V, i_A, temp_C or None, dt_s, seq or None) covering ok, clamped, fallback, invalid,
-    seq gaps, absent and out-of-range temperatures, and the thermal estimate."""
+    seq gaps, absent and out-of-range temperatures, the thermal estimate, and the bounds:
+    a denormal period, a la di/dt beyond the speed range, a lost seq cycle seen from the
+    period, and full-scale current held until the winding reaches its limit."""
     rng = np.random.default_rng(seed + 1)
     out = []
     seq = 100
@@ -62,6 +64,22 @@ def tiny_stream(seed=SEED):
         out.append((rng.uniform(0, 12.5), rng.uniform(-0.05, 1.8), 45.0, 0.01, None))
     out.append((9.0, 0.8, 45.0, 0.5, 65535))
     out.append((9.0, 0.8, 45.0, 0.5, 0))  # wraps without a gap
+    # The bounds (docs/core.md): a denormal period is used but starts a new segment;
+    # a 12 us period with a current step gives la di/dt beyond the speed range: invalid.
+    seq = 1
+    out.append((9.2, 0.85, 45.0, 1e-40, seq)); seq += 1
+    out.append((9.0, 0.1, 45.0, 0.5, seq)); seq += 1
+    out.append((9.0, 1.9, 45.0, 1.2e-5, seq)); seq += 1
+    out.append((9.0, 1.0, 45.0, 0.5, seq)); seq += 1       # recovers
+    # 65536 samples lost: seq follows on 16 bits, but the period shows the gap.
+    out.append((9.4, 1.2, 45.0, 65537 * 0.5, seq)); seq += 1
+    out.append((9.5, 1.1, 45.0, 0.5, seq)); seq += 1
+    # Full-scale current held for 200 s without a case reading: the winding estimate
+    # reaches the insulation limit and stays there, then decays once the current falls.
+    for _ in range(40):
+        out.append((12.0, 10.0, None, 5.0, seq)); seq += 1
+    for _ in range(6):
+        out.append((9.6, 0.9, None, 5.0, seq)); seq += 1
     return out
 
 

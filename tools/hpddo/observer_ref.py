@@ -64,10 +64,13 @@ def mlp_forward(layers, z):
 
 
 class ReferenceObserver:
-    """Step-by-step float32 observer with the lag, seq and thermal rules of the boards."""
+    """Step-by-step float32 observer with the lag, seq and thermal rules of the boards, and
+    their bounds (docs/core.md): a period outside [PERIOD_MIN_S, PERIOD_MAX_S] starts a new
+    segment, an n_M2 beyond speed_limit_rpm is invalid, the winding stays below WINDING_MAX_C."""
 
     def __init__(self, model: ModelData):
         self.m = model
+        self.speed_limit = ph.speed_limit_rpm(model.physics, model.limits.v_max_V, model.limits.i_max_A, F32)
         self.reset()
 
     def restart_lags(self):
@@ -102,6 +105,8 @@ class ReferenceObserver:
         if not (np.isfinite(v) and np.isfinite(i) and np.isfinite(dt) and abs(v) <= F32(lim.v_max_V)
                 and abs(i) <= F32(lim.i_max_A) and dt > 0):
             return self._invalid(out)
+        if not (F32(ph.PERIOD_MIN_S) <= dt <= F32(ph.PERIOD_MAX_S)):
+            self.has_lag = False  # no sample-to-sample step: a new segment, the sample still used
         i_true = ph.true_current_A(p, i, F32)
         t_read = temp_C is not None and np.isfinite(temp_C) and lim.temp_min_C <= temp_C <= lim.temp_max_C
         ref = F32(temp_C) if t_read else F32(p.t_amb_C)
@@ -116,7 +121,7 @@ class ReferenceObserver:
         di_dt = (i - self.i_lag) / dt if self.has_lag else F32(0)
         m2 = ph.physics_rpm(p, v, i, di_dt, ph.Temps(temp_used, magnet), F32)
         m2 = F32(m2)
-        if not np.isfinite(m2):
+        if not (np.isfinite(m2) and abs(m2) <= self.speed_limit):  # beyond the model's speed range: no speed
             return self._invalid(out)
         x = np.array([v, i, m2, self.i_lag if self.has_lag else i, self.m2_lag if self.has_lag else m2], F32)
         self.i_lag, self.m2_lag, self.has_lag = i, m2, True

@@ -15,6 +15,12 @@ import numpy as np
 RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
 BRUSH_KNEE_A = 0.02
 
+# Physical bounds (docs/core.md, "Bounds"), the same numbers as hpddo/limits.h.
+WINDING_MAX_C = 250.0      # hottest winding: the 250 C thermal class, the highest of IEC 60085
+PERIOD_MIN_S = 1e-5        # shorter periods are no sample-to-sample step (no di/dt; new segment)
+PERIOD_MAX_S = 10.0        # longer periods start a new segment too
+SPEED_LIMIT_FACTOR = 4.0   # speed range = factor * (v_max + i_max Ra) / Ke
+
 # Effect names, as in the bench twin and the diagnosis, with their C++ bit and
 # the PhysicsParams field that carries their coefficient.
 EFFECT_BITS = {
@@ -141,15 +147,23 @@ def exp(x):
 _BLOCK = 1024  # samples per block of the vectorised recursion
 
 
+def _rise_bounded(rise, ref):
+    """A rise held within [0, WINDING_MAX_C - ref]: the node only heats, and no winding
+    is hotter than its insulation class allows (NaN gives 0)."""
+    rise = min(rise, WINDING_MAX_C - ref)
+    return rise if rise >= 0.0 else 0.0
+
+
 def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     """The rise of thermal_trajectory in float64, vectorised. Each step is linear in the
     previous rise, rise_k = alpha_k rise_(k-1) + beta_k, with (exp step d, loss at Ra(T_w))
         alpha_k = d_k + (1 - d_k) r i_k^2 Ra a,   beta_k = (1 - d_k) r i_k^2 Ra (1 + a (ref_k - T_ref)),
     so blocks of it are cumulative products and sums (equal to the step-by-step loop to
-    rounding)."""
+    rounding). A block whose rise leaves [0, WINDING_MAX_C - ref] is redone step by step
+    with the bound applied after each step."""
     r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
     step = dt > 0
-    d = np.where(step, exp(-np.where(step, dt, 0.0) / tau), 1.0)
+    d = np.where(step, np.exp(-np.where(step, dt, 0.0) / tau), 1.0)
     q = r * i * i * ra
     alpha = np.where(step, d + (1.0 - d) * q * a, 1.0)
     beta = np.where(step, (1.0 - d) * q * (1.0 + a * (ref - tref)), 0.0)
@@ -157,13 +171,19 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     x = rise0
     for s0 in range(0, len(i), _BLOCK):
         al, be = alpha[s0:s0 + _BLOCK], beta[s0:s0 + _BLOCK]
+        rf = ref[s0:s0 + _BLOCK]
         prod = np.cumprod(al)
+        blk = None
         if prod.min() > 1e-250 and np.isfinite(prod[-1]):
-            blk = prod * (x + np.cumsum(be / prod))
-        else:  # the product left float64's range (long gaps, tiny tau): step by step
+            with np.errstate(over="ignore", invalid="ignore"):
+                blk = prod * (x + np.cumsum(be / prod))
+            if not np.all((blk >= 0.0) & (blk <= WINDING_MAX_C - rf)):
+                blk = None
+        if blk is None:  # out of float64's range or out of bounds: step by step
             blk = np.empty(len(al))
-            for k, (ak, bk) in enumerate(zip(al.tolist(), be.tolist())):
-                x = ak * x + bk
+            for k, (ak, bk, sk) in enumerate(zip(al.tolist(), be.tolist(), step[s0:s0 + _BLOCK].tolist())):
+                if sk:
+                    x = _rise_bounded(ak * x + bk, float(rf[k]))
                 blk[k] = x
         out[s0:s0 + _BLOCK] = blk
         x = float(blk[-1])
@@ -173,7 +193,8 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
 def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_rise_K=0.0, final_rise=False):
     """Winding temperature per sample, as hpddo::ThermalEstimator::step before each sample:
     ref + rise, the rise a first-order node heated by i^2 Ra(T_w) above the reference
-    ref_C (per sample: the case reading where read, else t_amb; None: t_amb throughout).
+    ref_C (per sample: the case reading where read, else t_amb; None: t_amb throughout),
+    held within [0, WINDING_MAX_C - ref] after each step.
     With final_rise, also returns the rise after the last sample."""
     i = np.asarray(i_true_A, dtype)
     dt = np.asarray(dt_s, dtype)
@@ -189,13 +210,27 @@ def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_ri
         return (out, float(out[-1] - ref[-1]) if n else float(rise)) if final_rise else out
     r = dtype(p.th_r_K_per_W)
     tau = dtype(p.th_tau_s)
+    hottest = dtype(WINDING_MAX_C)
     for k in range(n):
         if dt[k] > 0:
             loss = i[k] * i[k] * ra_at_ohm(p, ref[k] + rise, dtype)
             target = dtype(r * loss)
-            rise = dtype(target + (rise - target) * dtype(exp(-dt[k] / tau)))
+            rise = dtype(target + (rise - target) * np.exp(-dt[k] / tau).astype(dtype))
+            rise = min(rise, dtype(hottest - ref[k]))
+            rise = rise if rise >= 0 else dtype(0)
         out[k] = ref[k] + rise
     return (out, rise) if final_rise else out
+
+
+def speed_limit_rpm(p, v_max_V, i_max_A, dtype=np.float64):
+    """Edge of the model's physical speed range, RPM: SPEED_LIMIT_FACTOR times the speed
+    at which the back-EMF balances the largest channel voltage plus the largest resistive
+    drop, (v_max + i_max Ra) / Ke; 0 when Ke is not positive. Beyond it n_M2 is no speed."""
+    ke = dtype(p.ke_vs_per_rad)
+    if not ke > 0:
+        return dtype(0)
+    emf = dtype(dtype(v_max_V) + dtype(dtype(i_max_A) * dtype(p.ra_ohm)))
+    return dtype(dtype(dtype(dtype(SPEED_LIMIT_FACTOR) * emf) / ke) * dtype(RPM_PER_RAD_S))
 
 
 def temperatures(p, i_A, dt_s, temp_read_C) -> Temps:
