@@ -49,6 +49,8 @@ __all__ = [
     "COLUMN_FORMATS",
     "INT_MAX",
     "FAULTS",
+    "NUMBER_RE",
+    "INTEGER_RE",
     "read_log",
     "write_log",
     "write_text_atomic",
@@ -88,7 +90,11 @@ COLUMN_FORMATS = {
 _PAD = " \t"  # the only padding the format knows
 _META_KEY_RE = re.compile(r"[A-Za-z0-9_.\-]+")
 _META_RE = re.compile(r"#[ \t]*([^=]*?)[ \t]*=(.*)", re.S)
-_NUMBER_RE = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+#: The number grammar of docs/bench-log.md (to be used with fullmatch, on a cell without padding).
+NUMBER_RE = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+#: The integer grammar of docs/bench-log.md (load, seq): digits only.
+INTEGER_RE = r"[0-9]+"
+_NUMBER_RE = NUMBER_RE
 _NONFINITE_RE = r"[+-]?(?:[iI][nN][fF](?:[iI][nN][iI][tT][yY])?|[nN][aA][nN])"
 _NUMBER_CHARS = frozenset("0123456789+-.eE")
 _DIGITS = frozenset("0123456789")
@@ -149,13 +155,13 @@ def read_log(path) -> BenchLog:
     except OSError as exc:
         raise BenchLogError(path, None, f"cannot read file: {exc.strerror or exc}") from None
     try:
-        meta, df, lines = parse_log_bytes(raw)
+        meta, df, lines = _parse_bytes(raw)
     except _Fault as f:
         raise BenchLogError(path, f.line, f.message, f.kind) from None
     return BenchLog(path=path, meta=meta, df=df, lines=lines)
 
 
-def parse_log_bytes(raw: bytes):
+def _parse_bytes(raw: bytes):
     """Parses the bytes of a bench log into (meta, df, lines); raises _Fault on a format fault."""
     if raw[:3] == b"\xef\xbb\xbf":
         raw = raw[3:]
@@ -357,7 +363,7 @@ def _parse_ints(vals, col):
     bad = None
     if _cells_off(vals, _DIGITS) or (vals == "").any():
         s = pd.Series(vals, dtype=object)
-        ok = s.str.fullmatch(r"[0-9]+").to_numpy(dtype=bool)
+        ok = s.str.fullmatch(INTEGER_RE).to_numpy(dtype=bool)
         empty = vals == ""
         bad = _merge(bad, empty, "empty value", lambda r: f"empty value in column {col}")
         bad = _merge(bad, ~ok & ~empty, "non-integer",
@@ -468,7 +474,7 @@ def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
     parts.append(body + "\n")
     text = "".join(parts)
     try:
-        parse_log_bytes(text.encode("utf-8"))
+        _parse_bytes(text.encode("utf-8"))
     except _Fault as f:
         raise ValueError(f"the text would not be a valid bench log (line {f.line}: {f.message})") from None
 
