@@ -21,14 +21,13 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import argparse  # noqa: E402
 import pathlib  # noqa: E402
-import shutil  # noqa: E402
 import sys  # noqa: E402
-import tempfile  # noqa: E402
 import time  # noqa: E402
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from hpddo import benchlog, identify  # noqa: E402
+from hpddo import outdir  # noqa: E402
+from hpddo.errors import USER_ERRORS  # noqa: E402
 from hpddo import effects as fx  # noqa: E402
 from hpddo.diagnosis import core, report  # noqa: E402
 
@@ -46,6 +45,7 @@ def parser():
     ap.add_argument("--hybrid-iter", type=int, default=core.HYBRID_ITER,
                     help=f"training iterations of the hybrid ({core.HYBRID_ITER})")
     ap.add_argument("--seed", type=int, default=1, help="seed of the bootstrap and the network (1)")
+    ap.add_argument("--no-glitch-filter", action="store_true", help="keep every row (no glitch filter)")
     return ap
 
 
@@ -53,27 +53,19 @@ def main(argv=None) -> int:
     args = parser().parse_args(argv)
     t0 = time.perf_counter()
     opt = core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
-                       hybrid=not args.no_hybrid, hybrid_iter=args.hybrid_iter, seed=args.seed)
+                       hybrid=not args.no_hybrid, hybrid_iter=args.hybrid_iter, seed=args.seed,
+                       glitch_filter=not args.no_glitch_filter)
+    out = args.out
     try:
+        outdir.check(out, "diagnose")  # before the work: a refused folder costs nothing
         res, plot = core.diagnose(args.logs, opt)
-    except (benchlog.BenchLogError, identify.IdentificationError) as exc:
+        with outdir.staged(out, "diagnose") as stage:
+            report.write(stage, res, plot)
+    except USER_ERRORS as exc:
         print(f"diagnose: {exc}", file=sys.stderr)
         return 1
-    out = args.out
-    out.parent.mkdir(parents=True, exist_ok=True)
-    stage = pathlib.Path(tempfile.mkdtemp(prefix=f".{out.name}.", dir=out.parent))
-    try:
-        report.write(stage, res, plot)
-        os.chmod(stage, 0o755)
-        if out.exists():
-            old = pathlib.Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-            os.rename(out, old / "x")
-            os.rename(stage, out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            os.rename(stage, out)
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
+    for w in res.get("warnings", []):
+        print(f"diagnose: WARNING: {w}", file=sys.stderr)
     print(res["verdict"])
     for e in res["ranking"]:
         if e["named"]:

@@ -25,7 +25,8 @@ import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
-from hpddo import benchlog, identify, physics  # noqa: E402
+from hpddo import physics  # noqa: E402
+from hpddo.errors import USER_ERRORS  # noqa: E402
 from hpddo import effects as fx  # noqa: E402
 from hpddo.pipeline import PipelineConfig, run  # noqa: E402
 from hpddo.train import TrainConfig  # noqa: E402
@@ -79,12 +80,14 @@ def main(argv=None) -> int:
     t0 = time.perf_counter()
     try:
         res = run(args.logs, args.out, cfg)
-    except (benchlog.BenchLogError, identify.IdentificationError) as exc:
+    except USER_ERRORS as exc:
         print(f"gen_weights: {exc}", file=sys.stderr)
         return 1
     for r in res.recordings:
         print(f"{r.source}: {r.n} rows ({r.n_train} train, {r.n - r.n_train} test), "
-              f"{len(r.removed)} glitch rows removed")
+              f"{len(r.removed)} of {r.rows_in_file} rows removed as glitches")
+    for w in res.metrics["warnings"]:
+        print(f"gen_weights: WARNING: {w}", file=sys.stderr)
     ident = res.metrics["identification"]
     print(f"Ra = {ident['ra_ohm']:.4g} ohm ({ident['ra_source']}); M1 Ke = {ident['ke_m1_vs_per_rad']:.4f} V s/rad "
           f"(nameplate); M2 Ke = {ident['ke_m2_vs_per_rad']:.4f} V s/rad ({args.ke_fit})")

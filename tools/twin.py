@@ -16,6 +16,8 @@ import time
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
 
+from hpddo import outdir  # noqa: E402
+from hpddo.errors import USER_ERRORS  # noqa: E402
 from hpddo.twin import generate, protocols  # noqa: E402
 from hpddo.twin.params import EFFECT_NAMES, EFFECTS, PRESETS, preset, with_effects  # noqa: E402
 
@@ -99,6 +101,29 @@ def build_bench(args):
     return dataclasses.replace(bench, **changes) if changes else bench
 
 
+def simulate(bench, prot: str, args, stage: pathlib.Path) -> None:
+    """One protocol into stage (which becomes args.out), with a progress bar on long runs."""
+    total = sum(s[0] for s in protocols.schedule(prot, args.time_scale))
+    bar = None
+    cb = None
+    if not args.quiet and total * args.rate_hz >= 2000:
+        from tqdm import tqdm
+
+        bar = tqdm(total=round(total, 3), unit="s", desc=f"{prot} (simulated s)",
+                   file=sys.stderr, mininterval=0.5, leave=False,
+                   bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s [{elapsed}<{remaining}]")
+        cb = bar.update
+    g = generate.generate(bench, prot, args.rate_hz, args.seed, out_dir=stage,
+                          preset_name=args.preset, time_scale=args.time_scale, progress=cb)
+    if bar is not None:
+        bar.close()
+    if not args.quiet:
+        tr = g["info"]["truth"]
+        print(f"{pathlib.Path(args.out) / g['paths']['log'].name}: {g['info']['rows']} rows, true speed max "
+              f"{tr['rpm_true_max']:.1f} RPM, case {tr['case_C_start']:.1f} -> "
+              f"{tr['case_C_end']:.1f} C, {len(g['info']['glitches'])} glitches")
+
+
 def main(argv=None):
     args = parse_args(argv)
     if args.list_effects:
@@ -109,26 +134,13 @@ def main(argv=None):
     bench = build_bench(args)
     prots = list(protocols.PROTOCOLS) if args.protocol == "all" else [args.protocol]
     t0 = time.perf_counter()
-    for prot in prots:
-        total = sum(s[0] for s in protocols.schedule(prot, args.time_scale))
-        bar = None
-        cb = None
-        if not args.quiet and total * args.rate_hz >= 2000:
-            from tqdm import tqdm
-
-            bar = tqdm(total=round(total, 3), unit="s", desc=f"{prot} (simulated s)",
-                       file=sys.stderr, mininterval=0.5, leave=False,
-                       bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s [{elapsed}<{remaining}]")
-            cb = bar.update
-        g = generate.generate(bench, prot, args.rate_hz, args.seed, out_dir=args.out,
-                              preset_name=args.preset, time_scale=args.time_scale, progress=cb)
-        if bar is not None:
-            bar.close()
-        if not args.quiet:
-            tr = g["info"]["truth"]
-            print(f"{g['paths']['log']}: {g['info']['rows']} rows, true speed max "
-                  f"{tr['rpm_true_max']:.1f} RPM, case {tr['case_C_start']:.1f} -> "
-                  f"{tr['case_C_end']:.1f} C, {len(g['info']['glitches'])} glitches")
+    try:
+        with outdir.staged(args.out, "twin", prune=False) as stage:
+            for prot in prots:
+                simulate(bench, prot, args, stage)
+    except USER_ERRORS as exc:
+        print(f"twin: {exc}", file=sys.stderr)
+        return 1
     if not args.quiet:
         print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
     return 0

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import pathlib
+import re
 
 import numpy as np
 import pandas as pd
@@ -17,13 +18,24 @@ import pandas as pd
 from . import benchlog
 
 TRAIN_FRACTION = 0.8
+MIN_ROWS = 10  # fewer rows than this cannot be split into training and test parts
 
 # A sample is a glitch when it departs from the median of its 5-sample neighbourhood by
-# more than GLITCH_SIGMAS robust standard deviations of such departures, and by more than
-# an absolute floor in the channel's unit. Real steps (load, duty) move the median with
-# them and survive; isolated spikes of one or two samples do not.
+# more than GLITCH_SIGMAS robust standard deviations of such departures, by more than an
+# absolute floor in the channel's unit, and by more than GLITCH_QUANTA steps of the
+# channel's resolution (its quantum, estimated from the data: an encoder at 1 kHz moves
+# in steps of 310 RPM, and a sample one step from its neighbours is no glitch), and by
+# more than GLITCH_TAIL times the 99th percentile of all departures (at 100 Hz and more
+# the V and I channels alias the PWM into heavy-tailed noise that a robust sigma misses;
+# a glitch must stand out of that tail, not only out of the typical spread). Real
+# steps (load, duty) move the median with them and survive; isolated spikes of one or two
+# samples do not. Glitches are rare by nature: a recording that loses more than
+# GLITCH_WARN_SHARE of its rows to the filter is reported loudly.
 GLITCH_SIGMAS = 12.0
 GLITCH_FLOOR = {"v_V": 0.5, "i_A": 0.15, "rpm_ref": 25.0}
+GLITCH_QUANTA = 3.0
+GLITCH_TAIL = 2.0
+GLITCH_WARN_SHARE = 0.01
 TEMP_RANGE_C = (-55.0, 125.0)  # DS18B20 range: readings outside are glitches
 
 
@@ -31,12 +43,14 @@ TEMP_RANGE_C = (-55.0, 125.0)  # DS18B20 range: readings outside are glitches
 class Recording:
     """One cleaned recording."""
 
-    name: str             # condition (metadata) or file stem
+    name: str             # condition (metadata) or file stem; unique among the recordings of a run
     source: pathlib.Path  # the log it came from
     meta: dict
     df: pd.DataFrame      # cleaned rows, with a seq column (the source's, or its row index)
     removed: list         # [(file line, reason), ...] of rows the glitch filter removed
     n_train: int          # rows [0, n_train) train, [n_train, n) test
+    rows_in_file: int = 0  # data rows of the log before the glitch filter
+    warnings: list = dataclasses.field(default_factory=list)  # what a user must be told loudly
 
     @property
     def n(self) -> int:
@@ -48,13 +62,26 @@ class Recording:
     def has_temp(self) -> bool:
         return "temp_C" in self.df and self.df["temp_C"].notna().any()
 
+    @property
+    def file_stem(self) -> str:
+        """The name as a safe file name (work files of the run are named by it)."""
+        return safe_name(self.name)
 
-def _first_data_line(path: pathlib.Path) -> int:
-    with open(path, encoding="utf-8-sig") as fh:
-        for k, line in enumerate(fh, start=1):
-            if not line.startswith("#"):
-                return k + 1
-    return 1
+
+def safe_name(name: str) -> str:
+    """A recording name reduced to letters, digits, '_', '-' and '.' for file names."""
+    out = re.sub(r"[^A-Za-z0-9_.-]", "_", name).strip(".")
+    return out or "recording"
+
+
+def quantum(x: np.ndarray) -> float:
+    """The channel's resolution as the data shows it: the 10th percentile of the non-zero
+    steps between consecutive samples (a quantised channel never steps by less than one
+    quantum; for a continuous noisy channel this is far below its noise)."""
+    x = x[np.isfinite(x)]
+    d = np.abs(np.diff(x))
+    d = d[d > 0]
+    return float(np.percentile(d, 10)) if d.size >= 20 else 0.0
 
 
 def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:
@@ -72,7 +99,8 @@ def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:
         if not finite.any():
             continue
         sigma = 1.4826 * np.median(dev[finite])
-        thresh = max(GLITCH_SIGMAS * sigma, floor)
+        thresh = max(GLITCH_SIGMAS * sigma, floor, GLITCH_QUANTA * quantum(x),
+                     GLITCH_TAIL * float(np.percentile(dev[finite], 99)))
         hit = finite & (dev > thresh)
         for k in np.flatnonzero(hit & ~bad):
             reasons[k] = f"{col}={x[k]:.6g} departs {dev[k]:.3g} from its neighbours' median (threshold {thresh:.3g})"
@@ -90,19 +118,43 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
     """Reads, cleans and splits one bench log (raises benchlog.BenchLogError on format faults)."""
     log = benchlog.read_log(path)
     df = log.df.copy()
+    lines = np.asarray(log.lines, np.int64)
     if "seq" not in df:
         df["seq"] = np.arange(len(df), dtype=np.int64)
-    removed = []
+    removed, warnings = [], []
     if glitch_filter:
         bad, reasons = glitch_mask(df)
-        first = _first_data_line(pathlib.Path(path))
-        removed = [(first + int(k), reasons[k]) for k in np.flatnonzero(bad)]
+        removed = [(int(lines[k]), reasons[k]) for k in np.flatnonzero(bad)]
         df = df.loc[~bad].reset_index(drop=True)
-    if len(df) < 10:
-        raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows: too few to split 80/20")
+        share = len(removed) / max(len(log.df), 1)
+        if share > GLITCH_WARN_SHARE:
+            warnings.append(f"{path}: the glitch filter removed {len(removed)} of {len(log.df)} rows "
+                            f"({100 * share:.1f} %), more than glitches should be; look at the rows it names, "
+                            "or keep every row with --no-glitch-filter")
+    if len(df) < MIN_ROWS:
+        raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows"
+                                     + (f" after removing {len(removed)} glitch rows" if removed else "")
+                                     + f": at least {MIN_ROWS} are needed to split train/test")
     n_train = int(np.floor(train_fraction * len(df)))
     return Recording(name=log.condition, source=pathlib.Path(path), meta=dict(log.meta), df=df,
-                     removed=removed, n_train=n_train)
+                     removed=removed, n_train=n_train, rows_in_file=len(log.df), warnings=warnings)
+
+
+def load_recordings(paths, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True) -> list[Recording]:
+    """load_recording for each path; refuses two recordings with the same name (condition
+    metadata, else file name), which would be counted as one."""
+    recs = [load_recording(p, train_fraction, glitch_filter) for p in paths]
+    seen = {}
+    for r in recs:
+        key = r.file_stem.lower()
+        if key in seen:
+            other = seen[key]
+            raise benchlog.BenchLogError(
+                r.source, None, f"recording name {r.name!r} is also the name of {other.source} "
+                f"({other.name!r}); each recording needs its own name: set '# condition=NAME' in one "
+                "of them, or rename the file")
+        seen[key] = r
+    return recs
 
 
 def segment_starts(rec: Recording) -> np.ndarray:

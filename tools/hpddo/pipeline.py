@@ -7,12 +7,10 @@ import dataclasses
 import hashlib
 import json
 import pathlib
-import shutil
-import tempfile
 
 import numpy as np
 
-from . import dataset, export, identify, replay
+from . import dataset, export, identify, outdir, replay
 from . import physics as ph
 from .observer_ref import Limits, ModelData
 from .train import TrainConfig, Residual, train_residual
@@ -81,7 +79,8 @@ def golden_samples(recs):
 def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     """Runs everything; raises BenchLogError / IdentificationError / ValueError on bad input
     before anything is written to out_dir."""
-    recs = [dataset.load_recording(p, cfg.train_fraction, cfg.glitch_filter) for p in log_paths]
+    outdir.check(out_dir, "gen_weights")  # before the work: a refused folder costs nothing
+    recs = dataset.load_recordings(log_paths, cfg.train_fraction, cfg.glitch_filter)
     names = [r.name for r in recs]
     ra, ra_source = identify.ra_from_logs(recs, cfg.ra_ohm)
     m1 = ph.nameplate_params(ra, cfg.rated_V, cfg.rated_rpm)
@@ -93,9 +92,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     model = model_data(m1, m2, res)
 
     out = pathlib.Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    stage = pathlib.Path(tempfile.mkdtemp(prefix=".gen_weights.", dir=out))
-    try:
+    with outdir.staged(out, "gen_weights") as stage:
         prov = {"command": cfg.command, "seed": cfg.train.seed,
                 "data": ", ".join(sorted(pathlib.Path(p).name for p in log_paths)),
                 "data_sha256": data_hash(log_paths),
@@ -112,7 +109,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         work = stage / "work"  # cleaned logs, the replay built for this model, its estimates
         (work / "logs").mkdir(parents=True)
         (work / "estimates").mkdir()
-        clean = [dataset.write_clean(r, work / "logs" / f"{r.source.stem}.csv") for r in recs]
+        clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
         exe = replay.build(stage, name, work / "replay")
         metrics, table = replay.run(exe, clean, stage / "metrics.json", work / "estimates")
         metrics["identification"] = {
@@ -122,18 +119,11 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
             "clamp_rpm": model.clamp_rpm, "hidden": list(cfg.train.hidden), "train_rows": res.n_train,
             "final_loss": res.loss_curve[-1] if res.loss_curve else None,
         }
-        metrics["glitches_removed"] = {r.source.name: [{"line": ln, "reason": why} for ln, why in r.removed]
+        metrics["glitches_removed"] = {r.name: {"file": r.source.name, "rows_in_file": r.rows_in_file,
+                                                "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
                                        for r in recs}
+        metrics["warnings"] = [w for r in recs for w in r.warnings]
         metrics["recordings"] = names
         (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
         (work / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
-        for item in stage.iterdir():
-            dest = out / item.name
-            if dest.is_dir():
-                shutil.rmtree(dest)
-            elif dest.exists():
-                dest.unlink()
-            item.rename(dest)
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
     return PipelineResult(recs, m1, m2, res, model, metrics, table, out)

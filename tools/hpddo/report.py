@@ -90,6 +90,14 @@ def write(metrics: dict, estimates_dir: pathlib.Path, out: pathlib.Path, title: 
     parts.append("<p class='note'>Residual clamp active on " + ", ".join(
         f"{c} {100 * v:.1f} %" for c, v in shares.items()) + "; physics fallback on " + ", ".join(
         f"{c} {100 * v:.1f} %" for c, v in fb.items()) + " of the test samples.</p>")
+    removed = metrics.get("glitches_removed", {})
+    if removed:
+        parts.append("<p class='note'>RMSE over every test row with an encoder reading; rows removed by the "
+                     "glitch filter before the split: " + ", ".join(
+                         f"{html.escape(c)} {len(g['removed'])} of {g['rows_in_file']}" for c, g in removed.items())
+                     + ".</p>")
+    for w in metrics.get("warnings", []):
+        parts.append(f"<p class='note'><strong>Warning:</strong> {html.escape(w)}</p>")
     for f in sorted(estimates_dir.glob("*.estimates.csv")):
         est = pd.read_csv(f)
         name = f.name.replace(".estimates.csv", "")

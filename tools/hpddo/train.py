@@ -10,10 +10,15 @@ from tqdm import tqdm
 from . import network
 from . import physics as ph
 from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
+from .errors import InputError
 
 FEATURES = ["v_V", "i_A", "n_M2", "i_A_lag1", "n_M2_lag1"]
 CLAMP_PERCENTILE = 99.0   # paper 4.10: the 99th percentile of absolute training residuals
 ENVELOPE_MARGIN = 0.10    # the envelope is the training range widened by 10 % of it each side
+
+
+class TrainingError(InputError):
+    """The training rows cannot train the residual network."""
 
 
 @dataclasses.dataclass
@@ -73,7 +78,8 @@ def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig)
     x = np.concatenate(xs)
     e = np.concatenate(es)
     if len(x) < cfg.batch_size:
-        raise ValueError(f"only {len(x)} labelled training rows: too few to train the residual network")
+        raise TrainingError(f"only {len(x)} labelled training rows: too few to train the residual network "
+                            f"(at least one batch, {cfg.batch_size}); record longer, or give more recordings")
     scaler = network.Scaler.fit(x)
     z = scaler.transform(x)
     bar = functools.partial(tqdm, desc=f"train M3 {cfg.hidden}", unit="epoch", disable=not cfg.progress,

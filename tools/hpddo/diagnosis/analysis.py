@@ -30,7 +30,7 @@ def acf(x: np.ndarray, max_lag: int = MAX_LAG) -> np.ndarray:
     c0 = float(np.dot(x, x)) / n
     if n < 3 or c0 <= 0:
         return np.zeros(max_lag + 1)
-    return np.array([float(np.dot(x[: n - k], x[k:])) / n / c0 for k in range(max_lag + 1)])
+    return np.array([float(np.dot(x[: n - k], x[k:])) / n / c0 if k < n else 0.0 for k in range(max_lag + 1)])
 
 
 def ccf(e: np.ndarray, u: np.ndarray, max_lag: int = MAX_LAG) -> np.ndarray:
@@ -43,6 +43,8 @@ def ccf(e: np.ndarray, u: np.ndarray, max_lag: int = MAX_LAG) -> np.ndarray:
     if den <= 0 or n < 3:
         return out
     for j, k in enumerate(range(-max_lag, max_lag + 1)):
+        if abs(k) >= n:  # a short part has no pairs at this lag
+            continue
         out[j] = (np.dot(e[k:], u[: n - k]) if k >= 0 else np.dot(e[: n + k], u[-k:])) / den
     return out
 

@@ -10,7 +10,7 @@ import numpy as np
 from .. import dataset, identify
 from .. import effects as fx
 from .. import physics as ph
-from ..train import TrainConfig, features, train_residual
+from ..train import TrainConfig, TrainingError, features, train_residual
 from . import analysis, ranking
 
 HYBRID_ITER = 150  # training iterations of the hybrid in the diagnosis (gen_weights: 2000)
@@ -24,6 +24,7 @@ class Options:
     hybrid: bool = True
     hybrid_iter: int = HYBRID_ITER
     seed: int = 1
+    glitch_filter: bool = True
 
 
 def _rmse_by_condition(rows, res) -> dict:
@@ -89,7 +90,7 @@ def _entry(name, p, **kw):
 
 def diagnose(paths, opt: Options) -> dict:
     t0 = time.perf_counter()
-    recs = [dataset.load_recording(p) for p in paths]
+    recs = dataset.load_recordings(paths, glitch_filter=opt.glitch_filter)
     ra, ra_source = identify.ra_from_logs(recs, opt.ra_ohm)
     m2 = identify.m2_params(recs, ra)
     given = list(fx.check_names(opt.effects))
@@ -256,6 +257,7 @@ def diagnose(paths, opt: Options) -> dict:
     out = {
         "recordings": [{"name": r.name, "file": str(r.source), "rows": r.n, "train_rows": r.n_train,
                         "glitches_removed": len(r.removed), "has_temp": r.has_temp()} for r in recs],
+        "warnings": [w for r in recs for w in r.warnings],
         "ra_ohm": ra, "ra_source": ra_source,
         "model_effects": given,
         "model": dataclasses.asdict(model),
@@ -279,7 +281,12 @@ def diagnose(paths, opt: Options) -> dict:
     }
     hyb = {}
     if opt.hybrid:
-        hb = _hybrid(recs, model, opt.hybrid_iter, opt.seed)
+        try:
+            hb = _hybrid(recs, model, opt.hybrid_iter, opt.seed)
+        except TrainingError as exc:  # too few rows for a network: the physics verdict stands alone
+            out["warnings"].append(f"hybrid before/after not computed: {exc}")
+            opt = dataclasses.replace(opt, hybrid=False)
+    if opt.hybrid:
         ha = _hybrid(recs, after_model, opt.hybrid_iter, opt.seed) if missing else hb
         out["rmse_rpm_hybrid"] = {"before": _rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, hb)]),
                                   "after": _rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, ha)]),

@@ -1,0 +1,212 @@
+"""Bad or unusual input gives a named error (no traceback, nothing written), and fast
+recordings are cleaned and identified as well as slow ones."""
+import json
+import pathlib
+
+import numpy as np
+import pytest
+
+from conftest import ROOT
+
+import demo
+import diagnose
+import gen_weights
+import twin
+from hpddo import benchlog, dataset, identify
+
+DATA = sorted(p for p in (ROOT / "data" / "default").glob("*.csv") if not p.name.endswith(".truth.csv"))
+LONG = ROOT / "data" / "default" / "long.csv"
+
+
+def _head(src: pathlib.Path, dst: pathlib.Path, rows: int, meta_extra: str = "") -> pathlib.Path:
+    lines = src.read_text().splitlines(keepends=True)
+    meta = [ln for ln in lines if ln.startswith("#")]
+    body = [ln for ln in lines if not ln.startswith("#")]
+    dst.write_text("".join(meta) + meta_extra + "".join(body[: rows + 1]))
+    return dst
+
+
+def _no_traceback(err: str):
+    assert "Traceback" not in err
+
+
+def test_two_logs_with_the_same_name_are_refused(tmp_path, capsys):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    a = tmp_path / "a" / "sweep.csv"
+    b = tmp_path / "b" / "sweep.csv"
+    a.write_bytes(DATA[-1].read_bytes())
+    b.write_bytes(DATA[-1].read_bytes())
+    out = tmp_path / "out"
+    assert gen_weights.main([str(a), str(b), "--out", str(out), "--quiet", "--max-iter", "1"]) == 1
+    err = capsys.readouterr().err
+    assert str(a) in err and str(b) in err and "condition" in err
+    assert not out.exists()
+
+
+def test_same_file_name_with_distinct_conditions_is_two_recordings(tmp_path):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    text = LONG.read_text()
+    a = tmp_path / "a" / "long.csv"
+    b = tmp_path / "b" / "long.csv"
+    a.write_text(text.replace("# condition=long", "# condition=bench_a"))
+    b.write_text(text.replace("# condition=long", "# condition=bench_b"))
+    recs = dataset.load_recordings([a, b])
+    assert [r.name for r in recs] == ["bench_a", "bench_b"]
+
+
+def test_condition_with_quote_and_backslash_reaches_valid_metrics(tmp_path):
+    log = tmp_path / "odd.csv"
+    log.write_text(LONG.read_text().replace("# condition=long", '# condition=run "7" \\ hot'))
+    out = tmp_path / "out"
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet", "--max-iter", "1"]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert 'run "7" \\ hot' in metrics["rmse_rpm"]["M2"]
+
+
+def test_no_rpm_ref_column_is_a_named_error(tmp_path, capsys):
+    src = LONG.read_text().splitlines()
+    head = next(k for k, ln in enumerate(src) if not ln.startswith("#"))
+    cols = src[head].split(",")
+    j = cols.index("rpm_ref")
+    rows = [",".join(c for k, c in enumerate(ln.split(",")) if k != j) for ln in src[head:]]
+    log = tmp_path / "unlabelled.csv"
+    log.write_text("\n".join(src[:head] + rows) + "\n")
+    for tool in (gen_weights, diagnose):
+        out = tmp_path / f"out_{tool.__name__}"
+        assert tool.main([str(log), "--out", str(out)]) == 1
+        err = capsys.readouterr().err
+        _no_traceback(err)
+        assert "rpm_ref" in err and str(log) in err
+        assert not out.exists()
+
+
+@pytest.mark.parametrize("rows", [12, 50, 150])
+def test_short_logs_give_a_named_error_or_a_result(tmp_path, capsys, rows):
+    log = _head(LONG, tmp_path / f"short{rows}.csv", rows)
+    out = tmp_path / "gw"
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    _no_traceback(err)
+    assert "too few to train the residual network" in err
+    assert not out.exists()
+    # the diagnosis needs no network: it runs, and says the hybrid was left out
+    dout = tmp_path / "dg"
+    assert diagnose.main([str(log), "--out", str(dout), "--bootstrap", "0"]) == 0
+    err = capsys.readouterr().err
+    assert "hybrid before/after not computed" in err
+    assert json.loads((dout / "diagnosis.json").read_text())["warnings"]
+
+
+def test_too_few_rows_to_split_names_the_file(tmp_path, capsys):
+    log = _head(LONG, tmp_path / "tiny.csv", 6)
+    assert gen_weights.main([str(log), "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "tiny.csv" in err and "only 6 usable rows" in err
+
+
+def test_a_wrong_ra_is_named_as_such(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert gen_weights.main([*map(str, DATA), "--out", str(out), "--ra-ohm", "34", "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "Ra = 34 ohm" in err and "too large" in err and "--ra-ohm" in err
+    assert not out.exists()
+
+
+def test_demo_on_logs_without_ra_says_which_option_to_use(tmp_path, capsys):
+    data = tmp_path / "data"
+    data.mkdir()
+    for p in DATA:
+        (data / p.name).write_text("".join(ln for ln in p.read_text().splitlines(keepends=True)
+                                           if not ln.startswith("# ra_ohm=")))
+    out = tmp_path / "out"
+    assert demo.main(["--data", str(data), "--out", str(out)]) == 1
+    err = capsys.readouterr().err
+    _no_traceback(err)
+    assert "--ra-ohm" in err
+    assert not out.exists()
+    assert "--ra-ohm" in demo.parser().format_help()
+
+
+@pytest.mark.parametrize("tool", [gen_weights.parser(), diagnose.parser(), demo.parser()])
+def test_every_tool_that_filters_can_keep_every_row(tool):
+    assert "--no-glitch-filter" in tool.format_help()
+
+
+def test_glitch_lines_are_file_lines_with_bom_and_crlf(tmp_path):
+    src = DATA[-1]
+    text = src.read_text()
+    crlf = tmp_path / "crlf.csv"
+    crlf.write_bytes(b"\xef\xbb\xbf" + text.replace("\n", "\r\n").encode())
+    want = [ln for ln, _ in dataset.load_recording(src).removed]
+    assert [ln for ln, _ in dataset.load_recording(crlf).removed] == want
+    lines = text.splitlines()
+    for ln in want:  # each named line holds a glitch value the filter's reason quotes
+        cells = lines[ln - 1].split(",")
+        assert len(cells) > 4
+
+
+@pytest.fixture(scope="module")
+def fast_logs(tmp_path_factory):
+    out = tmp_path_factory.mktemp("fast")
+    assert twin.main(["--protocol", "load", "--rate-hz", "1000", "--time-scale", "0.05",
+                      "--out", str(out / "1k"), "--quiet"]) == 0
+    assert twin.main(["--protocol", "all", "--rate-hz", "100", "--time-scale", "0.1",
+                      "--out", str(out / "100"), "--quiet"]) == 0
+    return out
+
+
+def test_glitch_filter_is_scale_aware_at_100_hz_and_1_khz(fast_logs):
+    for log in sorted(fast_logs.glob("*/*.csv")):
+        if log.name.endswith(".truth.csv"):
+            continue
+        rec = dataset.load_recording(log)
+        truth = json.loads(log.with_suffix(".truth.json").read_text())
+        assert len(rec.removed) <= len(truth["glitches"]) + 0.002 * rec.rows_in_file, (log, rec.removed[:5])
+        assert not rec.warnings
+        if "100" in log.parent.name:  # at 100 Hz the injected glitches stand out of the noise
+            lines = benchlog.read_log(log).lines
+            injected = {int(lines[g["row"]]) for g in truth["glitches"]}
+            assert injected <= {ln for ln, _ in rec.removed}
+
+
+def test_ke_is_recovered_from_a_quantised_encoder_at_1_khz(fast_logs):
+    """At 1 kHz the encoder moves in steps of about 310 RPM; window means recover the Ke
+    that the true speeds give, per row."""
+    import pandas as pd
+    log = fast_logs / "1k" / "load.csv"
+    rec = dataset.load_recording(log)
+    truth = pd.read_csv(log.with_suffix(".truth.csv"))
+    assert len(np.unique(rec.df["rpm_ref"].round(1))) < 10  # it is coarse
+    ke = identify.m2_params([rec], 4.5).ke_vs_per_rad
+    part = rec.part("train").copy()
+    part["rpm_ref"] = truth["rpm_true"].to_numpy()[: rec.n_train]
+    v, i, n = identify.window_means(part, window_s=0.0)
+    keep = n > identify.MIN_RPM
+    ke_true_speed = identify.ke_eq20(v[keep], i[keep], n[keep], 4.5)
+    assert ke == pytest.approx(ke_true_speed, rel=0.01)
+
+
+def test_a_loud_warning_when_the_filter_removes_many_rows(tmp_path, capsys):
+    text = DATA[-1].read_text().splitlines()
+    head = next(k for k, ln in enumerate(text) if not ln.startswith("#"))
+    cols = text[head].split(",")
+    jv, jn = cols.index("v_V"), cols.index("rpm_ref")
+    out = text[: head + 1]
+    for k, ln in enumerate(text[head + 1:]):
+        cells = ln.split(",")
+        if k % 120 == 10:  # a spike on V in one row of 120, another on the encoder
+            cells[jv] = f"{float(cells[jv]) + 9.0:.6f}"
+        if k % 120 == 70:
+            cells[jn] = f"{float(cells[jn]) + 900.0:.3f}"
+        out.append(",".join(cells))
+    log = tmp_path / "spiky.csv"
+    log.write_text("\n".join(out) + "\n")
+    rec = dataset.load_recording(log)
+    assert len(rec.removed) >= 10
+    assert rec.warnings and "--no-glitch-filter" in rec.warnings[0]
+    assert gen_weights.main([str(log), *map(str, DATA[:2]), "--out", str(tmp_path / "o"), "--quiet",
+                             "--max-iter", "1"]) == 0
+    assert "WARNING" in capsys.readouterr().err
+    assert len(dataset.load_recording(log, glitch_filter=False).removed) == 0
