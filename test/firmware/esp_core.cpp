@@ -8,16 +8,16 @@
 #include "infer_telemetry.h"
 
 namespace {
-infer::LinkReceiver g_rx;
+infer::LinkReceiver g_rx(&infer::model::kModel.limits);  // as the sketch
 hpddo::Observer<infer::model::Net> g_observer(infer::model::kModel);
 uint32_t (*g_clock)();
 uint32_t clock_us() { return g_clock(); }
 }  // namespace
 
-/// One received byte; true and *out filled when it completed a frame.
-extern "C" bool hpddo_esp_push(uint8_t byte, infer::Telemetry* out, uint32_t (*clock)()) {
+/// One byte received at now_ms; true and *out filled when it completed a frame.
+extern "C" bool hpddo_esp_push(uint8_t byte, uint32_t now_ms, infer::Telemetry* out, uint32_t (*clock)()) {
   hpddo::SampleFrame f;
-  if (!g_rx.push(byte, &f)) return false;
+  if (!g_rx.push(byte, now_ms, &f)) return false;
   g_clock = clock;
   *out = infer::infer_step(g_observer, f, g_rx, clock_us);
   return true;
