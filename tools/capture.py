@@ -26,13 +26,15 @@ from __future__ import annotations
 
 import argparse
 import errno
-import math
 import os
 import pathlib
-import re
 import shutil
 import sys
 import time
+
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+
+from hpddo import benchlog  # noqa: E402
 
 try:
     from tqdm import tqdm
@@ -54,13 +56,6 @@ BOARD_RESET_S = 2.0
 MAX_GARBLED_SHOWN = 20
 
 EXIT_OK, EXIT_FAILED, EXIT_GARBLED, EXIT_INTERRUPTED = 0, 1, 3, 130
-
-REQUIRED_COLUMNS = ("t_s", "duty", "v_V", "i_A")
-OPTIONAL_FLOAT_COLUMNS = ("rpm_ref", "temp_C")
-INT_COLUMNS = ("load", "seq")
-_NUMBER_RE = re.compile(r"^[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?$")
-_INT_RE = re.compile(r"^[+-]?[0-9]+$")
-_META_RE = re.compile(r"^#\s*([A-Za-z0-9_.\-]+)\s*=([^\r\n]*)$")
 
 
 class CaptureError(RuntimeError):
@@ -114,7 +109,7 @@ class Capture:
         if line.startswith("#"):
             if self.header is not None:  # a new recording started: keep the first one only
                 raise CaptureError("a second recording started before the first one ended")
-            if not _META_RE.match(line):
+            if benchlog.parse_meta_line(line) is None:
                 return self._garbled(line, "not a '# key=value' metadata line")
             self.meta.append(line)
             return line
@@ -131,38 +126,26 @@ class Capture:
 
     def _set_header(self, line: str) -> None:
         """Checks and keeps the header; a header without the required columns ends the capture."""
-        cols = [c.strip() for c in line.split(",")]
-        missing = [c for c in REQUIRED_COLUMNS if c not in cols]
-        if missing or len(set(cols)) != len(cols) or "" in cols:
-            raise CaptureError(f"garbled header at stream line {self.line_no}: {line!r} "
-                               f"(needs {','.join(REQUIRED_COLUMNS)}, each column once)")
+        problem = benchlog.header_fault(line)
+        if problem is not None:
+            raise CaptureError(f"garbled header at stream line {self.line_no}: {line!r} ({problem[1]}; needs "
+                               f"{','.join(benchlog.REQUIRED_COLUMNS)}, each column once)")
+        cols = [c.strip(" \t") for c in line.split(",")]
         self.header = line
         self.columns = cols
         self.seq_col = cols.index("seq") if "seq" in cols else None
 
     def _row_fault(self, line: str) -> str | None:
         """What is wrong with a data row against the header and the previous row, or None."""
-        cells = [c.strip() for c in line.split(",")]
-        if len(cells) != len(self.columns):
-            return f"{len(cells)} fields, header has {len(self.columns)}"
-        values = {}
-        for name, cell in zip(self.columns, cells):
-            if name in REQUIRED_COLUMNS or name in OPTIONAL_FLOAT_COLUMNS:
-                if cell == "" and name in OPTIONAL_FLOAT_COLUMNS:
-                    continue
-                if not _NUMBER_RE.match(cell) or not math.isfinite(float(cell)):
-                    return f"{name} {cell!r} is not a finite number"
-                values[name] = float(cell)
-            elif name in INT_COLUMNS and cell != "":
-                if not _INT_RE.match(cell):
-                    return f"{name} {cell!r} is not an integer"
-                values[name] = int(cell)
-        if self.last_t is not None and values["t_s"] <= self.last_t:
-            return f"t_s {values['t_s']!r} not after {self.last_t!r}"
-        if not 0.0 <= values["duty"] <= 1.0:
-            return f"duty {values['duty']!r} outside 0..1"
-        self.last_t = values["t_s"]
-        seq = values.get("seq")
+        try:  # the cells by the bench log reader's own rules (docs/bench-log.md)
+            values = benchlog.parse_row(self.header, line)
+        except benchlog.BenchLogError as exc:
+            return exc.fault
+        t_s = float(values["t_s"])
+        if self.last_t is not None and t_s <= self.last_t:
+            return f"t_s {t_s!r} not after {self.last_t!r}"
+        self.last_t = t_s
+        seq = int(values["seq"]) if "seq" in values else None
         if seq is not None:
             if self.last_seq is not None and seq != self.last_seq + 1:
                 self.gaps.append((self.last_seq, seq - self.last_seq - 1))

@@ -198,31 +198,23 @@ def _parse_bytes(raw: bytes):
             fault(i + 1, "blank line", "blank line")
         if not ln.startswith("#"):
             break
-        m = _META_RE.fullmatch(ln)
-        if m is None or not _META_KEY_RE.fullmatch(m.group(1)):
+        kv = parse_meta_line(ln)
+        if kv is None:
             fault(i + 1, "malformed metadata",
                   f"malformed metadata line {ln!r} (expected '# key=value', key of A-Z a-z 0-9 _ . -)")
-        key = m.group(1)
+        key = kv[0]
         if key in meta:
             fault(i + 1, "duplicate metadata key", f"duplicate metadata key {key!r}")
-        meta[key] = m.group(2).strip(_PAD)
+        meta[key] = kv[1]
         i += 1
     if i >= n:
         fault(n, "no header", "no header row after the metadata")
 
     hline = i + 1
+    problem = header_fault(lines[i])
+    if problem is not None:
+        fault(hline, *problem)
     columns = [c.strip(_PAD) for c in lines[i].split(",")]
-    seen = set()
-    for c in columns:
-        if c == "":
-            fault(hline, "empty column name", "empty column name in header")
-        if c in seen:
-            fault(hline, "duplicate column", f"duplicate column {c!r} in header")
-        seen.add(c)
-    missing = [c for c in REQUIRED_COLUMNS if c not in seen]
-    if missing:
-        fault(hline, "missing required column",
-              f"missing required column(s) {', '.join(missing)} in header")
     data = lines[i + 1:]
     if not data:
         fault(hline, "no rows", "header with no rows")
@@ -292,6 +284,40 @@ def _parse_bytes(raw: bytes):
 
     df = pd.DataFrame(out, columns=columns)
     return meta, df, np.arange(first, first + nrows, dtype=np.int64)
+
+
+def parse_meta_line(line: str):
+    """(key, value) of a '# key=value' metadata line, None when it is not one."""
+    m = _META_RE.fullmatch(line)
+    if m is None or not _META_KEY_RE.fullmatch(m.group(1)):
+        return None
+    return m.group(1), m.group(2).strip(_PAD)
+
+
+def header_fault(line: str):
+    """(fault keyword, message) of a header line that the format refuses, else None."""
+    seen = set()
+    for c in (c.strip(_PAD) for c in line.split(",")):
+        if c == "":
+            return "empty column name", "empty column name in header"
+        if c in seen:
+            return "duplicate column", f"duplicate column {c!r} in header"
+        seen.add(c)
+    missing = [c for c in REQUIRED_COLUMNS if c not in seen]
+    if missing:
+        return "missing required column", f"missing required column(s) {', '.join(missing)} in header"
+    return None
+
+
+def parse_row(header: str, row: str) -> dict:
+    """The values of one data row under its header, read with the reader's own rules (for
+    tools that check rows one by one as they arrive); raises BenchLogError whose fault
+    names what is wrong (its line: 2, the row's line in that two-line log)."""
+    try:
+        _, df, _ = _parse_bytes(f"{header}\n{row}\n".encode("utf-8"))
+    except _Fault as f:
+        raise BenchLogError("<row>", f.line, f.message, f.kind) from None
+    return {c: df[c].iloc[0] for c in df.columns}
 
 
 def _first(mask):
