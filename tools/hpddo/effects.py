@@ -317,12 +317,25 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     return dataclasses.replace(p, effects=bits)
 
 
+FIT_DIGITS = 7  # significant digits kept of a fitted coefficient
+
+
+def settle_digits(p: ph.PhysicsParams) -> ph.PhysicsParams:
+    """p with every float parameter rounded to FIT_DIGITS significant digits. The fit's
+    linear algebra (LAPACK, BLAS) differs in the last bits between CPUs and kernels; at
+    seven digits (far below any coefficient's uncertainty) a model header comes out the
+    same on every machine but for a value within about 1e-12 of a rounding boundary."""
+    kw = {f.name: float(f"{getattr(p, f.name):.{FIT_DIGITS}g}") for f in dataclasses.fields(p)
+          if isinstance(getattr(p, f.name), float)}
+    return dataclasses.replace(p, **kw)
+
+
 def identify(recs: list[Recording], m2_plain: ph.PhysicsParams, names) -> ph.PhysicsParams:
     """M2 with effects: Ke and the named coefficients fitted on the training rows
     (rpm_ref > 10), Ra held at its measured value; sets the effect bits."""
     names = check_names(names)
     rows = [rows_of(r) for r in recs]
-    p = fit(rows, m2_plain, names)
+    p = settle_digits(fit(rows, m2_plain, names))
     if not p.ke_vs_per_rad > 0:
         raise IdentificationError(f"identified Ke = {p.ke_vs_per_rad:.4g} V s/rad is not positive")
     return p

@@ -163,7 +163,7 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     with the bound applied after each step."""
     r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
     step = dt > 0
-    d = np.where(step, np.exp(-np.where(step, dt, 0.0) / tau), 1.0)
+    d = np.where(step, exp(-np.where(step, dt, 0.0) / tau), 1.0)
     q = r * i * i * ra
     alpha = np.where(step, d + (1.0 - d) * q * a, 1.0)
     beta = np.where(step, (1.0 - d) * q * (1.0 + a * (ref - tref)), 0.0)
@@ -215,7 +215,7 @@ def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_ri
         if dt[k] > 0:
             loss = i[k] * i[k] * ra_at_ohm(p, ref[k] + rise, dtype)
             target = dtype(r * loss)
-            rise = dtype(target + (rise - target) * np.exp(-dt[k] / tau).astype(dtype))
+            rise = dtype(target + (rise - target) * dtype(exp(-dt[k] / tau)))
             rise = min(rise, dtype(hottest - ref[k]))
             rise = rise if rise >= 0 else dtype(0)
         out[k] = ref[k] + rise
