@@ -12,6 +12,8 @@ import math
 
 import numpy as np
 
+from .libm import exp
+
 RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
 BRUSH_KNEE_A = 0.02
 
@@ -134,14 +136,6 @@ def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
     with np.errstate(divide="ignore", invalid="ignore"):
         n = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) / ke * dtype(RPM_PER_RAD_S)
     return np.where(ke > 0, n, np.nan).astype(dtype)
-
-
-def exp(x):
-    """e**x in float64 through the C library's exp, element by element. numpy's own
-    vectorised exp differs in the last bits between the SIMD paths it picks for the CPU
-    (AVX2, AVX-512, none); generated files must not depend on the machine."""
-    a = np.asarray(x, float)
-    return np.fromiter(map(math.exp, a.ravel().tolist()), float, a.size).reshape(a.shape)
 
 
 _BLOCK = 1024  # samples per block of the vectorised recursion

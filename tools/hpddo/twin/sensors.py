@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from .. import libm
 from .params import Bench
 
 
@@ -59,8 +60,8 @@ def measure(bench: Bench, res, duty, load, rng):
         x2 = nr * theta_m[1:] + phase0
         span = x2 - x1
         small = span < 1e-6
-        mean_cos = np.where(small, np.cos(0.5 * (x1 + x2)),
-                            (np.sin(x2) - np.sin(x1)) / np.where(small, 1.0, span))
+        mean_cos = np.where(small, libm.cos(0.5 * (x1 + x2)),
+                            (libm.sin(x2) - libm.sin(x1)) / np.where(small, 1.0, span))
         i_true = i_true + a_rip * res.i_mean * mean_cos
         i_var = i_var + 0.5 * (a_rip * res.i_mean) ** 2
     v_meas_in = res.v_mean * (1.0 + bench.effect("v_gain") / 100.0)
