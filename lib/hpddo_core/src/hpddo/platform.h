@@ -4,6 +4,14 @@
 // must be read with LPM (pgm_read_*). On the ESP8266 they live in the mapped
 // SPI flash, where aligned 32-bit loads are valid, so a float reads directly.
 // On a host they are ordinary constants.
+//
+// The host flash fake (define HPDDO_FLASH_FAKE, host tests only: Linux, GNU ld
+// or lld): HPDDO_FLASH puts the data in a section of its own, hpddo_flash_fake,
+// whose every byte is XOR-masked with kFlashFakeMask before main() (and before
+// the first flash_float()). flash_float() undoes the mask; a direct dereference
+// reads masked bytes, a wrong value, as a direct read of PROGMEM reads RAM on the
+// AVR; flash_float() of a pointer outside the section aborts (on the AVR it would
+// read flash at a RAM address). The generated model headers need no change.
 #ifndef HPDDO_PLATFORM_H
 #define HPDDO_PLATFORM_H
 
@@ -19,16 +27,85 @@
 #else
 #define HPDDO_FLASH __attribute__((section(".irom.text"), aligned(4)))
 #endif
+#elif defined(HPDDO_FLASH_FAKE)
+#define HPDDO_FLASH __attribute__((section("hpddo_flash_fake")))
 #else
 #define HPDDO_FLASH
 #endif
 
+#if defined(HPDDO_FLASH_FAKE) && !defined(__AVR__) && !defined(ESP8266) && !defined(ARDUINO_ARCH_ESP8266)
+#define HPDDO_FLASH_FAKE_ACTIVE 1
+#include <stdio.h>
+#include <stdlib.h>
+#include <sys/mman.h>
+#include <unistd.h>
+
+// Bounds of the fake flash section, from the linker (weak: zero without flash data).
+extern "C" __attribute__((weak)) unsigned char __start_hpddo_flash_fake[];
+extern "C" __attribute__((weak)) unsigned char __stop_hpddo_flash_fake[];
+
+namespace hpddo {
+namespace flash_fake {
+
+/// Every byte of the fake flash is stored XOR this mask (1.0f reads as about -3.4e-23).
+static const uint8_t kFlashFakeMask = 0xA5u;
+
+/// Masks the whole section once; the pages are made writable for it, then read-only.
+inline bool mask_section() {
+  unsigned char* lo = __start_hpddo_flash_fake;
+  unsigned char* hi = __stop_hpddo_flash_fake;
+  if (!lo || !hi || hi <= lo) return true;
+  const uintptr_t page = static_cast<uintptr_t>(sysconf(_SC_PAGESIZE));
+  const uintptr_t a = reinterpret_cast<uintptr_t>(lo) & ~(page - 1u);
+  const uintptr_t b = (reinterpret_cast<uintptr_t>(hi) + page - 1u) & ~(page - 1u);
+  if (mprotect(reinterpret_cast<void*>(a), b - a, PROT_READ | PROT_WRITE) != 0) {
+    perror("hpddo flash fake: mprotect");
+    abort();
+  }
+  for (unsigned char* p = lo; p < hi; ++p) *p = static_cast<unsigned char>(*p ^ kFlashFakeMask);
+  if (mprotect(reinterpret_cast<void*>(a), b - a, PROT_READ) != 0) {
+    perror("hpddo flash fake: mprotect");
+    abort();
+  }
+  return true;
+}
+
+/// Masks the section the first time it is called (a static local: once per program).
+inline void ensure_masked() {
+  static const bool masked = mask_section();
+  (void)masked;
+}
+
+/// Runs before main() in every program that includes this header.
+__attribute__((constructor)) static void mask_at_start() { ensure_masked(); }
+
+/// Reads n bytes of fake flash at p into out, unmasked; aborts outside the section.
+inline void read(const void* p, void* out, size_t n) {
+  ensure_masked();
+  const unsigned char* src = static_cast<const unsigned char*>(p);
+  __asm__("" : "+r"(src));  // the compiler may not fold the read from the initialiser
+  if (src < __start_hpddo_flash_fake || src + n > __stop_hpddo_flash_fake) {
+    fprintf(stderr, "hpddo flash fake: flash read at %p outside HPDDO_FLASH data\n", p);
+    abort();
+  }
+  unsigned char* dst = static_cast<unsigned char*>(out);
+  for (size_t k = 0; k < n; ++k) dst[k] = static_cast<unsigned char>(src[k] ^ kFlashFakeMask);
+}
+
+}  // namespace flash_fake
+}  // namespace hpddo
+#endif
+
 namespace hpddo {
 
-/// Reads one float stored with HPDDO_FLASH.
+/// Reads one float stored with HPDDO_FLASH (and only such a float).
 inline float flash_float(const float* p) {
 #if defined(__AVR__)
   return pgm_read_float(p);
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  float f;
+  flash_fake::read(p, &f, sizeof f);
+  return f;
 #else
   return *p;
 #endif
