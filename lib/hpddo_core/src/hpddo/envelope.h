@@ -13,6 +13,8 @@ namespace hpddo {
 /// Per-feature closed interval [lo, hi] in the features' own units (flash).
 template <uint8_t kN>
 struct Envelope {
+  static_assert(kN > 0, "hpddo::Envelope: a training range needs at least one feature (kN > 0)");
+
   const float* lo;
   const float* hi;
 

@@ -14,6 +14,8 @@ namespace hpddo {
 /// out = act(W in + b) for one dense layer; W is kOut x kIn row-major in flash.
 template <uint16_t kIn, uint16_t kOut, bool kRelu>
 inline void dense(const float* w, const float* b, const float* in, float* out) {
+  static_assert(kIn > 0, "hpddo::dense: a layer needs at least one input (kIn > 0)");
+  static_assert(kOut > 0, "hpddo::dense: a layer needs at least one output (kOut > 0)");
   for (uint16_t o = 0; o < kOut; ++o) {
     float acc = flash_float(b + o);
     const float* row = w + static_cast<uint32_t>(o) * kIn;
@@ -32,9 +34,24 @@ struct MlpWeights {
   const float* b2;  ///< 1 (unused when kH2 == 0)
 };
 
+namespace detail {
+/// The shape checks both forms of Mlp inherit: inputs and a first hidden layer,
+/// and a parameter count that fits kParamCount (uint16_t; 65535 floats are 256 kB,
+/// more than the flash of the ATmega328P and a quarter of the ESP8266's program
+/// space). Mlp<255, 255, 255> has 130816 parameters, Mlp<255, 255, 0> 65536.
+template <uint8_t kIn, uint8_t kH1, uint8_t kH2>
+struct MlpShape {
+  static_assert(kIn > 0, "hpddo::Mlp: the network needs at least one input (kIn > 0)");
+  static_assert(kH1 > 0, "hpddo::Mlp: the first hidden layer needs at least one neuron (kH1 > 0)");
+  static const uint32_t kParams = static_cast<uint32_t>(kIn) * kH1 + kH1 +
+                                  (kH2 ? static_cast<uint32_t>(kH1) * kH2 + kH2 + kH2 : static_cast<uint32_t>(kH1)) + 1u;
+  static_assert(kParams <= 0xFFFFu, "hpddo::Mlp: more than 65535 parameters do not fit kParamCount (uint16_t)");
+};
+}  // namespace detail
+
 /// Two hidden layers: kIn -> kH1 (ReLU) -> kH2 (ReLU) -> 1 (linear).
 template <uint8_t kIn, uint8_t kH1, uint8_t kH2>
-struct Mlp {
+struct Mlp : private detail::MlpShape<kIn, kH1, kH2> {
   static const uint8_t kInputs = kIn;
   static const uint8_t kHidden1 = kH1;
   static const uint8_t kHidden2 = kH2;
@@ -58,7 +75,7 @@ struct Mlp {
 
 /// One hidden layer: kIn -> kH1 (ReLU) -> 1 (linear); w1/b1 hold the output.
 template <uint8_t kIn, uint8_t kH1>
-struct Mlp<kIn, kH1, 0> {
+struct Mlp<kIn, kH1, 0> : private detail::MlpShape<kIn, kH1, 0> {
   static const uint8_t kInputs = kIn;
   static const uint8_t kHidden1 = kH1;
   static const uint8_t kHidden2 = 0;

@@ -65,11 +65,18 @@ struct Estimate {
 /// Per-sample observer over a Model; no heap, a few dozen bytes of state.
 template <class Net>
 class Observer {
+  static_assert(Net::kInputs == kFeatureCount,
+                "hpddo::Observer: the network must take the kFeatureCount residual features (Mlp<5, H1, H2>)");
+
  public:
+  /// Keeps a reference to model: pass one that outlives the observer (a generated kModel).
   explicit Observer(const Model<Net>& model)
       : model_(model), speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)) {
     reset();
   }
+
+  /// A temporary Model would leave the observer with a dangling reference.
+  explicit Observer(const Model<Net>&& model) = delete;
 
   /// Forgets the lags and the held estimate; the winding restarts at its reference.
   void reset() {

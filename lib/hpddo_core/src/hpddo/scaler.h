@@ -12,6 +12,8 @@ namespace hpddo {
 /// Feature standardisation with kN features; mean and scale point to flash.
 template <uint8_t kN>
 struct Scaler {
+  static_assert(kN > 0, "hpddo::Scaler: standardising needs at least one feature (kN > 0)");
+
   const float* mean;   ///< kN feature means, in the features' own units
   const float* scale;  ///< kN standard deviations (never zero: exporter sets 1)
 
