@@ -55,8 +55,8 @@ struct Mlp : private detail::MlpShape<kIn, kH1, kH2> {
   static const uint8_t kInputs = kIn;
   static const uint8_t kHidden1 = kH1;
   static const uint8_t kHidden2 = kH2;
-  static const uint16_t kW0Count = static_cast<uint16_t>(kIn * kH1);
-  static const uint16_t kW1Count = static_cast<uint16_t>(kH1 * kH2);
+  static const uint16_t kW0Count = static_cast<uint16_t>(static_cast<uint32_t>(kIn) * kH1);
+  static const uint16_t kW1Count = static_cast<uint16_t>(static_cast<uint32_t>(kH1) * kH2);
   static const uint16_t kW2Count = kH2;
   static const uint16_t kParamCount =
       static_cast<uint16_t>(kW0Count + kH1 + kW1Count + kH2 + kW2Count + 1);
@@ -79,7 +79,7 @@ struct Mlp<kIn, kH1, 0> : private detail::MlpShape<kIn, kH1, 0> {
   static const uint8_t kInputs = kIn;
   static const uint8_t kHidden1 = kH1;
   static const uint8_t kHidden2 = 0;
-  static const uint16_t kW0Count = static_cast<uint16_t>(kIn * kH1);
+  static const uint16_t kW0Count = static_cast<uint16_t>(static_cast<uint32_t>(kIn) * kH1);
   static const uint16_t kW1Count = kH1;
   static const uint16_t kW2Count = 0;
   static const uint16_t kParamCount = static_cast<uint16_t>(kW0Count + kH1 + kW1Count + 1);
