@@ -15,7 +15,11 @@
 //   15      4     period_us     sample period, us
 //   19      2     crc           CRC-16/CCITT-FALSE over bytes 2..18
 //
-// 21 bytes a sample: 100 Hz needs 21 kbit/s, well inside 115200 baud.
+// 21 bytes a sample, 210 bits in 8N1. The link runs at 38400 baud (the UNO's
+// Timer2 gives 38462, the ESP8266 receives at 38400; uno_acq/acq_config.h and
+// esp_infer/esp_infer.cpp, kLinkBaud): a frame takes 5.5 ms, so the link carries
+// about 180 samples/s; 100 Hz uses 21 kbit/s. At faster rates the UNO drops whole
+// frames (counted in link_drops) and the ESP8266 sees the seq gaps.
 // A frame is accepted only when its CRC matches and its fields are ones the
 // acquisition board can send (frame_plausible).
 #ifndef HPDDO_FRAME_H

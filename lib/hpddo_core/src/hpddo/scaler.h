@@ -1,5 +1,6 @@
 // StandardScaler: z_j = (x_j - mean_j) / scale_j, statistics fitted on the
-// training rows only and stored in flash by the model exporter.
+// training rows only (tools/hpddo/network.py) and stored in flash by the model
+// exporter.
 #ifndef HPDDO_SCALER_H
 #define HPDDO_SCALER_H
 
@@ -15,7 +16,7 @@ struct Scaler {
   static_assert(kN > 0, "hpddo::Scaler: standardising needs at least one feature (kN > 0)");
 
   const float* mean;   ///< kN feature means, in the features' own units
-  const float* scale;  ///< kN standard deviations (never zero: exporter sets 1)
+  const float* scale;  ///< kN standard deviations (never zero: a constant feature keeps 1)
 
   /// Writes the standardised features z from the raw features x.
   void transform(const float (&x)[kN], float (&z)[kN]) const {
