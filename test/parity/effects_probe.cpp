@@ -2,7 +2,9 @@
 // given on stdin, for the Python/C++ parity test (test/py/test_effects_parity.py).
 //
 // stdin, one case per line:
-//   P ra ke t_ref ra_tc ke_tc brush ke_sat i_off v_gain la th_r th_tau t_amb   (new parameters)
+//   P <every PhysicsParams field>            (new parameters, in the order of the generated
+//                                            hpddo::for_each_param: the floats, then the
+//                                            effect bits as an unsigned integer)
 //   X v_V i_A di_dt winding_C magnet_C       -> prints physics_rpm (or "invalid")
 //   T i_A dt_s ref_C                         -> prints the winding temperature after one step
 //                                               above the reference ref_C
@@ -13,17 +15,30 @@
 #include "hpddo/physics.h"
 #include "hpddo/thermal.h"
 
+namespace {
+
+// for_each_param() visitor: reads every field of a P line.
+struct ReadField {
+  bool ok;
+  void operator()(float& x) { ok = ok && std::scanf("%f", &x) == 1; }
+  void operator()(uint16_t& bits) {
+    unsigned u = 0;
+    ok = ok && std::scanf("%u", &u) == 1;
+    bits = static_cast<uint16_t>(u);
+  }
+};
+
+}  // namespace
+
 int main() {
   hpddo::PhysicsParams p = hpddo::PhysicsParams();
   hpddo::ThermalEstimator th;
   char tag[4];
   while (std::scanf("%3s", tag) == 1) {
     if (std::strcmp(tag, "P") == 0) {
-      float* f[13] = {&p.ra_ohm, &p.ke_vs_per_rad, &p.t_ref_C, &p.ra_tc_per_K, &p.ke_tc_per_K, &p.brush_V,
-                      &p.ke_sat_per_A, &p.i_offset_A, &p.v_gain, &p.la_H, &p.th_r_K_per_W, &p.th_tau_s,
-                      &p.t_amb_C};
-      for (float* x : f)
-        if (std::scanf("%f", x) != 1) return 2;
+      ReadField read = {true};
+      hpddo::for_each_param(p, read);
+      if (!read.ok) return 2;
       th.reset();
     } else if (std::strcmp(tag, "X") == 0) {
       hpddo::PhysicsInput in;

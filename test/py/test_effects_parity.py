@@ -12,6 +12,7 @@ import pytest
 from conftest import ROOT
 from hpddo import effects as fx
 from hpddo import physics as ph
+from hpddo import schema
 
 F32 = np.float32
 BASE = ph.PhysicsParams(ra_ohm=4.5, ke_vs_per_rad=0.406, t_ref_C=31.7, t_amb_C=31.7)
@@ -53,7 +54,9 @@ def run_probe(exe, lines):
 
 
 def p_line(p):
-    return "P " + " ".join("%.9g" % F32(getattr(p, f)) for f in ph.PhysicsParams.FIELDS)
+    """Every PhysicsParams field in the schema's order (the probe reads them through the
+    generated hpddo::for_each_param): the floats, then the effect bits."""
+    return "P " + " ".join(["%.9g" % F32(getattr(p, f)) for f in schema.FLOAT_FIELDS] + [str(int(p.effects))])
 
 
 @pytest.mark.parametrize("label,p", cases(), ids=[c[0] for c in cases()])
@@ -94,6 +97,20 @@ def test_thermal_state_matches_the_board(probe):
 def test_every_effect_has_a_field_a_bit_and_a_regressor():
     assert set(fx.LIBRARY) == set(ph.EFFECT_BITS)
     for name, eff in fx.LIBRARY.items():
-        assert ph.EFFECT_BITS[name][1] == eff.field
+        assert ph.EFFECT_BITS[name] == (eff.bit, eff.field)
+        assert eff.field in ph.PhysicsParams.FIELDS
         lo, hi = eff.plausible
         assert eff.physical[0] <= lo < hi <= eff.physical[1]
+
+
+def test_the_probe_reads_every_field_in_the_schema_order(probe):
+    """A P line sets each field through for_each_param: each field alone at a value that
+    changes the speed shows that the probe put it where the schema says."""
+    v, i, di, t = F32(9.1), F32(1.0), F32(50.0), F32(60.0)
+    x = f"X {float(v)!r} {float(i)!r} {float(di)!r} {float(t)!r} {float(t - F32(5.0))!r}"
+    for name, eff in fx.LIBRARY.items():
+        p = dataclasses.replace(BASE, **{eff.field: eff.scale}, effects=eff.bit)
+        got = F32(float(run_probe(probe, [p_line(p), x])[0]))
+        want = ph.physics_rpm(p, [v], [i], [di], ph.Temps(np.array([t]), np.array([t - F32(5.0)])), F32)[0]
+        assert abs(got - want) <= 2 * np.spacing(abs(want)), name
+        assert abs(want - ph.physics_rpm(BASE, [v], [i], [di], t, F32)[0]) > 0.01, name  # the term matters

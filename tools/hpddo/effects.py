@@ -1,9 +1,10 @@
 """The effect library: physical effects that the plain model M2 leaves out, each as one
 named coefficient of the physics model, its regressor and its identification.
 
-Every effect is one PhysicsParams field (physics.EFFECT_BITS); the term itself exists
-once here (through tools/hpddo/physics.py) and once in lib/hpddo_core (physics.h), and
-test/py/test_effects_parity.py holds the two together.
+Every effect is declared once, in schema.py (its PhysicsParams field, units, plausible
+range, meaning, excitation and bit; the C++ struct and bits are generated from it); the
+term itself exists once here (through tools/hpddo/physics.py) and once in lib/hpddo_core
+(physics.h), and test/py/test_effects_parity.py holds the two together.
 
 The regressor of an effect is the sensitivity of the speed estimate to its coefficient,
 d n_M2 / d c (RPM per unit of the coefficient), taken by central difference through
@@ -30,6 +31,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import physics as ph
+from . import schema
 from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
 from .identify import MIN_RPM, IdentificationError
 
@@ -37,77 +39,11 @@ COPPER_TC_PER_K = 0.00393
 FERRITE_TC_PER_K = -0.002
 
 
-@dataclasses.dataclass(frozen=True)
-class Effect:
-    """One entry of the library."""
+# One entry of the library: the declaration in schema.py (name, field, units, plausible
+# range, meaning, excitation, separating recordings, bit).
+Effect = schema.Effect
 
-    name: str
-    field: str            # PhysicsParams field carrying the coefficient
-    unit: str             # unit of the field
-    show_scale: float     # field value x show_scale = value in show_unit
-    show_unit: str
-    meaning: str          # physical meaning, one sentence
-    typical: str          # typical values, in words
-    plausible: tuple      # (lo, hi) plausible range of the field value
-    physical: tuple       # (lo, hi): the plausible range widened 2x; a fit outside is not this effect
-    scale: float          # a typical magnitude of the field (parameter scaling in fits)
-    signature: str        # what the speed error of a missing effect scales with
-    excited_by: str       # which recording makes the effect visible
-    thermal: bool = False  # uses the temperature
-
-    @property
-    def bit(self) -> int:
-        return ph.EFFECT_BITS[self.name][0]
-
-    def show(self, value: float) -> str:
-        return f"{value * self.show_scale:+.3g} {self.show_unit}"
-
-    def plausibility(self, value: float) -> tuple[bool, str]:
-        lo, hi = self.plausible
-        ok = lo <= value <= hi
-        rng = f"{lo * self.show_scale:.3g}..{hi * self.show_scale:.3g} {self.show_unit}"
-        return ok, (f"{self.show(value)} within the plausible {rng}" if ok
-                    else f"{self.show(value)} outside the plausible {rng}")
-
-
-LIBRARY = {e.name: e for e in [
-    Effect("thermal_ra", "ra_tc_per_K", "1/K", 100.0, "%/K",
-           "copper resistance of the winding rises with temperature: Ra(T) = Ra (1 + a (T - T_ref))",
-           "copper +0.393 %/K (a material constant; the band allows for the sensor's lag)",
-           (0.0033, 0.0046), (0.001, 0.012), 0.004,
-           "temperature rise x current",
-           "a run in which the winding heats up (minutes at high current)", thermal=True),
-    Effect("magnet_thermal", "ke_tc_per_K", "1/K", 100.0, "%/K",
-           "magnet flux, hence Ke, falls with temperature: Ke(T) = Ke (1 + b (T - T_ref))",
-           "ferrite about -0.2 %/K, NdFeB -0.12 %/K", (-0.0035, -0.0003), (-0.007, -0.00015), -0.002,
-           "temperature rise x speed",
-           "a run in which the motor heats up (minutes at high current)", thermal=True),
-    Effect("brush_drop", "brush_V", "V", 1.0, "V",
-           "contact drop of the carbon brushes, about constant while current flows",
-           "0.3..2 V for both brushes together", (0.05, 2.5), (0.025, 5.0), 0.5,
-           "a constant voltage while current flows (sign of the current)",
-           "runs at several speeds, including light load"),
-    Effect("saturation", "ke_sat_per_A", "1/A", 100.0, "%/A",
-           "armature reaction weakens the field at high current: Ke(I) = Ke (1 - s |I|)",
-           "a few %/A", (0.002, 0.15), (0.001, 0.3), 0.04,
-           "current x speed",
-           "runs at different loads (currents) at similar speeds"),
-    Effect("current_offset", "i_offset_A", "A", 1000.0, "mA",
-           "DC offset of the current channel: the reading minus the true current",
-           "a few mA to tens of mA", (-0.05, 0.05), (-0.1, 0.1), 0.01,
-           "a constant voltage Ra x offset, at every current including zero",
-           "rows at zero or very low current with the motor turning (coasting at duty 0)"),
-    Effect("v_gain", "v_gain", "1", 100.0, "%",
-           "gain error of the voltage channel: reading / true voltage - 1",
-           "|g| below about 5 % (divider tolerance, ADC reference)", (-0.05, 0.05), (-0.1, 0.1), 0.01,
-           "the terminal voltage",
-           "runs at different voltages with different currents"),
-    Effect("inductance", "la_H", "H", 1000.0, "mH",
-           "armature inductance: La di/dt in the voltage balance",
-           "0.5..20 mH for small PMDC motors", (0.0005, 0.02), (0.00025, 0.04), 0.003,
-           "the rate of change of the current",
-           "a recording at 1 kHz or faster with steps of duty"),
-]}
+LIBRARY = dict(schema.BY_NAME)
 
 NAMES = tuple(LIBRARY)
 
@@ -302,7 +238,7 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
 
     lo = [-np.inf] * len(x0)
     hi = [np.inf] * len(x0)
-    lo[0] = 1e-6
+    lo[0] = min(1e-6, 0.1 * x0[0]) if x0[0] > 0 else 1e-6  # Ke > 0, whatever its scale
     if spec.thermal_state:
         lo[-2], hi[-2] = math.log(0.05), math.log(500.0)
         lo[-1], hi[-1] = math.log(1.0), math.log(1e5)

@@ -2,7 +2,10 @@
 
 Both carry a DO-NOT-EDIT banner with their provenance. The model header carries a CRC-32
 over the float32 little-endian bytes of everything it stores, in the order of
-`checksum_floats`; hpddo::model_checksum() recomputes it on any target. Floats are written
+`checksum_floats`; hpddo::model_checksum() recomputes it on any target. The physics
+parameters are written one labelled value per field, in the order of their declaration
+(schema.FIELDS, the generated hpddo::PhysicsParams and hpddo::for_each_param), and the
+header asserts that it was written for the core's parameter layout (kParamsSchema). Floats are written
 with %.9g, which round-trips every float32 exactly.
 """
 from __future__ import annotations
@@ -14,6 +17,7 @@ import zlib
 import numpy as np
 
 from . import physics as ph
+from . import schema
 from .observer_ref import ModelData, ReferenceObserver
 
 GENERATOR = "hpddo.export 1"
@@ -60,7 +64,7 @@ def network_arrays(model: ModelData):
 def checksum_floats(model: ModelData) -> np.ndarray:
     """The float32 sequence the model checksum covers (must match hpddo::model_checksum)."""
     p = model.physics
-    parts = [np.array([getattr(p, f) for f in ph.PhysicsParams.FIELDS] + [float(p.effects)], np.float32),
+    parts = [np.array([float(getattr(p, f)) for f in schema.FIELDS], np.float32),
              np.asarray(model.scaler_mean, np.float32), np.asarray(model.scaler_scale, np.float32)]
     parts += [a.ravel() for _, a in network_arrays(model)]
     lim = model.limits
@@ -79,8 +83,23 @@ def _banner(kind: str, provenance: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _c_physics(p: ph.PhysicsParams) -> str:
-    return ", ".join([c_float(getattr(p, f)) for f in ph.PhysicsParams.FIELDS] + [f"0x{p.effects:04x}u"])
+def _c_physics(p: ph.PhysicsParams, bits: str, indent: str = "    ") -> str:
+    """A PhysicsParams initialiser: one value per field, in the schema's order, each
+    labelled with its field and unit; `bits` is the expression of the effect bits."""
+    vals = [c_float(getattr(p, f)) for f in schema.FLOAT_FIELDS] + [bits]
+    labels = [f"{f} [{schema.UNITS[f]}]" for f in schema.FLOAT_FIELDS] + [schema.BITS_FIELD]
+    width = max(len(v) for v in vals) + 1
+    body = "".join(f"{indent}    {(v + ',').ljust(width)}  // {lab}\n" for v, lab in zip(vals, labels))
+    return f"{{\n{body}{indent}}}"
+
+
+def _c_layout_asserts(name: str) -> str:
+    return (f"/// The physics initialisers are positional: this header holds for one parameter layout.\n"
+            f"static_assert(hpddo::kParamsSchema == 0x{schema.layout_crc():08x}u,\n"
+            f"              \"model_{name}.h was written for another parameter layout "
+            f"(tools/hpddo/schema.py): regenerate it\");\n"
+            f"static_assert(hpddo::kPhysicsParamCount == {len(schema.FIELDS)}, "
+            f"\"one initialiser per hpddo::PhysicsParams field\");\n\n")
 
 
 def model_header(model: ModelData, name: str, provenance: dict) -> str:
@@ -92,14 +111,15 @@ def model_header(model: ModelData, name: str, provenance: dict) -> str:
     shape = "-".join(str(n) for n in (5, *hidden, 1))
     crc = model_checksum(model)
     prov = dict(provenance)
-    prov.update(generator=GENERATOR, shapes=shape, checksum=f"crc32 0x{crc:08x}")
+    prov.update(generator=GENERATOR, shapes=shape, checksum=f"crc32 0x{crc:08x}",
+                parameter_layout=f"crc32 0x{schema.layout_crc():08x} (hpddo::kParamsSchema, {schema.GENERATOR})")
     guard = f"HPDDO_MODEL_{name.upper()}_H"
     p = model.physics
     out = [_banner("model header", prov), f"#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n",
            '#include "hpddo_core.h"\n\n', f"namespace hpddo_model_{name} {{\n\n",
            f"typedef hpddo::Mlp<5, {hidden[0]}, {h2}> Net;\n\n",
            f"/// CRC-32 over the stored floats (see hpddo::model_checksum).\nstatic const uint32_t kChecksum = 0x{crc:08x}u;\n\n",
-           f"/// Effects in the physics model: {', '.join(p.effect_names()) or 'none'}.\n",
+           f"/// Effects in the physics model: {', '.join(p.effect_names()) or 'none'} (kModel.physics.effects).\n",
            f"static const uint16_t kEffects = 0x{p.effects:04x}u;\n\n",
            c_array("kScalerMean", model.scaler_mean), c_array("kScalerScale", model.scaler_scale)]
     for cname, arr in network_arrays(model):
@@ -112,16 +132,16 @@ def model_header(model: ModelData, name: str, provenance: dict) -> str:
     nlayers = len(model.layers)
     ptr = lambda k: (f"kW{k}", f"kB{k}") if k < nlayers else ("nullptr", "nullptr")
     w_init = ", ".join(f"{a}, {b}" for a, b in (ptr(0), ptr(1), ptr(2)))
-    phys = _c_physics(p)
+    phys = _c_physics(p, "kEffects")
     m1 = model.nameplate or ph.nameplate_params(p.ra_ohm)
     lim = model.limits
-    out += ["\n/// The deployed model.\nstatic const hpddo::Model<Net> kModel = {\n",
-            f"    {{{phys}}},\n", "    {kScalerMean, kScalerScale},\n", f"    {{{w_init}}},\n",
+    out += ["\n", _c_layout_asserts(name), "/// The deployed model.\nstatic const hpddo::Model<Net> kModel = {\n",
+            f"    {phys},\n", "    {kScalerMean, kScalerScale},\n", f"    {{{w_init}}},\n",
             "    {kEnvLo, kEnvHi},\n", f"    {c_float(model.clamp_rpm)},\n",
             f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
             "};\n\n",
             "/// The nameplate model M1 (rated voltage over rated speed), for comparison only.\n",
-            f"static const hpddo::PhysicsParams kNameplate = {{{_c_physics(m1)}}};\n\n",
+            f"static const hpddo::PhysicsParams kNameplate = {_c_physics(m1, f'0x{m1.effects:04x}u', '')};\n\n",
             f"}}  // namespace hpddo_model_{name}\n\n#endif  // {guard}\n"]
     return "".join(out)
 

@@ -3,7 +3,8 @@
     v_true = ra(T) i_true + brush(i_true) + la di/dt + ke(T, i_true) w
 
 Vectorised over samples; `dtype` selects float32 (to mirror the boards exactly) or
-float64 (for identification). Field names and units match the C++ PhysicsParams.
+float64 (for identification). PhysicsParams and EFFECT_BITS come from schema.py, the one
+declaration of every parameter and effect (the C++ struct is generated from it).
 """
 from __future__ import annotations
 
@@ -13,6 +14,10 @@ import math
 import numpy as np
 
 from .libm import exp
+# The parameters and effects are declared once, in schema.py: PhysicsParams (fields and
+# units as the C++ PhysicsParams, generated from the same declaration) and EFFECT_BITS
+# (effect name -> (C++ bit, the PhysicsParams field that carries its coefficient)).
+from .schema import EFFECT_BITS, PhysicsParams  # noqa: F401
 
 RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
 BRUSH_KNEE_A = 0.02
@@ -22,50 +27,6 @@ WINDING_MAX_C = 250.0      # hottest winding: the 250 C thermal class, the highe
 PERIOD_MIN_S = 1e-5        # shorter periods are no sample-to-sample step (no di/dt; new segment)
 PERIOD_MAX_S = 10.0        # longer periods start a new segment too
 SPEED_LIMIT_FACTOR = 4.0   # speed range = factor * (v_max + i_max Ra) / Ke
-
-# Effect names, as in the bench twin and the diagnosis, with their C++ bit and
-# the PhysicsParams field that carries their coefficient.
-EFFECT_BITS = {
-    "thermal_ra": (1 << 0, "ra_tc_per_K"),
-    "magnet_thermal": (1 << 1, "ke_tc_per_K"),
-    "brush_drop": (1 << 2, "brush_V"),
-    "saturation": (1 << 3, "ke_sat_per_A"),
-    "current_offset": (1 << 4, "i_offset_A"),
-    "v_gain": (1 << 5, "v_gain"),
-    "inductance": (1 << 6, "la_H"),
-}
-
-
-@dataclasses.dataclass
-class PhysicsParams:
-    """Lumped parameters of one assembly (SI units, speed at the output shaft)."""
-
-    ra_ohm: float
-    ke_vs_per_rad: float
-    t_ref_C: float = 25.0
-    ra_tc_per_K: float = 0.0
-    ke_tc_per_K: float = 0.0
-    brush_V: float = 0.0
-    ke_sat_per_A: float = 0.0
-    i_offset_A: float = 0.0
-    v_gain: float = 0.0
-    la_H: float = 0.0
-    th_r_K_per_W: float = 0.0
-    th_tau_s: float = 0.0
-    t_amb_C: float = 25.0
-    effects: int = 0
-
-    FIELDS = (
-        "ra_ohm", "ke_vs_per_rad", "t_ref_C", "ra_tc_per_K", "ke_tc_per_K", "brush_V",
-        "ke_sat_per_A", "i_offset_A", "v_gain", "la_H", "th_r_K_per_W", "th_tau_s", "t_amb_C",
-    )
-
-    def effect_names(self) -> list[str]:
-        return [name for name, (bit, _) in EFFECT_BITS.items() if self.effects & bit]
-
-    def thermal_enabled(self) -> bool:
-        return self.th_r_K_per_W > 0.0 and self.th_tau_s > 0.0
-
 
 def nameplate_ke_vs_per_rad(rated_V: float, rated_rpm: float) -> float:
     """M1's Ke: rated voltage over rated (no-load) speed, armature drop neglected."""

@@ -28,6 +28,7 @@ import numpy as np
 
 from .. import effects as fx
 from .. import physics as ph
+from .. import schema
 from . import analysis
 
 Z_MIN = 2.5
@@ -40,30 +41,9 @@ IDENT_SIGMAS = 4.0      # a plausible coefficient must be this many standard err
 CONFOUND_CORR = 0.95    # partial correlation of two regressors above which they are confounded
 CONFOUND_GAIN = 0.6     # an alternative explaining this share of the chosen gain is confounded
 
-# Recordings that separate two effects which the data at hand cannot tell apart.
-SEPARATORS = {
-    frozenset({"thermal_ra", "magnet_thermal"}):
-        "a run in which the temperature changes at a different current-to-speed ratio: e.g. a "
-        "long warm-up at light load (low current, high speed) next to the heavy-load long run, "
-        "or load steps while the motor is hot",
-    frozenset({"brush_drop", "current_offset"}):
-        "rows at zero and at very low current with the motor turning (coasting at duty 0, or "
-        "a run at very light load): a brush drop vanishes with the current, an offset does not",
-    frozenset({"thermal_ra", "v_gain"}):
-        "a cold run with load steps (the resistance term at constant temperature), "
-        "or a check of the voltage channel against a calibrated meter",
-    frozenset({"thermal_ra", "saturation"}):
-        "load steps at constant temperature (short, from cold) and a slow warm-up at constant load",
-    frozenset({"magnet_thermal", "saturation"}):
-        "load steps at constant temperature (short, from cold) and a slow warm-up at constant load",
-    frozenset({"brush_drop", "v_gain"}):
-        "a sweep over the full duty range at light load: a gain error grows with the voltage, "
-        "a brush drop does not",
-    frozenset({"current_offset", "v_gain"}):
-        "a sweep over the full duty range at light load and rows at zero current",
-    frozenset({"saturation", "v_gain"}):
-        "load steps at one duty (same voltage, different currents)",
-}
+# Recordings that separate two effects which the data at hand cannot tell apart: the
+# `separated_from` entries of the effects' declarations (hpddo/schema.py).
+SEPARATORS = schema.SEPARATORS
 
 
 def separator(a: str, b: str) -> str:

@@ -12,75 +12,93 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from .. import schema
+
 GENERATOR_VERSION = "hpddo-twin 0.1.0"
 
 
 @dataclasses.dataclass(frozen=True)
 class Effect:
-    """One switchable physical effect: its magnitude in a physical unit (0 = off)."""
+    """One switchable physical effect: its magnitude in its shown unit (0 = off).
+
+    The name, the shown unit and its scale to SI come from the effect's declaration in
+    hpddo/schema.py (the model's effects and the bench-only ripple); the magnitudes and
+    the texts below are the bench's own."""
 
     name: str
-    unit: str
+    unit: str  # shown unit of the magnitude (schema show_unit)
     default: float  # magnitude in the default preset
-    typical: tuple  # (low, high) typical range of the magnitude, physical unit
+    typical: tuple  # (low, high) typical range of the magnitude, shown unit
     physics: str
     m2: str  # what it does to the M2 estimate (with the true K_e)
+
+    @property
+    def si_unit(self) -> str:
+        return schema.effect(self.name).unit
+
+    def to_si(self, magnitude: float) -> float:
+        """A magnitude in the shown unit as the SI value (the PhysicsParams field's unit)."""
+        return schema.effect(self.name).to_si(magnitude)
+
+
+def _effect(name: str, default: float, typical: tuple, physics: str, m2: str) -> Effect:
+    return Effect(name, schema.effect(name).show_unit, default, typical, physics, m2)
 
 
 EFFECTS = {
     e.name: e
     for e in [
-        Effect(
-            "thermal_ra", "%/K", 0.393, (0.38, 0.40),
+        _effect(
+            "thermal_ra", 0.393, (0.38, 0.40),
             "armature (copper) resistance rises with winding temperature: "
             "Ra(T) = Ra_ref (1 + a (T_w - T_ref)), copper a = 0.393 %/K",
             "M2 uses the cold 4.50 ohm, so V - I Ra keeps I (Ra(T) - 4.50): "
             "speed overestimated by I dRa / Ke, growing as the winding heats",
         ),
-        Effect(
-            "magnet_thermal", "%/K", -0.2, (-0.20, -0.12),
+        _effect(
+            "magnet_thermal", -0.2, (-0.20, -0.12),
             "ferrite magnet flux falls with magnet (case) temperature: "
             "Ke(T) = Ke_ref (1 + b (T_c - T_ref)), ferrite b about -0.2 %/K (NdFeB -0.12)",
             "back-EMF per rad/s shrinks as the case warms: speed underestimated by "
             "|b| dT n, growing with temperature",
         ),
-        Effect(
-            "brush_drop", "V", 0.50, (0.1, 1.0),
+        _effect(
+            "brush_drop", 0.50, (0.1, 1.0),
             "carbon/precious-metal brush contact drop, about constant while current "
             "flows (both PWM phases), zero when the current is zero",
             "V - I Ra keeps the drop: speed overestimated by about drop / Ke "
             "(times the conduction fraction in discontinuous conduction)",
         ),
-        Effect(
-            "saturation", "%/A", 4.0, (1.0, 8.0),
+        _effect(
+            "saturation", 4.0, (1.0, 8.0),
             "armature reaction: armature current weakens the net air-gap flux, "
             "Ke(I) = Ke (1 - s I) for torque and back-EMF alike",
             "less back-EMF per rad/s at high current: speed underestimated by s I n, "
             "error growing with current",
         ),
-        Effect(
-            "current_offset", "mA", 8.0, (-20.0, 20.0),
+        _effect(
+            "current_offset", 8.0, (-20.0, 20.0),
             "DC offset of the current channel (shunt amplifier / ADC offset): "
             "i_A = I + offset",
             "V - (I + offset) Ra: speed underestimated by Ra offset / Ke for a "
             "positive offset, constant in speed",
         ),
-        Effect(
-            "v_gain", "%", 0.8, (-2.0, 2.0),
+        _effect(
+            "v_gain", 0.8, (-2.0, 2.0),
             "gain error of the voltage channel (divider tolerance, ADC reference): "
             "v_V = (1 + g) V",
             "speed overestimated by g V / Ke for g > 0: error proportional to V",
         ),
-        Effect(
-            "ripple", "%", 15.0, (5.0, 30.0),
+        _effect(
+            "ripple", 15.0, (5.0, 30.0),
             "commutation ripple: the current dips each time a brush shorts a coil, "
             "6 times per motor revolution (3-slot rotor); amplitude in % of the mean "
             "current; modelled as an EMF dip so V is unchanged",
             "zero-mean noise on I, hence on M2; averages out over a long sample "
             "period, visible at 100 Hz and above",
         ),
-        Effect(
-            "inductance", "mH", 2.5, (1.0, 5.0),
+        _effect(
+            "inductance", 2.5, (1.0, 5.0),
             "armature inductance La: current lags voltage with tau = La / R, PWM "
             "current ripple, continuous/discontinuous conduction through the diode",
             "no bias in steady state (La dI/dt averages out); at high sample rates "
@@ -146,6 +164,10 @@ class Bench:
 
     def effect(self, name: str) -> float:
         return float(self.effects.get(name, 0.0))
+
+    def effect_si(self, name: str) -> float:
+        """The magnitude of effect `name` in SI (its PhysicsParams unit: 1/K, A, H...)."""
+        return EFFECTS[name].to_si(self.effect(name))
 
     def to_dict(self) -> dict:
         d = dataclasses.asdict(self)

@@ -44,19 +44,24 @@ inline uint32_t crc_flash(uint32_t crc, const float* p, uint16_t n) {
   for (uint16_t k = 0; k < n; ++k) crc = crc_float(crc, flash_float(p + k));
   return crc;
 }
+/// for_each_param() visitor: every physics field into the CRC, the effect bits as a float.
+struct CrcParams {
+  uint32_t crc;
+  void operator()(float f) { crc = crc_float(crc, f); }
+  void operator()(uint16_t bits) { crc = crc_float(crc, static_cast<float>(bits)); }
+};
 }  // namespace detail
 
-/// CRC-32 over the float32 little-endian bytes of everything a model stores,
-/// in the exporter's order: physics fields, effects, scaler, network layers,
-/// envelope, clamp and limits. A generated header's kChecksum must equal it.
+/// CRC-32 over the float32 little-endian bytes of everything a model stores and
+/// the board uses, in the exporter's order: every physics field in the schema's
+/// order (for_each_param(), generated from tools/hpddo/schema.py), the effect
+/// bits (the header's kEffects) as a float, scaler, network layers, envelope,
+/// clamp and limits. A generated header's kChecksum must equal it.
 template <class Net>
 uint32_t model_checksum(const Model<Net>& m) {
-  const PhysicsParams& p = m.physics;
-  const float phys[] = {p.ra_ohm,      p.ke_vs_per_rad, p.t_ref_C, p.ra_tc_per_K,  p.ke_tc_per_K,
-                        p.brush_V,     p.ke_sat_per_A,  p.i_offset_A, p.v_gain,    p.la_H,
-                        p.th_r_K_per_W, p.th_tau_s,     p.t_amb_C, static_cast<float>(p.effects)};
-  uint32_t crc = 0xFFFFFFFFu;
-  for (uint8_t k = 0; k < sizeof phys / sizeof phys[0]; ++k) crc = detail::crc_float(crc, phys[k]);
+  detail::CrcParams phys = {0xFFFFFFFFu};
+  for_each_param(m.physics, phys);
+  uint32_t crc = phys.crc;
   crc = detail::crc_flash(crc, m.scaler.mean, kFeatureCount);
   crc = detail::crc_flash(crc, m.scaler.scale, kFeatureCount);
   crc = detail::crc_flash(crc, m.weights.w0, Net::kW0Count);

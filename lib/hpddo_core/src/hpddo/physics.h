@@ -6,14 +6,17 @@
 // returned in RPM of the output shaft. M1 uses the
 // nameplate Ke with every effect off; M2 uses the identified Ra and Ke, plus
 // any effect terms that diagnosis found missing. Each effect is one named
-// coefficient; zero switches it off. The same terms exist once in Python
-// (tools/hpddo/effects.py) and a parity test holds the two together.
+// coefficient; zero switches it off. The parameters and effects are declared
+// once, in tools/hpddo/schema.py, from which params_gen.h is generated; the
+// terms below exist once more in Python (tools/hpddo/physics.py) and a parity
+// test holds the two together.
 #ifndef HPDDO_PHYSICS_H
 #define HPDDO_PHYSICS_H
 
 #include <stdint.h>
 
 #include "limits.h"
+#include "params_gen.h"
 #include "platform.h"
 
 namespace hpddo {
@@ -25,35 +28,8 @@ static const float kRpmPerRadS = 9.54929658551372f;
 /// Smooths the sign of i so that the term is continuous at zero current.
 static const float kBrushKnee_A = 0.02f;
 
-/// Bit of each effect in PhysicsParams::effects, for reporting and telemetry.
-enum Effect : uint16_t {
-  kEffectThermalRa = 1u << 0,      ///< thermal_ra: copper resistance rises with T
-  kEffectMagnetThermal = 1u << 1,  ///< magnet_thermal: magnet flux falls with T
-  kEffectBrushDrop = 1u << 2,      ///< brush_drop: brush-commutator contact drop
-  kEffectSaturation = 1u << 3,     ///< saturation: armature reaction, Ke falls with |i|
-  kEffectCurrentOffset = 1u << 4,  ///< current_offset: offset of the current channel
-  kEffectVGain = 1u << 5,          ///< v_gain: gain error of the voltage channel
-  kEffectInductance = 1u << 6,     ///< inductance: la di/dt, visible at high rates
-};
-
-/// Lumped parameters of one motor-drivetrain assembly, all in SI units, speed
-/// at the output shaft. Effect coefficients at zero switch their effect off.
-struct PhysicsParams {
-  float ra_ohm;          ///< armature resistance at t_ref_C, ohm
-  float ke_vs_per_rad;   ///< back-EMF constant at t_ref_C and zero current, V s/rad
-  float t_ref_C;         ///< temperature at which ra_ohm and ke_vs_per_rad hold, C
-  float ra_tc_per_K;     ///< thermal_ra: relative change of Ra per kelvin (copper +0.00393)
-  float ke_tc_per_K;     ///< magnet_thermal: relative change of Ke per kelvin (ferrite ~ -0.002)
-  float brush_V;         ///< brush_drop: total brush contact drop at full conduction, V
-  float ke_sat_per_A;    ///< saturation: relative fall of Ke per ampere of |i|
-  float i_offset_A;      ///< current_offset: reading minus true current, A
-  float v_gain;          ///< v_gain: reading / true voltage - 1
-  float la_H;            ///< inductance: armature inductance, H
-  float th_r_K_per_W;    ///< thermal state: winding-to-ambient resistance, K/W (0: no estimate)
-  float th_tau_s;        ///< thermal state: time constant, s
-  float t_amb_C;         ///< thermal state: ambient temperature, C
-  uint16_t effects;      ///< Effect bits that are on (informative; zero coefficients are off)
-};
+// PhysicsParams, the Effect bits and for_each_param() are generated from the one
+// declaration of every parameter and effect, tools/hpddo/schema.py (params_gen.h).
 
 /// One sample as the physics model sees it.
 struct PhysicsInput {

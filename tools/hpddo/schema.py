@@ -1,0 +1,433 @@
+"""The physics parameters and the effect library, declared once.
+
+Every parameter of the physics model M2 (hpddo::PhysicsParams) and every physical effect
+is one record below: its name, the field that carries it, its SI unit, how it is shown
+(unit and scale), its plausible range, its meaning, which recording excites it, which
+experiment separates it from the effects it resembles, and its bit. Everything else is
+derived from these records:
+
+  * lib/hpddo_core/src/hpddo/params_gen.h (generated, committed): the PhysicsParams
+    struct with the units in comments, the Effect bit enum, kParamsSchema and
+    hpddo::for_each_param(), the field order of a model header's initialiser, of
+    hpddo::model_checksum() and of the parity probe (test/parity/effects_probe.cpp);
+  * the Python PhysicsParams dataclass and EFFECT_BITS (re-exported by physics.py);
+  * the effect library (effects.LIBRARY), the twin's effect names and shown units
+    (twin/params.py) and the diagnosis' separating recordings (ranking.SEPARATORS).
+
+The struct order is: BASE, then each effect's coefficient in the order of EFFECTS, then
+STATE, then the effect bits. Regenerate after any change (a pytest compares byte for byte):
+
+    cd tools && ../.venv/bin/python -m hpddo.schema --write      # or --check
+
+Adding an effect: one Effect record appended to EFFECTS (next free bit), its term in
+physics.h and physics.py, the generator above (docs/diagnosis.md, worked example).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import pathlib
+import sys
+import zlib
+
+GENERATOR = "hpddo.schema 1"
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+COMMAND = "cd tools && ../.venv/bin/python -m hpddo.schema --write"
+
+
+@dataclasses.dataclass(frozen=True)
+class Param:
+    """One float field of PhysicsParams that is no effect coefficient."""
+
+    field: str
+    unit: str                   # SI unit
+    meaning: str                # one line, the C++ field comment
+    default: float | None = 0.0  # None: required (no default in the Python dataclass)
+
+
+@dataclasses.dataclass(frozen=True)
+class Effect:
+    """One effect of the library: one coefficient of PhysicsParams, zero switches it off."""
+
+    name: str
+    bit_index: int        # its bit in PhysicsParams::effects is 1 << bit_index
+    field: str            # PhysicsParams field carrying the coefficient
+    unit: str             # SI unit of the field
+    show_scale: float     # field value x show_scale = value in show_unit
+    show_unit: str
+    coefficient: str      # what the coefficient is, one line (the C++ field comment)
+    summary: str          # the effect in a few words (the C++ enum comment)
+    meaning: str          # physical meaning, one sentence
+    typical: str          # typical values, in words
+    plausible: tuple      # (lo, hi) plausible range of the field value, SI
+    physical: tuple       # (lo, hi): the plausible range widened 2x; a fit outside is not this effect
+    scale: float          # a typical magnitude of the field, SI (parameter scaling in fits)
+    signature: str        # what the speed error of a missing effect scales with
+    excited_by: str       # which recording makes the effect visible
+    thermal: bool = False  # uses the temperature
+    separated_from: tuple = ()  # ((other effect, recording that tells the two apart), ...)
+
+    @property
+    def bit(self) -> int:
+        """The effect's bit mask in PhysicsParams::effects."""
+        return 1 << self.bit_index
+
+    @property
+    def cpp_name(self) -> str:
+        return "kEffect" + "".join(w.capitalize() for w in self.name.split("_"))
+
+    def param(self) -> Param:
+        return Param(self.field, self.unit, f"{self.name}: {self.coefficient}", 0.0)
+
+    def to_si(self, shown: float) -> float:
+        return shown / self.show_scale
+
+    def show(self, value: float) -> str:
+        return f"{value * self.show_scale:+.3g} {self.show_unit}"
+
+    def plausibility(self, value: float) -> tuple[bool, str]:
+        lo, hi = self.plausible
+        ok = lo <= value <= hi
+        rng = f"{lo * self.show_scale:.3g}..{hi * self.show_scale:.3g} {self.show_unit}"
+        return ok, (f"{self.show(value)} within the plausible {rng}" if ok
+                    else f"{self.show(value)} outside the plausible {rng}")
+
+
+@dataclasses.dataclass(frozen=True)
+class BenchEffect:
+    """An effect the bench twin has but the physics model carries no term for."""
+
+    name: str
+    unit: str
+    show_scale: float
+    show_unit: str
+    meaning: str
+
+    def to_si(self, shown: float) -> float:
+        return shown / self.show_scale
+
+
+# ---------------------------------------------------------------------------------------
+# The declarations
+
+BASE = (
+    Param("ra_ohm", "ohm", "armature resistance at t_ref_C", None),
+    Param("ke_vs_per_rad", "V s/rad", "back-EMF constant at t_ref_C and zero current", None),
+    Param("t_ref_C", "C", "temperature at which ra_ohm and ke_vs_per_rad hold", 25.0),
+)
+
+EFFECTS = (
+    Effect("thermal_ra", 0, "ra_tc_per_K", "1/K", 100.0, "%/K",
+           "relative change of Ra per kelvin (copper +0.00393)",
+           "copper resistance rises with T",
+           "copper resistance of the winding rises with temperature: Ra(T) = Ra (1 + a (T - T_ref))",
+           "copper +0.393 %/K (a material constant; the band allows for the sensor's lag)",
+           (0.0033, 0.0046), (0.001, 0.012), 0.004,
+           "temperature rise x current",
+           "a run in which the winding heats up (minutes at high current)", thermal=True,
+           separated_from=(
+               ("magnet_thermal",
+                "a run in which the temperature changes at a different current-to-speed ratio: e.g. a "
+                "long warm-up at light load (low current, high speed) next to the heavy-load long run, "
+                "or load steps while the motor is hot"),
+               ("v_gain",
+                "a cold run with load steps (the resistance term at constant temperature), "
+                "or a check of the voltage channel against a calibrated meter"),
+               ("saturation",
+                "load steps at constant temperature (short, from cold) and a slow warm-up at constant load"),
+           )),
+    Effect("magnet_thermal", 1, "ke_tc_per_K", "1/K", 100.0, "%/K",
+           "relative change of Ke per kelvin (ferrite ~ -0.002)",
+           "magnet flux falls with T",
+           "magnet flux, hence Ke, falls with temperature: Ke(T) = Ke (1 + b (T - T_ref))",
+           "ferrite about -0.2 %/K, NdFeB -0.12 %/K", (-0.0035, -0.0003), (-0.007, -0.00015), -0.002,
+           "temperature rise x speed",
+           "a run in which the motor heats up (minutes at high current)", thermal=True,
+           separated_from=(
+               ("saturation",
+                "load steps at constant temperature (short, from cold) and a slow warm-up at constant load"),
+           )),
+    Effect("brush_drop", 2, "brush_V", "V", 1.0, "V",
+           "total brush contact drop at full conduction",
+           "brush-commutator contact drop",
+           "contact drop of the carbon brushes, about constant while current flows",
+           "0.3..2 V for both brushes together", (0.05, 2.5), (0.025, 5.0), 0.5,
+           "a constant voltage while current flows (sign of the current)",
+           "runs at several speeds, including light load",
+           separated_from=(
+               ("current_offset",
+                "rows at zero and at very low current with the motor turning (coasting at duty 0, or "
+                "a run at very light load): a brush drop vanishes with the current, an offset does not"),
+               ("v_gain",
+                "a sweep over the full duty range at light load: a gain error grows with the voltage, "
+                "a brush drop does not"),
+           )),
+    Effect("saturation", 3, "ke_sat_per_A", "1/A", 100.0, "%/A",
+           "relative fall of Ke per ampere of |i|",
+           "armature reaction, Ke falls with |i|",
+           "armature reaction weakens the field at high current: Ke(I) = Ke (1 - s |I|)",
+           "a few %/A", (0.002, 0.15), (0.001, 0.3), 0.04,
+           "current x speed",
+           "runs at different loads (currents) at similar speeds",
+           separated_from=(
+               ("v_gain", "load steps at one duty (same voltage, different currents)"),
+           )),
+    Effect("current_offset", 4, "i_offset_A", "A", 1000.0, "mA",
+           "reading minus true current",
+           "offset of the current channel",
+           "DC offset of the current channel: the reading minus the true current",
+           "a few mA to tens of mA", (-0.05, 0.05), (-0.1, 0.1), 0.01,
+           "a constant voltage Ra x offset, at every current including zero",
+           "rows at zero or very low current with the motor turning (coasting at duty 0)",
+           separated_from=(
+               ("v_gain", "a sweep over the full duty range at light load and rows at zero current"),
+           )),
+    Effect("v_gain", 5, "v_gain", "1", 100.0, "%",
+           "reading / true voltage - 1",
+           "gain error of the voltage channel",
+           "gain error of the voltage channel: reading / true voltage - 1",
+           "|g| below about 5 % (divider tolerance, ADC reference)", (-0.05, 0.05), (-0.1, 0.1), 0.01,
+           "the terminal voltage",
+           "runs at different voltages with different currents"),
+    Effect("inductance", 6, "la_H", "H", 1000.0, "mH",
+           "armature inductance",
+           "la di/dt, visible at high rates",
+           "armature inductance: La di/dt in the voltage balance",
+           "0.5..20 mH for small PMDC motors", (0.0005, 0.02), (0.00025, 0.04), 0.003,
+           "the rate of change of the current",
+           "a recording at 1 kHz or faster with steps of duty"),
+)
+
+STATE = (
+    Param("th_r_K_per_W", "K/W", "thermal state: winding-to-ambient resistance (0: no estimate)", 0.0),
+    Param("th_tau_s", "s", "thermal state: time constant", 0.0),
+    Param("t_amb_C", "C", "thermal state: ambient temperature", 25.0),
+)
+
+# The effect bits, after every float field (uint16_t in C++, int in Python).
+BITS_FIELD = "effects"
+BITS_MEANING = "Effect bits that are on (informative; zero coefficients are off)"
+
+BENCH_EFFECTS = (
+    BenchEffect("ripple", "1", 100.0, "%",
+                "commutation ripple of the current, relative to the mean current; zero-mean noise "
+                "to the physics model, which has no term for it"),
+)
+
+# ---------------------------------------------------------------------------------------
+# Derived
+
+PARAMS = BASE + tuple(e.param() for e in EFFECTS) + STATE
+FLOAT_FIELDS = tuple(p.field for p in PARAMS)      # every float field, in struct order
+FIELDS = FLOAT_FIELDS + (BITS_FIELD,)              # every field: struct, initialiser, checksum order
+UNITS = {p.field: p.unit for p in PARAMS}
+BY_NAME = {e.name: e for e in EFFECTS}
+EFFECT_BITS = {e.name: (e.bit, e.field) for e in EFFECTS}   # name -> (bit mask, field)
+ALL_EFFECTS = BY_NAME.copy()
+ALL_EFFECTS.update((b.name, b) for b in BENCH_EFFECTS)
+SEPARATORS = {frozenset({e.name, other}): text for e in EFFECTS for other, text in e.separated_from}
+
+
+def effect(name: str):
+    """The declaration of a model or bench effect by name."""
+    return ALL_EFFECTS[name]
+
+
+def validate() -> None:
+    """Raises ValueError when the declarations contradict each other."""
+    fields = [p.field for p in PARAMS] + [BITS_FIELD]
+    if len(set(fields)) != len(fields):
+        raise ValueError(f"duplicate PhysicsParams field in {fields}")
+    for f in fields:
+        if not f.isidentifier():
+            raise ValueError(f"field {f!r} is no identifier")
+    required = [p.default is None for p in PARAMS]
+    if required != sorted(required, reverse=True):
+        raise ValueError("parameters without a default must come first")
+    names = [e.name for e in EFFECTS] + [b.name for b in BENCH_EFFECTS]
+    if len(set(names)) != len(names):
+        raise ValueError(f"duplicate effect name in {names}")
+    bits = [e.bit_index for e in EFFECTS]
+    if len(set(bits)) != len(bits) or not all(0 <= b < 16 for b in bits):
+        raise ValueError(f"effect bits must be distinct and within 0..15: {bits}")
+    pairs = []
+    for e in EFFECTS:
+        lo, hi = e.plausible
+        if not (e.physical[0] <= lo < hi <= e.physical[1]):
+            raise ValueError(f"{e.name}: plausible {e.plausible} not within physical {e.physical}")
+        if e.show_scale <= 0:
+            raise ValueError(f"{e.name}: show_scale must be positive")
+        for other, _ in e.separated_from:
+            if other not in BY_NAME or other == e.name:
+                raise ValueError(f"{e.name}: separated_from names unknown effect {other!r}")
+            pairs.append(frozenset({e.name, other}))
+    if len(set(pairs)) != len(pairs):
+        raise ValueError("a pair of effects has two separating recordings")
+
+
+validate()
+
+
+# ---------------------------------------------------------------------------------------
+# The Python PhysicsParams
+
+
+def _effect_names(self) -> list[str]:
+    return [name for name, (bit, _) in EFFECT_BITS.items() if self.effects & bit]
+
+
+def _thermal_enabled(self) -> bool:
+    return self.th_r_K_per_W > 0.0 and self.th_tau_s > 0.0
+
+
+def _make_params_class():
+    spec = []
+    for p in PARAMS:
+        spec.append((p.field, float) if p.default is None else (p.field, float, dataclasses.field(default=p.default)))
+    spec.append((BITS_FIELD, int, dataclasses.field(default=0)))
+    cls = dataclasses.make_dataclass(
+        "PhysicsParams", spec,
+        namespace={"__doc__": "Lumped parameters of one assembly (SI units, speed at the output shaft); "
+                              "fields as hpddo::PhysicsParams, declared in hpddo.schema.",
+                   "FIELDS": FLOAT_FIELDS, "effect_names": _effect_names, "thermal_enabled": _thermal_enabled})
+    cls.__module__ = __name__
+    return cls
+
+
+PhysicsParams = _make_params_class()
+
+
+# ---------------------------------------------------------------------------------------
+# Generated files
+
+
+def layout_crc() -> int:
+    """CRC-32 of what a model header depends on: field names, types and order, effect bits."""
+    text = ";".join([f"float {f}" for f in FLOAT_FIELDS] + [f"uint16_t {BITS_FIELD}"]
+                    + [f"{e.name}={e.bit_index}" for e in EFFECTS])
+    return zlib.crc32(text.encode()) & 0xFFFFFFFF
+
+
+def _unit_words(unit: str) -> str:
+    return "dimensionless" if unit == "1" else unit
+
+
+def _comment_pad(lines: list[tuple[str, str]]) -> list[str]:
+    width = max(len(code) for code, _ in lines)
+    return [f"{code.ljust(width)}  ///< {doc}" for code, doc in lines]
+
+
+def _params_h_body() -> str:
+    crc = layout_crc()
+    enum = _comment_pad([(f"  {e.cpp_name} = 1u << {e.bit_index},", f"{e.name}: {e.summary}") for e in EFFECTS])
+    struct = _comment_pad([(f"  float {p.field};", f"{p.meaning}, {_unit_words(p.unit)}") for p in PARAMS]
+                          + [(f"  uint16_t {BITS_FIELD};", BITS_MEANING)])
+    visit = "\n".join(f"  f(p.{f});" for f in FIELDS)
+    all_bits = 0
+    for e in EFFECTS:
+        all_bits |= e.bit
+    return f"""#ifndef HPDDO_PARAMS_GEN_H
+#define HPDDO_PARAMS_GEN_H
+
+#include <stdint.h>
+
+namespace hpddo {{
+
+/// CRC-32 of the parameter layout (field names, types and order, effect bits). A model
+/// header asserts that it was written for this layout.
+static const uint32_t kParamsSchema = 0x{crc:08x}u;
+
+/// Bit of each effect in PhysicsParams::effects, for reporting and telemetry.
+enum Effect : uint16_t {{
+{chr(10).join(enum)}
+}};
+
+/// Every effect bit of the library.
+static const uint16_t kEffectsAll = 0x{all_bits:04x}u;
+
+/// Lumped parameters of one motor-drivetrain assembly, all in SI units, speed
+/// at the output shaft. Effect coefficients at zero switch their effect off.
+/// Constructor-free: a model header initialises it in field order.
+struct PhysicsParams {{
+{chr(10).join(struct)}
+}};
+
+/// Number of PhysicsParams fields, the effect bits included.
+static const uint8_t kPhysicsParamCount = {len(FIELDS)};
+
+/// Calls f(p.field) for every PhysicsParams field in the schema's order, the order of
+/// the struct, of a model header's initialiser and of model_checksum(): each float
+/// coefficient, then the effect bits (uint16_t). Params is PhysicsParams or const
+/// PhysicsParams; F has operator() for float and uint16_t (or their references).
+template <class Params, class F>
+inline void for_each_param(Params& p, F& f) {{
+{visit}
+}}
+
+}}  // namespace hpddo
+
+#endif  // HPDDO_PARAMS_GEN_H
+"""
+
+
+def _banner(kind: str, body: str, source: str) -> str:
+    lines = [f"// GENERATED {kind}: DO NOT EDIT. Regenerate with the command below.",
+             f"// command: {COMMAND}",
+             f"// source: {source}",
+             f"// generator: {GENERATOR}",
+             f"// layout: crc32 0x{layout_crc():08x} (kParamsSchema)",
+             f"// checksum: crc32 0x{zlib.crc32(body.encode()) & 0xFFFFFFFF:08x} of the text below this banner"]
+    return "\n".join(lines) + "\n"
+
+
+def generated() -> dict:
+    """{path relative to the repository: text} of every file generated from the schema."""
+    body = _params_h_body()
+    return {"lib/hpddo_core/src/hpddo/params_gen.h":
+            _banner("parameter schema", body, "tools/hpddo/schema.py") + body}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m hpddo.schema", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    g = ap.add_mutually_exclusive_group(required=True)
+    g.add_argument("--write", action="store_true", help="write the generated files")
+    g.add_argument("--check", action="store_true", help="exit 1 when a generated file is out of date")
+    ap.add_argument("--root", default=str(ROOT), help="repository root (default: this checkout)")
+    args = ap.parse_args(argv)
+    root = pathlib.Path(args.root)
+    stale = []
+    for rel, text in generated().items():
+        path = root / rel
+        old = path.read_bytes() if path.exists() else None
+        if old == text.encode():
+            continue
+        stale.append(rel)
+        if args.write:
+            path.write_bytes(text.encode())
+            print(f"wrote {rel}")
+    if args.check and stale:
+        print("out of date (run: " + COMMAND + "): " + ", ".join(stale), file=sys.stderr)
+        return 1
+    if not stale:
+        print("generated files up to date")
+    for rel, command in stale_models(root):
+        print(f"note: {rel} was written for another parameter layout; regenerate it: {command}")
+    return 0
+
+
+def stale_models(root: pathlib.Path = ROOT) -> list[tuple[str, str]]:
+    """(path, the command in its banner) of every committed model header (models/*/,
+    test/fixtures/) that asserts another parameter layout than this schema's."""
+    want = f"hpddo::kParamsSchema == 0x{layout_crc():08x}u"
+    out = []
+    for path in sorted([*root.glob("models/*/model_*.h"), *root.glob("test/fixtures/model_*.h")]):
+        text = path.read_text()
+        if want not in text:
+            cmd = next((ln.split(":", 1)[1].strip() for ln in text.splitlines() if ln.startswith("// command:")), "?")
+            out.append((str(path.relative_to(root)), cmd))
+    return out
+
+
+if __name__ == "__main__":
+    sys.exit(main())
