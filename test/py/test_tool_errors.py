@@ -91,10 +91,16 @@ def test_short_logs_give_a_named_error_or_a_result(tmp_path, capsys, rows):
     _no_traceback(err)
     assert "too few to train the residual network" in err
     assert not out.exists()
-    # the diagnosis needs no network: it runs, and says the hybrid was left out
+    # the diagnosis needs no network: it runs, and says the hybrid was left out, or (with
+    # too few held-out rows to rank anything) says that
     dout = tmp_path / "dg"
-    assert diagnose.main([str(log), "--out", str(dout), "--bootstrap", "0"]) == 0
+    rc = diagnose.main([str(log), "--out", str(dout), "--bootstrap", "0"])
     err = capsys.readouterr().err
+    _no_traceback(err)
+    if rows * (1 - dataset.TRAIN_FRACTION) < 8:
+        assert rc == 1 and "held-out rows" in err and not dout.exists()
+        return
+    assert rc == 0
     assert "hybrid before/after not computed" in err
     assert json.loads((dout / "diagnosis.json").read_text())["warnings"]
 
@@ -210,3 +216,46 @@ def test_a_loud_warning_when_the_filter_removes_many_rows(tmp_path, capsys):
                              "--max-iter", "1"]) == 0
     assert "WARNING" in capsys.readouterr().err
     assert len(dataset.load_recording(log, glitch_filter=False).removed) == 0
+
+
+def _set_column(src: pathlib.Path, dst: pathlib.Path, col: str, value, rows: int = 600) -> pathlib.Path:
+    lines = src.read_text().splitlines()
+    head = next(k for k, ln in enumerate(lines) if not ln.startswith("#"))
+    j = lines[head].split(",").index(col)
+    out = lines[: head + 1]
+    for ln in lines[head + 1: head + 1 + rows]:
+        cells = ln.split(",")
+        cells[j] = value
+        out.append(",".join(cells))
+    dst.write_text("\n".join(out) + "\n")
+    return dst
+
+
+def test_absurd_speeds_and_two_test_rows_give_named_errors_or_results(tmp_path, capsys):
+    """Probe cases: an encoder reading 1e9 RPM (Ke of 1e-8 V s/rad) and a 10-row log (two
+    held-out rows) once ended the diagnosis in a traceback."""
+    huge = _set_column(LONG, tmp_path / "huge.csv", "rpm_ref", "1e9")
+    assert diagnose.main([str(huge), "--out", str(tmp_path / "d1"), "--bootstrap", "0", "--no-hybrid"]) in (0, 1)
+    _no_traceback(capsys.readouterr().err)
+    ten = _head(LONG, tmp_path / "ten.csv", 10)
+    assert diagnose.main([str(ten), "--out", str(tmp_path / "d2"), "--bootstrap", "0", "--no-hybrid"]) == 1
+    err = capsys.readouterr().err
+    assert "held-out rows" in err and "ten.csv" in err
+    assert not (tmp_path / "d2").exists()
+
+
+def test_temperatures_outside_the_sensor_range_cost_no_rows(tmp_path):
+    log = _set_column(LONG, tmp_path / "hot.csv", "temp_C", "300")
+    rec = dataset.load_recording(log)
+    assert rec.n == 600 and not rec.removed
+    assert rec.warnings and "not read" in rec.warnings[0]
+    assert np.isnan(dataset.temp_read_C(rec)).all()
+
+
+@pytest.mark.parametrize("value", ["0", "-4", "nan", "abc"])
+def test_a_bad_ra_in_the_metadata_names_the_file(tmp_path, capsys, value):
+    log = tmp_path / "r.csv"
+    log.write_text(LONG.read_text().replace("# ra_ohm=4.50", f"# ra_ohm={value}"))
+    assert gen_weights.main([str(log), "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "r.csv" in err and "ra_ohm" in err

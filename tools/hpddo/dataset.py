@@ -36,7 +36,9 @@ GLITCH_FLOOR = {"v_V": 0.5, "i_A": 0.15, "rpm_ref": 25.0}
 GLITCH_QUANTA = 3.0
 GLITCH_TAIL = 2.0
 GLITCH_WARN_SHARE = 0.01
-TEMP_RANGE_C = (-55.0, 125.0)  # DS18B20 range: readings outside are glitches
+TEMP_RANGE_C = (-55.0, 125.0)  # DS18B20 range: a reading outside it is taken as not read,
+# as the observer does (the row's V, I and speed stay: a faulty temperature sensor must
+# not cost the recording)
 
 
 @dataclasses.dataclass
@@ -105,12 +107,6 @@ def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:
         for k in np.flatnonzero(hit & ~bad):
             reasons[k] = f"{col}={x[k]:.6g} departs {dev[k]:.3g} from its neighbours' median (threshold {thresh:.3g})"
         bad |= hit
-    if "temp_C" in df:
-        t = df["temp_C"].to_numpy(float)
-        hit = np.isfinite(t) & ((t < TEMP_RANGE_C[0]) | (t > TEMP_RANGE_C[1]))
-        for k in np.flatnonzero(hit & ~bad):
-            reasons[k] = f"temp_C={t[k]:.6g} outside the sensor range {TEMP_RANGE_C}"
-        bad |= hit
     return bad, reasons
 
 
@@ -131,6 +127,12 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
             warnings.append(f"{path}: the glitch filter removed {len(removed)} of {len(log.df)} rows "
                             f"({100 * share:.1f} %), more than glitches should be; look at the rows it names, "
                             "or keep every row with --no-glitch-filter")
+    if "temp_C" in df:
+        t = df["temp_C"].to_numpy(float)
+        outside = int((np.isfinite(t) & ((t < TEMP_RANGE_C[0]) | (t > TEMP_RANGE_C[1]))).sum())
+        if outside:
+            warnings.append(f"{path}: {outside} temp_C readings lie outside the sensor range {TEMP_RANGE_C} C "
+                            "and are taken as not read")
     if len(df) < MIN_ROWS:
         raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows"
                                      + (f" after removing {len(removed)} glitch rows" if removed else "")

@@ -7,6 +7,8 @@ effects (effects.py), fitted on the same rows.
 """
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from . import physics as ph
@@ -29,8 +31,8 @@ class IdentificationError(InputError):
 def ra_from_logs(recs: list[Recording], ra_option: float | None) -> tuple[float, str]:
     """Ra from the option, else from the logs' ra_ohm metadata (all must agree)."""
     if ra_option is not None:
-        if not ra_option > 0:
-            raise IdentificationError(f"--ra-ohm must be positive, got {ra_option}")
+        if not (math.isfinite(ra_option) and ra_option > 0):
+            raise IdentificationError(f"--ra-ohm must be a positive resistance in ohm, got {ra_option}")
         return float(ra_option), "option --ra-ohm"
     values = {}
     for r in recs:
@@ -39,6 +41,9 @@ def ra_from_logs(recs: list[Recording], ra_option: float | None) -> tuple[float,
                 values[r.source.name] = float(r.meta["ra_ohm"])
             except ValueError:
                 raise IdentificationError(f"{r.source}: metadata ra_ohm={r.meta['ra_ohm']!r} is not a number") from None
+            if not (math.isfinite(values[r.source.name]) and values[r.source.name] > 0):
+                raise IdentificationError(f"{r.source}: metadata ra_ohm={r.meta['ra_ohm']!r} is not a positive "
+                                          "resistance; correct it, or give --ra-ohm")
     if not values:
         raise IdentificationError("no Ra: give --ra-ohm (a multimeter reading) or ra_ohm= metadata in the logs")
     distinct = set(values.values())

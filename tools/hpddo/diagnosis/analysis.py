@@ -15,7 +15,8 @@ def robust_noise_var(e_parts) -> float:
     contiguous part: a slow structured error hardly moves from one row to the next, a
     white error of variance s2 gives differences of variance 2 s2. The median absolute
     difference (scaled for a normal) keeps steps and transients from inflating it."""
-    d = np.concatenate([np.diff(e) for e in e_parts if len(e) > 2])
+    diffs = [np.diff(e) for e in e_parts if len(e) > 2]
+    d = np.concatenate(diffs) if diffs else np.zeros(0)
     if len(d) < 5:
         return float("nan")
     mad = 1.4826 * np.median(np.abs(d - np.median(d)))

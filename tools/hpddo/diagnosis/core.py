@@ -8,11 +8,13 @@ import time
 import numpy as np
 
 from .. import dataset, identify
+from ..errors import InputError
 from .. import effects as fx
 from .. import physics as ph
 from ..train import TrainConfig, TrainingError, features, train_residual
 from . import analysis, ranking
 
+MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
 HYBRID_ITER = 150  # training iterations of the hybrid in the diagnosis (gen_weights: 2000)
 
 
@@ -95,6 +97,11 @@ def diagnose(paths, opt: Options) -> dict:
     m2 = identify.m2_params(recs, ra)
     given = list(fx.check_names(opt.effects))
     rows = [fx.rows_of(r) for r in recs]
+    held_out = sum(int(r.test.sum()) for r in rows)
+    if held_out < MIN_HELD_OUT_ROWS:
+        raise InputError(f"only {held_out} held-out rows with rpm_ref > {fx.MIN_RPM} RPM in "
+                         f"{', '.join(str(r.source) for r in recs)}: the diagnosis scores every effect on rows "
+                         f"not used to fit it and needs at least {MIN_HELD_OUT_ROWS}; give longer recordings")
     d = ranking.make_data(rows)
 
     # the model under test, as gen_weights builds it
