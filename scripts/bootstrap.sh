@@ -31,12 +31,19 @@ if ((${#missing[@]})); then
   fi
 fi
 
-# Project venv, refreshed only when requirements.txt changes.
+# Project venv: the pinned dependencies (requirements.txt: runtime; requirements-test.txt:
+# pytest and the build backend) and hpddo itself, editable (pip install -e: the venv's
+# hpddo command and package are this tree's tools/hpddo, so the tests run against the
+# tree). Refreshed only when pyproject.toml or a pin changes.
 stamp=.venv/.requirements.sha256
-want=$(sha256sum requirements.txt | cut -d' ' -f1)
+want=$(cat pyproject.toml requirements.txt requirements-test.txt | sha256sum | cut -d' ' -f1)
 if [[ ! -x .venv/bin/python || ! -f $stamp || $(cat "$stamp") != "$want" ]]; then
-  echo "bootstrap: installing Python packages into .venv"
+  echo "bootstrap: installing Python packages and hpddo (editable) into .venv"
   python3 -m venv .venv
-  .venv/bin/pip install -q --disable-pip-version-check -r requirements.txt
+  pip=(.venv/bin/pip install -q --disable-pip-version-check)
+  "${pip[@]}" -r requirements.txt -r requirements-test.txt
+  # The pins as constraints: hpddo's dependencies resolve to them (or pip says which
+  # pin falls outside pyproject.toml's ranges); built with the pinned setuptools, offline.
+  "${pip[@]}" --no-build-isolation -c requirements.txt -c requirements-test.txt -e '.[test]'
   echo "$want" > "$stamp"
 fi

@@ -1,83 +1,15 @@
 #!/usr/bin/env python3
 """Benchmark of the offline pipeline and the native replay; prints its figures.
 
-    tools/bench_pipeline.py [--repeat 30]
+    tools/bench_pipeline.py ...   is   hpddo bench ...   (`hpddo bench --help` lists the options)
 
-1. The whole default pipeline, (16, 8), on the bundled recordings: wall time (target: 60 s
-   on a 2-core machine).
-2. The native replay throughput, in memory, one thread: per-sample (the board observer,
-   physics + features + network, one Observer::step per sample) and batched (network as
-   Eigen matrix products), against scikit-learn's MLPRegressor.predict on the same rows
-   (network only, features precomputed, one BLAS thread), measured in the same run.
-   Target: at least 1e6 samples/s per core for the per-sample path.
+A thin wrapper, kept for the documents and tests that name it. Python puts this script's
+folder first on the import path, so the package beside it (tools/hpddo) is the one that
+runs, installed or not; the dependencies come from .venv (scripts/bootstrap.sh).
 """
-import os
+import sys
 
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core for the peer too
-os.environ.setdefault("OMP_NUM_THREADS", "1")
-
-import argparse  # noqa: E402
-import pathlib  # noqa: E402
-import re  # noqa: E402
-import subprocess  # noqa: E402
-import sys  # noqa: E402
-import tempfile  # noqa: E402
-import time  # noqa: E402
-
-import numpy as np  # noqa: E402
-
-sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
-
-from hpddo import train  # noqa: E402
-from hpddo.pipeline import PipelineConfig, run  # noqa: E402
-from hpddo.train import TrainConfig  # noqa: E402
-
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-
-
-def sklearn_peer(net):
-    """scikit-learn's MLPRegressor holding the trained weights: the peer for predict speed."""
-    from sklearn.neural_network import MLPRegressor
-    peer = MLPRegressor(hidden_layer_sizes=net.hidden, max_iter=1)
-    peer.partial_fit(np.zeros((2, net.coefs_[0].shape[0])), np.zeros(2))  # sets up the layers
-    peer.coefs_ = [w.copy() for w in net.coefs_]
-    peer.intercepts_ = [b.copy() for b in net.intercepts_]
-    return peer
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--repeat", type=int, default=30, help="passes over the rows; the best one counts")
-    args = ap.parse_args(argv)
-    logs = sorted(p for p in (ROOT / "data/default").glob("*.csv") if not p.name.endswith(".truth.csv"))
-    with tempfile.TemporaryDirectory() as tmp:
-        t0 = time.perf_counter()
-        res = run(logs, pathlib.Path(tmp), PipelineConfig(train=TrainConfig(progress=False)))
-        pipeline_s = time.perf_counter() - t0
-        work = pathlib.Path(tmp) / "work"
-        clean = sorted((work / "logs").glob("*.csv"))
-        out = subprocess.run([str(work / "replay"), "--bench", str(args.repeat), *map(str, clean)],
-                             capture_output=True, text=True, check=True).stdout
-        m = re.search(r"bench: (\d+) samples.*per-sample ([\d.e+]+) samples/s, batched ([\d.e+]+)", out)
-        rows, per_sample, batched = int(m.group(1)), float(m.group(2)), float(m.group(3))
-        x = np.concatenate([train.features(r, res.m2)[0] for r in res.recordings])
-        z = res.residual.scaler.transform(x)
-        peer = sklearn_peer(res.residual.mlp)
-        best = 1e30
-        for _ in range(args.repeat):
-            t1 = time.perf_counter()
-            peer.predict(res.residual.scaler.transform(x))
-            best = min(best, time.perf_counter() - t1)
-        sk = len(z) / best
-    print(f"pipeline (16, 8), identify + train 2000 it + export + replay: {pipeline_s:.1f} s "
-          f"(target 60 s: {'met' if pipeline_s <= 60 else 'NOT met'})")
-    print(f"replay per-sample: {per_sample:.3g} samples/s on one core "
-          f"(target 1e6: {'met' if per_sample >= 1e6 else 'NOT met'}), {rows} rows, best of {args.repeat}")
-    print(f"replay batched:    {batched:.3g} samples/s")
-    print(f"scikit-learn predict (scaler + network only): {sk:.3g} samples/s")
-    print(f"ratio per-sample replay / scikit-learn: {per_sample / sk:.2f}; batched / scikit-learn: {batched / sk:.2f}")
-    return 0
-
+from hpddo.cli.bench import main, parser  # noqa: F401 (parser: for the tests)
 
 if __name__ == "__main__":
     sys.exit(main())

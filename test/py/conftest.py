@@ -1,11 +1,10 @@
-"""Puts tools/ on the import path so tests import the hpddo package as users' scripts do."""
-import os
+"""Shared by the tests. pyproject.toml ([tool.pytest.ini_options] pythonpath) puts tools/
+on the import path: the tests import the package from the tree under test, and the
+wrapper scripts (tools/gen_weights.py ...) as modules."""
 import pathlib
-import sys
 
-# As the CLIs do: one BLAS thread per process (the diagnosis runs its bootstrap on every core).
-os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-os.environ.setdefault("OMP_NUM_THREADS", "1")
+# First, before any test module imports numpy: hpddo sets one BLAS thread per process
+# (hpddo/__init__.py), as it does for every command.
+import hpddo  # noqa: F401
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "tools"))

@@ -1,15 +1,8 @@
-"""tools/capture.py against a fake serial port."""
-import importlib.util
-import pathlib
-
+"""hpddo capture (tools/capture.py) against a fake serial port."""
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-spec = importlib.util.spec_from_file_location("capture", ROOT / "tools" / "capture.py")
-capture = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(capture)
-
-from hpddo.benchlog import read_log  # noqa: E402
+from hpddo.benchlog import read_log
+from hpddo.cli import capture
 
 HEAD = ["! uno_acq 1 ready rate=2", "# condition=sweep", "# sample_rate_hz=2", "# motor=25GA371 1:4.4",
         "t_s,duty,v_V,i_A,rpm_ref,temp_C,load,seq"]
@@ -282,7 +275,7 @@ class FakeSerial(FakePort):
 def run_main(monkeypatch, fake, *args, sleep=None):
     monkeypatch.setattr(serial, "Serial", lambda *a, **k: fake)
     monkeypatch.setattr(capture.time, "sleep", sleep or (lambda s: None))
-    return capture.main(["--port", "/dev/ttyFAKE0", "--no-progress", *args])
+    return capture.main(["--port", "/dev/ttyFAKE0", "--quiet", *args])
 
 
 def test_main_interrupt_during_the_port_open_wait(tmp_path, monkeypatch, capsys):

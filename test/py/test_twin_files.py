@@ -105,10 +105,10 @@ def test_long_run_at_100hz_short(tmp_path):
 
 def test_cli_help_and_run(tmp_path):
     h = subprocess.run([sys.executable, str(TWIN), "--help"], capture_output=True, text=True, check=True)
-    for word in ("--protocol", "--rate-hz", "--effect", "--no-effect", "--seed", "--out", *EFFECT_NAMES):
+    for word in ("--protocol", "--rate-hz", "--effects", "--no-effects", "--seed", "--out", *EFFECT_NAMES):
         assert word in h.stdout
     subprocess.run([sys.executable, str(TWIN), "--protocol", "load", "--preset", "ideal",
-                    "--effect", "brush_drop=0.8", "--effect", "thermal_ra", "--no-effect", "ripple",
+                    "--effects", "brush_drop=0.8,thermal_ra", "--no-effects", "ripple",
                     "--rate-hz", "100", "--time-scale", "0.02", "--seed", "4", "--out", str(tmp_path),
                     "--quiet"], check=True)
     info = json.loads((tmp_path / "load.truth.json").read_text())
@@ -118,7 +118,7 @@ def test_cli_help_and_run(tmp_path):
     assert not info["effects"]["saturation"]["enabled"]
     assert info["seed"] == 4 and info["sample_rate_hz"] == 100.0
     benchlog.read_log(tmp_path / "load.csv")
-    bad = subprocess.run([sys.executable, str(TWIN), "--effect", "nonsense=1", "--out", str(tmp_path)],
+    bad = subprocess.run([sys.executable, str(TWIN), "--effects", "nonsense=1", "--out", str(tmp_path)],
                          capture_output=True, text=True)
     assert bad.returncode != 0 and "unknown effect" in bad.stderr
 

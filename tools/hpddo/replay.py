@@ -1,28 +1,77 @@
-"""Builds and runs the native replay (host/replay.cpp) against a generated model header."""
+"""Builds and runs the native replay (host/replay.cpp) against a generated model header.
+
+The replay is built by CMake only: host/CMakeLists.txt, standalone, for one model folder
+(-DHPDDO_MODEL_DIR, -DHPDDO_MODEL_NAME, Eigen through find_package(Eigen3)), the same
+recipe and flags (-O2, -ffp-contract=off) the root project uses for its own replay. One
+build folder is configured per process (about a second, compiler detection) and
+re-pointed at each new model (a regeneration, well under a second); the executable is
+copied to where the caller asked, and the build folder is removed when the process ends.
+"""
 from __future__ import annotations
 
+import atexit
 import json
+import os
 import pathlib
 import shutil
 import subprocess
+import tempfile
+import threading
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-EIGEN = pathlib.Path("/usr/include/eigen3")
+from . import resource_root
+from .errors import InputError
+
+ROOT = resource_root()
+SOURCE = ROOT / "host"
+
+_lock = threading.Lock()
+_build_dir: pathlib.Path | None = None
+
+
+class ToolchainError(InputError):
+    """CMake, a C++ compiler or Eigen is missing: the message says what to install."""
+
+
+def _own_build_dir() -> pathlib.Path:
+    """This process's build folder, made on first use and removed at exit."""
+    global _build_dir
+    if _build_dir is None:
+        d = pathlib.Path(tempfile.mkdtemp(prefix="hpddo-replay-"))
+        pid = os.getpid()
+        atexit.register(lambda: os.getpid() == pid and shutil.rmtree(d, ignore_errors=True))
+        _build_dir = d
+    return _build_dir
+
+
+def _cmake(args, what: str) -> None:
+    res = subprocess.run(["cmake", *args], capture_output=True, text=True)
+    if res.returncode == 0:
+        return
+    text = res.stdout + res.stderr
+    if "CMAKE_CXX_COMPILER" in text and "could not be found" in text.replace("\n", " "):
+        raise ToolchainError("no C++ compiler for the native replay: install g++ "
+                             "(scripts/bootstrap.sh does)")
+    if "Eigen3" in text and "find_package" in text.replace("\n", " "):
+        raise ToolchainError("Eigen 3 not found by CMake (find_package(Eigen3)) for the native replay: "
+                             "install libeigen3-dev (scripts/bootstrap.sh does)")
+    raise RuntimeError(f"{what} failed: cmake {' '.join(args)}\n{text}")
 
 
 def build(model_dir: pathlib.Path, name: str, out: pathlib.Path) -> pathlib.Path:
-    """Compiles replay for model_<name>.h in model_dir; returns the executable."""
-    cxx = shutil.which("g++") or shutil.which("c++")
-    if not cxx:
-        raise RuntimeError("no C++ compiler (g++): run scripts/bootstrap.sh")
-    if not EIGEN.is_dir():
-        raise RuntimeError(f"Eigen not found at {EIGEN}: run scripts/bootstrap.sh (libeigen3-dev)")
-    cmd = [cxx, "-std=c++17", "-O2", "-ffp-contract=off", "-DNDEBUG", f"-I{ROOT / 'lib/hpddo_core/src'}", f"-I{ROOT / 'host'}",
-           f"-isystem{EIGEN}", f"-I{model_dir}", f'-DHPDDO_MODEL_HEADER="model_{name}.h"',
-           f"-DHPDDO_MODEL_NS=hpddo_model_{name}", str(ROOT / "host/replay.cpp"), "-o", str(out)]
-    res = subprocess.run(cmd, capture_output=True, text=True)
-    if res.returncode != 0:
-        raise RuntimeError(f"building the replay failed:\n{' '.join(cmd)}\n{res.stderr}")
+    """Builds replay for model_<name>.h in model_dir with CMake; writes the executable
+    to out and returns it."""
+    if shutil.which("cmake") is None:
+        raise ToolchainError("cmake not found, needed to build the native replay: install cmake, g++ "
+                             "and libeigen3-dev (scripts/bootstrap.sh does)")
+    if not (SOURCE / "replay.cpp").is_file():
+        raise ToolchainError(f"the replay's sources are not at {SOURCE}: reinstall hpddo")
+    with _lock:
+        bdir = _own_build_dir()
+        _cmake(["-S", str(SOURCE), "-B", str(bdir), f"-DHPDDO_MODEL_DIR={pathlib.Path(model_dir).resolve()}",
+                f"-DHPDDO_MODEL_NAME={name}"], "configuring the native replay")
+        _cmake(["--build", str(bdir), "--clean-first"], "building the native replay")
+        out = pathlib.Path(out)
+        shutil.copy2(bdir / "replay", out)
     return out
 
 

@@ -1,0 +1,121 @@
+"""hpddo as a package: a wheel built from the tree installs into a fresh venv, and its
+`hpddo` command works from outside the repository (the installed copy, not the tree).
+
+Offline: the wheel is built with the project venv's pinned setuptools
+(--no-build-isolation, --no-index) from a copy of the tree (so no build/ or egg-info lands
+in the repository), installed with --no-deps, and the fresh venv finds numpy & co. in the
+project venv's site-packages through a .pth file."""
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import sysconfig
+
+import pytest
+
+from conftest import ROOT
+
+PY = sys.executable
+TOP_LEVEL_SKIP = {".git", ".venv", "out", "models"}
+
+
+def _copy_tree(dst: pathlib.Path) -> pathlib.Path:
+    def ignore(folder, names):
+        skip = {n for n in names if n == "__pycache__" or n.endswith(".egg-info")}
+        if pathlib.Path(folder) == ROOT:
+            skip |= {n for n in names if n in TOP_LEVEL_SKIP or n.startswith("build")}
+        return skip
+    shutil.copytree(ROOT, dst, ignore=ignore)
+    return dst
+
+
+def _env() -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "PYTHONHOME", "VIRTUAL_ENV")}
+    env["PIP_NO_INDEX"] = "1"  # offline, whatever pip.conf says
+    return env
+
+
+def _run(cmd, cwd, check=True, **kw):
+    res = subprocess.run([str(c) for c in cmd], cwd=cwd, env=_env(), capture_output=True, text=True,
+                         timeout=300, **kw)
+    if check:
+        assert res.returncode == 0, f"{cmd}: exit {res.returncode}\n{res.stdout}\n{res.stderr}"
+    return res
+
+
+@pytest.fixture(scope="module")
+def installed(tmp_path_factory):
+    """(venv bin folder, a folder outside the repository to run in)."""
+    tmp = tmp_path_factory.mktemp("package")
+    src = _copy_tree(tmp / "src")
+    wheels = tmp / "wheels"
+    _run([PY, "-m", "pip", "wheel", "--no-deps", "--no-build-isolation", "--no-index", "-q",
+          "-w", wheels, src], cwd=tmp)
+    wheel, = wheels.glob("hpddo-0.2.0-*.whl")
+    venv = tmp / "venv"
+    _run([PY, "-m", "venv", "--without-pip", venv], cwd=tmp)
+    vpy = venv / "bin" / "python"
+    site = pathlib.Path(_run([vpy, "-c", "import sysconfig; print(sysconfig.get_path('purelib'))"],
+                             cwd=tmp).stdout.strip())
+    (site / "project_deps.pth").write_text(sysconfig.get_path("purelib") + "\n")  # numpy & co.
+    _run([PY, "-m", "pip", "--python", vpy, "install", "--no-deps", "--no-index", "-q", wheel], cwd=tmp)
+    run_dir = tmp / "elsewhere"
+    run_dir.mkdir()
+    return venv / "bin", run_dir
+
+
+def test_the_installed_package_is_not_the_tree(installed):
+    bin_dir, cwd = installed
+    where = _run([bin_dir / "python", "-c", "import hpddo; print(hpddo.__file__, hpddo.__version__)"],
+                 cwd=cwd).stdout.split()
+    assert pathlib.Path(where[0]).is_relative_to(bin_dir.parent) and where[1] == "0.2.0"
+    assert not str(ROOT) in where[0]
+    # the dependencies satisfy pyproject.toml's ranges (they are the pinned ones)
+    _run([PY, "-m", "pip", "--python", bin_dir / "python", "check"], cwd=cwd)
+
+
+def test_help_of_the_command_and_every_subcommand(installed):
+    bin_dir, cwd = installed
+    top = _run([bin_dir / "hpddo", "--help"], cwd=cwd).stdout
+    for sub in ("train", "diagnose", "twin", "capture", "demo", "bench", "fixtures"):
+        assert sub in top
+    train = _run([bin_dir / "hpddo", "train", "--help"], cwd=cwd).stdout
+    for flag in ("--out", "--effects", "--ra-ohm", "--seed", "--no-glitch-filter", "--quiet"):
+        assert flag in train
+    assert _run([bin_dir / "python", "-m", "hpddo", "--version"], cwd=cwd).stdout.strip() == "hpddo 0.2.0"
+    usage = _run([bin_dir / "hpddo", "train"], cwd=cwd, check=False)
+    assert usage.returncode == 2 and "usage: hpddo train" in usage.stderr
+
+
+def test_twin_writes_a_bench_log_outside_the_repository(installed):
+    bin_dir, cwd = installed
+    _run([bin_dir / "hpddo", "twin", "--protocol", "sweep", "--time-scale", "0.05", "--out", "X", "--quiet"],
+         cwd=cwd)
+    out = cwd / "X"
+    assert sorted(p.name for p in out.iterdir()) == [".hpddo-output.json", "sweep.csv", "sweep.truth.csv",
+                                                     "sweep.truth.json"]
+    assert json.loads((out / ".hpddo-output.json").read_text())["tool"] == "twin"
+    lines = (out / "sweep.csv").read_text().splitlines()
+    assert "# condition=sweep" in lines and len(lines) > 20
+    # a user error: one line `hpddo twin: ...`, status 1, nothing touched
+    (cwd / "afile").write_text("keep\n")
+    bad = _run([bin_dir / "hpddo", "twin", "--protocol", "sweep", "--out", "afile", "--quiet"], cwd=cwd,
+               check=False)
+    assert bad.returncode == 1 and bad.stderr.startswith("hpddo twin: ") and bad.stderr.count("\n") == 1
+    assert (cwd / "afile").read_text() == "keep\n"
+
+
+def test_train_builds_the_native_replay_from_the_installed_sources(installed):
+    """The wheel carries the replay's CMake project, the core headers and the bundled
+    recordings (<venv>/share/hpddo): a short training run builds and replays natively."""
+    bin_dir, cwd = installed
+    share = bin_dir.parent / "share" / "hpddo"
+    log = share / "data" / "default" / "sweep.csv"
+    assert log.is_file() and (share / "host" / "CMakeLists.txt").is_file()
+    res = _run([bin_dir / "hpddo", "train", log, "--out", "m", "--max-iter", "1", "--quiet"], cwd=cwd)
+    assert "wrote m/" in res.stdout
+    metrics = json.loads((cwd / "m" / "metrics.json").read_text())
+    assert metrics["source"].startswith("native replay") and "sweep" in metrics["rmse_rpm"]["M2"]
+    assert (cwd / "m" / "model_default.h").read_text().startswith("// GENERATED model header")

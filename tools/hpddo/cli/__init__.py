@@ -1,0 +1,90 @@
+"""The command line: `hpddo SUBCOMMAND [options]` (also `python -m hpddo`).
+
+One module per subcommand, each with parser(prog), run(args) -> exit status, main(argv)
+and, where options depend on each other, validate(args, parser). A subcommand's
+module is imported only when it runs, so `hpddo --help` and `hpddo twin` do not load the
+training and diagnosis code.
+
+One convention for every subcommand: the same flag names for the same things
+(--out, --quiet, --seed, --ra-ohm, --effects NAME[,NAME...], --no-glitch-filter); a user
+error (hpddo.errors.USER_ERRORS: a bad log, a refused output folder, an input the
+pipeline cannot use, a failed capture) is one line `hpddo SUBCOMMAND: message` on
+stderr and exit status 1; a bad command line is argparse's usage message and status 2.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .. import __version__
+from ..errors import USER_ERRORS
+
+#: name -> (module, one-line help); the order of `hpddo --help`.
+SUBCOMMANDS = {
+    "train": ("train", "identify M1 and M2, train the M3 network, export the model header, replay natively "
+                       "(tools/gen_weights.py)"),
+    "diagnose": ("diagnose", "name the physical effects the physics model misses (tools/diagnose.py)"),
+    "twin": ("twin", "simulate the bench and write bench logs with ground truth (tools/twin.py)"),
+    "capture": ("capture", "record the acquisition board's USB stream to a bench log (tools/capture.py)"),
+    "demo": ("demo", "the whole job on the bundled recordings: train, diagnose, add effects "
+                     "(tools/demo.py)"),
+    "bench": ("bench", "time the pipeline and the native replay (tools/bench_pipeline.py)"),
+    "fixtures": ("fixtures", "write the core's unit-test fixtures (tools/gen_fixtures.py)"),
+}
+
+
+def _module(name: str):
+    return importlib.import_module(f"{__name__}.{SUBCOMMANDS[name][0]}")
+
+
+def parser(name: str) -> argparse.ArgumentParser:
+    """The option parser of one subcommand (prog `hpddo NAME`)."""
+    return _module(name).parser(f"hpddo {name}")
+
+
+def report(name: str, message) -> None:
+    """A user error as the one line every subcommand prints."""
+    text = " ".join(str(message).split("\n"))
+    print(f"hpddo {name}: {text}", file=sys.stderr)
+
+
+def run(name: str, argv=None) -> int:
+    """Parses argv for subcommand NAME and runs it; returns its exit status (a user error:
+    its one line on stderr and 1; a bad command line: SystemExit(2) from argparse)."""
+    mod = _module(name)
+    p = mod.parser(f"hpddo {name}")
+    args = p.parse_args(argv)
+    if hasattr(mod, "validate"):  # checks across options: a usage error, status 2
+        mod.validate(args, p)
+    try:
+        return mod.run(args)
+    except USER_ERRORS as exc:
+        report(name, exc)
+        return 1
+
+
+def top_parser() -> argparse.ArgumentParser:
+    width = max(map(len, SUBCOMMANDS))
+    listing = "\n".join(f"  {n:{width}s}  {h}" for n, (_, h) in SUBCOMMANDS.items())
+    ap = argparse.ArgumentParser(
+        prog="hpddo", formatter_class=argparse.RawDescriptionHelpFormatter,
+        description="hpddo: sensorless speed estimation for brushed DC motors (hybrid physics-data-driven "
+                    "observer): bench logs in, a model header for the boards out.",
+        epilog=f"subcommands:\n{listing}\n\n`hpddo SUBCOMMAND --help` gives each one's options.")
+    ap.add_argument("--version", action="version", version=f"hpddo {__version__}")
+    ap.add_argument("command", metavar="SUBCOMMAND", choices=list(SUBCOMMANDS),
+                    help=f"one of: {', '.join(SUBCOMMANDS)}")
+    return ap
+
+
+def main(argv=None) -> int:
+    """`hpddo SUBCOMMAND [options]`."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    top = top_parser()
+    if not argv or argv[0].startswith("-"):
+        top.parse_args(argv[:1])  # --help, --version, or a usage error (exits)
+        top.error("the subcommand comes first")
+    if argv[0] not in SUBCOMMANDS:
+        top.error(f"unknown subcommand {argv[0]!r} (choose from {', '.join(SUBCOMMANDS)})")
+    return run(argv[0], argv[1:])

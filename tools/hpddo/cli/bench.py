@@ -1,0 +1,89 @@
+"""Benchmark of the offline pipeline and the native replay; prints its figures.
+
+    hpddo bench [--repeat 30]          (tools/bench_pipeline.py is the same command)
+
+1. The whole default pipeline, (16, 8), on the bundled recordings: wall time (target: 60 s
+   on a 2-core machine).
+2. The native replay throughput, in memory, one thread: per-sample (the board observer,
+   physics + features + network, one Observer::step per sample) and batched (network as
+   Eigen matrix products), against scikit-learn's MLPRegressor.predict on the same rows
+   (network only, features precomputed, one BLAS thread), measured in the same run.
+   Target: at least 1e6 samples/s per core for the per-sample path.
+"""
+from __future__ import annotations
+
+import argparse
+import pathlib
+import re
+import subprocess
+import tempfile
+import time
+
+from .. import resource_root
+from . import options
+
+
+def parser(prog: str = "hpddo bench") -> argparse.ArgumentParser:
+    p = options.new_parser(prog, __doc__)
+    p.add_argument("--repeat", type=options.positive_int, default=30, metavar="N",
+                   help="passes over the rows; the best one counts (default 30)")
+    p.add_argument("--data", type=pathlib.Path, default=resource_root() / "data" / "default", metavar="DIR",
+                   help="folder of labelled bench logs, *.csv (default: the bundled data/default)")
+    return p
+
+
+def sklearn_peer(net):
+    """scikit-learn's MLPRegressor holding the trained weights: the peer for predict speed."""
+    import numpy as np
+    from sklearn.neural_network import MLPRegressor
+    peer = MLPRegressor(hidden_layer_sizes=net.hidden, max_iter=1)
+    peer.partial_fit(np.zeros((2, net.coefs_[0].shape[0])), np.zeros(2))  # sets up the layers
+    peer.coefs_ = [w.copy() for w in net.coefs_]
+    peer.intercepts_ = [b.copy() for b in net.intercepts_]
+    return peer
+
+
+def run(args) -> int:
+    import numpy as np
+
+    from .. import train
+    from ..errors import InputError
+    from ..pipeline import PipelineConfig, run as run_pipeline
+    from ..train import TrainConfig
+
+    logs = sorted(p for p in args.data.glob("*.csv") if not p.name.endswith(".truth.csv"))
+    if not logs:
+        raise InputError(f"no bench logs (*.csv) in {args.data}")
+    with tempfile.TemporaryDirectory() as tmp:
+        t0 = time.perf_counter()
+        res = run_pipeline(logs, pathlib.Path(tmp), PipelineConfig(train=TrainConfig(progress=False)))
+        pipeline_s = time.perf_counter() - t0
+        work = pathlib.Path(tmp) / "work"
+        clean = sorted((work / "logs").glob("*.csv"))
+        out = subprocess.run([str(work / "replay"), "--bench", str(args.repeat), *map(str, clean)],
+                             capture_output=True, text=True, check=True).stdout
+        m = re.search(r"bench: (\d+) samples.*per-sample ([\d.e+]+) samples/s, batched ([\d.e+]+)", out)
+        rows, per_sample, batched = int(m.group(1)), float(m.group(2)), float(m.group(3))
+        x = np.concatenate([train.features(r, res.m2)[0] for r in res.recordings])
+        z = res.residual.scaler.transform(x)
+        peer = sklearn_peer(res.residual.mlp)
+        best = 1e30
+        for _ in range(args.repeat):
+            t1 = time.perf_counter()
+            peer.predict(res.residual.scaler.transform(x))
+            best = min(best, time.perf_counter() - t1)
+        sk = len(z) / best
+    print(f"pipeline (16, 8), identify + train 2000 it + export + replay: {pipeline_s:.1f} s "
+          f"(target 60 s: {'met' if pipeline_s <= 60 else 'NOT met'})")
+    print(f"replay per-sample: {per_sample:.3g} samples/s on one core "
+          f"(target 1e6: {'met' if per_sample >= 1e6 else 'NOT met'}), {rows} rows, best of {args.repeat}")
+    print(f"replay batched:    {batched:.3g} samples/s")
+    print(f"scikit-learn predict (scaler + network only): {sk:.3g} samples/s")
+    print(f"ratio per-sample replay / scikit-learn: {per_sample / sk:.2f}; batched / scikit-learn: {batched / sk:.2f}")
+    return 0
+
+
+def main(argv=None) -> int:
+    """`hpddo bench ...`: parses argv, runs, reports a user error in one line; the exit status."""
+    from . import run as run_subcommand
+    return run_subcommand("bench", argv)

@@ -1,0 +1,49 @@
+"""Writes the core's unit-test fixtures: small model headers and their golden vectors.
+
+    hpddo fixtures [--out test/fixtures]     (tools/gen_fixtures.py is the same command)
+
+The expected outputs are computed in numpy float32 (hpddo/observer_ref.py), never by the C++
+code under test. A pytest regenerates them and compares byte for byte.
+"""
+from __future__ import annotations
+
+import argparse
+
+from .. import resource_root
+from . import options
+
+
+def parser(prog: str = "hpddo fixtures") -> argparse.ArgumentParser:
+    p = options.new_parser(prog, __doc__)
+    options.out(p, "output folder (default: test/fixtures of the source tree)", required=False,
+                default=resource_root() / "test" / "fixtures")
+    options.quiet(p, "do not list the files written")
+    return p
+
+
+def run(args) -> int:
+    from .. import benchlog, export, fixtures
+
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    for name, (hidden, seed, gain) in fixtures.FIXTURES.items():
+        model = fixtures.tiny_model(hidden, seed, gain)
+        prov = {"command": "tools/gen_fixtures.py", "seed": seed, "data": "hand-made fixture, no training data"}
+        (out / f"model_{name}.h").write_text(export.model_header(model, name, prov))
+        rows = export.golden_rows(model, fixtures.tiny_stream(seed))
+        (out / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
+        (out / f"golden_{name}.csv").write_text(export.golden_csv(rows))
+        if not args.quiet:
+            print(f"wrote {out}/model_{name}.h, golden_{name}.h/.csv ({len(rows)} rows)")
+    df, meta = fixtures.short_log()
+    benchlog.write_log(out / "log_short.csv", df, meta)
+    (out / "log_bad_duty.csv").write_text(fixtures.BAD_DUTY_LOG)
+    if not args.quiet:
+        print(f"wrote {out}/log_short.csv ({len(df)} rows), log_bad_duty.csv")
+    return 0
+
+
+def main(argv=None) -> int:
+    """`hpddo fixtures ...`: parses argv, runs, reports a user error in one line; the exit status."""
+    from . import run as run_subcommand
+    return run_subcommand("fixtures", argv)

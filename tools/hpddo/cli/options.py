@@ -1,0 +1,82 @@
+"""The options several subcommands share, declared once: the same name, meaning and help
+everywhere, and the argparse types that check a value before any work starts."""
+from __future__ import annotations
+
+import argparse
+import pathlib
+
+
+def new_parser(prog: str, doc: str, epilog: str | None = None) -> argparse.ArgumentParser:
+    """A subcommand's parser: its module docstring as the description."""
+    return argparse.ArgumentParser(prog=prog, description=doc, epilog=epilog,
+                                   formatter_class=argparse.RawDescriptionHelpFormatter)
+
+
+def out(p, help: str, required: bool = True, default=None, alias: str | None = None) -> None:
+    """--out DIR (or FILE): where the results go."""
+    names = ["--out"] + ([alias] if alias else [])
+    p.add_argument(*names, dest="out", required=required, default=default, type=pathlib.Path,
+                   metavar="PATH", help=help)
+
+
+def quiet(p, what: str = "no progress bar") -> None:
+    p.add_argument("--quiet", action="store_true", help=what)
+
+
+def seed(p, what: str) -> None:
+    p.add_argument("--seed", type=int, default=1, help=f"random seed of {what} (default 1); same seed, same bytes")
+
+
+def ra_ohm(p) -> None:
+    p.add_argument("--ra-ohm", type=float, metavar="OHM",
+                   help="armature resistance, ohm (default: the logs' ra_ohm metadata)")
+
+
+def glitch_filter(p) -> None:
+    p.add_argument("--no-glitch-filter", action="store_true",
+                   help="keep every row (no glitch filter; docs/pipeline.md, step 2)")
+
+
+def effects(p, what: str) -> None:
+    """--effects NAME,NAME...: effect terms of the physics model (hpddo/effects.py)."""
+    from .. import effects as fx
+    p.add_argument("--effects", type=fx.parse_names, default=(), metavar="NAME[,NAME...]",
+                   help=f"{what}, comma separated: {', '.join(fx.NAMES)}")
+
+
+def logs(p) -> None:
+    p.add_argument("logs", nargs="+", type=pathlib.Path, metavar="LOG",
+                   help="labelled bench logs (CSV, docs/bench-log.md)")
+
+
+def positive_float(text: str) -> float:
+    """An argparse type: a finite number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a number expected, got {text!r}") from None
+    if not 0 < value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """An argparse type: an integer of at least 1."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"an integer expected, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text} is not a positive integer")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """An argparse type: an integer of at least 0."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"an integer expected, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{text} is negative")
+    return value

@@ -1,0 +1,120 @@
+"""Identifies the physics models, trains the residual network and exports the model header.
+
+    hpddo train LOG... --out DIR [options]        (tools/gen_weights.py is the same command)
+
+From labelled bench logs (t_s, duty, v_V, i_A, rpm_ref, ...): removes sensor glitches
+(reports them per file), splits each recording chronologically (first 80 % train, last
+20 % test), identifies M1 (nameplate Ke) and M2 (measured Ra, Ke by the paper's eq. 20 or
+least squares, plus any --effects), trains M3 on the residual e = rpm_ref - n_M2 with
+features [V, I, n_M2, I(t-1), n_M2(t-1)], and writes into DIR:
+
+  model_<name>.h      the model header for lib/hpddo_core (provenance, checksum)
+  golden_<name>.h/.csv  golden vectors: inputs and every stage's float32 output
+  metrics.json        RMSE of M1, M2, M3 per condition on the test parts, measured by
+                      the native replay of the cleaned logs through the board observer
+  work/               the cleaned logs, the replay built for this model (by CMake, from
+                      host/) and its per-sample estimates (work/estimates/*.estimates.csv)
+
+A malformed log is refused with its file, line and fault, and nothing is written.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+
+from . import options
+
+
+#: The command recorded in the provenance of every generated header. It names the
+#: documented entry point whichever way the run was started (`hpddo train` is the same
+#: command), so that both regenerate models/default to the same bytes.
+PROVENANCE_COMMAND = "tools/gen_weights.py"
+
+
+def hidden_sizes(text: str) -> tuple:
+    try:
+        sizes = tuple(int(s) for s in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"hidden sizes like 16,8 expected, got {text!r}") from None
+    if not 1 <= len(sizes) <= 2 or min(sizes) < 1 or max(sizes) > 255:
+        raise argparse.ArgumentTypeError("one or two hidden layers of 1..255 neurons (the core's Mlp)")
+    return sizes
+
+
+def split_fraction(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a fraction expected, got {text!r}") from None
+    if not 0.1 <= value <= 0.95:
+        raise argparse.ArgumentTypeError(f"must be within 0.1..0.95, got {text}")
+    return value
+
+
+def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
+    p = options.new_parser(prog, __doc__)
+    options.logs(p)
+    options.out(p, "output folder: new, empty, or a previous output of hpddo train")
+    p.add_argument("--name", default="default", help="model name: model_<name>.h, namespace hpddo_model_<name> "
+                   "(default: default)")
+    options.ra_ohm(p)
+    p.add_argument("--rated-v", type=options.positive_float, default=12.0, metavar="V",
+                   help="nameplate voltage for M1, V (default 12)")
+    p.add_argument("--rated-rpm", type=options.positive_float, default=1000.0, metavar="RPM",
+                   help="nameplate no-load speed for M1, RPM (default 1000)")
+    p.add_argument("--ke-fit", choices=["eq20", "lsq"], default="eq20",
+                   help="M2 Ke: mean of per-window ratios (paper eq. 20, the default) or least squares")
+    options.effects(p, "effect terms to add to the physics model M2")
+    p.add_argument("--hidden", type=hidden_sizes, default=(16, 8), metavar="N[,N]",
+                   help="hidden layer sizes of M3 (default 16,8; the paper's is 128,64)")
+    p.add_argument("--max-iter", type=options.positive_int, default=2000, metavar="EPOCHS",
+                   help="training epochs of M3, no early stop (default 2000)")
+    options.seed(p, "the network")
+    p.add_argument("--split", type=split_fraction, default=0.8, metavar="FRACTION",
+                   help="training fraction of each recording, 0.1..0.95 (default 0.8)")
+    options.glitch_filter(p)
+    options.quiet(p, "no progress bar")
+    return p
+
+
+def provenance(args) -> str:
+    return " ".join([PROVENANCE_COMMAND] + [str(p.name) for p in args.logs]
+                    + ["--name", args.name, "--seed", str(args.seed)]
+                    + (["--effects", ",".join(args.effects)] if args.effects else [])
+                    + (["--hidden", ",".join(map(str, args.hidden))] if args.hidden != (16, 8) else []))
+
+
+def run(args) -> int:
+    from .. import physics
+    from ..pipeline import PipelineConfig, run as run_pipeline
+    from ..train import TrainConfig
+
+    cfg = PipelineConfig(name=args.name, ra_ohm=args.ra_ohm, rated_V=args.rated_v, rated_rpm=args.rated_rpm,
+                         ke_fit=args.ke_fit, effects=args.effects, train_fraction=args.split,
+                         glitch_filter=not args.no_glitch_filter,
+                         train=TrainConfig(hidden=args.hidden, max_iter=args.max_iter, seed=args.seed,
+                                           progress=not args.quiet),
+                         command=provenance(args))
+    t0 = time.perf_counter()
+    res = run_pipeline(args.logs, args.out, cfg)
+    for r in res.recordings:
+        print(f"{r.source}: {r.n} rows ({r.n_train} train, {r.n - r.n_train} test), "
+              f"{len(r.removed)} of {r.rows_in_file} rows removed as glitches")
+    for w in res.metrics["warnings"]:
+        print(f"hpddo train: WARNING: {w}", file=sys.stderr)
+    ident = res.metrics["identification"]
+    print(f"Ra = {ident['ra_ohm']:.4g} ohm ({ident['ra_source']}); M1 Ke = {ident['ke_m1_vs_per_rad']:.4f} V s/rad "
+          f"(nameplate); M2 Ke = {ident['ke_m2_vs_per_rad']:.4f} V s/rad ({args.ke_fit})")
+    for e, val in ident["effects"].items():
+        print(f"  effect {e}: {physics.EFFECT_BITS[e][1]} = {val:.5g}")
+    print(f"M3 {args.hidden}: clamp +-{ident['clamp_rpm']:.2f} RPM, {ident['train_rows']} training rows")
+    print(res.table, end="")
+    print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def main(argv=None) -> int:
+    """`hpddo train ...`: parses argv, runs, reports a user error in one line; the exit status."""
+    from . import run as run_subcommand
+    return run_subcommand("train", argv)

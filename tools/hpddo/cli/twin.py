@@ -1,0 +1,173 @@
+"""Bench twin: simulates the paper's PMDC test bench (12 V, low-side PWM, 25GA371 1:4.4,
+generator load) and writes <condition>.csv bench logs plus <condition>.truth.json /
+<condition>.truth.csv ground truth.          (tools/twin.py is the same command)
+
+examples:
+  hpddo twin --protocol all --preset default --seed 1 --out data/default
+  hpddo twin --protocol sweep --preset ideal --effects thermal_ra,brush_drop=0.8 --out out/twin
+  hpddo twin --protocol load --rate-hz 1000 --time-scale 0.05 --out out/fast
+  hpddo twin --list-effects
+"""
+from __future__ import annotations
+
+import argparse
+import pathlib
+import sys
+import time
+
+from . import options
+
+
+
+def _effect_help() -> str:
+    from ..twin.params import EFFECTS
+    lines = []
+    for e in EFFECTS.values():
+        lo, hi = e.typical
+        lines.append(f"  {e.name:15s} [{e.unit}] default {e.default:g}, typical {lo:g}..{hi:g}: {e.physics}")
+    return "\n".join(lines)
+
+
+def effect_magnitudes(text: str) -> dict:
+    """An argparse type: NAME[=MAG],NAME... as {name: magnitude}; a bare NAME takes the
+    effect's default magnitude, MAG is in the effect's shown unit, 0 switches it off."""
+    from ..twin.params import EFFECT_NAMES, EFFECTS
+    mags = {}
+    for spec in (s.strip() for s in text.split(",")):
+        if not spec:
+            continue
+        name, sep, val = spec.partition("=")
+        name = name.strip()
+        if name not in EFFECTS:
+            raise argparse.ArgumentTypeError(f"unknown effect {name!r}; known: {', '.join(EFFECT_NAMES)}")
+        try:
+            mags[name] = float(val) if sep else EFFECTS[name].default
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"bad magnitude in {spec!r}: NAME=NUMBER expected") from None
+        if mags[name] != mags[name] or abs(mags[name]) == float("inf"):
+            raise argparse.ArgumentTypeError(f"bad magnitude in {spec!r}: not finite")
+    return mags
+
+
+def effect_names_or_all(text: str) -> tuple:
+    """An argparse type: NAME,NAME... or 'all'."""
+    from ..twin.params import EFFECT_NAMES, EFFECTS
+    names = tuple(s.strip() for s in text.split(",") if s.strip())
+    if names == ("all",):
+        return tuple(EFFECT_NAMES)
+    unknown = [n for n in names if n not in EFFECTS]
+    if unknown:
+        raise argparse.ArgumentTypeError(f"unknown effect {unknown[0]!r}; known: {', '.join(EFFECT_NAMES)}, or all")
+    return names
+
+
+def parser(prog: str = "hpddo twin") -> argparse.ArgumentParser:
+    from ..twin import protocols
+    from ..twin.params import PRESETS
+
+    p = options.new_parser(prog, __doc__, epilog="effects (magnitude in the physical unit shown; 0 turns an "
+                           "effect off):\n" + _effect_help())
+    p.add_argument("--protocol", default="all", choices=list(protocols.PROTOCOLS) + ["all"],
+                   help="sweep: duty 0-100-0 %% in 20 %% steps; load: 80 %% duty, relay switching "
+                   "open/0.5/0.01 ohm; long: 80 %% duty, 0.01 ohm, 60 min; all: the three (default)")
+    p.add_argument("--rate-hz", type=options.positive_float, default=2.0, metavar="HZ",
+                   help="sample rate (default 2, the paper's)")
+    p.add_argument("--preset", default="default", choices=PRESETS,
+                   help="default: every effect at its default magnitude + 3 glitches per "
+                   "recording; ideal: every effect off, no glitches")
+    p.add_argument("--effects", type=effect_magnitudes, default={}, metavar="NAME[=MAG][,NAME...]",
+                   help="switch effects on, each at MAG (its physical unit, see below) or at its "
+                   "default magnitude; NAME=0 switches one off")
+    p.add_argument("--no-effects", type=effect_names_or_all, default=(), metavar="NAME[,NAME...]|all",
+                   help="switch effects off ('all' for every effect; --effects then switches some back on)")
+    p.add_argument("--glitches", type=options.non_negative_int, default=None, metavar="N",
+                   help="sensor glitches per recording (default: 3 with preset default, 0 with ideal)")
+    p.add_argument("--no-noise", action="store_true", help="no ADC noise, PWM aliasing or sensor noise")
+    p.add_argument("--pwm-hz", type=options.positive_float, default=None, metavar="HZ",
+                   help="PWM frequency (default 490.196)")
+    p.add_argument("--time-scale", type=options.positive_float, default=1.0, metavar="FACTOR",
+                   help="scale every protocol segment duration (e.g. 0.05 for a short test run; default 1)")
+    options.seed(p, "the simulation")
+    options.out(p, "output folder: new, empty, or a previous output of hpddo twin (protocols add up)",
+                required=False)
+    options.quiet(p, "no progress bar, no summary")
+    p.add_argument("--list-effects", action="store_true", help="print the effects and exit")
+    return p
+
+
+def validate(args, p: argparse.ArgumentParser) -> None:
+    if args.out is None and not args.list_effects:
+        p.error("the following arguments are required: --out")
+
+
+def build_bench(args):
+    import dataclasses
+
+    from ..twin.params import EFFECTS, preset, with_effects
+
+    bench = preset(args.preset)
+    mags = {n: 0.0 for n in args.no_effects}
+    mags.update(args.effects)
+    for name, mag in args.effects.items():
+        lo, hi = EFFECTS[name].typical
+        if mag != 0.0 and not (min(lo, hi) <= mag <= max(lo, hi)) and not args.quiet:
+            print(f"hpddo twin: note: {name}={mag:g} {EFFECTS[name].unit} is outside the typical "
+                  f"range {lo:g}..{hi:g}", file=sys.stderr)
+    bench = with_effects(bench, **mags)
+    changes = {}
+    if args.glitches is not None:
+        changes["glitches"] = args.glitches
+    if args.no_noise:
+        changes["noise"] = False
+    if args.pwm_hz is not None:
+        changes["pwm_hz"] = args.pwm_hz
+    return dataclasses.replace(bench, **changes) if changes else bench
+
+
+def simulate(bench, prot: str, args, stage: pathlib.Path) -> None:
+    """One protocol into stage (which becomes args.out), with a progress bar on long runs."""
+    from ..twin import generate, protocols
+
+    total = sum(s[0] for s in protocols.schedule(prot, args.time_scale))
+    bar = None
+    cb = None
+    if not args.quiet and total * args.rate_hz >= 2000:
+        from tqdm import tqdm
+
+        bar = tqdm(total=round(total, 3), unit="s", desc=f"{prot} (simulated s)",
+                   file=sys.stderr, mininterval=0.5, leave=False,
+                   bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s [{elapsed}<{remaining}]")
+        cb = bar.update
+    g = generate.generate(bench, prot, args.rate_hz, args.seed, out_dir=stage,
+                          preset_name=args.preset, time_scale=args.time_scale, progress=cb)
+    if bar is not None:
+        bar.close()
+    if not args.quiet:
+        tr = g["info"]["truth"]
+        print(f"{pathlib.Path(args.out) / g['paths']['log'].name}: {g['info']['rows']} rows, true speed max "
+              f"{tr['rpm_true_max']:.1f} RPM, case {tr['case_C_start']:.1f} -> "
+              f"{tr['case_C_end']:.1f} C, {len(g['info']['glitches'])} glitches")
+
+
+def run(args) -> int:
+    from .. import outdir
+    from ..twin import protocols
+
+    if args.list_effects:
+        print(_effect_help())
+        return 0
+    bench = build_bench(args)
+    prots = list(protocols.PROTOCOLS) if args.protocol == "all" else [args.protocol]
+    t0 = time.perf_counter()
+    with outdir.staged(args.out, "twin", prune=False) as stage:
+        for prot in prots:
+            simulate(bench, prot, args, stage)
+    if not args.quiet:
+        print(f"done in {time.perf_counter() - t0:.1f} s", file=sys.stderr)
+    return 0
+
+
+def main(argv=None) -> int:
+    """`hpddo twin ...`: parses argv, runs, reports a user error in one line; the exit status."""
+    from . import run as run_subcommand
+    return run_subcommand("twin", argv)
