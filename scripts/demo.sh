@@ -8,4 +8,4 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 bash scripts/bootstrap.sh
-exec .venv/bin/python tools/demo.py --out "${1:-out}"
+exec .venv/bin/hpddo demo --out "${1:-out}"

@@ -22,7 +22,7 @@ cmake --build build-asan -j "$jobs"
 ctest --test-dir build-asan -j "$jobs" --output-on-failure
 
 echo "== benchmark (prints its figures; the targets are judged against peers measured in the same run)"
-.venv/bin/python tools/bench_pipeline.py
+.venv/bin/hpddo bench
 
 echo "== pytest"
 .venv/bin/python -m pytest -q test/py
