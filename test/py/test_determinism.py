@@ -64,7 +64,7 @@ rng = np.random.default_rng(7)
 x = rng.normal(size=(1500, 5)) * [3.0, 0.4, 80.0, 0.4, 80.0] + [8.0, 0.5, 180.0, 0.5, 180.0]
 y = 0.02 * x[:, 2] - 1.5 * x[:, 1] ** 2 + rng.normal(0, 0.3, 1500)
 sc = network.Scaler.fit(x)
-net, loss = network.train(sc.transform(x), y, network.AdamConfig(hidden=(16, 8), epochs=15, seed=3))
+net, loss = network.train(sc.transform(x), y, network.AdamConfig(hidden=(16, 8), max_iter=15, seed=3))
 h = hashlib.sha256()
 for a in [sc.mean_, sc.scale_, *net.coefs_, *net.intercepts_, np.array(loss)]:
     h.update(np.ascontiguousarray(a, dtype=np.float64).tobytes())

@@ -92,10 +92,13 @@ class Network:
 
 @dataclasses.dataclass
 class AdamConfig:
+    """The network and its training: hidden sizes, Adam's step, rows per batch, epochs
+    (max_iter: full passes over the rows, no early stop), seed, L2 penalty."""
+
     hidden: tuple = (16, 8)
     learning_rate: float = 1e-3
     batch_size: int = 200
-    epochs: int = 2000
+    max_iter: int = 2000
     seed: int = 1
     alpha: float = L2_ALPHA
 
@@ -149,7 +152,7 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None) -> tuple
     nlayers = len(ws)
     net = Network(coefs_=ws, intercepts_=bs)
     losses = []
-    epochs = range(cfg.epochs) if progress is None else progress(range(cfg.epochs))
+    epochs = range(cfg.max_iter) if progress is None else progress(range(cfg.max_iter))
     for _ in epochs:
         order = rng.permutation(n)
         zs, ys = z[order], y[order]

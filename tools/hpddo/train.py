@@ -22,12 +22,9 @@ class TrainingError(InputError):
 
 
 @dataclasses.dataclass
-class TrainConfig:
-    hidden: tuple = (16, 8)
-    learning_rate: float = 1e-3
-    batch_size: int = 200
-    max_iter: int = 2000
-    seed: int = 1
+class TrainConfig(network.AdamConfig):
+    """The network's training (network.AdamConfig) and whether a progress bar shows."""
+
     progress: bool = True
 
 
@@ -84,9 +81,7 @@ def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig)
     z = scaler.transform(x)
     bar = functools.partial(tqdm, desc=f"train M3 {cfg.hidden}", unit="epoch", disable=not cfg.progress,
                             mininterval=0.5, leave=False)
-    mlp, losses = network.train(z, e, network.AdamConfig(hidden=tuple(cfg.hidden), learning_rate=cfg.learning_rate,
-                                                         batch_size=cfg.batch_size, epochs=cfg.max_iter,
-                                                         seed=cfg.seed), progress=bar)
+    mlp, losses = network.train(z, e, cfg, progress=bar)
     lo, hi = x.min(axis=0), x.max(axis=0)
     span = np.maximum(hi - lo, 1e-6)
     return Residual(scaler=scaler, mlp=mlp, clamp_rpm=float(np.percentile(np.abs(e), CLAMP_PERCENTILE)),
