@@ -119,3 +119,46 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
     metrics = json.loads((cwd / "m" / "metrics.json").read_text())
     assert metrics["source"].startswith("native replay") and "sweep" in metrics["rmse_rpm"]["M2"]
     assert (cwd / "m" / "model_default.h").read_text().startswith("// GENERATED model header")
+
+
+# In process, against the tree: one set of flag names and one error convention.
+
+SHARED = {  # subcommand -> the shared options it takes
+    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
+    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
+    "twin": {"--out", "--quiet", "--seed", "--effects"},
+    "capture": {"--out", "--quiet"},
+    "demo": {"--out", "--quiet", "--seed", "--ra-ohm", "--no-glitch-filter"},
+    "bench": set(),
+    "fixtures": {"--out", "--quiet"},
+}
+
+
+@pytest.mark.parametrize("sub", sorted(SHARED))
+def test_every_subcommand_uses_the_shared_flag_names_with_help_on_every_option(sub):
+    from hpddo import cli
+    p = cli.parser(sub)
+    flags = {s for a in p._actions for s in a.option_strings}
+    assert SHARED[sub] <= flags
+    assert not flags & {"--no-progress", "--effect", "--no-effect", "--output"}, "the former names are gone"
+    assert all(a.help for a in p._actions), [a.dest for a in p._actions if not a.help]
+    assert p.prog == f"hpddo {sub}"
+
+
+def test_user_errors_are_one_line_named_after_the_subcommand_with_status_1(tmp_path, capsys):
+    from hpddo import cli
+    missing = tmp_path / "nope.csv"
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    cases = {"train": [str(missing), "--out", str(tmp_path / "t"), "--quiet"],
+             "diagnose": [str(missing), "--out", str(tmp_path / "d"), "--quiet"],
+             "demo": ["--data", str(empty), "--out", str(tmp_path / "o")],
+             "bench": ["--data", str(empty)],
+             "capture": ["--port", str(tmp_path / "no-such-port"), "--out", str(tmp_path / "c.csv"), "--quiet"]}
+    for sub, argv in cases.items():
+        assert cli.main([sub, *argv]) == 1, sub
+        err = capsys.readouterr().err
+        assert err.startswith(f"hpddo {sub}: ") and err.count("\n") == 1 and "Traceback" not in err, err
+    with pytest.raises(SystemExit) as usage:  # a bad command line: argparse's status 2
+        cli.main(["twin", "--effects", "nonsense", "--out", str(tmp_path / "w")])
+    assert usage.value.code == 2 and "unknown effect 'nonsense'" in capsys.readouterr().err
