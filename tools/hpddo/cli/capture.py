@@ -9,17 +9,17 @@ with "!" are its replies and are shown, not logged. Every line is checked as it
 arrives (metadata form, field count, numbers, t_s increasing, duty in 0..1); a
 garbled line is counted, reported with its stream line number and not written.
 
-The rows go to <output>.partial as they arrive. At the end the log is written
-to <output> atomically with the capture's own metadata first:
+The rows go to OUT.partial as they arrive. At the end the log is written
+to OUT atomically with the capture's own metadata first:
 "# complete=true" when the board ended the recording ("! end") and no line was
 garbled, else "# complete=false" with "# cut=--rows N" or "# cut=--seconds S"
 when a limit stopped it; "# garbled_rows=N" always. A capture that fails
-(port lost, disk full, Ctrl-C) writes nothing under <output>: the message
-names the fault, the port or file, and <output>.partial, which keeps the rows
+(port lost, disk full, Ctrl-C) writes nothing under OUT: the message
+names the fault, the port or file, and OUT.partial, which keeps the rows
 received so far for inspection.
 
 Exit status: 0 log written, 3 log written with garbled rows (complete=false),
-1 capture failed (nothing written to <output>), 130 interrupted.
+1 capture failed (one line "hpddo capture: ...", nothing written to OUT), 130 interrupted.
 Lost samples are reported from gaps in the seq column.
 """
 from __future__ import annotations

@@ -15,10 +15,17 @@ from . import options
 
 def parser(prog: str = "hpddo fixtures") -> argparse.ArgumentParser:
     p = options.new_parser(prog, __doc__)
-    options.out(p, "output folder (default: test/fixtures of the source tree)", required=False,
-                default=resource_root() / "test" / "fixtures")
+    tree = resource_root() / "test" / "fixtures"
+    options.out(p, "output folder (default: test/fixtures of the source tree; required when hpddo is "
+                   "installed from a wheel, which has no tests)", required=False,
+                default=tree if tree.is_dir() else None)
     options.quiet(p, "do not list the files written")
     return p
+
+
+def validate(args, p: argparse.ArgumentParser) -> None:
+    if args.out is None:
+        p.error("the following arguments are required: --out (no source tree with test/fixtures here)")
 
 
 def run(args) -> int:
