@@ -18,7 +18,6 @@ import importlib
 import sys
 
 from .. import __version__
-from ..errors import USER_ERRORS
 
 #: name -> (module, one-line help); the order of `hpddo --help`.
 SUBCOMMANDS = {
@@ -52,6 +51,8 @@ def report(name: str, message) -> None:
 def run(name: str, argv=None) -> int:
     """Parses argv for subcommand NAME and runs it; returns its exit status (a user error:
     its one line on stderr and 1; a bad command line: SystemExit(2) from argparse)."""
+    from ..errors import USER_ERRORS  # (here: it loads the log reader, pandas; `hpddo --help` need not)
+
     mod = _module(name)
     p = mod.parser(f"hpddo {name}")
     args = p.parse_args(argv)
