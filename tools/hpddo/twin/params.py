@@ -12,7 +12,10 @@ from __future__ import annotations
 import dataclasses
 import math
 
+from .. import bench as _bench
 from .. import schema
+
+_HW = _bench.HARDWARE
 
 GENERATOR_VERSION = "hpddo-twin 0.1.0"
 
@@ -115,14 +118,16 @@ class Bench:
     """Every physical and sensor parameter of the bench. Effects live in `effects`."""
 
     # --- supply and power stage (paper 3.4-3.5, App. A) ---
-    supply_V: float = 12.0  # paper: 12 V gear motors, 12 V supply
-    pwm_hz: float = 490.196  # Arduino UNO analogWrite on pins 3/9/10/11: 16 MHz / 64 / 510
-    r_shunt_ohm: float = 0.5  # paper App. A item 5 (0.5 ohm 10 W), in the armature loop
+    # Bench hardware comes from hpddo/bench.py (shared with the firmware); the twin's own
+    # values differ only where listed in bench.TWIN_OVERRIDES (kept for data/default).
+    supply_V: float = _HW.supply_V  # paper: 12 V gear motors, 12 V supply
+    pwm_hz: float = _HW.pwm_hz  # Arduino UNO analogWrite on pins 3/9/10/11: 16 MHz / 64 / 510
+    r_shunt_ohm: float = _HW.shunt_ohm  # paper App. A item 5 (0.5 ohm 10 W), in the armature loop
     r_dson_ohm: float = 0.07  # IRFZ24N datasheet 70 mOhm at Vgs 10 V (TLP250 gate drive)
     diode_vf_V: float = 0.40  # MBR60100CT Schottky at < 1 A (datasheet curve), assumed
     diode_r_ohm: float = 0.03  # assumed slope resistance
     # --- motor under test, lumped at the output shaft (gearbox 1:4.4) ---
-    gear_ratio: float = 4.4  # paper App. A item 6
+    gear_ratio: float = _HW.gear_ratio  # paper App. A item 6
     ra_ohm: float = 4.50  # paper 4.1: multimeter mean at about 31 C
     ra_ref_C: float = 31.0  # temperature of that measurement (paper: ~31 C)
     ke_vs_per_rad: float = 0.355  # true EMF constant at ra_ref_C, zero current; chosen so the
@@ -138,7 +143,7 @@ class Bench:
     ke_gen_vs_per_rad: float = 0.15  # generator EMF constant at the shared shaft, assumed
     r_gen_ohm: float = 1.5  # generator winding + brushes, assumed
     r_relay_ohm: float = 0.05  # relay contact + wiring, assumed
-    load_ohm: tuple = (math.inf, 0.5, 0.01)  # load 0 = open, 1 = 0.5 ohm, 2 = 0.01 ohm (paper)
+    load_ohm: tuple = _HW.load_ohm  # load 0 = open, 1 = 0.5 ohm, 2 = 0.01 ohm (paper)
     # --- thermal (two nodes: winding, case), assumed, tuned to the paper's 31.7 -> 71.3 C ---
     ambient_C: float = 31.7  # paper 3.6.1: case at the start of the long run
     c_winding_J_per_K: float = 6.0
@@ -146,14 +151,15 @@ class Bench:
     c_case_J_per_K: float = 220.0
     r_case_amb_K_per_W: float = 6.3
     # --- measurement chain ---
-    adc_bits: int = 10
-    adc_vref_V: float = 5.0
-    adc_conv_per_s: float = 9615.0  # 16 MHz / 128 / 13 cycles, free running
-    v_div_gain: float = 0.30  # divider + level shift: ADC = 0.30 (v + v_shift)
-    v_shift_V: float = 1.5  # so the -0.4 V freewheel plateau stays inside the range
-    i_gain_V_per_A: float = 0.5  # the shunt itself
+    adc_bits: int = _HW.adc_bits
+    adc_vref_V: float = _HW.adc_ref_V
+    adc_conv_per_s: float = _HW.adc_conv_per_s  # 16 MHz / 128 / 13 cycles, free running
+    v_div_gain: float = _bench.TWIN_OVERRIDES["v_div_gain"][0]  # twin override (bench: 1/3):
+    # divider + level shift, ADC = 0.30 (v + v_shift); see bench.TWIN_OVERRIDES
+    v_shift_V: float = _bench.TWIN_OVERRIDES["v_shift_V"][0]  # twin override (bench: 0); so the -0.4 V freewheel plateau stays inside the range
+    i_gain_V_per_A: float = _HW.shunt_ohm * _HW.shunt_gain  # the shunt itself
     adc_noise_lsb: float = 0.5  # per conversion, rms
-    encoder_ppr: int = 11  # pulses per motor revolution, quadrature -> 44 counts
+    encoder_ppr: int = _HW.encoder_ppr  # pulses per motor revolution, quadrature -> 44 counts
     temp_step_C: float = 0.0625  # DS18B20 12-bit
     temp_period_s: float = 0.75  # DS18B20 12-bit conversion time: a new reading each 750 ms
     ripple_per_rev: int = 6  # commutation events per motor revolution (3 slots, 2 brushes)

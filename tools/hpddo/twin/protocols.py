@@ -1,4 +1,5 @@
-"""The paper's three protocols (section 3.6.1) as piecewise-constant schedules.
+"""The paper's three protocols (section 3.6.1) as piecewise-constant schedules,
+from the bench description (hpddo/bench.py).
 
 A schedule is a list of segments ``(duration_s, duty, load)``. Segment boundaries are
 rounded to whole sample periods so that every logged row has one duty and one load
@@ -8,30 +9,28 @@ from __future__ import annotations
 
 import numpy as np
 
-PROTOCOLS = ("sweep", "load", "long")
+from .. import bench
 
-SWEEP_STEP_S = 30.0
-SWEEP_DUTIES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 0.8, 0.6, 0.4, 0.2, 0.0)
-LOAD_DUTY = 0.8
-LOAD_DWELL_S = 25.0
-LOAD_SEQUENCE = (0, 1, 2, 0, 2, 1, 0, 1, 2, 1, 0, 2)
-LONG_DUTY = 0.8
-LONG_LOAD = 2  # 0.01 ohm
-LONG_S = 3600.0
+# The protocols are declared once, in hpddo/bench.py (shared with the UNO firmware).
+PROTOCOLS = tuple(bench.PROTOCOLS)
+
+SWEEP_STEP_S = bench.PROTOCOLS["sweep"].step_s()
+SWEEP_DUTIES = tuple(s.duty for s in bench.PROTOCOLS["sweep"].segments)
+LOAD_DUTY = bench.PROTOCOLS["load"].segments[0].duty
+LOAD_DWELL_S = bench.PROTOCOLS["load"].step_s()
+LOAD_SEQUENCE = tuple(s.load for s in bench.PROTOCOLS["load"].segments)
+LONG_DUTY = bench.PROTOCOLS["long"].segments[0].duty
+LONG_LOAD = bench.PROTOCOLS["long"].segments[0].load
+LONG_S = bench.PROTOCOLS["long"].duration_s
 
 
 def schedule(protocol: str, time_scale: float = 1.0):
     """Segments of ``protocol``; ``time_scale`` < 1 shortens every segment (tests)."""
     if time_scale <= 0:
         raise ValueError("time_scale must be > 0")
-    if protocol == "sweep":
-        segs = [(SWEEP_STEP_S, d, 0) for d in SWEEP_DUTIES]
-    elif protocol == "load":
-        segs = [(LOAD_DWELL_S, LOAD_DUTY, k) for k in LOAD_SEQUENCE]
-    elif protocol == "long":
-        segs = [(LONG_S, LONG_DUTY, LONG_LOAD)]
-    else:
+    if protocol not in bench.PROTOCOLS:
         raise ValueError(f"unknown protocol {protocol!r} (known: {', '.join(PROTOCOLS)})")
+    segs = [(g.duration_s, g.duty, g.load) for g in bench.PROTOCOLS[protocol].segments]
     return [(dur * time_scale, duty, load) for dur, duty, load in segs]
 
 

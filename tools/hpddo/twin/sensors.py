@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from .. import bench as _hw
 from .. import libm
 from .params import Bench
 
@@ -70,7 +71,7 @@ def measure(bench: Bench, res, duty, load, rng):
     v = adc_channel(v_meas_in, res.v_var, bench.v_div_gain, bench.v_shift_V, n_conv, bench, rng)
     i = adc_channel(i_meas_in, i_var, bench.i_gain_V_per_A, 0.0, n_conv, bench, rng)
 
-    counts_per_rev = 4 * bench.encoder_ppr
+    counts_per_rev = _hw.HARDWARE.encoder_quadrature * bench.encoder_ppr
     off = rng.uniform(0, 1)
     cnt = np.floor(theta_m / (2 * math.pi) * counts_per_rev + off)
     rpm_ref = np.diff(cnt) / counts_per_rev / bench.gear_ratio / Ts * 60.0
