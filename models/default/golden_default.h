@@ -1,5 +1,5 @@
 // GENERATED golden vectors: DO NOT EDIT. Regenerate with the command below.
-// command: tools/gen_weights.py load.csv long.csv sweep.csv --name default --seed 1
+// command: tools/gen_weights.py data/default/load.csv data/default/long.csv data/default/sweep.csv --name default --seed 1 --out <the folder of this file>
 // seed: 1
 // data: load.csv, long.csv, sweep.csv
 // data_sha256: 6135cd48ac08b5160f3d9723ffd8aabe88a9e64df719dd4cdaa72b9c7e136f93

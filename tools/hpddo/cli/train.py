@@ -20,6 +20,7 @@ A malformed log is refused with its file, line and fault, and nothing is written
 from __future__ import annotations
 
 import argparse
+import pathlib
 import sys
 import time
 
@@ -78,11 +79,32 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     return p
 
 
+def _shown_path(path) -> str:
+    """A log's path as the provenance shows it: relative to the repository root when the
+    log lies in it (so the committed headers read the same on every machine), else as given."""
+    from .. import resource_root
+    try:
+        return str(pathlib.Path(path).resolve().relative_to(resource_root().resolve()))
+    except ValueError:
+        return str(path)
+
+
 def provenance(args) -> str:
-    return " ".join([PROVENANCE_COMMAND] + [str(p.name) for p in args.logs]
-                    + ["--name", args.name, "--seed", str(args.seed)]
-                    + (["--effects", ",".join(args.effects)] if args.effects else [])
-                    + (["--hidden", ",".join(map(str, args.hidden))] if args.hidden != (16, 8) else []))
+    """The command that regenerates the header, from the repository root, with every
+    option that changes the result (--out is the folder the header sits in)."""
+    defaults = parser().parse_args(["x", "--out", "x"])
+    words = [PROVENANCE_COMMAND] + [_shown_path(p) for p in args.logs] + ["--name", args.name]
+    for flag, key, show in (("--ra-ohm", "ra_ohm", str), ("--rated-v", "rated_v", str),
+                            ("--rated-rpm", "rated_rpm", str), ("--ke-fit", "ke_fit", str),
+                            ("--effects", "effects", ",".join),
+                            ("--hidden", "hidden", lambda h: ",".join(map(str, h))),
+                            ("--max-iter", "max_iter", str), ("--split", "split", str)):
+        if getattr(args, key) != getattr(defaults, key):
+            words += [flag, show(getattr(args, key))]
+    words += ["--seed", str(args.seed)]
+    if args.no_glitch_filter:
+        words.append("--no-glitch-filter")
+    return " ".join(words) + " --out <the folder of this file>"
 
 
 def run(args) -> int:
