@@ -7,7 +7,7 @@
 //   load <0..2>           load relays by hand
 //   rate <Hz>             sample rate (not while recording)
 //   pwm <Hz>              PWM frequency, 31..100000 (not while recording)
-//   hold <s>              step length of sweep and load
+//   hold <s>              step length of sweep and load (0: the bench's, 30 s and 25 s)
 //   long <s>              length of long
 //   status, help
 #ifndef HPDDO_ACQ_COMMAND_H
@@ -151,7 +151,7 @@ inline Command parse_command(const char* line) {
   else if (detail::word_eq(s, e, "load")) c.kind = (v == 0.0f || v == 1.0f || v == 2.0f) ? kCmdLoad : kCmdBad;
   else if (detail::word_eq(s, e, "rate")) c.kind = (v >= hpddo::kAcqRateMin_Hz && v <= hpddo::kAcqRateMax_Hz) ? kCmdRate : kCmdBad;
   else if (detail::word_eq(s, e, "pwm")) c.kind = (v >= 31.0f && v <= 100000.0f) ? kCmdPwm : kCmdBad;
-  else if (detail::word_eq(s, e, "hold")) c.kind = (v > 0.0f && v <= 86400.0f) ? kCmdHold : kCmdBad;
+  else if (detail::word_eq(s, e, "hold")) c.kind = (v >= 0.0f && v <= 86400.0f) ? kCmdHold : kCmdBad;
   else if (detail::word_eq(s, e, "long")) c.kind = (v > 0.0f && v <= 604800.0f) ? kCmdLong : kCmdBad;
   return c;
 }

@@ -1,10 +1,14 @@
 // Wiring, calibration and defaults of the acquisition board (Arduino UNO).
-// Every number that depends on the bench lives here and nowhere else;
-// docs/firmware.md explains how to measure each one on your own bench.
+// The bench's numbers (gains, encoder, PWM, protocols) come from bench_gen.h,
+// generated from tools/hpddo/bench.py, the one description of the bench shared
+// with the twin and the simavr harness; docs/firmware.md explains how to measure
+// each one on your own bench (edit bench.py, regenerate).
 #ifndef HPDDO_ACQ_CONFIG_H
 #define HPDDO_ACQ_CONFIG_H
 
 #include <stdint.h>
+
+#include "bench_gen.h"  // the bench, generated from tools/hpddo/bench.py
 
 namespace acq {
 
@@ -35,18 +39,22 @@ struct Calibration {
 };
 
 /// The paper's bench: divider 20k (2 x 10k) over 10k, shunt 0.5 ohm 10 W, AVcc 5.0 V.
-static const Calibration kCalibration = {5.0f, 3.0f, 0.5f, 1.0f, 0.0f, 0.0f};
+static const Calibration kCalibration = {HPDDO_BENCH_ADC_REF_V, HPDDO_BENCH_DIVIDER_RATIO, HPDDO_BENCH_SHUNT_OHM,
+                                         HPDDO_BENCH_SHUNT_GAIN, 0.0f, 0.0f};
 
-/// Encoder counts per output-shaft revolution after x4 quadrature decoding.
-static const uint16_t kEncoderCountsPerRev = 400;  // 100-line optical disc
+/// Encoder counts per output-shaft revolution after x4 quadrature decoding:
+/// 11 pulses per motor revolution x 4 x the 1:4.4 gearbox = 193.6.
+static const float kEncoderCountsPerRev = HPDDO_BENCH_ENCODER_COUNTS_PER_REV;
 
 // ---------------------------------------------------------------- defaults
 static const uint32_t kHostBaud = 115200;   ///< USB serial to the host (bench log lines)
 static const uint32_t kLinkBaud = 38400;    ///< link to the ESP8266 (38462 exact: Timer2 /8, 52 ticks a bit)
-static const uint32_t kDefaultPwmHz = 1000; ///< PWM frequency at power-up, Hz
-static const float kDefaultRateHz = 2.0f;   ///< sample rate at power-up (the paper's 2 Hz)
-static const float kDefaultHoldS = 20.0f;   ///< step length of the sweep and load protocols, s
-static const float kDefaultLongS = 3600.0f; ///< length of the long protocol, s
+static const uint32_t kDefaultPwmHz = HPDDO_BENCH_PWM_HZ;  ///< PWM frequency at power-up, Hz
+static const float kDefaultRateHz = HPDDO_BENCH_SAMPLE_RATE_HZ;  ///< sample rate at power-up (the paper's 2 Hz)
+/// Step length of the sweep and load protocols, s; 0 = the bench's own
+/// (HPDDO_BENCH_SWEEP_STEP_S, HPDDO_BENCH_LOAD_STEP_S).
+static const float kDefaultHoldS = 0.0f;
+static const float kDefaultLongS = HPDDO_BENCH_LONG_S;  ///< length of the long protocol, s
 static const char kMotor[] = "25GA371 1:4.4";  ///< written to the log metadata
 
 }  // namespace acq

@@ -1,13 +1,19 @@
 // The paper's three test protocols (section 3.6.1) as a function of the
 // sample index: which duty and load are in force during sample k.
 //
-//   sweep  duty 0 -> 100 % -> 0 in 20 % steps, no load, each step `hold` long
-//   load   80 % duty, loads 0, 1 (0.5 ohm), 2 (0.01 ohm), 1, 0, each `hold` long
-//   long   80 % duty with load 2 (0.01 ohm) for `long` seconds
+//   sweep  duty 0 -> 100 % -> 0 in 20 % steps, no load, each step 30 s
+//   load   80 % duty, 12 dwells of 25 s: loads 0, 1 (0.5 ohm), 2 (0.01 ohm), 0, 2,
+//          1, 0, 1, 2, 1, 0, 2
+//   long   80 % duty with load 2 (0.01 ohm) for 3600 s
+// The steps, duties, loads and lengths are those of bench_gen.h (generated from
+// tools/hpddo/bench.py, shared with the twin); `hold` and `long` may override
+// the lengths.
 #ifndef HPDDO_ACQ_PROTOCOL_H
 #define HPDDO_ACQ_PROTOCOL_H
 
 #include <stdint.h>
+
+#include "bench_gen.h"
 
 namespace acq {
 
@@ -54,32 +60,35 @@ class ProtocolPlan {
     if (k >= total()) return false;
     switch (proto_) {
       case kProtoSweep: {
-        const uint32_t step = k / hold_;  // 0..10
-        const uint32_t level = step <= 5 ? step : 10 - step;
-        out->duty_q = static_cast<uint16_t>(level * 2000u);
+        out->duty_q = bench::kSweepDutyQ[k / hold_];
         out->load = 0;
         return true;
       }
       case kProtoLoad: {
-        static const uint8_t kLoads[kLoadSteps] = {0, 1, 2, 1, 0};
-        out->duty_q = 8000;
-        out->load = kLoads[k / hold_];
+        out->duty_q = HPDDO_BENCH_LOAD_DUTY_Q;
+        out->load = bench::kLoadSequence[k / hold_];
         return true;
       }
       default:
-        out->duty_q = 8000;
-        out->load = 2;
+        out->duty_q = HPDDO_BENCH_LONG_DUTY_Q;
+        out->load = HPDDO_BENCH_LONG_LOAD;
         return true;
     }
   }
 
  private:
-  static const uint8_t kSweepSteps = 11;
-  static const uint8_t kLoadSteps = 5;
+  static const uint8_t kSweepSteps = HPDDO_BENCH_SWEEP_STEPS;
+  static const uint8_t kLoadSteps = HPDDO_BENCH_LOAD_STEPS;
   Protocol proto_;
   uint32_t hold_;
   uint32_t long_;
 };
+
+/// Step length of `p` in seconds: `hold_s` when positive, else the bench's own.
+inline float step_seconds(Protocol p, float hold_s) {
+  if (hold_s > 0.0f) return hold_s;
+  return p == kProtoSweep ? HPDDO_BENCH_SWEEP_STEP_S : HPDDO_BENCH_LOAD_STEP_S;
+}
 
 /// Samples in `seconds` at rate_hz, rounded, at least 1.
 inline uint32_t samples_for(float seconds, float rate_hz) {

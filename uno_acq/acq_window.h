@@ -48,11 +48,11 @@ inline float mean_pin_V(uint32_t sum, uint32_t n, float ref_V) {
 }
 
 /// Converts the raw sums of a window into V, I and speed.
-inline Measurement measure(const WindowSums& w, const Calibration& cal, uint16_t counts_per_rev) {
+inline Measurement measure(const WindowSums& w, const Calibration& cal, float counts_per_rev) {
   Measurement m;
   m.v_V = mean_pin_V(w.sum_v, w.n_v, cal.adc_ref_V) * cal.divider_ratio - cal.v_offset_V;
   m.i_A = mean_pin_V(w.sum_i, w.n_i, cal.adc_ref_V) / (cal.shunt_ohm * cal.shunt_gain) - cal.i_offset_A;
-  const float rev = static_cast<float>(w.enc_counts) / static_cast<float>(counts_per_rev);
+  const float rev = static_cast<float>(w.enc_counts) / counts_per_rev;
   m.rpm = w.period_us ? rev * 60.0e6f / static_cast<float>(w.period_us) : 0.0f;
   return m;
 }

@@ -500,7 +500,7 @@ void begin_recording(const char* condition, uint32_t first_seq) {
   w.compact(kCalibration.adc_ref_V);
   meta(F("adc_ref_V"), g_line);
   w = LineWriter(g_line, sizeof g_line);
-  w.u32(kEncoderCountsPerRev);
+  w.compact(kEncoderCountsPerRev);
   meta(F("encoder_cpr"), g_line);
   Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeader));
   Serial.write('\n');
@@ -538,7 +538,7 @@ void handle_command(const char* line) {
     case kCmdNone: return;
     case kCmdRun: {
       if (busy) return say(F("error busy: stop first"));
-      const uint32_t hold = samples_for(g_hold_s, actual_rate_hz());
+      const uint32_t hold = samples_for(step_seconds(c.protocol, g_hold_s), actual_rate_hz());
       const uint32_t len = samples_for(g_long_s, actual_rate_hz());
       g_plan = ProtocolPlan(c.protocol, hold, len);
       // The window after the open one may already have its setpoint latched:

@@ -14,7 +14,8 @@ encoder in quadrature. Then:
 * the window closes are periodic within --max-jitter-us;
 * the ESP8266 link bytes decode with hpddo::FrameDecoder with no CRC error or
   dropped byte, one frame per window, each matching its log row;
-* with --protocol sweep: the duty column follows the paper's sweep.
+* with --protocol sweep/load: duty and load follow the bench's protocol
+  (tools/hpddo/bench.py, from which the firmware's bench_gen.h is generated).
 """
 import argparse
 import math
@@ -25,14 +26,33 @@ import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tools"))
+from hpddo import bench  # noqa: E402
 from hpddo.benchlog import read_log  # noqa: E402
 
-# Must match uno_acq/acq_config.h.
-RATIO = 3.0
-SHUNT_OHM = 0.5
-ADC_REF_V = 5.0
-CPR = 400
-F_CPU = 16_000_000
+# The bench's values, from the one description the firmware's bench_gen.h is
+# generated from (uno_sim.c includes that header).
+HW = bench.HARDWARE
+RATIO = HW.divider_ratio
+SHUNT_OHM = HW.shunt_ohm * HW.shunt_gain
+ADC_REF_V = HW.adc_ref_V
+CPR = HW.counts_per_output_rev
+F_CPU = HW.cpu_hz
+
+
+def window_cycles(pwm_hz, rate_hz):
+    """CPU cycles of a sample window as the firmware sets it (acq_window.h): whole
+    Timer1 periods of the PWM nearest to 1 / rate."""
+    ticks, pre = (F_CPU + pwm_hz // 2) // pwm_hz, 1
+    if ticks > 65536:
+        ticks, pre = (F_CPU // 8 + pwm_hz // 2) // pwm_hz, 8
+    period = ticks * pre
+    return max(1, int(F_CPU / (rate_hz * period) + 0.5)) * period
+
+
+def plan(protocol, hold_samples):
+    """(duty, load) of each row of a protocol with steps of hold_samples."""
+    segs = bench.PROTOCOLS[protocol].segments
+    return [(g.duty, g.load) for g in segs for _ in range(hold_samples)]
 
 
 def drive_table(n, seed):
@@ -59,6 +79,7 @@ def main():
     ap.add_argument("--frame-dump", required=True)
     ap.add_argument("--workdir", required=True)
     ap.add_argument("--rate", type=float, default=2.0)
+    ap.add_argument("--pwm", type=int, default=None, help="PWM Hz (default: the bench's)")
     ap.add_argument("--rows", type=int, default=6)
     ap.add_argument("--protocol", choices=["sweep", "load"], default=None)
     ap.add_argument("--hold", type=float, default=0.05, help="protocol step, s")
@@ -70,16 +91,17 @@ def main():
     table = drive_table(37, seed=20261121)
     (work / "drive.csv").write_text("".join(f"{v},{i},{r}\n" for v, i, r in table))
 
-    commands = [] if a.rate == 2.0 else [f"rate {a.rate:g}"]
+    pwm_hz = a.pwm or HW.pwm_hz_whole
+    commands = [] if a.pwm is None else [f"pwm {a.pwm}"]
+    commands += [] if a.rate == HW.sample_rate_hz else [f"rate {a.rate:g}"]
     rows_wanted = a.rows
     if a.protocol:
         commands += [f"hold {a.hold:g}", f"run {a.protocol}"]
         hold_samples = max(1, round(a.hold * a.rate))
-        rows_wanted = {"sweep": 11, "load": 5}[a.protocol] * hold_samples
+        rows_wanted = len(plan(a.protocol, hold_samples))
     else:
         commands += ["rec sim"]
-    cmd = [a.harness, a.elf, str(work / "drive.csv"), str(work), str(RATIO), str(SHUNT_OHM), str(CPR),
-           str(rows_wanted)] + commands
+    cmd = [a.harness, a.elf, str(work / "drive.csv"), str(work), str(rows_wanted)] + commands
     print(" ".join(cmd))
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
     print(res.stdout.strip())
@@ -96,14 +118,17 @@ def main():
     (work / "capture.csv").write_text("\n".join(log_lines) + "\n")
     log = read_log(work / "capture.csv")
     df = log.df
-    if abs(log.sample_rate_hz - a.rate) > 1e-6 * a.rate:
-        fail(f"sample_rate_hz {log.sample_rate_hz} != {a.rate}")
+    # The window is whole PWM periods; its length in whole us sets the rate reported.
+    period_us = window_cycles(pwm_hz, a.rate) // (F_CPU // 1_000_000)
+    actual_rate = 1e6 / period_us
+    if abs(log.sample_rate_hz - actual_rate) > 1e-4:
+        fail(f"sample_rate_hz {log.sample_rate_hz} != {actual_rate} (PWM {pwm_hz} Hz, rate {a.rate})")
     if (len(df) != rows_wanted) if a.protocol else (len(df) < rows_wanted):
         fail(f"{len(df)} rows, want {rows_wanted}")
     seq = df["seq"].to_numpy()
     if any(seq[1:] - seq[:-1] != 1):
         fail("seq has a gap: samples lost")
-    period = 1.0 / a.rate
+    period = period_us * 1e-6
     t_err = max(abs(t - (s - seq[0]) * period) for t, s in zip(df["t_s"], seq))
     if t_err > 1e-6:
         fail(f"t_s does not follow seq (error {t_err})")
@@ -145,7 +170,7 @@ def main():
 
     # ---- sample period jitter over the recorded windows
     closes = [windows[s]["close"] for s in range(int(seq[0]) - 1, int(seq[-1]) + 1) if s in windows]
-    nominal = F_CPU * period
+    nominal = window_cycles(pwm_hz, a.rate)
     dev = [abs((b - a_) - nominal) / 16.0 for a_, b in zip(closes, closes[1:])]
     jitter = max(dev)
     print(f"sample period {period * 1e6:.0f} us over {len(dev)} windows: jitter max {jitter:.3f} us")
@@ -170,9 +195,9 @@ def main():
         f = frames.get(int(row.seq) & 0xFFFF)
         if f is None:
             fail(f"no frame for seq {row.seq}")
-        _, flags, duty, v_mV, i_mA, temp, rpm_x10, period_us = f
+        _, flags, duty, v_mV, i_mA, temp, rpm_x10, _ = f
         if (abs(v_mV - row.v_V * 1000) > 1 or abs(i_mA - row.i_A * 1000) > 1 or
-                abs(rpm_x10 - row.rpm_ref * 10) > 1 or period_us != round(period * 1e6) or
+                abs(rpm_x10 - row.rpm_ref * 10) > 1 or f[7] != period_us or
                 abs(duty - row.duty * 255) > 0.51):
             fail(f"frame {f} does not match row {row}")
     print(f"link: {len(frames)} frames, all CRCs valid, each recorded row matches its frame")
@@ -180,12 +205,7 @@ def main():
     # ---- protocol
     if a.protocol:
         hold_samples = max(1, round(a.hold * a.rate))
-        for k, row in enumerate(df.itertuples()):
-            step = k // hold_samples
-            if a.protocol == "sweep":
-                want_duty, want_load = (step if step <= 5 else 10 - step) * 0.2, 0
-            else:
-                want_duty, want_load = 0.8, [0, 1, 2, 1, 0][step]
+        for k, (row, (want_duty, want_load)) in enumerate(zip(df.itertuples(), plan(a.protocol, hold_samples))):
             if abs(row.duty - want_duty) > 1e-9 or row.load != want_load:
                 fail(f"row {k}: duty {row.duty} load {row.load}, want {want_duty} {want_load}")
         if not any(l.startswith(f"! end {a.protocol}") for l in lines):

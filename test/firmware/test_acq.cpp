@@ -90,12 +90,12 @@ TEST(Window, MeansAddHalfAnLsbAndApplyTheGains) {
   w.sum_i = 82u * 4000u;
   w.enc_counts = 302;
   w.period_us = 500000;
-  const acq::Measurement m = acq::measure(w, acq::kCalibration, 400);
+  const acq::Measurement m = acq::measure(w, acq::kCalibration, acq::kEncoderCountsPerRev);
   EXPECT_NEAR(m.v_V, (409.5f * 5.0f / 1024.0f) * 3.0f, 1e-5f);
   EXPECT_NEAR(m.i_A, (82.5f * 5.0f / 1024.0f) / 0.5f, 1e-5f);
-  EXPECT_NEAR(m.rpm, 302.0f / 400.0f * 120.0f, 1e-4f);
+  EXPECT_NEAR(m.rpm, 302.0f / (44.0f * 4.4f) * 120.0f, 1e-3f);  // 11 pulses x4 per motor rev, 1:4.4
   w.n_v = 0;
-  EXPECT_TRUE(std::isnan(acq::measure(w, acq::kCalibration, 400).v_V));
+  EXPECT_TRUE(std::isnan(acq::measure(w, acq::kCalibration, acq::kEncoderCountsPerRev).v_V));
 }
 
 TEST(Window, PwmTimingAndWholePeriodWindows) {
@@ -166,7 +166,10 @@ TEST(Protocol, SweepLoadAndLongFollowThePaper) {
     EXPECT_EQ(sp.duty_q, 8000);
     loads.push_back(sp.load);
   }
-  EXPECT_EQ(loads, (std::vector<int>{0, 0, 1, 1, 2, 2, 1, 1, 0, 0}));
+  EXPECT_EQ(loads, (std::vector<int>{0, 0, 1, 1, 2, 2, 0, 0, 2, 2, 1, 1, 0, 0, 1, 1, 2, 2, 1, 1, 0, 0, 2, 2}));
+  EXPECT_EQ(acq::step_seconds(acq::kProtoSweep, 0.0f), 30.0f);  // the bench's (tools/hpddo/bench.py)
+  EXPECT_EQ(acq::step_seconds(acq::kProtoLoad, 0.0f), 25.0f);
+  EXPECT_EQ(acq::step_seconds(acq::kProtoLoad, 0.05f), 0.05f);
 
   acq::ProtocolPlan lng(acq::kProtoLong, 1, 7200);
   EXPECT_EQ(lng.total(), 7200u);

@@ -13,8 +13,9 @@
  * A window closes when the firmware writes its marker to GPIOR0; the cycle
  * of that write is exact, so the period jitter is measured, not estimated.
  *
- * usage: uno_sim <elf> <drive.csv> <outdir> <ratio> <shunt_ohm> <cpr>
- *                <windows> <command>...
+ * usage: uno_sim <elf> <drive.csv> <outdir> <windows> <command>...
+ * The divider ratio, shunt and encoder counts are the bench's, from
+ * uno_acq/bench_gen.h (generated from tools/hpddo/bench.py).
  * drive.csv: lines "v_V,i_A,rpm" (no header); window k uses line k mod n.
  * Each command is sent (with a newline) once the previous one was answered;
  * the run ends after <windows> log rows or a "! end" line.
@@ -33,7 +34,9 @@
 #include "sim_cycle_timers.h"
 #include "avr_timer.h"
 
-#define F_CPU 16000000u
+#include "bench_gen.h"
+
+#define F_CPU HPDDO_BENCH_CPU_HZ
 #define GPIOR0_ADDR 0x3E
 /* Bit period of the link: (OCR2A + 1) * 8 = 416 cycles on the chip; simavr's
  * CTC mode counts OCR2A * 8, so the decoder measures it instead. */
@@ -48,8 +51,9 @@ typedef struct { double v_V, i_A, rpm; } drive_row_t;
 static avr_t* avr;
 static drive_row_t drive[MAX_ROWS];
 static int n_drive;
-static double ratio, shunt_ohm;
-static int cpr;
+static const double ratio = HPDDO_BENCH_DIVIDER_RATIO;
+static const double shunt_ohm = HPDDO_BENCH_SHUNT_OHM * HPDDO_BENCH_SHUNT_GAIN;
+static const double cpr = HPDDO_BENCH_ENCODER_COUNTS_PER_REV; /* output shaft */
 
 /* window bookkeeping */
 typedef struct {
@@ -234,17 +238,14 @@ static int load_drive(const char* path) {
 }
 
 int main(int argc, char** argv) {
-  if (argc < 9) {
-    fprintf(stderr, "usage: %s elf drive.csv outdir ratio shunt_ohm cpr windows command...\n", argv[0]);
+  if (argc < 6) {
+    fprintf(stderr, "usage: %s elf drive.csv outdir windows command...\n", argv[0]);
     return 2;
   }
   const char* outdir = argv[3];
-  ratio = atof(argv[4]);
-  shunt_ohm = atof(argv[5]);
-  cpr = atoi(argv[6]);
-  const int want_rows = atoi(argv[7]);
-  char** commands = argv + 8;
-  const int n_commands = argc - 8;
+  const int want_rows = atoi(argv[4]);
+  char** commands = argv + 5;
+  const int n_commands = argc - 5;
   if (load_drive(argv[2])) {
     fprintf(stderr, "uno_sim: cannot read %s\n", argv[2]);
     return 2;
