@@ -132,16 +132,26 @@ def predict(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:
     return ph.physics_rpm(p, r.v, r.i, r.di_dt, t)
 
 
+def sensitivity(r: Rows, p: ph.PhysicsParams, field: str, h: float, temp=None) -> np.ndarray:
+    """d n_M2 / d field at p, RPM per unit of the field, by central difference (step h)
+    through physics.physics_rpm; temp: the temperatures (default: those at p)."""
+    t = temperature(r, p) if temp is None else temp
+    c = getattr(p, field)
+    up = dataclasses.replace(p, **{field: c + h})
+    dn = dataclasses.replace(p, **{field: c - h})
+    return (ph.physics_rpm(up, r.v, r.i, r.di_dt, t) - ph.physics_rpm(dn, r.v, r.i, r.di_dt, t)) / (2 * h)
+
+
 def regressor(r: Rows, p: ph.PhysicsParams, name: str, temp=None) -> np.ndarray:
     """d n_M2 / d coefficient of effect `name` at p, RPM per unit of the field (central
     difference through physics.physics_rpm)."""
     eff = LIBRARY[name]
-    t = temperature(r, p) if temp is None else temp
-    c = getattr(p, eff.field)
-    h = 1e-3 * abs(eff.scale)
-    up = dataclasses.replace(p, **{eff.field: c + h})
-    dn = dataclasses.replace(p, **{eff.field: c - h})
-    return (ph.physics_rpm(up, r.v, r.i, r.di_dt, t) - ph.physics_rpm(dn, r.v, r.i, r.di_dt, t)) / (2 * h)
+    return sensitivity(r, p, eff.field, 1e-3 * abs(eff.scale), temp)
+
+
+def ke_regressor(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:
+    """d n_M2 / d Ke at p, RPM per V s/rad (central difference, step 1e-4 Ke)."""
+    return sensitivity(r, p, "ke_vs_per_rad", 1e-4 * p.ke_vs_per_rad, temp)
 
 
 # ---------------------------------------------------------------------------------------

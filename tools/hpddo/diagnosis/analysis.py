@@ -16,6 +16,23 @@ Z95 = 1.959963984540054
 MAD_NORMAL = 1.4826
 
 
+def runs(mask: np.ndarray) -> list[np.ndarray]:
+    """Row indices of each contiguous run of True in mask that is longer than two rows."""
+    idx = np.flatnonzero(mask)
+    if len(idx) < 3:
+        return []
+    cuts = np.flatnonzero(np.diff(idx) != 1) + 1
+    return [c for c in np.split(idx, cuts) if len(c) > 2]
+
+
+def parts(rows, res, arrays=None, which: str = "test") -> list[np.ndarray]:
+    """Contiguous pieces of the held-out (which="test") or training ("train") rows of each
+    recording at which the residual res is finite: of the residual itself, or of `arrays`
+    (one array per recording, e.g. an input) at the same rows."""
+    arrays = res if arrays is None else arrays
+    return [a[c] for r, e, a in zip(rows, res, arrays) for c in runs(getattr(r, which) & np.isfinite(e))]
+
+
 def robust_noise_var(e_parts) -> float:
     """Variance of the white part of the residual from first differences within each
     contiguous part: a slow structured error hardly moves from one row to the next, a

@@ -58,19 +58,6 @@ def _hybrid(recs, p, cfg_iter, seed):
     return out
 
 
-def _parts(rows, arrays, which="test"):
-    """Contiguous pieces of the held-out (or training) scoring rows of each recording."""
-    out = []
-    for r, a in zip(rows, arrays):
-        m = getattr(r, which) & np.isfinite(a)
-        idx = np.flatnonzero(m)
-        if len(idx) < 3:
-            continue
-        cuts = np.flatnonzero(np.diff(idx) != 1) + 1
-        out += [a[c] for c in np.split(idx, cuts) if len(c) > 2]
-    return out
-
-
 # Keys that _entry derives from the parameters (the rest are the caller's).
 _ENTRY_KEYS = ("effect", "params", "shown", "unit", "plausible", "plausibility", "meaning")
 # The copper-plus-magnets reading is taken when its held-out mean squared error is at most
@@ -206,25 +193,13 @@ def diagnose(paths, opt: Options) -> dict:
     res_after = ranking.residuals(d, after_model)
 
     def analyse(res):
-        parts = _parts(rows, res)
+        parts = analysis.parts(rows, res)
         inputs = {}
         for key, arr in (("V", [r.v for r in rows]), ("I", [r.i for r in rows]), ("duty", [r.duty for r in rows]),
                          ("temp_C", [r.temp for r in rows]), ("speed", [r.ref for r in rows]),
                          ("dI/dt", [r.di_dt for r in rows])):
-            pieces = []
-            ok = True
-            for r, a, e in zip(rows, arr, res):
-                m = r.test & np.isfinite(e)
-                idx = np.flatnonzero(m)
-                if len(idx) < 3:
-                    continue
-                cuts = np.flatnonzero(np.diff(idx) != 1) + 1
-                for c in np.split(idx, cuts):
-                    if len(c) > 2:
-                        if not np.all(np.isfinite(a[c])):
-                            ok = False
-                        pieces.append(a[c])
-            if ok and pieces:
+            pieces = analysis.parts(rows, res, arr)
+            if pieces and all(np.all(np.isfinite(a)) for a in pieces):
                 inputs[key] = pieces
         w = analysis.whiteness(parts)
         corr = analysis.correlates(parts, inputs)

@@ -111,16 +111,9 @@ def gain_z(d: Data, res_a, res_b, sigma2: float) -> tuple[float, float]:
 
 
 def noise_var(d: Data, res) -> float:
-    parts = []
-    for r, e in zip(d.rows, res):
-        m = r.test & np.isfinite(e)
-        idx = np.flatnonzero(m)
-        if len(idx) < 3:
-            continue
-        # contiguous runs only
-        cuts = np.flatnonzero(np.diff(idx) != 1) + 1
-        parts += [e[c] for c in np.split(idx, cuts) if len(c) > 2]
-    return analysis.robust_noise_var(parts)
+    """Variance of the white part of the held-out residual (analysis.robust_noise_var on
+    its contiguous runs)."""
+    return analysis.robust_noise_var(analysis.parts(d.rows, res))
 
 
 def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, others) -> dict:
@@ -133,13 +126,7 @@ def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, othe
         m = r.train
         if not m.any():
             continue
-        t = fx.temperature(r, p)
-        ke = p.ke_vs_per_rad
-        h = 1e-4 * ke
-        up = dataclasses.replace(p, ke_vs_per_rad=ke + h)
-        dn = dataclasses.replace(p, ke_vs_per_rad=ke - h)
-        cols["ke_vs_per_rad"].append(((ph.physics_rpm(up, r.v, r.i, r.di_dt, t) - ph.physics_rpm(dn, r.v, r.i, r.di_dt, t))
-                                     / (2 * h))[m])
+        cols["ke_vs_per_rad"].append(fx.ke_regressor(r, p)[m])
         for k in [name] + list(others):
             pk = p
             if k == name and fx.LIBRARY[k].thermal and r.needs_state and not p.thermal_enabled():
@@ -173,10 +160,7 @@ def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
         t = fx.temperature(r, pp)
         xa.append(fx.regressor(r, pp, a, t)[m])
         xb.append(fx.regressor(r, pp, b, t)[m])
-        ke = p.ke_vs_per_rad
-        h = 1e-4 * ke
-        o = [(ph.physics_rpm(dataclasses.replace(pp, ke_vs_per_rad=ke + h), r.v, r.i, r.di_dt, t)
-              - ph.physics_rpm(dataclasses.replace(pp, ke_vs_per_rad=ke - h), r.v, r.i, r.di_dt, t)) / (2 * h)]
+        o = [fx.ke_regressor(r, pp, t)]
         o += [fx.regressor(r, pp, g, t) for g in given if g not in (a, b)]
         xo.append(np.column_stack(o)[m])
     xa, xb, xo = np.concatenate(xa), np.concatenate(xb), np.concatenate(xo)
