@@ -1,0 +1,71 @@
+"""The HTML reports of hpddo, from one place: Jinja2 templates (templates/*.html.j2, with
+autoescape on, so every text from a log or a result is escaped), one stylesheet
+(style.css, embedded into every page) and one figure helper (`png`: a matplotlib figure
+as an embedded PNG data URI, the figure closed after use). Every page is self-contained.
+
+    reports.training.write(...)   the training report (hpddo train, demo): hpddo.report
+    reports.diagnosis.write(...)  the diagnosis report (hpddo diagnose): hpddo.diagnosis.report
+
+The submodules are imported on use, so importing this package does not load the
+diagnosis.
+"""
+from __future__ import annotations
+
+import base64
+import functools
+import io
+import pathlib
+
+import jinja2
+import markupsafe
+
+HERE = pathlib.Path(__file__).resolve().parent
+TEMPLATES = HERE / "templates"
+STYLE = HERE / "style.css"
+DPI = 90
+
+
+def png(fig, dpi: int = DPI) -> str:
+    """The figure as a data:image/png;base64 URI (tight bounding box); closes the figure,
+    also when saving it fails."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    try:
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=dpi, bbox_inches="tight")
+    finally:
+        plt.close(fig)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
+
+
+@functools.lru_cache(maxsize=None)
+def css() -> str:
+    """The one stylesheet of every report page."""
+    return STYLE.read_text(encoding="utf-8")
+
+
+@functools.lru_cache(maxsize=None)
+def environment() -> jinja2.Environment:
+    env = jinja2.Environment(loader=jinja2.FileSystemLoader(str(TEMPLATES)), autoescape=True,
+                             undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
+                             keep_trailing_newline=True)
+    env.filters["dash"] = dash
+    return env
+
+
+def dash(x, nd: int = 2) -> str:
+    """x with nd decimals; "–" for a missing or non-finite value."""
+    import math
+
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "–"
+    return f"{x:.{nd}f}"
+
+
+def render(template: str, **context) -> str:
+    """The page `template` (a name in templates/) rendered with context; the stylesheet is
+    passed as `css`."""
+    return environment().get_template(template).render(css=markupsafe.Markup(css()), **context)
