@@ -383,8 +383,10 @@ int main(int argc, char** argv) {
         best[mode] = std::min(best[mode], s);
       }
     }
-    std::printf("bench: %zu samples, best of %d: per-sample %.3g samples/s, batched %.3g samples/s\n", total, bench,
-                static_cast<double>(total) / best[0], static_cast<double>(total) / best[1]);
+    // One JSON object on its own line, for hpddo.replay.bench.
+    std::printf("{\"bench\": {\"samples\": %zu, \"repeat\": %d, \"per_sample_per_s\": %.6g, "
+                "\"batched_per_s\": %.6g}}\n",
+                total, bench, static_cast<double>(total) / best[0], static_cast<double>(total) / best[1]);
   }
   return 0;
 }

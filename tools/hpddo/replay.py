@@ -86,3 +86,15 @@ def run(exe: pathlib.Path, logs, metrics: pathlib.Path, out_dir: pathlib.Path | 
     if res.returncode != 0:
         raise RuntimeError(f"replay failed ({res.returncode}): {res.stderr.strip()}")
     return json.loads(metrics.read_text()), res.stdout
+
+
+def bench(exe: pathlib.Path, logs, repeat: int) -> dict:
+    """Replay throughput in memory on one thread, best of `repeat` passes over the logs:
+    {"samples", "repeat", "per_sample_per_s", "batched_per_s"} (the replay's --bench)."""
+    res = subprocess.run([str(exe), "--bench", str(int(repeat)), *map(str, logs)], capture_output=True, text=True)
+    if res.returncode != 0:
+        raise RuntimeError(f"replay --bench failed ({res.returncode}): {res.stderr.strip()}")
+    for line in reversed(res.stdout.splitlines()):
+        if line.startswith('{"bench"'):
+            return json.loads(line)["bench"]
+    raise RuntimeError(f"replay --bench printed no result: {res.stdout[-500:]!r}")

@@ -14,8 +14,6 @@ from __future__ import annotations
 
 import argparse
 import pathlib
-import re
-import subprocess
 import tempfile
 import time
 
@@ -46,7 +44,7 @@ def sklearn_peer(net):
 def run(args) -> int:
     import numpy as np
 
-    from .. import train
+    from .. import replay, train
     from ..errors import InputError
     from ..pipeline import PipelineConfig, run as run_pipeline
     from ..train import TrainConfig
@@ -60,10 +58,8 @@ def run(args) -> int:
         pipeline_s = time.perf_counter() - t0
         work = pathlib.Path(tmp) / "work"
         clean = sorted((work / "logs").glob("*.csv"))
-        out = subprocess.run([str(work / "replay"), "--bench", str(args.repeat), *map(str, clean)],
-                             capture_output=True, text=True, check=True).stdout
-        m = re.search(r"bench: (\d+) samples.*per-sample ([\d.e+]+) samples/s, batched ([\d.e+]+)", out)
-        rows, per_sample, batched = int(m.group(1)), float(m.group(2)), float(m.group(3))
+        speed = replay.bench(work / "replay", clean, args.repeat)
+        rows, per_sample, batched = speed["samples"], speed["per_sample_per_s"], speed["batched_per_s"]
         x = np.concatenate([train.features(r, res.m2)[0] for r in res.recordings])
         z = res.residual.scaler.transform(x)
         peer = sklearn_peer(res.residual.mlp)
