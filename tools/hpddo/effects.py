@@ -35,17 +35,16 @@ from . import schema
 from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
 from .identify import MIN_RPM, IdentificationError
 
-COPPER_TC_PER_K = 0.00393
-FERRITE_TC_PER_K = -0.002
-
-
 # One entry of the library: the declaration in schema.py (name, field, units, plausible
-# range, meaning, excitation, separating recordings, bit).
+# range, meaning, excitation, separating recordings, material constant, bit).
 Effect = schema.Effect
 
 LIBRARY = dict(schema.BY_NAME)
 
 NAMES = tuple(LIBRARY)
+
+COPPER_TC_PER_K = LIBRARY["thermal_ra"].material      # 0.00393, declared in schema.py
+FERRITE_TC_PER_K = LIBRARY["magnet_thermal"].material  # -0.002
 
 
 def check_names(names) -> tuple:
@@ -182,17 +181,19 @@ def spec_for(rows: list[Rows], names, hold=None) -> FitSpec:
     state = bool(thermal)
     blind = state and any(r.needs_state for r in rows)
     free, scales, fixed = ["ke_vs_per_rad"], [0.3], {}
-    # With both thermal effects named, only copper's coefficient, a material constant,
-    # tells the copper's temperature term from the magnets': it is held, the magnets fitted.
-    both = "thermal_ra" in names and "magnet_thermal" in names
+    # A coefficient that is a material constant (schema: material) is held at it where the
+    # temperature scale is unknown (blind), unless a named effect that shares its work with
+    # it is held there instead; and with the effect it shares its work with named too (both
+    # thermal effects), only the material constant tells the two apart: it is held, the
+    # other fitted. Copper (thermal_ra) is held; the magnets at ferrite's only alone.
     for n in names:
         eff = LIBRARY[n]
+        partner_named = eff.shares_work_with in names
+        held_by_partner = any(LIBRARY[m].shares_work_with == n for m in names)
         if n in hold:
             fixed[eff.field] = hold[n]
-        elif (blind or both) and n == "thermal_ra":
-            fixed[eff.field] = COPPER_TC_PER_K
-        elif blind and n == "magnet_thermal" and "thermal_ra" not in names:
-            fixed[eff.field] = FERRITE_TC_PER_K
+        elif eff.material is not None and (partner_named or (blind and not held_by_partner)):
+            fixed[eff.field] = eff.material
         else:
             free.append(eff.field)
             scales.append(abs(eff.scale))

@@ -66,6 +66,21 @@ class Effect:
     excited_by: str       # which recording makes the effect visible
     thermal: bool = False  # uses the temperature
     separated_from: tuple = ()  # ((other effect, recording that tells the two apart), ...)
+    # A coefficient that is a material constant (thermal effects only): its value, held where
+    # the temperature scale is unknown (no temperature read) or where the effect it shares
+    # its work with is named too; the band within which a fitted value is that material; and
+    # what the diagnosis calls it ("copper's coefficient", "copper plus magnets").
+    material: float | None = None
+    material_band: tuple | None = None
+    material_name: str = ""
+    # The effect that can take over this one's work when the fit lands outside material_band
+    # (both follow the temperature): the diagnosis' material check (docs/diagnosis.md).
+    shares_work_with: str = ""
+
+    def is_material(self, value: float) -> bool:
+        """Whether a fitted coefficient lies within the band of its material constant."""
+        lo, hi = self.material_band
+        return lo <= value <= hi
 
     @property
     def bit(self) -> int:
@@ -125,6 +140,8 @@ EFFECTS = (
            (0.0033, 0.0046), (0.001, 0.012), 0.004,
            "temperature rise x current",
            "a run in which the winding heats up (minutes at high current)", thermal=True,
+           material=0.00393, material_band=(0.0033, 0.0046), material_name="copper",
+           shares_work_with="magnet_thermal",
            separated_from=(
                ("magnet_thermal",
                 "a run in which the temperature changes at a different current-to-speed ratio: e.g. a "
@@ -143,6 +160,7 @@ EFFECTS = (
            "ferrite about -0.2 %/K, NdFeB -0.12 %/K", (-0.0035, -0.0003), (-0.007, -0.00015), -0.002,
            "temperature rise x speed",
            "a run in which the motor heats up (minutes at high current)", thermal=True,
+           material=-0.002, material_band=(-0.0035, -0.0003), material_name="magnets",  # ferrite
            separated_from=(
                ("saturation",
                 "load steps at constant temperature (short, from cold) and a slow warm-up at constant load"),
@@ -261,6 +279,20 @@ def validate() -> None:
             if other not in BY_NAME or other == e.name:
                 raise ValueError(f"{e.name}: separated_from names unknown effect {other!r}")
             pairs.append(frozenset({e.name, other}))
+        if e.material is not None or e.material_band is not None:
+            if not e.thermal:
+                raise ValueError(f"{e.name}: a material constant is declared for thermal effects only")
+            if e.material is None or e.material_band is None or not e.material_name:
+                raise ValueError(f"{e.name}: material, material_band and material_name go together")
+            if not (e.plausible[0] <= e.material_band[0] <= e.material <= e.material_band[1] <= e.plausible[1]):
+                raise ValueError(f"{e.name}: material {e.material} not within material_band {e.material_band} "
+                                 f"within plausible {e.plausible}")
+        if e.shares_work_with:
+            other = BY_NAME.get(e.shares_work_with)
+            if other is None or other is e:
+                raise ValueError(f"{e.name}: shares_work_with names unknown effect {e.shares_work_with!r}")
+            if e.material is None or other.material is None:
+                raise ValueError(f"{e.name}: shares_work_with needs a material constant on both effects")
     if len(set(pairs)) != len(pairs):
         raise ValueError("a pair of effects has two separating recordings")
 

@@ -149,43 +149,52 @@ def diagnose(paths, opt: Options) -> dict:
                 separators.append({"effects": [s.name, other], "recording": ranking.separator(s.name, other),
                                    "corr": ranking.partial_corr(d, base, s.name, other, given)})
 
-    # A material constant as a test of confounding: thermal_ra named with a coefficient far
-    # from copper's means another temperature term shares its work. If copper's value plus
-    # the magnets' term explains the held-out rows as well, the data cannot tell the two
-    # apart, and the physical reading (copper + magnets) is the one named.
-    if ("thermal_ra" in missing and "magnet_thermal" not in given + missing
-            and not fx.LIBRARY["thermal_ra"].plausibility(getattr(final, "ra_tc_per_K"))[0]):
+    # A material constant as a test of confounding: an effect whose coefficient is a material
+    # constant (schema: material, material_band; thermal_ra: copper's) named with a value far
+    # from it means the effect it shares its work with (shares_work_with: magnet_thermal)
+    # took part of it. If the material's value plus the other effect explains the held-out
+    # rows as well, the data cannot tell the two apart, and the physical reading (copper +
+    # magnets) is the one named.
+    for name in list(missing):
+        eff = fx.LIBRARY[name]
+        other = eff.shares_work_with
+        if (not other or other in given + missing
+                or eff.is_material(getattr(final, eff.field))):
+            continue
+        oeff = fx.LIBRARY[other]
         try:
-            alt = fx.fit(rows, m2, given + missing + ["magnet_thermal"])
+            alt = fx.fit(rows, m2, given + missing + [other])
         except Exception:
             alt = None
         if alt is not None:
             mse_sel = ranking.held_out_mse(d, ranking.residuals(d, final))
             mse_alt = ranking.held_out_mse(d, ranking.residuals(d, alt))
-            b = alt.ke_tc_per_K
-            if fx.LIBRARY["magnet_thermal"].plausibility(b)[0] and mse_alt <= mse_sel + MATERIAL_SLACK * sigma2:
-                missing.append("magnet_thermal")
+            b = getattr(alt, oeff.field)
+            if oeff.plausibility(b)[0] and mse_alt <= mse_sel + MATERIAL_SLACK * sigma2:
+                missing.append(other)
                 final = alt
                 for e in ranking_rows:
                     if e["named"]:
                         e.update(_entry(e["effect"], final, **{k: e[k] for k in e if k not in _ENTRY_KEYS}))
-                ranking_rows = [e for e in ranking_rows if e["effect"] != "magnet_thermal"]
-                # its share: what it removes once copper's coefficient is held
-                copper = fx.fit(rows, m2, given + missing[:-1], hold={"thermal_ra": fx.COPPER_TC_PER_K})
-                res_copper = ranking.residuals(d, copper)
-                g, z = ranking.gain_z(d, res_copper, ranking.residuals(d, alt), sigma2)
+                ranking_rows = [e for e in ranking_rows if e["effect"] != other]
+                # its share: what it removes once the material's coefficient is held
+                held = fx.fit(rows, m2, given + missing[:-1], hold={name: eff.material})
+                res_held = ranking.residuals(d, held)
+                g, z = ranking.gain_z(d, res_held, ranking.residuals(d, alt), sigma2)
                 ranking_rows.insert(len([e for e in ranking_rows if e["named"]]),
-                                    _entry("magnet_thermal", final, score=max(0.0, min(1.0, g / mse_base)),
+                                    _entry(other, final, score=max(0.0, min(1.0, g / mse_base)),
                                            gain_rpm2=g, z=z, named=True, inclusion=None, identifiable=True,
-                                           note="named with thermal_ra held at copper's coefficient, "
+                                           note=f"named with {name} held at {eff.material_name}'s coefficient, "
                                                 "which the free fit missed; not bootstrapped"))
-                confounded.append(["thermal_ra", "magnet_thermal"])
-                separators.append({"effects": ["thermal_ra", "magnet_thermal"],
-                                   "recording": ranking.separator("thermal_ra", "magnet_thermal"),
-                                   "corr": ranking.partial_corr(d, base, "thermal_ra", "magnet_thermal", given),
-                                   "material_check": {"thermal_ra_fitted_per_K": getattr(steps_final, "ra_tc_per_K"),
+                confounded.append([name, other])
+                unit = eff.unit.replace("1/", "per_")
+                separators.append({"effects": [name, other],
+                                   "recording": ranking.separator(name, other),
+                                   "corr": ranking.partial_corr(d, base, name, other, given),
+                                   "material_check": {f"{name}_fitted_{unit}": getattr(steps_final, eff.field),
                                                       "held_out_mse_fitted": mse_sel,
-                                                      "held_out_mse_copper_plus_magnets": mse_alt}})
+                                                      f"held_out_mse_{eff.material_name}_plus_{oeff.material_name}":
+                                                          mse_alt}})
 
     # residual analysis of the model under test and of the final model
     res_final = ranking.residuals(d, final)
