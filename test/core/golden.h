@@ -1,4 +1,5 @@
-// Access to the golden vectors written by tools/gen_fixtures.py (numpy float32).
+// The tolerance of the golden-vector tests; the rows are read through each generated
+// golden header's own at() and sample().
 #ifndef HPDDO_TEST_GOLDEN_H
 #define HPDDO_TEST_GOLDEN_H
 
@@ -7,9 +8,6 @@
 #include "hpddo_core.h"
 
 namespace golden {
-
-/// Value of row r, column c of a golden table.
-inline float at(const float* rows, int width, int r, int c) { return hpddo::flash_float(rows + r * width + c); }
 
 /// |got - want| within 1e-4 relative to max(|want|, 1): the tolerance of every stage.
 inline bool close(float got, float want) {

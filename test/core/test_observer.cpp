@@ -12,12 +12,12 @@
 namespace {
 
 template <class Net>
-void replay_golden(const hpddo::Model<Net>& model, const float* rows, int count, int width,
+void replay_golden(const hpddo::Model<Net>& model, int count, float (*at)(uint16_t, uint8_t),
                    hpddo::Sample (*sample)(uint16_t)) {
   using namespace hpddo_golden_tiny;  // column indices are the same for every golden table
   hpddo::Observer<Net> obs(model);
   for (int r = 0; r < count; ++r) {
-    const auto g = [&](int c) { return golden::at(rows, width, r, c); };
+    const auto g = [&](int c) { return at(static_cast<uint16_t>(r), static_cast<uint8_t>(c)); };
     const hpddo::Sample s = sample(static_cast<uint16_t>(r));
     const hpddo::Estimate e = obs.step(s);
     ASSERT_EQ(static_cast<int>(e.status), static_cast<int>(g(kCol_status))) << "row " << r;
@@ -45,18 +45,18 @@ hpddo::Model<hpddo_model_tiny::Net> without_thermal_state() {
 
 TEST(Observer, TwoLayerModelMatchesGoldenStream) {
   using namespace hpddo_golden_tiny;
-  replay_golden(hpddo_model_tiny::kModel, kRows, kCount, kWidth, sample);
+  replay_golden(hpddo_model_tiny::kModel, kCount, at, sample);
 }
 
 TEST(Observer, OneLayerModelMatchesGoldenStream) {
   using namespace hpddo_golden_tiny1;
-  replay_golden(hpddo_model_tiny1::kModel, kRows, kCount, kWidth, sample);
+  replay_golden(hpddo_model_tiny1::kModel, kCount, at, sample);
 }
 
 TEST(Observer, GoldenStreamsReachEveryStatus) {
   using namespace hpddo_golden_tiny;
   int seen[4] = {0, 0, 0, 0};
-  for (int r = 0; r < kCount; ++r) ++seen[static_cast<int>(golden::at(kRows, kWidth, r, kCol_status))];
+  for (int r = 0; r < kCount; ++r) ++seen[static_cast<int>(at(static_cast<uint16_t>(r), static_cast<uint8_t>(kCol_status)))];
   for (int s = 0; s < 4; ++s) EXPECT_GT(seen[s], 0) << hpddo::status_name(static_cast<hpddo::Status>(s));
 }
 

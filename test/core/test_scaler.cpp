@@ -22,11 +22,11 @@ TEST(Scaler, MatchesGoldenStage) {
   const hpddo::Scaler<5>& s = hpddo_model_tiny::kModel.scaler;
   int checked = 0;
   for (int r = 0; r < kCount; ++r) {
-    if (std::isnan(golden::at(kRows, kWidth, r, kCol_z0))) continue;
+    if (std::isnan(at(static_cast<uint16_t>(r), static_cast<uint8_t>(kCol_z0)))) continue;
     float x[5], z[5];
-    for (int j = 0; j < 5; ++j) x[j] = golden::at(kRows, kWidth, r, kCol_x0 + j);
+    for (int j = 0; j < 5; ++j) x[j] = at(static_cast<uint16_t>(r), static_cast<uint8_t>(kCol_x0 + j));
     s.transform(x, z);
-    for (int j = 0; j < 5; ++j) EXPECT_TRUE(golden::close(z[j], golden::at(kRows, kWidth, r, kCol_z0 + j))) << r;
+    for (int j = 0; j < 5; ++j) EXPECT_TRUE(golden::close(z[j], at(static_cast<uint16_t>(r), static_cast<uint8_t>(kCol_z0 + j)))) << r;
     ++checked;
   }
   EXPECT_GT(checked, 50);

@@ -18,7 +18,7 @@ TEST(DefaultModel, EveryStageMatchesGoldenWithin1e4Relative) {
   hpddo::Observer<Net> obs(hpddo_model_default::kModel);
   int statuses[4] = {0, 0, 0, 0};
   for (int r = 0; r < kCount; ++r) {
-    const auto g = [&](int c) { return golden::at(kRows, kWidth, r, c); };
+    const auto g = [&](int c) { return at(static_cast<uint16_t>(r), static_cast<uint8_t>(c)); };
     const hpddo::Sample s = sample(static_cast<uint16_t>(r));
     // The stages below the observer, from the golden inputs of each stage.
     if (!std::isnan(g(kCol_z0))) {
