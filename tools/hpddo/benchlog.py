@@ -510,13 +510,31 @@ def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
 def write_text_atomic(path, text: str) -> pathlib.Path:
     """Writes text (UTF-8, LF) to a temporary file beside path, then renames it over path,
     so a reader sees the old file or the whole new one, never a part."""
+    return write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_bytes_atomic(path, data, opener=None) -> pathlib.Path:
+    """Writes data to a temporary file beside path (flushed and fsynced, mode 0644), then
+    renames it over path, so a reader sees the old file or the whole new one, never a part;
+    on any failure the temporary file is removed and path is untouched. data: bytes, or a
+    function that writes into the open binary file it is given (to stream a large source).
+    opener(temporary path) opens the temporary file for writing (default: the file
+    tempfile made)."""
     path = pathlib.Path(path)
     directory = path.parent if str(path.parent) else pathlib.Path(".")
     directory.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
     try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="\n") as fh:
-            fh.write(text)
+        if opener is None:
+            fh = os.fdopen(fd, "wb")
+        else:
+            os.close(fd)
+            fh = opener(tmp)
+        with fh:
+            if callable(data):
+                data(fh)
+            else:
+                fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
         os.chmod(tmp, 0o644)

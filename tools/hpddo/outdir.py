@@ -73,13 +73,15 @@ def commit(stage: pathlib.Path, out: pathlib.Path, tool: str, prune: bool = True
     and writes the manifest. With prune, what the tool wrote there before and did not write
     now is removed (the folder is one result, as a report); without, it stays (the folder
     collects results, as recordings). Removes stage."""
+    from .benchlog import write_text_atomic  # on use: the bench-log reader loads pandas
+
     entries = sorted(p.name for p in stage.iterdir() if p.name != MANIFEST)
     check(out, tool, entries)
     _, old = _manifest(out) if out.is_dir() else (None, set())
     listed = entries if prune else sorted(set(entries) | {n for n in old if (out / n).exists()})
     manifest = json.dumps({"tool": tool, "entries": listed}, indent=1) + "\n"
     if not out.exists():
-        (stage / MANIFEST).write_text(manifest, encoding="utf-8")
+        write_text_atomic(stage / MANIFEST, manifest)
         os.chmod(stage, 0o755)
         os.rename(stage, out)
         return out
@@ -90,9 +92,7 @@ def commit(stage: pathlib.Path, out: pathlib.Path, tool: str, prune: bool = True
         for name in entries:
             _move_aside(out / name, trash)
             os.rename(stage / name, out / name)
-        tmp = out / f".{MANIFEST}.tmp"
-        tmp.write_text(manifest, encoding="utf-8")
-        os.replace(tmp, out / MANIFEST)
+        write_text_atomic(out / MANIFEST, manifest)
     finally:
         shutil.rmtree(trash, ignore_errors=True)
         shutil.rmtree(stage, ignore_errors=True)

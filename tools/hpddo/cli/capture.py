@@ -195,21 +195,15 @@ def read_line(port, port_name: str, partial: pathlib.Path) -> bytes:
 
 
 def write_final(partial: pathlib.Path, out: pathlib.Path, meta_lines: list[str]) -> None:
-    """Writes meta_lines then the partial capture to out atomically (temporary file, fsync, rename)."""
-    tmp = out.with_name(f".{out.name}.tmp")
-    try:
-        with open(tmp, "wb") as dst, open(partial, "rb") as src:
+    """Writes meta_lines then the partial capture to out atomically (benchlog.write_bytes_atomic:
+    temporary file, fsync, rename)."""
+    def fill(dst):
+        with open(partial, "rb") as src:
             dst.write("".join(line + "\n" for line in meta_lines).encode("utf-8"))
             shutil.copyfileobj(src, dst)
-            dst.flush()
-            os.fsync(dst.fileno())
-        os.replace(tmp, out)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+
+    # the temporary file opened with this module's open (the tests fill the disk through it)
+    benchlog.write_bytes_atomic(out, fill, opener=lambda tmp: open(tmp, "wb"))
 
 
 def capture(port, out: pathlib.Path, command: str | None = None, rows: int | None = None,
