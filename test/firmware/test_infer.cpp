@@ -16,7 +16,7 @@ namespace {
 namespace gold = ::HPDDO_GOLDEN_NS;
 typedef infer::model::Net Net;
 
-float g(int r, int c) { return hpddo::flash_float(gold::kRows + r * gold::kWidth + c); }
+float g(int r, int c) { return gold::at(static_cast<uint16_t>(r), static_cast<uint8_t>(c)); }
 
 hpddo::SampleFrame frame_of(uint16_t seq, float v, float i, float temp, float dt, float rpm) {
   hpddo::SampleFrame f;

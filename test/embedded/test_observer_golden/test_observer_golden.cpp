@@ -14,7 +14,7 @@ namespace mdl = hpddo_model_default;
 void setUp() {}
 void tearDown() {}
 
-static float g(int r, int c) { return hpddo::flash_float(gold::kRows + r * gold::kWidth + c); }
+static float g(int r, int c) { return gold::at(static_cast<uint16_t>(r), static_cast<uint8_t>(c)); }
 
 static void test_checksum() {
   TEST_ASSERT_EQUAL_HEX32(mdl::kChecksum, hpddo::model_checksum(mdl::kModel));
