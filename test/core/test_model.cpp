@@ -27,6 +27,11 @@ TEST(Model, ChecksumSeesAnyChangedValue) {
   EXPECT_NE(hpddo::model_checksum(m3), kChecksum);
 }
 
-TEST(Model, EffectsListedInTheHeaderAreThePhysicsEffects) {
-  EXPECT_EQ(hpddo_model_tiny::kModel.physics.effects, hpddo_model_tiny::kEffects);
+TEST(Model, ChecksumSeesTheEffectBits) {
+  using namespace hpddo_model_tiny;
+  for (uint16_t bit = 1; bit < 0x80u; bit = static_cast<uint16_t>(bit << 1)) {
+    hpddo::Model<Net> m = kModel;
+    m.physics.effects = static_cast<uint16_t>(m.physics.effects ^ bit);
+    EXPECT_NE(hpddo::model_checksum(m), kChecksum) << "effect bit " << bit;
+  }
 }
