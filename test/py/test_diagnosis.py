@@ -49,8 +49,7 @@ def root(tmp_path_factory):
 
 
 def run(paths):
-    res, _ = core.diagnose(paths, core.Options(bootstrap=0, hybrid=False))
-    return res
+    return core.diagnose(paths, core.Options(bootstrap=0, hybrid=False)).to_json()
 
 
 @pytest.mark.parametrize("seed", SEEDS)

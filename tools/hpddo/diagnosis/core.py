@@ -1,5 +1,20 @@
 """The diagnosis: model against measurements, residual analysis, ranking of the missing
-effects, verdict, and the error before and after adding them (physics and hybrid)."""
+effects, verdict, and the error before and after adding them (physics and hybrid).
+
+diagnose() strings the stages together, each a function of typed values:
+
+  load            the recordings, their rows, Ra and the plain model M2      -> Inputs
+  fit_model       the model under test, the least-squares reference, noise   -> ModelFit
+  identifiability which effects these recordings can show at all             -> {effect: Identifiability}
+  select          forward selection, bootstrap, the ranking table            -> Selection
+  confounding     alternatives that explained nearly as much                 -> Confounding
+  material_check  a material constant as a test of confounding               -> (Selection, Confounding)
+  residuals       residual analysis before and after adding the effects      -> Residuals
+  verdict         the verdict text                                           -> str
+  hybrid          the hybrid's RMSE before and after (optional)              -> Hybrid | None
+
+The result is a Diagnosis; Diagnosis.to_json() is diagnosis.json.
+"""
 from __future__ import annotations
 
 import dataclasses
@@ -16,6 +31,9 @@ from . import analysis, ranking
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
 HYBRID_ITER = 150  # training iterations of the hybrid in the diagnosis (gen_weights: 2000)
+# The material reading (e.g. copper plus magnets) is taken when its held-out mean squared
+# error is at most this many noise variances above the freely fitted one's.
+MATERIAL_SLACK = 0.5
 
 
 @dataclasses.dataclass
@@ -27,6 +45,490 @@ class Options:
     hybrid_iter: int = HYBRID_ITER
     seed: int = 1
     glitch_filter: bool = True
+
+
+# ---------------------------------------------------------------------------------------
+# Typed parts of the result
+
+
+@dataclasses.dataclass
+class EffectResult:
+    """One row of the ranking table. kind: "named" (missing, named by the selection or the
+    material check), "candidate" (identifiable, not named) or "unseen" (not identifiable)."""
+
+    effect: str
+    kind: str
+    score: float
+    params: dict
+    inclusion: float | None = None
+    shown: str = ""
+    unit: str = ""
+    plausible: bool = False
+    plausibility: str = ""
+    meaning: str = ""
+    gain_rpm2: float | None = None
+    z: float | None = None
+    physical: bool | None = None          # candidate: its fitted coefficient is physical
+    alone_gain_rpm2: float | None = None  # candidate: its gain on the base model alone
+    note: str | None = None               # named by the material check
+    se: float | None = None               # unseen: standard error of its coefficient
+    needs: str = ""                       # unseen: the recording that would show it
+
+    @property
+    def named(self) -> bool:
+        return self.kind == "named"
+
+    @property
+    def identifiable(self) -> bool:
+        return self.kind != "unseen"
+
+    def at(self, p: ph.PhysicsParams) -> "EffectResult":
+        """This row with its coefficient (and what is derived from it) read from p."""
+        return dataclasses.replace(self, **_described(self.effect, p))
+
+    def to_json(self) -> dict:
+        if not self.identifiable:
+            return {"effect": self.effect, "score": self.score, "params": self.params, "named": False,
+                    "identifiable": False, "inclusion": self.inclusion, "se": self.se, "meaning": self.meaning,
+                    "plausibility": self.plausibility, "needs": self.needs}
+        out = {"effect": self.effect, "params": self.params, "shown": self.shown, "unit": self.unit,
+               "plausible": self.plausible, "plausibility": self.plausibility, "meaning": self.meaning,
+               "score": self.score, "gain_rpm2": self.gain_rpm2, "z": self.z, "named": self.named,
+               "inclusion": self.inclusion, "identifiable": True}
+        if self.kind == "candidate":
+            out.update(physical=self.physical, alone_gain_rpm2=self.alone_gain_rpm2)
+        if self.note is not None:
+            out["note"] = self.note
+        return out
+
+
+def _described(name: str, p: ph.PhysicsParams) -> dict:
+    """The fields of an EffectResult that follow from the parameters p."""
+    eff = fx.LIBRARY[name]
+    val = getattr(p, eff.field)
+    ok, text = eff.plausibility(val)
+    params = {eff.field: val}
+    if eff.thermal and p.thermal_enabled():
+        params.update(th_r_K_per_W=p.th_r_K_per_W, th_tau_s=p.th_tau_s)
+    return {"params": params, "shown": eff.show(val), "unit": eff.unit, "plausible": ok, "plausibility": text,
+            "meaning": eff.meaning}
+
+
+def _score(gain: float, mse_base: float) -> float:
+    return max(0.0, min(1.0, gain / mse_base))
+
+
+@dataclasses.dataclass
+class Trial:
+    """One candidate tried at a step of the forward selection."""
+
+    effect: str
+    gain_rpm2: float
+    z: float
+    physical: bool
+
+    def to_json(self) -> dict:
+        return {"effect": self.effect, "gain_rpm2": self.gain_rpm2, "z": self.z, "physical": bool(self.physical)}
+
+
+@dataclasses.dataclass
+class RankingStep:
+    """One step of the forward selection; effect None: the step that named nothing."""
+
+    effect: str | None
+    gain_rpm2: float
+    z: float
+    mse_before: float
+    mse_after: float
+    tried: list  # [Trial]
+
+    @classmethod
+    def of(cls, s: ranking.Step) -> "RankingStep":
+        return cls(s.name or None, s.gain, s.z, s.mse_before, s.mse_after,
+                   [Trial(a, g, z, phy) for a, g, z, phy in s.alternatives])
+
+    def to_json(self) -> dict:
+        return {"effect": self.effect, "gain_rpm2": self.gain_rpm2, "z": self.z, "mse_before": self.mse_before,
+                "mse_after": self.mse_after, "tried": [t.to_json() for t in self.tried]}
+
+
+@dataclasses.dataclass
+class MaterialCheck:
+    """The material check of `effect` (whose coefficient is a material constant) against
+    `other` (the effect that shares its work)."""
+
+    effect: str
+    other: str
+    fitted: float              # the freely fitted coefficient of `effect`
+    held_out_mse_fitted: float
+    held_out_mse_material: float  # with the material's value and `other`
+
+    def to_json(self) -> dict:
+        e, o = fx.LIBRARY[self.effect], fx.LIBRARY[self.other]
+        return {f"{self.effect}_fitted_{e.unit.replace('1/', 'per_')}": self.fitted,
+                "held_out_mse_fitted": self.held_out_mse_fitted,
+                f"held_out_mse_{e.material_name}_plus_{o.material_name}": self.held_out_mse_material}
+
+
+@dataclasses.dataclass
+class ConfoundedPair:
+    """Two effects the recordings cannot tell apart, and the recording that would."""
+
+    effects: list
+    recording: str
+    corr: float
+    material_check: MaterialCheck | None = None
+
+    def to_json(self) -> dict:
+        out = {"effects": self.effects, "recording": self.recording, "corr": self.corr}
+        if self.material_check is not None:
+            out["material_check"] = self.material_check.to_json()
+        return out
+
+
+@dataclasses.dataclass
+class Identifiability:
+    se: float
+    identifiable: bool
+
+
+@dataclasses.dataclass
+class ResidualAnalysis:
+    mse: float
+    noise_var: float
+    excess: float
+    whiteness: dict    # analysis.whiteness
+    correlates: list   # analysis.correlates
+
+    def to_json(self) -> dict:
+        return {"mse": self.mse, "noise_var": self.noise_var, "excess": self.excess, "whiteness": self.whiteness,
+                "correlates": self.correlates}
+
+
+@dataclasses.dataclass
+class Hybrid:
+    """The hybrid (M3 on the physics) before and after adding the missing effects."""
+
+    rmse_before: dict
+    rmse_after: dict
+    iterations: int
+    est_before: list   # estimates per recording
+    est_after: list
+
+    def to_json(self) -> dict:
+        return {"before": self.rmse_before, "after": self.rmse_after, "iterations": self.iterations}
+
+
+# ---------------------------------------------------------------------------------------
+# Stage values
+
+
+@dataclasses.dataclass
+class Inputs:
+    recs: list
+    rows: list         # effects.Rows per recording
+    data: ranking.Data
+    ra: float
+    ra_source: str
+    m2: ph.PhysicsParams
+    given: list        # effects already in the model under test
+
+
+@dataclasses.dataclass
+class ModelFit:
+    model: ph.PhysicsParams   # the model under test, as gen_weights builds it
+    base: ph.PhysicsParams    # the same with Ke by least squares: the ranking's reference
+    res_model: list
+    res_base: list
+    sigma2: float             # noise variance
+    mse_base: float
+
+
+@dataclasses.dataclass
+class Selection:
+    steps: list        # ranking.Step
+    final: ph.PhysicsParams
+    steps_final: ph.PhysicsParams  # the selection's final model (before the material check)
+    missing: list      # effects named, in order
+    ranking: list      # EffectResult
+
+
+@dataclasses.dataclass
+class Confounding:
+    groups: list       # [[effect, ...]]
+    pairs: list        # ConfoundedPair
+
+
+@dataclasses.dataclass
+class Residuals:
+    after_model: ph.PhysicsParams
+    res_after: list
+    before: ResidualAnalysis
+    after: ResidualAnalysis
+
+
+@dataclasses.dataclass
+class Diagnosis:
+    """The result of diagnose(); to_json() is diagnosis.json."""
+
+    recordings: list     # dicts: name, file, rows, train_rows, glitches_removed, has_temp
+    warnings: list
+    ra_ohm: float
+    ra_source: str
+    model_effects: list
+    model: ph.PhysicsParams
+    missing_effects: list
+    confounded: list
+    separating_recordings: list  # ConfoundedPair
+    not_identifiable: list       # dicts: effect, needs, se
+    ranking: list                # EffectResult
+    verdict: str
+    noise_rpm: float
+    rmse_before: dict
+    rmse_after: dict
+    after_model: ph.PhysicsParams
+    residual_before: ResidualAnalysis
+    residual_after: ResidualAnalysis
+    steps: list                  # RankingStep
+    thresholds: dict
+    hybrid: Hybrid | None
+    runtime_s: float
+    # for the report's figures (not in the JSON)
+    rows: list = dataclasses.field(repr=False, default_factory=list)
+    est_before: list = dataclasses.field(repr=False, default_factory=list)
+    est_after: list = dataclasses.field(repr=False, default_factory=list)
+    res_before: list = dataclasses.field(repr=False, default_factory=list)
+    res_after: list = dataclasses.field(repr=False, default_factory=list)
+
+    def to_json(self) -> dict:
+        out = {
+            "recordings": self.recordings,
+            "warnings": self.warnings,
+            "ra_ohm": self.ra_ohm, "ra_source": self.ra_source,
+            "model_effects": self.model_effects,
+            "model": dataclasses.asdict(self.model),
+            "missing_effects": self.missing_effects,
+            "confounded": self.confounded,
+            "separating_recordings": [s.to_json() for s in self.separating_recordings],
+            "not_identifiable": self.not_identifiable,
+            "ranking": [e.to_json() for e in self.ranking],
+            "verdict": self.verdict,
+            "noise_rpm": self.noise_rpm,
+            "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after},
+            "after_model": dataclasses.asdict(self.after_model),
+            "residual_before": self.residual_before.to_json(),
+            "residual_after": self.residual_after.to_json(),
+            "steps": [s.to_json() for s in self.steps],
+            "thresholds": self.thresholds,
+        }
+        if self.hybrid is not None:
+            out["rmse_rpm_hybrid"] = self.hybrid.to_json()
+        out["runtime_s"] = self.runtime_s
+        return out
+
+    def plot(self) -> dict:
+        """What the report's figures need besides the JSON."""
+        hyb = {} if self.hybrid is None else {"before": self.hybrid.est_before, "after": self.hybrid.est_after}
+        return {"rows": self.rows, "est_before": self.est_before, "est_after": self.est_after, "hybrid": hyb,
+                "res_before": self.res_before, "res_after": self.res_after}
+
+    def __iter__(self):
+        # `res, plot = diagnose(...)`, as the command line (cli/diagnose.py) still unpacks it
+        return iter((self.to_json(), self.plot()))
+
+
+# ---------------------------------------------------------------------------------------
+# Stages
+
+
+def load(paths, opt: Options) -> Inputs:
+    """The recordings, their rows, Ra and M2; refuses recordings with too few held-out rows."""
+    recs = dataset.load_recordings(paths, glitch_filter=opt.glitch_filter)
+    ra, ra_source = identify.ra_from_logs(recs, opt.ra_ohm)
+    m2 = identify.m2_params(recs, ra)
+    given = list(fx.check_names(opt.effects))
+    rows = [fx.rows_of(r) for r in recs]
+    held_out = sum(int(r.test.sum()) for r in rows)
+    if held_out < MIN_HELD_OUT_ROWS:
+        raise InputError(f"only {held_out} held-out rows with rpm_ref > {fx.MIN_RPM} RPM in "
+                         f"{', '.join(str(r.source) for r in recs)}: the diagnosis scores every effect on rows "
+                         f"not used to fit it and needs at least {MIN_HELD_OUT_ROWS}; give longer recordings")
+    return Inputs(recs=recs, rows=rows, data=ranking.make_data(rows), ra=ra, ra_source=ra_source, m2=m2, given=given)
+
+
+def fit_model(inp: Inputs) -> ModelFit:
+    """The model under test, its least-squares reference and the noise floor."""
+    d = inp.data
+    model = fx.identify(inp.recs, inp.m2, inp.given) if inp.given else inp.m2
+    res_model = ranking.residuals(d, model)
+    base = fx.fit(inp.rows, inp.m2, inp.given)
+    res_base = ranking.residuals(d, base)
+    sigma2 = ranking.noise_var(d, res_base)
+    return ModelFit(model=model, base=base, res_model=res_model, res_base=res_base, sigma2=sigma2,
+                    mse_base=ranking.held_out_mse(d, res_base))
+
+
+def identifiability(inp: Inputs, mf: ModelFit) -> dict:
+    """{effect: Identifiability} of every effect not in the model under test."""
+    out = {}
+    for c in fx.NAMES:
+        if c not in inp.given:
+            r = ranking.identifiability(inp.data, mf.base, c, mf.sigma2, inp.given)
+            out[c] = Identifiability(se=r["se"], identifiable=r["identifiable"])
+    return out
+
+
+def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
+    """Forward selection on the identifiable effects, the bootstrap's inclusion frequencies,
+    and the ranking table: the named effects, the other candidates' gains on the final
+    model, the effects these recordings cannot show."""
+    d, rows, m2, given, sigma2 = inp.data, inp.rows, inp.m2, inp.given, mf.sigma2
+    candidates = [c for c in ident if ident[c].identifiable]
+    steps, final = ranking.forward_select(d, m2, given, candidates, sigma2)
+    missing = [s.name for s in steps if s.name]
+    boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed)
+
+    # single-effect gains on the base model (the first step's trial) for the ranking table
+    first = {a[0]: a for a in steps[0].alternatives} if steps else {}
+    table = [EffectResult(s.name, "named", score=_score(s.gain, mf.mse_base), gain_rpm2=s.gain, z=s.z,
+                          inclusion=boot.get(s.name), **_described(s.name, final))
+             for s in steps if s.name]
+    res_final = None
+    for c in candidates:
+        if c in missing:
+            continue
+        try:
+            pc = fx.fit(rows, m2, given + missing + [c], start=final)
+        except Exception:
+            continue
+        res_final = ranking.residuals(d, final) if res_final is None else res_final
+        g, z = ranking.gain_z(d, res_final, ranking.residuals(d, pc), sigma2)
+        single = first.get(c)
+        table.append(EffectResult(c, "candidate", score=_score(g, mf.mse_base), gain_rpm2=g, z=z,
+                                  inclusion=boot.get(c),
+                                  physical=ranking._physical(c, getattr(pc, fx.LIBRARY[c].field)),
+                                  alone_gain_rpm2=single[1] if single else None, **_described(c, pc)))
+    for c in fx.NAMES:
+        if c in given or c in candidates:
+            continue
+        table.append(EffectResult(c, "unseen", score=0.0, params={}, se=ident[c].se,
+                                  meaning=fx.LIBRARY[c].meaning,
+                                  plausibility="not identifiable on these recordings",
+                                  needs=fx.LIBRARY[c].excited_by))
+    return Selection(steps=steps, final=final, steps_final=final, missing=missing, ranking=table)
+
+
+def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
+    """Alternatives that explained nearly as much at the step an effect was named."""
+    groups, pairs = [], []
+    for s in sel.steps:
+        if not s.name:
+            continue
+        group = [s.name]
+        for name, g, z, physical in s.alternatives:
+            if name != s.name and physical and z >= ranking.Z_MIN and g >= ranking.CONFOUND_GAIN * s.gain:
+                group.append(name)
+        if len(group) > 1:
+            groups.append(group)
+            for other in group[1:]:
+                pairs.append(ConfoundedPair([s.name, other], ranking.separator(s.name, other),
+                                            ranking.partial_corr(inp.data, mf.base, s.name, other, inp.given)))
+    return Confounding(groups=groups, pairs=pairs)
+
+
+def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding) -> tuple[Selection, Confounding]:
+    """A material constant as a test of confounding: an effect whose coefficient is a
+    material constant (schema: material, material_band; thermal_ra: copper's) named with a
+    value far from it means the effect it shares its work with (shares_work_with:
+    magnet_thermal) took part of it. If the material's value plus the other effect explains
+    the held-out rows as well, the data cannot tell the two apart, and the physical reading
+    (copper + magnets) is the one named."""
+    d, rows, m2, given, sigma2 = inp.data, inp.rows, inp.m2, inp.given, mf.sigma2
+    missing, final, table = list(sel.missing), sel.final, list(sel.ranking)
+    groups, pairs = list(conf.groups), list(conf.pairs)
+    for name in list(missing):
+        eff = fx.LIBRARY[name]
+        other = eff.shares_work_with
+        if not other or other in given + missing or eff.is_material(getattr(final, eff.field)):
+            continue
+        oeff = fx.LIBRARY[other]
+        try:
+            alt = fx.fit(rows, m2, given + missing + [other])
+        except Exception:
+            continue
+        mse_sel = ranking.held_out_mse(d, ranking.residuals(d, final))
+        mse_alt = ranking.held_out_mse(d, ranking.residuals(d, alt))
+        if not (oeff.plausibility(getattr(alt, oeff.field))[0] and mse_alt <= mse_sel + MATERIAL_SLACK * sigma2):
+            continue
+        missing.append(other)
+        final = alt
+        table = [e.at(final) if e.named else e for e in table if e.effect != other]
+        # its share: what it removes once the material's coefficient is held
+        held = fx.fit(rows, m2, given + missing[:-1], hold={name: eff.material})
+        g, z = ranking.gain_z(d, ranking.residuals(d, held), ranking.residuals(d, alt), sigma2)
+        table.insert(len([e for e in table if e.named]),
+                     EffectResult(other, "named", score=_score(g, mf.mse_base), gain_rpm2=g, z=z, inclusion=None,
+                                  note=f"named with {name} held at {eff.material_name}'s coefficient, "
+                                       "which the free fit missed; not bootstrapped",
+                                  **_described(other, final)))
+        groups.append([name, other])
+        pairs.append(ConfoundedPair([name, other], ranking.separator(name, other),
+                                    ranking.partial_corr(d, mf.base, name, other, given),
+                                    MaterialCheck(name, other, getattr(sel.steps_final, eff.field), mse_sel, mse_alt)))
+    return (dataclasses.replace(sel, final=final, missing=missing, ranking=table),
+            Confounding(groups=groups, pairs=pairs))
+
+
+# the inputs the residual is cross-correlated with: (name, Rows attribute)
+RESIDUAL_INPUTS = (("V", "v"), ("I", "i"), ("duty", "duty"), ("temp_C", "temp"), ("speed", "ref"),
+                   ("dI/dt", "di_dt"))
+
+
+def analyse(inp: Inputs, res, sigma2: float) -> ResidualAnalysis:
+    """Whiteness and correlates of the held-out residual res (contiguous runs)."""
+    rows = inp.rows
+    parts = analysis.parts(rows, res)
+    inputs = {}
+    for key, attr in RESIDUAL_INPUTS:
+        pieces = analysis.parts(rows, res, [getattr(r, attr) for r in rows])
+        if pieces and all(np.all(np.isfinite(a)) for a in pieces):
+            inputs[key] = pieces
+    w = analysis.whiteness(parts)
+    corr = analysis.correlates(parts, inputs)
+    mse = ranking.held_out_mse(inp.data, res)
+    return ResidualAnalysis(mse=mse, noise_var=sigma2, excess=max(0.0, mse - sigma2), whiteness=w, correlates=corr)
+
+
+def residuals(inp: Inputs, mf: ModelFit, sel: Selection) -> Residuals:
+    """Residual analysis of the model under test and of it with the missing effects."""
+    after_model = fx.identify(inp.recs, inp.m2, inp.given + sel.missing) if sel.missing else mf.model
+    res_after = ranking.residuals(inp.data, after_model)
+    return Residuals(after_model=after_model, res_after=res_after, before=analyse(inp, mf.res_model, mf.sigma2),
+                     after=analyse(inp, res_after, mf.sigma2))
+
+
+def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float) -> str:
+    after = resid.after
+    structured_left = (after.excess > 0.5 * sigma2) and not after.whiteness["white"]
+    if not sel.missing:
+        if structured_left:
+            return ("No library effect explains the residual, but it is not noise: it is "
+                    f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor "
+                    "and not white. Its strongest correlates: " +
+                    ", ".join(f"{c['input']} (r = {c['peak']:+.2f} at lag {c['peak_lag']})"
+                              for c in after.correlates[:3] if c["significant"]) + ".")
+        return "Nothing missing: the residual is consistent with measurement noise."
+    text = "Missing: " + ", ".join(f"{e.effect} ({e.shown})" for e in sel.ranking if e.named) + "."
+    if conf.groups:
+        text += " " + " ".join(
+            f"{' and '.join(s.effects)} cannot be told apart on these recordings; "
+            f"a recording that would separate them: {s.recording}." for s in conf.pairs)
+    if structured_left:
+        text += (" A structured residual remains that no library effect explains "
+                 f"({after.excess / max(sigma2, 1e-12):.1f}x the noise variance); strongest correlates: " +
+                 ", ".join(f"{c['input']} (r = {c['peak']:+.2f})" for c in after.correlates[:3]
+                           if c["significant"]) + ".")
+    return text
 
 
 def _rmse_by_condition(rows, res) -> dict:
@@ -58,232 +560,54 @@ def _hybrid(recs, p, cfg_iter, seed):
     return out
 
 
-# Keys that _entry derives from the parameters (the rest are the caller's).
-_ENTRY_KEYS = ("effect", "params", "shown", "unit", "plausible", "plausibility", "meaning")
-# The copper-plus-magnets reading is taken when its held-out mean squared error is at most
-# this many noise variances above the freely fitted one's.
-MATERIAL_SLACK = 0.5
+def hybrid(inp: Inputs, model: ph.PhysicsParams, after_model: ph.PhysicsParams, changed: bool,
+           opt: Options) -> tuple[Hybrid | None, list]:
+    """The hybrid on the model under test and on it with the missing effects (the same
+    network when nothing changed): (Hybrid, warnings); None when it cannot be trained."""
+    try:
+        hb = _hybrid(inp.recs, model, opt.hybrid_iter, opt.seed)
+    except TrainingError as exc:  # too few rows for a network: the physics verdict stands alone
+        return None, [f"hybrid before/after not computed: {exc}"]
+    ha = _hybrid(inp.recs, after_model, opt.hybrid_iter, opt.seed) if changed else hb
+    rows = inp.rows
+    return Hybrid(rmse_before=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, hb)]),
+                  rmse_after=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, ha)]),
+                  iterations=opt.hybrid_iter, est_before=hb, est_after=ha), []
 
 
-def _entry(name, p, **kw):
-    eff = fx.LIBRARY[name]
-    val = getattr(p, eff.field)
-    ok, text = eff.plausibility(val)
-    e = {"effect": name, "params": {eff.field: val}, "shown": eff.show(val), "unit": eff.unit,
-         "plausible": ok, "plausibility": text, "meaning": eff.meaning}
-    if eff.thermal and p.thermal_enabled():
-        e["params"].update(th_r_K_per_W=p.th_r_K_per_W, th_tau_s=p.th_tau_s)
-    e.update(kw)
-    return e
+# ---------------------------------------------------------------------------------------
 
 
-def diagnose(paths, opt: Options) -> dict:
+def diagnose(paths, opt: Options) -> Diagnosis:
     t0 = time.perf_counter()
-    recs = dataset.load_recordings(paths, glitch_filter=opt.glitch_filter)
-    ra, ra_source = identify.ra_from_logs(recs, opt.ra_ohm)
-    m2 = identify.m2_params(recs, ra)
-    given = list(fx.check_names(opt.effects))
-    rows = [fx.rows_of(r) for r in recs]
-    held_out = sum(int(r.test.sum()) for r in rows)
-    if held_out < MIN_HELD_OUT_ROWS:
-        raise InputError(f"only {held_out} held-out rows with rpm_ref > {fx.MIN_RPM} RPM in "
-                         f"{', '.join(str(r.source) for r in recs)}: the diagnosis scores every effect on rows "
-                         f"not used to fit it and needs at least {MIN_HELD_OUT_ROWS}; give longer recordings")
-    d = ranking.make_data(rows)
+    inp = load(paths, opt)
+    mf = fit_model(inp)
+    ident = identifiability(inp, mf)
+    sel = select(inp, mf, ident, opt)
+    sel, conf = material_check(inp, mf, sel, confounding(inp, mf, sel))
+    resid = residuals(inp, mf, sel)
+    text = verdict(sel, conf, resid, mf.sigma2)
+    hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, bool(sel.missing), opt) if opt.hybrid else (None, [])
+    return _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
 
-    # the model under test, as gen_weights builds it
-    model = fx.identify(recs, m2, given) if given else m2
-    res_model = ranking.residuals(d, model)
-    # the same model with Ke by least squares: the reference of the ranking
-    base = fx.fit(rows, m2, given)
-    res_base = ranking.residuals(d, base)
-    sigma2 = ranking.noise_var(d, res_base)
-    mse_base = ranking.held_out_mse(d, res_base)
 
-    ident = {c: ranking.identifiability(d, base, c, sigma2, given) for c in fx.NAMES if c not in given}
-    candidates = [c for c in ident if ident[c]["identifiable"]]
-    steps, final = ranking.forward_select(d, m2, given, candidates, sigma2)
-    named = [s for s in steps if s.name]
-    missing = [s.name for s in named]
-    steps_final = final
-    boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed)
-
-    # single-effect gains on the base model (the first step's trial) for the ranking table
-    first = {a[0]: a for a in steps[0].alternatives} if steps else {}
-    ranking_rows = []
-    for s in named:
-        ranking_rows.append(_entry(s.name, final, score=max(0.0, min(1.0, s.gain / mse_base)),
-                                   gain_rpm2=s.gain, z=s.z, named=True, inclusion=boot.get(s.name),
-                                   identifiable=True))
-    for c in candidates:
-        if c in missing:
-            continue
-        try:
-            pc = fx.fit(rows, m2, given + missing + [c], start=final)
-        except Exception:
-            continue
-        g, z = ranking.gain_z(d, ranking.residuals(d, final), ranking.residuals(d, pc), sigma2)
-        single = first.get(c)
-        ranking_rows.append(_entry(c, pc, score=max(0.0, min(1.0, g / mse_base)), gain_rpm2=g, z=z, named=False,
-                                   inclusion=boot.get(c), identifiable=True,
-                                   physical=ranking._physical(c, getattr(pc, fx.LIBRARY[c].field)),
-                                   alone_gain_rpm2=single[1] if single else None))
-    for c in fx.NAMES:
-        if c in given or c in candidates:
-            continue
-        ranking_rows.append({"effect": c, "score": 0.0, "params": {}, "named": False, "identifiable": False,
-                             "inclusion": None, "se": ident[c]["se"], "meaning": fx.LIBRARY[c].meaning,
-                             "plausibility": "not identifiable on these recordings",
-                             "needs": fx.LIBRARY[c].excited_by})
-
-    # confounding: alternatives that explained nearly as much at the step an effect was named
-    confounded, separators = [], []
-    for s in named:
-        group = [s.name]
-        for name, g, z, physical in s.alternatives:
-            if name != s.name and physical and z >= ranking.Z_MIN and g >= ranking.CONFOUND_GAIN * s.gain:
-                group.append(name)
-        if len(group) > 1:
-            confounded.append(group)
-            for other in group[1:]:
-                separators.append({"effects": [s.name, other], "recording": ranking.separator(s.name, other),
-                                   "corr": ranking.partial_corr(d, base, s.name, other, given)})
-
-    # A material constant as a test of confounding: an effect whose coefficient is a material
-    # constant (schema: material, material_band; thermal_ra: copper's) named with a value far
-    # from it means the effect it shares its work with (shares_work_with: magnet_thermal)
-    # took part of it. If the material's value plus the other effect explains the held-out
-    # rows as well, the data cannot tell the two apart, and the physical reading (copper +
-    # magnets) is the one named.
-    for name in list(missing):
-        eff = fx.LIBRARY[name]
-        other = eff.shares_work_with
-        if (not other or other in given + missing
-                or eff.is_material(getattr(final, eff.field))):
-            continue
-        oeff = fx.LIBRARY[other]
-        try:
-            alt = fx.fit(rows, m2, given + missing + [other])
-        except Exception:
-            alt = None
-        if alt is not None:
-            mse_sel = ranking.held_out_mse(d, ranking.residuals(d, final))
-            mse_alt = ranking.held_out_mse(d, ranking.residuals(d, alt))
-            b = getattr(alt, oeff.field)
-            if oeff.plausibility(b)[0] and mse_alt <= mse_sel + MATERIAL_SLACK * sigma2:
-                missing.append(other)
-                final = alt
-                for e in ranking_rows:
-                    if e["named"]:
-                        e.update(_entry(e["effect"], final, **{k: e[k] for k in e if k not in _ENTRY_KEYS}))
-                ranking_rows = [e for e in ranking_rows if e["effect"] != other]
-                # its share: what it removes once the material's coefficient is held
-                held = fx.fit(rows, m2, given + missing[:-1], hold={name: eff.material})
-                res_held = ranking.residuals(d, held)
-                g, z = ranking.gain_z(d, res_held, ranking.residuals(d, alt), sigma2)
-                ranking_rows.insert(len([e for e in ranking_rows if e["named"]]),
-                                    _entry(other, final, score=max(0.0, min(1.0, g / mse_base)),
-                                           gain_rpm2=g, z=z, named=True, inclusion=None, identifiable=True,
-                                           note=f"named with {name} held at {eff.material_name}'s coefficient, "
-                                                "which the free fit missed; not bootstrapped"))
-                confounded.append([name, other])
-                unit = eff.unit.replace("1/", "per_")
-                separators.append({"effects": [name, other],
-                                   "recording": ranking.separator(name, other),
-                                   "corr": ranking.partial_corr(d, base, name, other, given),
-                                   "material_check": {f"{name}_fitted_{unit}": getattr(steps_final, eff.field),
-                                                      "held_out_mse_fitted": mse_sel,
-                                                      f"held_out_mse_{eff.material_name}_plus_{oeff.material_name}":
-                                                          mse_alt}})
-
-    # residual analysis of the model under test and of the final model
-    res_final = ranking.residuals(d, final)
-    after_model = fx.identify(recs, m2, given + missing) if missing else model
-    res_after = ranking.residuals(d, after_model)
-
-    def analyse(res):
-        parts = analysis.parts(rows, res)
-        inputs = {}
-        for key, arr in (("V", [r.v for r in rows]), ("I", [r.i for r in rows]), ("duty", [r.duty for r in rows]),
-                         ("temp_C", [r.temp for r in rows]), ("speed", [r.ref for r in rows]),
-                         ("dI/dt", [r.di_dt for r in rows])):
-            pieces = analysis.parts(rows, res, arr)
-            if pieces and all(np.all(np.isfinite(a)) for a in pieces):
-                inputs[key] = pieces
-        w = analysis.whiteness(parts)
-        corr = analysis.correlates(parts, inputs)
-        mse = ranking.held_out_mse(d, res)
-        return {"mse": mse, "noise_var": sigma2, "excess": max(0.0, mse - sigma2), "whiteness": w,
-                "correlates": corr}
-
-    before_an = analyse(res_model)
-    after_an = analyse(res_after)
-    structured_left = (after_an["excess"] > 0.5 * sigma2) and not after_an["whiteness"]["white"]
-    if not missing:
-        if structured_left:
-            verdict = ("No library effect explains the residual, but it is not noise: it is "
-                       f"{after_an['excess'] / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor "
-                       "and not white. Its strongest correlates: " +
-                       ", ".join(f"{c['input']} (r = {c['peak']:+.2f} at lag {c['peak_lag']})"
-                                 for c in after_an["correlates"][:3] if c["significant"]) + ".")
-        else:
-            verdict = "Nothing missing: the residual is consistent with measurement noise."
-    else:
-        verdict = "Missing: " + ", ".join(f"{e['effect']} ({e['shown']})" for e in ranking_rows if e["named"]) + "."
-        if confounded:
-            verdict += " " + " ".join(
-                f"{' and '.join(s['effects'])} cannot be told apart on these recordings; "
-                f"a recording that would separate them: {s['recording']}." for s in separators)
-        if structured_left:
-            verdict += (" A structured residual remains that no library effect explains "
-                        f"({after_an['excess'] / max(sigma2, 1e-12):.1f}x the noise variance); strongest correlates: " +
-                        ", ".join(f"{c['input']} (r = {c['peak']:+.2f})" for c in after_an["correlates"][:3]
-                                  if c["significant"]) + ".")
-    unseen = [c for c in fx.NAMES if c not in given and not ident.get(c, {"identifiable": True})["identifiable"]]
-
-    rmse_before = _rmse_by_condition(rows, res_model)
-    rmse_after = _rmse_by_condition(rows, res_after)
-    est_before = [r.ref - e for r, e in zip(rows, res_model)]
-    est_after = [r.ref - e for r, e in zip(rows, res_after)]
-    out = {
-        "recordings": [{"name": r.name, "file": str(r.source), "rows": r.n, "train_rows": r.n_train,
-                        "glitches_removed": len(r.removed), "has_temp": r.has_temp()} for r in recs],
-        "warnings": [w for r in recs for w in r.warnings],
-        "ra_ohm": ra, "ra_source": ra_source,
-        "model_effects": given,
-        "model": dataclasses.asdict(model),
-        "missing_effects": missing,
-        "confounded": confounded,
-        "separating_recordings": separators,
-        "not_identifiable": [{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c]["se"]} for c in unseen],
-        "ranking": ranking_rows,
-        "verdict": verdict,
-        "noise_rpm": float(np.sqrt(sigma2)),
-        "rmse_rpm": {"before": rmse_before, "after": rmse_after},
-        "after_model": dataclasses.asdict(after_model),
-        "residual_before": before_an,
-        "residual_after": after_an,
-        "steps": [{"effect": s.name or None, "gain_rpm2": s.gain, "z": s.z, "mse_before": s.mse_before,
-                   "mse_after": s.mse_after,
-                   "tried": [{"effect": a, "gain_rpm2": g, "z": z, "physical": bool(phy)}
-                             for a, g, z, phy in s.alternatives]} for s in steps],
-        "thresholds": {"z_min": ranking.Z_MIN, "rel_min": ranking.REL_MIN, "excess_min": ranking.EXCESS_MIN,
-                       "confound_gain": ranking.CONFOUND_GAIN, "bootstrap": opt.bootstrap},
-    }
-    hyb = {}
-    if opt.hybrid:
-        try:
-            hb = _hybrid(recs, model, opt.hybrid_iter, opt.seed)
-        except TrainingError as exc:  # too few rows for a network: the physics verdict stands alone
-            out["warnings"].append(f"hybrid before/after not computed: {exc}")
-            opt = dataclasses.replace(opt, hybrid=False)
-    if opt.hybrid:
-        ha = _hybrid(recs, after_model, opt.hybrid_iter, opt.seed) if missing else hb
-        out["rmse_rpm_hybrid"] = {"before": _rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, hb)]),
-                                  "after": _rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, ha)]),
-                                  "iterations": opt.hybrid_iter}
-        hyb = {"before": hb, "after": ha}
-    out["runtime_s"] = time.perf_counter() - t0
-    plot = {"rows": rows, "est_before": est_before, "est_after": est_after, "hybrid": hyb,
-            "res_before": res_model, "res_after": res_after}
-    return out, plot
+def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) -> Diagnosis:
+    rows = inp.rows
+    unseen = [c for c, i in ident.items() if not i.identifiable]
+    return Diagnosis(
+        recordings=[{"name": r.name, "file": str(r.source), "rows": r.n, "train_rows": r.n_train,
+                     "glitches_removed": len(r.removed), "has_temp": r.has_temp()} for r in inp.recs],
+        warnings=[w for r in inp.recs for w in r.warnings] + hyb_warnings,
+        ra_ohm=inp.ra, ra_source=inp.ra_source, model_effects=inp.given, model=mf.model,
+        missing_effects=sel.missing, confounded=conf.groups, separating_recordings=conf.pairs,
+        not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
+        ranking=sel.ranking, verdict=text, noise_rpm=float(np.sqrt(mf.sigma2)),
+        rmse_before=_rmse_by_condition(rows, mf.res_model), rmse_after=_rmse_by_condition(rows, resid.res_after),
+        after_model=resid.after_model, residual_before=resid.before, residual_after=resid.after,
+        steps=[RankingStep.of(s) for s in sel.steps],
+        thresholds={"z_min": ranking.Z_MIN, "rel_min": ranking.REL_MIN, "excess_min": ranking.EXCESS_MIN,
+                    "confound_gain": ranking.CONFOUND_GAIN, "bootstrap": opt.bootstrap},
+        hybrid=hyb, runtime_s=time.perf_counter() - t0,
+        rows=rows, est_before=[r.ref - e for r, e in zip(rows, mf.res_model)],
+        est_after=[r.ref - e for r, e in zip(rows, resid.res_after)],
+        res_before=mf.res_model, res_after=resid.res_after)
