@@ -1,0 +1,215 @@
+"""The diagnosis' parts on their own: the residual statistics (statsmodels/scipy) against
+the hand-written definitions they replaced, the one contiguous-run split, the material
+constant on the effect record (validation, the fit's holding rule, the material check's
+JSON keys), the typed result's JSON, and the stages on the bundled recordings."""
+import dataclasses
+import types
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from conftest import ROOT
+
+from hpddo import effects as fx
+from hpddo import schema
+from hpddo.diagnosis import analysis, core
+
+
+# ---- the definitions analysis.py computed by hand before statsmodels/scipy
+
+def _acf(x, max_lag=analysis.MAX_LAG):
+    x = np.asarray(x, float) - np.mean(x)
+    n = len(x)
+    c0 = float(np.dot(x, x)) / n
+    if n < 3 or c0 <= 0:
+        return np.zeros(max_lag + 1)
+    return np.array([float(np.dot(x[: n - k], x[k:])) / n / c0 if k < n else 0.0 for k in range(max_lag + 1)])
+
+
+def _ccf(e, u, max_lag=analysis.MAX_LAG):
+    e = np.asarray(e, float) - np.mean(e)
+    u = np.asarray(u, float) - np.mean(u)
+    n = len(e)
+    den = np.sqrt(np.dot(e, e) * np.dot(u, u))
+    out = np.zeros(2 * max_lag + 1)
+    if den <= 0 or n < 3:
+        return out
+    for j, k in enumerate(range(-max_lag, max_lag + 1)):
+        if abs(k) >= n:
+            continue
+        out[j] = (np.dot(e[k:], u[: n - k]) if k >= 0 else np.dot(e[: n + k], u[-k:])) / den
+    return out
+
+
+def _ljung_box(x, lags=analysis.MAX_LAG):
+    n = len(x)
+    r = _acf(x, lags)[1:]
+    q = n * (n + 2) * float(np.sum(r * r / (n - np.arange(1, lags + 1))))
+    return q, float(stats.chi2.sf(q, lags))
+
+
+@pytest.mark.parametrize("n", [2, 3, 5, 20, 21, 22, 23, 40, 500])
+def test_acf_ccf_ljung_box_are_the_definitions_they_replaced(n):
+    rng = np.random.default_rng(n)
+    x = np.cumsum(rng.normal(size=n))
+    u = rng.normal(size=n) + 0.2 * x
+    np.testing.assert_allclose(analysis.acf(x), _acf(x), rtol=1e-12, atol=1e-14)
+    np.testing.assert_allclose(analysis.ccf(x, u), _ccf(x, u), rtol=1e-12, atol=1e-14)
+    q, p = analysis.ljung_box(x)
+    if n <= analysis.MAX_LAG + 2:
+        assert np.isnan(q) and np.isnan(p)
+    else:
+        q0, p0 = _ljung_box(x)
+        assert q == pytest.approx(q0, rel=1e-12) and p == pytest.approx(p0, rel=1e-9, abs=1e-300)
+
+
+def test_constant_series_has_zero_acf_and_ccf():
+    assert not analysis.acf(np.ones(50)).any()
+    assert not analysis.ccf(np.ones(50), np.arange(50.0)).any()
+
+
+def test_robust_noise_var_is_the_scaled_median_absolute_difference():
+    rng = np.random.default_rng(1)
+    parts = [rng.normal(0, 3.0, 400), rng.normal(0, 3.0, 300) + np.linspace(0, 5, 300)]
+    d = np.concatenate([np.diff(p) for p in parts])
+    mad = 1.4826 * np.median(np.abs(d - np.median(d)))
+    assert analysis.robust_noise_var(parts) == pytest.approx(mad * mad / 2, rel=1e-14)
+    assert analysis.robust_noise_var(parts) == pytest.approx(9.0, rel=0.15)
+    assert np.isnan(analysis.robust_noise_var([np.ones(3)]))
+
+
+def test_runs_and_parts_are_the_contiguous_pieces_longer_than_two_rows():
+    m = np.array([1, 1, 1, 0, 1, 1, 0, 1, 1, 1, 1, 0, 0, 1], bool)
+    assert [c.tolist() for c in analysis.runs(m)] == [[0, 1, 2], [7, 8, 9, 10]]
+    assert analysis.runs(np.zeros(5, bool)) == [] and analysis.runs(np.array([1, 1], bool)) == []
+    e = np.arange(14.0)
+    e[8] = np.nan
+    r = types.SimpleNamespace(test=m, train=~m)
+    assert [p.tolist() for p in analysis.parts([r], [e])] == [[0.0, 1.0, 2.0]]
+    x = 10 * np.arange(14.0)
+    assert [p.tolist() for p in analysis.parts([r], [e], [x])] == [[0.0, 10.0, 20.0]]
+    assert analysis.parts([r], [e], which="train") == []  # training runs of 1 and 2 rows only
+
+
+# ---- the material constant on the effect record
+
+def test_material_constants_are_declared_on_the_records():
+    cu, mag = schema.BY_NAME["thermal_ra"], schema.BY_NAME["magnet_thermal"]
+    assert cu.material == fx.COPPER_TC_PER_K == 0.00393 and cu.shares_work_with == "magnet_thermal"
+    assert cu.is_material(0.004) and not cu.is_material(0.008)
+    assert mag.material == fx.FERRITE_TC_PER_K == -0.002 and not mag.shares_work_with
+    for e in schema.EFFECTS:
+        assert (e.material is None) == (e.material_band is None)
+
+
+@pytest.mark.parametrize("change", [
+    {"material": 0.01},                      # outside its band
+    {"material_band": (0.001, 0.006)},       # band outside the plausible range
+    {"material_name": ""},
+    {"shares_work_with": "nope"},
+    {"shares_work_with": "thermal_ra"},      # itself
+    {"shares_work_with": "brush_drop"},      # no material constant there
+])
+def test_validate_refuses_a_contradictory_material_declaration(monkeypatch, change):
+    effects = tuple(dataclasses.replace(e, **change) if e.name == "thermal_ra" else e for e in schema.EFFECTS)
+    monkeypatch.setattr(schema, "EFFECTS", effects)
+    monkeypatch.setattr(schema, "BY_NAME", {e.name: e for e in effects})
+    with pytest.raises(ValueError):
+        schema.validate()
+
+
+def test_validate_refuses_a_material_constant_on_a_non_thermal_effect(monkeypatch):
+    effects = tuple(dataclasses.replace(e, material=0.5, material_band=(0.3, 0.7), material_name="carbon")
+                    if e.name == "brush_drop" else e for e in schema.EFFECTS)
+    monkeypatch.setattr(schema, "EFFECTS", effects)
+    monkeypatch.setattr(schema, "BY_NAME", {e.name: e for e in effects})
+    with pytest.raises(ValueError):
+        schema.validate()
+
+
+def test_material_fields_leave_the_generated_header_unchanged():
+    for rel, text in schema.generated().items():
+        assert (ROOT / rel).read_text() == text
+
+
+@pytest.mark.parametrize("blind", [False, True])
+def test_fit_holds_the_material_constants_as_declared(blind):
+    rows = [types.SimpleNamespace(needs_state=blind)]
+
+    def held(names):
+        return fx.spec_for(rows, names).fixed
+
+    assert held(["thermal_ra", "magnet_thermal"]) == {"ra_tc_per_K": 0.00393}
+    assert held(["magnet_thermal", "thermal_ra", "brush_drop"]) == {"ra_tc_per_K": 0.00393}
+    assert held(["thermal_ra"]) == ({"ra_tc_per_K": 0.00393} if blind else {})
+    assert held(["magnet_thermal", "saturation"]) == ({"ke_tc_per_K": -0.002} if blind else {})
+    assert held(["brush_drop"]) == {}
+    assert fx.spec_for(rows, ["thermal_ra"], hold={"thermal_ra": 0.004}).fixed == {"ra_tc_per_K": 0.004}
+
+
+# ---- the typed result
+
+def test_effect_result_json_keys_per_kind():
+    from hpddo import physics as ph
+    pp = ph.PhysicsParams(ra_ohm=4.0, ke_vs_per_rad=0.01, i_offset_A=0.02)
+    named = core.EffectResult("current_offset", "named", score=0.5, gain_rpm2=1.0, z=3.0, inclusion=None,
+                              **core._described("current_offset", pp))
+    assert list(named.to_json()) == ["effect", "params", "shown", "unit", "plausible", "plausibility", "meaning",
+                                     "score", "gain_rpm2", "z", "named", "inclusion", "identifiable"]
+    assert named.to_json()["params"] == {"i_offset_A": 0.02} and named.to_json()["named"] is True
+    cand = dataclasses.replace(named, kind="candidate", physical=True, alone_gain_rpm2=None)
+    assert list(cand.to_json())[-2:] == ["physical", "alone_gain_rpm2"] and cand.to_json()["named"] is False
+    noted = dataclasses.replace(named, note="n")
+    assert list(noted.to_json())[-1] == "note"
+    unseen = core.EffectResult("inductance", "unseen", score=0.0, params={}, se=1.0, meaning="m",
+                               plausibility="not identifiable on these recordings", needs="1 kHz")
+    assert list(unseen.to_json()) == ["effect", "score", "params", "named", "identifiable", "inclusion", "se",
+                                      "meaning", "plausibility", "needs"]
+    moved = named.at(dataclasses.replace(pp, i_offset_A=-0.01))
+    assert moved.params == {"i_offset_A": -0.01} and moved.score == 0.5
+
+
+def test_material_check_json_keys():
+    mc = core.MaterialCheck("thermal_ra", "magnet_thermal", 0.008, 2.0, 2.1)
+    assert mc.to_json() == {"thermal_ra_fitted_per_K": 0.008, "held_out_mse_fitted": 2.0,
+                            "held_out_mse_copper_plus_magnets": 2.1}
+
+
+@pytest.fixture(scope="module")
+def default_stages():
+    paths = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]
+    opt = core.Options(bootstrap=0, hybrid=False)
+    inp = core.load(paths, opt)
+    mf = core.fit_model(inp)
+    ident = core.identifiability(inp, mf)
+    sel = core.select(inp, mf, ident, opt)
+    conf = core.confounding(inp, mf, sel)
+    return paths, opt, inp, mf, ident, sel, conf
+
+
+def test_stages_on_the_bundled_recordings(default_stages):
+    paths, opt, inp, mf, ident, sel, conf = default_stages
+    assert not ident["inductance"].identifiable and ident["thermal_ra"].identifiable
+    assert "thermal_ra" in sel.missing and "magnet_thermal" not in sel.missing
+    assert not fx.LIBRARY["thermal_ra"].is_material(sel.final.ra_tc_per_K)  # the free fit misses copper's
+    sel2, conf2 = core.material_check(inp, mf, sel, conf)
+    assert sel2.missing[-1] == "magnet_thermal" and ["thermal_ra", "magnet_thermal"] in conf2.groups
+    assert sel2.final.ra_tc_per_K == pytest.approx(fx.COPPER_TC_PER_K)
+    assert sel.missing[-1] != "magnet_thermal"  # the stage returns new values, its inputs stay
+    resid = core.residuals(inp, mf, sel2)
+    text = core.verdict(sel2, conf2, resid, mf.sigma2)
+    assert text.startswith("Missing: thermal_ra")
+
+    res = core.diagnose(paths, opt)
+    assert isinstance(res, core.Diagnosis) and res.verdict == text
+    js = res.to_json()
+    assert list(js) == ["recordings", "warnings", "ra_ohm", "ra_source", "model_effects", "model",
+                        "missing_effects", "confounded", "separating_recordings", "not_identifiable", "ranking",
+                        "verdict", "noise_rpm", "rmse_rpm", "after_model", "residual_before", "residual_after",
+                        "steps", "thresholds", "runtime_s"]
+    check = [s["material_check"] for s in js["separating_recordings"] if "material_check" in s]
+    assert check and set(check[0]) == {"thermal_ra_fitted_per_K", "held_out_mse_fitted",
+                                       "held_out_mse_copper_plus_magnets"}
+    res_dict, plot = res  # the command line's unpacking
+    assert res_dict["verdict"] == text and plot["hybrid"] == {} and len(plot["rows"]) == 3
