@@ -1,3 +1,3 @@
 """Diagnosis of the physics model against labelled recordings: where it fails, which
 physical effect is missing, and the error before and after adding it (docs/diagnosis.md)."""
-from .core import Options, diagnose  # noqa: F401
+from .core import Diagnosis, Options, diagnose  # noqa: F401
