@@ -70,8 +70,8 @@ def run(args) -> int:
 
 def demo(logs, stage: pathlib.Path, args) -> None:
     """The three steps, written into stage (which becomes args.out when all succeed)."""
-    from ..errors import InputError
-    from . import run as run_subcommand
+    from ..diagnosis import core
+    from . import diagnose
 
     print(f"== 1. M1, M2, M3 (16, 8): identify, train, export, replay natively: {', '.join(p.name for p in logs)}")
     base, page = pipeline(logs, stage / "plain", args.out / "plain", [], args,
@@ -85,14 +85,12 @@ def demo(logs, stage: pathlib.Path, args) -> None:
     print(f"   report: {page}")
 
     print("== 2. diagnosis: where does the physics model fail, which effect is missing?")
-    diag_args = [*map(str, logs), "--out", str(stage / "diagnosis"), "--seed", str(args.seed)]
-    diag_args += ["--ra-ohm", str(args.ra_ohm)] if args.ra_ohm is not None else []
-    diag_args += ["--no-glitch-filter"] if args.no_glitch_filter else []
-    if run_subcommand("diagnose", diag_args) != 0:
-        raise InputError("the diagnosis failed (its message is above); nothing was written")
-    diag = json.loads((stage / "diagnosis" / "diagnosis.json").read_text())
-    missing = diag["missing_effects"]
-    print(f"   report: {args.out / 'diagnosis' / 'index.html'}")
+    t1 = time.perf_counter()
+    d = diagnose.diagnose_into(logs, core.Options(ra_ohm=args.ra_ohm, seed=args.seed,
+                                                  glitch_filter=not args.no_glitch_filter), stage / "diagnosis")
+    print(diagnose.summary(d))
+    print(f"   diagnosis took {time.perf_counter() - t1:.1f} s; report: {args.out / 'diagnosis' / 'index.html'}")
+    missing = list(d.missing_effects)
     if not missing:
         print("== 3. nothing missing: the physics model stays as it is")
         return

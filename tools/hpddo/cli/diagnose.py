@@ -14,6 +14,7 @@ line and fault). See docs/diagnosis.md.
 from __future__ import annotations
 
 import argparse
+import pathlib
 import sys
 import time
 
@@ -42,36 +43,54 @@ def parser(prog: str = "hpddo diagnose") -> argparse.ArgumentParser:
     return p
 
 
-def run(args) -> int:
+def options_of(args):
+    """The diagnosis options a command line gives."""
+    from ..diagnosis import core
+    return core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
+                        hybrid=not args.no_hybrid, hybrid_iter=args.hybrid_iter, seed=args.seed,
+                        glitch_filter=not args.no_glitch_filter)
+
+
+def diagnose_into(logs, opt, out: pathlib.Path):
+    """Runs the diagnosis and writes its report (index.html, diagnosis.json) into out,
+    whole or not at all; returns the typed result (hpddo.diagnosis.Diagnosis)."""
     from .. import outdir
     from ..diagnosis import core, report
 
-    t0 = time.perf_counter()
-    opt = core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
-                       hybrid=not args.no_hybrid, hybrid_iter=args.hybrid_iter, seed=args.seed,
-                       glitch_filter=not args.no_glitch_filter)
-    out = args.out
     outdir.check(out, "diagnose")  # before the work: a refused folder costs nothing
-    res, plot = core.diagnose(args.logs, opt)
+    d = core.diagnose(logs, opt)
     with outdir.staged(out, "diagnose") as stage:
-        report.write(stage, res, plot)
-    for w in res.get("warnings", []):
-        print(f"hpddo diagnose: WARNING: {w}", file=sys.stderr)
-    if args.quiet:
-        return 0
-    print(res["verdict"])
+        report.write(stage, d.to_json(), d.plot())
+    return d
+
+
+def summary(d) -> str:
+    """The verdict, the named effects and the RMSE table, as the command prints them."""
+    res = d.to_json()
+    lines = [res["verdict"]]
     for e in res["ranking"]:
         if e["named"]:
             incl = "" if e["inclusion"] is None else f", inclusion {100 * e['inclusion']:.0f} %"
-            print(f"  {e['effect']:15s} {e['shown']:>14s}  score {e['score']:.3f}{incl}; {e['plausibility']}")
+            lines.append(f"  {e['effect']:15s} {e['shown']:>14s}  score {e['score']:.3f}{incl}; {e['plausibility']}")
     conds = list(res["rmse_rpm"]["before"])
-    print("RMSE on the test parts (RPM)   " + " ".join(f"{c:>9s}" for c in conds))
+    lines.append("RMSE on the test parts (RPM)   " + " ".join(f"{c:>9s}" for c in conds))
     rows = [("physics before", res["rmse_rpm"]["before"]), ("physics after", res["rmse_rpm"]["after"])]
     if "rmse_rpm_hybrid" in res:
         rows += [("hybrid before", res["rmse_rpm_hybrid"]["before"]), ("hybrid after", res["rmse_rpm_hybrid"]["after"])]
-    for lab, d in rows:
-        print(f"  {lab:28s}" + " ".join(f"{d[c]:9.2f}" for c in conds))
-    print(f"wrote {out}/index.html and diagnosis.json; diagnosis took {time.perf_counter() - t0:.1f} s")
+    for lab, row in rows:
+        lines.append(f"  {lab:28s}" + " ".join(f"{row[c]:9.2f}" for c in conds))
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    t0 = time.perf_counter()
+    d = diagnose_into(args.logs, options_of(args), args.out)
+    for w in d.warnings:
+        print(f"hpddo diagnose: WARNING: {w}", file=sys.stderr)
+    if args.quiet:
+        return 0
+    print(summary(d))
+    print(f"wrote {args.out}/index.html and diagnosis.json; diagnosis took {time.perf_counter() - t0:.1f} s")
     return 0
 
 

@@ -332,10 +332,6 @@ class Diagnosis:
         return {"rows": self.rows, "est_before": self.est_before, "est_after": self.est_after, "hybrid": hyb,
                 "res_before": self.res_before, "res_after": self.res_after}
 
-    def __iter__(self):
-        # `res, plot = diagnose(...)`, as the command line (cli/diagnose.py) still unpacks it
-        return iter((self.to_json(), self.plot()))
-
 
 # ---------------------------------------------------------------------------------------
 # Stages
