@@ -269,9 +269,11 @@ FIT_DIGITS = 7  # significant digits kept of a fitted coefficient
 
 def settle_digits(p: ph.PhysicsParams) -> ph.PhysicsParams:
     """p with every float parameter rounded to FIT_DIGITS significant digits. The fit's
-    linear algebra (LAPACK, BLAS) differs in the last bits between CPUs and kernels; at
-    seven digits (far below any coefficient's uncertainty) a model header comes out the
-    same on every machine but for a value within about 1e-12 of a rounding boundary."""
+    linear algebra (LAPACK, BLAS) takes a path that differs between CPUs and kernels: the
+    coefficients the data determine well end about 1e-9 apart and round alike; a poorly
+    determined one (a fitted winding time constant: 1.5e-6 apart between the default and
+    the Prescott kernel on the bundled data) can still differ in its last digit. A fit in a
+    defined order of arithmetic throughout (as network.py trains) would remove that."""
     kw = {f.name: float(f"{getattr(p, f.name):.{FIT_DIGITS}g}") for f in dataclasses.fields(p)
           if isinstance(getattr(p, f.name), float)}
     return dataclasses.replace(p, **kw)
