@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from hpddo import benchlog
 from hpddo.benchlog import BenchLogError, read_log, write_log
 
 GOOD = """\
@@ -213,3 +214,23 @@ def test_atomic_replace_keeps_old_file_on_failure(tmp_path, monkeypatch):
         write_log(p, df.assign(v_V=[9.0]), {"condition": "a"})
     assert p.read_bytes() == before
     assert sorted(os.listdir(tmp_path)) == ["a.csv"]
+
+
+def test_write_bytes_atomic_replaces_whole_or_leaves_the_old_file(tmp_path):
+    """The one atomic writer: a reader sees the old file or the whole new one, and a failed
+    write leaves the old file and no temporary file behind."""
+    target = tmp_path / "f.bin"
+    benchlog.write_bytes_atomic(target, b"old")
+    assert target.read_bytes() == b"old"
+
+    def fails(fh):
+        fh.write(b"half of the new")
+        raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError):
+        benchlog.write_bytes_atomic(target, fails)
+    assert target.read_bytes() == b"old"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["f.bin"]
+    benchlog.write_bytes_atomic(target, lambda fh: fh.write(b"streamed"))
+    assert target.read_bytes() == b"streamed"
+    assert (target.stat().st_mode & 0o777) == 0o644
