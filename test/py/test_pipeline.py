@@ -93,7 +93,8 @@ def test_replay_agrees_with_the_python_model(regenerated):
 
 
 def test_report_renders_in_headless_chromium(regenerated, tmp_path):
-    from hpddo import browser, report
+    from hpddo import browser
+    from hpddo.reports import training as report
     if browser.chromium() is None:
         pytest.skip("chromium not installed (scripts/bootstrap.sh --with-browser installs it)")
     metrics = json.loads((regenerated / "metrics.json").read_text())

@@ -1,5 +1,5 @@
 """The HTML reports from one template module (hpddo.reports): the training report
-(hpddo.report) and the diagnosis report (hpddo.diagnosis.report) render from the
+(hpddo.reports.training) and the diagnosis report (hpddo.reports.diagnosis) render from the
 templates with every text escaped, show the same tables and sentences as the f-string
 pages they replace (the expected values below are what those pages showed for the same
 input), share one stylesheet and one figure helper, and open in headless Chromium
@@ -20,8 +20,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from conftest import ROOT  # noqa: E402
 
-from hpddo import browser, report, reports  # noqa: E402
-from hpddo.diagnosis import report as diagnosis_report  # noqa: E402
+from hpddo import browser, reports  # noqa: E402
+from hpddo.reports import training as report  # noqa: E402
+from hpddo.reports import diagnosis as diagnosis_report  # noqa: E402
 
 EVIL = "<script>alert('x')</script>"
 RAW_EVIL = re.compile(r"<script\b", re.I)

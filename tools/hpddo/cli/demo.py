@@ -36,7 +36,7 @@ def parser(prog: str = "hpddo demo") -> argparse.ArgumentParser:
 def pipeline(logs, out: pathlib.Path, shown: pathlib.Path, effects, args, title: str):
     """Runs the train pipeline into out/model and writes the report into out/report;
     `shown` is where out will be once the demo's output is in place."""
-    from .. import report
+    from ..reports import training as report
     from ..pipeline import PipelineConfig, run as run_pipeline
     from ..train import TrainConfig
 

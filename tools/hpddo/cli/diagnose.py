@@ -55,7 +55,8 @@ def diagnose_into(logs, opt, out: pathlib.Path):
     """Runs the diagnosis and writes its report (index.html, diagnosis.json) into out,
     whole or not at all; returns the typed result (hpddo.diagnosis.Diagnosis)."""
     from .. import outdir
-    from ..diagnosis import core, report
+    from ..diagnosis import core
+    from ..reports import diagnosis as report
 
     outdir.check(out, "diagnose")  # before the work: a refused folder costs nothing
     d = core.diagnose(logs, opt)

@@ -3,8 +3,8 @@ autoescape on, so every text from a log or a result is escaped), one stylesheet
 (style.css, embedded into every page) and one figure helper (`png`: a matplotlib figure
 as an embedded PNG data URI, the figure closed after use). Every page is self-contained.
 
-    reports.training.write(...)   the training report (hpddo train, demo): hpddo.report
-    reports.diagnosis.write(...)  the diagnosis report (hpddo diagnose): hpddo.diagnosis.report
+    reports.training.write(...)   the training report (hpddo train, demo)
+    reports.diagnosis.write(...)  the diagnosis report (hpddo diagnose)
 
 The submodules are imported on use, so importing this package does not load the
 diagnosis.
