@@ -41,11 +41,29 @@ class Segment:
     load: int  # 0 open, 1 = load_ohm[1], 2 = load_ohm[2]
 
 
+ROLES = ("train", "validation")
+
+
 @dataclasses.dataclass(frozen=True)
 class Protocol:
+    """A named schedule of segments.
+
+    ``role``: ``train`` for the paper's protocols (the bundled training recordings
+    ``data/default``, the firmware's protocols), ``validation`` for hpddo's own protocols
+    that no training recording covers (``data/validation``; the firmware does not run
+    them). ``ambient_C``: the bench's ambient temperature during the protocol, the motor
+    starting soaked at it (None: the bench's default, ``hpddo.twin.params.Bench.ambient_C``).
+    """
+
     name: str
     segments: tuple  # of Segment
     source: str
+    role: str = "train"
+    ambient_C: float | None = None
+
+    def __post_init__(self):
+        if self.role not in ROLES:
+            raise ValueError(f"protocol {self.name}: role {self.role!r} not in {ROLES}")
 
     @property
     def duration_s(self) -> float:
@@ -59,12 +77,36 @@ class Protocol:
         return lengths.pop()
 
 
-def _steps(name, step_s, pairs, source):
-    return Protocol(name, tuple(Segment(step_s, d, k) for d, k in pairs), source)
+def _steps(name, step_s, pairs, source, **kw):
+    return Protocol(name, tuple(Segment(step_s, d, k) for d, k in pairs), source, **kw)
 
 
 SWEEP_DUTIES = (0.0, 0.2, 0.4, 0.6, 0.8, 1.0, 0.8, 0.6, 0.4, 0.2, 0.0)
 LOAD_SEQUENCE = (0, 1, 2, 0, 2, 1, 0, 1, 2, 1, 0, 2)
+
+# Validation protocol "unseen": duty/load pairs absent from every training protocol
+# (training: duties 0, 0.2 ... 1.0 open; 0.8 at loads 0/1/2). Open: the duties between
+# the training steps, 0.1 (below break-away: the shaft stands under PWM) to 0.9.
+# Loaded: every duty but 0.8 (the only loaded training duty), 0.2 (not 0.1: at 0.1 the
+# shaft stands whatever the load) to 1.0. 20 s a step (the speed settles within 1 s).
+# Open first, the 0.01 ohm load last, so the motor warms little: case and winding stay
+# inside the training recordings' range (measured: docs/twin.md).
+UNSEEN_STEP_S = 20.0
+UNSEEN_PAIRS = (
+    (0.1, 0), (0.3, 0), (0.5, 0), (0.7, 0), (0.9, 0),
+    (1.0, 1), (0.9, 1), (0.7, 1), (0.6, 1), (0.5, 1), (0.4, 1), (0.3, 1), (0.2, 1),
+    (0.2, 2), (0.3, 2), (0.4, 2), (0.5, 2), (0.6, 2), (0.7, 2), (0.9, 2), (1.0, 2),
+)
+# Validation protocol "hot": training pairs on a motor hotter than any training row
+# (the long run's case ends at 71.4 C). The motor starts soaked at a 55 C ambient; 20 min
+# at the long run's pair heat the case to about 80 C (its time constant is about 23 min,
+# so a few minutes could not), then ten 30 s steps of training pairs.
+HOT_AMBIENT_C = 55.0
+HOT_SEGMENTS = (  # (duration_s, duty, load)
+    (1200.0, 0.8, 2),  # warm-up, the long run's pair
+    (30.0, 0.8, 0), (30.0, 0.8, 1), (30.0, 0.8, 2), (30.0, 0.6, 0), (30.0, 1.0, 0),
+    (30.0, 0.8, 2), (30.0, 0.8, 1), (30.0, 0.8, 0), (30.0, 1.0, 0), (30.0, 0.8, 2),
+)
 
 PROTOCOLS = {
     p.name: p
@@ -77,8 +119,26 @@ PROTOCOLS = {
                "sequence and dwell paper-silent: 12 dwells of 25 s, as the bundled recordings"),
         Protocol("long", (Segment(3600.0, 0.8, 2),),
                  "paper 3.6.1: 80 % duty with the 0.01 ohm load; length paper-silent: 60 min"),
+        # hpddo's validation protocols (not the paper's; the firmware does not run them)
+        _steps("unseen", UNSEEN_STEP_S, UNSEEN_PAIRS,
+               "hpddo validation (not in the paper): duty/load pairs that no training "
+               "protocol holds, 20 s each so the speed settles, at the bench's ambient",
+               role="validation"),
+        Protocol("hot", tuple(Segment(s, d, k) for s, d, k in HOT_SEGMENTS),
+                 "hpddo validation (not in the paper): the training protocols' duty/load "
+                 "pairs on a hot motor, ambient 55 C, after a 20 min warm-up at 80 % duty "
+                 "and 0.01 ohm (the long run's pair)",
+                 role="validation", ambient_C=HOT_AMBIENT_C),
     )
 }
+
+TRAINING_PROTOCOLS = tuple(n for n, p in PROTOCOLS.items() if p.role == "train")
+VALIDATION_PROTOCOLS = tuple(n for n, p in PROTOCOLS.items() if p.role == "validation")
+
+
+def training_pairs() -> set:
+    """Every (duty, load) pair some training protocol holds."""
+    return {(s.duty, s.load) for n in TRAINING_PROTOCOLS for s in PROTOCOLS[n].segments}
 
 
 @dataclasses.dataclass(frozen=True)

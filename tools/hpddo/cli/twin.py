@@ -4,6 +4,7 @@ generator load) and writes <condition>.csv bench logs plus <condition>.truth.jso
 
 examples:
   hpddo twin --protocol all --preset default --seed 1 --out data/default
+  hpddo twin --protocol validation --preset default --seed 1 --out data/validation
   hpddo twin --protocol sweep --preset ideal --effects thermal_ra,brush_drop=0.8 --out out/twin
   hpddo twin --protocol load --rate-hz 1000 --time-scale 0.05 --out out/fast
   hpddo twin --list-effects
@@ -67,9 +68,13 @@ def parser(prog: str = "hpddo twin") -> argparse.ArgumentParser:
 
     p = options.new_parser(prog, __doc__, epilog="effects (magnitude in the physical unit shown; 0 turns an "
                            "effect off):\n" + _effect_help())
-    p.add_argument("--protocol", default="all", choices=list(protocols.PROTOCOLS) + ["all"],
-                   help="sweep: duty 0-100-0 %% in 20 %% steps; load: 80 %% duty, relay switching "
-                   "open/0.5/0.01 ohm; long: 80 %% duty, 0.01 ohm, 60 min; all: the three (default)")
+    p.add_argument("--protocol", default="all",
+                   choices=list(protocols.KNOWN) + ["all", "validation"],
+                   help="training (the paper's): sweep: duty 0-100-0 %% in 20 %% steps; load: 80 %% "
+                   "duty, relay switching open/0.5/0.01 ohm; long: 80 %% duty, 0.01 ohm, 60 min; "
+                   "all: the three (default). Validation (hpddo's, not in training): unseen: duty/load "
+                   "pairs no training protocol holds, 20 s each; hot: training pairs at 55 C ambient "
+                   "after a 20 min warm-up; validation: the two")
     p.add_argument("--rate-hz", type=options.positive_float, default=2.0, metavar="HZ",
                    help="sample rate (default 2, the paper's)")
     p.add_argument("--preset", default="default", choices=PRESETS,
@@ -157,7 +162,8 @@ def run(args) -> int:
         print(_effect_help())
         return 0
     bench = build_bench(args)
-    prots = list(protocols.PROTOCOLS) if args.protocol == "all" else [args.protocol]
+    groups = {"all": protocols.PROTOCOLS, "validation": protocols.VALIDATION_PROTOCOLS}
+    prots = list(groups.get(args.protocol, (args.protocol,)))
     t0 = time.perf_counter()
     with outdir.staged(args.out, "twin", prune=False) as stage:
         for prot in prots:

@@ -10,7 +10,9 @@ Files written into the output directory for condition ``c``:
   the energy ledger of the run
 
 Everything is a function of (preset, effects, protocol, rate, time scale, seed):
-the same inputs give the same bytes.
+the same inputs give the same bytes. A protocol that declares an ambient temperature
+(``bench.Protocol.ambient_C``, e.g. ``hot``) runs the bench at it; the truth JSON's
+``bench.ambient_C`` and ``truth.case_C_start`` carry it.
 """
 from __future__ import annotations
 
@@ -25,7 +27,7 @@ from .. import benchlog
 from . import plant, protocols, sensors
 from .params import EFFECT_NAMES, EFFECTS, GENERATOR_VERSION, Bench
 
-PROTOCOL_SEED_OFFSET = {"sweep": 0, "load": 1, "long": 2}
+PROTOCOL_SEED_OFFSET = {"sweep": 0, "load": 1, "long": 2, "unseen": 3, "hot": 4}
 
 TRUTH_FORMATS = {
     "t_s": "%.4f",
@@ -52,11 +54,12 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
     Returns a dict with ``log`` (DataFrame as written), ``meta``, ``truth`` (DataFrame),
     ``info`` (the JSON content) and ``paths``.
     """
-    if protocol not in protocols.PROTOCOLS:
+    if protocol not in protocols.KNOWN:
         raise ValueError(f"unknown protocol {protocol!r}")
     if not rate_hz > 0:
         raise ValueError("rate_hz must be > 0")
     condition = condition or protocol
+    bench = protocols.bench_for(protocol, bench)  # the protocol's ambient, if it declares one
     segs = protocols.schedule(protocol, time_scale)
     duty, load = protocols.per_sample(segs, rate_hz)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), PROTOCOL_SEED_OFFSET[protocol]]))

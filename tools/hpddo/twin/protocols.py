@@ -1,5 +1,6 @@
-"""The paper's three protocols (section 3.6.1) as piecewise-constant schedules,
-from the bench description (hpddo/bench.py).
+"""The protocols as piecewise-constant schedules, from the bench description
+(hpddo/bench.py): the paper's three training protocols (section 3.6.1) and hpddo's
+validation protocols (``unseen``, ``hot``).
 
 A schedule is a list of segments ``(duration_s, duty, load)``. Segment boundaries are
 rounded to whole sample periods so that every logged row has one duty and one load
@@ -7,12 +8,18 @@ state in force ("PWM duty command in force during the sample").
 """
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from .. import bench
 
 # The protocols are declared once, in hpddo/bench.py (shared with the UNO firmware).
-PROTOCOLS = tuple(bench.PROTOCOLS)
+# PROTOCOLS: the training protocols (what ``--protocol all`` runs, data/default);
+# VALIDATION_PROTOCOLS: hpddo's own (``--protocol validation``, data/validation).
+PROTOCOLS = bench.TRAINING_PROTOCOLS
+VALIDATION_PROTOCOLS = bench.VALIDATION_PROTOCOLS
+KNOWN = PROTOCOLS + VALIDATION_PROTOCOLS
 
 SWEEP_STEP_S = bench.PROTOCOLS["sweep"].step_s()
 SWEEP_DUTIES = tuple(s.duty for s in bench.PROTOCOLS["sweep"].segments)
@@ -29,9 +36,20 @@ def schedule(protocol: str, time_scale: float = 1.0):
     if time_scale <= 0:
         raise ValueError("time_scale must be > 0")
     if protocol not in bench.PROTOCOLS:
-        raise ValueError(f"unknown protocol {protocol!r} (known: {', '.join(PROTOCOLS)})")
+        raise ValueError(f"unknown protocol {protocol!r} (known: {', '.join(KNOWN)})")
     segs = [(g.duration_s, g.duty, g.load) for g in bench.PROTOCOLS[protocol].segments]
     return [(dur * time_scale, duty, load) for dur, duty, load in segs]
+
+
+def bench_for(protocol: str, b):
+    """The twin bench ``b`` under ``protocol``'s conditions: its ambient temperature
+    (``Protocol.ambient_C``) replaces the bench's when the protocol declares one. The
+    plant starts winding and case at that ambient and sinks heat to it; the DS18B20's
+    reading at t = 0 is it."""
+    ambient_C = bench.PROTOCOLS[protocol].ambient_C
+    if ambient_C is None:
+        return b
+    return dataclasses.replace(b, ambient_C=float(ambient_C))
 
 
 def per_sample(segments, rate_hz: float):
