@@ -106,3 +106,18 @@ def test_default_model_regenerates_byte_identical_under_another_blas_and_simd_se
         assert got == want, (f"models/default/{name} differs when regenerated under {extra} "
                              f"(sha256 {hashlib.sha256(got).hexdigest()[:12]} against "
                              f"{hashlib.sha256(want).hexdigest()[:12]})")
+
+
+def test_validation_recordings_regenerate_byte_identical_across_blas_and_simd_settings(tmp_path):
+    """data/validation (hpddo twin --protocol validation --preset default --seed 1; about
+    1.3 s a run) comes out with the committed bytes under every setting."""
+    committed = ROOT / "data" / "validation"
+    names = sorted(p.name for p in committed.iterdir() if p.name != "README.md")
+    for k, (name, extra) in enumerate(variants().items()):
+        out = tmp_path / f"v{k}"
+        res = subprocess.run([PY, str(ROOT / "tools" / "twin.py"), "--protocol", "validation", "--preset",
+                              "default", "--seed", "1", "--out", str(out), "--quiet"],
+                             env=run_env(extra), capture_output=True, text=True, timeout=300)
+        assert res.returncode == 0, f"{name}: {res.stderr}"
+        for f in names:
+            assert (out / f).read_bytes() == (committed / f).read_bytes(), f"{name}: data/validation/{f} differs"
