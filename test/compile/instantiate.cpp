@@ -17,12 +17,20 @@ static float run(const hpddo::Model<Net>& model, float v_V, float i_A) {
   return e.rpm + static_cast<float>(hpddo::model_checksum(model) & 1u);
 }
 
+// A novelty gate over the five features and the temperature (gate.h), 2 prototypes.
+HPDDO_FLASH static const float kGateCentre[6] = {6.0f, 0.5f, 150.0f, 0.5f, 150.0f, 40.0f};
+HPDDO_FLASH static const float kGateScale[6] = {3.0f, 0.3f, 80.0f, 0.3f, 80.0f, 10.0f};
+HPDDO_FLASH static const float kGateProtos[12] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f,
+                                                  1.0f, 1.0f, 1.0f, 1.0f, 1.0f, -1.0f};
+static const hpddo::Gate<6, 2> kGate = {kGateCentre, kGateScale, kGateProtos, 0.25f, 1.0f};
+
 float hpddo_instantiate(float v_V, float i_A, uint8_t in_byte) {
   hpddo::FrameDecoder dec;
   hpddo::SampleFrame f;
   float extra = dec.push(in_byte, &f) ? hpddo::frame_v_V(f) : 0.0f;
   uint8_t buf[hpddo::kFrameSize];
   hpddo::encode_frame(f, buf);
+  const float g[6] = {v_V, i_A, 150.0f, i_A, 150.0f, 40.0f};
   return run(hpddo_model_tiny::kModel, v_V, i_A) + run(hpddo_model_tiny1::kModel, v_V, i_A) + extra +
-         static_cast<float>(buf[3]);
+         static_cast<float>(buf[3]) + kGate.weight(g);
 }

@@ -12,6 +12,7 @@
 #include "hpddo/thermal.h"
 #include "hpddo/clamp.h"
 #include "hpddo/envelope.h"
+#include "hpddo/gate.h"
 #include "hpddo/model.h"
 #include "hpddo/observer.h"
 #include "hpddo/frame.h"
