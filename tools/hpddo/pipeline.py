@@ -11,6 +11,7 @@ import pathlib
 import numpy as np
 
 from . import dataset, export, identify, outdir, replay
+from . import metrics as metrics_mod
 from . import physics as ph
 from .observer_ref import Limits, ModelData
 from .train import TrainConfig, Residual, train_residual
@@ -57,6 +58,22 @@ def model_data(m1, m2, res: Residual) -> ModelData:
                      scaler_scale=res.scaler.scale_.astype(np.float32), layers=layers,
                      env_lo=res.env_lo.astype(np.float32), env_hi=res.env_hi.astype(np.float32),
                      clamp_rpm=float(np.float32(res.clamp_rpm)), limits=Limits(), nameplate=m1)
+
+
+SOURCE = "native replay (hpddo_core observer, per-sample)"
+
+
+def score_recordings(recs, estimates, checksum: int | None, part: str = "test") -> dict:
+    """The metrics of the replay's estimates of recs (one DataFrame each, every row),
+    scored on the rows of `part` ("test": the held-out rows; "all": every row)."""
+    scored = []
+    for r, est in zip(recs, estimates):
+        if len(est) != r.n:
+            raise RuntimeError(f"replay wrote {len(est)} estimates for {r.n} rows of {r.name}")
+        ref = r.df["rpm_ref"].to_numpy(float) if "rpm_ref" in r.df else np.full(r.n, np.nan)
+        mask = np.ones(r.n, bool) if part == "all" else np.arange(r.n) >= r.n_train
+        scored.append((r.name, ref, est, mask))
+    return metrics_mod.score(scored, SOURCE, checksum)
 
 
 def golden_samples(recs):
@@ -111,7 +128,9 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         (work / "estimates").mkdir()
         clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
         exe = replay.build(stage, name, work / "replay")
-        metrics, table = replay.run(exe, clean, stage / "metrics.json", work / "estimates")
+        est = replay.run(exe, clean, work / "estimates")
+        metrics = score_recordings(recs, est, export.model_checksum(model))
+        table = metrics_mod.table(metrics)
         metrics["identification"] = {
             "ra_ohm": ra, "ra_source": ra_source, "ke_m1_vs_per_rad": m1.ke_vs_per_rad,
             "ke_m2_vs_per_rad": m2.ke_vs_per_rad, "ke_fit": cfg.ke_fit, "t_ref_C": m2.t_ref_C,

@@ -75,17 +75,20 @@ def build(model_dir: pathlib.Path, name: str, out: pathlib.Path) -> pathlib.Path
     return out
 
 
-def run(exe: pathlib.Path, logs, metrics: pathlib.Path, out_dir: pathlib.Path | None = None,
-        extra=()) -> tuple[dict, str]:
-    """Runs the replay; returns (metrics dict, the table it printed)."""
-    cmd = [str(exe), "--metrics", str(metrics), *extra]
-    if out_dir is not None:
-        cmd += ["--out-dir", str(out_dir)]
+def run(exe: pathlib.Path, logs, out_dir: pathlib.Path, split: float | None = None) -> list:
+    """Replays each log through the board observer; writes out_dir/<stem>.estimates.csv
+    (every row: M1, M2, M3, residual, temperature used, status, part) and returns them
+    as DataFrames, in the order of logs. split: the training fraction of each log that
+    carries no split_row metadata (0: every row is a test row; None: the replay's 0.8)."""
+    from .metrics import read_estimates
+    cmd = [str(exe), "--out-dir", str(out_dir)]
+    if split is not None:
+        cmd += ["--split", repr(float(split))]
     cmd += [str(p) for p in logs]
     res = subprocess.run(cmd, capture_output=True, text=True)
     if res.returncode != 0:
         raise RuntimeError(f"replay failed ({res.returncode}): {res.stderr.strip()}")
-    return json.loads(metrics.read_text()), res.stdout
+    return [read_estimates(pathlib.Path(out_dir) / f"{pathlib.Path(p).stem}.estimates.csv") for p in logs]
 
 
 def bench(exe: pathlib.Path, logs, repeat: int) -> dict:

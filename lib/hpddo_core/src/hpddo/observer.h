@@ -104,8 +104,28 @@ class Observer {
   /// Largest |n_M2| the model's limits allow, RPM; beyond it a sample is invalid.
   float speed_limit() const { return speed_limit_rpm_; }
 
-  /// Turns one sample into an estimate.
+  /// What the observer knows of a sample before the network runs (prepare()):
+  /// the physics estimate, the network's inputs and whether the network applies.
+  struct Prepared {
+    Estimate physics;         ///< rpm = rpm_m2, status fallback; status invalid: no usable reading
+    float x[kFeatureCount];   ///< the network's inputs [v, i, n_M2, i(t-1), n_M2(t-1)]
+    bool use_network;         ///< inside the training envelope: the residual applies
+  };
+
+  /// Turns one sample into an estimate: prepare(), the network where it applies, finish().
   Estimate step(const Sample& s) {
+    const Prepared p = prepare(s);
+    return finish(p, p.use_network ? residual(p) : 0.0f);
+  }
+
+  /// The first half of step(): seq and period bookkeeping, thermal state, physics
+  /// model and the lags, for one sample. Call finish() on every result, in order.
+  Prepared prepare(const Sample& s) {
+    Prepared out;
+    out.use_network = false;
+    out.physics = Estimate();
+    out.physics.status = kStatusInvalid;
+    for (uint8_t j = 0; j < kFeatureCount; ++j) out.x[j] = 0.0f;
     const PhysicsParams& p = model_.physics;
     if (s.has_seq) {
       if (has_seq_ && s.seq != static_cast<uint16_t>(last_seq_ + 1u)) {
@@ -115,7 +135,10 @@ class Observer {
       has_seq_ = true;
       last_seq_ = s.seq;
     }
-    if (!reading_valid(s)) return invalid();
+    if (!reading_valid(s)) {
+      has_lag_ = false;
+      return out;
+    }
 
     const float i_true_A = true_current_A(p, s.i_A);
     const float dt_s = s.dt_s;
@@ -136,33 +159,53 @@ class Observer {
     in.temp_C = ThermalEstimator::enabled(p) ? thermal_.temp_C(ref_C) : (temp_read ? s.temp_C : p.t_ref_C);
     in.magnet_C = temp_read ? s.temp_C : in.temp_C;
     float m2 = 0.0f;
-    if (!physics_rpm(p, in, &m2) || !(m2 <= speed_limit_rpm_ && m2 >= -speed_limit_rpm_)) return invalid();
+    if (!physics_rpm(p, in, &m2) || !(m2 <= speed_limit_rpm_ && m2 >= -speed_limit_rpm_)) {
+      has_lag_ = false;
+      return out;
+    }
 
-    float x[kFeatureCount];
-    x[kFeatV] = s.v_V;
-    x[kFeatI] = s.i_A;
-    x[kFeatM2] = m2;
-    x[kFeatILag] = has_lag_ ? i_lag_A_ : s.i_A;
-    x[kFeatM2Lag] = has_lag_ ? m2_lag_rpm_ : m2;
+    out.x[kFeatV] = s.v_V;
+    out.x[kFeatI] = s.i_A;
+    out.x[kFeatM2] = m2;
+    out.x[kFeatILag] = has_lag_ ? i_lag_A_ : s.i_A;
+    out.x[kFeatM2Lag] = has_lag_ ? m2_lag_rpm_ : m2;
     i_lag_A_ = s.i_A;
     m2_lag_rpm_ = m2;
     has_lag_ = true;
 
-    Estimate e;
-    e.rpm_m2 = m2;
-    e.temp_C = in.temp_C;
-    e.residual_rpm = 0.0f;
-    e.status = kStatusFallback;
-    if (model_.envelope.contains(x)) {
-      float z[kFeatureCount];
-      model_.scaler.transform(x, z);
-      float r = Net::forward(model_.weights, z);
-      if (is_finite(r)) {
-        e.status = clamp_residual(model_.clamp_rpm, &r) ? kStatusClamped : kStatusOk;
-        e.residual_rpm = r;
-      }
+    out.physics.rpm = m2;
+    out.physics.rpm_m2 = m2;
+    out.physics.temp_C = in.temp_C;
+    out.physics.residual_rpm = 0.0f;
+    out.physics.status = kStatusFallback;
+    out.use_network = model_.envelope.contains(out.x);
+    return out;
+  }
+
+  /// The network's residual for a prepared sample, RPM, unclamped (scaler and MLP).
+  float residual(const Prepared& p) const {
+    float z[kFeatureCount];
+    model_.scaler.transform(p.x, z);
+    return Net::forward(model_.weights, z);
+  }
+
+  /// The second half of step(): the estimate of a prepared sample, given the
+  /// network's residual (ignored where the network does not apply; a non-finite
+  /// one leaves physics alone). Call once per prepare(), in the same order: an
+  /// invalid sample holds the estimate of the sample finished before it.
+  Estimate finish(const Prepared& p, float residual_rpm) {
+    if (p.physics.status == kStatusInvalid) {
+      Estimate e = last_;
+      e.residual_rpm = 0.0f;
+      e.status = kStatusInvalid;
+      return e;
     }
-    e.rpm = m2 + e.residual_rpm;
+    Estimate e = p.physics;
+    if (p.use_network && is_finite(residual_rpm)) {
+      e.status = clamp_residual(model_.clamp_rpm, &residual_rpm) ? kStatusClamped : kStatusOk;
+      e.residual_rpm = residual_rpm;
+    }
+    e.rpm = e.rpm_m2 + e.residual_rpm;
     last_ = e;
     return e;
   }
@@ -172,14 +215,6 @@ class Observer {
     const InputLimits& lim = model_.limits;
     return is_finite(s.v_V) && is_finite(s.i_A) && s.v_V <= lim.v_max_V && s.v_V >= -lim.v_max_V &&
            s.i_A <= lim.i_max_A && s.i_A >= -lim.i_max_A && s.dt_s > 0.0f && is_finite(s.dt_s);
-  }
-
-  Estimate invalid() {
-    has_lag_ = false;
-    Estimate e = last_;
-    e.residual_rpm = 0.0f;
-    e.status = kStatusInvalid;
-    return e;
   }
 
   const Model<Net>& model_;
