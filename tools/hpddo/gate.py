@@ -41,6 +41,7 @@ docs/gate.md (lookup, M2, M3, M3 + gate per variant; chronological and never-see
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import numpy as np
 
@@ -192,8 +193,19 @@ def fit(g_train, k: int = DEFAULT_PROTOTYPES, method: str = "fps", in_quantile: 
 # C++ text and golden vectors
 # --------------------------------------------------------------------------------------
 
+def _lit(v: float) -> str:
+    """A float32 as a C++ literal, exact (%.9g), e.g. 70.0f, 1e-05f, __builtin_nanf("")."""
+    v = float(v)
+    if v != v:
+        return '__builtin_nanf("")'
+    if v in (float("inf"), float("-inf")):
+        return ("-" if v < 0 else "") + '__builtin_inff()'
+    t = "%.9g" % v
+    return t + ("f" if any(c in t for c in ".e") else ".0f")
+
+
 def _floats(a) -> str:
-    return ", ".join("%.9g" % float(v) for v in np.asarray(a, F32).ravel())
+    return ", ".join(_lit(v) for v in np.asarray(a, F32).ravel())
 
 
 def cpp_data(gd: GateData, prefix: str = "kGate") -> str:
@@ -203,7 +215,7 @@ def cpp_data(gd: GateData, prefix: str = "kGate") -> str:
             f"HPDDO_FLASH static const float {prefix}Scale[{d}] = {{{_floats(gd.scale)}}};\n"
             f"HPDDO_FLASH static const float {prefix}Prototypes[{k * d}] = {{{_floats(gd.prototypes)}}};\n"
             f"static const hpddo::Gate<{d}, {k}> {prefix} = {{{prefix}Centre, {prefix}Scale, {prefix}Prototypes, "
-            f"{float(gd.r_in_sq):.9g}f, {float(gd.r_out_sq):.9g}f}};\n")
+            f"{_lit(gd.r_in_sq)}, {_lit(gd.r_out_sq)}}};\n")
 
 
 # --------------------------------------------------------------------------------------
@@ -297,6 +309,19 @@ def gate_inputs(rec, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return x, temp, n2
 
 
+def training_inputs(recs, p, with_temp: bool) -> np.ndarray:
+    """The gate's training rows: the rows the network was trained on (train.train_residual:
+    the training part, labelled, finite features), with the temperature as a last column."""
+    out = []
+    for r in recs:
+        x, temp, _ = gate_inputs(r, p)
+        ref = r.df["rpm_ref"].to_numpy(float)
+        keep = np.isfinite(ref) & np.isfinite(x).all(axis=1)
+        keep[r.n_train:] = False
+        out.append(np.column_stack([x, temp])[keep] if with_temp else x[keep])
+    return np.concatenate(out)
+
+
 def m3_residual(res, x: np.ndarray) -> np.ndarray:
     """The clamped residual the observer adds (0 outside the envelope), vectorised."""
     inside = np.all((x >= res.env_lo) & (x <= res.env_hi), axis=1) & np.isfinite(x).all(axis=1)
@@ -361,16 +386,7 @@ def measure(out, progress: bool = True, max_iter: int | None = None) -> dict:
                 res = train.train_residual(recs, m2, cfg)
                 cache.parent.mkdir(parents=True, exist_ok=True)
                 cache.write_bytes(pickle.dumps((m2, res)))
-            # the gate's training rows: those the network was trained on
-            gx, gt = [], []
-            for r in recs:
-                x, temp, _ = gate_inputs(r, m2)
-                ref = r.df["rpm_ref"].to_numpy(float)
-                keep = np.isfinite(ref) & np.isfinite(x).all(axis=1)
-                keep[r.n_train:] = False
-                gx.append(x[keep])
-                gt.append(temp[keep])
-            g_train = {False: np.concatenate(gx), True: np.column_stack([np.concatenate(gx), np.concatenate(gt)])}
+            g_train = {False: training_inputs(recs, m2, False), True: training_inputs(recs, m2, True)}
             splits = {"chrono": [(r, slice(r.n_train, r.n)) for r in recs],
                       "unseen": [(r, slice(0, r.n)) for r in evals["unseen"]],
                       "hot": [(r, slice(int(HOT_PREHEAT_S * RATE_HZ), r.n)) for r in evals["hot"]]}
@@ -456,6 +472,137 @@ def verdict(results: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+# --------------------------------------------------------------------------------------
+# Cost on the boards (docs/gate.md): python -m hpddo.gate --cost OUT
+# --------------------------------------------------------------------------------------
+
+_AVR_PROGRAM = r"""
+#include <avr/io.h>
+#include "hpddo/gate.h"
+#include "gate_data.h"
+volatile float g_sink;
+__attribute__((noinline)) float gate_call(const float (&g)[kGateDims]) { return kGate.weight(g); }
+int main() {
+  for (uint8_t n = 0; n < kVectorCount; ++n) {
+    float g[kGateDims];
+    for (uint8_t j = 0; j < kGateDims; ++j) g[j] = kVectors[n][j];
+    GPIOR0 = 1;
+    g_sink = gate_call(g);
+    GPIOR0 = 2;
+  }
+  GPIOR0 = 3;
+  for (;;) {}
+}
+"""
+
+_SIM_HARNESS = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "sim_avr.h"
+#include "sim_elf.h"
+#include "sim_io.h"
+static avr_cycle_count_t start;
+static int done;
+static void on_marker(struct avr_t* avr, avr_io_addr_t addr, uint8_t v, void* param) {
+  (void)addr; (void)param;
+  if (v == 1) start = avr->cycle;
+  else if (v == 2) printf("cycles %llu\n", (unsigned long long)(avr->cycle - start));
+  else if (v == 3) done = 1;
+}
+int main(int argc, char** argv) {
+  elf_firmware_t f = {{0}};
+  if (argc < 2 || elf_read_firmware(argv[1], &f)) return 2;
+  avr_t* avr = avr_make_mcu_by_name("atmega328p");
+  avr_init(avr);
+  avr_load_firmware(avr, &f);
+  avr->frequency = 16000000;
+  avr_register_io_write(avr, 0x3E, on_marker, NULL);
+  for (long k = 0; !done && k < 200000000L; ++k) {
+    int st = avr_run(avr);
+    if (st == cpu_Done || st == cpu_Crashed) break;
+  }
+  return done ? 0 : 1;
+}
+"""
+
+
+def cost(gd: GateData, vectors: np.ndarray, out) -> dict:
+    """Flash/RAM bytes of the gate's data, code bytes of one weight() call on the ATmega328P
+    (avr-g++ -Os) and the ESP8266 (xtensa-lx106-elf-g++ -O2), and AVR cycles per call in
+    simavr for each of `vectors` (cycle-exact; the call is bracketed by GPIOR0 writes)."""
+    import pathlib
+    import subprocess
+
+    root = pathlib.Path(__file__).resolve().parents[2]
+    src = root / "lib" / "hpddo_core" / "src"
+    out = pathlib.Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    vec = np.asarray(vectors, F32)
+    rows = ",\n".join("{" + _floats(v) + "}" for v in vec)
+    (out / "gate_data.h").write_text(
+        "#include \"hpddo/platform.h\"\n#include \"hpddo/gate.h\"\n"
+        f"static const uint8_t kGateDims = {gd.dims};\nstatic const uint8_t kVectorCount = {len(vec)};\n"
+        + cpp_data(gd) + f"static const float kVectors[{len(vec)}][{gd.dims}] = {{\n{rows}}};\n")
+    (out / "gate_avr.cpp").write_text(_AVR_PROGRAM)
+    (out / "sim.c").write_text(_SIM_HARNESS)
+    inc = [f"-I{src}", f"-I{out}"]
+    run = functools.partial(subprocess.run, check=True, capture_output=True, text=True)
+    run(["avr-g++", "-std=gnu++11", "-mmcu=atmega328p", "-Os", "-DF_CPU=16000000L", *inc,
+         str(out / "gate_avr.cpp"), "-o", str(out / "gate_avr.elf")])
+    esp_src = out / "gate_esp.cpp"
+    esp_src.write_text(_AVR_PROGRAM.replace("#include <avr/io.h>\n", "").replace("GPIOR0 = ", "g_marker = ")
+                       .replace("volatile float g_sink;", "volatile float g_sink;\nvolatile unsigned char g_marker;"))
+    run(["xtensa-lx106-elf-g++", "-std=c++11", "-specs=/usr/lib/xtensa-lx106-elf/picolibc.specs", "-mlongcalls",
+         "-O2", "-DESP8266", *inc, "-c", str(esp_src), "-o", str(out / "gate_esp.o")])
+    run(["gcc", "-O2", "-I/usr/include/simavr", "-I/usr/include/simavr/avr", str(out / "sim.c"), "-lsimavr",
+         "-o", str(out / "sim")])
+    sim = run([str(out / "sim"), str(out / "gate_avr.elf")]).stdout.splitlines()
+    cycles = [int(line.split()[1]) for line in sim if line.startswith("cycles ")]
+
+    def code_bytes(nm, obj):
+        """Text bytes of the call and of Gate::weight where it is not inlined."""
+        total = 0
+        for line in run([nm, "-S", "-C", str(obj)]).stdout.splitlines():
+            f = line.split()
+            if len(f) >= 4 and f[2] in "TtWw" and ("gate_call" in line or "::weight(" in line):
+                total += int(f[1], 16)
+        return total
+
+    return {"flash_data_bytes": gd.flash_bytes(), "struct_bytes_avr": 3 * 2 + 2 * 4, "struct_bytes_esp": 3 * 4 + 2 * 4,
+            "code_bytes_avr": code_bytes("avr-nm", out / "gate_avr.elf"),
+            "code_bytes_esp": code_bytes("xtensa-lx106-elf-nm", out / "gate_esp.o"),
+            "avr_cycles": cycles}
+
+
+def measure_cost(out) -> dict:
+    """cost() of the chosen gate (x, fps, q99) at 16, 32 and 64 prototypes and of its xT
+    form at 32, fitted on the default twin with the named effects (the model cached by
+    --measure OUT); vectors: 8 training rows, 8 never-seen rows and a NaN row."""
+    import pathlib
+    import pickle
+
+    from . import dataset
+
+    out = pathlib.Path(out)
+    m2, _ = pickle.loads((out / "cache" / "default_named.pkl").read_bytes())
+    paths = make_twin_data("default", out / "data")
+    recs = dataset.load_recordings(paths["train"])
+    unseen = dataset.load_recordings(paths["unseen"])
+    result = {}
+    for dims, k in (("x", 16), ("x", 32), ("x", 64), ("xT", 32)):
+        with_temp = dims == "xT"
+        g = training_inputs(recs, m2, with_temp)
+        x, temp, _ = gate_inputs(unseen[0], m2)
+        g_unseen = np.column_stack([x, temp]) if with_temp else x
+        rows = np.concatenate([g[:: len(g) // 8][:8], g_unseen[:: len(g_unseen) // 8][:8],
+                               np.full((1, g.shape[1]), np.nan)])
+        gd = fit(g, k=k)
+        c = cost(gd, rows, out / f"cost_{dims}{k}")
+        c["weights"] = [round(float(w), 4) for w in weight(gd, rows)]
+        result[f"{dims}/fps{k}/q99"] = c
+    return result
+
+
 def main(argv=None) -> int:
     import argparse
     import json
@@ -465,6 +612,9 @@ def main(argv=None) -> int:
     ap.add_argument("--measure", metavar="OUT", help="make the twins' data under OUT/data, train, measure, "
                     "write OUT/gate_measure.json and print the tables of docs/gate.md")
     ap.add_argument("--table", metavar="JSON", help="print the tables of a gate_measure.json")
+    ap.add_argument("--cost", metavar="OUT", help="after --measure OUT: the chosen gate (x, fps, q99; 16, 32, 64 "
+                    "prototypes; and xT at 32) of the default twin with the named effects on the AVR (simavr "
+                    "cycles, bytes) and the ESP8266 (bytes)")
     ap.add_argument("--max-iter", type=int, default=None, help="epochs of M3 (default: TrainConfig's)")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
@@ -472,8 +622,11 @@ def main(argv=None) -> int:
         res = measure(a.measure, progress=not a.quiet, max_iter=a.max_iter)
     elif a.table:
         res = json.loads(pathlib.Path(a.table).read_text())
+    elif a.cost:
+        print(json.dumps(measure_cost(a.cost), indent=1))
+        return 0
     else:
-        ap.error("give --measure OUT or --table JSON")
+        ap.error("give --measure OUT, --table JSON or --cost OUT")
     print(table(res))
     print(verdict(res))
     return 0
