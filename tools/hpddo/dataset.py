@@ -204,7 +204,8 @@ def write_clean(rec: Recording, path) -> pathlib.Path:
     """Writes the cleaned rows as a bench log (the file the native replay reads)."""
     meta = dict(rec.meta)
     meta["condition"] = rec.name
-    meta["note"] = (f"cleaned from {rec.source.name}: {len(rec.removed)} glitch rows removed; "
-                    f"train rows 0..{rec.n_train - 1}, test rows {rec.n_train}..{rec.n - 1}")
+    split = (f"train rows 0..{rec.n_train - 1}, test rows {rec.n_train}..{rec.n - 1}" if rec.n_train
+             else f"no training rows, test rows 0..{rec.n - 1}")
+    meta["note"] = f"cleaned from {rec.source.name}: {len(rec.removed)} glitch rows removed; {split}"
     meta["split_row"] = str(rec.n_train)
     return benchlog.write_log(path, rec.df, meta)

@@ -20,7 +20,9 @@ import math
 import numpy as np
 import pandas as pd
 
-MODELS = {"M1": "rpm_m1", "M2": "rpm_m2", "M3": "rpm_m3"}
+#: Estimate columns scored, by model name: the observer's three, and the lookup baseline
+#: (hpddo.baseline) where the caller added it to every frame.
+MODELS = {"M1": "rpm_m1", "M2": "rpm_m2", "M3": "rpm_m3", "lookup": "rpm_lookup"}
 STATUS_SHARES = {"clamped_share": "clamped", "fallback_share": "fallback", "invalid_share": "invalid"}
 
 
@@ -41,22 +43,23 @@ def score(scored: list, source: str, checksum: int | None = None) -> dict:
     """scored: (condition, rpm_ref per row, estimates DataFrame, bool mask of the rows to
     score) per recording; recordings sharing a condition are pooled. Returns the metrics
     dict (rmse_rpm, the status shares, test_rows, source, model_checksum)."""
+    models = {m: col for m, col in MODELS.items() if all(col in est for _, _, est, _ in scored)}
     order: list[str] = []
     err: dict[str, dict[str, list]] = {}
     status: dict[str, list] = {}
     for cond, ref, est, mask in scored:
         if cond not in err:
             order.append(cond)
-            err[cond] = {m: [] for m in MODELS}
+            err[cond] = {m: [] for m in models}
             status[cond] = []
         mask = np.asarray(mask, bool)
         ref = np.asarray(ref, float)[mask]
         labelled = np.isfinite(ref)
-        for m, col in MODELS.items():
+        for m, col in models.items():
             err[cond][m].append((est[col].to_numpy(float)[mask] - ref)[labelled])
         status[cond].append(est["status"].to_numpy(str)[mask])
     out: dict = {"rmse_rpm": {}}
-    for m in MODELS:
+    for m in models:
         per = {c: rmse(np.concatenate(err[c][m])) for c in order}
         avg = sum(per[c] / len(order) for c in order) if order else float("nan")
         out["rmse_rpm"][m] = {**{c: figure(v) for c, v in per.items()}, "average": figure(avg)}
@@ -75,17 +78,19 @@ def score(scored: list, source: str, checksum: int | None = None) -> dict:
 def table(metrics: dict, title: str = "RMSE on the test parts (RPM)") -> str:
     """The RMSE table as text: one line per condition, then the average."""
     rm = metrics["rmse_rpm"]
+    models = [m for m in MODELS if m in rm]
     conds = [c for c in rm["M1"] if c != "average"]
 
     def num(x):
         return f"{x:10.2f}" if x is not None else f"{'nan':>10s}"
 
-    lines = [title, f"{'condition':<10s} {'M1':>10s} {'M2':>10s} {'M3':>10s} {'rows':>8s} {'clamped':>8s} {'fallback':>9s}"]
+    lines = [title, f"{'condition':<10s} " + " ".join(f"{m:>10s}" for m in models)
+             + f" {'rows':>8s} {'clamped':>8s} {'fallback':>9s}"]
     for c in conds:
-        lines.append(f"{c:<10s} {num(rm['M1'][c])} {num(rm['M2'][c])} {num(rm['M3'][c])} "
-                     f"{metrics['test_rows'][c]:8d} {100 * (metrics['clamped_share'][c] or 0):7.1f}% "
+        lines.append(f"{c:<10s} " + " ".join(num(rm[m][c]) for m in models)
+                     + f" {metrics['test_rows'][c]:8d} {100 * (metrics['clamped_share'][c] or 0):7.1f}% "
                      f"{100 * (metrics['fallback_share'][c] or 0):8.1f}%")
-    lines.append(f"{'average':<10s} {num(rm['M1']['average'])} {num(rm['M2']['average'])} {num(rm['M3']['average'])}")
+    lines.append(f"{'average':<10s} " + " ".join(num(rm[m]["average"]) for m in models))
     return "\n".join(lines) + "\n"
 
 

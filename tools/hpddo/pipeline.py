@@ -10,7 +10,7 @@ import pathlib
 
 import numpy as np
 
-from . import dataset, export, identify, outdir, replay
+from . import baseline, dataset, export, identify, outdir, replay
 from . import metrics as metrics_mod
 from . import physics as ph
 from .observer_ref import Limits, ModelData
@@ -63,13 +63,17 @@ def model_data(m1, m2, res: Residual) -> ModelData:
 SOURCE = "native replay (hpddo_core observer, per-sample)"
 
 
-def score_recordings(recs, estimates, checksum: int | None, part: str = "test") -> dict:
-    """The metrics of the replay's estimates of recs (one DataFrame each, every row),
-    scored on the rows of `part` ("test": the held-out rows; "all": every row)."""
+def score_recordings(recs, estimates, checksum: int | None, lookup: baseline.Lookup | None = None,
+                     part: str = "test") -> dict:
+    """The metrics of the replay's estimates of recs (one DataFrame each, every row) and
+    of the lookup baseline where given, scored on the rows of `part` ("test": the
+    held-out rows; "all": every row)."""
     scored = []
     for r, est in zip(recs, estimates):
         if len(est) != r.n:
             raise RuntimeError(f"replay wrote {len(est)} estimates for {r.n} rows of {r.name}")
+        if lookup is not None:
+            est = est.assign(rpm_lookup=lookup.predict_rows(r))
         ref = r.df["rpm_ref"].to_numpy(float) if "rpm_ref" in r.df else np.full(r.n, np.nan)
         mask = np.ones(r.n, bool) if part == "all" else np.arange(r.n) >= r.n_train
         scored.append((r.name, ref, est, mask))
@@ -128,8 +132,10 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         (work / "estimates").mkdir()
         clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
         exe = replay.build(stage, name, work / "replay")
+        lookup = baseline.Lookup.fit(recs)
+        (stage / baseline.FILE).write_text(lookup.to_json())
         est = replay.run(exe, clean, work / "estimates")
-        metrics = score_recordings(recs, est, export.model_checksum(model))
+        metrics = score_recordings(recs, est, export.model_checksum(model), lookup)
         table = metrics_mod.table(metrics)
         metrics["identification"] = {
             "ra_ohm": ra, "ra_source": ra_source, "ke_m1_vs_per_rad": m1.ke_vs_per_rad,

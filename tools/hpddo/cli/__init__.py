@@ -23,6 +23,8 @@ from .. import __version__
 SUBCOMMANDS = {
     "train": ("train", "identify M1 and M2, train the M3 network, export the model header, replay natively "
                        "(tools/gen_weights.py)"),
+    "evaluate": ("evaluate", "score a trained model on every row of recordings it never saw, beside a "
+                             "lookup baseline"),
     "diagnose": ("diagnose", "name the physical effects the physics model misses (tools/diagnose.py)"),
     "twin": ("twin", "simulate the bench and write bench logs with ground truth (tools/twin.py)"),
     "capture": ("capture", "record the acquisition board's USB stream to a bench log (tools/capture.py)"),

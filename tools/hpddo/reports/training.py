@@ -52,30 +52,33 @@ def overlay_figure(est: pd.DataFrame, title: str) -> str:
     ax2.set_ylabel("error (RPM)")
     ax2.set_xlabel("time (s)")
     test = est.index[est["part"] == "test"]
+    split = len(test) > 0 and test[0] > 0  # no line where every row is scored (hpddo evaluate)
     for a in (ax1, ax, ax2):
-        if len(test):
+        if split:
             a.axvline(t.iloc[test[0]], color="k", ls="--", lw=1)
         a.legend(loc="upper left", ncol=3, fontsize=8)
         a.grid(alpha=0.3)
-    if len(test):
+    if split:
         ax1.text(t.iloc[test[0]], 1.0, " test part (last 20 %)", va="bottom", fontsize=9,
                  transform=ax1.get_xaxis_transform())
     return png(fig)
 
 
-def page(metrics: dict, recordings: list[dict], title: str, notes: list[str]) -> str:
+def page(metrics: dict, recordings: list[dict], title: str, notes: list[str], caption: str = CAPTION) -> str:
     """The page's HTML; recordings: [{"name", "figure" (a data URI)}]."""
+    models = [m for m in (*MODELS, "lookup") if m in metrics["rmse_rpm"]]
     return render("training.html.j2", title=title, notes=list(notes),
-                  table={"caption": CAPTION, "models": MODELS, "rows": rmse_rows(metrics)},
+                  table={"caption": caption, "models": models, "rows": rmse_rows(metrics, models)},
                   clamped=metrics.get("clamped_share", {}), fallback=metrics.get("fallback_share", {}),
                   glitches=metrics.get("glitches_removed", {}), warnings=metrics.get("warnings", []),
                   recordings=recordings)
 
 
-def write(metrics: dict, estimates_dir: pathlib.Path, out: pathlib.Path, title: str, notes: list[str]) -> pathlib.Path:
+def write(metrics: dict, estimates_dir: pathlib.Path, out: pathlib.Path, title: str, notes: list[str],
+          caption: str = CAPTION) -> pathlib.Path:
     """Writes out/index.html (self-contained: figures are embedded); returns its path."""
     recordings = []
     for f in sorted(pathlib.Path(estimates_dir).glob("*.estimates.csv")):
         name = f.name.replace(".estimates.csv", "")
         recordings.append({"name": name, "figure": overlay_figure(pd.read_csv(f), name)})
-    return benchlog.write_text_atomic(pathlib.Path(out) / "index.html", page(metrics, recordings, title, notes))
+    return benchlog.write_text_atomic(pathlib.Path(out) / "index.html", page(metrics, recordings, title, notes, caption))

@@ -1,0 +1,112 @@
+"""hpddo evaluate: a trained model scored on every row of recordings it never saw, beside
+the lookup baseline; the scores of hpddo.metrics; the lookup table itself."""
+import json
+import pathlib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from conftest import ROOT
+
+from hpddo import baseline, dataset, metrics, train
+from hpddo.cli import evaluate as cli
+from hpddo.identify import m2_params, ra_from_logs
+
+MODEL = ROOT / "models" / "default"
+VALIDATION = [ROOT / "data" / "validation" / f"{n}.csv" for n in ("unseen", "hot")]
+TRAINING = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]
+
+
+@pytest.fixture(scope="module")
+def evaluated(tmp_path_factory):
+    out = tmp_path_factory.mktemp("eval") / "out"
+    assert cli.main(["--model", str(MODEL), *map(str, VALIDATION), "--out", str(out)]) == 0
+    return out
+
+
+def test_every_row_is_scored_and_written(evaluated):
+    m = json.loads((evaluated / "metrics.json").read_text())
+    recs = dataset.load_recordings(VALIDATION, 0.0)
+    for r in recs:
+        est = pd.read_csv(evaluated / "work" / "estimates" / f"{r.file_stem}.estimates.csv")
+        assert len(est) == r.n and set(est["part"]) == {"test"}
+        assert m["test_rows"][r.name] == r.n
+    assert set(m["rmse_rpm"]) == {"M1", "M2", "M3", "lookup"}
+    assert (evaluated / "report" / "index.html").is_file()
+    assert json.loads((evaluated / ".hpddo-output.json").read_text())["tool"] == "evaluate"
+
+
+def test_scores_are_the_rmse_of_the_replayed_rows_against_the_encoder(evaluated):
+    """An independent recomputation: the physics model in Python (float64) on every row,
+    and the RMSE of the replay's M3 column, against the log's encoder."""
+    m = json.loads((evaluated / "metrics.json").read_text())
+    train_recs = dataset.load_recordings(TRAINING)
+    p = m2_params(train_recs, ra_from_logs(train_recs, None)[0])
+    for r in dataset.load_recordings(VALIDATION, 0.0):
+        est = pd.read_csv(evaluated / "work" / "estimates" / f"{r.file_stem}.estimates.csv")
+        ref = r.df["rpm_ref"].to_numpy(float)
+        n2 = train.physics_rpm(r, p)
+        assert np.max(np.abs(est["rpm_m2"].to_numpy() - n2)) < 0.02
+        m3 = float(np.sqrt(np.mean((est["rpm_m3"].to_numpy() - ref) ** 2)))
+        assert m["rmse_rpm"]["M3"][r.name] == pytest.approx(m3, rel=1e-5)
+        m2 = float(np.sqrt(np.mean((n2 - ref) ** 2)))
+        assert m["rmse_rpm"]["M2"][r.name] == pytest.approx(m2, rel=1e-3)
+
+
+def test_the_lookup_knows_no_operating_point_it_was_not_trained_on(evaluated):
+    """On the unseen duty/load pairs memory fails: the lookup is far worse than physics;
+    on the hot run (training pairs) it is not."""
+    rm = json.loads((evaluated / "metrics.json").read_text())["rmse_rpm"]
+    assert rm["lookup"]["unseen"] > 3 * rm["M2"]["unseen"]
+    assert rm["lookup"]["hot"] < rm["M2"]["hot"]
+
+
+def test_a_missing_or_foreign_model_folder_is_refused_before_any_work(tmp_path, capsys):
+    out = tmp_path / "out"
+    assert cli.main(["--model", str(tmp_path / "nope"), str(VALIDATION[0]), "--out", str(out)]) == 1
+    assert "no such model folder" in capsys.readouterr().err
+    (tmp_path / "empty").mkdir()
+    assert cli.main(["--model", str(tmp_path / "empty"), str(VALIDATION[0]), "--out", str(out)]) == 1
+    assert "expected one model header" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_lookup_predicts_the_nearest_training_operating_point():
+    lk = baseline.Lookup(duty=np.array([0.2, 0.6, 0.8, 0.8]), load=np.array([0, 0, 1, 2]),
+                         rpm=np.array([20.0, 140.0, 150.0, 120.0]), rows=np.array([5, 5, 5, 5]))
+    got = lk.predict([0.3, 0.5, 0.1, 0.5, 0.9, 0.7], [0, 0, 0, 1, 2, 3])
+    # same load, nearest duty; load 3 never trained: nearest duty over every load (0.6)
+    assert got.tolist() == [20.0, 140.0, 20.0, 150.0, 120.0, 140.0]
+
+
+def test_lookup_file_round_trips_and_fits_the_training_means(tmp_path):
+    recs = dataset.load_recordings(TRAINING)
+    lk = baseline.Lookup.fit(recs)
+    path = tmp_path / baseline.FILE
+    path.write_text(lk.to_json())
+    back = baseline.Lookup.read(path)
+    assert np.array_equal(back.duty, lk.duty) and np.array_equal(back.load, lk.load)
+    assert np.allclose(back.rpm, lk.rpm, rtol=1e-8)
+    load = pd.concat([r.part("train") for r in recs])
+    at = load[np.isclose(load["duty"], 0.6) & (load["load"] == 0)]
+    k = np.flatnonzero((lk.load == 0) & np.isclose(lk.duty, 0.6))[0]
+    assert lk.rpm[k] == pytest.approx(at["rpm_ref"].mean(), rel=1e-12) and lk.rows[k] == len(at)
+    (tmp_path / "bad.json").write_text("{}")
+    with pytest.raises(Exception, match="not a lookup table"):
+        baseline.Lookup.read(tmp_path / "bad.json")
+
+
+def test_metrics_pool_conditions_and_keep_any_condition_name():
+    name = 'quote"back\\slash\ttab'
+    est = pd.DataFrame({"rpm_m1": [1.0, 2.0, 3.0], "rpm_m2": [1.0, 1.0, 1.0], "rpm_m3": [0.0, 0.0, 0.0],
+                        "status": ["ok", "clamped", "invalid"]})
+    ref = np.array([0.0, 0.0, np.nan])
+    m = metrics.score([(name, ref, est, np.array([True, True, True])),
+                       (name, ref, est, np.array([False, True, True]))], "test")
+    back = json.loads(json.dumps(m))
+    assert back["test_rows"][name] == 5 and back["test_rows"]["all"] == 5
+    # M1 errors over the labelled scored rows: 1, 2 and 2
+    assert back["rmse_rpm"]["M1"][name] == pytest.approx(np.sqrt((1 + 4 + 4) / 3), rel=1e-6)
+    assert back["clamped_share"][name] == pytest.approx(0.4) and back["invalid_share"]["all"] == pytest.approx(0.4)
+    assert "lookup" not in back["rmse_rpm"]

@@ -1,0 +1,83 @@
+"""Validation of a trained model on recordings it never saw (hpddo evaluate).
+
+Every row of every recording is scored: the recordings are cleaned as for training (the
+glitch filter, unless switched off), replayed through the board observer compiled
+against the model's header (the native replay, split 0: no training part), and scored
+against the encoder with the same table as training (M1, M2, M3 and the model's lookup
+baseline, lookup.json).
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import pathlib
+import re
+import tempfile
+
+from . import baseline, dataset, replay
+from . import metrics as metrics_mod
+from .errors import InputError
+from .pipeline import score_recordings
+
+SOURCE = "native replay (hpddo_core observer, per-sample), every row of recordings the model was not trained on"
+
+
+@dataclasses.dataclass
+class Evaluation:
+    recordings: list
+    metrics: dict
+    table: str
+    estimates: pathlib.Path  # the replay's estimates files (gone when evaluate() used a temporary folder)
+
+
+def model_header(model_dir: pathlib.Path, name: str | None = None) -> tuple[str, int]:
+    """(model name, checksum) of the model header in model_dir: model_<name>.h, the only
+    one there when name is None."""
+    model_dir = pathlib.Path(model_dir)
+    if not model_dir.is_dir():
+        raise InputError(f"{model_dir}: no such model folder (an output of hpddo train)")
+    headers = sorted(model_dir.glob(f"model_{name}.h" if name else "model_*.h"))
+    if len(headers) != 1:
+        found = ", ".join(h.name for h in headers) or "none"
+        raise InputError(f"{model_dir}: expected one model header {'model_' + name + '.h' if name else 'model_*.h'}, "
+                         f"found {found}" + ("; choose one with --name" if len(headers) > 1 else ""))
+    text = headers[0].read_text(encoding="utf-8", errors="replace")
+    m = re.search(r"kChecksum\s*=\s*0x([0-9a-fA-F]{8})u", text)
+    if not m:
+        raise InputError(f"{headers[0]}: not a model header of hpddo train (no kChecksum)")
+    return headers[0].stem[len("model_"):], int(m.group(1), 16)
+
+
+def evaluate(model_dir, log_paths, work_dir: pathlib.Path | None = None, name: str | None = None,
+             glitch_filter: bool = True) -> Evaluation:
+    """Scores the model in model_dir (its header model_<name>.h and lookup.json) on every
+    row of log_paths. work_dir receives the cleaned logs, the replay built for the model
+    and its estimates (work_dir/estimates/*.estimates.csv); None: a temporary folder."""
+    model_name, checksum = model_header(model_dir, name)
+    lookup_path = pathlib.Path(model_dir) / baseline.FILE
+    lookup = baseline.Lookup.read(lookup_path) if lookup_path.is_file() else None
+    recs = dataset.load_recordings(log_paths, 0.0, glitch_filter)
+    if work_dir is None:
+        with tempfile.TemporaryDirectory(prefix="hpddo-evaluate-") as tmp:
+            return _replay_and_score(model_dir, model_name, checksum, lookup, recs, pathlib.Path(tmp))
+    return _replay_and_score(model_dir, model_name, checksum, lookup, recs, pathlib.Path(work_dir))
+
+
+def _replay_and_score(model_dir, model_name, checksum, lookup, recs, work: pathlib.Path) -> Evaluation:
+    (work / "logs").mkdir(parents=True, exist_ok=True)
+    (work / "estimates").mkdir(exist_ok=True)
+    clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
+    exe = replay.build(pathlib.Path(model_dir), model_name, work / "replay")
+    est = replay.run(exe, clean, work / "estimates", split=0.0)
+    m = score_recordings(recs, est, checksum, lookup, part="all")
+    m["source"] = SOURCE
+    m["model"] = {"folder": str(model_dir), "name": model_name}
+    m["glitches_removed"] = {r.name: {"file": r.source.name, "rows_in_file": r.rows_in_file,
+                                      "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
+                             for r in recs}
+    m["warnings"] = [w for r in recs for w in r.warnings]
+    m["recordings"] = [r.name for r in recs]
+    return Evaluation(recs, m, metrics_mod.table(m, TABLE_TITLE), work / "estimates")
+
+
+TABLE_TITLE = "RMSE on every row of recordings the model never saw (RPM)"
