@@ -29,6 +29,7 @@ void write_json(const infer::Telemetry& t) {
   doc["rpm"] = t.rpm;
   doc["rpm_m2"] = t.rpm_m2;
   doc["residual"] = t.residual_rpm;
+  doc["confidence"] = t.confidence;
   doc["status"] = hpddo::status_name(t.status);
   doc["us"] = t.infer_us;
   if (hpddo::is_finite(t.rpm_ref)) doc["rpm_ref"] = t.rpm_ref;

@@ -2,7 +2,7 @@
 // produces them. The sketch measures the time and writes the JSON; this
 // header decides what goes in it, so the host tests see the same values.
 //
-//   {"seq":412,"rpm":181.3,"rpm_m2":175.2,"residual":6.1,"status":"ok",
+//   {"seq":412,"rpm":181.3,"rpm_m2":175.2,"residual":6.1,"confidence":1,"status":"ok",
 //    "us":812,"rpm_ref":180.4,"v":9.612,"i":0.812,"gaps":0,"lost":0,"crc_errors":0}
 #ifndef HPDDO_INFER_TELEMETRY_H
 #define HPDDO_INFER_TELEMETRY_H
@@ -20,6 +20,7 @@ struct Telemetry {
   float rpm;            ///< final estimate n_M3, RPM
   float rpm_m2;         ///< physics model alone, RPM
   float residual_rpm;   ///< learned correction applied, RPM
+  float confidence;     ///< weight of the learned correction, 0..1 (the novelty gate's)
   hpddo::Status status;
   uint32_t infer_us;    ///< measured time of Observer::step, us
   float rpm_ref;        ///< encoder speed from the frame, comparison only (NaN: none)
@@ -46,6 +47,7 @@ Telemetry infer_step(hpddo::Observer<Net>& obs, const hpddo::SampleFrame& f, con
   t.rpm = e.rpm;
   t.rpm_m2 = e.rpm_m2;
   t.residual_rpm = e.residual_rpm;
+  t.confidence = e.confidence;
   t.status = e.status;
   t.infer_us = t1 - t0;
   t.rpm_ref = frame_rpm_ref(f);

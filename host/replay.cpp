@@ -40,7 +40,7 @@ using Net = model::Net;
 namespace {
 
 struct Row {
-  float rpm_m1, rpm_m2, rpm_m3, residual, temp;
+  float rpm_m1, rpm_m2, rpm_m3, residual, temp, confidence;
   uint8_t status;
 };
 
@@ -98,7 +98,7 @@ void run_per_sample(const hpddo_host::BenchLog& log, size_t split, std::vector<R
     if (k == split || full_seq_gap(log, k)) obs.restart_lags();
     const hpddo::Sample s = sample_at(log, k, dt0);
     const hpddo::Estimate e = obs.step(s);
-    out[k] = Row{m1_rpm(s), e.rpm_m2, e.rpm, e.residual_rpm, e.temp_C, e.status};
+    out[k] = Row{m1_rpm(s), e.rpm_m2, e.rpm, e.residual_rpm, e.temp_C, e.confidence, e.status};
   }
 }
 
@@ -152,7 +152,7 @@ void run_batched(const hpddo_host::BenchLog& log, size_t split, std::vector<Row>
   }
   for (size_t k = 0; k < n; ++k) {
     const hpddo::Estimate e = obs.finish(prep[k], res[k]);
-    out[k] = Row{m1[k], e.rpm_m2, e.rpm, e.residual_rpm, e.temp_C, e.status};
+    out[k] = Row{m1[k], e.rpm_m2, e.rpm, e.residual_rpm, e.temp_C, e.confidence, e.status};
   }
 }
 
@@ -167,15 +167,15 @@ int usage() {
 bool write_estimates(const std::string& path, const hpddo_host::BenchLog& log, size_t split,
                      const std::vector<Row>& rows) {
   std::ofstream f(path + ".tmp");
-  f << "t_s,rpm_ref,rpm_m1,rpm_m2,rpm_m3,residual_rpm,temp_used_C,status,part\n";
+  f << "t_s,rpm_ref,rpm_m1,rpm_m2,rpm_m3,residual_rpm,temp_used_C,confidence,status,part\n";
   char buf[320];
   for (size_t k = 0; k < rows.size(); ++k) {
     const Row& r = rows[k];
     char ref[32] = "";
     if (std::isfinite(log.rpm_ref[k])) std::snprintf(ref, sizeof ref, "%.10g", log.rpm_ref[k]);
     // %.9g: every float32 estimate reads back exactly.
-    std::snprintf(buf, sizeof buf, "%.10g,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%s,%s\n", log.t_s[k], ref, r.rpm_m1,
-                  r.rpm_m2, r.rpm_m3, r.residual, r.temp, hpddo::status_name(static_cast<hpddo::Status>(r.status)),
+    std::snprintf(buf, sizeof buf, "%.10g,%s,%.9g,%.9g,%.9g,%.9g,%.9g,%.9g,%s,%s\n", log.t_s[k], ref, r.rpm_m1,
+                  r.rpm_m2, r.rpm_m3, r.residual, r.temp, r.confidence, hpddo::status_name(static_cast<hpddo::Status>(r.status)),
                   k < split ? "train" : "test");
     f << buf;
   }

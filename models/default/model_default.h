@@ -7,9 +7,9 @@
 // ke_fit: eq20
 // effects: none
 // training: Adam lr=0.001 batch=200 iterations=2000, 6759 rows, chronological 80% of each recording
-// generator: hpddo.export 1
+// generator: hpddo.export 2
 // shapes: 5-16-8-1
-// checksum: crc32 0x8a8bb7a5
+// checksum: crc32 0x4cb3d6ed
 // parameter_layout: crc32 0x92351228 (hpddo::kParamsSchema, hpddo.schema 1)
 #ifndef HPDDO_MODEL_DEFAULT_H
 #define HPDDO_MODEL_DEFAULT_H
@@ -23,7 +23,7 @@ namespace hpddo_model_default {
 typedef hpddo::Mlp<5, 16, 8> Net;
 
 /// CRC-32 over the stored floats (see hpddo::model_checksum).
-static const uint32_t kChecksum = 0x8a8bb7a5u;
+static const uint32_t kChecksum = 0x4cb3d6edu;
 
 /// Effects in the physics model: none (kModel.physics.effects).
 static const uint16_t kEffects = 0x0000u;
@@ -86,7 +86,46 @@ HPDDO_FLASH static const float kEnvLo[5] = {
     -1.17775714f, -0.0900968984f, -22.1247311f, -0.0900968984f, -22.1247311f};
 HPDDO_FLASH static const float kEnvHi[5] = {
     12.9499283f, 1.08284187f, 233.172928f, 1.08284187f, 233.172928f};
+/// Novelty gate: 32 prototypes by fps over 6759 training rows; r_in = 0.99 quantile of their distances (at least 0.1), r_out = 2 r_in.
+HPDDO_FLASH static const float kGateCentre[5] = {
+    8.92886639f, 0.898876548f, 112.300865f, 0.898771822f, 112.295921f};
+HPDDO_FLASH static const float kGateScale[5] = {
+    1.16664481f, 0.160939991f, 21.7214413f, 0.161255181f, 21.7784653f};
+HPDDO_FLASH static const float kGatePrototypes[160] = {
+    -0.0172849894f, -0.115450211f, 0.0671644211f, -0.122742072f, 0.137055025f,
+    -7.65359402f, -5.53668165f, -5.20738554f, -5.52617168f, -5.19262981f,
+    2.43718362f, -2.03944039f, 4.5734601f, -2.05017781f, 4.57342577f,
+    -2.61349416f, -2.84409451f, -1.04719555f, -3.64688945f, -3.91670156f,
+    -2.34394598f, -3.08640838f, -0.528533041f, -2.57672238f, 1.50057745f,
+    1.06671309f, -2.26970649f, 3.05747485f, 0.348709434f, -0.227115199f,
+    -5.46974707f, -3.58650804f, -4.0054698f, -3.61327195f, -4.06432915f,
+    0.0316402353f, 0.394926518f, -0.263698578f, -2.32246065f, 2.93908525f,
+    -0.378011972f, -2.46881151f, 1.42589581f, -3.06281519f, -0.588764846f,
+    -0.337603748f, -2.65842295f, 1.62116647f, -2.32339096f, 2.96930504f,
+    -2.61174631f, -3.01171589f, -0.916528404f, -2.83788586f, -1.04422665f,
+    0.954018593f, -2.26932764f, 2.91800666f, -2.63296866f, 1.58671379f,
+    -5.56335354f, -3.56681108f, -4.13617325f, -5.52339935f, -5.19473267f,
+    1.04942405f, -2.35836077f, 3.10409021f, -2.01012969f, 4.54271412f,
+    -0.351583809f, -2.60360122f, 1.56187117f, -2.51767302f, 1.26725924f,
+    2.4342227f, -2.00358248f, 4.54231262f, -2.33241391f, 2.9479413f,
+    0.8496719f, -2.32164502f, 2.82924938f, -2.29039955f, 3.07278013f,
+    -0.0388068259f, 0.445025682f, -0.389108419f, 0.424973547f, -0.38384515f,
+    -2.26331544f, -2.9861598f, -0.50581181f, -3.14479709f, -0.450944394f,
+    0.427050829f, 0.418587297f, 0.206491038f, 0.365496516f, -0.00906903949f,
+    0.911155581f, -2.20683217f, 2.81715846f, -0.150989518f, 0.328982145f,
+    0.393603206f, -0.165748253f, 0.613170505f, -0.214925408f, 0.459169537f,
+    0.121861428f, -0.13868247f, 0.256819934f, -2.30628157f, 2.97349501f,
+    -0.0656747892f, 0.267431706f, -0.286136687f, 0.210754141f, 0.165058419f,
+    1.15829945f, -2.35394287f, 3.23516321f, -2.33506203f, 2.81684947f,
+    -2.32273722f, -3.1516068f, -0.452355832f, -2.93194199f, -0.91906774f,
+    0.186148182f, 0.208248138f, 0.0702363476f, 0.44306913f, -0.397995204f,
+    -2.57038665f, -2.9383347f, -0.921708107f, -3.07990003f, -0.595069885f,
+    0.32487607f, -0.0181839727f, 0.415160447f, -0.0491011925f, 0.036154598f,
+    0.197323546f, 0.370992094f, -0.0407309569f, -0.0930253565f, 0.0553327724f,
+    -0.294368804f, -2.55211616f, 1.59306049f, -2.53768492f, 1.74832332f,
+    0.156858116f, 0.458639503f, -0.157901481f, 0.417990893f, -0.0641765594f};
 
+static_assert(hpddo::kGatePrototypes == 32, "the core's gate size (model.h) is hpddo.gate.DEFAULT_PROTOTYPES");
 static_assert(sizeof(kW0) / sizeof(float) == Net::kW0Count, "kW0 shape");
 static_assert(sizeof(kW1) / sizeof(float) == Net::kW1Count, "kW1 shape");
 static_assert(sizeof(kW2) / sizeof(float) == Net::kW2Count, "kW2 shape");
@@ -117,6 +156,7 @@ static const hpddo::Model<Net> kModel = {
     {kScalerMean, kScalerScale},
     {kW0, kB0, kW1, kB1, kW2, kB2},
     {kEnvLo, kEnvHi},
+    {kGateCentre, kGateScale, kGatePrototypes, 0.125836551f, 0.503346205f},
     23.7774677f,
     {40.0f, 10.0f, -55.0f, 125.0f},
 };

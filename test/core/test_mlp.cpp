@@ -46,10 +46,10 @@ static int check_golden(const hpddo::Model<Net>& m, int count, float (*at)(uint1
 
 TEST(Mlp, TwoHiddenLayersMatchGolden) {
   using namespace hpddo_golden_tiny;
-  EXPECT_GT(check_golden(hpddo_model_tiny::kModel, kCount, at, kCol_z0, kCol_mlp_rpm), 50);
+  EXPECT_GT(check_golden(hpddo_model_tiny::kModel, kCount, at, kCol_z0, kCol_mlp_rpm), 20);  // rows where the network runs
 }
 
 TEST(Mlp, OneHiddenLayerMatchesGolden) {
   using namespace hpddo_golden_tiny1;
-  EXPECT_GT(check_golden(hpddo_model_tiny1::kModel, kCount, at, kCol_z0, kCol_mlp_rpm), 50);
+  EXPECT_GT(check_golden(hpddo_model_tiny1::kModel, kCount, at, kCol_z0, kCol_mlp_rpm), 20);  // rows where the network runs
 }

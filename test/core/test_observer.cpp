@@ -26,6 +26,8 @@ void replay_golden(const hpddo::Model<Net>& model, int count, float (*at)(uint16
     EXPECT_TRUE(golden::close(e.residual_rpm, g(kCol_residual_rpm))) << "row " << r;
     EXPECT_TRUE(golden::close(e.rpm, g(kCol_rpm))) << "row " << r << " rpm " << e.rpm;
     EXPECT_TRUE(golden::close(e.temp_C, g(kCol_temp_used_C))) << "row " << r << " T " << e.temp_C;
+    EXPECT_TRUE(golden::close(e.confidence, g(kCol_confidence))) << "row " << r << " w " << e.confidence;
+    EXPECT_TRUE(e.confidence >= 0.0f && e.confidence <= 1.0f) << "row " << r;
   }
 }
 
@@ -55,9 +57,45 @@ TEST(Observer, OneLayerModelMatchesGoldenStream) {
 
 TEST(Observer, GoldenStreamsReachEveryStatus) {
   using namespace hpddo_golden_tiny;
-  int seen[4] = {0, 0, 0, 0};
-  for (int r = 0; r < kCount; ++r) ++seen[static_cast<int>(at(static_cast<uint16_t>(r), static_cast<uint8_t>(kCol_status)))];
-  for (int s = 0; s < 4; ++s) EXPECT_GT(seen[s], 0) << hpddo::status_name(static_cast<hpddo::Status>(s));
+  int seen[5] = {0, 0, 0, 0, 0};
+  int faded = 0;  // gated with a weight strictly between 0 and 1
+  for (int r = 0; r < kCount; ++r) {
+    ++seen[static_cast<int>(at(static_cast<uint16_t>(r), static_cast<uint8_t>(kCol_status)))];
+    const float w = at(static_cast<uint16_t>(r), static_cast<uint8_t>(kCol_confidence));
+    faded += w > 0.0f && w < 1.0f;
+  }
+  for (int s = 0; s < 5; ++s) EXPECT_GT(seen[s], 0) << hpddo::status_name(static_cast<hpddo::Status>(s));
+  EXPECT_GT(faded, 0);
+}
+
+TEST(Observer, GateScalesTheClampedResidualAndSkipsTheNetworkAtZero) {
+  using namespace hpddo_golden_tiny;
+  using Net = hpddo_model_tiny::Net;
+  hpddo::Observer<Net> obs(hpddo_model_tiny::kModel);
+  int checked = 0;
+  for (int r = 0; r < kCount; ++r) {
+    const auto g = [&](int c) { return at(static_cast<uint16_t>(r), static_cast<uint8_t>(c)); };
+    const hpddo::Observer<Net>::Prepared p = obs.prepare(sample(static_cast<uint16_t>(r)));
+    if (p.physics.status == hpddo::kStatusInvalid) {
+      obs.finish(p, 0.0f);
+      continue;
+    }
+    EXPECT_EQ(p.use_network, p.confidence > 0.0f) << "row " << r;
+    EXPECT_TRUE(golden::close(p.confidence, g(kCol_confidence))) << "row " << r;
+    if (p.use_network) {
+      float clamped = obs.residual(p);
+      hpddo::clamp_residual(hpddo_model_tiny::kModel.clamp_rpm, &clamped);
+      const hpddo::Estimate e = obs.finish(p, obs.residual(p));
+      EXPECT_EQ(e.residual_rpm, p.confidence * clamped) << "row " << r;
+      ++checked;
+    } else {
+      // the network is not needed: any residual given is ignored
+      const hpddo::Estimate e = obs.finish(p, 1e6f);
+      EXPECT_EQ(e.residual_rpm, 0.0f) << "row " << r;
+      EXPECT_EQ(e.rpm, e.rpm_m2) << "row " << r;
+    }
+  }
+  EXPECT_GT(checked, 20);
 }
 
 TEST(Observer, BadReadingsNeverGiveNan) {

@@ -29,5 +29,5 @@ TEST(Scaler, MatchesGoldenStage) {
     for (int j = 0; j < 5; ++j) EXPECT_TRUE(golden::close(z[j], at(static_cast<uint16_t>(r), static_cast<uint8_t>(kCol_z0 + j)))) << r;
     ++checked;
   }
-  EXPECT_GT(checked, 50);
+  EXPECT_GT(checked, 20);  // the rows where the network runs (inside the envelope, gate weight > 0)
 }

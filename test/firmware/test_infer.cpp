@@ -93,6 +93,7 @@ TEST(InferLink, FramePathEqualsTheObserverOnTheSameSamples) {
     EXPECT_EQ(t.rpm, e.rpm);
     EXPECT_EQ(t.rpm_m2, e.rpm_m2);
     EXPECT_EQ(t.residual_rpm, e.residual_rpm);
+    EXPECT_EQ(t.confidence, e.confidence);
     EXPECT_EQ(t.status, e.status);
     EXPECT_EQ(t.infer_us, 250u);
     EXPECT_NEAR(t.v_V, g(r, gold::kCol_v_V), 0.0005f);

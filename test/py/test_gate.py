@@ -118,7 +118,8 @@ def test_fit_refuses_bad_rules():
 
 def test_constant_rows_keep_a_minimum_radius():
     gd = gate.fit(np.ones((50, 3)), k=4)
-    assert gd.count == 1 and np.all(gd.scale == 1.0)
+    # one distinct row: one prototype, repeated to the k a model header declares
+    assert gd.count == 4 and np.all(gd.prototypes == gd.prototypes[0]) and np.all(gd.scale == 1.0)
     assert gd.r_in_sq == F32(gate.MIN_RADIUS ** 2)
     assert gate.weight(gd, np.ones((1, 3)))[0] == 1.0
 

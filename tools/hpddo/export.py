@@ -18,9 +18,11 @@ import numpy as np
 
 from . import physics as ph
 from . import schema
+from .gate import DEFAULT_PROTOTYPES
 from .observer_ref import ModelData, ReferenceObserver
 
-GENERATOR = "hpddo.export 1"
+GENERATOR = "hpddo.export 2"
+GATE_PROTOTYPES = DEFAULT_PROTOTYPES  # hpddo::kGatePrototypes; the header asserts they agree
 
 
 def c_float(x, allow_nonfinite: bool = False) -> str:
@@ -68,7 +70,10 @@ def checksum_floats(model: ModelData) -> np.ndarray:
              np.asarray(model.scaler_mean, np.float32), np.asarray(model.scaler_scale, np.float32)]
     parts += [a.ravel() for _, a in network_arrays(model)]
     lim = model.limits
+    g = model.gate
     parts += [np.asarray(model.env_lo, np.float32), np.asarray(model.env_hi, np.float32),
+              np.asarray(g.centre, np.float32), np.asarray(g.scale, np.float32),
+              np.asarray(g.prototypes, np.float32).ravel(), np.array([g.r_in_sq, g.r_out_sq], np.float32),
               np.array([model.clamp_rpm, lim.v_max_V, lim.i_max_A, lim.temp_min_C, lim.temp_max_C], np.float32)]
     return np.concatenate(parts).astype("<f4")
 
@@ -124,7 +129,15 @@ def model_header(model: ModelData, name: str, provenance: dict) -> str:
            c_array("kScalerMean", model.scaler_mean), c_array("kScalerScale", model.scaler_scale)]
     for cname, arr in network_arrays(model):
         out.append(c_array(cname, arr))
-    out += [c_array("kEnvLo", model.env_lo), c_array("kEnvHi", model.env_hi), "\n"]
+    g = model.gate
+    if g.dims != 5 or g.count != GATE_PROTOTYPES:
+        raise ValueError(f"the core's gate has 5 inputs and {GATE_PROTOTYPES} prototypes, got {g.dims} and {g.count}")
+    out += [c_array("kEnvLo", model.env_lo), c_array("kEnvHi", model.env_hi),
+            f"/// Novelty gate: {g.rule}.\n" if g.rule else "",
+            c_array("kGateCentre", g.centre), c_array("kGateScale", g.scale),
+            c_array("kGatePrototypes", g.prototypes, per_line=5), "\n",
+            f"static_assert(hpddo::kGatePrototypes == {GATE_PROTOTYPES}, \"the core's gate size (model.h) is "
+            f"hpddo.gate.DEFAULT_PROTOTYPES\");\n"]
     counts = ["kW0Count", "kW1Count", "kW2Count"]
     for k, (cname, arr) in enumerate(network_arrays(model)):
         if cname.startswith("kW"):
@@ -137,7 +150,9 @@ def model_header(model: ModelData, name: str, provenance: dict) -> str:
     lim = model.limits
     out += ["\n", _c_layout_asserts(name), "/// The deployed model.\nstatic const hpddo::Model<Net> kModel = {\n",
             f"    {phys},\n", "    {kScalerMean, kScalerScale},\n", f"    {{{w_init}}},\n",
-            "    {kEnvLo, kEnvHi},\n", f"    {c_float(model.clamp_rpm)},\n",
+            "    {kEnvLo, kEnvHi},\n",
+            f"    {{kGateCentre, kGateScale, kGatePrototypes, {c_float(g.r_in_sq)}, {c_float(g.r_out_sq)}}},\n",
+            f"    {c_float(model.clamp_rpm)},\n",
             f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
             "};\n\n",
             "/// The nameplate model M1 (rated voltage over rated speed), for comparison only.\n",
@@ -149,7 +164,7 @@ def model_header(model: ModelData, name: str, provenance: dict) -> str:
 # Columns of a golden row: inputs, then the expected output of every stage.
 GOLDEN_INPUTS = ["v_V", "i_A", "temp_C", "dt_s", "seq", "has_seq"]
 GOLDEN_STAGES = ["x0", "x1", "x2", "x3", "x4", "z0", "z1", "z2", "z3", "z4", "mlp_rpm",
-                 "rpm_m2", "residual_rpm", "rpm", "temp_used_C", "status"]
+                 "rpm_m2", "residual_rpm", "rpm", "temp_used_C", "confidence", "status"]
 
 
 def golden_rows(model: ModelData, samples) -> np.ndarray:
@@ -160,7 +175,7 @@ def golden_rows(model: ModelData, samples) -> np.ndarray:
         o = obs.step(v, i, t, dt, seq)
         rows.append([v, i, np.nan if t is None else t, dt, 0 if seq is None else seq, 0 if seq is None else 1,
                      *o["x"], *o["z"], o["mlp_rpm"], o["rpm_m2"], o["residual_rpm"], o["rpm"], o["temp_C"],
-                     o["status"]])
+                     o["confidence"], o["status"]])
     return np.asarray(rows, np.float32)
 
 

@@ -8,10 +8,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import gate
 from . import physics as ph
-from .observer_ref import Limits, ModelData
+from .observer_ref import Limits, ModelData, ReferenceObserver
 
 SEED = 20261121
+RAMP_ROWS = 40  # the stream's ramp: every other row stands for the tiny models' gate's training rows
 
 
 def _layers(rng, sizes):
@@ -33,8 +35,20 @@ def tiny_model(hidden=(4, 3), seed=SEED, out_gain=8.0) -> ModelData:
     hi = np.array([13.0, 2.0, 320.0, 2.0, 320.0], np.float32)
     layers = _layers(rng, (5, *hidden, 1))
     layers[-1] = (layers[-1][0] * np.float32(out_gain), layers[-1][1])  # residuals of a few RPM, some clamped
-    return ModelData(physics=p, scaler_mean=mean, scaler_scale=scale, layers=layers, env_lo=lo, env_hi=hi,
-                     clamp_rpm=6.0, limits=Limits())
+    model = ModelData(physics=p, scaler_mean=mean, scaler_scale=scale, layers=layers, env_lo=lo, env_hi=hi,
+                      clamp_rpm=6.0, gate=gate.open_gate(5), limits=Limits())
+    model.gate = _gate_of_ramp(model)
+    return model
+
+
+def _gate_of_ramp(model: ModelData) -> gate.GateData:
+    """The gate fitted (gate.fit, the training rule) to the features of every other one of
+    the first RAMP_ROWS samples of tiny_stream (the ramp), as if they were the training
+    rows: the ramp's other samples lie between them (a weight between 0 and 1), the rest
+    of the stream near them (1) or far away (0)."""
+    obs = ReferenceObserver(model)
+    xs = [obs.step(*s)["x"] for s in tiny_stream()[:RAMP_ROWS]]
+    return gate.fit(np.asarray(xs[::2], np.float64))
 
 
 def tiny_stream(seed=SEED):

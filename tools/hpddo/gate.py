@@ -158,6 +158,13 @@ def _kmeans(z: np.ndarray, protos: np.ndarray, iterations: int) -> np.ndarray:
     return protos
 
 
+def open_gate(dims: int, k: int = DEFAULT_PROTOTYPES) -> GateData:
+    """A gate that keeps the whole correction at any finite input (w = 1): the observer
+    without novelty gate, as before it (hpddo train --no-gate; test fixtures)."""
+    return GateData(centre=np.zeros(dims, F32), scale=np.ones(dims, F32), prototypes=np.zeros((k, dims), F32),
+                    r_in_sq=F32(np.finfo(F32).max), r_out_sq=F32(np.inf), rule="open: no novelty gate (w = 1)")
+
+
 def fit(g_train, k: int = DEFAULT_PROTOTYPES, method: str = "fps", in_quantile: float = IN_QUANTILE,
         out_factor: float = OUT_FACTOR) -> GateData:
     """The gate of the training rows g_train (N, D): scaling, k prototypes, thresholds by
@@ -179,6 +186,9 @@ def fit(g_train, k: int = DEFAULT_PROTOTYPES, method: str = "fps", in_quantile: 
     protos = z[_farthest_points(z, k)]
     if method == "kmeans":
         protos = _kmeans(z, protos, KMEANS_ITERATIONS)
+    # Fewer distinct rows than k: the prototypes repeat (a repeat changes no distance), so
+    # that a model always carries the k its header declares.
+    protos = protos[np.arange(k) % len(protos)]
     gd.prototypes = np.ascontiguousarray(protos, F32)
     d_train = nearest_sq(gd, z, start=np.inf)
     r_in_sq = max(float(np.quantile(d_train.astype(np.float64), in_quantile)), MIN_RADIUS ** 2)
@@ -323,12 +333,10 @@ def training_inputs(recs, p, with_temp: bool) -> np.ndarray:
 
 
 def m3_residual(res, x: np.ndarray) -> np.ndarray:
-    """The clamped residual the observer adds (0 outside the envelope), vectorised."""
-    inside = np.all((x >= res.env_lo) & (x <= res.env_hi), axis=1) & np.isfinite(x).all(axis=1)
-    r = np.zeros(len(x))
-    if inside.any():
-        r[inside] = np.clip(res.mlp.predict(res.scaler.transform(x[inside])), -res.clamp_rpm, res.clamp_rpm)
-    return r
+    """The clamped residual the observer adds (0 outside the envelope), vectorised, as if
+    there were no gate (the gate's weight is applied by the caller, per variant)."""
+    from . import train
+    return train.correction(dataclasses.replace(res, gate=open_gate(x.shape[1])), x)[0]
 
 
 def _rmse(est, ref) -> float:

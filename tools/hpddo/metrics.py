@@ -5,8 +5,9 @@ them into the figures every report shows, on the rows it is told to score:
 
 * RMSE per condition (recording name), pooled over its scored rows that carry an
   encoder reading, and "average", the mean over conditions;
-* the share of scored rows whose residual was clamped, that fell back to physics, or
-  whose reading was invalid, per condition and over all ("all");
+* the share of scored rows whose residual was clamped, that fell back to physics
+  (outside the per-feature box), whose correction the novelty gate reduced ("gated"),
+  or whose reading was invalid, per condition and over all ("all");
 * the number of scored rows.
 
 Figures are kept to 6 significant digits (what the reports print and what is compared
@@ -23,7 +24,8 @@ import pandas as pd
 #: Estimate columns scored, by model name: the observer's three, and the lookup baseline
 #: (hpddo.baseline) where the caller added it to every frame.
 MODELS = {"M1": "rpm_m1", "M2": "rpm_m2", "M3": "rpm_m3", "lookup": "rpm_lookup"}
-STATUS_SHARES = {"clamped_share": "clamped", "fallback_share": "fallback", "invalid_share": "invalid"}
+STATUS_SHARES = {"clamped_share": "clamped", "fallback_share": "fallback", "gated_share": "gated",
+                 "invalid_share": "invalid"}
 
 
 def figure(x: float) -> float | int | None:
@@ -85,11 +87,12 @@ def table(metrics: dict, title: str = "RMSE on the test parts (RPM)") -> str:
         return f"{x:10.2f}" if x is not None else f"{'nan':>10s}"
 
     lines = [title, f"{'condition':<10s} " + " ".join(f"{m:>10s}" for m in models)
-             + f" {'rows':>8s} {'clamped':>8s} {'fallback':>9s}"]
+             + f" {'rows':>8s} {'clamped':>8s} {'fallback':>9s} {'gated':>8s}"]
     for c in conds:
         lines.append(f"{c:<10s} " + " ".join(num(rm[m][c]) for m in models)
                      + f" {metrics['test_rows'][c]:8d} {100 * (metrics['clamped_share'][c] or 0):7.1f}% "
-                     f"{100 * (metrics['fallback_share'][c] or 0):8.1f}%")
+                     f"{100 * (metrics['fallback_share'][c] or 0):8.1f}% "
+                     f"{100 * (metrics.get('gated_share', {}).get(c) or 0):7.1f}%")
     lines.append(f"{'average':<10s} " + " ".join(num(rm[m]["average"]) for m in models))
     return "\n".join(lines) + "\n"
 

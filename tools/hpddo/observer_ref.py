@@ -9,10 +9,11 @@ import dataclasses
 
 import numpy as np
 
+from . import gate as gate_mod
 from . import physics as ph
 
 F32 = np.float32
-STATUS = {"ok": 0, "clamped": 1, "fallback": 2, "invalid": 3}
+STATUS = {"ok": 0, "clamped": 1, "fallback": 2, "invalid": 3, "gated": 4}
 
 
 @dataclasses.dataclass
@@ -34,6 +35,7 @@ class ModelData:
     env_lo: np.ndarray
     env_hi: np.ndarray
     clamp_rpm: float
+    gate: gate_mod.GateData  # the novelty gate over the features (gate.h)
     limits: Limits = dataclasses.field(default_factory=Limits)
     nameplate: ph.PhysicsParams | None = None  # M1, for comparison only; not in the checksum
 
@@ -84,12 +86,12 @@ class ReferenceObserver:
         self.i_lag = F32(0)
         self.m2_lag = F32(0)
         self.rise_K = F32(0)
-        self.last = dict(rpm=F32(0), rpm_m2=F32(0), residual_rpm=F32(0), temp_C=F32(0))
+        self.last = dict(rpm=F32(0), rpm_m2=F32(0), residual_rpm=F32(0), temp_C=F32(0), confidence=F32(0))
 
     def _invalid(self, out):
         self.has_lag = False
         out.update(self.last)
-        out.update(residual_rpm=F32(0), status=STATUS["invalid"])
+        out.update(residual_rpm=F32(0), confidence=F32(0), status=STATUS["invalid"])
         return out
 
     def step(self, v_V, i_A, temp_C, dt_s, seq=None):
@@ -125,15 +127,24 @@ class ReferenceObserver:
             return self._invalid(out)
         x = np.array([v, i, m2, self.i_lag if self.has_lag else i, self.m2_lag if self.has_lag else m2], F32)
         self.i_lag, self.m2_lag, self.has_lag = i, m2, True
-        out.update(x=x, rpm_m2=m2, temp_C=temp_used, residual_rpm=F32(0), status=STATUS["fallback"])
+        out.update(x=x, rpm_m2=m2, temp_C=temp_used, residual_rpm=F32(0), confidence=F32(0),
+                   status=STATUS["fallback"])
+        # Inside the per-feature box, the gate's weight w (nearness to the training rows)
+        # scales the clamped residual; where w = 0 the network is not evaluated.
+        w = F32(0)
         if np.all((x >= m.env_lo) & (x <= m.env_hi)):
+            w = F32(gate_mod.weight(m.gate, x[None, :])[0])
+            if not w > 0:
+                out.update(status=STATUS["gated"])  # inside the box, far from every training row
+        if w > 0:
             z = ((x - m.scaler_mean.astype(F32)) / m.scaler_scale.astype(F32)).astype(F32)
             r = mlp_forward(m.layers, z)
             out.update(z=z, mlp_rpm=r)
             if np.isfinite(r):
                 c = F32(m.clamp_rpm)
                 rc = F32(min(max(r, -c), c))
-                out.update(residual_rpm=rc, status=STATUS["clamped"] if rc != r else STATUS["ok"])
+                status = STATUS["gated"] if w < 1 else STATUS["clamped"] if rc != r else STATUS["ok"]
+                out.update(residual_rpm=F32(w * rc), confidence=w, status=status)
         out["rpm"] = F32(m2 + out["residual_rpm"])
-        self.last = {k: out[k] for k in ("rpm", "rpm_m2", "residual_rpm", "temp_C")}
+        self.last = {k: out[k] for k in ("rpm", "rpm_m2", "residual_rpm", "temp_C", "confidence")}
         return out

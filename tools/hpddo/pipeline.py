@@ -57,7 +57,7 @@ def model_data(m1, m2, res: Residual) -> ModelData:
     return ModelData(physics=m2, scaler_mean=res.scaler.mean_.astype(np.float32),
                      scaler_scale=res.scaler.scale_.astype(np.float32), layers=layers,
                      env_lo=res.env_lo.astype(np.float32), env_hi=res.env_hi.astype(np.float32),
-                     clamp_rpm=float(np.float32(res.clamp_rpm)), limits=Limits(), nameplate=m1)
+                     gate=res.gate, clamp_rpm=float(np.float32(res.clamp_rpm)), limits=Limits(), nameplate=m1)
 
 
 SOURCE = "native replay (hpddo_core observer, per-sample)"

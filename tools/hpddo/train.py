@@ -7,6 +7,7 @@ import functools
 import numpy as np
 from tqdm import tqdm
 
+from . import gate as gate_mod
 from . import network
 from . import physics as ph
 from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
@@ -23,8 +24,11 @@ class TrainingError(InputError):
 
 @dataclasses.dataclass
 class TrainConfig(network.AdamConfig):
-    """The network's training (network.AdamConfig) and whether a progress bar shows."""
+    """The network's training (network.AdamConfig), whether the novelty gate is fitted
+    (else an open gate: the whole correction everywhere inside the envelope) and whether
+    a progress bar shows."""
 
+    gate: bool = True
     progress: bool = True
 
 
@@ -58,6 +62,7 @@ class Residual:
     clamp_rpm: float
     env_lo: np.ndarray
     env_hi: np.ndarray
+    gate: gate_mod.GateData
     n_train: int
     loss_curve: list
 
@@ -85,5 +90,30 @@ def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig)
     lo, hi = x.min(axis=0), x.max(axis=0)
     span = np.maximum(hi - lo, 1e-6)
     return Residual(scaler=scaler, mlp=mlp, clamp_rpm=float(np.percentile(np.abs(e), CLAMP_PERCENTILE)),
-                    env_lo=lo - ENVELOPE_MARGIN * span, env_hi=hi + ENVELOPE_MARGIN * span, n_train=len(x),
+                    env_lo=lo - ENVELOPE_MARGIN * span, env_hi=hi + ENVELOPE_MARGIN * span,
+                    gate=gate_mod.fit(x) if cfg.gate else gate_mod.open_gate(x.shape[1]), n_train=len(x),
                     loss_curve=losses)
+
+
+def correction(res: Residual, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The learned correction the observer adds to n_M2, for every row of features x at
+    once (observer.h's rules, the network in float64): inside the envelope, the novelty
+    gate's weight w times the clamped residual; 0 outside the envelope, where w = 0, or
+    where a feature is not finite. Returns (correction in RPM, w) per row."""
+    x = np.asarray(x, float)
+    inside = np.isfinite(x).all(axis=1) & np.all((x >= res.env_lo) & (x <= res.env_hi), axis=1)
+    w = np.zeros(len(x))
+    if inside.any():
+        w[inside] = gate_mod.weight(res.gate, x[inside])
+    on = w > 0
+    corr = np.zeros(len(x))
+    if on.any():
+        r = np.clip(res.mlp.predict(res.scaler.transform(x[on])), -res.clamp_rpm, res.clamp_rpm)
+        corr[on] = w[on] * r
+    return corr, w
+
+
+def hybrid_rpm(res: Residual, rec: Recording, p: ph.PhysicsParams) -> np.ndarray:
+    """n_M3 for every row of a recording: n_M2 plus the correction (train.correction)."""
+    x, n2 = features(rec, p)
+    return n2 + correction(res, x)[0]

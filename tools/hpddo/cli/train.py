@@ -72,6 +72,9 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     p.add_argument("--max-iter", type=options.positive_int, default=2000, metavar="EPOCHS",
                    help="training epochs of M3, no early stop (default 2000)")
     options.seed(p, "the network")
+    p.add_argument("--no-gate", action="store_true",
+                   help="no novelty gate: the whole learned correction wherever the features lie inside the "
+                        "training envelope (the paper's M3; docs/gate.md)")
     p.add_argument("--split", type=split_fraction, default=0.8, metavar="FRACTION",
                    help="training fraction of each recording, 0.1..0.95 (default 0.8)")
     options.glitch_filter(p)
@@ -104,6 +107,8 @@ def provenance(args) -> str:
     words += ["--seed", str(args.seed)]
     if args.no_glitch_filter:
         words.append("--no-glitch-filter")
+    if args.no_gate:
+        words.append("--no-gate")
     return " ".join(words) + " --out <the folder of this file>"
 
 
@@ -116,7 +121,7 @@ def run(args) -> int:
                          ke_fit=args.ke_fit, effects=args.effects, train_fraction=args.split,
                          glitch_filter=not args.no_glitch_filter,
                          train=TrainConfig(hidden=args.hidden, max_iter=args.max_iter, seed=args.seed,
-                                           progress=not args.quiet),
+                                           gate=not args.no_gate, progress=not args.quiet),
                          command=provenance(args))
     t0 = time.perf_counter()
     res = run_pipeline(args.logs, args.out, cfg)

@@ -26,7 +26,7 @@ from .. import dataset, identify
 from ..errors import InputError
 from .. import effects as fx
 from .. import physics as ph
-from ..train import TrainConfig, TrainingError, features, train_residual
+from ..train import TrainConfig, TrainingError, hybrid_rpm, train_residual
 from . import analysis, ranking
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
@@ -542,18 +542,9 @@ def _rmse_by_condition(rows, res) -> dict:
 
 def _hybrid(recs, p, cfg_iter, seed):
     """M3 on top of physics p: trained on the training rows; estimates for every row with
-    the observer's clamp and envelope fallback."""
+    the observer's clamp, envelope fallback and novelty gate (train.hybrid_rpm)."""
     res = train_residual(recs, p, TrainConfig(hidden=(16, 8), max_iter=cfg_iter, seed=seed, progress=False))
-    out = []
-    for r in recs:
-        x, n2 = features(r, p)
-        ok = np.all(np.isfinite(x), axis=1)
-        inside = ok & np.all((x >= res.env_lo) & (x <= res.env_hi), axis=1)
-        corr = np.zeros(r.n)
-        if inside.any():
-            corr[inside] = np.clip(res.mlp.predict(res.scaler.transform(x[inside])), -res.clamp_rpm, res.clamp_rpm)
-        out.append(n2 + corr)
-    return out
+    return [hybrid_rpm(res, r, p) for r in recs]
 
 
 def hybrid(inp: Inputs, model: ph.PhysicsParams, after_model: ph.PhysicsParams, changed: bool,

@@ -1,4 +1,4 @@
-// A deployed model: physics parameters, scaler, network, envelope and clamp.
+// A deployed model: physics parameters, scaler, network, envelope, novelty gate and clamp.
 // Generated headers (tools/gen_weights.py) define one `Model<Net>` each, with
 // the arrays in flash and a CRC-32 over them that a test recomputes.
 #ifndef HPDDO_MODEL_H
@@ -8,6 +8,7 @@
 
 #include "crc.h"
 #include "envelope.h"
+#include "gate.h"
 #include "limits.h"
 #include "mlp.h"
 #include "physics.h"
@@ -21,6 +22,14 @@ static const uint8_t kFeatureCount = 5;
 /// Indices of the residual features.
 enum Feature : uint8_t { kFeatV = 0, kFeatI = 1, kFeatM2 = 2, kFeatILag = 3, kFeatM2Lag = 4 };
 
+/// Prototypes of the novelty gate (gate.h) over the residual features: 32 cover the
+/// training rows of a few recordings (docs/gate.md: 16 let unseen operating points
+/// through, 64 gain nothing measurable and double the cost). 680 bytes of flash.
+static const uint8_t kGatePrototypes = 32;
+
+/// The novelty gate of a model: distance of the features to training prototypes.
+typedef Gate<kFeatureCount, kGatePrototypes> FeatureGate;
+
 /// Everything the observer needs, for a network type Net (an Mlp<...>).
 template <class Net>
 struct Model {
@@ -28,6 +37,7 @@ struct Model {
   Scaler<kFeatureCount> scaler;     ///< standardisation of the features
   MlpWeights weights;               ///< residual network, in flash
   Envelope<kFeatureCount> envelope; ///< training range of the features
+  FeatureGate gate;                 ///< nearness of the features to the training rows
   float clamp_rpm;                  ///< residual bound, RPM
   InputLimits limits;               ///< fault limits of the readings
 };
@@ -56,7 +66,8 @@ struct CrcParams {
 /// the board uses, in the exporter's order: every physics field in the schema's
 /// order (for_each_param(), generated from tools/hpddo/schema.py), the effect
 /// bits (the header's kEffects) as a float, scaler, network layers, envelope,
-/// clamp and limits. A generated header's kChecksum must equal it.
+/// gate (centre, scale, prototypes, r_in_sq, r_out_sq), clamp and limits. A
+/// generated header's kChecksum must equal it.
 template <class Net>
 uint32_t model_checksum(const Model<Net>& m) {
   detail::CrcParams phys = {0xFFFFFFFFu};
@@ -74,6 +85,11 @@ uint32_t model_checksum(const Model<Net>& m) {
   }
   crc = detail::crc_flash(crc, m.envelope.lo, kFeatureCount);
   crc = detail::crc_flash(crc, m.envelope.hi, kFeatureCount);
+  crc = detail::crc_flash(crc, m.gate.centre, kFeatureCount);
+  crc = detail::crc_flash(crc, m.gate.scale, kFeatureCount);
+  crc = detail::crc_flash(crc, m.gate.prototypes, static_cast<uint16_t>(kFeatureCount) * kGatePrototypes);
+  crc = detail::crc_float(crc, m.gate.r_in_sq);
+  crc = detail::crc_float(crc, m.gate.r_out_sq);
   const float tail[] = {m.clamp_rpm, m.limits.v_max_V, m.limits.i_max_A, m.limits.temp_min_C,
                         m.limits.temp_max_C};
   for (uint8_t k = 0; k < sizeof tail / sizeof tail[0]; ++k) crc = detail::crc_float(crc, tail[k]);

@@ -4,8 +4,13 @@
 //
 //   n_M2  = physics model with effect terms (physics.h)
 //   x     = [v, i, n_M2, i(t-1), n_M2(t-1)]   (lags = current values after a reset)
-//   n_M3  = n_M2 + clamp(MLP(scale(x)))       inside the training envelope
-//   n_M3  = n_M2                              outside it (fallback)
+//   w     = gate.weight(x)                    nearness to the training rows (gate.h)
+//   n_M3  = n_M2 + w * clamp(MLP(scale(x)))   inside the training envelope
+//   n_M3  = n_M2                              outside it (fallback), or where w = 0
+//
+// w is the estimate's confidence in the learned correction: 1 near the training
+// data, fading to 0 away from it (status "gated" where it is below 1), 0 where
+// the network does not apply. The network is not evaluated where w = 0.
 //
 // Bounds (limits.h): a period outside [kPeriodMin_s, kPeriodMax_s] is no
 // sample-to-sample step, so the sample starts a new segment (no di/dt; lags
@@ -29,8 +34,9 @@ namespace hpddo {
 enum Status : uint8_t {
   kStatusOk = 0,        ///< physics plus the learned residual
   kStatusClamped = 1,   ///< residual limited to the clamp bound
-  kStatusFallback = 2,  ///< outside the training envelope: physics alone
+  kStatusFallback = 2,  ///< outside the training envelope (per-feature box): physics alone
   kStatusInvalid = 3,   ///< reading not usable: estimate held, lags reset
+  kStatusGated = 4,     ///< inside the box, away from the training rows: residual scaled by the confidence < 1 (0: physics alone)
 };
 
 /// Short lower-case name of a status, for logs and telemetry.
@@ -39,6 +45,7 @@ inline const char* status_name(Status s) {
     case kStatusOk: return "ok";
     case kStatusClamped: return "clamped";
     case kStatusFallback: return "fallback";
+    case kStatusGated: return "gated";
     default: return "invalid";
   }
 }
@@ -59,6 +66,7 @@ struct Estimate {
   float rpm_m2;        ///< physics model alone, RPM (held when invalid)
   float residual_rpm;  ///< learned correction applied, RPM
   float temp_C;        ///< winding temperature the thermal effects used, C
+  float confidence;    ///< weight of the learned correction, 0..1 (the gate's; 0: physics alone)
   Status status;
 };
 
@@ -109,7 +117,8 @@ class Observer {
   struct Prepared {
     Estimate physics;         ///< rpm = rpm_m2, status fallback; status invalid: no usable reading
     float x[kFeatureCount];   ///< the network's inputs [v, i, n_M2, i(t-1), n_M2(t-1)]
-    bool use_network;         ///< inside the training envelope: the residual applies
+    float confidence;         ///< the gate's weight inside the envelope, else 0
+    bool use_network;         ///< confidence > 0: the residual applies
   };
 
   /// Turns one sample into an estimate: prepare(), the network where it applies, finish().
@@ -123,6 +132,7 @@ class Observer {
   Prepared prepare(const Sample& s) {
     Prepared out;
     out.use_network = false;
+    out.confidence = 0.0f;
     out.physics = Estimate();
     out.physics.status = kStatusInvalid;
     for (uint8_t j = 0; j < kFeatureCount; ++j) out.x[j] = 0.0f;
@@ -178,7 +188,11 @@ class Observer {
     out.physics.temp_C = in.temp_C;
     out.physics.residual_rpm = 0.0f;
     out.physics.status = kStatusFallback;
-    out.use_network = model_.envelope.contains(out.x);
+    if (model_.envelope.contains(out.x)) {
+      out.confidence = model_.gate.weight(out.x);
+      if (!(out.confidence > 0.0f)) out.physics.status = kStatusGated;  // inside the box, far from the rows
+    }
+    out.use_network = out.confidence > 0.0f;
     return out;
   }
 
@@ -191,19 +205,23 @@ class Observer {
 
   /// The second half of step(): the estimate of a prepared sample, given the
   /// network's residual (ignored where the network does not apply; a non-finite
-  /// one leaves physics alone). Call once per prepare(), in the same order: an
-  /// invalid sample holds the estimate of the sample finished before it.
+  /// one leaves physics alone): clamped, then scaled by the confidence. Call once
+  /// per prepare(), in the same order: an invalid sample holds the estimate of
+  /// the sample finished before it.
   Estimate finish(const Prepared& p, float residual_rpm) {
     if (p.physics.status == kStatusInvalid) {
       Estimate e = last_;
       e.residual_rpm = 0.0f;
+      e.confidence = 0.0f;
       e.status = kStatusInvalid;
       return e;
     }
     Estimate e = p.physics;
     if (p.use_network && is_finite(residual_rpm)) {
-      e.status = clamp_residual(model_.clamp_rpm, &residual_rpm) ? kStatusClamped : kStatusOk;
-      e.residual_rpm = residual_rpm;
+      const bool clamped = clamp_residual(model_.clamp_rpm, &residual_rpm);
+      e.status = p.confidence < 1.0f ? kStatusGated : clamped ? kStatusClamped : kStatusOk;
+      e.residual_rpm = p.confidence * residual_rpm;
+      e.confidence = p.confidence;
     }
     e.rpm = e.rpm_m2 + e.residual_rpm;
     last_ = e;
