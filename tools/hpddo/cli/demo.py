@@ -4,9 +4,14 @@
      through the board observer, print the RMSE table, write an HTML report;
   2. diagnose which physical effects the physics model misses (hpddo diagnose);
   3. add the named effects (hpddo train --effects), retrain M3 on top, replay natively, and
-     show the error fall, for the physics model and for the hybrid.
+     show the error fall, for the physics model and for the hybrid;
+  4. validate both models on recordings no training protocol covers (hpddo evaluate on
+     data/validation: duty/load pairs absent from training, a hot motor), beside the lookup
+     baseline (mean training speed of the nearest training operating point), so that
+     memory and estimation show side by side.
 
-    hpddo demo [--out out] [--data data/default]      (tools/demo.py is the same command)
+    hpddo demo [--out out] [--data data/default] [--validation data/validation]
+                                                      (tools/demo.py is the same command)
 """
 from __future__ import annotations
 
@@ -26,6 +31,9 @@ def parser(prog: str = "hpddo demo") -> argparse.ArgumentParser:
                    "current folder)", required=False, default=pathlib.Path("out"))
     p.add_argument("--data", type=pathlib.Path, default=resource_root() / "data" / "default", metavar="DIR",
                    help="folder of labelled bench logs, *.csv (default: the bundled data/default)")
+    p.add_argument("--validation", type=pathlib.Path, default=resource_root() / "data" / "validation",
+                   metavar="DIR", help="folder of labelled bench logs the models are not trained on, scored whole "
+                                       "(default: the bundled data/validation; an empty or missing folder: none)")
     options.ra_ohm(p)
     options.glitch_filter(p)
     options.seed(p, "the networks and the bootstrap")
@@ -53,23 +61,67 @@ def pipeline(logs, out: pathlib.Path, shown: pathlib.Path, effects, args, title:
     return res, shown / "report" / "index.html"
 
 
+def bench_logs(folder: pathlib.Path) -> list:
+    """The bench logs of a folder (*.csv without the twin's *.truth.csv sidecars), sorted."""
+    return sorted(p for p in folder.glob("*.csv") if not p.name.endswith(".truth.csv"))
+
+
 def run(args) -> int:
     from .. import outdir
     from ..errors import InputError
 
-    logs = sorted(p for p in args.data.glob("*.csv") if not p.name.endswith(".truth.csv"))
+    logs = bench_logs(args.data)
     if not logs:
         raise InputError(f"no bench logs (*.csv) in {args.data}")
+    validation = bench_logs(args.validation) if args.validation.is_dir() else []
     t0 = time.perf_counter()
     outdir.check(args.out, "demo")
     with outdir.staged(args.out, "demo") as stage:
-        demo(logs, stage, args)
+        demo(logs, validation, stage, args)
     print(f"done in {time.perf_counter() - t0:.1f} s; everything is in {args.out}")
     return 0
 
 
-def demo(logs, stage: pathlib.Path, args) -> None:
-    """The three steps, written into stage (which becomes args.out when all succeed)."""
+def score_validation(res, validation, out: pathlib.Path, shown: pathlib.Path, label: str, args):
+    """Scores the model of a pipeline result on the validation recordings (hpddo evaluate)
+    into out/validation (metrics.json, report/, work/); the metrics, or None without
+    validation recordings."""
+    from ..evaluate import evaluate
+    from ..reports import training as report
+
+    if not validation:
+        return None
+    ev = evaluate(res.out, validation, out / "validation" / "work", glitch_filter=not args.no_glitch_filter)
+    (out / "validation" / "metrics.json").write_text(json.dumps(ev.metrics, indent=2) + "\n")
+    report.write(ev.metrics, ev.estimates, out / "validation" / "report", f"hpddo: {label} on recordings it never saw",
+                 ["Every row of recordings no training protocol covers, replayed natively through the board "
+                  "observer; lookup: the mean training speed of the nearest training operating point."],
+                 caption=ev.table.splitlines()[0])
+    print("   " + ev.table.replace("\n", "\n   ").rstrip())
+    print(f"   report: {shown / 'validation' / 'report' / 'index.html'}")
+    return ev.metrics
+
+
+def side_by_side(chrono: dict, valid: dict | None) -> dict:
+    """{figure: {model: RMSE}}: the chronological average and each validation recording."""
+    table = {"chronological (average)": {m: v["average"] for m, v in chrono["rmse_rpm"].items() if m != "M1"}}
+    if valid:
+        for c in valid["recordings"]:
+            table[f"{c} (never seen)"] = {m: v[c] for m, v in valid["rmse_rpm"].items() if m != "M1"}
+    return table
+
+
+def print_side_by_side(title: str, table: dict) -> None:
+    models = ["M2", "M3", "lookup"]
+    print(f"   {title}")
+    print("   " + f"{'':28s}" + "".join(f"{m:>10s}" for m in models))
+    for fig, row in table.items():
+        print("   " + f"{fig:28s}" + "".join(f"{row[m]:10.2f}" if row.get(m) is not None else f"{'-':>10s}"
+                                           for m in models))
+
+
+def demo(logs, validation, stage: pathlib.Path, args) -> None:
+    """The steps, written into stage (which becomes args.out when all succeed)."""
     from ..diagnosis import core
     from . import diagnose
 
@@ -83,6 +135,9 @@ def demo(logs, stage: pathlib.Path, args) -> None:
           f"Ke M2 = {ident['ke_m2_vs_per_rad']:.4f} V s/rad, clamp +-{ident['clamp_rpm']:.1f} RPM")
     print(base.table, end="")
     print(f"   report: {page}")
+    if validation:
+        print(f"   validation on recordings it never saw: {', '.join(p.name for p in validation)}")
+    base_valid = score_validation(base, validation, stage / "plain", args.out / "plain", "M1, M2, M3", args)
 
     print("== 2. diagnosis: where does the physics model fail, which effect is missing?")
     t1 = time.perf_counter()
@@ -91,8 +146,12 @@ def demo(logs, stage: pathlib.Path, args) -> None:
     print(diagnose.summary(d))
     print(f"   diagnosis took {time.perf_counter() - t1:.1f} s; report: {args.out / 'diagnosis' / 'index.html'}")
     missing = list(d.missing_effects)
+    summary = {"missing_effects": missing, "before": base.metrics["rmse_rpm"],
+               "validation_before": base_valid["rmse_rpm"] if base_valid else None}
     if not missing:
         print("== 3. nothing missing: the physics model stays as it is")
+        print_side_by_side("memory against estimation (RMSE, RPM):", side_by_side(base.metrics, base_valid))
+        (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
         return
 
     print(f"== 3. add {', '.join(missing)} to the physics model, retrain M3 on top, replay natively")
@@ -107,10 +166,17 @@ def demo(logs, stage: pathlib.Path, args) -> None:
     print("   " + f"{'':22s}" + "".join(f"{c:>16s}" for c in conds))
     for label, m in (("physics (M2)", "M2"), ("hybrid (M3)", "M3")):
         print("   " + f"{label:22s}" + "".join(f"{b[m][c]:7.2f} -> {a[m][c]:5.2f}" for c in conds))
-    summary = {"missing_effects": missing, "before": b, "after": a,
-               "effects": after.metrics["identification"]["effects"]}
+    print(f"   report: {page}")
+    after_valid = score_validation(after, validation, stage / "with_effects", args.out / "with_effects",
+                           f"M2 + {', '.join(missing)} and M3", args)
+    summary.update(after=a, validation_after=after_valid["rmse_rpm"] if after_valid else None,
+                   effects=after.metrics["identification"]["effects"])
+    print("== 4. memory against estimation: the chronological split (rows from the training runs) and "
+          "recordings no training covers (RMSE, RPM)")
+    print_side_by_side("physics as identified, M3 on top:", side_by_side(base.metrics, base_valid))
+    print_side_by_side(f"with {', '.join(missing)}, M3 on top:", side_by_side(after.metrics, after_valid))
     (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    print(f"   report: {page}; summary in {args.out / 'summary.json'}")
+    print(f"   summary in {args.out / 'summary.json'}")
 
 
 def main(argv=None) -> int:
