@@ -110,3 +110,36 @@ def test_metrics_pool_conditions_and_keep_any_condition_name():
     assert back["rmse_rpm"]["M1"][name] == pytest.approx(np.sqrt((1 + 4 + 4) / 3), rel=1e-6)
     assert back["clamped_share"][name] == pytest.approx(0.4) and back["invalid_share"]["all"] == pytest.approx(0.4)
     assert "lookup" not in back["rmse_rpm"]
+
+
+def test_leave_one_out_trains_without_the_recording_it_scores(tmp_path):
+    """hpddo train --leave-one-out: per recording, a model trained on the others only,
+    scored on every row of the one left out; the figures land in metrics.json."""
+    import gen_weights
+    logs = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "sweep")]
+    out = tmp_path / "m"
+    assert gen_weights.main([*map(str, logs), "--out", str(out), "--max-iter", "3", "--quiet",
+                             "--leave-one-out"]) == 0
+    loo = json.loads((out / "metrics.json").read_text())["leave_one_out"]
+    assert set(loo["recordings"]) == {"load", "sweep"}
+    for held, other in (("load", "sweep"), ("sweep", "load")):
+        trained = json.loads((out / "leave_one_out" / held / "model" / "metrics.json").read_text())
+        assert trained["recordings"] == [other]
+        est = pd.read_csv(out / "leave_one_out" / held / "evaluation" / "estimates" / f"{held}.estimates.csv")
+        rec = dataset.load_recording(ROOT / "data" / "default" / f"{held}.csv", 0.0)
+        assert len(est) == rec.n and set(est["part"]) == {"test"}
+        m3 = float(np.sqrt(np.mean((est["rpm_m3"].to_numpy() - rec.df["rpm_ref"].to_numpy()) ** 2)))
+        assert loo["recordings"][held]["M3"] == pytest.approx(m3, rel=1e-5)
+    avg = np.mean([loo["recordings"][c]["M2"] for c in ("load", "sweep")])
+    assert loo["average"]["M2"] == pytest.approx(avg, rel=1e-5)
+    # a rerun into the same folder is allowed (the tool wrote everything in it)
+    assert gen_weights.main([*map(str, logs), "--out", str(out), "--max-iter", "3", "--quiet",
+                             "--leave-one-out"]) == 0
+
+
+def test_leave_one_out_of_one_recording_is_refused_before_any_work(tmp_path, capsys):
+    import gen_weights
+    out = tmp_path / "m"
+    assert gen_weights.main([str(ROOT / "data" / "default" / "sweep.csv"), "--out", str(out), "--quiet",
+                             "--leave-one-out"]) == 1
+    assert "at least two recordings" in capsys.readouterr().err and not out.exists()

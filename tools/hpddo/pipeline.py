@@ -13,6 +13,7 @@ import numpy as np
 from . import baseline, dataset, export, identify, outdir, replay
 from . import metrics as metrics_mod
 from . import physics as ph
+from .errors import InputError
 from .observer_ref import Limits, ModelData
 from .train import TrainConfig, Residual, train_residual
 
@@ -30,6 +31,7 @@ class PipelineConfig:
     train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
     train_fraction: float = dataset.TRAIN_FRACTION
     glitch_filter: bool = True
+    leave_one_out: bool = False  # also train on all recordings but one and score it, for each
     command: str = "tools/gen_weights.py"
 
 
@@ -101,6 +103,8 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     """Runs everything; raises BenchLogError / IdentificationError / ValueError on bad input
     before anything is written to out_dir."""
     outdir.check(out_dir, "gen_weights")  # before the work: a refused folder costs nothing
+    if cfg.leave_one_out and len(log_paths) < 2:
+        raise InputError("leave-one-out needs at least two recordings (one to leave out, one to train on)")
     recs = dataset.load_recordings(log_paths, cfg.train_fraction, cfg.glitch_filter)
     names = [r.name for r in recs]
     ra, ra_source = identify.ra_from_logs(recs, cfg.ra_ohm)
@@ -149,6 +153,50 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
                                        for r in recs}
         metrics["warnings"] = [w for r in recs for w in r.warnings]
         metrics["recordings"] = names
+        if cfg.leave_one_out:
+            metrics["leave_one_out"] = leave_one_out(
+                log_paths, stage / "leave_one_out",
+                dataclasses.replace(cfg, leave_one_out=False, train=dataclasses.replace(cfg.train, progress=False)))
         (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
         (work / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
     return PipelineResult(recs, m1, m2, res, model, metrics, table, out)
+
+
+def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
+    """Cross-recording validation: for each recording, the pipeline on all the others into
+    out_dir/<stem>/model, and that model scored on every row of the one left out
+    (hpddo.evaluate) into out_dir/<stem>/evaluation. Returns {recording: rmse_rpm of its
+    rows (M1, M2, M3, lookup)} plus "average" per model: the figure to trust for a new
+    run, as no row of a scored recording was seen in training."""
+    from .evaluate import evaluate
+
+    paths = [pathlib.Path(p) for p in log_paths]
+    if len(paths) < 2:
+        raise InputError("leave-one-out needs at least two recordings (one to leave out, one to train on)")
+    out = pathlib.Path(out_dir)
+    scores = {}
+    for k, held in enumerate(paths):
+        others = paths[:k] + paths[k + 1:]
+        stem = held.stem
+        res = run(others, out / stem / "model", dataclasses.replace(cfg, command=f"{cfg.command} (leave out {held.name})"))
+        ev = evaluate(res.out, [held], out / stem / "evaluation", glitch_filter=cfg.glitch_filter)
+        name = ev.recordings[0].name
+        scores[name] = {m: v[name] for m, v in ev.metrics["rmse_rpm"].items()}
+    models = list(next(iter(scores.values())))
+    avg = {m: metrics_mod.figure(sum(s[m] for s in scores.values()) / len(scores))
+           if all(s[m] is not None for s in scores.values()) else None for m in models}
+    return {"recordings": scores, "average": avg}
+
+
+def leave_one_out_table(loo: dict) -> str:
+    """The leave-one-out scores as text: one line per recording left out, then the average."""
+    models = list(loo["average"])
+
+    def num(x):
+        return f"{x:10.2f}" if x is not None else f"{'nan':>10s}"
+
+    lines = ["RMSE on every row of each recording, trained on the others (leave one out, RPM)",
+             f"{'left out':<10s} " + " ".join(f"{m:>10s}" for m in models)]
+    lines += [f"{c:<10s} " + " ".join(num(s[m]) for m in models) for c, s in loo["recordings"].items()]
+    lines.append(f"{'average':<10s} " + " ".join(num(loo['average'][m]) for m in models))
+    return "\n".join(lines) + "\n"

@@ -37,6 +37,12 @@ def glitch_filter(p) -> None:
                    help="keep every row (no glitch filter; docs/pipeline.md, step 2)")
 
 
+def leave_one_out(p) -> None:
+    p.add_argument("--leave-one-out", action="store_true",
+                   help="also validate across recordings: for each recording, train on the others and score it "
+                        "whole (the figure to trust for a new run)")
+
+
 def effects(p, what: str) -> None:
     """--effects NAME,NAME...: effect terms of the physics model (hpddo/effects.py)."""
     from .. import effects as fx

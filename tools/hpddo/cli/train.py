@@ -78,6 +78,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     p.add_argument("--split", type=split_fraction, default=0.8, metavar="FRACTION",
                    help="training fraction of each recording, 0.1..0.95 (default 0.8)")
     options.glitch_filter(p)
+    options.leave_one_out(p)
     options.quiet(p, "no progress bar")
     return p
 
@@ -109,6 +110,8 @@ def provenance(args) -> str:
         words.append("--no-glitch-filter")
     if args.no_gate:
         words.append("--no-gate")
+    if args.leave_one_out:
+        words.append("--leave-one-out")
     return " ".join(words) + " --out <the folder of this file>"
 
 
@@ -119,7 +122,7 @@ def run(args) -> int:
 
     cfg = PipelineConfig(name=args.name, ra_ohm=args.ra_ohm, rated_V=args.rated_v, rated_rpm=args.rated_rpm,
                          ke_fit=args.ke_fit, effects=args.effects, train_fraction=args.split,
-                         glitch_filter=not args.no_glitch_filter,
+                         glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
                          train=TrainConfig(hidden=args.hidden, max_iter=args.max_iter, seed=args.seed,
                                            gate=not args.no_gate, progress=not args.quiet),
                          command=provenance(args))
@@ -137,6 +140,9 @@ def run(args) -> int:
         print(f"  effect {e}: {physics.EFFECT_BITS[e][1]} = {val:.5g}")
     print(f"M3 {args.hidden}: clamp +-{ident['clamp_rpm']:.2f} RPM, {ident['train_rows']} training rows")
     print(res.table, end="")
+    if "leave_one_out" in res.metrics:
+        from ..pipeline import leave_one_out_table
+        print(leave_one_out_table(res.metrics["leave_one_out"]), end="")
     print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
     return 0
 
