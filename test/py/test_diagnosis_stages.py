@@ -213,3 +213,23 @@ def test_stages_on_the_bundled_recordings(default_stages):
                                        "held_out_mse_copper_plus_magnets"}
     plot = res.plot()  # what the report's figures take
     assert plot["hybrid"] == {} and len(plot["rows"]) == 3
+
+
+def test_leave_one_out_fits_without_the_recording_it_scores():
+    """The leave-one-out stage: for each recording, M2 and the effects fitted on the others
+    only, scored on every row of the one left out (recomputed here independently)."""
+    from hpddo import identify, train
+    logs = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]
+    inp = core.load(logs, core.Options())
+    loo = core.leave_one_out(inp, ["thermal_ra"])
+    assert set(loo["recordings"]) == {"load", "long", "sweep"}
+    held = next(r for r in inp.recs if r.name == "sweep")
+    others = [r for r in inp.recs if r.name != "sweep"]
+    after = fx.identify(others, identify.m2_params(others, inp.ra), ["thermal_ra"])
+    err = train.physics_rpm(held, after) - held.df["rpm_ref"].to_numpy(float)
+    assert loo["recordings"]["sweep"]["after"] == pytest.approx(float(np.sqrt(np.nanmean(err ** 2))), rel=1e-5)
+    same = core.leave_one_out(inp, [])
+    for c in same["recordings"].values():
+        assert c["before"] == c["after"]
+    assert loo["average"]["before"] == pytest.approx(np.mean([c["before"] for c in loo["recordings"].values()]),
+                                                     rel=1e-5)

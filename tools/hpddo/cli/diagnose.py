@@ -39,6 +39,7 @@ def parser(prog: str = "hpddo diagnose") -> argparse.ArgumentParser:
                    help=f"training epochs of the hybrid (default {core.HYBRID_ITER})")
     options.seed(p, "the bootstrap and the network")
     options.glitch_filter(p)
+    options.leave_one_out(p)
     options.quiet(p, "print only warnings and errors (no summary)")
     return p
 
@@ -48,7 +49,7 @@ def options_of(args):
     from ..diagnosis import core
     return core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
                         hybrid=not args.no_hybrid, hybrid_iter=args.hybrid_iter, seed=args.seed,
-                        glitch_filter=not args.no_glitch_filter)
+                        glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out)
 
 
 def diagnose_into(logs, opt, out: pathlib.Path):
@@ -80,6 +81,14 @@ def summary(d) -> str:
         rows += [("hybrid before", res["rmse_rpm_hybrid"]["before"]), ("hybrid after", res["rmse_rpm_hybrid"]["after"])]
     for lab, row in rows:
         lines.append(f"  {lab:28s}" + " ".join(f"{row[c]:9.2f}" for c in conds))
+    if "leave_one_out" in res:
+        loo = res["leave_one_out"]
+        names = list(loo["recordings"]) + ["average"]
+        lines.append("physics on each recording whole, fitted on the others (leave one out, RPM)")
+        lines.append("  " + f"{'':28s}" + " ".join(f"{c:>9s}" for c in names))
+        for w, lab in (("before", "physics before"), ("after", "physics after")):
+            vals = [loo["recordings"][c][w] for c in names[:-1]] + [loo["average"][w]]
+            lines.append(f"  {lab:28s}" + " ".join(f"{v:9.2f}" for v in vals))
     return "\n".join(lines)
 
 

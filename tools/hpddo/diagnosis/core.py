@@ -45,6 +45,7 @@ class Options:
     hybrid_iter: int = HYBRID_ITER
     seed: int = 1
     glitch_filter: bool = True
+    leave_one_out: bool = False  # also score the physics before/after on each recording, fitted on the others
 
 
 # ---------------------------------------------------------------------------------------
@@ -293,6 +294,7 @@ class Diagnosis:
     thresholds: dict
     hybrid: Hybrid | None
     runtime_s: float
+    leave_one_out: dict | None = None  # see leave_one_out()
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -323,6 +325,8 @@ class Diagnosis:
         }
         if self.hybrid is not None:
             out["rmse_rpm_hybrid"] = self.hybrid.to_json()
+        if self.leave_one_out is not None:
+            out["leave_one_out"] = self.leave_one_out
         out["runtime_s"] = self.runtime_s
         return out
 
@@ -565,6 +569,28 @@ def hybrid(inp: Inputs, model: ph.PhysicsParams, after_model: ph.PhysicsParams, 
 # ---------------------------------------------------------------------------------------
 
 
+def leave_one_out(inp: Inputs, missing: list) -> dict:
+    """Whether the named effects hold on a recording the fit never saw: for each recording,
+    Ke and the effect coefficients fitted on the other recordings only (the model under
+    test, and it with the missing effects), scored on every row of the one left out.
+    {"recordings": {name: {"before", "after"}}, "average": {"before", "after"}}, RMSE in RPM.
+    The physics only: the hybrid's cross-recording figure is hpddo train --leave-one-out."""
+    from ..metrics import figure, rmse
+    from ..train import physics_rpm
+
+    scores = {}
+    for k, held in enumerate(inp.recs):
+        others = inp.recs[:k] + inp.recs[k + 1:]
+        m2 = identify.m2_params(others, inp.ra)
+        before = fx.identify(others, m2, inp.given) if inp.given else m2
+        after = fx.identify(others, m2, list(inp.given) + list(missing)) if missing else before
+        ref = held.df["rpm_ref"].to_numpy(float) if "rpm_ref" in held.df else np.full(held.n, np.nan)
+        scores[held.name] = {"before": figure(rmse(physics_rpm(held, before) - ref)),
+                             "after": figure(rmse(physics_rpm(held, after) - ref))}
+    avg = {w: figure(float(np.mean([s[w] for s in scores.values()]))) for w in ("before", "after")}
+    return {"recordings": scores, "average": avg}
+
+
 def diagnose(paths, opt: Options) -> Diagnosis:
     t0 = time.perf_counter()
     inp = load(paths, opt)
@@ -575,7 +601,13 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     resid = residuals(inp, mf, sel)
     text = verdict(sel, conf, resid, mf.sigma2)
     hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, bool(sel.missing), opt) if opt.hybrid else (None, [])
-    return _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
+    d = _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
+    if opt.leave_one_out:
+        if len(inp.recs) < 2:
+            raise InputError("leave-one-out needs at least two recordings (one to leave out, one to fit on)")
+        d.leave_one_out = leave_one_out(inp, sel.missing)
+        d.runtime_s = time.perf_counter() - t0
+    return d
 
 
 def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) -> Diagnosis:
