@@ -209,3 +209,24 @@ def test_cpp_weight_equals_python_bit_for_bit(probe, fitted):
     assert np.array_equal(got.view(np.uint32), want.view(np.uint32)), np.flatnonzero(got != want)[:10]
     # the vectors reach every branch: 1, the fade and 0
     assert np.any(want == 1.0) and np.any((want > 0.0) & (want < 1.0)) and np.any(want == 0.0)
+
+
+def test_study_lives_apart_and_prints_its_tables(tmp_path, capsys):
+    """The measurement is hpddo.gate_study (python -m hpddo.gate_study --table JSON);
+    hpddo.gate holds only the gate."""
+    import json
+
+    from hpddo import gate_study
+
+    assert not any(hasattr(gate, n) for n in ("measure", "table", "verdict", "cost", "main", "VARIANTS"))
+    names = [v[0] for v in gate_study.VARIANTS]
+    cell = lambda m2, m3, gated: {"rows": 10, "lookup": 9.0, "M2": m2, "M3": m3,  # noqa: E731
+                                  **{n: gated for n in names}, **{n + ":w": 0.5 for n in names}}
+    res = {"t/none": {"chrono": cell(2.0, 1.0, 1.05), "unseen": cell(3.0, 5.0, 3.1), "hot": cell(3.0, 5.0, 4.0)}}
+    path = tmp_path / "gate_measure.json"
+    path.write_text(json.dumps(res))
+    assert gate_study.main(["--table", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "| t/none | unseen | 10 | 9.00 | 3.00 | 5.00 | 3.10 (0.50) |" in out
+    # never-seen: 3.1 <= 1.05 * 3.0 passes, 4.0 does not; chronological gain kept (2 - 1.05) / (2 - 1) = 95 %
+    assert f"| {names[0]} | 1/2 | 1/1 | 95 % |" in out
