@@ -6,7 +6,8 @@ never-seen (duty, load) pairs and a hot motor; the gate's cost on the boards.
     python -m hpddo.gate_study --table JSON    # the tables of a gate_measure.json
     python -m hpddo.gate_study --cost OUT      # after --measure OUT: bytes and AVR cycles
 
-The gate itself is hpddo.gate.
+The gate itself is hpddo.gate; the lookup column is hpddo.baseline.Lookup, the RMSE
+hpddo.metrics.rmse and the residual train.correction, as everywhere else in the project.
 """
 from __future__ import annotations
 
@@ -128,31 +129,6 @@ def m3_residual(res, x: np.ndarray) -> np.ndarray:
     return train.correction(dataclasses.replace(res, gate=open_gate(x.shape[1])), x)[0]
 
 
-def _rmse(est, ref) -> float:
-    ok = np.isfinite(est) & np.isfinite(ref)
-    return float(np.sqrt(np.mean((est[ok] - ref[ok]) ** 2)))
-
-
-def _lookup(train_recs):
-    """Mean training speed per training (duty, load) pair, and the lookup of a row: the pair
-    with the smallest |duty difference| + |load difference|."""
-    tab = {}
-    for r in train_recs:
-        t = r.part("train")
-        for (d, ld), grp in t.groupby(["duty", "load"]):
-            tab.setdefault((round(float(d), 3), int(ld)), []).append(grp["rpm_ref"].to_numpy(float))
-    pairs = sorted(tab)
-    means = np.array([np.nanmean(np.concatenate(tab[k])) for k in pairs])
-    pd_ = np.array([k[0] for k in pairs])
-    pl = np.array([k[1] for k in pairs])
-
-    def predict(df):
-        cost = np.abs(df["duty"].to_numpy(float)[:, None] - pd_) + np.abs(df["load"].to_numpy(float)[:, None] - pl)
-        return means[np.argmin(cost, axis=1)]
-
-    return predict
-
-
 def measure(out, progress: bool = True, max_iter: int | None = None) -> dict:
     """Every twin, with and without the named effects, every variant: RMSE per split."""
     import json
@@ -160,6 +136,8 @@ def measure(out, progress: bool = True, max_iter: int | None = None) -> dict:
     import pickle
 
     from . import dataset, effects, identify, train
+    from .baseline import Lookup
+    from .metrics import rmse
 
     out = pathlib.Path(out)
     results = {}
@@ -167,7 +145,7 @@ def measure(out, progress: bool = True, max_iter: int | None = None) -> dict:
         paths = make_twin_data(twin, out / "data")
         recs = dataset.load_recordings(paths["train"])
         evals = {"unseen": dataset.load_recordings(paths["unseen"]), "hot": dataset.load_recordings(paths["hot"])}
-        lookup = _lookup(recs)
+        lookup = Lookup.fit(recs)  # the training rows of the training recordings
         ra, _ = identify.ra_from_logs(recs, None)
         m2_plain = identify.m2_params(recs, ra, "eq20")
         for eff_name, names in (("none", ()), ("named", NAMED_EFFECTS)):
@@ -198,7 +176,7 @@ def measure(out, progress: bool = True, max_iter: int | None = None) -> dict:
                     resid = m3_residual(res, x)
                     df = r.df.iloc[sl]
                     ref.append(df["rpm_ref"].to_numpy(float))
-                    est["lookup"].append(lookup(df))
+                    est["lookup"].append(lookup.predict_rows(r)[sl])
                     est["M2"].append(n2[sl])
                     est["M3"].append((n2 + resid)[sl])
                     for v in VARIANTS:
@@ -207,9 +185,9 @@ def measure(out, progress: bool = True, max_iter: int | None = None) -> dict:
                         west[v[0]].append(n2[sl] + w * resid[sl])
                         wmean[v[0]].append(w)
                 ref = np.concatenate(ref)
-                cell = {m: _rmse(np.concatenate(e), ref) for m, e in est.items()}
+                cell = {m: rmse(np.concatenate(e) - ref) for m, e in est.items()}
                 for v in VARIANTS:
-                    cell[v[0]] = _rmse(np.concatenate(west[v[0]]), ref)
+                    cell[v[0]] = rmse(np.concatenate(west[v[0]]) - ref)
                     cell[v[0] + ":w"] = float(np.mean(np.concatenate(wmean[v[0]])))
                 cell["rows"] = int(len(ref))
                 if split == "hot":
