@@ -230,3 +230,18 @@ def test_study_lives_apart_and_prints_its_tables(tmp_path, capsys):
     assert "| t/none | unseen | 10 | 9.00 | 3.00 | 5.00 | 3.10 (0.50) |" in out
     # never-seen: 3.1 <= 1.05 * 3.0 passes, 4.0 does not; chronological gain kept (2 - 1.05) / (2 - 1) = 95 %
     assert f"| {names[0]} | 1/2 | 1/1 | 95 % |" in out
+
+
+def test_the_open_gate_of_no_gate_models_exports_and_keeps_every_finite_correction():
+    """hpddo train --no-gate writes an open gate: finite thresholds (a header holds no
+    infinity), weight 1 at any finite input, 0 for a NaN."""
+    import dataclasses as dc
+
+    from hpddo import export, fixtures
+    og = gate.open_gate(5)
+    model = dc.replace(fixtures.tiny_model(), gate=og)
+    text = export.model_header(model, "open", {"command": "test"})
+    assert "inf" not in text.split("kGatePrototypes")[-1].split("};")[0]
+    g = np.array([[1e18, -1e18, 0.0, 3.0, -7.0], [0.0, 0.0, 0.0, 0.0, 0.0]], F32)
+    assert gate.weight(og, g).tolist() == [1.0, 1.0]
+    assert gate.weight(og, np.array([[np.nan, 0, 0, 0, 0]], F32))[0] == 0.0

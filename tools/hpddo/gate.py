@@ -160,8 +160,9 @@ def _kmeans(z: np.ndarray, protos: np.ndarray, iterations: int) -> np.ndarray:
 def open_gate(dims: int, k: int = DEFAULT_PROTOTYPES) -> GateData:
     """A gate that keeps the whole correction at any finite input (w = 1): the observer
     without novelty gate, as before it (hpddo train --no-gate; test fixtures)."""
+    big = np.finfo(F32).max  # both thresholds: w = 1 at any finite distance, a step to 0 beyond
     return GateData(centre=np.zeros(dims, F32), scale=np.ones(dims, F32), prototypes=np.zeros((k, dims), F32),
-                    r_in_sq=F32(np.finfo(F32).max), r_out_sq=F32(np.inf), rule="open: no novelty gate (w = 1)")
+                    r_in_sq=F32(big), r_out_sq=F32(big), rule="open: no novelty gate (w = 1)")
 
 
 def fit(g_train, k: int = DEFAULT_PROTOTYPES, method: str = "fps", in_quantile: float = IN_QUANTILE,
