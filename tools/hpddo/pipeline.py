@@ -28,6 +28,9 @@ class PipelineConfig:
     rated_rpm: float = 1000.0
     ke_fit: str = "eq20"
     effects: tuple = ()
+    # M2 already identified on these recordings (Ke and the effect coefficients, e.g. a
+    # diagnosis's after_model): used as it is instead of identifying it again
+    physics: ph.PhysicsParams | None = None
     train: TrainConfig = dataclasses.field(default_factory=TrainConfig)
     train_fraction: float = dataset.TRAIN_FRACTION
     glitch_filter: bool = True
@@ -109,10 +112,13 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     names = [r.name for r in recs]
     ra, ra_source = identify.ra_from_logs(recs, cfg.ra_ohm)
     m1 = ph.nameplate_params(ra, cfg.rated_V, cfg.rated_rpm)
-    m2 = identify.m2_params(recs, ra, cfg.ke_fit)
-    if cfg.effects:
-        from . import effects
-        m2 = effects.identify(recs, m2, cfg.effects)
+    if cfg.physics is not None:
+        m2 = cfg.physics
+    else:
+        m2 = identify.m2_params(recs, ra, cfg.ke_fit)
+        if cfg.effects:
+            from . import effects
+            m2 = effects.identify(recs, m2, cfg.effects)
     res = train_residual(recs, m2, cfg.train)
     model = model_data(m1, m2, res)
 

@@ -41,14 +41,15 @@ def parser(prog: str = "hpddo demo") -> argparse.ArgumentParser:
     return p
 
 
-def pipeline(logs, out: pathlib.Path, shown: pathlib.Path, effects, args, title: str):
+def pipeline(logs, out: pathlib.Path, shown: pathlib.Path, effects, args, title: str, physics=None):
     """Runs the train pipeline into out/model and writes the report into out/report;
-    `shown` is where out will be once the demo's output is in place."""
+    `shown` is where out will be once the demo's output is in place; physics: M2 with the
+    effects as the diagnosis fitted it (not identified again)."""
     from ..reports import training as report
     from ..pipeline import PipelineConfig, run as run_pipeline
     from ..train import TrainConfig
 
-    res = run_pipeline(logs, out / "model", PipelineConfig(effects=tuple(effects), ra_ohm=args.ra_ohm,
+    res = run_pipeline(logs, out / "model", PipelineConfig(effects=tuple(effects), physics=physics, ra_ohm=args.ra_ohm,
                                                            glitch_filter=not args.no_glitch_filter,
                                                            train=TrainConfig(seed=args.seed,
                                                                              progress=not args.quiet)))
@@ -156,7 +157,8 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
 
     print(f"== 3. add {', '.join(missing)} to the physics model, retrain M3 on top, replay natively")
     after, page = pipeline(logs, stage / "with_effects", args.out / "with_effects", missing, args,
-                           f"hpddo: M1, M2 + {', '.join(missing)} and M3 on the bundled recordings")
+                           f"hpddo: M1, M2 + {', '.join(missing)} and M3 on the bundled recordings",
+                           physics=d.after_model)
     for e, val in after.metrics["identification"]["effects"].items():
         print(f"   {e}: {val:.5g}")
     print(after.table, end="")
