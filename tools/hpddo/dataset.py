@@ -191,6 +191,15 @@ def lagged(x: np.ndarray, starts: np.ndarray) -> np.ndarray:
     return out
 
 
+def di_dt_A_per_s(rec: Recording) -> np.ndarray:
+    """The current's rate of change per row as the observer takes it (observer.h): the
+    step from the previous row over the period, 0 where the lags restart."""
+    starts = segment_starts(rec)
+    i = rec.df["i_A"].to_numpy(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(starts, 0.0, (i - lagged(i, starts)) / dt_s(rec))
+
+
 def temp_read_C(rec: Recording) -> np.ndarray:
     """The case temperature per row as the observer takes it: the reading where the log has
     one within the sensor's range (TEMP_RANGE_C), NaN elsewhere."""

@@ -32,7 +32,7 @@ from scipy.optimize import least_squares
 
 from . import physics as ph
 from . import schema
-from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
+from .dataset import Recording, di_dt_A_per_s, dt_s, temp_read_C
 from .identify import MIN_RPM, IdentificationError
 
 # One entry of the library: the declaration in schema.py (name, field, units, plausible
@@ -91,10 +91,9 @@ class Rows:
 
 def rows_of(rec: Recording) -> Rows:
     df = rec.df
-    starts = segment_starts(rec)
     i = df["i_A"].to_numpy(float)
     dt = dt_s(rec)
-    di_dt = np.where(starts, 0.0, (i - lagged(i, starts)) / dt)
+    di_dt = di_dt_A_per_s(rec)
     t = temp_read_C(rec)
     ok = np.isfinite(t)
     ref = df["rpm_ref"].to_numpy(float) if "rpm_ref" in df else np.full(rec.n, np.nan)

@@ -10,7 +10,7 @@ from tqdm import tqdm
 from . import gate as gate_mod
 from . import network
 from . import physics as ph
-from .dataset import Recording, dt_s, lagged, segment_starts, temp_read_C
+from .dataset import Recording, di_dt_A_per_s, dt_s, lagged, segment_starts, temp_read_C
 from .errors import InputError
 
 FEATURES = ["v_V", "i_A", "n_M2", "i_A_lag1", "n_M2_lag1"]
@@ -40,10 +40,8 @@ def temperature_used(rec: Recording, p: ph.PhysicsParams) -> ph.Temps:
 
 def physics_rpm(rec: Recording, p: ph.PhysicsParams) -> np.ndarray:
     """n_M2 for every row of a recording, with the observer's lag and thermal rules."""
-    starts = segment_starts(rec)
-    i = rec.df["i_A"].to_numpy(float)
-    di_dt = np.where(starts, 0.0, (i - lagged(i, starts)) / dt_s(rec))
-    return ph.physics_rpm(p, rec.df["v_V"].to_numpy(float), i, di_dt, temperature_used(rec, p))
+    return ph.physics_rpm(p, rec.df["v_V"].to_numpy(float), rec.df["i_A"].to_numpy(float), di_dt_A_per_s(rec),
+                          temperature_used(rec, p))
 
 
 def features(rec: Recording, p: ph.PhysicsParams) -> tuple[np.ndarray, np.ndarray]:
