@@ -20,7 +20,7 @@ from hpddo.twin import params as twin
 
 def test_generated_files_regenerate_identically():
     files = schema.generated()
-    assert "lib/hpddo_core/src/hpddo/params_gen.h" in files
+    assert {"lib/hpddo_core/src/hpddo/params_gen.h", "docs/core.md"} <= set(files)
     for rel, text in files.items():
         assert (ROOT / rel).read_bytes() == text.encode(), f"{rel} differs: run {schema.COMMAND}"
 
@@ -29,9 +29,17 @@ def test_check_mode_reports_a_stale_file(tmp_path, capsys):
     assert schema.main(["--check"]) == 0
     for rel in schema.generated():
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+    # the document around its generated block is the user's: only the block is rewritten
+    doc = (ROOT / schema.EFFECTS_DOC).read_text()
+    begin, end = schema.DOC_BEGIN.format(command=schema.COMMAND), schema.DOC_END
+    (tmp_path / schema.EFFECTS_DOC).write_text("# prose\n" + begin + "\n| stale |\n" + end + "\nmore prose\n")
     assert schema.main(["--check", "--root", str(tmp_path)]) == 1
     assert schema.main(["--write", "--root", str(tmp_path)]) == 0
     assert schema.main(["--check", "--root", str(tmp_path)]) == 0
+    text = (tmp_path / schema.EFFECTS_DOC).read_text()
+    assert text.startswith("# prose\n") and text.endswith(end + "\nmore prose\n") and "| stale |" not in text
+    for e in schema.EFFECTS:
+        assert f"| {e.name} | `{e.field}` | {e.unit} | {e.show_unit} |" in text
     capsys.readouterr()
 
 

@@ -412,11 +412,41 @@ def _banner(kind: str, body: str, source: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-def generated() -> dict:
-    """{path relative to the repository: text} of every file generated from the schema."""
+DOC_BEGIN = "<!-- BEGIN GENERATED: the effects table, from tools/hpddo/schema.py ({command}); do not edit -->"
+DOC_END = "<!-- END GENERATED: the effects table -->"
+EFFECTS_DOC = "docs/core.md"
+
+
+def _effects_md() -> str:
+    """The effects table of docs/core.md: one row per effect of the schema."""
+    rows = ["| effect | field | SI unit | shown in | plausible | physics | excited by |",
+            "|---|---|---|---|---|---|---|"]
+    cell = lambda text: text.replace("|", "\\|")  # noqa: E731 (a pipe inside a cell)
+    for e in EFFECTS:
+        lo, hi = e.plausible
+        rows.append(f"| {e.name} | `{e.field}` | {e.unit} | {e.show_unit} | "
+                    f"{lo * e.show_scale:.3g}..{hi * e.show_scale:.3g} {e.show_unit} | {cell(e.meaning)} | "
+                    f"{cell(e.excited_by)} |")
+    return "\n".join(rows) + "\n"
+
+
+def _with_generated_block(text: str, block: str, path: str) -> str:
+    """text with the part between DOC_BEGIN and DOC_END replaced by block."""
+    begin = DOC_BEGIN.format(command=COMMAND)
+    i, j = text.find(begin), text.find(DOC_END)
+    if i < 0 or j < i:
+        raise ValueError(f"{path}: the markers of the generated effects table are missing")
+    return text[: i + len(begin)] + "\n" + block + text[j:]
+
+
+def generated(root: pathlib.Path = ROOT) -> dict:
+    """{path relative to the repository: text} of every file generated from the schema
+    (whole files, and the documents with a generated block, as they should read)."""
     body = _params_h_body()
+    doc = (pathlib.Path(root) / EFFECTS_DOC).read_text(encoding="utf-8")
     return {"lib/hpddo_core/src/hpddo/params_gen.h":
-            _banner("parameter schema", body, "tools/hpddo/schema.py") + body}
+            _banner("parameter schema", body, "tools/hpddo/schema.py") + body,
+            EFFECTS_DOC: _with_generated_block(doc, _effects_md(), EFFECTS_DOC)}
 
 
 def main(argv=None) -> int:
@@ -429,7 +459,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     root = pathlib.Path(args.root)
     stale = []
-    for rel, text in generated().items():
+    for rel, text in generated(root).items():
         path = root / rel
         old = path.read_bytes() if path.exists() else None
         if old == text.encode():
