@@ -145,11 +145,11 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
     h_max = min(h_max, Ts)
 
     b = bench
-    a_cu = b.effect("thermal_ra") / 100.0
-    b_mag = b.effect("magnet_thermal") / 100.0
-    vb = b.effect("brush_drop")
-    s_sat = b.effect("saturation") / 100.0
-    la = b.effect("inductance") * 1e-3
+    a_cu = b.effect_si("thermal_ra")
+    b_mag = b.effect_si("magnet_thermal")
+    vb = b.effect_si("brush_drop")
+    s_sat = b.effect_si("saturation")
+    la = b.effect_si("inductance")
     ra_ref = b.ra_ohm
     t_ref = b.ra_ref_C
     ke0 = b.ke_vs_per_rad

@@ -17,13 +17,13 @@ from .params import Bench
 
 def simulate_cycles(bench: Bench, duty, load, rate_hz, substeps=200):
     b = bench
-    vb = b.effect("brush_drop")
-    s_sat = b.effect("saturation") / 100.0
-    la = b.effect("inductance") * 1e-3
+    vb = b.effect_si("brush_drop")
+    s_sat = b.effect_si("saturation")
+    la = b.effect_si("inductance")
     if la <= 0:
         raise ValueError("the reference integrator needs the inductance effect on")
-    a_cu = b.effect("thermal_ra") / 100.0
-    b_mag = b.effect("magnet_thermal") / 100.0
+    a_cu = b.effect_si("thermal_ra")
+    b_mag = b.effect_si("magnet_thermal")
     T0 = b.ambient_C
     ra = b.ra_ohm * (1 + a_cu * (T0 - b.ra_ref_C))
     ke_t = b.ke_vs_per_rad * (1 + b_mag * (T0 - b.ra_ref_C))

@@ -50,7 +50,7 @@ def measure(bench: Bench, res, duty, load, rng):
     n_conv = max(1, int(bench.adc_conv_per_s / 2.0 / rate))
 
     # commutation ripple on the current: a I cos(N theta_m), mean over the sample
-    a_rip = bench.effect("ripple") / 100.0
+    a_rip = bench.effect_si("ripple")
     theta_m = res.theta * bench.gear_ratio
     i_true = res.i_mean.copy()
     i_var = res.i_var.copy()
@@ -65,8 +65,8 @@ def measure(bench: Bench, res, duty, load, rng):
                             (libm.sin(x2) - libm.sin(x1)) / np.where(small, 1.0, span))
         i_true = i_true + a_rip * res.i_mean * mean_cos
         i_var = i_var + 0.5 * (a_rip * res.i_mean) ** 2
-    v_meas_in = res.v_mean * (1.0 + bench.effect("v_gain") / 100.0)
-    i_meas_in = i_true + bench.effect("current_offset") * 1e-3
+    v_meas_in = res.v_mean * (1.0 + bench.effect_si("v_gain"))
+    i_meas_in = i_true + bench.effect_si("current_offset")
 
     v = adc_channel(v_meas_in, res.v_var, bench.v_div_gain, bench.v_shift_V, n_conv, bench, rng)
     i = adc_channel(i_meas_in, i_var, bench.i_gain_V_per_A, 0.0, n_conv, bench, rng)
