@@ -20,7 +20,7 @@ from hpddo.twin import params as twin
 
 def test_generated_files_regenerate_identically():
     files = schema.generated()
-    assert {"lib/hpddo_core/src/hpddo/params_gen.h", "docs/core.md"} <= set(files)
+    assert {"lib/hpddo_core/src/hpddo/params_gen.h", "docs/core.md", "docs/twin.md"} <= set(files)
     for rel, text in files.items():
         assert (ROOT / rel).read_bytes() == text.encode(), f"{rel} differs: run {schema.COMMAND}"
 
@@ -31,8 +31,12 @@ def test_check_mode_reports_a_stale_file(tmp_path, capsys):
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
     # the document around its generated block is the user's: only the block is rewritten
     doc = (ROOT / schema.EFFECTS_DOC).read_text()
-    begin, end = schema.DOC_BEGIN.format(command=schema.COMMAND), schema.DOC_END
+    what, source = "the effects table", "tools/hpddo/schema.py"
+    begin = schema.DOC_BEGIN.format(what=what, source=source, command=schema.COMMAND)
+    end = schema.DOC_END.format(what=what)
     (tmp_path / schema.EFFECTS_DOC).write_text("# prose\n" + begin + "\n| stale |\n" + end + "\nmore prose\n")
+    twin = (ROOT / schema.TWIN_DOC).read_text()  # the twin's block: as committed (up to date)
+    (tmp_path / schema.TWIN_DOC).write_text(twin)
     assert schema.main(["--check", "--root", str(tmp_path)]) == 1
     assert schema.main(["--write", "--root", str(tmp_path)]) == 0
     assert schema.main(["--check", "--root", str(tmp_path)]) == 0

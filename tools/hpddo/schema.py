@@ -412,41 +412,54 @@ def _banner(kind: str, body: str, source: str) -> str:
     return "\n".join(lines) + "\n"
 
 
-DOC_BEGIN = "<!-- BEGIN GENERATED: the effects table, from tools/hpddo/schema.py ({command}); do not edit -->"
-DOC_END = "<!-- END GENERATED: the effects table -->"
+DOC_BEGIN = "<!-- BEGIN GENERATED: {what}, from {source} ({command}); do not edit -->"
+DOC_END = "<!-- END GENERATED: {what} -->"
 EFFECTS_DOC = "docs/core.md"
+TWIN_DOC = "docs/twin.md"
+
+
+def md_cell(text: str) -> str:
+    """Text for a markdown table cell (a pipe would end the cell)."""
+    return text.replace("|", "\\|")
 
 
 def _effects_md() -> str:
     """The effects table of docs/core.md: one row per effect of the schema."""
     rows = ["| effect | field | SI unit | shown in | plausible | physics | excited by |",
             "|---|---|---|---|---|---|---|"]
-    cell = lambda text: text.replace("|", "\\|")  # noqa: E731 (a pipe inside a cell)
     for e in EFFECTS:
         lo, hi = e.plausible
         rows.append(f"| {e.name} | `{e.field}` | {e.unit} | {e.show_unit} | "
-                    f"{lo * e.show_scale:.3g}..{hi * e.show_scale:.3g} {e.show_unit} | {cell(e.meaning)} | "
-                    f"{cell(e.excited_by)} |")
+                    f"{lo * e.show_scale:.3g}..{hi * e.show_scale:.3g} {e.show_unit} | {md_cell(e.meaning)} | "
+                    f"{md_cell(e.excited_by)} |")
     return "\n".join(rows) + "\n"
 
 
-def _with_generated_block(text: str, block: str, path: str) -> str:
-    """text with the part between DOC_BEGIN and DOC_END replaced by block."""
-    begin = DOC_BEGIN.format(command=COMMAND)
-    i, j = text.find(begin), text.find(DOC_END)
+def with_generated_block(text: str, block: str, path: str, what: str, source: str) -> str:
+    """text with the part between the BEGIN and END markers of `what` replaced by block."""
+    begin, end = DOC_BEGIN.format(what=what, source=source, command=COMMAND), DOC_END.format(what=what)
+    i, j = text.find(begin), text.find(end)
     if i < 0 or j < i:
-        raise ValueError(f"{path}: the markers of the generated effects table are missing")
+        raise ValueError(f"{path}: the markers of the generated {what} are missing")
     return text[: i + len(begin)] + "\n" + block + text[j:]
+
+
+def doc_blocks() -> list:
+    """(document, what, source, block text) of every generated block in the documents."""
+    from .twin import params as twin_params  # the twin's magnitudes and physics (its units are the schema's)
+    return [(EFFECTS_DOC, "the effects table", "tools/hpddo/schema.py", _effects_md()),
+            (TWIN_DOC, "the twin's effects table", "tools/hpddo/twin/params.py", twin_params.effects_md())]
 
 
 def generated(root: pathlib.Path = ROOT) -> dict:
     """{path relative to the repository: text} of every file generated from the schema
     (whole files, and the documents with a generated block, as they should read)."""
     body = _params_h_body()
-    doc = (pathlib.Path(root) / EFFECTS_DOC).read_text(encoding="utf-8")
-    return {"lib/hpddo_core/src/hpddo/params_gen.h":
-            _banner("parameter schema", body, "tools/hpddo/schema.py") + body,
-            EFFECTS_DOC: _with_generated_block(doc, _effects_md(), EFFECTS_DOC)}
+    out = {"lib/hpddo_core/src/hpddo/params_gen.h": _banner("parameter schema", body, "tools/hpddo/schema.py") + body}
+    for doc, what, source, block in doc_blocks():
+        text = out.get(doc) or (pathlib.Path(root) / doc).read_text(encoding="utf-8")
+        out[doc] = with_generated_block(text, block, doc, what, source)
+    return out
 
 
 def main(argv=None) -> int:

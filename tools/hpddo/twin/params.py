@@ -44,6 +44,17 @@ class Effect:
         return schema.effect(self.name).to_si(magnitude)
 
 
+def effects_md() -> str:
+    """The effects table of docs/twin.md: name, shown unit (the schema's), default
+    magnitude, typical range, physics and what it does to M2, from EFFECTS."""
+    rows = ["| name | unit | default | typical | physics | M2 error |", "|---|---|---|---|---|---|"]
+    for e in EFFECTS.values():
+        lo, hi = e.typical
+        rows.append(f"| `{e.name}` | {e.unit} | {e.default:g} | {lo:g}..{hi:g} | {schema.md_cell(e.physics)} | "
+                    f"{schema.md_cell(e.m2)} |")
+    return "\n".join(rows) + "\n"
+
+
 def _effect(name: str, default: float, typical: tuple, physics: str, m2: str) -> Effect:
     return Effect(name, schema.effect(name).show_unit, default, typical, physics, m2)
 
