@@ -143,3 +143,20 @@ def test_leave_one_out_of_one_recording_is_refused_before_any_work(tmp_path, cap
     assert gen_weights.main([str(ROOT / "data" / "default" / "sweep.csv"), "--out", str(out), "--quiet",
                              "--leave-one-out"]) == 1
     assert "at least two recordings" in capsys.readouterr().err and not out.exists()
+
+
+def test_a_recording_without_encoder_readings_gets_estimates_and_no_scores(tmp_path, capsys):
+    text = VALIDATION[1].read_text().splitlines()
+    meta = [ln for ln in text if ln.startswith("#")]
+    df = pd.read_csv(VALIDATION[1], comment="#").drop(columns=["rpm_ref"]).iloc[:120]
+    log = tmp_path / "plain.csv"
+    log.write_text("\n".join(meta) + "\n" + df.to_csv(index=False))
+    out = tmp_path / "out"
+    assert cli.main(["--model", str(MODEL), str(log), "--out", str(out)]) == 0
+    assert "nothing to score" in capsys.readouterr().out
+    m = json.loads((out / "metrics.json").read_text())
+    assert all(v[c] is None for v in m["rmse_rpm"].values() for c in v)
+    (est_path,) = (out / "work" / "estimates").glob("*.estimates.csv")
+    est = pd.read_csv(est_path)
+    assert len(est) == 120 and est["rpm_m3"].notna().all()
+    assert (out / "report" / "index.html").is_file()

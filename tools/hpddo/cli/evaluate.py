@@ -51,6 +51,10 @@ def run(args) -> int:
                       "training operating point."], caption=ev.table.splitlines()[0])
     for w in ev.metrics["warnings"]:
         print(f"hpddo evaluate: WARNING: {w}")
+    for r in ev.recordings:
+        if "rpm_ref" not in r.df or not r.df["rpm_ref"].notna().any():
+            print(f"hpddo evaluate: {r.source}: no encoder readings (rpm_ref): its estimates are written "
+                  f"({args.out / 'work' / 'estimates'}), there is nothing to score them against")
     print(ev.table, end="")
     print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
     return 0

@@ -28,8 +28,8 @@ def rmse_rows(metrics: dict, models=MODELS) -> list[dict]:
     rows = []
     for c in conds:
         vals = [rm[m].get(c) for m in models]
-        best = min(v for v in vals if v is not None)
-        rows.append({"condition": c, "cells": [{"value": v, "best": v == best} for v in vals]})
+        best = min((v for v in vals if v is not None), default=None)  # None: no encoder readings to score
+        rows.append({"condition": c, "cells": [{"value": v, "best": v is not None and v == best} for v in vals]})
     return rows
 
 
@@ -70,6 +70,7 @@ def page(metrics: dict, recordings: list[dict], title: str, notes: list[str], ca
     return render("training.html.j2", title=title, notes=list(notes),
                   table={"caption": caption, "models": models, "rows": rmse_rows(metrics, models)},
                   clamped=metrics.get("clamped_share", {}), fallback=metrics.get("fallback_share", {}),
+                  gated=metrics.get("gated_share", {}),
                   glitches=metrics.get("glitches_removed", {}), warnings=metrics.get("warnings", []),
                   recordings=recordings)
 
