@@ -199,6 +199,34 @@ def spec_for(rows: list[Rows], names, hold=None) -> FitSpec:
     return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state, blind=blind)
 
 
+def node_path(blind: bool) -> str:
+    """The heat path of the winding node: "ambient" where some rows read no temperature
+    (FitSpec.blind), else "case" (the rise above the case reading)."""
+    return "ambient" if blind else "case"
+
+
+def node_params(blind: bool) -> tuple:
+    """(th_r_K_per_W, th_tau_s) declarations (schema.NodeParam) of the node's heat path."""
+    path = node_path(blind)
+    return schema.node_param(path, "th_r_K_per_W"), schema.node_param(path, "th_tau_s")
+
+
+def node_plausibility(p: ph.PhysicsParams, blind: bool) -> list:
+    """Every fitted parameter of p's winding node against its declared ranges (schema.NODE):
+    [{"field", "path", "value", "shown", "plausible", "physical", "at_bound", "plausibility"}];
+    [] without a node."""
+    if not p.thermal_enabled():
+        return []
+    out = []
+    for n in node_params(blind):
+        v = float(getattr(p, n.field))
+        ok, text = n.plausibility(v)
+        out.append({"field": n.field, "path": n.path, "value": v, "shown": n.show(v), "plausible": ok,
+                    "physical": bool(n.physical[0] <= v <= n.physical[1]), "at_bound": n.at_bound(v),
+                    "plausibility": text, "basis": n.basis})
+    return out
+
+
 def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsParams:
     kw = dict(zip(spec.free, (float(v) for v in x[: len(spec.free)])))
     kw.update(spec.fixed)
@@ -223,9 +251,10 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     p0 = _plain(base) if start is None else start
     x0 = [getattr(p0, f) if (start is not None or f == "ke_vs_per_rad") else 0.0 for f in spec.free]
     scales = list(spec.scales)
+    node = node_params(spec.blind) if spec.thermal_state else ()
     if spec.thermal_state:
-        r0 = p0.th_r_K_per_W if p0.th_r_K_per_W > 0 else (10.0 if spec.blind else 2.0)
-        tau0 = p0.th_tau_s if p0.th_tau_s > 0 else (600.0 if spec.blind else 30.0)
+        r0 = p0.th_r_K_per_W if p0.th_r_K_per_W > 0 else node[0].start
+        tau0 = p0.th_tau_s if p0.th_tau_s > 0 else node[1].start
         x0 += [math.log(r0), math.log(tau0)]
         scales += [1.0, 1.0]
     sel = [getattr(r, mask) for r in rows]
@@ -249,11 +278,10 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     lo = [-np.inf] * len(x0)
     hi = [np.inf] * len(x0)
     lo[0] = min(1e-6, 0.1 * x0[0]) if x0[0] > 0 else 1e-6  # Ke > 0, whatever its scale
-    if spec.thermal_state:
-        lo[-2], hi[-2] = math.log(0.05), math.log(500.0)
-        lo[-1], hi[-1] = math.log(1.0), math.log(1e5)
-        x0[-2] = min(max(x0[-2], lo[-2] + 1e-9), hi[-2] - 1e-9)
-        x0[-1] = min(max(x0[-1], lo[-1] + 1e-9), hi[-1] - 1e-9)
+    if spec.thermal_state:  # the node within its physical range (schema.NODE)
+        for k, n in zip((-2, -1), node):
+            lo[k], hi[k] = math.log(n.physical[0]), math.log(n.physical[1])
+            x0[k] = min(max(x0[k], lo[k] + 1e-9), hi[k] - 1e-9)
     res = least_squares(resid, np.asarray(x0, float), x_scale=np.asarray(scales, float), bounds=(lo, hi),
                         method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=200)
     p = _params(base, spec, res.x)

@@ -222,6 +222,70 @@ STATE = (
     Param("t_amb_C", "C", "thermal state: ambient temperature", 25.0),
 )
 
+
+@dataclasses.dataclass(frozen=True)
+class NodeParam:
+    """A parameter of the winding's thermal node (a STATE field) that the effect fits estimate
+    along one heat path, with its plausible and physical ranges. The path follows the log:
+    "case" where it reads the case temperature (the node is the winding's rise above the
+    reading: the winding-to-case path), "ambient" where it reads none (the rise above ambient:
+    winding to case to ambient, in series)."""
+
+    field: str
+    path: str             # "case" or "ambient"
+    show_unit: str        # shown in the unit of the field (show scale 1)
+    plausible: tuple      # (lo, hi), SI
+    physical: tuple       # (lo, hi): the plausible range widened 2x (lo / 2, 2 hi); the fit is held within it
+    start: float          # where the fit starts (and the value the ranking assumes before any fit)
+    basis: str            # where the range comes from, one line
+
+    def show(self, value: float) -> str:
+        return f"{value:.3g} {self.show_unit}"
+
+    def at_bound(self, value: float) -> bool:
+        """Whether a fitted value sits on an edge of the physical range (the data pull it further)."""
+        lo, hi = self.physical
+        return abs(value - lo) <= 1e-5 * lo or abs(value - hi) <= 1e-5 * hi
+
+    def plausibility(self, value: float) -> tuple[bool, str]:
+        lo, hi = self.plausible
+        ok = lo <= value <= hi
+        rng = f"{lo:.3g}..{hi:.3g} {self.show_unit}"
+        text = f"{self.show(value)} {'within' if ok else 'outside'} the plausible {rng}"
+        if self.at_bound(value):
+            text += (f", at the edge of the physical {self.physical[0]:.3g}..{self.physical[1]:.3g} "
+                     f"{self.show_unit} (the fit is held there; the data pull it further)")
+        return ok, text
+
+
+# The winding's thermal node, per heat path. A 25 mm iron-core gear motor (the 25GA371 of the
+# bundled data): copper and laminations of the armature hold about 5..30 J/K; catalogue data of
+# small DC motors put the winding-to-housing resistance at about 1..10 K/W and the housing-to-
+# ambient resistance of a motor without heat sink at 5..30 K/W. Hence the winding's own time
+# constant (C_w R_wc) of 8 s to a few minutes, and the motor's (case and winding to ambient) of
+# minutes to an hour. The twin (twin/params.py): 6 J/K, 1.5 K/W to the case (9 s), 220 J/K and
+# 6.3 K/W case to ambient (the slow mode 1424 s, 7.8 K/W in series).
+NODE = (
+    NodeParam("th_r_K_per_W", "case", "K/W", (0.5, 12.0), (0.25, 24.0), 2.0,
+              "winding-to-housing resistance of small DC motors, about 1..10 K/W"),
+    NodeParam("th_tau_s", "case", "s", (8.0, 300.0), (4.0, 600.0), 30.0,
+              "armature heat capacity 5..30 J/K x 1.5..10 K/W to the housing"),
+    NodeParam("th_r_K_per_W", "ambient", "K/W", (3.0, 40.0), (1.5, 80.0), 10.0,
+              "winding to housing plus housing to ambient (5..30 K/W without heat sink)"),
+    NodeParam("th_tau_s", "ambient", "s", (60.0, 3600.0), (30.0, 7200.0), 600.0,
+              "the housing's heat capacity (100..500 J/K) x its path to ambient: minutes to an hour"),
+)
+NODE_PATHS = ("case", "ambient")
+
+
+def node_param(path: str, field: str) -> NodeParam:
+    """The declaration of a thermal-node field along a heat path ("case" or "ambient")."""
+    for n in NODE:
+        if n.path == path and n.field == field:
+            return n
+    raise KeyError((path, field))
+
+
 # The effect bits, after every float field (uint16_t in C++, int in Python).
 BITS_FIELD = "effects"
 BITS_MEANING = "Effect bits that are on (informative; zero coefficients are off)"
@@ -295,6 +359,18 @@ def validate() -> None:
                 raise ValueError(f"{e.name}: shares_work_with needs a material constant on both effects")
     if len(set(pairs)) != len(pairs):
         raise ValueError("a pair of effects has two separating recordings")
+    state_fields = {p.field for p in STATE}
+    for path in NODE_PATHS:
+        got = sorted(n.field for n in NODE if n.path == path)
+        if got != ["th_r_K_per_W", "th_tau_s"]:
+            raise ValueError(f"thermal node, path {path!r}: declares {got}, want th_r_K_per_W and th_tau_s once")
+    for n in NODE:
+        lo, hi = n.plausible
+        if n.field not in state_fields or n.path not in NODE_PATHS:
+            raise ValueError(f"thermal node: unknown field or path {n.field!r}, {n.path!r}")
+        if not (0 < lo < hi) or n.physical != (lo / 2, 2 * hi) or not (lo <= n.start <= hi):
+            raise ValueError(f"thermal node {n.path} {n.field}: want 0 < plausible, physical = (lo/2, 2 hi), "
+                             "start within plausible")
 
 
 validate()

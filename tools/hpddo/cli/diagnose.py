@@ -74,6 +74,13 @@ def summary(d) -> str:
         if e["named"]:
             incl = "" if e["inclusion"] is None else f", inclusion {100 * e['inclusion']:.0f} %"
             lines.append(f"  {e['effect']:15s} {e['shown']:>14s}  score {e['score']:.3f}{incl}; {e['plausibility']}")
+    node = res.get("thermal_node") or {}
+    for which, lab in (("after_model", "with the missing effects"), ("model", "model under test")):
+        if node.get(which):
+            lines.append(f"  winding node ({node['path']} path, {lab}):")
+            for q in node[which]:
+                lines.append(f"    {q['field']:13s} {q['shown']:>14s}  {q['plausibility']}")
+            break
     conds = list(res["rmse_rpm"]["before"])
     lines.append("RMSE on the test parts (RPM)   " + " ".join(f"{c:>9s}" for c in conds))
     rows = [("physics before", res["rmse_rpm"]["before"]), ("physics after", res["rmse_rpm"]["after"])]

@@ -74,6 +74,7 @@ class EffectResult:
     note: str | None = None               # named by the material check
     se: float | None = None               # unseen: standard error of its coefficient
     needs: str = ""                       # unseen: the recording that would show it
+    node: list = dataclasses.field(default_factory=list)  # thermal: its winding node's plausibility
 
     @property
     def named(self) -> bool:
@@ -83,9 +84,9 @@ class EffectResult:
     def identifiable(self) -> bool:
         return self.kind != "unseen"
 
-    def at(self, p: ph.PhysicsParams) -> "EffectResult":
+    def at(self, p: ph.PhysicsParams, blind: bool) -> "EffectResult":
         """This row with its coefficient (and what is derived from it) read from p."""
-        return dataclasses.replace(self, **_described(self.effect, p))
+        return dataclasses.replace(self, **_described(self.effect, p, blind))
 
     def to_json(self) -> dict:
         if not self.identifiable:
@@ -98,21 +99,26 @@ class EffectResult:
                "inclusion": self.inclusion, "identifiable": True}
         if self.kind == "candidate":
             out.update(physical=self.physical, alone_gain_rpm2=self.alone_gain_rpm2)
+        if self.node:
+            out["thermal_node"] = self.node
         if self.note is not None:
             out["note"] = self.note
         return out
 
 
-def _described(name: str, p: ph.PhysicsParams) -> dict:
-    """The fields of an EffectResult that follow from the parameters p."""
+def _described(name: str, p: ph.PhysicsParams, blind: bool) -> dict:
+    """The fields of an EffectResult that follow from the parameters p (blind: some rows
+    read no temperature, the winding node runs above ambient)."""
     eff = fx.LIBRARY[name]
     val = getattr(p, eff.field)
     ok, text = eff.plausibility(val)
     params = {eff.field: val}
+    node = []
     if eff.thermal and p.thermal_enabled():
         params.update(th_r_K_per_W=p.th_r_K_per_W, th_tau_s=p.th_tau_s)
+        node = fx.node_plausibility(p, blind)
     return {"params": params, "shown": eff.show(val), "unit": eff.unit, "plausible": ok, "plausibility": text,
-            "meaning": eff.meaning}
+            "meaning": eff.meaning, "node": node}
 
 
 def _score(gain: float, mse_base: float) -> float:
@@ -234,6 +240,11 @@ class Inputs:
     m2: ph.PhysicsParams
     given: list        # effects already in the model under test
 
+    @property
+    def blind(self) -> bool:
+        """Some rows read no temperature: a winding node runs above ambient (effects.node_path)."""
+        return any(r.needs_state for r in self.rows)
+
 
 @dataclasses.dataclass
 class ModelFit:
@@ -295,6 +306,9 @@ class Diagnosis:
     hybrid: Hybrid | None
     runtime_s: float
     leave_one_out: dict | None = None  # see leave_one_out()
+    # the winding node of the model under test and of it with the missing effects, each
+    # field against its declared ranges (effects.node_plausibility; schema.NODE)
+    thermal_node: dict = dataclasses.field(default_factory=dict)
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -322,6 +336,7 @@ class Diagnosis:
             "residual_after": self.residual_after.to_json(),
             "steps": [s.to_json() for s in self.steps],
             "thresholds": self.thresholds,
+            "thermal_node": self.thermal_node,
         }
         if self.hybrid is not None:
             out["rmse_rpm_hybrid"] = self.hybrid.to_json()
@@ -391,7 +406,7 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
     # single-effect gains on the base model (the first step's trial) for the ranking table
     first = {a[0]: a for a in steps[0].alternatives} if steps else {}
     table = [EffectResult(s.name, "named", score=_score(s.gain, mf.mse_base), gain_rpm2=s.gain, z=s.z,
-                          inclusion=boot.get(s.name), **_described(s.name, final))
+                          inclusion=boot.get(s.name), **_described(s.name, final, inp.blind))
              for s in steps if s.name]
     res_final = None
     for c in candidates:
@@ -407,7 +422,7 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
         table.append(EffectResult(c, "candidate", score=_score(g, mf.mse_base), gain_rpm2=g, z=z,
                                   inclusion=boot.get(c),
                                   physical=ranking._physical(c, getattr(pc, fx.LIBRARY[c].field)),
-                                  alone_gain_rpm2=single[1] if single else None, **_described(c, pc)))
+                                  alone_gain_rpm2=single[1] if single else None, **_described(c, pc, inp.blind)))
     for c in fx.NAMES:
         if c in given or c in candidates:
             continue
@@ -462,7 +477,7 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
             continue
         missing.append(other)
         final = alt
-        table = [e.at(final) if e.named else e for e in table if e.effect != other]
+        table = [e.at(final, inp.blind) if e.named else e for e in table if e.effect != other]
         # its share: what it removes once the material's coefficient is held
         held = fx.fit(rows, m2, given + missing[:-1], hold={name: eff.material})
         g, z = ranking.gain_z(d, ranking.residuals(d, held), ranking.residuals(d, alt), sigma2)
@@ -470,7 +485,7 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
                      EffectResult(other, "named", score=_score(g, mf.mse_base), gain_rpm2=g, z=z, inclusion=None,
                                   note=f"named with {name} held at {eff.material_name}'s coefficient, "
                                        "which the free fit missed; not bootstrapped",
-                                  **_described(other, final)))
+                                  **_described(other, final, inp.blind)))
         groups.append([name, other])
         pairs.append(ConfoundedPair([name, other], ranking.separator(name, other),
                                     ranking.partial_corr(d, mf.base, name, other, given),
@@ -627,6 +642,8 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         thresholds={"z_min": ranking.Z_MIN, "rel_min": ranking.REL_MIN, "excess_min": ranking.EXCESS_MIN,
                     "confound_gain": ranking.CONFOUND_GAIN, "bootstrap": opt.bootstrap},
         hybrid=hyb, runtime_s=time.perf_counter() - t0,
+        thermal_node={"path": fx.node_path(inp.blind), "model": fx.node_plausibility(mf.model, inp.blind),
+                      "after_model": fx.node_plausibility(resid.after_model, inp.blind)},
         rows=rows, est_before=[r.ref - e for r, e in zip(rows, mf.res_model)],
         est_after=[r.ref - e for r, e in zip(rows, resid.res_after)],
         res_before=mf.res_model, res_after=resid.res_after)

@@ -116,6 +116,11 @@ def noise_var(d: Data, res) -> float:
     return analysis.robust_noise_var(analysis.parts(d.rows, res))
 
 
+# the winding node assumed where no temperature is read and no node was fitted yet: the
+# fit's starting values on the ambient path (schema.NODE)
+_AMBIENT = fx.node_params(True)
+
+
 def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, others) -> dict:
     """Standard error of the coefficient of `name` on the training rows, with Ke and the
     effects in `others` fitted alongside (their regressors projected out); the effect is
@@ -130,7 +135,7 @@ def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, othe
         for k in [name] + list(others):
             pk = p
             if k == name and fx.LIBRARY[k].thermal and r.needs_state and not p.thermal_enabled():
-                pk = dataclasses.replace(p, th_r_K_per_W=10.0, th_tau_s=600.0)
+                pk = dataclasses.replace(p, th_r_K_per_W=_AMBIENT[0].start, th_tau_s=_AMBIENT[1].start)
             cols[k].append(fx.regressor(r, pk, k)[m])
     x = {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
     target = x.pop(name)
@@ -156,7 +161,7 @@ def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
             continue
         pp = p
         if r.needs_state and not p.thermal_enabled():
-            pp = dataclasses.replace(p, th_r_K_per_W=10.0, th_tau_s=600.0)
+            pp = dataclasses.replace(p, th_r_K_per_W=_AMBIENT[0].start, th_tau_s=_AMBIENT[1].start)
         t = fx.temperature(r, pp)
         xa.append(fx.regressor(r, pp, a, t)[m])
         xb.append(fx.regressor(r, pp, b, t)[m])
