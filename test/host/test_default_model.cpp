@@ -16,7 +16,7 @@ TEST(DefaultModel, EveryStageMatchesGoldenWithin1e4Relative) {
   using namespace hpddo_golden_default;
   using Net = hpddo_model_default::Net;
   hpddo::Observer<Net> obs(hpddo_model_default::kModel);
-  int statuses[4] = {0, 0, 0, 0};
+  int statuses[5] = {0, 0, 0, 0, 0};  // one per hpddo::Status
   for (int r = 0; r < kCount; ++r) {
     const auto g = [&](int c) { return at(static_cast<uint16_t>(r), static_cast<uint8_t>(c)); };
     const hpddo::Sample s = sample(static_cast<uint16_t>(r));
@@ -37,6 +37,7 @@ TEST(DefaultModel, EveryStageMatchesGoldenWithin1e4Relative) {
     EXPECT_TRUE(golden::close(e.residual_rpm, g(kCol_residual_rpm))) << "row " << r;
     EXPECT_TRUE(golden::close(e.rpm, g(kCol_rpm))) << "row " << r;
     EXPECT_TRUE(golden::close(e.temp_C, g(kCol_temp_used_C))) << "row " << r;
+    EXPECT_TRUE(golden::close(e.confidence, g(kCol_confidence))) << "row " << r;
   }
   EXPECT_GT(statuses[hpddo::kStatusOk] + statuses[hpddo::kStatusClamped], kCount / 2);
   EXPECT_GT(statuses[hpddo::kStatusInvalid], 0);
