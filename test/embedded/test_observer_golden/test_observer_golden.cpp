@@ -29,6 +29,7 @@ static void test_golden_rows() {
     const float tol = 1e-4f * (fabsf(want) > 1.0f ? fabsf(want) : 1.0f);
     TEST_ASSERT_FLOAT_WITHIN(tol, want, e.rpm);
     TEST_ASSERT_EQUAL_INT(static_cast<int>(g(r, gold::kCol_status)), static_cast<int>(e.status));
+    TEST_ASSERT_FLOAT_WITHIN(1e-4f, g(r, gold::kCol_confidence), e.confidence);  // the novelty gate's weight
   }
 }
 
