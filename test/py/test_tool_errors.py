@@ -86,11 +86,12 @@ def test_no_rpm_ref_column_is_a_named_error(tmp_path, capsys):
 def test_short_logs_give_a_named_error_or_a_result(tmp_path, capsys, rows):
     log = _head(LONG, tmp_path / f"short{rows}.csv", rows)
     out = tmp_path / "gw"
-    assert gen_weights.main([str(log), "--out", str(out), "--quiet"]) == 1
-    err = capsys.readouterr().err
-    _no_traceback(err)
-    assert "too few to train the residual network" in err
-    assert not out.exists()
+    # too few rows for the network: a physics-only model (M3 = M2), said in metrics.json
+    # (test_small_tables.py covers it)
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet"]) == 0
+    _no_traceback(capsys.readouterr().err)
+    ident = json.loads((out / "metrics.json").read_text())["identification"]
+    assert ident["residual"].startswith(f"not trained: {int(rows * dataset.TRAIN_FRACTION)} labelled training rows")
     # the diagnosis needs no network: it runs, and says the hybrid was left out, or (with
     # too few held-out rows to rank anything) says that
     dout = tmp_path / "dg"

@@ -15,17 +15,23 @@ from . import metrics as metrics_mod
 from . import physics as ph
 from .errors import InputError
 from .observer_ref import Limits, ModelData
-from .train import TrainConfig, Residual, train_residual
+from .train import TrainConfig, Residual, residual_or_physics_only
 
 GOLDEN_ROWS_PER_RECORDING = 24
+# M1's nameplate when the user gives none (hpddo train --rated-v, --rated-rpm)
+DEFAULT_RATED_V = 12.0
+DEFAULT_RATED_RPM = 1000.0
 
 
 @dataclasses.dataclass
 class PipelineConfig:
     name: str = "default"
     ra_ohm: float | None = None
-    rated_V: float = 12.0
-    rated_rpm: float = 1000.0
+    rated_V: float = DEFAULT_RATED_V
+    rated_rpm: float = DEFAULT_RATED_RPM
+    # where the nameplate came from: "default" (none given: DEFAULT_RATED_V/RPM), "given"
+    # (both given) or "partly given" (one of them)
+    nameplate_source: str = "default"
     ke_fit: str = "eq20"
     effects: tuple = ()
     # M2 already identified on these recordings (Ke and the effect coefficients, e.g. a
@@ -48,6 +54,18 @@ class PipelineResult:
     metrics: dict
     table: str
     out: pathlib.Path
+
+
+def nameplate_record(cfg: PipelineConfig) -> dict:
+    """metrics.json identification.nameplate: M1's rated voltage and speed, where they came
+    from, and a note for the user where they were not given."""
+    rec = {"rated_V": cfg.rated_V, "rated_rpm": cfg.rated_rpm, "source": cfg.nameplate_source}
+    if cfg.nameplate_source != "given":
+        rec["note"] = (f"M1 uses the default nameplate {cfg.rated_V:g} V, {cfg.rated_rpm:g} RPM; give --rated-v "
+                       "and --rated-rpm for your motor" if cfg.nameplate_source == "default" else
+                       f"M1 uses the nameplate {cfg.rated_V:g} V, {cfg.rated_rpm:g} RPM, partly the default; "
+                       "give both --rated-v and --rated-rpm for your motor")
+    return rec
 
 
 def data_hash(paths) -> str:
@@ -119,7 +137,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         if cfg.effects:
             from . import effects
             m2 = effects.identify(recs, m2, cfg.effects)
-    res = train_residual(recs, m2, cfg.train)
+    res = residual_or_physics_only(recs, m2, cfg.train)  # physics only below one batch of rows
     model = model_data(m1, m2, res)
 
     out = pathlib.Path(out_dir)
@@ -131,7 +149,8 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
                 "effects": ",".join(m2.effect_names()) or "none",
                 "training": (f"Adam lr={cfg.train.learning_rate:g} batch={cfg.train.batch_size} "
                              f"iterations={cfg.train.max_iter}, {res.n_train} rows, chronological "
-                             f"{cfg.train_fraction:.0%} of each recording")}
+                             f"{cfg.train_fraction:.0%} of each recording") if res.trained else
+                            f"none: the residual network is {res.note}"}
         name = cfg.name
         (stage / f"model_{name}.h").write_text(export.model_header(model, name, prov))
         rows = export.golden_rows(model, golden_samples(recs))
@@ -153,7 +172,10 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
             "effects": {e: getattr(m2, ph.EFFECT_BITS[e][1]) for e in m2.effect_names()},
             "clamp_rpm": model.clamp_rpm, "hidden": list(cfg.train.hidden), "train_rows": res.n_train,
             "final_loss": res.loss_curve[-1] if res.loss_curve else None,
+            "nameplate": nameplate_record(cfg),
         }
+        if not res.trained:
+            metrics["identification"]["residual"] = res.note
         metrics["glitches_removed"] = {r.name: {"file": r.source.name, "rows_in_file": r.rows_in_file,
                                                 "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
                                        for r in recs}

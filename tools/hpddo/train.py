@@ -16,6 +16,7 @@ from .errors import InputError
 FEATURES = ["v_V", "i_A", "n_M2", "i_A_lag1", "n_M2_lag1"]
 CLAMP_PERCENTILE = 99.0   # paper 4.10: the 99th percentile of absolute training residuals
 ENVELOPE_MARGIN = 0.10    # the envelope is the training range widened by 10 % of it each side
+PHYSICS_ONLY_ENVELOPE = 1e30  # physics_only's envelope, -1e30..1e30: every finite feature inside
 
 
 class TrainingError(InputError):
@@ -63,10 +64,15 @@ class Residual:
     gate: gate_mod.GateData
     n_train: int
     loss_curve: list
+    note: str = ""  # why there is no learned correction (physics_only), else empty
+
+    @property
+    def trained(self) -> bool:
+        return not self.note
 
 
-def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig) -> Residual:
-    """Fits the residual e = rpm_ref - n_M2 on the training rows of every recording."""
+def training_rows(recs: list[Recording], p: ph.PhysicsParams) -> tuple[np.ndarray, np.ndarray]:
+    """The features x and residuals e = rpm_ref - n_M2 of the labelled training rows."""
     xs, es = [], []
     for r in recs:
         x, n2 = features(r, p)
@@ -75,8 +81,13 @@ def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig)
         keep = np.isfinite(ref) & np.isfinite(x).all(axis=1)
         xs.append(x[keep])
         es.append((ref - n2)[keep])
-    x = np.concatenate(xs)
-    e = np.concatenate(es)
+    return np.concatenate(xs), np.concatenate(es)
+
+
+def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig) -> Residual:
+    """Fits the residual e = rpm_ref - n_M2 on the training rows of every recording;
+    TrainingError with fewer labelled rows than one batch."""
+    x, e = training_rows(recs, p)
     if len(x) < cfg.batch_size:
         raise TrainingError(f"only {len(x)} labelled training rows: too few to train the residual network "
                             f"(at least one batch, {cfg.batch_size}); record longer, or give more recordings")
@@ -91,6 +102,43 @@ def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig)
                     env_lo=lo - ENVELOPE_MARGIN * span, env_hi=hi + ENVELOPE_MARGIN * span,
                     gate=gate_mod.fit(x) if cfg.gate else gate_mod.open_gate(x.shape[1]), n_train=len(x),
                     loss_curve=losses)
+
+
+def physics_only_note(n_rows: int, cfg: TrainConfig) -> str:
+    """Why a model carries no learned correction (metrics.json identification.residual)."""
+    return (f"not trained: {n_rows} labelled training rows, at least {cfg.batch_size} (one batch) are needed; "
+            "the model is physics only (M3 = M2)")
+
+
+def physics_only(n_rows: int, cfg: TrainConfig) -> Residual:
+    """M3 = M2: a residual that never corrects, for tables too small to train the network
+    (a steady-state dyno table of tens of rows). Every number is finite, so the header,
+    its checksum and the golden vectors are written as for a trained model: the network
+    of cfg.hidden with every weight and bias 0, scaler 0/1, clamp 0, an envelope that
+    holds every finite feature (1e30 either way: no row falls back for the box), and a
+    closed novelty gate, r_in_sq = r_out_sq = 0, so that no distance is < r_out_sq and the
+    weight is 0 at every input (gate.h): the observer reports "gated", confidence 0, and
+    rpm = rpm_m2, without evaluating the network."""
+    dims = len(FEATURES)
+    sizes = (dims, *tuple(cfg.hidden), 1)
+    mlp = network.Network(coefs_=[np.zeros((a, b)) for a, b in zip(sizes[:-1], sizes[1:])],
+                          intercepts_=[np.zeros(b) for b in sizes[1:]])
+    closed = gate_mod.GateData(centre=np.zeros(dims, gate_mod.F32), scale=np.ones(dims, gate_mod.F32),
+                               prototypes=np.zeros((gate_mod.DEFAULT_PROTOTYPES, dims), gate_mod.F32),
+                               r_in_sq=gate_mod.F32(0), r_out_sq=gate_mod.F32(0),
+                               rule="closed: no residual network trained (w = 0 at every input, physics only)")
+    return Residual(scaler=network.Scaler(mean_=np.zeros(dims), scale_=np.ones(dims)), mlp=mlp, clamp_rpm=0.0,
+                    env_lo=np.full(dims, -PHYSICS_ONLY_ENVELOPE), env_hi=np.full(dims, PHYSICS_ONLY_ENVELOPE),
+                    gate=closed, n_train=n_rows, loss_curve=[], note=physics_only_note(n_rows, cfg))
+
+
+def residual_or_physics_only(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig) -> Residual:
+    """train_residual where the labelled training rows fill one batch, else physics_only
+    (its note says why)."""
+    x, _ = training_rows(recs, p)
+    if len(x) < cfg.batch_size:
+        return physics_only(len(x), cfg)
+    return train_residual(recs, p, cfg)
 
 
 def correction(res: Residual, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

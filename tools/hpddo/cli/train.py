@@ -60,9 +60,10 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     p.add_argument("--name", default="default", help="model name: model_<name>.h, namespace hpddo_model_<name> "
                    "(default: default)")
     options.ra_ohm(p)
-    p.add_argument("--rated-v", type=options.positive_float, default=12.0, metavar="V",
+    # None: not given, the default nameplate (pipeline.DEFAULT_RATED_V/RPM), which the run says
+    p.add_argument("--rated-v", type=options.positive_float, default=None, metavar="V",
                    help="nameplate voltage for M1, V (default 12)")
-    p.add_argument("--rated-rpm", type=options.positive_float, default=1000.0, metavar="RPM",
+    p.add_argument("--rated-rpm", type=options.positive_float, default=None, metavar="RPM",
                    help="nameplate no-load speed for M1, RPM (default 1000)")
     p.add_argument("--ke-fit", choices=["eq20", "lsq"], default="eq20",
                    help="M2 Ke: mean of per-window ratios (paper eq. 20, the default) or least squares")
@@ -117,10 +118,14 @@ def provenance(args) -> str:
 
 def run(args) -> int:
     from .. import physics
-    from ..pipeline import PipelineConfig, run as run_pipeline
+    from ..pipeline import DEFAULT_RATED_RPM, DEFAULT_RATED_V, PipelineConfig, run as run_pipeline
     from ..train import TrainConfig
 
-    cfg = PipelineConfig(name=args.name, ra_ohm=args.ra_ohm, rated_V=args.rated_v, rated_rpm=args.rated_rpm,
+    given = (args.rated_v is not None) + (args.rated_rpm is not None)
+    cfg = PipelineConfig(name=args.name, ra_ohm=args.ra_ohm,
+                         rated_V=DEFAULT_RATED_V if args.rated_v is None else args.rated_v,
+                         rated_rpm=DEFAULT_RATED_RPM if args.rated_rpm is None else args.rated_rpm,
+                         nameplate_source=("default", "partly given", "given")[given],
                          ke_fit=args.ke_fit, effects=args.effects, train_fraction=args.split,
                          glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
                          train=TrainConfig(hidden=args.hidden, max_iter=args.max_iter, seed=args.seed,
@@ -138,7 +143,12 @@ def run(args) -> int:
           f"(nameplate); M2 Ke = {ident['ke_m2_vs_per_rad']:.4f} V s/rad ({args.ke_fit})")
     for e, val in ident["effects"].items():
         print(f"  effect {e}: {physics.EFFECT_BITS[e][1]} = {val:.5g}")
-    print(f"M3 {args.hidden}: clamp +-{ident['clamp_rpm']:.2f} RPM, {ident['train_rows']} training rows")
+    if "residual" in ident:  # too few rows for the network: physics only
+        print(f"note: M3 {args.hidden} {ident['residual']}")
+    else:
+        print(f"M3 {args.hidden}: clamp +-{ident['clamp_rpm']:.2f} RPM, {ident['train_rows']} training rows")
+    if "note" in ident["nameplate"]:
+        print(f"note: {ident['nameplate']['note']}")
     print(res.table, end="")
     if "leave_one_out" in res.metrics:
         from ..pipeline import leave_one_out_table

@@ -1,0 +1,133 @@
+"""Small steady-state dyno tables (tens to 150 rows, one per operating point, no
+temperature): hpddo train identifies M1 and M2 and exports a physics-only model (the
+network's weights 0, the novelty gate closed), which the native replay runs as M3 = M2,
+status "gated", confidence 0; the default nameplate of M1 is said, and hpddo evaluate
+scores such a model."""
+import contextlib
+import io
+import json
+import math
+import re
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import gen_weights
+from hpddo import gate, train
+from hpddo.cli import evaluate as evaluate_cli
+
+RA_OHM = 4.5
+KE_VS_PER_RAD = 0.4
+NOTE = "labelled training rows, at least 200 (one batch) are needed; the model is physics only (M3 = M2)"
+
+
+def dyno_table(path, rows: int, seed: int = 3):
+    """A steady-state table in the bench log format (docs/bench-log.md): one row per
+    operating point, voltage steps of a sweep and rising load current at each, t_s one
+    second apart, speed (V - I Ra) / Ke with tachometer noise, no temperature."""
+    rng = np.random.default_rng(seed)
+    volts = np.linspace(3.0, 12.0, 6)
+    lines = [f"# condition=dyno{rows}", f"# ra_ohm={RA_OHM}", "t_s,duty,v_V,i_A,rpm_ref"]
+    for k in range(rows):
+        v = volts[k * len(volts) // rows]
+        step = k % math.ceil(rows / len(volts))
+        i = 0.1 + 0.02 * step
+        rpm = (v - i * RA_OHM) / KE_VS_PER_RAD * 60.0 / (2.0 * math.pi)
+        lines.append(f"{k:.1f},{v / 12.0:.3f},{v + rng.normal(0, 0.01):.4f},{i + rng.normal(0, 0.002):.4f},"
+                     f"{rpm + rng.normal(0, 2.0):.2f}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _train(argv) -> tuple[int, str]:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        rc = gen_weights.main([*map(str, argv), "--quiet", "--max-iter", "5"])
+    return rc, out.getvalue()
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """{rows: (log, out folder, stdout)}: 60 rows with the default nameplate, 150 with one given."""
+    d = tmp_path_factory.mktemp("small")
+    runs = {}
+    for rows, extra in ((60, []), (150, ["--rated-v", "24", "--rated-rpm", "3000"])):
+        log = dyno_table(d / f"dyno{rows}.csv", rows)
+        out = d / f"out{rows}"
+        rc, text = _train([log, "--out", out, *extra])
+        assert rc == 0, text
+        runs[rows] = (log, out, text)
+    return runs
+
+
+def _metrics(out):
+    return json.loads((out / "metrics.json").read_text())
+
+
+@pytest.mark.parametrize("rows", [60, 150])
+def test_a_small_table_trains_a_physics_only_model(trained, rows):
+    log, out, text = trained[rows]
+    n_train = int(0.8 * rows)
+    m = _metrics(out)
+    ident = m["identification"]
+    assert ident["residual"] == f"not trained: {n_train} {NOTE}"
+    assert f"note: M3 (16, 8) not trained: {n_train} {NOTE}" in text
+    assert ident["ke_m2_vs_per_rad"] == pytest.approx(KE_VS_PER_RAD, rel=0.02)
+    assert ident["clamp_rpm"] == 0 and ident["final_loss"] is None
+    assert m["source"].startswith("native replay")
+    assert m["rmse_rpm"]["M3"] == m["rmse_rpm"]["M2"]
+    assert m["rmse_rpm"]["M2"][f"dyno{rows}"] < 5.0
+    header = (out / "model_default.h").read_text()
+    assert m["model_checksum"] == "0x" + re.search(r"kChecksum = 0x([0-9a-f]{8})u", header).group(1)
+    assert "closed: no residual network trained" in header and "training: none" in header
+
+
+@pytest.mark.parametrize("rows", [60, 150])
+def test_the_replay_runs_physics_only_gated_with_confidence_0(trained, rows):
+    _, out, _ = trained[rows]
+    est = pd.read_csv(out / "work" / "estimates" / f"dyno{rows}.estimates.csv", dtype={"status": str})
+    assert len(est) == rows
+    valid = est["status"] != "invalid"
+    assert valid.all()
+    assert set(est["status"]) == {"gated"}
+    assert (est["confidence"] == 0).all() and (est["residual_rpm"] == 0).all()
+    assert (est["rpm_m3"] == est["rpm_m2"]).all()
+    golden = pd.read_csv(out / "golden_default.csv")
+    ok = golden["status"] != 3  # the fault rows at the end: invalid readings
+    assert ok.sum() >= 12 and (golden.loc[ok, "status"] == 4).all()
+    assert (golden["confidence"] == 0).all() and (golden.loc[ok, "rpm"] == golden.loc[ok, "rpm_m2"]).all()
+
+
+def test_the_default_nameplate_is_said(trained):
+    _, out60, text60 = trained[60]
+    note = "M1 uses the default nameplate 12 V, 1000 RPM; give --rated-v and --rated-rpm for your motor"
+    assert f"note: {note}" in text60
+    assert _metrics(out60)["identification"]["nameplate"] == {"rated_V": 12.0, "rated_rpm": 1000.0,
+                                                              "source": "default", "note": note}
+    _, out150, text150 = trained[150]
+    assert "default nameplate" not in text150
+    assert _metrics(out150)["identification"]["nameplate"] == {"rated_V": 24.0, "rated_rpm": 3000.0,
+                                                               "source": "given"}
+    assert _metrics(out150)["identification"]["ke_m1_vs_per_rad"] == pytest.approx(24.0 / (3000 * math.pi / 30))
+
+
+def test_evaluate_scores_a_physics_only_model(trained, tmp_path):
+    _, out60, _ = trained[60]
+    log150, _, _ = trained[150]
+    with contextlib.redirect_stdout(io.StringIO()):
+        assert evaluate_cli.main(["--model", str(out60), str(log150), "--out", str(tmp_path / "ev")]) == 0
+    m = _metrics(tmp_path / "ev")
+    assert m["rmse_rpm"]["M3"] == m["rmse_rpm"]["M2"] and m["test_rows"]["all"] == 150
+    assert m["gated_share"]["all"] == 1
+
+
+def test_the_physics_only_residual_never_corrects():
+    """The closed gate weighs every input 0 (also one on a prototype, at distance 0),
+    so the correction is 0 whatever the network; below one batch the pipeline takes it."""
+    res = train.physics_only(48, train.TrainConfig())
+    g = np.array([[0, 0, 0, 0, 0], [12.0, 0.5, 250.0, 0.5, 250.0], [1e6, -1e6, 3, 4, 5]], np.float32)
+    assert (gate.weight(res.gate, g) == 0).all()
+    corr, w = train.correction(res, g)
+    assert (corr == 0).all() and (w == 0).all()
+    assert res.note == f"not trained: 48 {NOTE}" and not res.trained
