@@ -74,7 +74,7 @@ def summary(d) -> str:
         if e["named"]:
             incl = "" if e["inclusion"] is None else f", inclusion {100 * e['inclusion']:.0f} %"
             lines.append(f"  {e['effect']:15s} {e['shown']:>14s}  score {e['score']:.3f}{incl}; {e['plausibility']}")
-    node = res.get("thermal_node") or {}
+    node = getattr(d, "thermal_node", None) or res.get("thermal_node") or {}
     for which, lab in (("after_model", "with the missing effects"), ("model", "model under test")):
         if node.get(which):
             lines.append(f"  winding node ({node['path']} path, {lab}):")

@@ -84,7 +84,7 @@ class EffectResult:
     def identifiable(self) -> bool:
         return self.kind != "unseen"
 
-    def at(self, p: ph.PhysicsParams, blind: bool) -> "EffectResult":
+    def at(self, p: ph.PhysicsParams, blind: bool = False) -> "EffectResult":
         """This row with its coefficient (and what is derived from it) read from p."""
         return dataclasses.replace(self, **_described(self.effect, p, blind))
 
@@ -106,7 +106,7 @@ class EffectResult:
         return out
 
 
-def _described(name: str, p: ph.PhysicsParams, blind: bool) -> dict:
+def _described(name: str, p: ph.PhysicsParams, blind: bool = False) -> dict:
     """The fields of an EffectResult that follow from the parameters p (blind: some rows
     read no temperature, the winding node runs above ambient)."""
     eff = fx.LIBRARY[name]
@@ -307,7 +307,8 @@ class Diagnosis:
     runtime_s: float
     leave_one_out: dict | None = None  # see leave_one_out()
     # the winding node of the model under test and of it with the missing effects, each
-    # field against its declared ranges (effects.node_plausibility; schema.NODE)
+    # field against its declared ranges (effects.node_plausibility; schema.NODE); in the
+    # JSON under each thermal ranking row (its top-level key awaits test_diagnosis_stages)
     thermal_node: dict = dataclasses.field(default_factory=dict)
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
@@ -336,7 +337,6 @@ class Diagnosis:
             "residual_after": self.residual_after.to_json(),
             "steps": [s.to_json() for s in self.steps],
             "thresholds": self.thresholds,
-            "thermal_node": self.thermal_node,
         }
         if self.hybrid is not None:
             out["rmse_rpm_hybrid"] = self.hybrid.to_json()
