@@ -132,6 +132,8 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
     ident = base.metrics["identification"]
     for r in base.recordings:
         print(f"   {r.source.name}: {r.n} rows, {len(r.removed)} of {r.rows_in_file} removed as glitches")
+    if ident.get("nameplate", {}).get("note"):
+        print(f"   note: {ident['nameplate']['note']}")
     print(f"   Ra = {ident['ra_ohm']:.3f} ohm, Ke M1 = {ident['ke_m1_vs_per_rad']:.4f} (nameplate), "
           f"Ke M2 = {ident['ke_m2_vs_per_rad']:.4f} V s/rad, clamp +-{ident['clamp_rpm']:.1f} RPM")
     print(base.table, end="")
