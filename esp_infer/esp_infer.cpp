@@ -23,8 +23,13 @@ hpddo::Observer<infer::model::Net> g_observer(infer::model::kModel);
 
 uint32_t now_us() { return micros(); }
 
+/// Members of one telemetry line (the keys below; rpm_ref only where the frame has one).
+const size_t kTelemetryMembers = 13;
+
 void write_json(const infer::Telemetry& t) {
-  StaticJsonDocument<320> doc;  // on the stack: no heap
+  // On the stack, no heap; sized for the members (keys and status are static strings,
+  // stored by pointer), so the size is right on 32- and 64-bit builds alike.
+  StaticJsonDocument<JSON_OBJECT_SIZE(kTelemetryMembers)> doc;
   doc["seq"] = t.seq;
   doc["rpm"] = t.rpm;
   doc["rpm_m2"] = t.rpm_m2;
@@ -38,6 +43,10 @@ void write_json(const infer::Telemetry& t) {
   doc["gaps"] = t.gaps;
   doc["lost"] = t.lost;
   doc["crc_errors"] = t.crc_errors;
+  if (doc.overflowed()) {  // a member was dropped: say so rather than print a partial line
+    Serial.println("{\"event\":\"telemetry_overflow\"}");
+    return;
+  }
   serializeJson(doc, Serial);
   Serial.write('\n');
 }
