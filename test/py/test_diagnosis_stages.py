@@ -204,7 +204,7 @@ def test_stages_on_the_bundled_recordings(default_stages):
     res = core.diagnose(paths, opt)
     assert isinstance(res, core.Diagnosis) and res.verdict == text
     js = res.to_json()
-    assert list(js) == ["recordings", "warnings", "ra_ohm", "ra_source", "model_effects", "model",
+    assert list(js) == ["recordings", "warnings", "ra_ohm", "ra_source", "ra_fit", "model_effects", "model",
                         "missing_effects", "confounded", "separating_recordings", "not_identifiable", "ranking",
                         "verdict", "noise_rpm", "rmse_rpm", "after_model", "residual_before", "residual_after",
                         "steps", "thresholds", "runtime_s"]

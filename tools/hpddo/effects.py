@@ -243,13 +243,22 @@ def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
 
 
 def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
-        start: ph.PhysicsParams | None = None, hold=None) -> ph.PhysicsParams:
+        start: ph.PhysicsParams | None = None, hold=None, ra_prior=None) -> ph.PhysicsParams:
     """Least squares of rpm_ref - n_M2 over the `mask` rows of `rows` (weights per row,
     optional), moving Ke and the coefficients of `names` (but those in `hold`, {effect:
-    coefficient}, which stay at the value given); Ra, t_ref stay at base's."""
+    coefficient}, which stay at the value given); Ra, t_ref stay at base's.
+
+    ra_prior (the diagnosis only): (ra0, sd_ohm, sigma_rpm) moves Ra too, with a Gaussian
+    prior of mean ra0 and standard deviation sd_ohm (the multimeter reading and its
+    tolerance): one more residual sigma_rpm (ra - ra0) / sd_ohm, sigma_rpm the noise level
+    of the speed error, so that the sum of squares over sigma_rpm^2 is the negative log
+    posterior."""
     spec = spec_for(rows, names, hold)
+    if ra_prior is not None:
+        spec.free.append("ra_ohm")
+        spec.scales.append(float(ra_prior[1]))
     p0 = _plain(base) if start is None else start
-    x0 = [getattr(p0, f) if (start is not None or f == "ke_vs_per_rad") else 0.0 for f in spec.free]
+    x0 = [getattr(p0, f) if (start is not None or f in ("ke_vs_per_rad", "ra_ohm")) else 0.0 for f in spec.free]
     scales = list(spec.scales)
     node = node_params(spec.blind) if spec.thermal_state else ()
     if spec.thermal_state:
@@ -273,11 +282,17 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
             tt = temperature(r, p) if t is None else t
             n = ph.physics_rpm(p, r.v[m], r.i[m], r.di_dt[m], tt[m])
             out.append(s * np.where(np.isfinite(n), ref - n, 1e4))
+        if ra_prior is not None:
+            out.append(np.array([ra_prior[2] * (p.ra_ohm - ra_prior[0]) / ra_prior[1]]))
         return np.concatenate(out)
 
     lo = [-np.inf] * len(x0)
     hi = [np.inf] * len(x0)
     lo[0] = min(1e-6, 0.1 * x0[0]) if x0[0] > 0 else 1e-6  # Ke > 0, whatever its scale
+    if ra_prior is not None:  # Ra within a factor 3 of the reading
+        k = spec.free.index("ra_ohm")
+        lo[k], hi[k] = ra_prior[0] / 3.0, ra_prior[0] * 3.0
+        x0[k] = min(max(x0[k], lo[k] * 1.001), hi[k] * 0.999)
     if spec.thermal_state:  # the node within its physical range (schema.NODE)
         for k, n in zip((-2, -1), node):
             lo[k], hi[k] = math.log(n.physical[0]), math.log(n.physical[1])

@@ -257,12 +257,34 @@ class ModelFit:
 
 
 @dataclasses.dataclass
+class RaFit:
+    """Ra as a nuisance parameter (ranking.RA_MISMATCH): the reading, the value the data
+    support (fitted with the selection's model, prior around the reading), the prior's
+    relative tolerance, how many tolerances apart, whether the selection named the mismatch,
+    its bootstrap inclusion, and the effects it cannot be told apart from."""
+
+    given_ohm: float
+    supported_ohm: float
+    tolerance: float
+    sigmas: float
+    mismatch: bool
+    inclusion: float | None = None
+    confounded_with: list = dataclasses.field(default_factory=list)
+
+    def to_json(self) -> dict:
+        return {"given_ohm": self.given_ohm, "supported_ohm": self.supported_ohm, "tolerance": self.tolerance,
+                "sigmas": self.sigmas, "mismatch": bool(self.mismatch), "inclusion": self.inclusion,
+                "confounded_with": list(self.confounded_with)}
+
+
+@dataclasses.dataclass
 class Selection:
     steps: list        # ranking.Step
     final: ph.PhysicsParams
     steps_final: ph.PhysicsParams  # the selection's final model (before the material check)
     missing: list      # effects named, in order
     ranking: list      # EffectResult
+    ra_fit: RaFit | None = None
 
 
 @dataclasses.dataclass
@@ -310,6 +332,7 @@ class Diagnosis:
     # field against its declared ranges (effects.node_plausibility; schema.NODE); in the
     # JSON under each thermal ranking row (its top-level key awaits test_diagnosis_stages)
     thermal_node: dict = dataclasses.field(default_factory=dict)
+    ra_fit: RaFit | None = None  # Ra as a nuisance parameter (ranking.RA_MISMATCH)
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -322,6 +345,7 @@ class Diagnosis:
             "recordings": self.recordings,
             "warnings": self.warnings,
             "ra_ohm": self.ra_ohm, "ra_source": self.ra_source,
+            "ra_fit": self.ra_fit.to_json() if self.ra_fit is not None else None,
             "model_effects": self.model_effects,
             "model": dataclasses.asdict(self.model),
             "missing_effects": self.missing_effects,
@@ -398,22 +422,45 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
     and the ranking table: the named effects, the other candidates' gains on the final
     model, the effects these recordings cannot show."""
     d, rows, m2, given, sigma2 = inp.data, inp.rows, inp.m2, inp.given, mf.sigma2
-    candidates = [c for c in ident if ident[c].identifiable]
+    RA = ranking.RA_MISMATCH
+    candidates = [c for c in ident if ident[c].identifiable] + [RA]
     steps, final = ranking.forward_select(d, m2, given, candidates, sigma2)
-    missing = [s.name for s in steps if s.name]
+    chosen = [s.name for s in steps if s.name]
+    missing = [c for c in chosen if c != RA]
     boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed)
+    # An effect named at a step where a wrong Ra passed every test too is told apart from it
+    # only when its held-out gain over the wrong-Ra model is Z_MIN standard errors or more;
+    # otherwise neither is named (RaFit.confounded_with).
+    ra_confounded = [st.name for st in steps if st.name in missing and st.ra_z is not None
+                     and st.ra_z < ranking.Z_MIN]
+    if ra_confounded:
+        chosen = [c for c in chosen if c not in ra_confounded]
+        missing = [c for c in missing if c not in ra_confounded]
+        final = ranking.fit_names(rows, m2, given + chosen + [RA], sigma2, start=final)
+        if abs(ranking.ra_sigmas(m2, final.ra_ohm)) > ranking.RA_MISMATCH_SIGMAS and RA not in chosen:
+            chosen.append(RA)
+        elif RA not in chosen:
+            final = fx.fit(rows, m2, given + chosen, start=final)
+    ra_fit = _ra_fit(inp, final if RA in chosen else None, given + chosen, sigma2, boot.get(RA))
+    # the effects a wrong Ra cannot be told from: not named at the wrong Ra's step though they
+    # explained nearly as much (as confounding() groups effects), or named but not told apart
+    for st in steps:
+        if st.name == RA:
+            ra_fit.confounded_with += [a for a, g, z, phy in st.alternatives if a != RA and phy
+                                       and z >= ranking.Z_MIN and g >= ranking.CONFOUND_GAIN * st.gain]
+    ra_fit.confounded_with += ra_confounded
 
     # single-effect gains on the base model (the first step's trial) for the ranking table
     first = {a[0]: a for a in steps[0].alternatives} if steps else {}
     table = [EffectResult(s.name, "named", score=_score(s.gain, mf.mse_base), gain_rpm2=s.gain, z=s.z,
                           inclusion=boot.get(s.name), **_described(s.name, final, inp.blind))
-             for s in steps if s.name]
+             for s in steps if s.name in missing]
     res_final = None
     for c in candidates:
-        if c in missing:
+        if c in chosen or c == RA:
             continue
         try:
-            pc = fx.fit(rows, m2, given + missing + [c], start=final)
+            pc = ranking.fit_names(rows, m2, given + chosen + [c], sigma2, start=final)
         except Exception:
             continue
         res_final = ranking.residuals(d, final) if res_final is None else res_final
@@ -430,19 +477,38 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
                                   meaning=fx.LIBRARY[c].meaning,
                                   plausibility="not identifiable on these recordings",
                                   needs=fx.LIBRARY[c].excited_by))
-    return Selection(steps=steps, final=final, steps_final=final, missing=missing, ranking=table)
+    return Selection(steps=steps, final=final, steps_final=final, missing=missing, ranking=table, ra_fit=ra_fit)
+
+
+def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, inclusion) -> RaFit:
+    """Ra as the data support it. final: the selection's model when it named RA_MISMATCH;
+    otherwise the selection's model is refitted once with Ra moving (prior around the
+    reading) to say what the data support."""
+    named = final is not None
+    if final is None:
+        try:
+            final = ranking.fit_names(inp.rows, inp.m2, list(names) + [ranking.RA_MISMATCH], sigma2)
+        except Exception:
+            final = inp.m2
+    given = inp.m2.ra_ohm
+    return RaFit(given_ohm=given, supported_ohm=float(final.ra_ohm), tolerance=ranking.RA_TOLERANCE,
+                 sigmas=float(ranking.ra_sigmas(inp.m2, final.ra_ohm)), mismatch=named, inclusion=inclusion)
 
 
 def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
     """Alternatives that explained nearly as much at the step an effect was named."""
     groups, pairs = [], []
     for s in sel.steps:
-        if not s.name:
-            continue
+        if not s.name or (s.name not in sel.missing and s.name != ranking.RA_MISMATCH):
+            continue  # nothing named, or named but not told apart from a wrong Ra (select)
         group = [s.name]
         for name, g, z, physical in s.alternatives:
             if name != s.name and physical and z >= ranking.Z_MIN and g >= ranking.CONFOUND_GAIN * s.gain:
                 group.append(name)
+        if s.name == ranking.RA_MISMATCH:  # said in RaFit.confounded_with (select)
+            continue
+        # a wrong Ra as the alternative of an effect is decided by select (named beyond Ra)
+        group = [g for g in group if g != ranking.RA_MISMATCH]
         if len(group) > 1:
             groups.append(group)
             for other in group[1:]:
@@ -516,13 +582,42 @@ def analyse(inp: Inputs, res, sigma2: float) -> ResidualAnalysis:
 
 def residuals(inp: Inputs, mf: ModelFit, sel: Selection) -> Residuals:
     """Residual analysis of the model under test and of it with the missing effects."""
-    after_model = fx.identify(inp.recs, inp.m2, inp.given + sel.missing) if sel.missing else mf.model
+    changed = bool(sel.missing) or (sel.ra_fit is not None and sel.ra_fit.mismatch)
+    after_model = fx.identify(inp.recs, inp.m2, inp.given + sel.missing) if changed else mf.model
     res_after = ranking.residuals(inp.data, after_model)
     return Residuals(after_model=after_model, res_after=res_after, before=analyse(inp, mf.res_model, mf.sigma2),
                      after=analyse(inp, res_after, mf.sigma2))
 
 
+def ra_verdict(ra: RaFit | None) -> str:
+    """The verdict's sentence on Ra; "" when the reading fits."""
+    rel = ra.supported_ohm / ra.given_ohm - 1.0
+    if ra is None or (not ra.mismatch and not ra.confounded_with):
+        return ""
+    if not ra.mismatch:
+        return (f"An error proportional to the current remains that a wrong Ra (the data support "
+                f"{ra.supported_ohm:.3g} ohm against the {ra.given_ohm:.3g} ohm given, within the reading's "
+                f"{ra.tolerance:.0%} tolerance) explains as well as {' or '.join(ra.confounded_with)}, so "
+                f"neither is named; to separate them: {ranking.RA_SEPARATOR}.")
+    text = (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings: they support "
+            f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the reading's "
+            f"{ra.tolerance:.0%} tolerance), an error proportional to the current; the effects were "
+            "looked for with Ra at that value.")
+    if ra.confounded_with:
+        text += (f" These recordings cannot tell a wrong Ra from {' or '.join(ra.confounded_with)}, so "
+                 f"neither is named as an effect; to separate them: {ranking.RA_SEPARATOR}.")
+    text += (f" hpddo train still uses the Ra given: re-measure Ra, or pass --ra-ohm "
+             f"{ra.supported_ohm:.3g} if you trust these recordings.")
+    return text
+
+
 def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float) -> str:
+    ra = ra_verdict(sel.ra_fit)
+    text = _verdict(sel, conf, resid, sigma2)
+    return f"{ra} {text}" if ra else text
+
+
+def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float) -> str:
     after = resid.after
     structured_left = (after.excess > 0.5 * sigma2) and not after.whiteness["white"]
     if not sel.missing:
@@ -532,12 +627,15 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float) 
                     "and not white. Its strongest correlates: " +
                     ", ".join(f"{c['input']} (r = {c['peak']:+.2f} at lag {c['peak_lag']})"
                               for c in after.correlates[:3] if c["significant"]) + ".")
+        if sel.ra_fit is not None and sel.ra_fit.mismatch:
+            return "No effect missing once Ra is corrected: the residual is then consistent with measurement noise."
         return "Nothing missing: the residual is consistent with measurement noise."
     text = "Missing: " + ", ".join(f"{e.effect} ({e.shown})" for e in sel.ranking if e.named) + "."
     if conf.groups:
         text += " " + " ".join(
             f"{' and '.join(s.effects)} cannot be told apart on these recordings; "
-            f"a recording that would separate them: {s.recording}." for s in conf.pairs)
+            f"a recording that would separate them: {s.recording}." for s in conf.pairs
+            if ranking.RA_MISMATCH not in s.effects)
     if structured_left:
         text += (" A structured residual remains that no library effect explains "
                  f"({after.excess / max(sigma2, 1e-12):.1f}x the noise variance); strongest correlates: " +
@@ -612,10 +710,20 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     mf = fit_model(inp)
     ident = identifiability(inp, mf)
     sel = select(inp, mf, ident, opt)
-    sel, conf = material_check(inp, mf, sel, confounding(inp, mf, sel))
+    conf = confounding(inp, mf, sel)
+    if sel.ra_fit.mismatch:  # from here on, Ra is held at the value the data support
+        inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
+    named = list(sel.missing)
+    sel, conf = material_check(inp, mf, sel, conf)
+    if not sel.ra_fit.mismatch and sel.missing != named:
+        # the Ra the data support with the effects the material check added
+        sup = _ra_fit(inp, None, inp.given + sel.missing, mf.sigma2, sel.ra_fit.inclusion)
+        sel = dataclasses.replace(sel, ra_fit=dataclasses.replace(sel.ra_fit, supported_ohm=sup.supported_ohm,
+                                                                  sigmas=sup.sigmas))
     resid = residuals(inp, mf, sel)
     text = verdict(sel, conf, resid, mf.sigma2)
-    hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, bool(sel.missing), opt) if opt.hybrid else (None, [])
+    changed = bool(sel.missing) or sel.ra_fit.mismatch
+    hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt) if opt.hybrid else (None, [])
     d = _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
     if opt.leave_one_out:
         if len(inp.recs) < 2:
@@ -632,7 +740,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         recordings=[{"name": r.name, "file": str(r.source), "rows": r.n, "train_rows": r.n_train,
                      "glitches_removed": len(r.removed), "has_temp": r.has_temp()} for r in inp.recs],
         warnings=[w for r in inp.recs for w in r.warnings] + hyb_warnings,
-        ra_ohm=inp.ra, ra_source=inp.ra_source, model_effects=inp.given, model=mf.model,
+        ra_ohm=inp.ra, ra_source=inp.ra_source, ra_fit=sel.ra_fit, model_effects=inp.given, model=mf.model,
         missing_effects=sel.missing, confounded=conf.groups, separating_recordings=conf.pairs,
         not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
         ranking=sel.ranking, verdict=text, noise_rpm=float(np.sqrt(mf.sigma2)),

@@ -41,12 +41,64 @@ IDENT_SIGMAS = 4.0      # a plausible coefficient must be this many standard err
 CONFOUND_CORR = 0.95    # partial correlation of two regressors above which they are confounded
 CONFOUND_GAIN = 0.6     # an alternative explaining this share of the chosen gain is confounded
 
+# Ra as a nuisance parameter. Ra is the user's multimeter reading (log metadata ra_ohm or
+# --ra-ohm); the diagnosis may move it, as the candidate RA_MISMATCH of the forward
+# selection, within a Gaussian prior around the reading. RA_TOLERANCE is the reading's
+# 1-sigma relative uncertainty: a two-wire reading of a few ohms carries lead and contact
+# resistance (0.1-0.2 ohm unless nulled: 2-4 %), the brushes' contact varies with the rotor
+# position (a few %), and the copper is read at the bench's temperature, not t_ref
+# (0.39 %/K: 5 K is 2 %); added in quadrature, about 5 %. Ra is named mismatched when the
+# selection takes RA_MISMATCH (its gain passes the same tests as an effect's) and the value
+# the data support lies more than RA_MISMATCH_SIGMAS tolerances from the reading: a shift
+# within the reading's own uncertainty is not a mismatch.
+RA_MISMATCH = "ra_mismatch"
+RA_TOLERANCE = 0.05
+RA_MISMATCH_SIGMAS = 1.0
+# ... and at most RA_PLAUSIBLE_SIGMAS tolerances (15 %): the prior puts 0.3 % beyond; a fit
+# that wants Ra further off is taking up an error that only looks proportional to the
+# current on these rows (a winding warm throughout the held-out rows), not the reading's.
+RA_PLAUSIBLE_SIGMAS = 3.0
+RA_SEPARATOR = ("re-measure Ra at the motor's terminals (four-wire, or the leads' resistance subtracted, "
+                "at the bench's temperature), or a recording at a known winding temperature over a wide "
+                "range of current (stall or heavy load next to light load)")
+
+
+def ra_prior(m2: ph.PhysicsParams, sigma2: float) -> tuple:
+    """The prior of fx.fit(ra_prior=...): the reading, its 1-sigma in ohm, the noise level."""
+    return (m2.ra_ohm, RA_TOLERANCE * m2.ra_ohm, float(np.sqrt(max(sigma2, 1e-12))))
+
+
+def fit_names(rows, m2: ph.PhysicsParams, names, sigma2: float, **kw) -> ph.PhysicsParams:
+    """fx.fit of the effects in names; with RA_MISMATCH among them, Ra moves too (prior
+    around m2's reading)."""
+    names = list(names)
+    if RA_MISMATCH in names:
+        names.remove(RA_MISMATCH)
+        kw["ra_prior"] = ra_prior(m2, sigma2)
+        # With Ra moving, a material coefficient (copper's) is held at the material's value:
+        # Ra and a free temperature coefficient trade off (Ra (1 + a (T - t_ref)) with the
+        # winding node's rise), and only the material constant tells them apart.
+        hold = dict(kw.get("hold") or {})
+        for n in names:
+            if fx.LIBRARY[n].material is not None and n not in hold:
+                hold[n] = fx.LIBRARY[n].material
+        kw["hold"] = hold
+    return fx.fit(rows, m2, names, **kw)
+
+
+def ra_sigmas(m2: ph.PhysicsParams, ra: float) -> float:
+    """How many tolerances ra lies from the reading."""
+    return (ra - m2.ra_ohm) / (RA_TOLERANCE * m2.ra_ohm)
+
+
 # Recordings that separate two effects which the data at hand cannot tell apart: the
 # `separated_from` entries of the effects' declarations (hpddo/schema.py).
 SEPARATORS = schema.SEPARATORS
 
 
 def separator(a: str, b: str) -> str:
+    if RA_MISMATCH in (a, b):
+        return RA_SEPARATOR
     s = SEPARATORS.get(frozenset({a, b}))
     if s:
         return s
@@ -151,6 +203,12 @@ def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, othe
     return {"se": se, "identifiable": bool(mag >= IDENT_SIGMAS * se)}
 
 
+def _regressor(r, p, name, t):
+    if name == RA_MISMATCH:
+        return fx.sensitivity(r, p, "ra_ohm", 1e-3 * p.ra_ohm, t)
+    return fx.regressor(r, p, name, t)
+
+
 def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
     """Correlation of the regressors of a and b on the training and held-out rows after
     Ke and the `given` effects are projected out."""
@@ -163,8 +221,8 @@ def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
         if r.needs_state and not p.thermal_enabled():
             pp = dataclasses.replace(p, th_r_K_per_W=_AMBIENT[0].start, th_tau_s=_AMBIENT[1].start)
         t = fx.temperature(r, pp)
-        xa.append(fx.regressor(r, pp, a, t)[m])
-        xb.append(fx.regressor(r, pp, b, t)[m])
+        xa.append(_regressor(r, pp, a, t)[m])
+        xb.append(_regressor(r, pp, b, t)[m])
         o = [fx.ke_regressor(r, pp, t)]
         o += [fx.regressor(r, pp, g, t) for g in given if g not in (a, b)]
         xo.append(np.column_stack(o)[m])
@@ -187,18 +245,29 @@ class Step:
     mse_before: float
     mse_after: float
     alternatives: list  # [(name, gain, z, physical), ...] of every candidate tried at this step
+    # z of the named effect's held-out gain over the model with a wrong Ra instead (RA_MISMATCH
+    # passing every test at this step); None when it did not. Below Z_MIN: not told apart.
+    ra_z: float | None = None
 
 
-def _physical(name: str, value: float) -> bool:
+def _physical(name: str, value: float, m2: ph.PhysicsParams | None = None) -> bool:
+    """The fitted coefficient is physical; for RA_MISMATCH (value: the fitted Ra): it lies
+    more than RA_MISMATCH_SIGMAS tolerances from the reading m2.ra_ohm."""
+    if name == RA_MISMATCH:
+        return RA_MISMATCH_SIGMAS < abs(ra_sigmas(m2, value)) <= RA_PLAUSIBLE_SIGMAS
     lo, hi = fx.LIBRARY[name].physical
     return lo < value < hi
+
+
+def _value(name: str, p: ph.PhysicsParams) -> float:
+    return p.ra_ohm if name == RA_MISMATCH else getattr(p, fx.LIBRARY[name].field)
 
 
 def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: float, weights=None,
                    start=None) -> tuple[list, ph.PhysicsParams]:
     """Forward selection from the model with `given` effects; returns (steps, final params)."""
     chosen = list(given)
-    p = fx.fit(d.rows, m2, chosen, weights=weights, start=start)
+    p = fit_names(d.rows, m2, chosen, sigma2, weights=weights, start=start)
     res = residuals(d, p)
     mse = held_out_mse(d, res)
     steps = []
@@ -207,13 +276,12 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
         tried = []
         for c in remaining:
             try:
-                pc = fx.fit(d.rows, m2, chosen + [c], weights=weights, start=p)
+                pc = fit_names(d.rows, m2, chosen + [c], sigma2, weights=weights, start=p)
             except Exception:  # a degenerate fit is simply not a candidate
                 continue
             rc = residuals(d, pc)
             g, z = gain_z(d, res, rc, sigma2)
-            val = getattr(pc, fx.LIBRARY[c].field)
-            tried.append((c, g, z, _physical(c, val), pc, rc))
+            tried.append((c, g, z, _physical(c, _value(c, pc), m2), pc, rc))
         ok = [t for t in tried if t[3] and t[2] >= Z_MIN and t[1] >= REL_MIN * mse
               and t[1] >= EXCESS_MIN * max(mse - sigma2, 0.0)]
         if not ok:
@@ -222,7 +290,9 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
         best = max(ok, key=lambda t: t[1])
         c, g, z, _, pc, rc = best
         new_mse = held_out_mse(d, rc)
-        steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried]))
+        ra = [t for t in ok if t[0] == RA_MISMATCH and c != RA_MISMATCH]
+        ra_z = gain_z(d, ra[0][5], rc, sigma2)[1] if ra else None
+        steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried], ra_z))
         chosen.append(c)
         remaining.remove(c)
         p, res, mse = pc, rc, new_mse

@@ -1,0 +1,81 @@
+"""Ra as a nuisance parameter of the diagnosis (ranking.RA_MISMATCH): a multimeter reading
+10 % off with nothing hidden names no effect and reports the mismatch with the value the
+data support; with thermal_ra hidden, thermal_ra is still named; with the reading right,
+nothing changes (the bundled recordings still name thermal_ra, current_offset and
+magnet_thermal). Twin recordings of the ideal bench (Ra 4.5 ohm), seeds 3 and 4."""
+import pytest
+
+from conftest import ROOT
+
+from hpddo.diagnosis import core, ranking
+from hpddo.twin import generate, params
+
+SEEDS = (3, 4)
+RA_TRUE = 4.5  # the ideal bench's Ra (twin.params.Bench.ra_ohm)
+_cache = {}
+
+
+def bench_dir(tmp_root, key, effects, seed):
+    k = (key, seed)
+    if k not in _cache:
+        out = tmp_root / f"{key}_{seed}"
+        bench = params.with_effects(params.preset("ideal"), **effects)
+        assert bench.ra_ohm == RA_TRUE
+        for prot in ("sweep", "load", "long"):
+            generate.generate(bench, prot, 2.0, seed, out_dir=out, preset_name="ideal")
+        _cache[k] = [out / f"{p}.csv" for p in ("sweep", "load", "long")]
+    return _cache[k]
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    return tmp_path_factory.mktemp("twin_ra")
+
+
+def run(paths, ra):
+    return core.diagnose(paths, core.Options(bootstrap=0, hybrid=False, ra_ohm=ra)).to_json()
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("factor", (1.1, 0.9))
+def test_wrong_ra_alone_names_no_effect_and_reports_the_supported_ra(root, seed, factor):
+    res = run(bench_dir(root, "ideal", {}, seed), RA_TRUE * factor)
+    fit = res["ra_fit"]
+    assert res["missing_effects"] == [], (res["missing_effects"], res["verdict"])
+    assert fit["mismatch"] is True, fit
+    assert fit["given_ohm"] == pytest.approx(RA_TRUE * factor)
+    assert fit["supported_ohm"] == pytest.approx(RA_TRUE, rel=0.03), fit
+    assert fit["tolerance"] == ranking.RA_TOLERANCE
+    assert "The Ra you gave" in res["verdict"] and "--ra-ohm" in res["verdict"], res["verdict"]
+    assert "ra_mismatch" in [s["effect"] for s in res["steps"]]
+    # the corrected Ra brings the physics error down to the effect-free bench's
+    ok = run(bench_dir(root, "ideal", {}, seed), RA_TRUE)
+    assert res["rmse_rpm"]["after"]["average"] <= 1.05 * ok["rmse_rpm"]["before"]["average"]
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("factor", (1.1, 0.9))
+def test_wrong_ra_with_thermal_ra_hidden_still_names_thermal_ra(root, seed, factor):
+    res = run(bench_dir(root, "thermal_ra", {"thermal_ra": 0.393}, seed), RA_TRUE * factor)
+    assert "thermal_ra" in res["missing_effects"], (res["missing_effects"], res["verdict"])
+    assert res["ra_fit"]["mismatch"] is True, res["ra_fit"]
+    assert res["ra_fit"]["supported_ohm"] == pytest.approx(RA_TRUE, rel=0.05), res["ra_fit"]
+    # what it cannot tell from a wrong Ra (an offset, a gain) is said, not named
+    assert res["missing_effects"] == ["thermal_ra"], (res["missing_effects"], res["verdict"])
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_right_ra_is_no_mismatch(root, seed):
+    res = run(bench_dir(root, "ideal", {}, seed), RA_TRUE)
+    assert res["missing_effects"] == [] and res["verdict"].startswith("Nothing missing")
+    assert res["ra_fit"]["mismatch"] is False
+    res = run(bench_dir(root, "thermal_ra", {"thermal_ra": 0.393}, seed), RA_TRUE)
+    assert res["missing_effects"] == ["thermal_ra"] and res["ra_fit"]["mismatch"] is False
+
+
+def test_bundled_recordings_unchanged_with_the_reading_right():
+    paths = [ROOT / "data" / "default" / f"{p}.csv" for p in ("load", "long", "sweep")]
+    res = core.diagnose(paths, core.Options(bootstrap=0, hybrid=False)).to_json()
+    assert res["missing_effects"] == ["thermal_ra", "current_offset", "magnet_thermal"], res["verdict"]
+    assert res["ra_fit"]["mismatch"] is False and res["ra_fit"]["confounded_with"] == []
+    assert "The Ra you gave" not in res["verdict"]
