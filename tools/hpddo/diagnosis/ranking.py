@@ -13,7 +13,8 @@ An effect is named when, at its step of the forward selection:
     EXCESS_MIN of the part of it above the noise floor,
   * its fitted coefficient is physical (sign and order of magnitude; effects.Effect.physical):
     a wrong-signed coefficient is the fit using the term's inputs to chase noise.
-Selection stops when no candidate passes. Confidence: the selection is repeated on
+A wrong Ra (RA_MISMATCH, Ra moving under a prior around the reading) is a candidate too,
+scored the same way. Selection stops when no candidate passes. Confidence: the selection is repeated on
 BOOTSTRAP resamples of blocks of the training rows; the inclusion frequency is the share
 of resamples in which the effect is named.
 """
