@@ -233,3 +233,15 @@ def test_leave_one_out_fits_without_the_recording_it_scores():
         assert c["before"] == c["after"]
     assert loo["average"]["before"] == pytest.approx(np.mean([c["before"] for c in loo["recordings"].values()]),
                                                      rel=1e-5)
+
+
+def test_repeated_readings_do_not_collapse_the_noise_floor():
+    """A tachometer slower than the logger repeats values: every other difference of the
+    residual is exactly zero. The floor is that of the distinct readings, not zero."""
+    rng = np.random.default_rng(7)
+    e = rng.normal(0.0, 2.0, 400)
+    held = np.repeat(e, 3)  # each reading logged three times
+    plain = analysis.robust_noise_var([e])
+    floor = analysis.robust_noise_var([held])
+    assert floor == pytest.approx(plain, rel=1e-12) and 2.0 < floor < 6.0
+    assert np.isnan(analysis.robust_noise_var([np.full(50, 3.0)]))  # nothing but repeats: unknown

@@ -37,9 +37,13 @@ def robust_noise_var(e_parts) -> float:
     """Variance of the white part of the residual from first differences within each
     contiguous part: a slow structured error hardly moves from one row to the next, a
     white error of variance s2 gives differences of variance 2 s2. The median absolute
-    difference (scaled for a normal) keeps steps and transients from inflating it."""
+    difference (scaled for a normal) keeps steps and transients from inflating it.
+    Differences that are exactly zero are left out: they are repeated readings (a
+    tachometer slower than the logger, a table with duplicated rows), which say nothing
+    of the noise, and which would otherwise drive the median, and the floor, to zero."""
     diffs = [np.diff(e) for e in e_parts if len(e) > 2]
     d = np.concatenate(diffs) if diffs else np.zeros(0)
+    d = d[d != 0.0]
     if len(d) < 5:
         return float("nan")
     mad = MAD_NORMAL * float(stats.median_abs_deviation(d))
