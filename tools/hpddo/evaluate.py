@@ -14,10 +14,10 @@ import pathlib
 import re
 import tempfile
 
-from . import baseline, dataset, replay
+from . import baseline, dataset
 from . import metrics as metrics_mod
 from .errors import InputError
-from .pipeline import score_recordings
+from .pipeline import recordings_record, replay_natively, score_recordings
 
 SOURCE = "native replay (hpddo_core observer, per-sample), every row of recordings the model was not trained on"
 
@@ -64,20 +64,19 @@ def evaluate(model_dir, log_paths, work_dir: pathlib.Path | None = None, name: s
 
 
 def _replay_and_score(model_dir, model_name, checksum, lookup, recs, work: pathlib.Path) -> Evaluation:
-    (work / "logs").mkdir(parents=True, exist_ok=True)
-    (work / "estimates").mkdir(exist_ok=True)
-    clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
-    exe = replay.build(pathlib.Path(model_dir), model_name, work / "replay")
-    est = replay.run(exe, clean, work / "estimates", split=0.0)
+    est = replay_natively(recs, model_dir, model_name, work, split=0.0)
     m = score_recordings(recs, est, checksum, lookup, part="all")
     m["source"] = SOURCE
     m["model"] = {"folder": str(model_dir), "name": model_name}
-    m["glitches_removed"] = {r.name: {"file": r.source.name, "rows_in_file": r.rows_in_file,
-                                      "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
-                             for r in recs}
-    m["warnings"] = [w for r in recs for w in r.warnings]
-    m["recordings"] = [r.name for r in recs]
+    m.update(recordings_record(recs))
     return Evaluation(recs, m, metrics_mod.table(m, TABLE_TITLE), work / "estimates")
+
+
+def write(ev: Evaluation, out: pathlib.Path, title: str, notes: list) -> pathlib.Path:
+    """Writes an evaluation's metrics.json and report/index.html into out; the page."""
+    from .reports import training as report
+    (out / "metrics.json").write_text(json.dumps(ev.metrics, indent=2) + "\n")
+    return report.write(ev.metrics, ev.estimates, out / "report", title, notes, caption=ev.table.splitlines()[0])
 
 
 TABLE_TITLE = "RMSE on every row of recordings the model never saw (RPM)"

@@ -77,14 +77,17 @@ def score(scored: list, source: str, checksum: int | None = None) -> dict:
     return out
 
 
+def table_cell(x: float | None) -> str:
+    """One RMSE of a text table, 10 wide; "nan" where there is none."""
+    return f"{x:10.2f}" if x is not None else f"{'nan':>10s}"
+
+
 def table(metrics: dict, title: str = "RMSE on the test parts (RPM)") -> str:
     """The RMSE table as text: one line per condition, then the average."""
     rm = metrics["rmse_rpm"]
     models = [m for m in MODELS if m in rm]
     conds = [c for c in rm["M1"] if c != "average"]
-
-    def num(x):
-        return f"{x:10.2f}" if x is not None else f"{'nan':>10s}"
+    num = table_cell
 
     lines = [title, f"{'condition':<10s} " + " ".join(f"{m:>10s}" for m in models)
              + f" {'rows':>8s} {'clamped':>8s} {'fallback':>9s} {'gated':>8s}"]

@@ -103,6 +103,26 @@ def score_recordings(recs, estimates, checksum: int | None, lookup: baseline.Loo
     return metrics_mod.score(scored, SOURCE, checksum)
 
 
+def recordings_record(recs) -> dict:
+    """What metrics.json says of the recordings themselves: the rows the glitch filter
+    removed (file line and reason), the warnings, the recording names."""
+    return {"glitches_removed": {r.name: {"file": r.source.name, "rows_in_file": r.rows_in_file,
+                                          "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
+                                 for r in recs},
+            "warnings": [w for r in recs for w in r.warnings],
+            "recordings": [r.name for r in recs]}
+
+
+def replay_natively(recs, model_dir: pathlib.Path, name: str, work: pathlib.Path, split: float | None = None) -> list:
+    """Writes the cleaned recordings into work/logs, builds the replay for model_<name>.h of
+    model_dir into work/replay and replays them into work/estimates; their estimates."""
+    (work / "logs").mkdir(parents=True, exist_ok=True)
+    (work / "estimates").mkdir(exist_ok=True)
+    clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
+    exe = replay.build(pathlib.Path(model_dir), name, work / "replay")
+    return replay.run(exe, clean, work / "estimates", split)
+
+
 def golden_samples(recs):
     """A stream of test rows from each recording, and faults the boards must survive."""
     out = []
@@ -124,10 +144,9 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     """Runs everything; raises BenchLogError / IdentificationError / ValueError on bad input
     before anything is written to out_dir."""
     outdir.check(out_dir, "gen_weights")  # before the work: a refused folder costs nothing
-    if cfg.leave_one_out and len(log_paths) < 2:
-        raise InputError("leave-one-out needs at least two recordings (one to leave out, one to train on)")
+    if cfg.leave_one_out:
+        _check_leave_one_out(log_paths)  # before the work
     recs = dataset.load_recordings(log_paths, cfg.train_fraction, cfg.glitch_filter)
-    names = [r.name for r in recs]
     ra, ra_source = identify.ra_from_logs(recs, cfg.ra_ohm)
     m1 = ph.nameplate_params(ra, cfg.rated_V, cfg.rated_rpm)
     if cfg.physics is not None:
@@ -157,13 +176,9 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         (stage / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
         (stage / f"golden_{name}.csv").write_text(export.golden_csv(rows))
         work = stage / "work"  # cleaned logs, the replay built for this model, its estimates
-        (work / "logs").mkdir(parents=True)
-        (work / "estimates").mkdir()
-        clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
-        exe = replay.build(stage, name, work / "replay")
+        est = replay_natively(recs, stage, name, work)
         lookup = baseline.Lookup.fit(recs)
         (stage / baseline.FILE).write_text(lookup.to_json())
-        est = replay.run(exe, clean, work / "estimates")
         metrics = score_recordings(recs, est, export.model_checksum(model), lookup)
         table = metrics_mod.table(metrics)
         metrics["identification"] = {
@@ -176,11 +191,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         }
         if not res.trained:
             metrics["identification"]["residual"] = res.note
-        metrics["glitches_removed"] = {r.name: {"file": r.source.name, "rows_in_file": r.rows_in_file,
-                                                "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
-                                       for r in recs}
-        metrics["warnings"] = [w for r in recs for w in r.warnings]
-        metrics["recordings"] = names
+        metrics.update(recordings_record(recs))
         if cfg.leave_one_out:
             metrics["leave_one_out"] = leave_one_out(
                 log_paths, stage / "leave_one_out",
@@ -188,6 +199,11 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
         (work / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
     return PipelineResult(recs, m1, m2, res, model, metrics, table, out)
+
+
+def _check_leave_one_out(log_paths) -> None:
+    if len(log_paths) < 2:
+        raise InputError("leave-one-out needs at least two recordings (one to leave out, one to train on)")
 
 
 def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
@@ -199,8 +215,7 @@ def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
     from .evaluate import evaluate
 
     paths = [pathlib.Path(p) for p in log_paths]
-    if len(paths) < 2:
-        raise InputError("leave-one-out needs at least two recordings (one to leave out, one to train on)")
+    _check_leave_one_out(paths)
     out = pathlib.Path(out_dir)
     scores = {}
     for k, held in enumerate(paths):
@@ -219,10 +234,7 @@ def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
 def leave_one_out_table(loo: dict) -> str:
     """The leave-one-out scores as text: one line per recording left out, then the average."""
     models = list(loo["average"])
-
-    def num(x):
-        return f"{x:10.2f}" if x is not None else f"{'nan':>10s}"
-
+    num = metrics_mod.table_cell
     lines = ["RMSE on every row of each recording, trained on the others (leave one out, RPM)",
              f"{'left out':<10s} " + " ".join(f"{m:>10s}" for m in models)]
     lines += [f"{c:<10s} " + " ".join(num(s[m]) for m in models) for c, s in loo["recordings"].items()]

@@ -87,17 +87,14 @@ def score_validation(res, validation, out: pathlib.Path, shown: pathlib.Path, la
     """Scores the model of a pipeline result on the validation recordings (hpddo evaluate)
     into out/validation (metrics.json, report/, work/); the metrics, or None without
     validation recordings."""
-    from ..evaluate import evaluate
-    from ..reports import training as report
+    from ..evaluate import evaluate, write
 
     if not validation:
         return None
     ev = evaluate(res.out, validation, out / "validation" / "work", glitch_filter=not args.no_glitch_filter)
-    (out / "validation" / "metrics.json").write_text(json.dumps(ev.metrics, indent=2) + "\n")
-    report.write(ev.metrics, ev.estimates, out / "validation" / "report", f"hpddo: {label} on recordings it never saw",
-                 ["Every row of recordings no training protocol covers, replayed natively through the board "
-                  "observer; lookup: the mean training speed of the nearest training operating point."],
-                 caption=ev.table.splitlines()[0])
+    write(ev, out / "validation", f"hpddo: {label} on recordings it never saw",
+          ["Every row of recordings no training protocol covers, replayed natively through the board "
+           "observer; lookup: the mean training speed of the nearest training operating point."])
     print("   " + ev.table.replace("\n", "\n   ").rstrip())
     print(f"   report: {shown / 'validation' / 'report' / 'index.html'}")
     return ev.metrics

@@ -14,7 +14,6 @@ rows from the same runs the model was trained on.
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 import time
 
@@ -36,19 +35,17 @@ def parser(prog: str = "hpddo evaluate") -> argparse.ArgumentParser:
 
 def run(args) -> int:
     from .. import outdir
-    from ..evaluate import evaluate, model_header
-    from ..reports import training as report
+    from ..evaluate import evaluate, model_header, write
 
     t0 = time.perf_counter()
     model_header(args.model, args.name)  # a missing model is refused before any work
     outdir.check(args.out, TOOL)
     with outdir.staged(args.out, TOOL) as stage:
         ev = evaluate(args.model, args.logs, stage / "work", args.name, not args.no_glitch_filter)
-        (stage / "metrics.json").write_text(json.dumps(ev.metrics, indent=2) + "\n")
-        report.write(ev.metrics, ev.estimates, stage / "report", f"hpddo evaluate: {args.model}",
-                     [f"Model {args.model}, replayed natively through the board observer on every row of "
-                      "recordings it was not trained on; lookup: the mean training speed of the nearest "
-                      "training operating point."], caption=ev.table.splitlines()[0])
+        write(ev, stage, f"hpddo evaluate: {args.model}",
+              [f"Model {args.model}, replayed natively through the board observer on every row of "
+               "recordings it was not trained on; lookup: the mean training speed of the nearest "
+               "training operating point."])
     for w in ev.metrics["warnings"]:
         print(f"hpddo evaluate: WARNING: {w}")
     for r in ev.recordings:
