@@ -9,8 +9,8 @@
 // training: Adam lr=0.001 batch=200 iterations=2000, 6759 rows, chronological 80% of each recording
 // generator: hpddo.export 2
 // shapes: 5-16-8-1
-// checksum: crc32 0x4cb3d6ed
-// parameter_layout: crc32 0x92351228 (hpddo::kParamsSchema, hpddo.schema 1)
+// checksum: crc32 0x31a93193
+// parameter_layout: crc32 0x71a0bead (hpddo::kParamsSchema, hpddo.schema 1)
 #ifndef HPDDO_MODEL_DEFAULT_H
 #define HPDDO_MODEL_DEFAULT_H
 
@@ -23,7 +23,7 @@ namespace hpddo_model_default {
 typedef hpddo::Mlp<5, 16, 8> Net;
 
 /// CRC-32 over the stored floats (see hpddo::model_checksum).
-static const uint32_t kChecksum = 0x4cb3d6edu;
+static const uint32_t kChecksum = 0x31a93193u;
 
 /// Effects in the physics model: none (kModel.physics.effects).
 static const uint16_t kEffects = 0x0000u;
@@ -131,27 +131,30 @@ static_assert(sizeof(kW1) / sizeof(float) == Net::kW1Count, "kW1 shape");
 static_assert(sizeof(kW2) / sizeof(float) == Net::kW2Count, "kW2 shape");
 
 /// The physics initialisers are positional: this header holds for one parameter layout.
-static_assert(hpddo::kParamsSchema == 0x92351228u,
+static_assert(hpddo::kParamsSchema == 0x71a0beadu,
               "model_default.h was written for another parameter layout (tools/hpddo/schema.py): regenerate it");
-static_assert(hpddo::kPhysicsParamCount == 14, "one initialiser per hpddo::PhysicsParams field");
+static_assert(hpddo::kPhysicsParamCount == 17, "one initialiser per hpddo::PhysicsParams field");
 
 /// The deployed model.
 static const hpddo::Model<Net> kModel = {
     {
-        4.5f,          // ra_ohm [ohm]
-        0.415295243f,  // ke_vs_per_rad [V s/rad]
-        31.6875f,      // t_ref_C [C]
-        0.0f,          // ra_tc_per_K [1/K]
-        0.0f,          // ke_tc_per_K [1/K]
-        0.0f,          // brush_V [V]
-        0.0f,          // ke_sat_per_A [1/A]
-        0.0f,          // i_offset_A [A]
-        0.0f,          // v_gain [1]
-        0.0f,          // la_H [H]
-        0.0f,          // th_r_K_per_W [K/W]
-        0.0f,          // th_tau_s [s]
-        31.6875f,      // t_amb_C [C]
-        kEffects,      // effects
+        4.5f,           // ra_ohm [ohm]
+        0.415295243f,   // ke_vs_per_rad [V s/rad]
+        31.6875f,       // t_ref_C [C]
+        0.0f,           // ra_tc_per_K [1/K]
+        0.0f,           // ke_tc_per_K [1/K]
+        0.0f,           // brush_V [V]
+        0.0f,           // ke_sat_per_A [1/A]
+        0.0f,           // i_offset_A [A]
+        0.0f,           // v_gain [1]
+        0.0f,           // la_H [H]
+        0.0f,           // v_offset_V [V]
+        0.0199999996f,  // brush_knee_A [A]
+        0.0f,           // ke_sat_quad [1]
+        0.0f,           // th_r_K_per_W [K/W]
+        0.0f,           // th_tau_s [s]
+        31.6875f,       // t_amb_C [C]
+        kEffects,       // effects
     },
     {kScalerMean, kScalerScale},
     {kW0, kB0, kW1, kB1, kW2, kB2},
@@ -163,20 +166,23 @@ static const hpddo::Model<Net> kModel = {
 
 /// The nameplate model M1 (rated voltage over rated speed), for comparison only.
 static const hpddo::PhysicsParams kNameplate = {
-    4.5f,          // ra_ohm [ohm]
-    0.114591561f,  // ke_vs_per_rad [V s/rad]
-    25.0f,         // t_ref_C [C]
-    0.0f,          // ra_tc_per_K [1/K]
-    0.0f,          // ke_tc_per_K [1/K]
-    0.0f,          // brush_V [V]
-    0.0f,          // ke_sat_per_A [1/A]
-    0.0f,          // i_offset_A [A]
-    0.0f,          // v_gain [1]
-    0.0f,          // la_H [H]
-    0.0f,          // th_r_K_per_W [K/W]
-    0.0f,          // th_tau_s [s]
-    25.0f,         // t_amb_C [C]
-    0x0000u,       // effects
+    4.5f,           // ra_ohm [ohm]
+    0.114591561f,   // ke_vs_per_rad [V s/rad]
+    25.0f,          // t_ref_C [C]
+    0.0f,           // ra_tc_per_K [1/K]
+    0.0f,           // ke_tc_per_K [1/K]
+    0.0f,           // brush_V [V]
+    0.0f,           // ke_sat_per_A [1/A]
+    0.0f,           // i_offset_A [A]
+    0.0f,           // v_gain [1]
+    0.0f,           // la_H [H]
+    0.0f,           // v_offset_V [V]
+    0.0199999996f,  // brush_knee_A [A]
+    0.0f,           // ke_sat_quad [1]
+    0.0f,           // th_r_K_per_W [K/W]
+    0.0f,           // th_tau_s [s]
+    25.0f,          // t_amb_C [C]
+    0x0000u,        // effects
 };
 
 }  // namespace hpddo_model_default

@@ -57,6 +57,7 @@ TEST(Physics, MagnetThermalLowersKeSoSameEmfMeansMoreSpeed) {
 TEST(Physics, BrushDropIsOddAndSaturates) {
   hpddo::PhysicsParams p = plain();
   p.brush_V = 1.0f;
+  p.brush_knee_A = 0.02f;  // the library's base form
   EXPECT_EQ(hpddo::brush_drop_V(p, 0.0f), 0.0f);
   EXPECT_NEAR(hpddo::brush_drop_V(p, 0.02f), 0.5, 1e-6);  // half at the knee
   EXPECT_NEAR(hpddo::brush_drop_V(p, 2.0f), 2.0 / 2.02, 1e-6);
@@ -70,6 +71,37 @@ TEST(Physics, SaturationLowersKeWithCurrentMagnitude) {
   p.ke_sat_per_A = 0.05f;
   EXPECT_NEAR(hpddo::ke_at_vs_per_rad(p, 31.0f, 2.0f), 0.406 * 0.9, 1e-6);
   EXPECT_NEAR(hpddo::ke_at_vs_per_rad(p, 31.0f, -2.0f), 0.406 * 0.9, 1e-6);
+}
+
+TEST(Physics, SaturationShapeRunsFromLinearToQuadratic) {
+  hpddo::PhysicsParams p = plain();
+  p.ke_sat_per_A = 0.05f;
+  p.ke_sat_quad = 1.0f;  // Ke (1 - s i^2 / 1 A)
+  EXPECT_NEAR(hpddo::ke_at_vs_per_rad(p, 31.0f, 2.0f), 0.406 * (1.0 - 0.05 * 4.0), 1e-6);
+  EXPECT_NEAR(hpddo::ke_at_vs_per_rad(p, 31.0f, -0.5f), 0.406 * (1.0 - 0.05 * 0.25), 1e-6);
+  p.ke_sat_quad = 0.5f;  // half of each
+  EXPECT_NEAR(hpddo::ke_at_vs_per_rad(p, 31.0f, 2.0f), 0.406 * (1.0 - 0.05 * 2.0 * 1.5), 1e-6);
+}
+
+TEST(Physics, BrushKneeSetsWhereTheDropSwitchesOn) {
+  hpddo::PhysicsParams p = plain();
+  p.brush_V = 1.0f;
+  p.brush_knee_A = 0.1f;
+  EXPECT_NEAR(hpddo::brush_drop_V(p, 0.1f), 0.5, 1e-6);
+  EXPECT_NEAR(hpddo::brush_drop_V(p, -0.3f), -0.75, 1e-6);
+  p.brush_knee_A = 0.0f;  // below the minimum knee (and NaN): the minimum
+  EXPECT_NEAR(hpddo::brush_drop_V(p, hpddo::kBrushKneeMin_A), 0.5, 1e-6);
+  p.brush_knee_A = NAN;
+  EXPECT_NEAR(hpddo::brush_drop_V(p, hpddo::kBrushKneeMin_A), 0.5, 1e-6);
+  EXPECT_EQ(hpddo::brush_drop_V(p, 0.0f), 0.0f);
+}
+
+TEST(Physics, VoltageOffsetIsRemovedBeforeTheGain) {
+  hpddo::PhysicsParams p = plain();
+  p.v_offset_V = 0.1f;
+  p.v_gain = 0.02f;
+  EXPECT_NEAR(hpddo::true_voltage_V(p, 9.892f), 9.6, 1e-5);  // 9.6 (1 + 0.02) + 0.1
+  EXPECT_NEAR(rpm(p, at(9.892f, 0.8f)), rpm(plain(), at(9.6f, 0.8f)), 1e-2);
 }
 
 TEST(Physics, SensorErrorsAreRemovedFromTheReadings) {

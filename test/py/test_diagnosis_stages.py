@@ -205,8 +205,9 @@ def test_stages_on_the_bundled_recordings(default_stages):
     assert isinstance(res, core.Diagnosis) and res.verdict == text
     js = res.to_json()
     assert list(js) == ["recordings", "warnings", "ra_ohm", "ra_source", "ra_fit", "model_effects", "model",
-                        "missing_effects", "confounded", "separating_recordings", "not_identifiable", "ranking",
-                        "verdict", "noise_rpm", "rmse_rpm", "after_model", "residual_before", "residual_after",
+                        "missing_effects", "confounded", "separating_recordings", "told_apart", "rest_offsets",
+                        "not_identifiable", "ranking", "verdict", "noise_rpm", "rmse_rpm", "after_model",
+                        "thermal_node", "residual_before", "residual_after",
                         "steps", "thresholds", "runtime_s"]
     check = [s["material_check"] for s in js["separating_recordings"] if "material_check" in s]
     assert check and set(check[0]) == {"thermal_ra_fitted_per_K", "held_out_mse_fitted",

@@ -45,8 +45,9 @@ def test_default_logs_pass_reader_and_hold_no_truth(cond):
     assert truth["generator_version"] == params.GENERATOR_VERSION
     assert truth["seed"] == 1 and truth["preset"] == "default"
     assert set(truth["effects"]) == set(EFFECT_NAMES)
-    for e in truth["effects"].values():
-        assert e["enabled"] and e["unit"]
+    for name, e in truth["effects"].items():  # every effect on but the voltage offset (the paper's bench reads 0 V)
+        assert e["enabled"] == (params.EFFECTS[name].default != 0.0) and e["unit"]
+    assert not truth["effects"]["v_offset"]["enabled"]
     assert len(truth["glitches"]) == 3
     tcsv = (DEFAULT_DIR / f"{cond}.truth.csv").read_text().splitlines()
     assert len(tcsv) == len(log.df) + 1

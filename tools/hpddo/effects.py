@@ -163,15 +163,50 @@ class FitSpec:
     names: tuple          # effects switched on
     free: list            # PhysicsParams fields fitted (ke first)
     scales: list
+    bounds: dict          # field -> (lo, hi) for the bounded ones (shape parameters)
     fixed: dict           # fields held at a value
     thermal_state: bool   # th_r_K_per_W, th_tau_s fitted too (log-parametrised)
     blind: bool = False   # some rows read no temperature: the node is the rise above ambient
 
 
+# Channel offsets read where the truth is known: at standstill with the supply off (duty 0,
+# the encoder reading 0 RPM) the true voltage and current are zero, so the readings are the
+# channels' offsets. Where a recording has REST_MIN_ROWS such rows in its training part, an
+# offset effect is held at their mean instead of fitted: the data at hand measure it, and a
+# fitted offset would take up whatever else is constant (a brush drop, a wrong voltage).
+REST_MIN_ROWS = 5
+REST_READ = {"current_offset": "i", "v_offset": "v"}  # effect -> the Rows channel its offset is read on
+
+
+def rest_mask(r: Rows) -> np.ndarray:
+    """Training rows at standstill with the supply off: duty 0 and 0 RPM read."""
+    idx = np.arange(len(r.duty))
+    return ((r.duty == 0.0) & (r.ref == 0.0) & (idx < r.rec.n_train) & np.isfinite(r.v) & np.isfinite(r.i))
+
+
+def rest_offsets(rows: list[Rows]) -> dict:
+    """{effect: (offset in SI, its standard error, rows)} of the offset effects that the
+    rows at rest measure ({} with fewer than REST_MIN_ROWS of them)."""
+    m = [rest_mask(r) for r in rows]
+    n = int(sum(int(x.sum()) for x in m))
+    if n < REST_MIN_ROWS:
+        return {}
+    out = {}
+    for name, ch in REST_READ.items():
+        x = np.concatenate([getattr(r, ch)[k] for r, k in zip(rows, m)])
+        out[name] = (float(np.mean(x)), float(np.std(x, ddof=1) / math.sqrt(n)), n)
+    return out
+
+
 def spec_for(rows: list[Rows], names, hold=None) -> FitSpec:
-    """hold: {effect: coefficient} held at a value instead of fitted."""
+    """hold: {effect: coefficient} held at a value instead of fitted. An offset effect is
+    held at its reading at rest where the rows have one (rest_offsets)."""
     names = check_names(names)
     hold = dict(hold or {})
+    if any(n in REST_READ and n not in hold for n in names):
+        for n, (value, _, _) in rest_offsets(rows).items():
+            if n in names:
+                hold.setdefault(n, value)
     thermal = [n for n in names if LIBRARY[n].thermal]
     # A thermal effect always brings the winding node: above the case reading it is the
     # winding-to-case rise (the copper runs hotter than the sensor under load); where no
@@ -196,7 +231,18 @@ def spec_for(rows: list[Rows], names, hold=None) -> FitSpec:
         else:
             free.append(eff.field)
             scales.append(abs(eff.scale))
-    return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state, blind=blind)
+    # The shape of a named effect's term moves within the forms physics allows (schema.Shape):
+    # the effect is named, not the form. Held effects keep theirs (the start's, else the base form).
+    bounds = {}
+    for n in names:
+        if n in hold:
+            continue
+        for sh in LIBRARY[n].shapes:
+            free.append(sh.field)
+            scales.append(sh.scale)
+            bounds[sh.field] = sh.bounds
+    return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state, blind=blind,
+                   bounds=bounds)
 
 
 def node_path(blind: bool) -> str:
@@ -238,6 +284,7 @@ def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsP
 
 def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
     kw = {ph.EFFECT_BITS[n][1]: 0.0 for n in ph.EFFECT_BITS}
+    kw.update((sh.field, sh.default) for sh in schema.SHAPES)
     kw.update(effects=0, th_r_K_per_W=0.0, th_tau_s=0.0)
     return dataclasses.replace(p, **kw)
 
@@ -258,7 +305,8 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
         spec.free.append("ra_ohm")
         spec.scales.append(float(ra_prior[1]))
     p0 = _plain(base) if start is None else start
-    x0 = [getattr(p0, f) if (start is not None or f in ("ke_vs_per_rad", "ra_ohm")) else 0.0 for f in spec.free]
+    x0 = [getattr(p0, f) if (start is not None or f in ("ke_vs_per_rad", "ra_ohm") or f in spec.bounds) else 0.0
+          for f in spec.free]
     scales = list(spec.scales)
     node = node_params(spec.blind) if spec.thermal_state else ()
     if spec.thermal_state:
@@ -293,6 +341,10 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
         k = spec.free.index("ra_ohm")
         lo[k], hi[k] = ra_prior[0] / 3.0, ra_prior[0] * 3.0
         x0[k] = min(max(x0[k], lo[k] * 1.001), hi[k] * 0.999)
+    for k, f in enumerate(spec.free):  # a shape within the forms physics allows
+        if f in spec.bounds:
+            lo[k], hi[k] = spec.bounds[f]
+            x0[k] = min(max(x0[k], lo[k] + 1e-9), hi[k] - 1e-9)
     if spec.thermal_state:  # the node within its physical range (schema.NODE)
         for k, n in zip((-2, -1), node):
             lo[k], hi[k] = math.log(n.physical[0]), math.log(n.physical[1])

@@ -20,7 +20,7 @@ from .libm import exp
 from .schema import EFFECT_BITS, PhysicsParams  # noqa: F401
 
 RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
-BRUSH_KNEE_A = 0.02
+BRUSH_KNEE_MIN_A = 0.001   # the smallest brush knee the term takes (hpddo::kBrushKneeMin_A)
 
 # Physical bounds (docs/core.md, "Bounds"), the same numbers as hpddo/limits.h.
 WINDING_MAX_C = 250.0      # hottest winding: the 250 C thermal class, the highest of IEC 60085
@@ -46,7 +46,7 @@ def true_current_A(p, i_A, dtype=np.float64):
 
 
 def true_voltage_V(p, v_V, dtype=np.float64):
-    return np.asarray(v_V, dtype) / (dtype(1.0) + _f(p, "v_gain", dtype))
+    return (np.asarray(v_V, dtype) - _f(p, "v_offset_V", dtype)) / (dtype(1.0) + _f(p, "v_gain", dtype))
 
 
 def ra_at_ohm(p, temp_C, dtype=np.float64):
@@ -56,14 +56,23 @@ def ra_at_ohm(p, temp_C, dtype=np.float64):
 
 def brush_drop_V(p, i_true_A, dtype=np.float64):
     i = np.asarray(i_true_A, dtype)
-    return _f(p, "brush_V", dtype) * i / (np.abs(i) + dtype(BRUSH_KNEE_A))
+    knee = _f(p, "brush_knee_A", dtype)
+    knee = knee if knee > dtype(BRUSH_KNEE_MIN_A) else dtype(BRUSH_KNEE_MIN_A)  # NaN: the minimum, as the boards
+    return _f(p, "brush_V", dtype) * i / (np.abs(i) + knee)
 
 
 def ke_at_vs_per_rad(p, temp_C, i_true_A, dtype=np.float64):
     t = np.asarray(temp_C, dtype)
     i = np.asarray(i_true_A, dtype)
     return (_f(p, "ke_vs_per_rad", dtype) * (dtype(1.0) + _f(p, "ke_tc_per_K", dtype) * (t - _f(p, "t_ref_C", dtype)))
-            * (dtype(1.0) - _f(p, "ke_sat_per_A", dtype) * np.abs(i)))
+            * (dtype(1.0) - _f(p, "ke_sat_per_A", dtype) * saturation_shape(p, np.abs(i), dtype)))
+
+
+def saturation_shape(p, i_mag_A, dtype=np.float64):
+    """|i| (1 - q + q |i| / 1 A), q = ke_sat_quad: the armature reaction's growth with the
+    current, linear (q = 0) to quadratic (q = 1), in A."""
+    q = _f(p, "ke_sat_quad", dtype)
+    return i_mag_A * ((dtype(1.0) - q) + q * i_mag_A)
 
 
 @dataclasses.dataclass

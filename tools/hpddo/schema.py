@@ -15,7 +15,7 @@ derived from these records:
     (twin/params.py) and the diagnosis' separating recordings (ranking.SEPARATORS).
 
 The struct order is: BASE, then each effect's coefficient in the order of EFFECTS, then
-STATE, then the effect bits. Regenerate after any change (a pytest compares byte for byte):
+the effects' shape parameters (Shape, in the same order), then STATE, then the effect bits. Regenerate after any change (a pytest compares byte for byte):
 
     cd tools && ../.venv/bin/python -m hpddo.schema --write      # or --check
 
@@ -43,6 +43,27 @@ class Param:
     unit: str                   # SI unit
     meaning: str                # one line, the C++ field comment
     default: float | None = 0.0  # None: required (no default in the Python dataclass)
+
+
+@dataclasses.dataclass(frozen=True)
+class Shape:
+    """A shape parameter of an effect: how its term depends on its input, beyond the
+    coefficient's size. Real physics never matches one library form exactly (armature
+    reaction may grow with |i| or with i^2, a brush drop may switch on over 20 mA or over
+    100 mA), so an effect carries the forms physics allows as a family: the default is
+    the library's base form, and the fit moves the shape within its bounds wherever the
+    effect is named. The diagnosis names the effect, not the form."""
+
+    field: str
+    unit: str                   # SI unit
+    meaning: str                # one line, the C++ field comment
+    default: float              # the base form (the value a model without the effect carries)
+    bounds: tuple               # (lo, hi): the range of forms physics allows, SI
+    scale: float                # a typical step of the field, SI (parameter scaling in fits)
+    forms: str                  # the forms the range covers, in words
+
+    def param(self, effect: str) -> Param:
+        return Param(self.field, self.unit, f"{effect} shape: {self.meaning}", self.default)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -76,6 +97,8 @@ class Effect:
     # The effect that can take over this one's work when the fit lands outside material_band
     # (both follow the temperature): the diagnosis' material check (docs/diagnosis.md).
     shares_work_with: str = ""
+    # Its shape parameters (Shape): the forms of the term that physics allows.
+    shapes: tuple = ()
 
     def is_material(self, value: float) -> bool:
         """Whether a fitted coefficient lies within the band of its material constant."""
@@ -172,6 +195,12 @@ EFFECTS = (
            "0.3..2 V for both brushes together", (0.05, 2.5), (0.025, 5.0), 0.5,
            "a constant voltage while current flows (sign of the current)",
            "runs at several speeds, including light load",
+           shapes=(
+               Shape("brush_knee_A", "A", "current at which the brush drop reaches half its full value",
+                     0.02, (0.002, 0.3), 0.02,
+                     "brush_V i / (|i| + knee): a drop that switches on within a few mA (hard carbon) "
+                     "to one that builds up over a few hundred mA (soft graphite, film)"),
+           ),
            separated_from=(
                ("current_offset",
                 "rows at zero and at very low current with the motor turning (coasting at duty 0, or "
@@ -189,6 +218,13 @@ EFFECTS = (
            "runs at different loads (currents) at similar speeds",
            separated_from=(
                ("v_gain", "load steps at one duty (same voltage, different currents)"),
+           ),
+           shapes=(
+               Shape("ke_sat_quad", "1",
+                     "share of the armature reaction that grows with i^2 (per 1 A) instead of |i|",
+                     0.0, (0.0, 1.0), 0.3,
+                     "Ke (1 - s |i| (1 - q + q |i| / 1 A)): q = 0 linear in |i|, q = 1 quadratic (the "
+                     "onset of saturation above a current lies between)"),
            )),
     Effect("current_offset", 4, "i_offset_A", "A", 1000.0, "mA",
            "reading minus true current",
@@ -214,6 +250,22 @@ EFFECTS = (
            "0.5..20 mH for small PMDC motors", (0.0005, 0.02), (0.00025, 0.04), 0.003,
            "the rate of change of the current",
            "a recording at 1 kHz or faster with steps of duty"),
+    Effect("v_offset", 7, "v_offset_V", "V", 1000.0, "mV",
+           "reading minus true voltage",
+           "offset of the voltage channel",
+           "DC offset of the voltage channel (a divider's reference, an ADC or op-amp offset): "
+           "the reading minus the true voltage",
+           "a few mV to a few hundred mV", (-0.3, 0.3), (-0.6, 0.6), 0.05,
+           "a constant voltage at every current and speed",
+           "rows at standstill with the supply off (the reading of zero volts), or runs at several voltages",
+           separated_from=(
+               ("current_offset",
+                "rows at standstill with the supply off (duty 0, motor stopped): the voltage reading "
+                "there is the voltage offset and the current reading the current offset"),
+               ("brush_drop",
+                "rows at zero and at very low current with the motor turning (coasting): a brush drop "
+                "vanishes with the current, a voltage offset does not"),
+           )),
 )
 
 STATE = (
@@ -299,7 +351,8 @@ BENCH_EFFECTS = (
 # ---------------------------------------------------------------------------------------
 # Derived
 
-PARAMS = BASE + tuple(e.param() for e in EFFECTS) + STATE
+SHAPES = tuple(sh for e in EFFECTS for sh in e.shapes)
+PARAMS = BASE + tuple(e.param() for e in EFFECTS) + tuple(sh.param(e.name) for e in EFFECTS for sh in e.shapes) + STATE
 FLOAT_FIELDS = tuple(p.field for p in PARAMS)      # every float field, in struct order
 FIELDS = FLOAT_FIELDS + (BITS_FIELD,)              # every field: struct, initialiser, checksum order
 UNITS = {p.field: p.unit for p in PARAMS}
@@ -351,6 +404,10 @@ def validate() -> None:
             if not (e.plausible[0] <= e.material_band[0] <= e.material <= e.material_band[1] <= e.plausible[1]):
                 raise ValueError(f"{e.name}: material {e.material} not within material_band {e.material_band} "
                                  f"within plausible {e.plausible}")
+        for sh in e.shapes:
+            lo, hi = sh.bounds
+            if not (lo <= sh.default <= hi and lo < hi and sh.scale > 0):
+                raise ValueError(f"{e.name} shape {sh.field}: want lo <= default <= hi, lo < hi, scale > 0")
         if e.shares_work_with:
             other = BY_NAME.get(e.shares_work_with)
             if other is None or other is e:

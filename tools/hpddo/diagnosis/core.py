@@ -113,6 +113,7 @@ def _described(name: str, p: ph.PhysicsParams, blind: bool = False) -> dict:
     val = getattr(p, eff.field)
     ok, text = eff.plausibility(val)
     params = {eff.field: val}
+    params.update((sh.field, float(getattr(p, sh.field))) for sh in eff.shapes)  # the form fitted
     node = []
     if eff.thermal and p.thermal_enabled():
         params.update(th_r_K_per_W=p.th_r_K_per_W, th_tau_s=p.th_tau_s)
@@ -185,9 +186,15 @@ class ConfoundedPair:
     recording: str
     corr: float
     material_check: MaterialCheck | None = None
+    # z of the named effect's held-out gain over the other (ranking.Step.told_apart), and how
+    # many times the data at hand would tell them apart (ranking.more_data_needed; None:
+    # nothing in these recordings separates them, the separating recording is needed)
+    z_apart: float | None = None
+    more_data_x: float | None = None
 
     def to_json(self) -> dict:
-        out = {"effects": self.effects, "recording": self.recording, "corr": self.corr}
+        out = {"effects": self.effects, "recording": self.recording, "corr": self.corr,
+               "z_apart": self.z_apart, "more_data_x": self.more_data_x}
         if self.material_check is not None:
             out["material_check"] = self.material_check.to_json()
         return out
@@ -291,6 +298,9 @@ class Selection:
 class Confounding:
     groups: list       # [[effect, ...]]
     pairs: list        # ConfoundedPair
+    # [{"effects": [named, other], "z": z}]: explained nearly as much as the named one alone,
+    # but the recordings at hand tell the two apart (z >= Z_MIN)
+    told_apart: list = dataclasses.field(default_factory=list)
 
 
 @dataclasses.dataclass
@@ -330,9 +340,12 @@ class Diagnosis:
     leave_one_out: dict | None = None  # see leave_one_out()
     # the winding node of the model under test and of it with the missing effects, each
     # field against its declared ranges (effects.node_plausibility; schema.NODE); in the
-    # JSON under each thermal ranking row (its top-level key awaits test_diagnosis_stages)
+    # JSON at the top level and under each thermal ranking row
     thermal_node: dict = dataclasses.field(default_factory=dict)
     ra_fit: RaFit | None = None  # Ra as a nuisance parameter (ranking.RA_MISMATCH)
+    told_apart: list = dataclasses.field(default_factory=list)  # Confounding.told_apart
+    # the channel offsets read at rest (effects.rest_offsets): {effect: {value, se, rows}}
+    rest_offsets: dict = dataclasses.field(default_factory=dict)
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -351,12 +364,15 @@ class Diagnosis:
             "missing_effects": self.missing_effects,
             "confounded": self.confounded,
             "separating_recordings": [s.to_json() for s in self.separating_recordings],
+            "told_apart": self.told_apart,
+            "rest_offsets": self.rest_offsets,
             "not_identifiable": self.not_identifiable,
             "ranking": [e.to_json() for e in self.ranking],
             "verdict": self.verdict,
             "noise_rpm": self.noise_rpm,
             "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after},
             "after_model": dataclasses.asdict(self.after_model),
+            "thermal_node": self.thermal_node,
             "residual_before": self.residual_before.to_json(),
             "residual_after": self.residual_after.to_json(),
             "steps": [s.to_json() for s in self.steps],
@@ -449,6 +465,12 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
             ra_fit.confounded_with += [a for a, g, z, phy in st.alternatives if a != RA and phy
                                        and z >= ranking.Z_MIN and g >= ranking.CONFOUND_GAIN * st.gain]
     ra_fit.confounded_with += ra_confounded
+    # ... and what those explained no better than (the alternatives of their step that the
+    # recordings did not tell apart from them): one of these is the cause, the data cannot say which
+    for st in steps:
+        if st.name in ra_confounded:
+            ra_fit.confounded_with += [a for a, z in st.told_apart.items()
+                                       if a != RA and z < ranking.Z_MIN and a not in ra_fit.confounded_with]
 
     # single-effect gains on the base model (the first step's trial) for the ranking table
     first = {a[0]: a for a in steps[0].alternatives} if steps else {}
@@ -497,13 +519,23 @@ def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, i
 
 def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
     """Alternatives that explained nearly as much at the step an effect was named."""
-    groups, pairs = [], []
+    groups, pairs, apart = [], [], []
+    # an offset read at rest (effects.rest_offsets) is measured by those rows, not by the fit:
+    # whatever else explains the same speed error, the rows at rest tell it apart (z: the
+    # reading's mean over its standard error)
+    rest = {n: abs(v) / se for n, (v, se, _) in fx.rest_offsets(inp.rows).items() if se > 0}
     for s in sel.steps:
         if not s.name or (s.name not in sel.missing and s.name != ranking.RA_MISMATCH):
             continue  # nothing named, or named but not told apart from a wrong Ra (select)
         group = [s.name]
         for name, g, z, physical in s.alternatives:
             if name != s.name and physical and z >= ranking.Z_MIN and g >= ranking.CONFOUND_GAIN * s.gain:
+                za = s.told_apart.get(name)
+                if rest.get(s.name, 0.0) >= ranking.Z_MIN:
+                    za = max(za or 0.0, rest[s.name])
+                if za is not None and za >= ranking.Z_MIN and ranking.RA_MISMATCH not in (s.name, name):
+                    apart.append({"effects": [s.name, name], "z": float(za)})
+                    continue  # the recordings at hand separate them
                 group.append(name)
         if s.name == ranking.RA_MISMATCH:  # said in RaFit.confounded_with (select)
             continue
@@ -512,9 +544,11 @@ def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
         if len(group) > 1:
             groups.append(group)
             for other in group[1:]:
+                za = s.told_apart.get(other)
                 pairs.append(ConfoundedPair([s.name, other], ranking.separator(s.name, other),
-                                            ranking.partial_corr(inp.data, mf.base, s.name, other, inp.given)))
-    return Confounding(groups=groups, pairs=pairs)
+                                            ranking.partial_corr(inp.data, mf.base, s.name, other, inp.given),
+                                            z_apart=za, more_data_x=ranking.more_data_needed(za)))
+    return Confounding(groups=groups, pairs=pairs, told_apart=apart)
 
 
 def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding) -> tuple[Selection, Confounding]:
@@ -557,7 +591,7 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
                                     ranking.partial_corr(d, mf.base, name, other, given),
                                     MaterialCheck(name, other, getattr(sel.steps_final, eff.field), mse_sel, mse_alt)))
     return (dataclasses.replace(sel, final=final, missing=missing, ranking=table),
-            Confounding(groups=groups, pairs=pairs))
+            Confounding(groups=groups, pairs=pairs, told_apart=conf.told_apart))
 
 
 # the inputs the residual is cross-correlated with: (name, Rows attribute)
@@ -605,7 +639,8 @@ def ra_verdict(ra: RaFit | None) -> str:
             "looked for with Ra at that value.")
     if ra.confounded_with:
         text += (f" These recordings cannot tell a wrong Ra from {' or '.join(ra.confounded_with)}, so "
-                 f"neither is named as an effect; to separate them: {ranking.RA_SEPARATOR}.")
+                 f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect; "
+                 f"to separate them: {ranking.RA_SEPARATOR}.")
     text += (f" hpddo train still uses the Ra given: re-measure Ra, or pass --ra-ohm "
              f"{ra.supported_ohm:.3g} if you trust these recordings.")
     return text
@@ -632,15 +667,25 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float)
         return "Nothing missing: the residual is consistent with measurement noise."
     text = "Missing: " + ", ".join(f"{e.effect} ({e.shown})" for e in sel.ranking if e.named) + "."
     if conf.groups:
+        text += " " + " ".join(_pair_sentence(s) for s in conf.pairs if ranking.RA_MISMATCH not in s.effects)
+    if conf.told_apart:
         text += " " + " ".join(
-            f"{' and '.join(s.effects)} cannot be told apart on these recordings; "
-            f"a recording that would separate them: {s.recording}." for s in conf.pairs
-            if ranking.RA_MISMATCH not in s.effects)
+            f"{a['effects'][1]} explains much of what {a['effects'][0]} does, but these recordings tell "
+            f"the two apart (z = {a['z']:.1f})." for a in conf.told_apart)
     if structured_left:
         text += (" A structured residual remains that no library effect explains "
                  f"({after.excess / max(sigma2, 1e-12):.1f}x the noise variance); strongest correlates: " +
                  ", ".join(f"{c['input']} (r = {c['peak']:+.2f})" for c in after.correlates[:3]
                            if c["significant"]) + ".")
+    return text
+
+
+def _pair_sentence(s: ConfoundedPair) -> str:
+    text = (f"{' and '.join(s.effects)} cannot be told apart on these recordings; "
+            f"a recording that would separate them: {s.recording}.")
+    if s.more_data_x is not None and s.more_data_x > 1.0:
+        text += (f" These recordings hold a little of it (z = {s.z_apart:.1f}): about {s.more_data_x:.0f} times "
+                 "as much of it would tell them apart.")
     return text
 
 
@@ -742,6 +787,8 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         warnings=[w for r in inp.recs for w in r.warnings] + hyb_warnings,
         ra_ohm=inp.ra, ra_source=inp.ra_source, ra_fit=sel.ra_fit, model_effects=inp.given, model=mf.model,
         missing_effects=sel.missing, confounded=conf.groups, separating_recordings=conf.pairs,
+        told_apart=conf.told_apart,
+        rest_offsets={k: {"value": v, "se": se, "rows": n} for k, (v, se, n) in fx.rest_offsets(rows).items()},
         not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
         ranking=sel.ranking, verdict=text, noise_rpm=float(np.sqrt(mf.sigma2)),
         rmse_before=_rmse_by_condition(rows, mf.res_model), rmse_after=_rmse_by_condition(rows, resid.res_after),

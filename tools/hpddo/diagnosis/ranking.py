@@ -210,6 +210,16 @@ def _regressor(r, p, name, t):
     return fx.regressor(r, p, name, t)
 
 
+def more_data_needed(z: float) -> float | None:
+    """How many times the data at hand it would take to tell two explanations apart, for a
+    z (the named one's held-out gain over the other, in standard errors) below Z_MIN: z grows
+    with the square root of the rows that separate them, so (Z_MIN / z)^2 times; None for
+    z <= 0 (the data at hand hold nothing that separates them)."""
+    if z is None or not np.isfinite(z) or z <= 0:
+        return None
+    return float((Z_MIN / z) ** 2)
+
+
 def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
     """Correlation of the regressors of a and b on the training and held-out rows after
     Ke and the `given` effects are projected out."""
@@ -249,6 +259,10 @@ class Step:
     # z of the named effect's held-out gain over the model with a wrong Ra instead (RA_MISMATCH
     # passing every test at this step); None when it did not. Below Z_MIN: not told apart.
     ra_z: float | None = None
+    # z of the named effect's held-out gain over each alternative that passed every test at
+    # this step (the model with the alternative instead): at Z_MIN or more, the recordings at
+    # hand tell the two apart, whatever the alternative explains on its own.
+    told_apart: dict = dataclasses.field(default_factory=dict)
 
 
 def _physical(name: str, value: float, m2: ph.PhysicsParams | None = None) -> bool:
@@ -293,7 +307,8 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
         new_mse = held_out_mse(d, rc)
         ra = [t for t in ok if t[0] == RA_MISMATCH and c != RA_MISMATCH]
         ra_z = gain_z(d, ra[0][5], rc, sigma2)[1] if ra else None
-        steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried], ra_z))
+        apart = {t[0]: float(gain_z(d, t[5], rc, sigma2)[1]) for t in ok if t[0] != c}
+        steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried], ra_z, apart))
         chosen.append(c)
         remaining.remove(c)
         p, res, mse = pc, rc, new_mse

@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from .params import Bench
+from .params import Bench, brush_share, saturation_shape
 
 
 def _seg(A, B, tau, t):
@@ -150,6 +150,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
     vb = b.effect_si("brush_drop")
     s_sat = b.effect_si("saturation")
     la = b.effect_si("inductance")
+    sat_form, brush_form, copper_form = b.form("saturation"), b.form("brush_drop"), b.form("thermal_ra")
     ra_ref = b.ra_ohm
     t_ref = b.ra_ref_C
     ke0 = b.ke_vs_per_rad
@@ -200,17 +201,19 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
             hh = h if h < t_rem else t_rem
             if t_rem - hh < 0.25 * hh:
                 hh = t_rem
-            ra = ra_ref * (1.0 + a_cu * (Tw - t_ref))
+            ra = ra_ref * (1.0 + a_cu * ((Tc if copper_form == "case" else Tw) - t_ref))
             ke_flux = ke0 * (1.0 + b_mag * (Tc - t_ref))
             ib_pos = ib if ib > 0.0 else 0.0
-            ke = ke_flux * (1.0 - s_sat * ib_pos)  # mean EMF constant (armature reaction)
+            sat = saturation_shape(sat_form, ib_pos)
+            ke = ke_flux * (1.0 - s_sat * sat)  # mean EMF constant (armature reaction)
             E = ke * w
-            sol = pwm_cycle(d, E, vb, ra, la, b)
-            sol2 = pwm_cycle(d, E + ke * dw_fd, vb, ra, la, b)
+            vb_k = vb * brush_share(brush_form, ib_pos)  # the drop at the mean current (quasi-static)
+            sol = pwm_cycle(d, E, vb_k, ra, la, b)
+            sol2 = pwm_cycle(d, E + ke * dw_fd, vb_k, ra, la, b)
             Iss, i2ss, vss = sol[0], sol[1], sol[2]
             ff = i2ss / (Iss * Iss) if Iss > 1e-9 else 1.0
             # mean torque ke_flux * mean(i (1 - s i)) = ke_flux (I - s <i^2>): PWM ripple counts
-            kt = ke_flux * (1.0 - s_sat * ff * ib_pos)
+            kt = ke_flux * (1.0 - s_sat * ff * sat)
             g = (sol2[0] - Iss) / dw_fd
             gv = (sol2[2] - vss) / dw_fd
             if la > 0.0:
@@ -242,7 +245,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
             i2_step = i_step * i_step * ff
             # energy ledger (powers times step)
             p_cu = ra * i2_step
-            p_br = vb * i_step
+            p_br = vb_k * i_step
             r = i_step / Iss if Iss > 1e-9 else 0.0
             p_drive = rsh * i2ss * r * r + rds * sol[6] * r * r + vd * sol[7] * r + rd * sol[8] * r * r
             p_conv = kt * i_step * wm

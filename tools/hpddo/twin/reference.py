@@ -17,6 +17,8 @@ from .params import Bench
 
 def simulate_cycles(bench: Bench, duty, load, rate_hz, substeps=200):
     b = bench
+    if b.forms:
+        raise ValueError("the reference integrator carries the effects' default forms only")
     vb = b.effect_si("brush_drop")
     s_sat = b.effect_si("saturation")
     la = b.effect_si("inductance")

@@ -1,7 +1,7 @@
 """Measurement chain of the bench: what the acquisition board logs from the true plant.
 
 * Voltage: divider + level shift into the 10-bit ADC (``v_div_gain``, ``v_shift_V``),
-  gain error ``v_gain``. Current: the 0.5 ohm shunt into the ADC, offset
+  gain error ``v_gain``, offset ``v_offset``. Current: the 0.5 ohm shunt into the ADC, offset
   ``current_offset``, commutation ``ripple`` on the current.
 * Oversampling: the ADC converts free running (9615 conversions/s, the two channels
   alternating), so each channel gets N = 9615 / 2 / rate conversions per sample period
@@ -65,7 +65,7 @@ def measure(bench: Bench, res, duty, load, rng):
                             (libm.sin(x2) - libm.sin(x1)) / np.where(small, 1.0, span))
         i_true = i_true + a_rip * res.i_mean * mean_cos
         i_var = i_var + 0.5 * (a_rip * res.i_mean) ** 2
-    v_meas_in = res.v_mean * (1.0 + bench.effect_si("v_gain"))
+    v_meas_in = res.v_mean * (1.0 + bench.effect_si("v_gain")) + bench.effect_si("v_offset")
     i_meas_in = i_true + bench.effect_si("current_offset")
 
     v = adc_channel(v_meas_in, res.v_var, bench.v_div_gain, bench.v_shift_V, n_conv, bench, rng)

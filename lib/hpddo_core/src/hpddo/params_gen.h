@@ -2,8 +2,8 @@
 // command: cd tools && ../.venv/bin/python -m hpddo.schema --write
 // source: tools/hpddo/schema.py
 // generator: hpddo.schema 1
-// layout: crc32 0x92351228 (kParamsSchema)
-// checksum: crc32 0x1210ec7e of the text below this banner
+// layout: crc32 0x71a0bead (kParamsSchema)
+// checksum: crc32 0x593480c6 of the text below this banner
 #ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -13,7 +13,7 @@ namespace hpddo {
 
 /// CRC-32 of the parameter layout (field names, types and order, effect bits). A model
 /// header asserts that it was written for this layout.
-static const uint32_t kParamsSchema = 0x92351228u;
+static const uint32_t kParamsSchema = 0x71a0beadu;
 
 /// Bit of each effect in PhysicsParams::effects, for reporting and telemetry.
 enum Effect : uint16_t {
@@ -24,10 +24,11 @@ enum Effect : uint16_t {
   kEffectCurrentOffset = 1u << 4,  ///< current_offset: offset of the current channel
   kEffectVGain = 1u << 5,          ///< v_gain: gain error of the voltage channel
   kEffectInductance = 1u << 6,     ///< inductance: la di/dt, visible at high rates
+  kEffectVOffset = 1u << 7,        ///< v_offset: offset of the voltage channel
 };
 
 /// Every effect bit of the library.
-static const uint16_t kEffectsAll = 0x007fu;
+static const uint16_t kEffectsAll = 0x00ffu;
 
 /// Lumped parameters of one motor-drivetrain assembly, all in SI units, speed
 /// at the output shaft. Effect coefficients at zero switch their effect off.
@@ -43,6 +44,9 @@ struct PhysicsParams {
   float i_offset_A;     ///< current_offset: reading minus true current, A
   float v_gain;         ///< v_gain: reading / true voltage - 1, dimensionless
   float la_H;           ///< inductance: armature inductance, H
+  float v_offset_V;     ///< v_offset: reading minus true voltage, V
+  float brush_knee_A;   ///< brush_drop shape: current at which the brush drop reaches half its full value, A
+  float ke_sat_quad;    ///< saturation shape: share of the armature reaction that grows with i^2 (per 1 A) instead of |i|, dimensionless
   float th_r_K_per_W;   ///< thermal state: winding-to-ambient resistance (0: no estimate), K/W
   float th_tau_s;       ///< thermal state: time constant, s
   float t_amb_C;        ///< thermal state: ambient temperature, C
@@ -50,7 +54,7 @@ struct PhysicsParams {
 };
 
 /// Number of PhysicsParams fields, the effect bits included.
-static const uint8_t kPhysicsParamCount = 14;
+static const uint8_t kPhysicsParamCount = 17;
 
 /// Calls f(p.field) for every PhysicsParams field in the schema's order, the order of
 /// the struct, of a model header's initialiser and of model_checksum(): each float
@@ -68,6 +72,9 @@ inline void for_each_param(Params& p, F& f) {
   f(p.i_offset_A);
   f(p.v_gain);
   f(p.la_H);
+  f(p.v_offset_V);
+  f(p.brush_knee_A);
+  f(p.ke_sat_quad);
   f(p.th_r_K_per_W);
   f(p.th_tau_s);
   f(p.t_amb_C);

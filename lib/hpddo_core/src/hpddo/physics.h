@@ -24,9 +24,10 @@ namespace hpddo {
 /// RPM per rad/s (60 / 2 pi).
 static const float kRpmPerRadS = 9.54929658551372f;
 
-/// Current at which the brush drop reaches half its full value, A.
-/// Smooths the sign of i so that the term is continuous at zero current.
-static const float kBrushKnee_A = 0.02f;
+/// The smallest brush knee the term takes, A: the knee (brush_knee_A, the current at
+/// which the drop reaches half its full value) smooths the sign of i so that the term is
+/// continuous at zero current; a knee below this (or NaN) is taken as this.
+static const float kBrushKneeMin_A = 0.001f;
 
 // PhysicsParams, the Effect bits and for_each_param() are generated from the one
 // declaration of every parameter and effect, tools/hpddo/schema.py (params_gen.h).
@@ -43,8 +44,10 @@ struct PhysicsInput {
 /// Armature current with the current-channel offset removed, A.
 inline float true_current_A(const PhysicsParams& p, float i_A) { return i_A - p.i_offset_A; }
 
-/// Terminal voltage with the voltage-channel gain error removed, V.
-inline float true_voltage_V(const PhysicsParams& p, float v_V) { return v_V / (1.0f + p.v_gain); }
+/// Terminal voltage with the voltage channel's offset and gain error removed, V.
+inline float true_voltage_V(const PhysicsParams& p, float v_V) {
+  return (v_V - p.v_offset_V) / (1.0f + p.v_gain);
+}
 
 /// Armature resistance at temperature temp_C, ohm.
 inline float ra_at_ohm(const PhysicsParams& p, float temp_C) {
@@ -54,14 +57,21 @@ inline float ra_at_ohm(const PhysicsParams& p, float temp_C) {
 /// Brush contact drop at current i_A (true current), V.
 inline float brush_drop_V(const PhysicsParams& p, float i_A) {
   const float mag = i_A < 0.0f ? -i_A : i_A;
-  return p.brush_V * i_A / (mag + kBrushKnee_A);
+  const float knee = p.brush_knee_A > kBrushKneeMin_A ? p.brush_knee_A : kBrushKneeMin_A;
+  return p.brush_V * i_A / (mag + knee);
+}
+
+/// The armature reaction's growth with the current, A: |i| (1 - q + q |i| / 1 A) with
+/// q = ke_sat_quad, linear in |i| (q = 0) to quadratic (q = 1).
+inline float saturation_shape_A(const PhysicsParams& p, float i_A) {
+  const float mag = i_A < 0.0f ? -i_A : i_A;
+  return mag * ((1.0f - p.ke_sat_quad) + p.ke_sat_quad * mag);
 }
 
 /// Effective back-EMF constant at temperature temp_C and current i_A, V s/rad.
 inline float ke_at_vs_per_rad(const PhysicsParams& p, float temp_C, float i_A) {
-  const float mag = i_A < 0.0f ? -i_A : i_A;
   return p.ke_vs_per_rad * (1.0f + p.ke_tc_per_K * (temp_C - p.t_ref_C)) *
-         (1.0f - p.ke_sat_per_A * mag);
+         (1.0f - p.ke_sat_per_A * saturation_shape_A(p, i_A));
 }
 
 /// Back-EMF implied by the voltage balance, V.

@@ -1,0 +1,80 @@
+"""The diagnosis names the effect, not the form: effects hidden in the bench twin in forms
+other than the library's base form (twin/params.py FORMS) are named, with the form's
+shape fitted (schema.Shape), and a voltage offset (one form) is named from the rows at
+rest. Two seeds each."""
+import dataclasses
+
+import pytest
+
+from hpddo.diagnosis import core
+from hpddo.twin import generate, params
+
+SEEDS = (3, 4)
+# name -> (effects (twin units), forms, bench overrides, effect that must be named)
+CASES = {
+    "saturation_quadratic": ({"saturation": 8.0}, {"saturation": "quadratic"}, {}, "saturation"),
+    "saturation_onset": ({"saturation": 8.0}, {"saturation": "onset"}, {}, "saturation"),
+    # every real armature has inductance (see test_diagnosis.SINGLE)
+    "brush_exp_50mA": ({"brush_drop": 0.5, "inductance": 2.5}, {"brush_drop": "exp_50mA"}, {}, "brush_drop"),
+    "copper_at_case": ({"thermal_ra": 0.393}, {"thermal_ra": "case"}, {}, "thermal_ra"),
+    # a winding with ten times the heat capacity: a 90 s winding-to-case time constant
+    "copper_slow_winding": ({"thermal_ra": 0.393}, {}, {"c_winding_J_per_K": 60.0}, "thermal_ra"),
+    "v_offset_positive": ({"v_offset": 100.0}, {}, {}, "v_offset"),
+    "v_offset_negative": ({"v_offset": -60.0}, {}, {}, "v_offset"),
+}
+_cache = {}
+
+
+def bench_dir(root, key, seed):
+    k = (key, seed)
+    if k not in _cache:
+        effects, forms, over, _ = CASES[key]
+        bench = params.with_forms(params.with_effects(params.preset("ideal"), **effects), **forms)
+        bench = dataclasses.replace(bench, **over)
+        out = root / f"{key}_{seed}"
+        for prot in ("sweep", "load", "long"):
+            generate.generate(bench, prot, 2.0, seed, out_dir=out, preset_name="ideal")
+        _cache[k] = [out / f"{p}.csv" for p in ("sweep", "load", "long")]
+    return _cache[k]
+
+
+@pytest.fixture(scope="module")
+def root(tmp_path_factory):
+    return tmp_path_factory.mktemp("forms")
+
+
+def run(paths):
+    return core.diagnose(paths, core.Options(bootstrap=0, hybrid=False)).to_json()
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("key", sorted(CASES))
+def test_an_effect_in_another_form_is_named_alone(root, key, seed):
+    res = run(bench_dir(root, key, seed))
+    want = CASES[key][3]
+    assert res["missing_effects"] == [want], res["verdict"]
+    assert not res["ra_fit"]["mismatch"], res["verdict"]
+    # what it removes: the physics error falls to within 1.3x the noise floor of the bench
+    after = res["rmse_rpm"]["after"]["average"]
+    assert after < 1.3 * res["noise_rpm"] + 0.5, (after, res["noise_rpm"])
+
+
+@pytest.mark.parametrize("seed", SEEDS)
+def test_the_fitted_shape_follows_the_form(root, seed):
+    """saturation: q (the i^2 share) near 1 for the quadratic form, and between the linear
+    and the quadratic form for an onset at 0.3 A. (The brush knee is not asserted: on 2 Hz
+    recordings the knee and Ke share the work, docs/diagnosis.md, Forms.)"""
+    quad = {e["effect"]: e for e in run(bench_dir(root, "saturation_quadratic", seed))["ranking"]}
+    assert quad["saturation"]["params"]["ke_sat_quad"] > 0.7
+    onset = {e["effect"]: e for e in run(bench_dir(root, "saturation_onset", seed))["ranking"]}
+    assert onset["saturation"]["params"]["ke_sat_quad"] > 0.2
+
+
+def test_an_offset_read_at_rest_is_held_there_and_told_apart(root):
+    res = run(bench_dir(root, "v_offset_positive", SEEDS[0]))
+    rest = res["rest_offsets"]
+    assert rest["v_offset"]["value"] == pytest.approx(0.1, abs=0.005)
+    assert abs(rest["current_offset"]["value"]) < 0.002
+    named = {e["effect"]: e for e in res["ranking"] if e["named"]}
+    assert named["v_offset"]["params"]["v_offset_V"] == rest["v_offset"]["value"]
+    assert res["confounded"] == []
