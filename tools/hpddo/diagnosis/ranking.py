@@ -15,8 +15,10 @@ An effect is named when, at its step of the forward selection:
     a wrong-signed coefficient is the fit using the term's inputs to chase noise.
 A wrong Ra (RA_MISMATCH, Ra moving under a prior around the reading) is a candidate too,
 scored the same way. Selection stops when no candidate passes. Confidence: the selection is repeated on
-BOOTSTRAP resamples of blocks of the training rows; the inclusion frequency is the share
-of resamples in which the effect is named.
+BOOTSTRAP resamples of the training rows' operating points (op_blocks: a block per duty and
+load, at most TRAIN_BLOCK_S long); the inclusion frequency is the share of resamples in
+which the effect is named. Naming depends on the held-out tests alone: a term whose gain is
+within the noise is not named, whatever its inclusion.
 """
 from __future__ import annotations
 
@@ -35,8 +37,8 @@ from . import analysis
 Z_MIN = 2.5
 REL_MIN = 0.02
 EXCESS_MIN = 0.10
-BLOCK_S = 15.0          # held-out block length for the standard error, seconds
-TRAIN_BLOCK_S = 30.0    # training block length for the bootstrap, seconds
+BLOCK_S = 15.0          # held-out blocks: at most this long, seconds (op_blocks)
+TRAIN_BLOCK_S = 30.0    # bootstrap blocks: one operating point, at most this long, seconds (op_blocks)
 BOOTSTRAP = 12
 IDENT_SIGMAS = 4.0      # a plausible coefficient must be this many standard errors to be seen
 CONFOUND_CORR = 0.95    # partial correlation of two regressors above which they are confounded
@@ -118,17 +120,40 @@ class Data:
     blocks_train: list  # per recording: block id per row (-1 outside the training rows)
 
 
+def op_blocks(r, mask: np.ndarray, max_s: float) -> np.ndarray:
+    """Block id per row (-1 outside mask): a new block wherever the operating point (duty,
+    load) changes, and after max_s seconds within one (a long run at one duty is several
+    blocks, each at its own temperature), and wherever the mask is interrupted. The
+    bootstrap resamples these: whole operating points, not stretches of time that straddle
+    two of them."""
+    n = len(r.dt)
+    df = r.rec.df
+    load = df["load"].to_numpy() if "load" in df else np.zeros(n)
+    change = np.ones(n, bool)
+    if n > 1:
+        change[1:] = (r.duty[1:] != r.duty[:-1]) | (load[1:] != load[:-1])
+    t = np.cumsum(r.dt)
+    out = np.full(n, -1, int)
+    bid, start, prev_in = -1, 0.0, False
+    for k in range(n):
+        if not mask[k]:
+            prev_in = False
+            continue
+        if not prev_in or change[k] or t[k] - start >= max_s:
+            bid += 1
+            start = t[k]
+        out[k] = bid
+        prev_in = True
+    return out
+
+
 def make_data(rows) -> Data:
     w, bt, btr = [], [], []
     for r in rows:
         n = int(r.test.sum())
         w.append(np.where(r.test, 1.0 / max(n, 1), 0.0))
-        period = float(np.median(r.dt)) if len(r.dt) else 0.5
-        t = np.cumsum(r.dt) - r.dt[0]
-        bid = np.floor(t / max(BLOCK_S, period)).astype(int)
-        bt.append(np.where(r.test, bid, -1))
-        bid2 = np.floor(t / max(TRAIN_BLOCK_S, period)).astype(int)
-        btr.append(np.where(r.train, bid2, -1))
+        bt.append(op_blocks(r, r.test, BLOCK_S))
+        btr.append(op_blocks(r, r.train, TRAIN_BLOCK_S))
     return Data(rows=list(rows), w_test=w, blocks_test=bt, blocks_train=btr)
 
 
