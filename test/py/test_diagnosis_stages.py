@@ -246,3 +246,18 @@ def test_repeated_readings_do_not_collapse_the_noise_floor():
     floor = analysis.robust_noise_var([held])
     assert floor == pytest.approx(plain, rel=1e-12) and 2.0 < floor < 6.0
     assert np.isnan(analysis.robust_noise_var([np.full(50, 3.0)]))  # nothing but repeats: unknown
+
+
+def test_correlates_put_the_largest_significant_r_first():
+    """A residual that follows the duty steps (r about -0.9; a slow input, wide band) and
+    a little of a fast input (r about 0.25, far outside its narrow band): the duty comes
+    first."""
+    rng = np.random.default_rng(5)
+    n = 4000
+    duty = np.repeat(rng.uniform(0.2, 1.0, n // 100), 100)
+    fast = rng.normal(size=n)
+    e = -(duty - duty.mean()) / duty.std() + 0.25 * fast + 0.3 * rng.normal(size=n)
+    out = analysis.correlates([e], {"duty": [duty], "I": [fast]})
+    assert [c["input"] for c in out] == ["duty", "I"]
+    assert out[0]["peak"] < -0.8 and 0.15 < out[1]["peak"] < 0.35
+    assert all(c["significant"] for c in out)
