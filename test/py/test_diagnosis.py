@@ -13,7 +13,7 @@ from conftest import ROOT
 
 import diagnose
 from hpddo.diagnosis import core
-from hpddo.twin import generate, params
+import twin_benches
 
 SEEDS = (3, 4)
 # typical magnitudes (twin units); current_offset and v_gain at the top of their typical range,
@@ -29,18 +29,10 @@ SINGLE = {
     "v_gain": {"v_gain": 2.0},
 }
 PAIR = {"magnet_thermal": -0.2, "saturation": 4.0}
-_cache = {}
 
 
 def bench_dir(tmp_root: pathlib.Path, key: str, effects: dict, seed: int) -> list:
-    k = (key, seed)
-    if k not in _cache:
-        out = tmp_root / f"{key}_{seed}"
-        bench = params.with_effects(params.preset("ideal"), **effects)
-        for prot in ("sweep", "load", "long"):
-            generate.generate(bench, prot, 2.0, seed, out_dir=out, preset_name="ideal")
-        _cache[k] = [out / f"{p}.csv" for p in ("sweep", "load", "long")]
-    return _cache[k]
+    return twin_benches.recordings(tmp_root / f"{key}_{seed}", twin_benches.bench(effects), seed)
 
 
 @pytest.fixture(scope="module")

@@ -2,12 +2,10 @@
 other than the library's base form (twin/params.py FORMS) are named, with the form's
 shape fitted (schema.Shape), and a voltage offset (one form) is named from the rows at
 rest. Two seeds each."""
-import dataclasses
-
 import pytest
 
+import twin_benches
 from hpddo.diagnosis import core
-from hpddo.twin import generate, params
 
 SEEDS = (3, 4)
 # name -> (effects (twin units), forms, bench overrides, effect that must be named)
@@ -22,20 +20,11 @@ CASES = {
     "v_offset_positive": ({"v_offset": 100.0}, {}, {}, "v_offset"),
     "v_offset_negative": ({"v_offset": -60.0}, {}, {}, "v_offset"),
 }
-_cache = {}
 
 
 def bench_dir(root, key, seed):
-    k = (key, seed)
-    if k not in _cache:
-        effects, forms, over, _ = CASES[key]
-        bench = params.with_forms(params.with_effects(params.preset("ideal"), **effects), **forms)
-        bench = dataclasses.replace(bench, **over)
-        out = root / f"{key}_{seed}"
-        for prot in ("sweep", "load", "long"):
-            generate.generate(bench, prot, 2.0, seed, out_dir=out, preset_name="ideal")
-        _cache[k] = [out / f"{p}.csv" for p in ("sweep", "load", "long")]
-    return _cache[k]
+    effects, forms, over, _ = CASES[key]
+    return twin_benches.recordings(root / f"{key}_{seed}", twin_benches.bench(effects, forms, **over), seed)
 
 
 @pytest.fixture(scope="module")

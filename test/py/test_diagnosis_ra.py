@@ -8,23 +8,16 @@ import pytest
 from conftest import ROOT
 
 from hpddo.diagnosis import core, ranking
-from hpddo.twin import generate, params
+import twin_benches
 
 SEEDS = (3, 4)
 RA_TRUE = 4.5  # the ideal bench's Ra (twin.params.Bench.ra_ohm)
-_cache = {}
 
 
 def bench_dir(tmp_root, key, effects, seed):
-    k = (key, seed)
-    if k not in _cache:
-        out = tmp_root / f"{key}_{seed}"
-        bench = params.with_effects(params.preset("ideal"), **effects)
-        assert bench.ra_ohm == RA_TRUE
-        for prot in ("sweep", "load", "long"):
-            generate.generate(bench, prot, 2.0, seed, out_dir=out, preset_name="ideal")
-        _cache[k] = [out / f"{p}.csv" for p in ("sweep", "load", "long")]
-    return _cache[k]
+    bench = twin_benches.bench(effects)
+    assert bench.ra_ohm == RA_TRUE
+    return twin_benches.recordings(tmp_root / f"{key}_{seed}", bench, seed)
 
 
 @pytest.fixture(scope="module")

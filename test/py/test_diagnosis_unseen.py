@@ -11,7 +11,7 @@ from hpddo import dataset
 from hpddo import effects as fx
 from hpddo import identify
 from hpddo.diagnosis import core
-from hpddo.twin import generate, params
+import twin_benches
 
 SEED, VALIDATION_SEED = 3, 11
 CASES = {
@@ -33,8 +33,7 @@ def root(tmp_path_factory):
 
 
 def _bench(key):
-    effects, forms = CASES[key]
-    return params.with_forms(params.with_effects(params.preset("ideal"), **effects), **forms)
+    return twin_benches.bench(*CASES[key])
 
 
 def _physics_rmse(p, paths):
@@ -54,12 +53,8 @@ def _physics_rmse(p, paths):
 def test_named_physics_on_unseen_recordings_is_within_1_2_of_the_true_model(root, key):
     bench = _bench(key)
     out = root / key
-    for prot in ("sweep", "load", "long"):
-        generate.generate(bench, prot, 2.0, SEED, out_dir=out / "train", preset_name="ideal")
-    for prot in ("unseen", "hot"):
-        generate.generate(bench, prot, 2.0, VALIDATION_SEED, out_dir=out / "valid", preset_name="ideal")
-    train = [out / "train" / f"{p}.csv" for p in ("sweep", "load", "long")]
-    valid = [out / "valid" / f"{p}.csv" for p in ("unseen", "hot")]
+    train = twin_benches.recordings(out / "train", bench, SEED)
+    valid = twin_benches.recordings(out / "valid", bench, VALIDATION_SEED, ("unseen", "hot"))
     res = core.diagnose(train, core.Options(bootstrap=0, hybrid=False))
     named = res.missing_effects
     assert set(TRUE_NAMES[key]) & set(named), res.verdict

@@ -22,7 +22,7 @@ from conftest import ROOT
 
 from hpddo import pipeline
 from hpddo.train import TrainConfig
-from hpddo.twin import generate, params
+import twin_benches
 
 CONDITIONS = ("load", "long", "sweep")
 SEED = 5
@@ -37,9 +37,7 @@ def bench(tmp_path_factory):
     """Twin recordings (sweep, load, long at 2 Hz) of the ideal bench with copper's thermal_ra
     on, and their truth sidecars."""
     out = tmp_path_factory.mktemp("bench")
-    b = params.with_effects(params.preset("ideal"), thermal_ra=0.393)
-    for prot in CONDITIONS:
-        generate.generate(b, prot, 2.0, SEED, out_dir=out, preset_name="ideal")
+    twin_benches.recordings(out, twin_benches.bench({"thermal_ra": 0.393}), SEED, CONDITIONS)
     return out
 
 
