@@ -795,6 +795,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         after_model=resid.after_model, residual_before=resid.before, residual_after=resid.after,
         steps=[RankingStep.of(s) for s in sel.steps],
         thresholds={"z_min": ranking.Z_MIN, "rel_min": ranking.REL_MIN, "excess_min": ranking.EXCESS_MIN,
+                    "score_min": ranking.SCORE_MIN,
                     "confound_gain": ranking.CONFOUND_GAIN, "bootstrap": opt.bootstrap},
         hybrid=hyb, runtime_s=time.perf_counter() - t0,
         thermal_node={"path": fx.node_path(inp.blind), "model": fx.node_plausibility(mf.model, inp.blind),

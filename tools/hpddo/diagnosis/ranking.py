@@ -11,6 +11,13 @@ An effect is named when, at its step of the forward selection:
   * its held-out gain is at least Z_MIN standard errors (block estimate),
   * it removes at least REL_MIN of the current held-out mean squared error and at least
     EXCESS_MIN of the part of it above the noise floor,
+  * it removes at least SCORE_MIN of the held-out mean squared error of the model the
+    selection started from (its score): an effect that the data support but that changes
+    the speed estimate by less than that is not what a user looks for, and a small gain at
+    a late step is where an autocorrelated residual passes the noise test (named effects
+    score 0.06 and more on the twin's benches, unnamed candidates 0.008 and less); a wrong
+    Ra is exempt: it is the reading's error, bounded by its prior, and worth saying at any
+    size beyond the reading's tolerance,
   * its fitted coefficient is physical (sign and order of magnitude; effects.Effect.physical):
     a wrong-signed coefficient is the fit using the term's inputs to chase noise.
 A wrong Ra (RA_MISMATCH, Ra moving under a prior around the reading) is a candidate too,
@@ -37,6 +44,7 @@ from . import analysis
 Z_MIN = 2.5
 REL_MIN = 0.02
 EXCESS_MIN = 0.10
+SCORE_MIN = 0.02
 BLOCK_S = 15.0          # held-out blocks: at most this long, seconds (op_blocks)
 TRAIN_BLOCK_S = 30.0    # bootstrap blocks: one operating point, at most this long, seconds (op_blocks)
 BOOTSTRAP = 12
@@ -310,6 +318,7 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
     p = fit_names(d.rows, m2, chosen, sigma2, weights=weights, start=start)
     res = residuals(d, p)
     mse = held_out_mse(d, res)
+    mse_start = mse
     steps = []
     remaining = [c for c in candidates if c not in chosen]
     while remaining:
@@ -323,7 +332,8 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
             g, z = gain_z(d, res, rc, sigma2)
             tried.append((c, g, z, _physical(c, _value(c, pc), m2), pc, rc))
         ok = [t for t in tried if t[3] and t[2] >= Z_MIN and t[1] >= REL_MIN * mse
-              and t[1] >= EXCESS_MIN * max(mse - sigma2, 0.0)]
+              and t[1] >= EXCESS_MIN * max(mse - sigma2, 0.0)
+              and (t[1] >= SCORE_MIN * mse_start or t[0] == RA_MISMATCH)]
         if not ok:
             steps.append(Step("", p, 0.0, 0.0, mse, mse, [(t[0], t[1], t[2], t[3]) for t in tried]))
             break
