@@ -114,6 +114,12 @@ def _described(name: str, p: ph.PhysicsParams, blind: bool = False) -> dict:
     ok, text = eff.plausibility(val)
     params = {eff.field: val}
     params.update((sh.field, float(getattr(p, sh.field))) for sh in eff.shapes)  # the form fitted
+    for sh in eff.shapes:  # a form at the edge of those allowed (but the base form): not fixed by the data
+        v, (lo, hi) = float(getattr(p, sh.field)), sh.bounds
+        edge = lo if abs(v - lo) <= 1e-6 * (hi - lo) else hi if abs(v - hi) <= 1e-6 * (hi - lo) else None
+        if edge is not None and edge != sh.default:
+            text += (f"; its form ({sh.field} = {v:g} {sh.unit}) is at the edge of those allowed "
+                     f"({lo:g}..{hi:g} {sh.unit}): these recordings do not fix it")
     node = []
     if eff.thermal and p.thermal_enabled():
         params.update(th_r_K_per_W=p.th_r_K_per_W, th_tau_s=p.th_tau_s)
