@@ -131,3 +131,18 @@ def test_the_physics_only_residual_never_corrects():
     corr, w = train.correction(res, g)
     assert (corr == 0).all() and (w == 0).all()
     assert res.note == f"not trained: 48 {NOTE}" and not res.trained
+
+
+@pytest.mark.parametrize("ra", [RA_OHM * 0.9, RA_OHM, RA_OHM * 1.1])
+def test_the_diagnosis_of_a_dyno_table_names_no_effect_and_finds_a_wrong_ra(tmp_path, ra):
+    """A 150-row steady-state table of a motor with no effect: with the Ra reading right,
+    nothing is named; 10 % off, nothing is named either and the verdict gives the Ra the
+    table supports, within 3 % of the true 4.5 ohm."""
+    from hpddo.diagnosis import core
+    log = dyno_table(tmp_path / "dyno150.csv", 150)
+    res = core.diagnose([log], core.Options(bootstrap=0, hybrid=False, ra_ohm=ra)).to_json()
+    assert res["missing_effects"] == [], res["verdict"]
+    assert res["ra_fit"]["mismatch"] == (ra != RA_OHM), res["ra_fit"]
+    if ra != RA_OHM:
+        assert res["ra_fit"]["supported_ohm"] == pytest.approx(RA_OHM, rel=0.03)
+        assert res["verdict"].startswith("The Ra you gave")
