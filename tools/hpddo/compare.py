@@ -155,32 +155,41 @@ def _job(key, x, y, hidden, epochs, seed, standardise):
 
 
 class Trainer:
-    """Runs the trainings on `workers` processes (they share the cores); results by key."""
+    """Runs the trainings on `workers` processes (they share the cores); results by key.
+    A line on stderr as each one finishes (with progress)."""
 
     def __init__(self, workers: int, progress: bool):
         self.pool = cf.ProcessPoolExecutor(max_workers=max(1, workers)) if workers > 1 else None
         self.futures = {}
         self.done = {}
+        self.finished = 0
         self.progress = progress
         self.t0 = time.perf_counter()
+        self.lock = threading.Lock()
 
     def submit(self, key, x, y, hidden, epochs, seed, standardise=False):
         args = (key, np.asarray(x, float), np.asarray(y, float), tuple(hidden), epochs, seed, standardise)
-        self.futures[key] = self.pool.submit(_job, *args) if self.pool else None
         if self.pool is None:
-            self.done[key] = _job(*args)[1]
-            self._say(key, 0.0)
+            self.futures[key] = None
+            out = _job(*args)
+            self.done[key] = out[1]
+            self._say(out)
+            return
+        fut = self.pool.submit(_job, *args)
+        self.futures[key] = fut
+        fut.add_done_callback(lambda f: f.exception() is None and self._say(f.result()))
 
-    def _say(self, key, dt):
-        if self.progress:
-            print(f"[{time.perf_counter() - self.t0:6.1f} s] trained {key} ({len(self.done)}/{len(self.futures)}"
-                  f"{f', {dt:.1f} s' if dt else ''})", file=sys.stderr, flush=True)
+    def _say(self, result):
+        key, _, dt = result
+        with self.lock:
+            self.finished += 1
+            if self.progress:
+                print(f"[{time.perf_counter() - self.t0:6.1f} s] trained {' '.join(key)} "
+                      f"({self.finished}/{len(self.futures)}, {dt:.1f} s)", file=sys.stderr, flush=True)
 
     def get(self, key):
         if key not in self.done:
-            _, out, dt = self.futures[key].result()
-            self.done[key] = out
-            self._say(key, dt)
+            self.done[key] = self.futures[key].result()[1]
         return self.done[key]
 
     def close(self):
@@ -879,3 +888,74 @@ def text_summary(t: dict) -> str:
 
 def command_line(argv) -> str:
     return "hpddo compare " + " ".join(shlex.quote(str(a)) for a in argv)
+
+
+# ---------------------------------------------------------------------------------------
+# Markdown (docs/compare.md), from the JSON files of a run
+
+def _md_rmse(rm: dict, paper: dict | None = None, conds=None) -> list:
+    conds = conds or [c for c in next(iter(rm.values())) if c != "average"] + ["average"]
+    f = lambda v: "–" if v is None else f"{v:.2f}"
+    lines = ["| method | " + " | ".join(conds) + " |", "|---" * (len(conds) + 1) + "|"]
+    for m, v in rm.items():
+        lines.append(f"| {m} | " + " | ".join(f(v.get(c)) for c in conds) + " |")
+        if paper and m in paper:
+            lines.append(f"| *{m}, paper* | " + " | ".join(f"*{f(paper[m].get(c))}*" if paper[m].get(c) is not None
+                                                              else "–" for c in conds) + " |")
+    return lines
+
+
+def markdown(folder: pathlib.Path) -> str:
+    """The tables of docs/compare.md from table7.json ... ood.json in folder (a run's
+    output, or docs/figures/compare_*.json with prefix)."""
+    def load(name):
+        for cand in (folder / f"{name}.json", folder / f"compare_{name}.json"):
+            if cand.is_file():
+                return json.loads(cand.read_text())
+        raise InputError(f"{folder}: no {name}.json (an output of hpddo compare)")
+    t7, t8, t9, t10, ood = (load(n) for n in ("table7", "table8", "table9", "table10", "ood"))
+    out = [f"Command: `{t7['command']}`", "", "**Table 7, chronological test parts** (RMSE, RPM; paper in italics)", ""]
+    out += _md_rmse(t7["chronological"]["rmse_rpm"], t7["paper"])
+    if "validation" in t7:
+        out += ["", "**Table 7, never-seen recordings** (every row of `--validation`)", ""]
+        out += _md_rmse(t7["validation"]["rmse_rpm"])
+    out += ["", "**Table 7, leave one recording out** (every row of the recording left out)", ""]
+    out += _md_rmse(t7["leave_one_out"]["rmse_rpm"])
+    out += ["", "**Table 8**, M3 under both protocols", ""] + _md_rmse(t8["rmse_rpm"], t8["paper"])
+    out += ["", "**Table 9**, architecture ablation (M3, chronological test parts; paper in italics)", "",
+            "| hidden | params | bytes | sweep | load | long | average | paper: params, kB, sweep, load, long, avg |",
+            "|---|---|---|---|---|---|---|---|"]
+    for k, v in t9["rows"].items():
+        r = v["rmse_rpm"]
+        p = t9["paper"].get(k)
+        out.append(f"| {k} | {v['params']} | {v['bytes']} | " + " | ".join(f"{r[c]:.2f}" for c in CONDITIONS_DOC)
+                   + " | " + (", ".join(f"{x:g}" for x in p) if p else "–") + " |")
+    out += ["", "**Table 10**, feature ablation", ""]
+    out += _md_rmse({k: v["rmse_rpm"] for k, v in t10["rows"].items()}, t10["paper"])
+    for name, run_ in ood["runs"].items():
+        out += ["", f"**Section 4.10, trained on {name} only** ({run_['train_rows']} training rows, clamp "
+                    f"{run_['clamp_rpm']:.2f} RPM)", ""]
+        out += _md_rmse(run_["rmse_rpm"])
+        out += ["", "| tested on | clamped | fallback | gated |", "|---|---|---|---|"]
+        out += [f"| {c} | {100 * s['clamped']:.1f} % | {100 * s['fallback']:.1f} % | {100 * s['gated']:.1f} % |"
+                for c, s in run_["shares"].items()]
+        out += ["", "eq. 26 on every labelled sample: " + "; ".join(
+            f"{k}: {v['violations']} violations in {v['samples']}" for k, v in run_["eq26"].items())]
+    return "\n".join(out) + "\n"
+
+
+CONDITIONS_DOC = ("sweep", "load", "long", "average")
+
+
+def main(argv=None) -> int:
+    import argparse
+    ap = argparse.ArgumentParser(prog="python -m hpddo.compare",
+                                 description="print the markdown tables of docs/compare.md from a run's JSON files")
+    ap.add_argument("folder", type=pathlib.Path, help="an output of hpddo compare, or docs/figures")
+    args = ap.parse_args(argv)
+    print(markdown(args.folder), end="")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
