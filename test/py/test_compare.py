@@ -227,3 +227,18 @@ def test_a_log_without_encoder_is_refused_in_one_line(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 1 and err.startswith("hpddo compare: ") and "blind.csv" in err and err.count("\n") == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_lockstep_training_is_network_train():
+    """Networks trained together (compare.train_lockstep) are the ones network.train gives
+    each on its own rows: same initialisation, permutations, batches and Adam steps."""
+    from hpddo import network
+    rng = np.random.default_rng(0)
+    z1, z2 = rng.normal(size=(1030, 5)), rng.normal(size=(455, 5))  # a short last batch in both
+    y1, y2 = np.sin(z1[:, 0]) + z1[:, 1] ** 2, np.cos(z2[:, 2])
+    cfg = network.AdamConfig(hidden=(16, 8), max_iter=20, seed=1)
+    got = compare.train_lockstep([z1, z2], [y1, y2], cfg)
+    for (z, y), g in zip(((z1, y1), (z2, y2)), got):
+        ref, _ = network.train(z, y, cfg)
+        for a, b in zip(ref.coefs_ + ref.intercepts_, g.coefs_ + g.intercepts_):
+            np.testing.assert_allclose(b, a, rtol=0, atol=1e-12)

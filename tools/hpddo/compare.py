@@ -24,17 +24,18 @@ cross-validation against the chronological split; 9, the architecture ablation; 
 the feature ablation; ood, the out-of-distribution stress test of section 4.10 with the
 eq. 26 bound checked on every sample.
 
-The networks are trained with network.train's arithmetic but BLAS matrix products
-(network.py fixes the order of summation so that committed weights are the same bytes
-everywhere; a comparison needs speed more than bytes: 2000 epochs of (128, 64) take 57 s
-instead of 760 s). The figures therefore move in their last digits with the CPU and the
-BLAS kernel; docs/compare.md gives the tolerance.
+The networks are trained as network.train trains M3 (the same initialisation, epochs,
+batches, gradients and Adam steps), several of one architecture in lockstep with BLAS
+matrix products (train_lockstep): network.py fixes its order of summation so that a
+committed model header is the same bytes everywhere, and pays Python's cost once per
+step and network; a comparison of 25 networks needs the speed more than the bytes. The
+figures therefore move in their last digits with the CPU and the BLAS kernel
+(docs/compare.md gives the tolerance).
 """
 from __future__ import annotations
 
 import atexit
 import concurrent.futures as cf
-import contextlib
 import dataclasses
 import json
 import os
@@ -118,78 +119,166 @@ class CompareConfig:
 # ---------------------------------------------------------------------------------------
 # Training, in worker processes (BLAS products, one thread each)
 
-@contextlib.contextmanager
-def _blas_products():
-    """network.train with BLAS matrix products (see the module's docstring)."""
-    saved = network.matmul, network.matmul_t
-    network.matmul = lambda a, w: a @ w
-    network.matmul_t = lambda a, d: a.T @ d
-    try:
-        yield
-    finally:
-        network.matmul, network.matmul_t = saved
+def train_lockstep(zs: list, ys: list, cfg: network.AdamConfig) -> list:
+    """network.train for several networks of one architecture at once, each on its own
+    rows: the same initialisation (its own generator seeded cfg.seed), the same fresh
+    permutation each epoch, the same batches, loss gradients, L2 term and Adam steps, so
+    each network is the one network.train gives on its rows (to the rounding of the
+    BLAS products). The networks step together, their batches stacked into one array:
+    Python's cost per step, which dominates for small networks, is paid once for all.
+    A network whose rows are fewer takes fewer steps and is frozen when its last epoch
+    ends. Returns one Network per (z, y)."""
+    K = len(zs)
+    zs = [np.asarray(z, float) for z in zs]
+    ys = [np.asarray(y, float).reshape(-1) for y in ys]
+    n_in = zs[0].shape[1]
+    B = cfg.batch_size
+    rngs = [np.random.default_rng(cfg.seed) for _ in range(K)]
+    inits = []
+    for rng in rngs:
+        vec, flat = network.init_network(n_in, tuple(cfg.hidden), rng)
+        inits.append(flat.views(vec))
+    L = len(inits[0][0])
+    W = [np.stack([inits[k][0][l] for k in range(K)]) for l in range(L)]   # (K, in, out)
+    b = [np.stack([inits[k][1][l] for k in range(K)]) for l in range(L)]   # (K, out)
+    params = W + b
+    m = [np.zeros_like(a) for a in params]
+    v = [np.zeros_like(a) for a in params]
+    n = np.array([len(z) for z in zs])
+    per_epoch = -(-n // B)
+    total = per_epoch * cfg.max_iter
+    result = [None] * K
+    X = np.zeros((K, B, n_in))
+    Y = np.zeros((K, B, 1))
+    mask = np.zeros((K, B, 1))
+    nb = np.ones(K)
+    shuffled = [None] * K
+    b1_t = b2_t = 1.0
+    for t in range(int(total.max())):
+        mask[:] = 0.0
+        for k in range(K):
+            if t >= total[k]:
+                continue
+            j = t % per_epoch[k]
+            if j == 0:
+                order = rngs[k].permutation(n[k])
+                shuffled[k] = (zs[k][order], ys[k][order])
+            lo = j * B
+            zb, yb = shuffled[k][0][lo: lo + B], shuffled[k][1][lo: lo + B]
+            c = len(zb)
+            X[k, :c] = zb
+            Y[k, :c, 0] = yb
+            mask[k, :c] = 1.0
+            nb[k] = c
+        acts = [X]
+        for l in range(L):
+            h = acts[-1] @ W[l] + b[l][:, None, :]
+            if l < L - 1:
+                np.maximum(h, 0.0, out=h)
+            acts.append(h)
+        delta = (acts[-1] - Y) * mask
+        grads_w, grads_b = [None] * L, [None] * L
+        for l in range(L - 1, -1, -1):
+            grads_w[l] = (np.swapaxes(acts[l], 1, 2) @ delta + cfg.alpha * W[l]) / nb[:, None, None]
+            grads_b[l] = delta.sum(axis=1) / nb[:, None]
+            if l:
+                delta = (delta @ np.swapaxes(W[l], 1, 2)) * (acts[l] > 0)
+        b1_t *= network.ADAM_BETA1
+        b2_t *= network.ADAM_BETA2
+        lr_t = cfg.learning_rate * np.sqrt(1.0 - b2_t) / (1.0 - b1_t)
+        for a, g, mm, vv in zip(params, grads_w + grads_b, m, v):
+            mm *= network.ADAM_BETA1
+            mm += (1.0 - network.ADAM_BETA1) * g
+            vv *= network.ADAM_BETA2
+            vv += (1.0 - network.ADAM_BETA2) * (g * g)
+            a -= lr_t * mm / (np.sqrt(vv) + network.ADAM_EPS)
+        for k in np.flatnonzero(total == t + 1):
+            result[k] = network.Network(coefs_=[W[l][k].copy() for l in range(L)],
+                                        intercepts_=[b[l][k].copy() for l in range(L)])
+    return result
 
 
-def fit_network(x: np.ndarray, y: np.ndarray, hidden: tuple, epochs: int, seed: int,
-                standardise_target: bool = False):
-    """A network trained as M3's (network.AdamConfig: Adam 1e-3, batch 200, L2 1e-4) on
-    rows x, targets y. With standardise_target the target is standardised for training
-    and the output layer rescaled after, so the network maps to y's units directly.
-    Returns (Scaler, Network, final loss)."""
-    scaler = network.Scaler.fit(x)
-    y = np.asarray(y, float)
-    mu, sd = (float(y.mean()), float(y.std()) or 1.0) if standardise_target else (0.0, 1.0)
+def fit_networks(xs: list, ys: list, hidden: tuple, epochs: int, seed: int, standardise: list) -> list:
+    """Networks trained as M3's (network.AdamConfig: Adam 1e-3, batch 200, L2 1e-4, Glorot,
+    no early stop) on rows xs[k], targets ys[k], in lockstep (train_lockstep). Where
+    standardise[k], the target is standardised for training and the output layer
+    rescaled after, so the network maps to y's units directly. Returns [(Scaler, Network)]."""
+    scalers = [network.Scaler.fit(x) for x in xs]
+    shift = []
+    for y, std in zip(ys, standardise):
+        y = np.asarray(y, float)
+        shift.append((float(y.mean()), float(y.std()) or 1.0) if std else (0.0, 1.0))
     cfg = network.AdamConfig(hidden=tuple(hidden), max_iter=epochs, seed=seed)
-    with _blas_products():
-        net, losses = network.train(scaler.transform(x), (y - mu) / sd, cfg)
-    if standardise_target:
+    nets = train_lockstep([s.transform(x) for s, x in zip(scalers, xs)],
+                          [(np.asarray(y, float) - mu) / sd for y, (mu, sd) in zip(ys, shift)], cfg)
+    for net, (mu, sd) in zip(nets, shift):
         net.coefs_[-1] = net.coefs_[-1] * sd
         net.intercepts_[-1] = net.intercepts_[-1] * sd + mu
-    return scaler, net, (losses[-1] if losses else None)
+    return list(zip(scalers, nets))
 
 
-def _job(key, x, y, hidden, epochs, seed, standardise):
+def fit_network(x, y, hidden: tuple, epochs: int, seed: int, standardise_target: bool = False):
+    """One network (fit_networks); returns (Scaler, Network)."""
+    return fit_networks([x], [y], hidden, epochs, seed, [standardise_target])[0]
+
+
+def _job(keys, xs, ys, hidden, epochs, seed, standardise):
     t0 = time.perf_counter()
-    out = fit_network(x, y, hidden, epochs, seed, standardise)
-    return key, out, time.perf_counter() - t0
+    out = fit_networks(xs, ys, hidden, epochs, seed, standardise)
+    return keys, out, time.perf_counter() - t0
 
 
 class Trainer:
-    """Runs the trainings on `workers` processes (they share the cores); results by key.
-    A line on stderr as each one finishes (with progress)."""
+    """Runs the trainings on `workers` processes (they share the cores): the networks of
+    one architecture and input width train in lockstep as one job, the jobs largest
+    first. Results by key; a line on stderr as each job finishes."""
 
     def __init__(self, workers: int, progress: bool):
         self.pool = cf.ProcessPoolExecutor(max_workers=max(1, workers)) if workers > 1 else None
         self.futures = {}
         self.done = {}
+        self.jobs = 0
         self.finished = 0
         self.progress = progress
         self.t0 = time.perf_counter()
         self.lock = threading.Lock()
 
-    def submit(self, key, x, y, hidden, epochs, seed, standardise=False):
-        args = (key, np.asarray(x, float), np.asarray(y, float), tuple(hidden), epochs, seed, standardise)
-        if self.pool is None:
-            self.futures[key] = None
-            out = _job(*args)
-            self.done[key] = out[1]
-            self._say(out)
-            return
-        fut = self.pool.submit(_job, *args)
-        self.futures[key] = fut
-        fut.add_done_callback(lambda f: f.exception() is None and self._say(f.result()))
+    def submit_all(self, jobs, epochs: int, seed: int, first=()):
+        """jobs: (key, x, y, hidden, standardise) each. Jobs holding a key of `first`
+        start first (their results are needed early), then the largest."""
+        groups = {}
+        for key, x, y, hidden, std in jobs:
+            groups.setdefault((tuple(hidden), np.shape(x)[1]), []).append((key, x, y, std))
+        work = lambda g: param_count(g[0][0], g[0][1]) * max(len(j[1]) for j in g[1])
+        order = sorted(groups.items(), key=lambda g: (not any(j[0] in first for j in g[1]), -work(g)))
+        self.jobs = len(order)
+        for (hidden, _), members in order:
+            keys = [j[0] for j in members]
+            args = (keys, [np.asarray(j[1], float) for j in members], [np.asarray(j[2], float) for j in members],
+                    hidden, epochs, seed, [j[3] for j in members])
+            if self.pool is None:
+                res = _job(*args)
+                self._say(res)
+                self.done.update(zip(res[0], res[1]))
+                continue
+            fut = self.pool.submit(_job, *args)
+            for k in keys:
+                self.futures[k] = fut
+            fut.add_done_callback(lambda f: f.exception() is None and self._say(f.result()))
 
     def _say(self, result):
-        key, _, dt = result
+        keys, _, dt = result
         with self.lock:
             self.finished += 1
             if self.progress:
-                print(f"[{time.perf_counter() - self.t0:6.1f} s] trained {' '.join(key)} "
-                      f"({self.finished}/{len(self.futures)}, {dt:.1f} s)", file=sys.stderr, flush=True)
+                what = ", ".join(f"{k[0]} {k[2]}" for k in keys)
+                print(f"[{time.perf_counter() - self.t0:6.1f} s] trained {len(keys)} x {keys[0][1]} ({what}) in "
+                      f"{dt:.1f} s, job {self.finished}/{self.jobs}", file=sys.stderr, flush=True)
 
     def get(self, key):
         if key not in self.done:
-            self.done[key] = self.futures[key].result()[1]
+            keys, out, _ = self.futures[key].result()
+            self.done.update(zip(keys, out))
         return self.done[key]
 
     def close(self):
@@ -364,7 +453,7 @@ class Fitted:
 def finish_fit(cols, fitted, x_train: np.ndarray, e_train: np.ndarray, gate: bool = False) -> Fitted:
     """The safeguards of train.train_residual around a trained network: clamp at the 99th
     percentile of |e|, the envelope widened by 10 %, the novelty gate where asked."""
-    scaler, mlp, _ = fitted
+    scaler, mlp = fitted
     x = x_train[:, list(cols)]
     lo, hi = x.min(axis=0), x.max(axis=0)
     span = np.maximum(hi - lo, 1e-6)
@@ -512,12 +601,10 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
                 xo, eo = _x_e([r], p)
                 ood[r.name] = (p, xo, eo)
                 jobs.append((("M3", label(h), f"trained on {r.name} only"), xo, eo, h, False))
-            first = [("M3", label(h), "chronological"), ("pure NN", label(h), "chronological")]
-            jobs.sort(key=lambda j: (j[0] not in first, first.index(j[0]) if j[0] in first else 0,
-                                     -param_count(j[3]) * len(j[1])))
-            for key, x, y, hh, std in jobs:
-                trainer.submit(key, x, y, hh, ep, seed, std)
-            say(f"{len(jobs)} trainings on {cfg.workers} worker(s), {ep} epochs each; tuning the observers")
+            trainer.submit_all(jobs, ep, seed, first=[("M3", label(h), "chronological"),
+                                                      ("pure NN", label(h), "chronological")])
+            say(f"{len(jobs)} networks in {trainer.jobs} jobs on {cfg.workers} worker(s), {ep} epochs each; "
+                "building and tuning the observers")
 
             # ---- three threads: the observers build and tune; the board observer is built
             # against the chronological M3 with and without the gate and replayed (the
@@ -586,7 +673,8 @@ def settings(cfg: CompareConfig, recs, vrecs) -> dict:
     return {"hidden": list(cfg.hidden), "epochs": cfg.epochs, "seed": cfg.seed, "quick": cfg.quick,
             "effects": list(cfg.effects), "recordings": [r.source.name for r in recs],
             "validation": [r.source.name for r in vrecs], "train_fraction": dataset.TRAIN_FRACTION,
-            "training": "network.train (Adam 1e-3, batch 200, L2 1e-4, Glorot, no early stop) with BLAS products"}
+            "training": "network.train's algorithm (Adam 1e-3, batch 200, L2 1e-4, Glorot, no early stop), "
+                        "in lockstep with BLAS products (compare.train_lockstep)"}
 
 
 def replay_m3(recs, vrecs, m1, m2, fit: Fitted, gated: bool, work, cfg) -> dict:

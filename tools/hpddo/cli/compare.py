@@ -7,9 +7,10 @@ of section 4.10 (docs/compare.md).
 
 Writes DIR/table7.json, table8.json, table9.json, table10.json, ood.json, summary.txt,
 report/index.html and work/ (tuning logs, model headers, replays, estimates) together,
-or nothing. The full run trains 24 networks on --workers processes (about 4 minutes on
-2 cores with the (128, 64) network of Table 9); --quick trains each for 60 epochs and
-only (8) and the chosen architecture, for tests.
+or nothing. The full run trains 25 networks (those of one architecture in lockstep) on
+--workers processes, the (128, 64) network of Table 9 among them; --quick trains each
+for 60 epochs, only (8) and the chosen architecture in Table 9, and tunes the observers
+on a coarser grid (for tests).
 """
 from __future__ import annotations
 
