@@ -230,15 +230,27 @@ def test_a_log_without_encoder_is_refused_in_one_line(tmp_path, capsys):
 
 
 def test_lockstep_training_is_network_train():
-    """Networks trained together (compare.train_lockstep) are the ones network.train gives
-    each on its own rows: same initialisation, permutations, batches and Adam steps."""
+    """Networks trained together (compare.train_lockstep), of other inputs and widths
+    padded into one shape, are the ones network.train gives each on its own rows: same
+    initialisation, permutations, batches and Adam steps; the padding stays zero."""
     from hpddo import network
     rng = np.random.default_rng(0)
-    z1, z2 = rng.normal(size=(1030, 5)), rng.normal(size=(455, 5))  # a short last batch in both
-    y1, y2 = np.sin(z1[:, 0]) + z1[:, 1] ** 2, np.cos(z2[:, 2])
-    cfg = network.AdamConfig(hidden=(16, 8), max_iter=20, seed=1)
-    got = compare.train_lockstep([z1, z2], [y1, y2], cfg)
-    for (z, y), g in zip(((z1, y1), (z2, y2)), got):
-        ref, _ = network.train(z, y, cfg)
-        for a, b in zip(ref.coefs_ + ref.intercepts_, g.coefs_ + g.intercepts_):
-            np.testing.assert_allclose(b, a, rtol=0, atol=1e-12)
+    z1, z2, z3 = rng.normal(size=(1030, 5)), rng.normal(size=(455, 3)), rng.normal(size=(300, 4))
+    y1, y2, y3 = np.sin(z1[:, 0]) + z1[:, 1] ** 2, np.cos(z2[:, 2]), z3[:, 0]  # short last batches
+    for hiddens in ([(16, 8)] * 3, [(16, 8), (32, 16), (8, 4)], [(8,), (64,), (16,)]):
+        cfg = network.AdamConfig(hidden=hiddens[0], max_iter=20, seed=1)
+        got = compare.train_lockstep([z1, z2, z3], [y1, y2, y3], cfg, hiddens)
+        for (z, y), g, h in zip(((z1, y1), (z2, y2), (z3, y3)), got, hiddens):
+            ref, _ = network.train(z, y, network.AdamConfig(hidden=h, max_iter=20, seed=1))
+            assert [w.shape for w in g.coefs_] == [w.shape for w in ref.coefs_]
+            for a, b in zip(ref.coefs_ + ref.intercepts_, g.coefs_ + g.intercepts_):
+                np.testing.assert_allclose(b, a, rtol=0, atol=1e-12)
+
+
+def test_docs_quote_the_committed_figures():
+    """docs/compare.md holds the tables `python -m hpddo.compare docs/figures` prints from
+    the committed JSON of the run it quotes (figures measured, not typed)."""
+    tables = compare.markdown(ROOT / "docs" / "figures")
+    doc = (ROOT / "docs" / "compare.md").read_text()
+    for line in tables.splitlines():
+        assert line in doc, line

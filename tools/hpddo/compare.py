@@ -65,6 +65,7 @@ ARCHITECTURES = ((8,), (16,), (32,), (64,), (16, 8), (32, 16), (64, 32), (128, 6
 QUICK_ARCHITECTURES = ((8,), (16, 8))
 QUICK_EPOCHS = 60   # --quick: epochs of every network (the full comparison: 2000, Table 2)
 CV_FOLDS = 5
+LOCKSTEP_PAD_MAX = 64  # single networks with no layer wider train padded together (Trainer)
 #: Feature sets of Table 10: columns of train.FEATURES [V, I, n_M2, I(t-1), n_M2(t-1)].
 FEATURE_SETS = {"full": (0, 1, 2, 3, 4), "without lags": (0, 1, 2), "without physics feature n_M2": (0, 1, 3, 4)}
 NN_FEATURES = ["v_V", "i_A", "i_A_lag1", "v_V_lag1"]
@@ -119,28 +120,40 @@ class CompareConfig:
 # ---------------------------------------------------------------------------------------
 # Training, in worker processes (BLAS products, one thread each)
 
-def train_lockstep(zs: list, ys: list, cfg: network.AdamConfig) -> list:
-    """network.train for several networks of one architecture at once, each on its own
-    rows: the same initialisation (its own generator seeded cfg.seed), the same fresh
-    permutation each epoch, the same batches, loss gradients, L2 term and Adam steps, so
-    each network is the one network.train gives on its rows (to the rounding of the
-    BLAS products). The networks step together, their batches stacked into one array:
-    Python's cost per step, which dominates for small networks, is paid once for all.
-    A network whose rows are fewer takes fewer steps and is frozen when its last epoch
-    ends. Returns one Network per (z, y)."""
+def train_lockstep(zs: list, ys: list, cfg: network.AdamConfig, hiddens: list | None = None) -> list:
+    """network.train for several networks at once, each on its own rows: the same
+    initialisation (its own generator seeded cfg.seed), the same fresh permutation each
+    epoch, the same batches, loss gradients, L2 term and Adam steps, so each network is
+    the one network.train gives on its rows (to the rounding of the BLAS products). The
+    networks step together, their batches stacked into one array: Python's cost per
+    step, which dominates for small networks, is paid once for all. A network whose rows
+    are fewer takes fewer steps and is frozen when its last epoch ends.
+
+    The networks may differ in their inputs and layer widths (hiddens[k], default
+    cfg.hidden for all; the same number of layers): each is embedded in the widest shape
+    with zeros, and the zeros stay zeros (a zero input or unit has no gradient, the L2
+    term of a zero weight is zero, Adam does not move a weight whose gradients were all
+    zero), so the padding changes nothing but the cost. Returns one Network per (z, y)."""
     K = len(zs)
     zs = [np.asarray(z, float) for z in zs]
     ys = [np.asarray(y, float).reshape(-1) for y in ys]
-    n_in = zs[0].shape[1]
-    B = cfg.batch_size
+    hiddens = [tuple(cfg.hidden)] * K if hiddens is None else [tuple(h) for h in hiddens]
+    sizes = [(z.shape[1], *h, 1) for z, h in zip(zs, hiddens)]
+    if len({len(sz) for sz in sizes}) != 1:
+        raise ValueError("lockstep networks need the same number of layers")
+    widest = [max(sz[j] for sz in sizes) for j in range(len(sizes[0]))]
+    L = len(widest) - 1
+    W = [np.zeros((K, widest[l], widest[l + 1])) for l in range(L)]   # (K, in, out)
+    b = [np.zeros((K, widest[l + 1])) for l in range(L)]              # (K, out)
     rngs = [np.random.default_rng(cfg.seed) for _ in range(K)]
-    inits = []
-    for rng in rngs:
-        vec, flat = network.init_network(n_in, tuple(cfg.hidden), rng)
-        inits.append(flat.views(vec))
-    L = len(inits[0][0])
-    W = [np.stack([inits[k][0][l] for k in range(K)]) for l in range(L)]   # (K, in, out)
-    b = [np.stack([inits[k][1][l] for k in range(K)]) for l in range(L)]   # (K, out)
+    for k, (rng, sz) in enumerate(zip(rngs, sizes)):
+        vec, flat = network.init_network(sz[0], tuple(sz[1:-1]), rng)
+        ws, bs = flat.views(vec)
+        for l in range(L):
+            W[l][k, : sz[l], : sz[l + 1]] = ws[l]
+            b[l][k, : sz[l + 1]] = bs[l]
+    n_in = widest[0]
+    B = cfg.batch_size
     params = W + b
     m = [np.zeros_like(a) for a in params]
     v = [np.zeros_like(a) for a in params]
@@ -166,7 +179,7 @@ def train_lockstep(zs: list, ys: list, cfg: network.AdamConfig) -> list:
             lo = j * B
             zb, yb = shuffled[k][0][lo: lo + B], shuffled[k][1][lo: lo + B]
             c = len(zb)
-            X[k, :c] = zb
+            X[k, :c, : sizes[k][0]] = zb
             Y[k, :c, 0] = yb
             mask[k, :c] = 1.0
             nb[k] = c
@@ -193,12 +206,13 @@ def train_lockstep(zs: list, ys: list, cfg: network.AdamConfig) -> list:
             vv += (1.0 - network.ADAM_BETA2) * (g * g)
             a -= lr_t * mm / (np.sqrt(vv) + network.ADAM_EPS)
         for k in np.flatnonzero(total == t + 1):
-            result[k] = network.Network(coefs_=[W[l][k].copy() for l in range(L)],
-                                        intercepts_=[b[l][k].copy() for l in range(L)])
+            sz = sizes[k]
+            result[k] = network.Network(coefs_=[W[l][k, : sz[l], : sz[l + 1]].copy() for l in range(L)],
+                                        intercepts_=[b[l][k, : sz[l + 1]].copy() for l in range(L)])
     return result
 
 
-def fit_networks(xs: list, ys: list, hidden: tuple, epochs: int, seed: int, standardise: list) -> list:
+def fit_networks(xs: list, ys: list, hiddens: list, epochs: int, seed: int, standardise: list) -> list:
     """Networks trained as M3's (network.AdamConfig: Adam 1e-3, batch 200, L2 1e-4, Glorot,
     no early stop) on rows xs[k], targets ys[k], in lockstep (train_lockstep). Where
     standardise[k], the target is standardised for training and the output layer
@@ -208,9 +222,9 @@ def fit_networks(xs: list, ys: list, hidden: tuple, epochs: int, seed: int, stan
     for y, std in zip(ys, standardise):
         y = np.asarray(y, float)
         shift.append((float(y.mean()), float(y.std()) or 1.0) if std else (0.0, 1.0))
-    cfg = network.AdamConfig(hidden=tuple(hidden), max_iter=epochs, seed=seed)
+    cfg = network.AdamConfig(hidden=tuple(hiddens[0]), max_iter=epochs, seed=seed)
     nets = train_lockstep([s.transform(x) for s, x in zip(scalers, xs)],
-                          [(np.asarray(y, float) - mu) / sd for y, (mu, sd) in zip(ys, shift)], cfg)
+                          [(np.asarray(y, float) - mu) / sd for y, (mu, sd) in zip(ys, shift)], cfg, hiddens)
     for net, (mu, sd) in zip(nets, shift):
         net.coefs_[-1] = net.coefs_[-1] * sd
         net.intercepts_[-1] = net.intercepts_[-1] * sd + mu
@@ -219,12 +233,12 @@ def fit_networks(xs: list, ys: list, hidden: tuple, epochs: int, seed: int, stan
 
 def fit_network(x, y, hidden: tuple, epochs: int, seed: int, standardise_target: bool = False):
     """One network (fit_networks); returns (Scaler, Network)."""
-    return fit_networks([x], [y], hidden, epochs, seed, [standardise_target])[0]
+    return fit_networks([x], [y], [hidden], epochs, seed, [standardise_target])[0]
 
 
-def _job(keys, xs, ys, hidden, epochs, seed, standardise):
+def _job(keys, xs, ys, hiddens, epochs, seed, standardise):
     t0 = time.perf_counter()
-    out = fit_networks(xs, ys, hidden, epochs, seed, standardise)
+    out = fit_networks(xs, ys, hiddens, epochs, seed, standardise)
     return keys, out, time.perf_counter() - t0
 
 
@@ -244,18 +258,26 @@ class Trainer:
         self.lock = threading.Lock()
 
     def submit_all(self, jobs, epochs: int, seed: int, first=()):
-        """jobs: (key, x, y, hidden, standardise) each. Jobs holding a key of `first`
-        start first (their results are needed early), then the largest."""
-        groups = {}
+        """jobs: (key, x, y, hidden, standardise) each. The networks of one architecture
+        train in lockstep as one job whatever their inputs; the architectures with a
+        single network each, the same number of layers and no layer wider than
+        LOCKSTEP_PAD_MAX also share one job (padded to the widest). Jobs holding a key
+        of `first` start first (their results are needed early), then the largest."""
+        by_arch = {}
         for key, x, y, hidden, std in jobs:
-            groups.setdefault((tuple(hidden), np.shape(x)[1]), []).append((key, x, y, std))
-        work = lambda g: param_count(g[0][0], g[0][1]) * max(len(j[1]) for j in g[1])
-        order = sorted(groups.items(), key=lambda g: (not any(j[0] in first for j in g[1]), -work(g)))
+            by_arch.setdefault(tuple(hidden), []).append((key, x, y, tuple(hidden), std))
+        groups = {}
+        for hidden, members in by_arch.items():
+            pad = len(members) == 1 and max(hidden) <= LOCKSTEP_PAD_MAX
+            groups.setdefault(("padded", len(hidden)) if pad else hidden, []).extend(members)
+        work = lambda g: (max(param_count(j[3], np.shape(j[1])[1]) for j in g) * max(len(j[1]) for j in g)
+                          * np.sqrt(len(g)))
+        order = sorted(groups.values(), key=lambda g: (not any(j[0] in first for j in g), -work(g)))
         self.jobs = len(order)
-        for (hidden, _), members in order:
+        for members in order:
             keys = [j[0] for j in members]
             args = (keys, [np.asarray(j[1], float) for j in members], [np.asarray(j[2], float) for j in members],
-                    hidden, epochs, seed, [j[3] for j in members])
+                    [j[3] for j in members], epochs, seed, [j[4] for j in members])
             if self.pool is None:
                 res = _job(*args)
                 self._say(res)
@@ -271,8 +293,8 @@ class Trainer:
         with self.lock:
             self.finished += 1
             if self.progress:
-                what = ", ".join(f"{k[0]} {k[2]}" for k in keys)
-                print(f"[{time.perf_counter() - self.t0:6.1f} s] trained {len(keys)} x {keys[0][1]} ({what}) in "
+                what = ", ".join(f"{k[0]} {k[1]} {k[2]}" for k in keys)
+                print(f"[{time.perf_counter() - self.t0:6.1f} s] trained {len(keys)} networks ({what}) in "
                       f"{dt:.1f} s, job {self.finished}/{self.jobs}", file=sys.stderr, flush=True)
 
     def get(self, key):
