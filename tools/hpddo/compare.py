@@ -66,9 +66,6 @@ QUICK_ARCHITECTURES = ((8,), (16, 8))
 QUICK_EPOCHS = 60   # --quick: epochs of every network (the full comparison: 2000, Table 2)
 CV_FOLDS = 5
 LOCKSTEP_PAD_MAX = 64  # single networks with no layer wider train padded together (Trainer)
-# Networks per lockstep job: the cost per network and step falls from 1 to about 0.4 by
-# 6 networks and little after (measured with (16, 8)); more jobs share the 2 cores better.
-LOCKSTEP_MAX_NETS = 6
 #: Feature sets of Table 10: columns of train.FEATURES [V, I, n_M2, I(t-1), n_M2(t-1)].
 FEATURE_SETS = {"full": (0, 1, 2, 3, 4), "without lags": (0, 1, 2), "without physics feature n_M2": (0, 1, 3, 4)}
 NN_FEATURES = ["v_V", "i_A", "i_A_lag1", "v_V_lag1"]
@@ -262,11 +259,10 @@ class Trainer:
 
     def submit_all(self, jobs, epochs: int, seed: int, first=()):
         """jobs: (key, x, y, hidden, standardise) each. The networks of one architecture
-        train in lockstep whatever their inputs; the architectures with a single network
-        each, the same number of layers and no layer wider than LOCKSTEP_PAD_MAX train
-        together too (padded to the widest); at most LOCKSTEP_MAX_NETS a job. Jobs
-        holding a key of `first` start first (their results are needed early), then the
-        largest."""
+        train in lockstep as one job whatever their inputs; the architectures with a
+        single network each, the same number of layers and no layer wider than
+        LOCKSTEP_PAD_MAX also share one job (padded to the widest). Jobs holding a key
+        of `first` start first (their results are needed early), then the largest."""
         by_arch = {}
         for key, x, y, hidden, std in jobs:
             by_arch.setdefault(tuple(hidden), []).append((key, x, y, tuple(hidden), std))
@@ -274,12 +270,9 @@ class Trainer:
         for hidden, members in by_arch.items():
             pad = len(members) == 1 and max(hidden) <= LOCKSTEP_PAD_MAX
             groups.setdefault(("padded", len(hidden)) if pad else hidden, []).extend(members)
-        chunks = []
-        for members in groups.values():  # at most LOCKSTEP_MAX_NETS a job, the `first` ones in the first
-            members = sorted(members, key=lambda j: j[0] not in first)
-            chunks += [members[i: i + LOCKSTEP_MAX_NETS] for i in range(0, len(members), LOCKSTEP_MAX_NETS)]
-        work = lambda g: max(param_count(j[3], np.shape(j[1])[1]) for j in g) * max(len(j[1]) for j in g) * len(g)
-        order = sorted(chunks, key=lambda g: (not any(j[0] in first for j in g), -work(g)))
+        work = lambda g: (max(param_count(j[3], np.shape(j[1])[1]) for j in g) * max(len(j[1]) for j in g)
+                          * np.sqrt(len(g)))
+        order = sorted(groups.values(), key=lambda g: (not any(j[0] in first for j in g), -work(g)))
         self.jobs = len(order)
         for members in order:
             keys = [j[0] for j in members]
