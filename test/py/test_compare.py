@@ -124,7 +124,7 @@ def test_pure_network_file_replays_what_python_computes(tmp_path):
     """The float32 network of compare_observers against the float64 numpy network."""
     recs = dataset.load_recordings(DEFAULT[:1])
     x, y = compare.stack_rows(recs, lambda r: (compare.nn_features(r), compare.reference(r)))
-    scaler, net, _ = compare.fit_network(x, y, (8,), 5, 1, standardise_target=True)
+    scaler, net = compare.fit_network(x, y, (8,), 5, 1, standardise_target=True)
     mlp = compare.write_mlp(scaler, net, tmp_path / "nn.mlp")
     tuned = {"motor": {"ke_vs_per_rad": 0.4, "ra_ohm": 4.5, "b_nms_per_rad": 0.0, "tc_nm": 0.1},
              "ekf": {"j_kgm2": 1e-3, "q_w": 1.0, "q_t": 1e-6, "r_A2": 1e-6},
