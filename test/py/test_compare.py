@@ -1,6 +1,7 @@
 """hpddo compare (docs/compare.md): the classical observers recover the true speed where
 the physics is exact, tuning and training never see a test row, eq. 26 holds on every
 sample, and the tables' JSON keeps its schema."""
+import dataclasses
 import json
 import math
 import pathlib
@@ -10,7 +11,6 @@ import pandas as pd
 import pytest
 
 from hpddo import cli, compare, dataset, identify
-from hpddo import train as train_mod
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DEFAULT = [ROOT / "data" / "default" / f"{n}.csv" for n in ("sweep", "load", "long")]
@@ -72,11 +72,6 @@ def _planted(rec: dataset.Recording) -> dataset.Recording:
     if "temp_C" in df:
         df.loc[rows, "temp_C"] = 99.0
     df.loc[rows, "duty"] = 0.37
-    return dataclasses_replace(rec, df)
-
-
-def dataclasses_replace(rec, df):
-    import dataclasses
     return dataclasses.replace(rec, df=df)
 
 
