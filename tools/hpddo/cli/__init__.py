@@ -25,6 +25,8 @@ SUBCOMMANDS = {
                        "(tools/gen_weights.py)"),
     "evaluate": ("evaluate", "score a trained model on every row of recordings it never saw, beside a "
                              "lookup baseline"),
+    "compare": ("compare", "the paper's comparison: EKF, sliding-mode observer, pure network, M1-M3, lookup; "
+                           "Tables 7-10 and the out-of-distribution test"),
     "diagnose": ("diagnose", "name the physical effects the physics model misses (tools/diagnose.py)"),
     "twin": ("twin", "simulate the bench and write bench logs with ground truth (tools/twin.py)"),
     "capture": ("capture", "record the acquisition board's USB stream to a bench log (tools/capture.py)"),
