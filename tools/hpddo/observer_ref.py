@@ -70,8 +70,11 @@ class ReferenceObserver:
     their bounds (docs/core.md): a period outside [PERIOD_MIN_S, PERIOD_MAX_S] starts a new
     segment, an n_M2 beyond speed_limit_rpm is invalid, the winding stays below WINDING_MAX_C."""
 
-    def __init__(self, model: ModelData):
+    def __init__(self, model: ModelData, network=None):
+        """network(x) -> residual RPM (float32) replaces the float scaler and network
+        (quant.residual_fn: the fixed-point network); None: the float32 ones."""
         self.m = model
+        self.network = network
         self.speed_limit = ph.speed_limit_rpm(model.physics, model.limits.v_max_V, model.limits.i_max_A, F32)
         self.reset()
 
@@ -137,9 +140,13 @@ class ReferenceObserver:
             if not w > 0:
                 out.update(status=STATUS["gated"])  # inside the box, far from every training row
         if w > 0:
-            z = ((x - m.scaler_mean.astype(F32)) / m.scaler_scale.astype(F32)).astype(F32)
-            r = mlp_forward(m.layers, z)
-            out.update(z=z, mlp_rpm=r)
+            if self.network is None:
+                z = ((x - m.scaler_mean.astype(F32)) / m.scaler_scale.astype(F32)).astype(F32)
+                r = mlp_forward(m.layers, z)
+                out.update(z=z, mlp_rpm=r)
+            else:
+                r = F32(self.network(x))
+                out.update(mlp_rpm=r)
             if np.isfinite(r):
                 c = F32(m.clamp_rpm)
                 rc = F32(min(max(r, -c), c))

@@ -8,6 +8,7 @@
 #include "hpddo/limits.h"
 #include "hpddo/scaler.h"
 #include "hpddo/mlp.h"
+#include "hpddo/mlp_q.h"
 #include "hpddo/physics.h"
 #include "hpddo/thermal.h"
 #include "hpddo/clamp.h"

@@ -196,12 +196,9 @@ class Observer {
     return out;
   }
 
-  /// The network's residual for a prepared sample, RPM, unclamped (scaler and MLP).
-  float residual(const Prepared& p) const {
-    float z[kFeatureCount];
-    model_.scaler.transform(p.x, z);
-    return Net::forward(model_.weights, z);
-  }
+  /// The network's residual for a prepared sample, RPM, unclamped (scaler and MLP; a
+  /// fixed-point network has the scaler folded into its first layer).
+  float residual(const Prepared& p) const { return Net::residual(model_.scaler, model_.weights, p.x); }
 
   /// The second half of step(): the estimate of a prepared sample, given the
   /// network's residual (ignored where the network does not apply; a non-finite

@@ -111,6 +111,58 @@ inline float flash_float(const float* p) {
 #endif
 }
 
+/// Reads one integer stored with HPDDO_FLASH (and only such an integer).
+inline int8_t flash_int8(const int8_t* p) {
+#if defined(__AVR__)
+  return static_cast<int8_t>(pgm_read_byte(p));
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  int8_t v;
+  flash_fake::read(p, &v, sizeof v);
+  return v;
+#else
+  return *p;
+#endif
+}
+
+/// Reads one byte stored with HPDDO_FLASH.
+inline uint8_t flash_uint8(const uint8_t* p) {
+#if defined(__AVR__)
+  return pgm_read_byte(p);
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  uint8_t v;
+  flash_fake::read(p, &v, sizeof v);
+  return v;
+#else
+  return *p;
+#endif
+}
+
+/// Reads one int16_t stored with HPDDO_FLASH.
+inline int16_t flash_int16(const int16_t* p) {
+#if defined(__AVR__)
+  return static_cast<int16_t>(pgm_read_word(p));
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  int16_t v;
+  flash_fake::read(p, &v, sizeof v);
+  return v;
+#else
+  return *p;
+#endif
+}
+
+/// Reads one int32_t stored with HPDDO_FLASH.
+inline int32_t flash_int32(const int32_t* p) {
+#if defined(__AVR__)
+  return static_cast<int32_t>(pgm_read_dword(p));
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  int32_t v;
+  flash_fake::read(p, &v, sizeof v);
+  return v;
+#else
+  return *p;
+#endif
+}
+
 /// True when x is neither NaN nor an infinity (no libm dependency).
 inline bool is_finite(float x) {
   const float d = x - x;
