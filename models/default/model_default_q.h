@@ -12,7 +12,7 @@
 // shapes: 5-16-8-1
 // weights: layer 0 int16 (scaler folded in), hidden int16, output int16; int32 sums
 // shifts: 16 16
-// checksum: crc32 0xe58420b0
+// checksum: crc32 0x6d2312a8
 #ifndef HPDDO_MODEL_DEFAULT_Q_H
 #define HPDDO_MODEL_DEFAULT_Q_H
 
@@ -25,7 +25,7 @@ namespace hpddo_model_default_q {
 typedef hpddo::MlpQ<5, 16, 8, int16_t, 16, 16> Net;
 
 /// CRC-32 over the stored model (see hpddo::model_checksum).
-static const uint32_t kChecksum = 0xe58420b0u;
+static const uint32_t kChecksum = 0x6d2312a8u;
 
 static const uint16_t kEffects = hpddo_model_default::kEffects;
 
@@ -66,6 +66,30 @@ HPDDO_FLASH static const int32_t kBOut[1] = {
 /// RPM per unit of the output accumulator.
 HPDDO_FLASH static const float kOutScale[1] = {
     3.03355637e-06f};
+/// Novelty gate in integers (gate_q.h), the float gate's prototypes and thresholds.
+HPDDO_FLASH static const int16_t kGateCentreQ[5] = {
+    18286, 14727, 14375, 14725, 14374};
+HPDDO_FLASH static const int8_t kGateShiftQ[5] = {
+    15, 15, 15, 15, 15};
+HPDDO_FLASH static const int16_t kGateMultQ[5] = {
+    14044, 12725, 12068, 12700, 12037};
+HPDDO_FLASH static const int16_t kGatePrototypesQ[160] = {
+    -18, -118, 69, -126, 140, -7837, -5670, -5332, -5659, -5317,
+    2496, -2088, 4683, -2099, 4683, -2676, -2912, -1072, -3734, -4011,
+    -2400, -3160, -541, -2639, 1537, 1092, -2324, 3131, 357, -233,
+    -5601, -3673, -4102, -3700, -4162, 32, 404, -270, -2378, 3010,
+    -387, -2528, 1460, -3136, -603, -346, -2722, 1660, -2379, 3041,
+    -2674, -3084, -939, -2906, -1069, 977, -2324, 2988, -2696, 1625,
+    -5697, -3652, -4235, -5656, -5319, 1075, -2415, 3179, -2058, 4652,
+    -360, -2666, 1599, -2578, 1298, 2493, -2052, 4651, -2388, 3019,
+    870, -2377, 2897, -2345, 3147, -40, 456, -398, 435, -393,
+    -2318, -3058, -518, -3220, -462, 437, 429, 211, 374, -9,
+    933, -2260, 2885, -155, 337, 403, -170, 628, -220, 470,
+    125, -142, 263, -2362, 3045, -67, 274, -293, 216, 169,
+    1186, -2410, 3313, -2391, 2884, -2378, -3227, -463, -3002, -941,
+    191, 213, 72, 454, -408, -2632, -3009, -944, -3154, -609,
+    333, -19, 425, -50, 37, 202, 380, -42, -95, 57,
+    -301, -2613, 1631, -2599, 1790, 161, 470, -162, 428, -66};
 
 /// The physics initialisers are positional: this header holds for one parameter layout.
 static_assert(hpddo::kParamsSchema == 0x92351228u,
@@ -93,7 +117,7 @@ static const hpddo::Model<Net> kModel = {
     {hpddo_model_default::kScalerMean, hpddo_model_default::kScalerScale},
     {kInExp, kW0, kB0, kW1, kB1, kWOut, kBOut, kOutScale},
     {hpddo_model_default::kEnvLo, hpddo_model_default::kEnvHi},
-    {hpddo_model_default::kGateCentre, hpddo_model_default::kGateScale, hpddo_model_default::kGatePrototypes, 0.125836551f, 0.503346205f},
+    {kInExp, kGateCentreQ, kGateShiftQ, kGateMultQ, kGatePrototypesQ, 131949, 527797, 2.52622226e-06f},
     23.7774677f,
     {40.0f, 10.0f, -55.0f, 125.0f},
 };

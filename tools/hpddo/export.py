@@ -218,12 +218,17 @@ GOLDEN_Q_INTS = ["xq0", "xq1", "xq2", "xq3", "xq4", "acc"]
 
 def model_checksum_q(model: ModelData, q) -> int:
     """CRC-32 of a fixed-point model (hpddo::model_checksum over Model<MlpQ<...>>): as the
-    float model's, with the network's bytes (quant.weight_bytes) in place of its floats."""
+    float model's, with the network's and the gate's bytes (quant.weight_bytes,
+    quant.gate_bytes) in place of their floats."""
     from . import quant
     f = checksum_floats(model)
     n_phys = len(schema.FIELDS) + 2 * len(model.scaler_mean)
     n_net = sum(np.asarray(a).size for _, a in network_arrays(model))
-    data = f[:n_phys].tobytes() + quant.weight_bytes(q) + f[n_phys + n_net:].tobytes()
+    n_env = 2 * len(model.env_lo)
+    g = model.gate
+    n_gate = 2 * g.dims + g.dims * g.count + 2
+    data = (f[:n_phys].tobytes() + quant.weight_bytes(q) + f[n_phys + n_net:n_phys + n_net + n_env].tobytes()
+            + quant.gate_bytes(q.gate) + f[n_phys + n_net + n_env + n_gate:].tobytes())
     return zlib.crc32(data) & 0xFFFFFFFF
 
 
@@ -257,6 +262,11 @@ def model_header_q(model: ModelData, q, name: str, provenance: dict) -> str:
         out.append(quant.c_int_array(bn, "int32_t", b, per_line=6))
     out.append("/// RPM per unit of the output accumulator.\n")
     out.append(c_array("kOutScale", [q.out_scale]))
+    gq = q.gate
+    out += ["/// Novelty gate in integers (gate_q.h), the float gate's prototypes and thresholds.\n",
+            quant.c_int_array("kGateCentreQ", "int16_t", gq.centre), quant.c_int_array("kGateShiftQ", "int8_t", gq.shift),
+            quant.c_int_array("kGateMultQ", "int16_t", gq.mult),
+            quant.c_int_array("kGatePrototypesQ", "int16_t", [v for r in gq.prototypes for v in r], per_line=10)]
     g = model.gate
     lim = model.limits
     w1 = "kW1, kB1" if h2 else "nullptr, nullptr"
@@ -265,7 +275,8 @@ def model_header_q(model: ModelData, q, name: str, provenance: dict) -> str:
             f"    {{{f}::kScalerMean, {f}::kScalerScale}},\n",
             f"    {{kInExp, kW0, kB0, {w1}, kWOut, kBOut, kOutScale}},\n",
             f"    {{{f}::kEnvLo, {f}::kEnvHi}},\n",
-            f"    {{{f}::kGateCentre, {f}::kGateScale, {f}::kGatePrototypes, {c_float(g.r_in_sq)}, {c_float(g.r_out_sq)}}},\n",
+            f"    {{kInExp, kGateCentreQ, kGateShiftQ, kGateMultQ, kGatePrototypesQ, {gq.r_in_q}, {gq.r_out_q}, "
+            f"{c_float(gq.fade)}}},\n",
             f"    {c_float(model.clamp_rpm)},\n",
             f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
             "};\n\n", f"}}  // namespace hpddo_model_{name}_q\n\n#endif  // {guard}\n"]
@@ -278,7 +289,7 @@ def golden_rows_q(model: ModelData, q, samples):
     GOLDEN_Q_INTS). The network's columns hold its output on every row's features
     (a NaN feature counts as 0), evaluated or not by the observer."""
     from . import quant
-    obs = ReferenceObserver(model, quant.residual_fn(q))
+    obs = quant.fixed_observer(model, q)
     rows, ints = [], []
     for v, i, t, dt, seq in samples:
         o = obs.step(v, i, t, dt, seq)

@@ -62,6 +62,7 @@ class QuantNet:
     shifts: list          # per hidden layer: R
     out_scale: np.float32 # RPM per unit of the output accumulator
     bounds: list          # per layer: largest |acc| over the rows (exact), for the docs and tests
+    gate: "GateQ | None" = None  # the novelty gate in integers (gate_q.h), over the same inputs
 
     @property
     def hidden(self) -> tuple:
@@ -150,7 +151,7 @@ def quantise(model, hidden_type: str = DEFAULT_HIDDEN_TYPE) -> QuantNet:
                   for p in range(w_next.shape[0])]
         bias = [float(v) for v in b_next]
     return QuantNet(in_exp=e, weights=weights, biases=biases, types=types, shifts=shifts,
-                    out_scale=out_scale, bounds=bounds)
+                    out_scale=out_scale, bounds=bounds, gate=quantise_gate(model.gate, e))
 
 
 def quantise_inputs(q: QuantNet, x) -> list:
@@ -184,6 +185,104 @@ def forward_int(q: QuantNet, x) -> tuple[list, int, np.float32]:
         r = q.shifts[k]
         h = [min(INT16_MAX, (max(a, 0) + ((1 << r) >> 1)) >> r) for a in acc]
     raise AssertionError("unreachable")
+
+
+# ---------------------------------------------------------------- the gate in integers
+#
+# gate.h's weight with integers (gate_q.h is the board's half): the same prototypes,
+# thresholds and rule, in units of 2^-GATE_FRAC of the gate's scaled space.
+#
+#   gq_j  = sat16(round(g_j 2^e_j))                  the network's input quantisation
+#   zq_j  = clip(((gq_j - cq_j) m_j + 2^(S_j-1)) >> S_j, -GATE_ZMAX, GATE_ZMAX)
+#           cq_j = round(centre_j 2^e_j), m_j / 2^S_j ~ 2^GATE_FRAC / (scale_j 2^e_j), m_j <= 16383
+#   acc_k = sum_j (zq_j - pq_kj)^2                   int32 (|zq - pq| <= 2 GATE_ZMAX: no overflow)
+#   best  = min(r_out_q, acc_k ...) (a prototype's sum stops once acc >= best)
+#   w     = 0 unless best < r_out_q; 1 if best <= r_in_q; else float32(r_out_q - best) * fade
+#           pq = clip(round(p 2^GATE_FRAC)), r_q = round(r_sq 2^(2 GATE_FRAC)), fade = float32(1 / (r_out_q - r_in_q))
+# A NaN or infinite g_j gives w = 0, as gate.h.
+GATE_FRAC = 10
+GATE_ZMAX = 8191
+GATE_MULT_MAX = 16383
+
+
+@dataclasses.dataclass
+class GateQ:
+    in_exp: list
+    centre: list      # cq_j, int16
+    shift: list       # S_j
+    mult: list        # m_j, int16
+    prototypes: list  # rows of int16
+    r_in_q: int
+    r_out_q: int
+    fade: np.float32
+
+
+def quantise_gate(gd, in_exp) -> GateQ:
+    """The integer gate of a gate.GateData over inputs quantised with in_exp."""
+    centre, shift, mult = [], [], []
+    for c, sc, e in zip(gd.centre, gd.scale, in_exp):
+        centre.append(max(-INT16_MAX, min(INT16_MAX, round_half_away(float(np.float32(c)) * 2.0 ** e))))
+        unit = 2.0 ** GATE_FRAC / (float(np.float32(sc)) * 2.0 ** e)  # zq per unit of (gq - cq)
+        s = 30
+        while s > 0 and round_half_away(unit * 2.0 ** s) > GATE_MULT_MAX:
+            s -= 1
+        shift.append(s)
+        mult.append(round_half_away(unit * 2.0 ** s))
+    protos = [[max(-GATE_ZMAX, min(GATE_ZMAX, round_half_away(float(np.float32(v)) * 2.0 ** GATE_FRAC))) for v in row]
+              for row in np.asarray(gd.prototypes, np.float32)]
+    r_in = round_half_away(float(np.float32(gd.r_in_sq)) * 2.0 ** (2 * GATE_FRAC))
+    r_out = max(r_in + 1, round_half_away(float(np.float32(gd.r_out_sq)) * 2.0 ** (2 * GATE_FRAC)))
+    return GateQ(in_exp=list(in_exp), centre=centre, shift=shift, mult=mult, prototypes=protos, r_in_q=r_in,
+                 r_out_q=r_out, fade=np.float32(1.0 / (r_out - r_in)))
+
+
+def gate_weight_int(gq: GateQ, g) -> np.float32:
+    """The integer gate's weight for the features g (float32)."""
+    g = np.asarray(g, np.float32)
+    if not np.all(np.isfinite(g)):
+        return np.float32(0)
+    xq = quantise_inputs(QuantNet(in_exp=gq.in_exp, weights=[], biases=[], types=[], shifts=[],
+                                  out_scale=np.float32(1), bounds=[]), g)
+    zq = []
+    for v, c, m, s in zip(xq, gq.centre, gq.mult, gq.shift):
+        t = (v - c) * m
+        assert -2 ** 31 <= t + ((1 << s) >> 1) <= INT32_MAX
+        zq.append(max(-GATE_ZMAX, min(GATE_ZMAX, (t + ((1 << s) >> 1)) >> s)))
+    best = gq.r_out_q
+    for row in gq.prototypes:
+        acc = 0
+        for z, p in zip(zq, row):
+            if acc >= best:
+                break
+            acc += (z - p) * (z - p)
+        else:
+            if acc < best:
+                best = acc
+    if not best < gq.r_out_q:
+        return np.float32(0)
+    if best <= gq.r_in_q:
+        return np.float32(1)
+    return np.float32(np.float32(gq.r_out_q - best) * gq.fade)
+
+
+def gate_fn(q: QuantNet):
+    """The observer's gate weight for features x (observer_ref.ReferenceObserver's gate)."""
+    return lambda x: gate_weight_int(q.gate, x)
+
+
+def fixed_observer(model, q: QuantNet):
+    """The reference observer of the fixed-point model: integer network and gate."""
+    from .observer_ref import ReferenceObserver
+    return ReferenceObserver(model, residual_fn(q), gate_fn(q))
+
+
+def gate_bytes(gq: GateQ) -> bytes:
+    """Little-endian bytes of the stored gate in gate_q.h's checksum order: centre (int16),
+    shifts (int8), multipliers (int16), prototypes (int16), r_in_q, r_out_q (int32), fade (float32)."""
+    return b"".join([np.asarray(gq.centre, "<i2").tobytes(), np.asarray(gq.shift, "<i1").tobytes(),
+                     np.asarray(gq.mult, "<i2").tobytes(),
+                     np.asarray([v for r in gq.prototypes for v in r], "<i2").tobytes(),
+                     np.asarray([gq.r_in_q, gq.r_out_q], "<i4").tobytes(), np.asarray([gq.fade], "<f4").tobytes()])
 
 
 def residual_fn(q: QuantNet):
@@ -229,10 +328,9 @@ def accuracy(model, q: QuantNet, recs, part: str = "test") -> dict:
     largest |difference|, and both RMSEs against rpm_ref where the log has it (RPM)."""
     from .observer_ref import ReferenceObserver
     out, d_all, ef_all, eq_all = {}, [], [], []
-    net = residual_fn(q)
     for rec in recs:
         rows = range(rec.n_train, rec.n) if part == "test" else range(rec.n)
-        f_obs, q_obs = ReferenceObserver(model), ReferenceObserver(model, net)
+        f_obs, q_obs = ReferenceObserver(model), fixed_observer(model, q)
         est_f, est_q = [], []
         for s in _stream(rec, rows):
             est_f.append(float(f_obs.step(*s)["rpm"]))

@@ -14,6 +14,7 @@
 #include "hpddo/clamp.h"
 #include "hpddo/envelope.h"
 #include "hpddo/gate.h"
+#include "hpddo/gate_q.h"
 #include "hpddo/model.h"
 #include "hpddo/observer.h"
 #include "hpddo/frame.h"
