@@ -172,6 +172,16 @@ int main() {
     g_sink = rpm + w + z[0] + th.rise_K() + rpm_all + th_on.rise_K();
     g_sink8 = static_cast<uint8_t>(ok + inside + ok_all);
   }
+#if defined(HPDDO_BENCH_FIXED)
+  // The integer network on the board against the integer reference, bit for bit.
+  for (uint16_t r = 0; r < g::kCount; ++r) {
+    float x[5];
+    for (uint8_t j = 0; j < 5; ++j) x[j] = g::at(r, static_cast<uint8_t>(g::kCol_x0 + j));
+    int16_t xq[5];
+    m::Net::quantise(m::kModel.weights, x, xq);
+    if (m::Net::forward_acc(m::kModel.weights, xq) != g::int_at(r, g::kInt_acc) && bad < 255) ++bad;
+  }
+#endif
   GPIOR2 = bad;
   GPIOR0 = 3;  // done
   for (;;) {

@@ -140,7 +140,8 @@ def avr(build: pathlib.Path, model, peer_python) -> dict:
     peer_dir = build / "peer"
     peer_dir.mkdir(exist_ok=True)
     _network_npz(model, peer_dir / "net.npz")
-    ver, inc = _run([py, "-c", PEER_SCRIPT, peer_dir / "net.npz", peer_dir / "peer_model.h"]).split()
+    # emlearn's convert leaves scratch files in tmp/ of its working folder: the build folder.
+    ver, inc = _run([py, "-c", PEER_SCRIPT, peer_dir / "net.npz", peer_dir / "peer_model.h"], cwd=peer_dir).split()
     (peer_dir / "hpddo_emlearn_model.h").write_text(
         '#include "peer_model.h"\nstatic inline float hpddo_emlearn_predict(const float* z) '
         "{ return hpddo_peer_regress1(z, 5); }\n")

@@ -66,7 +66,7 @@ struct GateQ {
       uint8_t j = 0;
       for (; j < kDims && acc < best; ++j) {
         const int16_t d = static_cast<int16_t>(z[j] - flash_int16(p + j));
-        acc += static_cast<int32_t>(d) * d;
+        acc = detail::mac16(acc, d, d);
       }
       if (j == kDims && acc < best) {
         best = acc;

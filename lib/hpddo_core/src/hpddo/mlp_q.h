@@ -43,12 +43,71 @@ inline int32_t flash_weight<int16_t>(const int16_t* p) { return flash_int16(p); 
 template <>
 inline int32_t flash_weight<int8_t>(const int8_t* p) { return flash_int8(p); }
 
+/// acc + a b, a and b int16, exactly (the sum cannot overflow: quant.py's bounds).
+__attribute__((always_inline)) inline int32_t mac16(int32_t acc, int16_t a, int16_t b) {
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+  // The four 8x8 products of AVR201 added into acc in place: about 20 cycles instead of
+  // a call to __mulhisi3 and a 32-bit add. r1 (the zero register) is restored.
+  uint8_t zero;
+  __asm__(
+      "clr   %[z]          \n\t"
+      "muls  %B[a], %B[b]  \n\t"
+      "add   %C[acc], r0   \n\t"
+      "adc   %D[acc], r1   \n\t"
+      "mul   %A[a], %A[b]  \n\t"
+      "add   %A[acc], r0   \n\t"
+      "adc   %B[acc], r1   \n\t"
+      "adc   %C[acc], %[z] \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "mulsu %B[a], %A[b]  \n\t"
+      "sbc   %D[acc], %[z] \n\t"
+      "add   %B[acc], r0   \n\t"
+      "adc   %C[acc], r1   \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "mulsu %B[b], %A[a]  \n\t"
+      "sbc   %D[acc], %[z] \n\t"
+      "add   %B[acc], r0   \n\t"
+      "adc   %C[acc], r1   \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "clr   r1            \n\t"
+      : [acc] "+r"(acc), [z] "=&r"(zero)
+      : [a] "a"(a), [b] "a"(b)
+      : "r0");
+  return acc;
+#else
+  return acc + static_cast<int32_t>(a) * static_cast<int32_t>(b);
+#endif
+}
+
 /// acc_o = B_o + sum_k W_ok in_k for one row, int32.
 template <uint8_t kIn, class W>
-inline int32_t dot_q(const W* row, int32_t bias, const int16_t* in) {
-  int32_t acc = bias;
-  for (uint8_t k = 0; k < kIn; ++k) acc += flash_weight<W>(row + k) * static_cast<int32_t>(in[k]);
-  return acc;
+struct Dot {
+  static int32_t run(const W* row, int32_t bias, const int16_t* in) {
+    int32_t acc = bias;
+    for (uint8_t k = 0; k < kIn; ++k) acc = mac16(acc, static_cast<int16_t>(flash_weight<W>(row + k)), in[k]);
+    return acc;
+  }
+};
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__) && !defined(HPDDO_FLASH_FAKE_ACTIVE)
+/// int16 weights on the AVR: the row read with LPM Z+ (post-increment), no address
+/// arithmetic per weight; about 35 cycles a weight.
+template <uint8_t kIn>
+struct Dot<kIn, int16_t> {
+  static int32_t run(const int16_t* row, int32_t bias, const int16_t* in) {
+    int32_t acc = bias;
+    const int16_t* p = row;
+    for (uint8_t k = 0; k < kIn; ++k) {
+      int16_t w;
+      __asm__ __volatile__("lpm %A0, Z+\n\tlpm %B0, Z+" : "=r"(w), "+z"(p));
+      acc = mac16(acc, w, in[k]);
+    }
+    return acc;
+  }
+};
+#endif
+template <uint8_t kIn, class W>
+__attribute__((always_inline)) inline int32_t dot_q(const W* row, int32_t bias, const int16_t* in) {
+  return Dot<kIn, W>::run(row, bias, in);
 }
 
 /// A hidden layer: h_o = min((max(acc_o, 0) + 2^(kR-1)) >> kR, 32767).
