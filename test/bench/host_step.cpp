@@ -50,6 +50,35 @@ double per_s(const hpddo::Model<Net>& model, const std::vector<hpddo::Sample>& r
   return static_cast<double>(rows.size()) / best;
 }
 
+/// Samples/s of prepare() + finish() alone (physics, envelope, gate, clamp: the network
+/// skipped) and of the network alone on the prepared samples where it applies.
+template <class Net>
+void stages(const hpddo::Model<Net>& model, const std::vector<hpddo::Sample>& rows, int repeat, double* prep_per_s,
+            double* net_per_s, double* check) {
+  std::vector<typename hpddo::Observer<Net>::Prepared> prepared;
+  double best_p = 1e30, best_n = 1e30;
+  float acc = 0.0f;
+  for (int rep = 0; rep < repeat; ++rep) {
+    hpddo::Observer<Net> obs(model);
+    prepared.clear();
+    const auto t0 = std::chrono::steady_clock::now();
+    for (const auto& s : rows) {
+      typename hpddo::Observer<Net>::Prepared p = obs.prepare(s);
+      acc += obs.finish(p, 0.0f).rpm;
+      if (p.use_network) prepared.push_back(p);
+    }
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    if (dt < best_p) best_p = dt;
+    const auto t1 = std::chrono::steady_clock::now();
+    for (const auto& p : prepared) acc += obs.residual(p);
+    const double dn = std::chrono::duration<double>(std::chrono::steady_clock::now() - t1).count();
+    if (dn < best_n) best_n = dn;
+  }
+  *prep_per_s = static_cast<double>(rows.size()) / best_p;
+  *net_per_s = static_cast<double>(prepared.size()) / best_n;
+  *check = acc;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -66,8 +95,13 @@ int main(int argc, char** argv) {
   const double q16 = per_s(hpddo_model_default_q::kModel, rows, repeat, &c[1]);
   const double f128 = per_s(hpddo_model_wide::kModel, rows, repeat, &c[2]);
   const double q128 = per_s(hpddo_model_wide_q::kModel, rows, repeat, &c[3]);
+  double pf, nf, pq, nq, cs[2];
+  stages(hpddo_model_default::kModel, rows, repeat, &pf, &nf, &cs[0]);
+  stages(hpddo_model_default_q::kModel, rows, repeat, &pq, &nq, &cs[1]);
   std::printf("{\"samples\": %zu, \"repeat\": %d, \"float_16_8\": %.6g, \"fixed_16_8\": %.6g, "
-              "\"float_128_64\": %.6g, \"fixed_128_64\": %.6g, \"checksums\": [%.9g, %.9g, %.9g, %.9g]}\n",
-              rows.size(), repeat, f16, q16, f128, q128, c[0], c[1], c[2], c[3]);
+              "\"float_128_64\": %.6g, \"fixed_128_64\": %.6g, \"prepare_finish_float_16_8\": %.6g, "
+              "\"network_float_16_8\": %.6g, \"prepare_finish_fixed_16_8\": %.6g, \"network_fixed_16_8\": %.6g, "
+              "\"checksums\": [%.9g, %.9g, %.9g, %.9g, %.9g, %.9g]}\n",
+              rows.size(), repeat, f16, q16, f128, q128, pf, nf, pq, nq, c[0], c[1], c[2], c[3], cs[0], cs[1]);
   return 0;
 }

@@ -247,12 +247,17 @@ def table(fig: dict) -> str:
             g = f"goal {GOAL_HOST_PER_S:.0e}: {'met' if max(f, q) >= GOAL_HOST_PER_S else '**missed**'}; "
         rows.append(f"| Host Observer::step {label}, samples/s, one core | {f:,.0f} | {q:,.0f} | {g}scikit-learn predict "
                     f"{sk:,.0f}/s: ratio {f / sk:.1f}x (float), {q / sk:.1f}x (fixed) |")
+    ns = lambda per_s: 1e9 / per_s
+    rows.append(f"| Host (16, 8) per sample, ns: prepare + finish (physics, envelope, gate, clamp) / network "
+                f"| {ns(h['prepare_finish_float_16_8']):.0f} / {ns(h['network_float_16_8']):.0f} "
+                f"| {ns(h['prepare_finish_fixed_16_8']):.0f} / {ns(h['network_fixed_16_8']):.0f} | each alone, best of the passes |")
     rows.append("| ESP8266 (QEMU lx106) instruction counts | not measured | not measured | QEMU not installed here |")
     prof = ["", "Profile per stage on the AVR (cycles, median over the golden rows; each stage timed alone):", "",
             "| Stage | Float | Fixed point |", "|---|---:|---:|"]
     for k in ("prepare", "residual", "finish", "gate", "physics", "physics_all_effects", "thermal_on", "scaler", "envelope"):
         if k in fs:
-            prof.append(f"| {k} | {fs[k]['median']:,.0f} | {qs[k]['median']:,.0f} |")
+            q = f"{qs[k]['median']:,.0f}" if k in qs else "folded into layer 0"
+            prof.append(f"| {k} | {fs[k]['median']:,.0f} | {q} |")
     return "\n".join(rows + prof) + "\n"
 
 
