@@ -1,6 +1,6 @@
 """Cost of the observer on the boards and the host, float against fixed point (issue 14).
 
-    hpddo bench --observer        (scripts/bench_observer.sh is the same command)
+    hpddo bench --observer [--write-docs]
 
 1. AVR, cycle-exact (simavr, ATmega328P at 16 MHz; test/bench/avr_step.cpp run by
    test/bench/cycles_sim.c): one full Observer::step per golden row of models/default,
@@ -16,8 +16,8 @@
    random weights: speed does not depend on their values); scikit-learn's predict
    (scaler + network, features precomputed, one BLAS thread) on the same rows.
 
-Writes the table into docs/performance.md (between the bench markers), with this
-command, and the figures into docs/figures/bench_observer.json.
+Prints the table; with --write-docs writes it into docs/performance.md (between the
+bench markers), with the command, and the figures into docs/figures/bench_observer.json.
 """
 from __future__ import annotations
 
@@ -45,7 +45,7 @@ CPU_HZ = 16e6
 DOC = ROOT / "docs" / "performance.md"
 FIGURES = ROOT / "docs" / "figures" / "bench_observer.json"
 BEGIN, END = "<!-- bench_observer:begin (generated) -->", "<!-- bench_observer:end -->"
-COMMAND = "hpddo bench --observer"
+COMMAND = "hpddo bench --observer --write-docs"
 
 PEER_SCRIPT = r"""
 import sys, numpy as np
@@ -274,7 +274,7 @@ def write_doc(fig: dict, text: str) -> None:
     FIGURES.write_text(json.dumps(fig, indent=1, sort_keys=True) + "\n")
 
 
-def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = True) -> dict:
+def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = False) -> dict:
     from . import export
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
