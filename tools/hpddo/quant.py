@@ -227,11 +227,17 @@ def quantise_gate(gd, in_exp) -> GateQ:
         while s > 0 and round_half_away(unit * 2.0 ** s) > GATE_MULT_MAX:
             s -= 1
         shift.append(s)
-        mult.append(round_half_away(unit * 2.0 ** s))
+        # Clipped where even S = 0 is too coarse: an envelope so wide that 2^e_j is below
+        # 2^GATE_FRAC / (16383 scale_j) (no trained model; an open gate of a physics-only model).
+        mult.append(min(GATE_MULT_MAX, round_half_away(unit * 2.0 ** s)))
     protos = [[max(-GATE_ZMAX, min(GATE_ZMAX, round_half_away(float(np.float32(v)) * 2.0 ** GATE_FRAC))) for v in row]
               for row in np.asarray(gd.prototypes, np.float32)]
-    r_in = round_half_away(float(np.float32(gd.r_in_sq)) * 2.0 ** (2 * GATE_FRAC))
-    r_out = max(r_in + 1, round_half_away(float(np.float32(gd.r_out_sq)) * 2.0 ** (2 * GATE_FRAC)))
+    def q_sq(r):  # a squared radius in units of 2^-2GATE_FRAC, within [0, 2^31 - 1]
+        r = float(np.float32(r)) * 2.0 ** (2 * GATE_FRAC)
+        return INT32_MAX if not math.isfinite(r) or r >= INT32_MAX else max(0, round_half_away(r))
+    # An open gate (thresholds at the float maximum) keeps w = 1 for every sum (<= 5 (2 GATE_ZMAX)^2).
+    r_in = min(q_sq(gd.r_in_sq), INT32_MAX - 1)
+    r_out = max(r_in + 1, q_sq(gd.r_out_sq))
     return GateQ(in_exp=list(in_exp), centre=centre, shift=shift, mult=mult, prototypes=protos, r_in_q=r_in,
                  r_out_q=r_out, fade=np.float32(1.0 / (r_out - r_in)))
 
