@@ -23,6 +23,7 @@ ctest --test-dir build-asan -j "$jobs" --output-on-failure
 
 echo "== benchmark (prints its figures; the targets are judged against peers measured in the same run)"
 .venv/bin/hpddo bench
+.venv/bin/hpddo bench --observer  # AVR cycles in simavr, host samples/s: float against fixed point
 
 echo "== pytest"
 .venv/bin/python -m pytest -q test/py

@@ -14,6 +14,10 @@ namespace acq {
 /// Columns of every row, in order (in flash on the AVR: read with pgm_read_byte).
 HPDDO_FLASH static const char kLogHeader[] = "t_s,duty,v_V,i_A,rpm_ref,temp_C,load,seq";
 
+/// Columns the board appends when it runs the observer itself (uno_acq.cpp, ACQ_OBSERVER):
+/// the estimate in RPM and its hpddo::Status as a number.
+HPDDO_FLASH static const char kLogHeaderEstimate[] = ",rpm_est,est_status";
+
 /// Longest line the board writes, with its terminating NUL.
 static const uint8_t kLineMax = 96;
 
@@ -143,6 +147,14 @@ inline void format_row(LineWriter& w, const LogRow& r) {
   w.u32(r.load);
   w.put(',');
   w.u32(r.seq);
+}
+
+/// Appends the observer's columns to a row: rpm_est with 2 decimals, est_status.
+inline void format_estimate(LineWriter& w, float rpm, uint8_t status) {
+  w.put(',');
+  w.real(rpm, 2);
+  w.put(',');
+  w.u32(status);
 }
 
 }  // namespace acq

@@ -21,6 +21,11 @@
 #include "acq_protocol.h"
 #include "acq_window.h"
 #include "hpddo/frame.h"
+#if !defined(ACQ_NO_OBSERVER)
+// The whole observer runs on the board (issue 14): the fixed-point model by default,
+// the float one with -DACQ_OBSERVER_FLOAT; both from models/default (-I models/default).
+#include "model_default_q.h"
+#endif
 
 using namespace acq;
 
@@ -98,6 +103,16 @@ uint8_t g_manual_load = 0;
 uint16_t g_manual_duty_q = 0;
 TempSchedule g_temp;
 LineBuffer<48> g_cmd;
+
+#if !defined(ACQ_NO_OBSERVER)
+#if defined(ACQ_OBSERVER_FLOAT)
+namespace model = hpddo_model_default;
+#else
+namespace model = hpddo_model_default_q;
+#endif
+// One observer step per closed window, in the main loop (process()).
+hpddo::Observer<model::Net> g_obs(model::kModel);
+#endif
 
 __attribute__((always_inline)) inline void apply_relays(uint8_t load) {
   const bool r1 = load == 1;
@@ -503,6 +518,10 @@ void begin_recording(const char* condition, uint32_t first_seq) {
   w.compact(kEncoderCountsPerRev);
   meta(F("encoder_cpr"), g_line);
   Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeader));
+#if !defined(ACQ_NO_OBSERVER)
+  Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeaderEstimate));
+  g_obs.reset();
+#endif
   Serial.write('\n');
   g_rec_start = first_seq;
   g_recording = true;
@@ -602,6 +621,19 @@ void process(const WindowSums& w) {
   hpddo::encode_frame(make_frame(w, m, has_temp, temp_c16), frame);
   link_send(frame, hpddo::kFrameSize);
 
+#if !defined(ACQ_NO_OBSERVER)
+  hpddo::Sample s;
+  s.v_V = m.v_V;
+  s.i_A = m.i_A;
+  s.temp_C = has_temp ? static_cast<float>(temp_c16) * 0.0625f : hpddo::absent();
+  s.dt_s = static_cast<float>(w.period_us) * 1e-6f;
+  s.seq = static_cast<uint16_t>(w.seq);
+  s.has_seq = true;
+  GPIOR1 = 3;  // observer marker (timed in simulation)
+  const hpddo::Estimate est = g_obs.step(s);
+  GPIOR1 = 4;
+#endif
+
   if (g_plan.protocol() != kProtoNone) {
     // Setpoint of the window after the open one (latched at the end of the open one).
     const uint32_t next = open_seq() + 1u;
@@ -628,6 +660,9 @@ void process(const WindowSums& w) {
     r.seq = w.seq;
     LineWriter lw(g_line, sizeof g_line);
     format_row(lw, r);
+#if !defined(ACQ_NO_OBSERVER)
+    format_estimate(lw, est.rpm, static_cast<uint8_t>(est.status));
+#endif
     lw.put('\n');
     Serial.write(lw.c_str(), lw.length());
     if (g_plan.protocol() != kProtoNone && r.elapsed_samples + 1u >= g_plan.total()) {
@@ -678,7 +713,9 @@ void loop() {
     w.period_us = c.period_us;
     w.duty_q = c.duty_q;
     w.load = c.load;
+    GPIOR1 = 1;  // busy marker: the main loop's work on a window (timed in simulation)
     process(w);
+    GPIOR1 = 2;
   }
 #ifndef ACQ_NO_TEMP
   temperature_step();

@@ -1,4 +1,4 @@
-// Instantiates every template of the core with both fixture models, so that
+// Instantiates every template of the core with the fixture models (float and fixed point), so that
 // each compiler sees all of the code, not just the declarations.
 #ifdef HPDDO_WITH_ARDUINO_H
 #include <Arduino.h>
@@ -8,6 +8,8 @@
 #include "hpddo_core.h"
 #include "model_tiny.h"
 #include "model_tiny1.h"
+#include "model_tiny1_q.h"
+#include "model_tiny_q.h"
 
 template <class Net>
 static float run(const hpddo::Model<Net>& model, float v_V, float i_A) {
@@ -31,6 +33,7 @@ float hpddo_instantiate(float v_V, float i_A, uint8_t in_byte) {
   uint8_t buf[hpddo::kFrameSize];
   hpddo::encode_frame(f, buf);
   const float g[6] = {v_V, i_A, 150.0f, i_A, 150.0f, 40.0f};
-  return run(hpddo_model_tiny::kModel, v_V, i_A) + run(hpddo_model_tiny1::kModel, v_V, i_A) + extra +
+  return run(hpddo_model_tiny::kModel, v_V, i_A) + run(hpddo_model_tiny1::kModel, v_V, i_A) +
+         run(hpddo_model_tiny_q::kModel, v_V, i_A) + run(hpddo_model_tiny1_q::kModel, v_V, i_A) + extra +
          static_cast<float>(buf[3]) + kGate.weight(g);
 }

@@ -121,6 +121,25 @@ TEST(Gate, EarlyStopEqualsTheFullMinimum) {
   }
 }
 
+TEST(Gate, FirstPrototypeChangesNothingButTheOrder) {
+  uint32_t s = 777u;
+  uint8_t carried = 0;
+  for (int n = 0; n < 5000; ++n) {
+    float g[2];
+    for (float& v : g) {
+      s = s * 1664525u + 1013904223u;
+      v = static_cast<float>(s >> 8) * (1.0f / 16777216.0f) * 24.0f - 8.0f;
+    }
+    g[1] = g[1] * 2.5f + 10.0f;
+    const float want = reference_weight(kGate, g);
+    for (uint8_t first = 0; first < 5; ++first) {  // 5: also a start beyond the prototypes
+      uint8_t k = first;
+      ASSERT_EQ(kGate.weight(g, &k), want) << "start " << int(first);
+    }
+    ASSERT_EQ(kGate.weight(g, &carried), want);  // the observer's use: the nearest carried on
+  }
+}
+
 TEST(Gate, EqualThresholdsGiveAStep) {
   const hpddo::Gate<2, 3> step = {kCentre, kScale, kProtos, 0.25f, 0.25f};
   const float near_g[2] = {1.0f + 2.0f * 0.49f, 10.0f};

@@ -35,6 +35,30 @@ TEST(Thermal, OneStepIsTheExactSolutionOfTheLinearNode) {
   EXPECT_NEAR(t.temp_C(30.0f), 30.0 + rise_ss * (1.0 - std::exp(-0.5)), 1e-4);
 }
 
+TEST(Thermal, CachedDecayEqualsTheDecayOfEachStep) {
+  // The decay exp(-dt / tau) is kept between steps of the same period and time
+  // constant: the trajectory must be the one of a fresh computation at every step,
+  // through changes of the period and of the time constant.
+  hpddo::PhysicsParams p = params();
+  hpddo::ThermalEstimator cached;
+  float rise = 0.0f;
+  const float dts[] = {0.5f, 0.5f, 0.01f, 0.01f, 0.5f, 2.0f, 2.0f};
+  for (int k = 0; k < 70; ++k) {
+    const float dt = dts[k % 7];
+    if (k == 35) p.th_tau_s = 300.0f;
+    const float i = 0.5f + 0.02f * static_cast<float>(k % 9);
+    cached.step(p, i, dt, 30.0f);
+    // The node's step written out (thermal.h's arithmetic with a fresh expf).
+    const float loss_W = i * i * hpddo::ra_at_ohm(p, 30.0f + rise);
+    const float target_K = p.th_r_K_per_W * loss_W;
+    float next = target_K + (rise - target_K) * expf(-dt / p.th_tau_s);
+    if (next > hpddo::kWindingMax_C - 30.0f) next = hpddo::kWindingMax_C - 30.0f;
+    if (!(next >= 0.0f)) next = 0.0f;
+    rise = next;
+    ASSERT_EQ(cached.rise_K(), rise) << "step " << k;
+  }
+}
+
 TEST(Thermal, SettlesAtTheSelfConsistentSteadyState) {
   const hpddo::PhysicsParams p = params();
   hpddo::ThermalEstimator t;

@@ -6,7 +6,12 @@ set -euo pipefail
 root=$1
 out=$2
 core=${ARDUINO_AVR:-/usr/share/arduino/hardware/arduino/avr}
+# Flash budget: 60 % of the chip for the acquisition alone (-DACQ_NO_OBSERVER); 75 % with
+# the observer on the board (the default since issue 14: about 7 KB of physics, gate and
+# network, measured by this script), leaving 8 KB. RAM: 60 % either way.
 budget=60
+flash_budget=75
+case "${ACQ_DEFINES:-}" in *ACQ_NO_OBSERVER*) flash_budget=60 ;; esac
 mkdir -p "$out/core"
 flags=(-mmcu=atmega328p -DF_CPU=16000000L -DARDUINO=10807 -DARDUINO_AVR_UNO -DARDUINO_ARCH_AVR
        -DDECIMAL_DIG=__DECIMAL_DIG__ -Os -ffunction-sections -fdata-sections
@@ -31,7 +36,7 @@ if [[ ! -f $out/core/libcore.a ]]; then
 fi
 
 avr-g++ -std=gnu++11 -fno-exceptions -fno-threadsafe-statics "${flags[@]}" \
-  -Wall -Wextra -Werror -I"$root/lib/hpddo_core/src" -I"$root/uno_acq" \
+  -Wall -Wextra -Werror -I"$root/lib/hpddo_core/src" -I"$root/uno_acq" -I"$root/models/default" ${ACQ_DEFINES:-} \
   -c "$root/uno_acq/uno_acq.cpp" -o "$out/uno_acq.o"
 avr-g++ -mmcu=atmega328p -Os -Wl,--gc-sections "$out/uno_acq.o" "$out/core/libcore.a" -o "$out/uno_acq.elf"
 
@@ -42,10 +47,10 @@ read -r text data bss noinit < <(avr-size -A "$out/uno_acq.elf" |
 flash=$((text + data)); ram=$((data + bss + noinit))
 flash_max=32256; ram_max=2048   # 32 KB less the 512-byte Optiboot bootloader
 pf=$((flash * 1000 / flash_max)); pr=$((ram * 1000 / ram_max))
-printf 'uno_acq: flash %d / %d bytes (%d.%d %%), RAM %d / %d bytes (%d.%d %%), budget %d %%\n' \
-  "$flash" "$flash_max" $((pf / 10)) $((pf % 10)) "$ram" "$ram_max" $((pr / 10)) $((pr % 10)) "$budget"
+printf 'uno_acq: flash %d / %d bytes (%d.%d %%, budget %d %%), RAM %d / %d bytes (%d.%d %%, budget %d %%)\n' \
+  "$flash" "$flash_max" $((pf / 10)) $((pf % 10)) "$flash_budget" "$ram" "$ram_max" $((pr / 10)) $((pr % 10)) "$budget"
 printf '%d %d %d %d\n' "$flash" "$flash_max" "$ram" "$ram_max" > "$out/uno_acq.size"
-if ((flash * 100 > flash_max * budget || ram * 100 > ram_max * budget)); then
-  echo "uno_acq: over the ${budget} % budget" >&2
+if ((flash * 100 > flash_max * flash_budget || ram * 100 > ram_max * budget)); then
+  echo "uno_acq: over the budget (flash ${flash_budget} %, RAM ${budget} %)" >&2
   exit 1
 fi

@@ -15,7 +15,11 @@ encoder in quadrature. Then:
 * the ESP8266 link bytes decode with hpddo::FrameDecoder with no CRC error or
   dropped byte, one frame per window, each matching its log row;
 * with --protocol sweep/load: duty and load follow the bench's protocol
-  (tools/hpddo/bench.py, from which the firmware's bench_gen.h is generated).
+  (tools/hpddo/bench.py, from which the firmware's bench_gen.h is generated);
+* with --observer fixed/float (the firmware runs the observer, issue 14): every row
+  after the first carries rpm_est and est_status, equal to the reference observer
+  (tools/hpddo/observer_ref.py; the fixed-point network from tools/hpddo/quant.py) run
+  on the window's exact ADC means within --max-est-diff RPM, with the same status.
 """
 import argparse
 import math
@@ -67,6 +71,46 @@ def drive_table(n, seed):
     return rows
 
 
+def check_estimates(df, windows, a, lsb_v, lsb_i, period):
+    """The board's rpm_est and est_status against the reference observer on the exact
+    inputs of each window (the first row is skipped: the board's lags may hold a window
+    closed before the recording started)."""
+    import numpy as np
+    from hpddo import export, quant
+    from hpddo.observer_ref import ReferenceObserver
+    if "rpm_est" not in df or "est_status" not in df:
+        fail("no rpm_est / est_status columns: the firmware does not run the observer")
+    model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
+    obs = quant.fixed_observer(model, quant.quantise(model)) if a.observer == "fixed" else ReferenceObserver(model)
+    worst, statuses = 0.0, {}
+    for k, row in enumerate(df.itertuples()):
+        w = windows[int(row.seq)]
+        v = (w["v_mV"] * 1023 // 5000 + 0.5) * lsb_v
+        i = (w["i_mV"] * 1023 // 5000 + 0.5) * lsb_i
+        o = obs.step(v, i, None, period, int(row.seq) & 0xFFFF)
+        if k == 0:
+            continue
+        if not np.isfinite(row.rpm_est):
+            fail(f"seq {row.seq}: rpm_est is not a number")
+        d = abs(row.rpm_est - float(o["rpm"]))
+        worst = max(worst, d)
+        if d > a.max_est_diff or int(row.est_status) != int(o["status"]):
+            fail(f"seq {row.seq}: board estimate {row.rpm_est} status {row.est_status}, reference "
+                 f"{float(o['rpm']):.3f} status {o['status']}")
+        statuses[int(row.est_status)] = statuses.get(int(row.est_status), 0) + 1
+    print(f"observer ({a.observer}) on the board: {len(df) - 1} estimates within {worst:.4f} RPM of the reference "
+          f"(printed with 2 decimals), statuses {statuses}")
+
+
+def recording_table(n):
+    """n rows (V, I, speed) of the test part of data/default/long.csv: operating points
+    the default model was trained around, so that its network runs on the board."""
+    from hpddo.benchlog import read_log as _read
+    df = _read(ROOT / "data" / "default" / "long.csv").df
+    part = df.iloc[int(0.8 * len(df)):].iloc[:n]
+    return [(round(v, 4), round(i, 4), round(r, 3)) for v, i, r in zip(part["v_V"], part["i_A"], part["rpm_ref"])]
+
+
 def fail(msg):
     print("FAIL:", msg)
     sys.exit(1)
@@ -84,11 +128,16 @@ def main():
     ap.add_argument("--protocol", choices=["sweep", "load"], default=None)
     ap.add_argument("--hold", type=float, default=0.05, help="protocol step, s")
     ap.add_argument("--max-jitter-us", type=float, default=10.0)
+    ap.add_argument("--observer", choices=["fixed", "float", "none"], default="fixed",
+                    help="which observer the firmware runs (default fixed: model_default_q.h)")
+    ap.add_argument("--max-est-diff", type=float, default=0.05, help="RPM, board against reference")
+    ap.add_argument("--drive", choices=["random", "recording"], default="random",
+                    help="drive table: random points (default) or the test rows of data/default/long.csv")
     a = ap.parse_args()
 
     work = pathlib.Path(a.workdir)
     work.mkdir(parents=True, exist_ok=True)
-    table = drive_table(37, seed=20261121)
+    table = drive_table(37, seed=20261121) if a.drive == "random" else recording_table(400)
     (work / "drive.csv").write_text("".join(f"{v},{i},{r}\n" for v, i, r in table))
 
     pwm_hz = a.pwm or HW.pwm_hz_whole
@@ -163,6 +212,8 @@ def main():
             fail(f"seq {row.seq}: rpm_ref {row.rpm_ref} != {rpm_counts} from the counts driven")
         worst_rpm = max(worst_rpm, abs(row.rpm_ref - w["rpm"]) / count_rpm)
     print(f"V error <= {worst_v:.3f} LSB, I error <= {worst_i:.3f} LSB, speed error <= {worst_rpm:.3f} counts")
+    if a.observer != "none":
+        check_estimates(df, windows, a, lsb_v, lsb_i, period)
     if worst_v > 1.0 + 0.001 * 4.3 / (ADC_REF_V / 1024) or worst_i > 1.0:  # plus simavr's 1023/1024 scale
         fail("V or I off by more than one ADC step")
     if worst_rpm > 2.0 + 1e-6:
@@ -176,6 +227,16 @@ def main():
     print(f"sample period {period * 1e6:.0f} us over {len(dev)} windows: jitter max {jitter:.3f} us")
     if jitter > a.max_jitter_us:
         fail(f"period jitter {jitter:.3f} us > {a.max_jitter_us} us")
+
+    # ---- the main loop's work per window (busy.csv: GPIOR1 markers in uno_acq.cpp)
+    busy = (work / "busy.csv").read_text().splitlines()[1:]
+    for kind in ("window", "observer"):
+        c = sorted(int(l.split(",")[2]) for l in busy if l.startswith(kind + ","))
+        if c:
+            print(f"main loop, {kind}: median {c[len(c) // 2]} max {c[-1]} cycles of the {nominal}-cycle window "
+                  f"({100.0 * c[-1] / nominal:.1f} % at most), {len(c)} windows")
+            if kind == "window" and c[-1] >= nominal:
+                fail("the work on a window takes longer than the window")
 
     # ---- ESP8266 link frames
     out = subprocess.run([a.frame_dump, str(work / "link.bin")], capture_output=True, text=True, check=True).stdout

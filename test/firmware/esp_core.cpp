@@ -1,8 +1,9 @@
 // Everything of the ESP8266 sketch below its Arduino glue, in one translation
 // unit for xtensa-lx106-elf-g++: frame decoding, the observer with the
-// deployed model and the telemetry step. Its object size is what the glue adds
+// deployed model, the telemetry step and its line. Its object size is what the glue adds
 // to the ESP8266 core (docs/firmware.md).
 #include "hpddo_core.h"
+#include "infer_json.h"
 #include "infer_link.h"
 #include "infer_model.h"
 #include "infer_telemetry.h"
@@ -25,3 +26,8 @@ extern "C" bool hpddo_esp_push(uint8_t byte, uint32_t now_ms, infer::Telemetry* 
 
 /// True when the model in flash matches its checksum.
 extern "C" bool hpddo_esp_model_ok() { return hpddo::model_checksum(infer::model::kModel) == infer::model::kChecksum; }
+
+/// The telemetry line of t into buf (cap bytes); its length, 0 when it did not fit.
+extern "C" size_t hpddo_esp_line(const infer::Telemetry* t, char* buf, size_t cap) {
+  return infer::format_json(*t, buf, cap);
+}

@@ -45,6 +45,16 @@ TEST(Format, RowFollowsTheBenchLogColumns) {
   EXPECT_EQ(row_text(example_row()), "1.500000,0.8000,9.6125,-0.0123,181.26,40.0625,2,70001");
 }
 
+TEST(Format, EstimateColumnsFollowTheRow) {
+  EXPECT_STREQ(acq::kLogHeaderEstimate, ",rpm_est,est_status");
+  char buf[acq::kLineMax];
+  acq::LineWriter w(buf, sizeof buf);
+  acq::format_row(w, example_row());
+  acq::format_estimate(w, 183.004f, 4);
+  EXPECT_FALSE(w.overflow());
+  EXPECT_STREQ(w.c_str(), "1.500000,0.8000,9.6125,-0.0123,181.26,40.0625,2,70001,183.00,4");
+}
+
 TEST(Format, EmptyCellsForAbsentSpeedAndTemperature) {
   acq::LogRow r = example_row();
   r.rpm = hpddo::absent();

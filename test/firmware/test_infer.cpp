@@ -1,6 +1,8 @@
 // Host tests of the inference board's logic (esp_infer/infer_*.h) with the
 // model the firmware is built with and its golden vectors.
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -221,4 +223,78 @@ TEST(InferLink, ASeqCycleLostIsSeenFromTheArrivalTimeAndRestartsTheLags) {
   now_ms += 520;
   send(frame_of(10, 9.5f, 1.2f, 40.0f, 0.5f, 0));
   EXPECT_FALSE(rx.new_segment());
+}
+
+// ---- telemetry line and its budget (infer_json.h)
+#include "acq_config.h"
+#include "infer_json.h"
+
+namespace {
+
+infer::Telemetry widest() {
+  infer::Telemetry t;
+  t.seq = 65535;
+  t.rpm = t.rpm_m2 = t.residual_rpm = t.rpm_ref = -1e30f;
+  t.confidence = -1e30f;
+  t.status = hpddo::kStatusFallback;  // the longest status name
+  t.infer_us = 4294967295u;
+  t.v_V = t.i_A = -1e30f;
+  t.gaps = t.lost = t.crc_errors = 4294967295u;
+  return t;
+}
+
+}  // namespace
+
+TEST(InferJson, FixedDecimalsRoundHalfAwayAndNoNegativeZero) {
+  infer::Telemetry t = widest();
+  t.seq = 412;
+  t.rpm = 181.3f;
+  t.rpm_m2 = 175.2f;
+  t.residual_rpm = -0.004f;
+  t.confidence = 1.0f;
+  t.status = hpddo::kStatusOk;
+  t.infer_us = 812;
+  t.rpm_ref = hpddo::absent();
+  t.v_V = 9.6125f;
+  t.i_A = -0.8125f;
+  t.gaps = 0;
+  t.lost = 2;
+  t.crc_errors = 1;
+  char buf[infer::kJsonMaxLine + 1];
+  const size_t n = infer::format_json(t, buf, sizeof buf);
+  EXPECT_STREQ(buf, "{\"seq\":412,\"rpm\":181.30,\"rpm_m2\":175.20,\"residual\":0.00,\"confidence\":1.000,"
+                    "\"status\":\"ok\",\"us\":812,\"v\":9.613,\"i\":-0.813,\"gaps\":0,\"lost\":2,\"crc_errors\":1}\n");
+  EXPECT_EQ(n, std::strlen(buf));
+  t.rpm = std::nanf("");
+  infer::format_json(t, buf, sizeof buf);
+  EXPECT_NE(std::strstr(buf, "\"rpm\":null"), nullptr);
+}
+
+TEST(InferJson, WidestLineFitsAndTooSmallABufferIsRefused) {
+  char buf[512];
+  const size_t n = infer::format_json(widest(), buf, sizeof buf);
+  std::printf("widest telemetry line: %zu bytes: %s", n, buf);
+  EXPECT_GT(n, 0u);
+  EXPECT_LE(n, infer::kJsonMaxLine);
+  EXPECT_NE(std::strstr(buf, "\"rpm\":-99999.00"), nullptr);
+  char small[32];
+  EXPECT_EQ(infer::format_json(widest(), small, sizeof small), 0u);
+}
+
+TEST(InferJson, HostLinkCarriesEverySampleTheUnoCanSend) {
+  // The UNO's link: 38400 baud, 8N1, one kFrameSize-byte frame a sample.
+  const double frames_per_s = static_cast<double>(acq::kLinkBaud) / (10.0 * hpddo::kFrameSize);
+  const double line_bits = 10.0 * infer::kJsonMaxLine;
+  const double lines_per_s = static_cast<double>(infer::kHostBaud) / line_bits;
+  std::printf("host link: %u baud, widest line %u bytes: %.1f lines/s; UNO link at most %.1f samples/s\n",
+              static_cast<unsigned>(infer::kHostBaud), static_cast<unsigned>(infer::kJsonMaxLine), lines_per_s,
+              frames_per_s);
+  EXPECT_GE(lines_per_s, frames_per_s);
+  EXPECT_GE(lines_per_s, 100.0 * 1.5);  // 100 Hz with half again to spare
+  // While the widest line goes out, the link delivers fewer bytes than SoftwareSerial's
+  // 64-byte receive buffer holds, even with a whole frame already waiting.
+  const double link_bytes_per_s = static_cast<double>(acq::kLinkBaud) / 10.0;
+  const double arriving = line_bits / static_cast<double>(infer::kHostBaud) * link_bytes_per_s + hpddo::kFrameSize;
+  std::printf("link bytes arriving during the widest line, plus one frame: %.1f of 64\n", arriving);
+  EXPECT_LE(arriving, 64.0);
 }

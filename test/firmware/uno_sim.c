@@ -9,6 +9,8 @@
  *   <out>/windows.csv  per closed sample window: seq, cycle of the close,
  *                      driven pin voltages, driven speed, encoder counts
  *                      driven
+ *   <out>/busy.csv     the main loop's work per window (GPIOR1 1..2) and the
+ *                      observer step in it (GPIOR1 3..4): kind, start cycle, cycles
  *
  * A window closes when the firmware writes its marker to GPIOR0; the cycle
  * of that write is exact, so the period jitter is measured, not estimated.
@@ -38,6 +40,8 @@
 
 #define F_CPU HPDDO_BENCH_CPU_HZ
 #define GPIOR0_ADDR 0x3E
+#define GPIOR1_ADDR 0x4A
+#define MAX_BUSY 200000
 /* Bit period of the link: (OCR2A + 1) * 8 = 416 cycles on the chip; simavr's
  * CTC mode counts OCR2A * 8, so the decoder measures it instead. */
 static double link_bit_cycles = 416.0;
@@ -130,6 +134,25 @@ static void marker_write(avr_t* a, avr_io_addr_t addr, uint8_t v, void* param) {
   avr_cycle_timer_cancel(a, encoder_tick, NULL);
   enc_frac = 0;
   avr_cycle_timer_register(a, 1, encoder_tick, NULL);
+}
+
+/* busy markers: 1 starts and 2 ends the work on a window, 3 and 4 the observer step */
+typedef struct { int kind; avr_cycle_count_t start, cycles; } busy_t;
+static busy_t* busy;
+static long n_busy;
+static avr_cycle_count_t busy_start[2];
+
+static void busy_write(avr_t* a, avr_io_addr_t addr, uint8_t v, void* param) {
+  (void)param;
+  a->data[addr] = v;
+  if (v == 1 || v == 3) {
+    busy_start[v == 3] = a->cycle;
+  } else if ((v == 2 || v == 4) && n_busy < MAX_BUSY) {
+    busy_t* b = &busy[n_busy++];
+    b->kind = v == 4 ? 2 : 1;
+    b->start = busy_start[v == 4];
+    b->cycles = a->cycle - busy_start[v == 4];
+  }
 }
 
 static void link_pin(struct avr_irq_t* irq, uint32_t value, void* param) {
@@ -254,6 +277,7 @@ int main(int argc, char** argv) {
   edge_cycle = calloc(MAX_EDGES, sizeof *edge_cycle);
   edge_level = calloc(MAX_EDGES, 1);
   host = calloc(MAX_HOST, 1);
+  busy = calloc(MAX_BUSY, sizeof *busy);
 
   elf_firmware_t fw;
   memset(&fw, 0, sizeof fw);
@@ -282,6 +306,7 @@ int main(int argc, char** argv) {
   avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_TIMER_GETIRQ('2'), TIMER_IRQ_OUT_COMP + AVR_TIMER_COMPA),
                           link_pin, NULL);
   avr_register_io_write(avr, GPIOR0_ADDR, marker_write, NULL);
+  avr_register_io_write(avr, GPIOR1_ADDR, busy_write, NULL);
   drive_encoder(0);
   set_inputs(0);
   avr_cycle_timer_register(avr, F_CPU / 1000, encoder_tick, NULL);
@@ -334,6 +359,14 @@ int main(int argc, char** argv) {
     fprintf(f, "%ld,%llu,%u,%u,%.6f,%ld\n", w->seq, (unsigned long long)w->close, w->v_mV, w->i_mV,
             w->rpm, w->edges);
   }
+  fclose(f);
+  snprintf(path, sizeof path, "%s/busy.csv", outdir);
+  f = fopen(path, "w");
+  if (!f) return 2;
+  fprintf(f, "kind,start_cycle,cycles\n");
+  for (long k = 0; k < n_busy; ++k)
+    fprintf(f, "%s,%llu,%llu\n", busy[k].kind == 1 ? "window" : "observer", (unsigned long long)busy[k].start,
+            (unsigned long long)busy[k].cycles);
   fclose(f);
   printf("uno_sim: %.3f s simulated, %ld windows, %d log rows, %ld link bytes (%ld framing errors), "
          "%d marker errors, link bit %.2f cycles\n",

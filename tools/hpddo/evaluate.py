@@ -32,11 +32,15 @@ class Evaluation:
 
 def model_header(model_dir: pathlib.Path, name: str | None = None) -> tuple[str, int]:
     """(model name, checksum) of the model header in model_dir: model_<name>.h, the only
-    one there when name is None."""
+    one there when name is None (fixed-point companions, model_<name>_q.h, not counted)."""
     model_dir = pathlib.Path(model_dir)
     if not model_dir.is_dir():
         raise InputError(f"{model_dir}: no such model folder (an output of hpddo train)")
     headers = sorted(model_dir.glob(f"model_{name}.h" if name else "model_*.h"))
+    # The fixed-point companion model_<name>_q.h (export.model_header_q) is the same model
+    # for the boards; the replay scores the float one.
+    headers = [h for h in headers if not h.read_text(encoding="utf-8", errors="replace").startswith(
+        "// GENERATED fixed-point model header")]
     if len(headers) != 1:
         found = ", ".join(h.name for h in headers) or "none"
         raise InputError(f"{model_dir}: expected one model header {'model_' + name + '.h' if name else 'model_*.h'}, "

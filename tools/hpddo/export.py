@@ -208,3 +208,187 @@ def golden_csv(rows: np.ndarray) -> str:
     cols = GOLDEN_INPUTS + GOLDEN_STAGES
     lines = [",".join(cols)] + [",".join("%.9g" % float(v) for v in r) for r in rows]
     return "\n".join(lines) + "\n"
+
+
+# The fixed-point network (quant.py, mlp_q.h), exported beside the float one.
+GOLDEN_Q_STAGES = ["x0", "x1", "x2", "x3", "x4", "mlp_rpm", "rpm_m2", "residual_rpm", "rpm", "temp_used_C",
+                   "confidence", "status"]
+GOLDEN_Q_INTS = ["xq0", "xq1", "xq2", "xq3", "xq4", "acc"]
+
+
+def model_checksum_q(model: ModelData, q) -> int:
+    """CRC-32 of a fixed-point model (hpddo::model_checksum over Model<MlpQ<...>>): as the
+    float model's, with the network's and the gate's bytes (quant.weight_bytes,
+    quant.gate_bytes) in place of their floats."""
+    from . import quant
+    f = checksum_floats(model)
+    n_phys = len(schema.FIELDS) + 2 * len(model.scaler_mean)
+    n_net = sum(np.asarray(a).size for _, a in network_arrays(model))
+    n_env = 2 * len(model.env_lo)
+    g = model.gate
+    n_gate = 2 * g.dims + g.dims * g.count + 2
+    data = (f[:n_phys].tobytes() + quant.weight_bytes(q) + f[n_phys + n_net:n_phys + n_net + n_env].tobytes()
+            + quant.gate_bytes(q.gate) + f[n_phys + n_net + n_env + n_gate:].tobytes())
+    return zlib.crc32(data) & 0xFFFFFFFF
+
+
+def model_header_q(model: ModelData, q, name: str, provenance: dict) -> str:
+    """Text of `model_<name>_q.h`, namespace hpddo_model_<name>_q: the fixed-point network
+    (quant.QuantNet of this model) with the float header's physics, scaler (folded into the
+    network, kept for the record), envelope and gate; it includes model_<name>.h."""
+    from . import quant
+    hidden = q.hidden
+    h2 = hidden[1] if len(hidden) == 2 else 0
+    shifts = list(q.shifts) + [0] * (2 - len(q.shifts))
+    crc = model_checksum_q(model, q)
+    prov = dict(provenance)
+    prov.update(generator=GENERATOR, quantiser="hpddo.quant (tools/hpddo/quant.py)",
+                shapes="-".join(str(n) for n in (5, *hidden, 1)),
+                weights=f"layer 0 int16 (scaler folded in), hidden {q.hidden_type}, output int16; int32 sums",
+                shifts=" ".join(map(str, q.shifts)), checksum=f"crc32 0x{crc:08x}")
+    guard = f"HPDDO_MODEL_{name.upper()}_Q_H"
+    f = f"hpddo_model_{name}"
+    wt = quant.C_TYPES[q.hidden_type]
+    out = [_banner("fixed-point model header", prov), f"#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n",
+           f'#include "model_{name}.h"\n\n', f"namespace hpddo_model_{name}_q {{\n\n",
+           f"typedef hpddo::MlpQ<5, {hidden[0]}, {h2}, {wt}, {shifts[0]}, {shifts[1]}> Net;\n\n",
+           f"/// CRC-32 over the stored model (see hpddo::model_checksum).\nstatic const uint32_t kChecksum = 0x{crc:08x}u;\n\n",
+           f"static const uint16_t kEffects = {f}::kEffects;\n\n",
+           "/// Input exponents: xq_j = round(x_j 2^e_j).\n",
+           quant.c_int_array("kInExp", "int8_t", q.in_exp)]
+    names = [("kW0", "kB0")] + ([("kW1", "kB1")] if h2 else []) + [("kWOut", "kBOut")]
+    for (wn, bn), w, b, t in zip(names, q.weights, q.biases, q.types):
+        out.append(quant.c_int_array(wn, quant.C_TYPES[t], [v for row in w for v in row]))
+        out.append(quant.c_int_array(bn, "int32_t", b, per_line=6))
+    out.append("/// RPM per unit of the output accumulator.\n")
+    out.append(c_array("kOutScale", [q.out_scale]))
+    gq = q.gate
+    out += ["/// Novelty gate in integers (gate_q.h), the float gate's prototypes and thresholds.\n",
+            quant.c_int_array("kGateCentreQ", "int16_t", gq.centre), quant.c_int_array("kGateShiftQ", "int8_t", gq.shift),
+            quant.c_int_array("kGateMultQ", "int16_t", gq.mult),
+            quant.c_int_array("kGatePrototypesQ", "int16_t", [v for r in gq.prototypes for v in r], per_line=10)]
+    g = model.gate
+    lim = model.limits
+    w1 = "kW1, kB1" if h2 else "nullptr, nullptr"
+    out += ["\n", _c_layout_asserts(f"{name}_q"), "/// The deployed fixed-point model.\nstatic const hpddo::Model<Net> kModel = {\n",
+            f"    {_c_physics(model.physics, 'kEffects')},\n",
+            f"    {{{f}::kScalerMean, {f}::kScalerScale}},\n",
+            f"    {{kInExp, kW0, kB0, {w1}, kWOut, kBOut, kOutScale}},\n",
+            f"    {{{f}::kEnvLo, {f}::kEnvHi}},\n",
+            f"    {{kInExp, kGateCentreQ, kGateShiftQ, kGateMultQ, kGatePrototypesQ, {gq.r_in_q}, {gq.r_out_q}, "
+            f"{c_float(gq.fade)}}},\n",
+            f"    {c_float(model.clamp_rpm)},\n",
+            f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
+            "};\n\n", f"}}  // namespace hpddo_model_{name}_q\n\n#endif  // {guard}\n"]
+    return "".join(out)
+
+
+def golden_rows_q(model: ModelData, q, samples):
+    """The fixed-point observer over samples, from the references (observer_ref with
+    quant.forward_int): (float rows in GOLDEN_INPUTS + GOLDEN_Q_STAGES, int rows in
+    GOLDEN_Q_INTS). The network's columns hold its output on every row's features
+    (a NaN feature counts as 0), evaluated or not by the observer."""
+    from . import quant
+    obs = quant.fixed_observer(model, q)
+    rows, ints = [], []
+    for v, i, t, dt, seq in samples:
+        o = obs.step(v, i, t, dt, seq)
+        xq, acc, y = quant.forward_int(q, o["x"])
+        rows.append([v, i, np.nan if t is None else t, dt, 0 if seq is None else seq, 0 if seq is None else 1,
+                     *o["x"], y, o["rpm_m2"], o["residual_rpm"], o["rpm"], o["temp_C"], o["confidence"], o["status"]])
+        ints.append([*xq, acc])
+    return np.asarray(rows, np.float32), ints
+
+
+def golden_header_q(rows: np.ndarray, ints, name: str, provenance: dict) -> str:
+    """Text of `golden_<name>_q.h`: the float table kRows and the integer table kInts."""
+    from . import quant
+    guard = f"HPDDO_GOLDEN_{name.upper()}_Q_H"
+    cols = GOLDEN_INPUTS + GOLDEN_Q_STAGES
+    prov = dict(provenance)
+    prov.update(generator=GENERATOR, reference="hpddo.quant.forward_int (Python integers) in hpddo.observer_ref",
+                rows=len(rows), columns=" ".join(cols), int_columns=" ".join(GOLDEN_Q_INTS))
+    enums = ",\n".join(f"  kCol_{c} = {k}" for k, c in enumerate(cols))
+    ienums = ",\n".join(f"  kInt_{c} = {k}" for k, c in enumerate(GOLDEN_Q_INTS))
+    return "".join([
+        _banner("fixed-point golden vectors", prov), f"#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n",
+        '#include "hpddo/observer.h"\n#include "hpddo/platform.h"\n\n', f"namespace hpddo_golden_{name}_q {{\n\n",
+        f"enum Column : uint8_t {{\n{enums}\n}};\n\n", f"enum IntColumn : uint8_t {{\n{ienums}\n}};\n\n",
+        f"static const uint16_t kCount = {len(rows)};\nstatic const uint8_t kWidth = {len(cols)};\n",
+        f"static const uint8_t kIntWidth = {len(GOLDEN_Q_INTS)};\n\n",
+        "/// Row r, column c is kRows[r * kWidth + c]; NaN marks an absent reading or an unreached stage.\n",
+        c_array("kRows", rows, per_line=len(cols), allow_nonfinite=True),
+        "/// Row r, integer column c is kInts[r * kIntWidth + c].\n",
+        quant.c_int_array("kInts", "int32_t", [v for r in ints for v in r], per_line=len(GOLDEN_Q_INTS)),
+        "\n/// Value of row r, column c.\n",
+        "inline float at(uint16_t r, uint8_t c) { return hpddo::flash_float(kRows + static_cast<uint32_t>(r) * kWidth + c); }\n\n",
+        "/// Integer of row r, integer column c.\n",
+        "inline int32_t int_at(uint16_t r, uint8_t c) {\n"
+        "  return hpddo::flash_int32(kInts + static_cast<uint32_t>(r) * kIntWidth + c);\n}\n\n",
+        "/// The observer input of row r.\n",
+        "inline hpddo::Sample sample(uint16_t r) {\n",
+        "  hpddo::Sample s;\n  s.v_V = at(r, kCol_v_V);\n  s.i_A = at(r, kCol_i_A);\n  s.temp_C = at(r, kCol_temp_C);\n",
+        "  s.dt_s = at(r, kCol_dt_s);\n  s.seq = static_cast<uint16_t>(at(r, kCol_seq));\n",
+        "  s.has_seq = at(r, kCol_has_seq) != 0.0f;\n  return s;\n}\n",
+        f"\n}}  // namespace hpddo_golden_{name}_q\n\n#endif  // {guard}\n"])
+
+
+def golden_csv_q(rows: np.ndarray, ints) -> str:
+    """The fixed-point golden rows as CSV: float columns, then the integer columns."""
+    cols = GOLDEN_INPUTS + GOLDEN_Q_STAGES + GOLDEN_Q_INTS
+    lines = [",".join(cols)] + [",".join(["%.9g" % float(v) for v in r] + [str(int(v)) for v in iv])
+                                for r, iv in zip(rows, ints)]
+    return "\n".join(lines) + "\n"
+
+
+def write_fixed_point(folder: pathlib.Path, model: ModelData, name: str, prov: dict, samples, hidden_type=None):
+    """Writes model_<name>_q.h, golden_<name>_q.h and golden_<name>_q.csv into folder;
+    the QuantNet."""
+    from . import quant
+    q = quant.quantise(model, hidden_type or quant.DEFAULT_HIDDEN_TYPE)
+    folder = pathlib.Path(folder)
+    (folder / f"model_{name}_q.h").write_text(model_header_q(model, q, name, prov))
+    rows, ints = golden_rows_q(model, q, samples)
+    (folder / f"golden_{name}_q.h").write_text(golden_header_q(rows, ints, name, prov))
+    (folder / f"golden_{name}_q.csv").write_text(golden_csv_q(rows, ints))
+    return q
+
+
+def read_model_header(text: str) -> ModelData:
+    """The ModelData of a float model header written by model_header() (arrays, physics
+    initialiser, gate thresholds, clamp, limits); raises ValueError unless the CRC-32 of
+    what was read equals the header's kChecksum. For the benchmarks and the accuracy
+    check of the fixed-point network, which start from the committed model."""
+    import re
+    from . import gate as gate_mod
+    arrays = {m.group(1): np.array([float(v.rstrip("f")) for v in m.group(2).replace("\n", " ").split(",") if v.strip()],
+                                   np.float32)
+              for m in re.finditer(r"static const float (k\w+)\[\d+\] = \{([^}]*)\}", text)}
+    model_block = text[text.index("static const hpddo::Model<Net> kModel"):]
+    phys = {lab: float(v.rstrip(",").rstrip("f").replace("kEffects", "nan"))
+            for v, lab in re.findall(r"^\s+(\S+),?\s+// (\w+)", model_block.split("};")[0], re.M)}
+    bits = int(re.search(r"kEffects = 0x([0-9a-f]+)u", text).group(1), 16)
+    kwargs = {f: phys[f] for f in schema.FLOAT_FIELDS}
+    p = ph.PhysicsParams(**kwargs, effects=bits)
+    gm = re.search(r"\{kGateCentre, kGateScale, kGatePrototypes, (\S+)f, (\S+)f\},\n\s+(\S+)f,\n\s+\{([^}]*)\}",
+                   model_block)
+    lim = [float(v.strip().rstrip("f")) for v in gm.group(4).split(",")]
+    shape = re.search(r"typedef hpddo::Mlp<5, (\d+), (\d+)> Net;", text)
+    h1, h2 = int(shape.group(1)), int(shape.group(2))
+    layers = [(arrays["kW0"].reshape(h1, 5), arrays["kB0"])]
+    if h2:
+        layers += [(arrays["kW1"].reshape(h2, h1), arrays["kB1"]), (arrays["kW2"].reshape(1, h2), arrays["kB2"])]
+    else:
+        layers += [(arrays["kW1"].reshape(1, h1), arrays["kB1"])]
+    protos = arrays["kGatePrototypes"]
+    g = gate_mod.GateData(centre=arrays["kGateCentre"], scale=arrays["kGateScale"],
+                          prototypes=protos.reshape(-1, len(arrays["kGateCentre"])),
+                          r_in_sq=np.float32(gm.group(1)), r_out_sq=np.float32(gm.group(2)))
+    from .observer_ref import Limits
+    model = ModelData(physics=p, scaler_mean=arrays["kScalerMean"], scaler_scale=arrays["kScalerScale"],
+                      layers=layers, env_lo=arrays["kEnvLo"], env_hi=arrays["kEnvHi"],
+                      clamp_rpm=float(np.float32(gm.group(3))), gate=g, limits=Limits(*lim))
+    want = int(re.search(r"kChecksum = 0x([0-9a-f]+)u", text).group(1), 16)
+    if model_checksum(model) != want:
+        raise ValueError("the model read back does not have the header's checksum")
+    return model

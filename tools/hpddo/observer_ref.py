@@ -70,8 +70,13 @@ class ReferenceObserver:
     their bounds (docs/core.md): a period outside [PERIOD_MIN_S, PERIOD_MAX_S] starts a new
     segment, an n_M2 beyond speed_limit_rpm is invalid, the winding stays below WINDING_MAX_C."""
 
-    def __init__(self, model: ModelData):
+    def __init__(self, model: ModelData, network=None, gate=None):
+        """network(x) -> residual RPM (float32) replaces the float scaler and network, and
+        gate(x) -> weight (float32) the float gate (quant.residual_fn and quant.gate_fn:
+        the fixed-point model); None: the float32 ones."""
         self.m = model
+        self.network = network
+        self.gate = gate
         self.speed_limit = ph.speed_limit_rpm(model.physics, model.limits.v_max_V, model.limits.i_max_A, F32)
         self.reset()
 
@@ -133,13 +138,17 @@ class ReferenceObserver:
         # scales the clamped residual; where w = 0 the network is not evaluated.
         w = F32(0)
         if np.all((x >= m.env_lo) & (x <= m.env_hi)):
-            w = F32(gate_mod.weight(m.gate, x[None, :])[0])
+            w = F32(gate_mod.weight(m.gate, x[None, :])[0] if self.gate is None else self.gate(x))
             if not w > 0:
                 out.update(status=STATUS["gated"])  # inside the box, far from every training row
         if w > 0:
-            z = ((x - m.scaler_mean.astype(F32)) / m.scaler_scale.astype(F32)).astype(F32)
-            r = mlp_forward(m.layers, z)
-            out.update(z=z, mlp_rpm=r)
+            if self.network is None:
+                z = ((x - m.scaler_mean.astype(F32)) / m.scaler_scale.astype(F32)).astype(F32)
+                r = mlp_forward(m.layers, z)
+                out.update(z=z, mlp_rpm=r)
+            else:
+                r = F32(self.network(x))
+                out.update(mlp_rpm=r)
             if np.isfinite(r):
                 c = F32(m.clamp_rpm)
                 rc = F32(min(max(r, -c), c))

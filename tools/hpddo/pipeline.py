@@ -172,9 +172,11 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
                             f"none: the residual network is {res.note}"}
         name = cfg.name
         (stage / f"model_{name}.h").write_text(export.model_header(model, name, prov))
-        rows = export.golden_rows(model, golden_samples(recs))
+        samples = golden_samples(recs)
+        rows = export.golden_rows(model, samples)
         (stage / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
         (stage / f"golden_{name}.csv").write_text(export.golden_csv(rows))
+        export.write_fixed_point(stage, model, name, prov, samples)  # model_<name>_q.h, its goldens
         work = stage / "work"  # cleaned logs, the replay built for this model, its estimates
         est = replay_natively(recs, stage, name, work)
         lookup = baseline.Lookup.fit(recs)

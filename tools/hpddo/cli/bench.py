@@ -9,6 +9,13 @@
    Eigen matrix products), against scikit-learn's MLPRegressor.predict on the same rows
    (network only, features precomputed, one BLAS thread), measured in the same run.
    Target: at least 1e6 samples/s per core for the per-sample path.
+
+    hpddo bench --observer [--write-docs] [--build DIR] [--peer-python PY]
+
+instead measures the observer on the boards and the host, float against fixed point
+(tools/hpddo/perf.py: AVR cycle-exact in simavr with emlearn as the peer, host samples/s
+against scikit-learn) and prints the table; with --write-docs it also writes the table
+into docs/performance.md and the figures into docs/figures/bench_observer.json.
 """
 from __future__ import annotations
 
@@ -27,6 +34,17 @@ def parser(prog: str = "hpddo bench") -> argparse.ArgumentParser:
                    help="passes over the rows; the best one counts (default 30)")
     p.add_argument("--data", type=pathlib.Path, default=resource_root() / "data" / "default", metavar="DIR",
                    help="folder of labelled bench logs, *.csv (default: the bundled data/default)")
+    p.add_argument("--observer", action="store_true",
+                   help="measure the observer step on the AVR (simavr) and the host, float against fixed point "
+                        "(tools/hpddo/perf.py) instead of the pipeline")
+    p.add_argument("--write-docs", action="store_true",
+                   help="--observer: write the table into docs/performance.md and the figures into "
+                        "docs/figures/bench_observer.json")
+    p.add_argument("--build", type=pathlib.Path, default=resource_root() / "build-bench", metavar="DIR",
+                   help="--observer: build folder (default build-bench in the source tree)")
+    p.add_argument("--peer-python", type=pathlib.Path, default=None, metavar="PY",
+                   help="--observer: a Python with emlearn 0.23.2 and scikit-learn, for the peer "
+                        "(default .venv-bench/bin/python of the source tree)")
     return p
 
 
@@ -42,6 +60,10 @@ def sklearn_peer(net):
 
 
 def run(args) -> int:
+    if args.observer:
+        from .. import perf
+        perf.run(args.build, min(args.repeat, 20), args.peer_python, write=args.write_docs)
+        return 0
     import numpy as np
 
     from .. import replay, train

@@ -40,8 +40,10 @@ def run(args) -> int:
         rows = export.golden_rows(model, fixtures.tiny_stream(seed))
         (out / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
         (out / f"golden_{name}.csv").write_text(export.golden_csv(rows))
+        export.write_fixed_point(out, model, name, prov, fixtures.tiny_stream(seed))
         if not args.quiet:
-            print(f"wrote {out}/model_{name}.h, golden_{name}.h/.csv ({len(rows)} rows)")
+            print(f"wrote {out}/model_{name}.h, golden_{name}.h/.csv, model_{name}_q.h, golden_{name}_q.h/.csv "
+                  f"({len(rows)} rows)")
     df, meta = fixtures.short_log()
     benchlog.write_log(out / "log_short.csv", df, meta)
     (out / "log_bad_duty.csv").write_text(fixtures.BAD_DUTY_LOG)

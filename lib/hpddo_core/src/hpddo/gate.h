@@ -56,13 +56,24 @@ struct Gate {
 
   /// The weight of the residual for input g, in [0, 1]; 0 for a NaN or infinite g_j.
   float weight(const float (&g)[kDims]) const {
+    uint8_t first = 0;
+    return weight(g, &first);
+  }
+
+  /// The same weight; the prototypes are visited from *first on (cyclically), and *first
+  /// receives the nearest one found. The result does not depend on *first (best is the
+  /// minimum over all prototypes, each sum in the same order); the time does: started
+  /// at the nearest prototype of the previous sample, the others mostly stop after a
+  /// term or two (the observer keeps that hint).
+  float weight(const float (&g)[kDims], uint8_t* first) const {
     float z[kDims];
     for (uint8_t j = 0; j < kDims; ++j) {
       if (!is_finite(g[j])) return 0.0f;
       z[j] = (g[j] - flash_float(centre + j)) / flash_float(scale + j);
     }
     float best = r_out_sq;
-    for (uint8_t k = 0; k < kProtos; ++k) {
+    uint8_t k = *first < kProtos ? *first : 0;
+    for (uint8_t n = 0; n < kProtos; ++n, k = static_cast<uint8_t>(k + 1u == kProtos ? 0u : k + 1u)) {
       const float* p = prototypes + static_cast<uint32_t>(k) * kDims;
       float acc = 0.0f;
       uint8_t j = 0;
@@ -70,7 +81,10 @@ struct Gate {
         const float diff = z[j] - flash_float(p + j);
         acc = acc + diff * diff;
       }
-      if (j == kDims && acc < best) best = acc;
+      if (j == kDims && acc < best) {
+        best = acc;
+        *first = k;
+      }
     }
     if (!(best < r_out_sq)) return 0.0f;
     if (best <= r_in_sq) return 1.0f;

@@ -62,6 +62,16 @@ struct Mlp : private detail::MlpShape<kIn, kH1, kH2> {
   static const uint16_t kParamCount =
       static_cast<uint16_t>(kW0Count + kH1 + kW1Count + kH2 + kW2Count + 1);
 
+  typedef MlpWeights Weights;
+
+  /// The observer's residual for raw features x, RPM: scaler, then forward().
+  template <class Scaler>
+  static float residual(const Scaler& scaler, const MlpWeights& w, const float (&x)[kIn]) {
+    float z[kIn];
+    scaler.transform(x, z);
+    return forward(w, z);
+  }
+
   /// Network output for standardised inputs z.
   static float forward(const MlpWeights& w, const float (&z)[kIn]) {
     float h1[kH1];
@@ -84,6 +94,16 @@ struct Mlp<kIn, kH1, 0> : private detail::MlpShape<kIn, kH1, 0> {
   static const uint16_t kW1Count = kH1;
   static const uint16_t kW2Count = 0;
   static const uint16_t kParamCount = static_cast<uint16_t>(kW0Count + kH1 + kW1Count + 1);
+
+  typedef MlpWeights Weights;
+
+  /// The observer's residual for raw features x, RPM: scaler, then forward().
+  template <class Scaler>
+  static float residual(const Scaler& scaler, const MlpWeights& w, const float (&x)[kIn]) {
+    float z[kIn];
+    scaler.transform(x, z);
+    return forward(w, z);
+  }
 
   /// Network output for standardised inputs z.
   static float forward(const MlpWeights& w, const float (&z)[kIn]) {

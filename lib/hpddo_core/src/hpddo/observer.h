@@ -94,6 +94,7 @@ class Observer {
     last_ = Estimate();
     last_.status = kStatusInvalid;
     thermal_.reset();
+    gate_first_ = 0;
     seq_gaps_ = 0;
     period_breaks_ = 0;
   }
@@ -189,19 +190,16 @@ class Observer {
     out.physics.residual_rpm = 0.0f;
     out.physics.status = kStatusFallback;
     if (model_.envelope.contains(out.x)) {
-      out.confidence = model_.gate.weight(out.x);
+      out.confidence = model_.gate.weight(out.x, &gate_first_);
       if (!(out.confidence > 0.0f)) out.physics.status = kStatusGated;  // inside the box, far from the rows
     }
     out.use_network = out.confidence > 0.0f;
     return out;
   }
 
-  /// The network's residual for a prepared sample, RPM, unclamped (scaler and MLP).
-  float residual(const Prepared& p) const {
-    float z[kFeatureCount];
-    model_.scaler.transform(p.x, z);
-    return Net::forward(model_.weights, z);
-  }
+  /// The network's residual for a prepared sample, RPM, unclamped (scaler and MLP; a
+  /// fixed-point network has the scaler folded into its first layer).
+  float residual(const Prepared& p) const { return Net::residual(model_.scaler, model_.weights, p.x); }
 
   /// The second half of step(): the estimate of a prepared sample, given the
   /// network's residual (ignored where the network does not apply; a non-finite
@@ -242,6 +240,7 @@ class Observer {
   float i_lag_A_ = 0.0f;
   float m2_lag_rpm_ = 0.0f;
   uint16_t last_seq_ = 0;
+  uint8_t gate_first_ = 0;  ///< the gate's nearest prototype at the previous sample: tried first
   bool has_lag_ = false;
   bool has_seq_ = false;
   uint32_t seq_gaps_ = 0;

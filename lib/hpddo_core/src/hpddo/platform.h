@@ -111,10 +111,65 @@ inline float flash_float(const float* p) {
 #endif
 }
 
-/// True when x is neither NaN nor an infinity (no libm dependency).
+/// Reads one integer stored with HPDDO_FLASH (and only such an integer).
+inline int8_t flash_int8(const int8_t* p) {
+#if defined(__AVR__)
+  return static_cast<int8_t>(pgm_read_byte(p));
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  int8_t v;
+  flash_fake::read(p, &v, sizeof v);
+  return v;
+#else
+  return *p;
+#endif
+}
+
+/// Reads one byte stored with HPDDO_FLASH.
+inline uint8_t flash_uint8(const uint8_t* p) {
+#if defined(__AVR__)
+  return pgm_read_byte(p);
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  uint8_t v;
+  flash_fake::read(p, &v, sizeof v);
+  return v;
+#else
+  return *p;
+#endif
+}
+
+/// Reads one int16_t stored with HPDDO_FLASH.
+inline int16_t flash_int16(const int16_t* p) {
+#if defined(__AVR__)
+  return static_cast<int16_t>(pgm_read_word(p));
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  int16_t v;
+  flash_fake::read(p, &v, sizeof v);
+  return v;
+#else
+  return *p;
+#endif
+}
+
+/// Reads one int32_t stored with HPDDO_FLASH.
+inline int32_t flash_int32(const int32_t* p) {
+#if defined(__AVR__)
+  return static_cast<int32_t>(pgm_read_dword(p));
+#elif defined(HPDDO_FLASH_FAKE_ACTIVE)
+  int32_t v;
+  flash_fake::read(p, &v, sizeof v);
+  return v;
+#else
+  return *p;
+#endif
+}
+
+/// True when x is neither NaN nor an infinity (no libm dependency): its exponent bits
+/// are not all ones. (A bit test: on the AVR a float subtraction and two compares cost
+/// about a hundred cycles more.)
 inline bool is_finite(float x) {
-  const float d = x - x;
-  return d == d && d == 0.0f;
+  uint32_t u;
+  __builtin_memcpy(&u, &x, sizeof u);
+  return (u & 0x7F800000u) != 0x7F800000u;
 }
 
 /// A quiet NaN, the marker of an absent optional reading.

@@ -26,7 +26,7 @@ namespace hpddo {
 /// First-order thermal rise of the winding above its reference, K.
 class ThermalEstimator {
  public:
-  ThermalEstimator() : rise_K_(0.0f) {}
+  ThermalEstimator() : rise_K_(0.0f), decay_dt_s_(0.0f), decay_tau_s_(0.0f), decay_(1.0f) {}
 
   /// True when the model has a thermal network to run.
   static bool enabled(const PhysicsParams& p) { return p.th_r_K_per_W > 0.0f && p.th_tau_s > 0.0f; }
@@ -47,7 +47,14 @@ class ThermalEstimator {
     if (!enabled(p) || !(dt_s > 0.0f)) return;
     const float loss_W = i_A * i_A * ra_at_ohm(p, ref_C + rise_K_);
     const float target_K = p.th_r_K_per_W * loss_W;
-    const float decay = expf(-dt_s / p.th_tau_s);
+    // exp(-dt / tau) once per period and time constant: at a steady rate every step
+    // reuses it (the same float as recomputing: no division, no expf per step).
+    if (dt_s != decay_dt_s_ || p.th_tau_s != decay_tau_s_) {
+      decay_ = expf(-dt_s / p.th_tau_s);
+      decay_dt_s_ = dt_s;
+      decay_tau_s_ = p.th_tau_s;
+    }
+    const float decay = decay_;
     float next_K = target_K + (rise_K_ - target_K) * decay;
     const float hottest_K = kWindingMax_C - ref_C;
     if (next_K > hottest_K) next_K = hottest_K;
@@ -57,6 +64,9 @@ class ThermalEstimator {
 
  private:
   float rise_K_;
+  float decay_dt_s_;   ///< period of the cached decay, s (0: none yet)
+  float decay_tau_s_;  ///< time constant of the cached decay, s
+  float decay_;        ///< exp(-decay_dt_s_ / decay_tau_s_)
 };
 
 }  // namespace hpddo

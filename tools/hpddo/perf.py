@@ -1,0 +1,293 @@
+"""Cost of the observer on the boards and the host, float against fixed point (issue 14).
+
+    hpddo bench --observer [--write-docs]
+
+1. AVR, cycle-exact (simavr, ATmega328P at 16 MHz; test/bench/avr_step.cpp run by
+   test/bench/cycles_sim.c): one full Observer::step per golden row of models/default,
+   float and fixed point (16, 8), median and maximum over the rows, and each stage alone
+   (prepare, residual, finish; physics, envelope, gate, scaler, thermal node). The peer:
+   emlearn's predict on the same network in the same run (emlearn 0.23.2, method
+   'loadable', from a Python that has it: --peer-python, default .venv-bench/bin/python;
+   without it the row says so). Flash and RAM of a program that runs one step and
+   nothing else (avr-size), and of emlearn's predict alone.
+2. Host, one thread (test/bench/host_step.cpp, g++ -O2): Observer::step samples per
+   second over every row of the bundled recordings, float and fixed, (16, 8) and a
+   (128, 64) timing model (the default model's physics, scaler, envelope and gate with
+   random weights: speed does not depend on their values); scikit-learn's predict
+   (scaler + network, features precomputed, one BLAS thread) on the same rows.
+
+Prints the table; with --write-docs writes it into docs/performance.md (between the
+bench markers), with the command, and the figures into docs/figures/bench_observer.json.
+"""
+from __future__ import annotations
+
+import json
+import os
+import pathlib
+import shutil
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from . import resource_root
+
+ROOT = resource_root()
+STAGES = {1: "step", 2: "prepare", 3: "residual", 4: "finish", 5: "physics", 6: "envelope", 7: "gate",
+          8: "thermal_off", 9: "scaler", 10: "peer_predict", 11: "physics_all_effects", 12: "thermal_on"}
+AVR_FLAGS = ["-std=gnu++11", "-mmcu=atmega328p", "-DF_CPU=16000000L", "-Os", "-ffunction-sections",
+             "-fdata-sections", "-fno-exceptions", "-fno-threadsafe-statics", "-Wall", "-Wextra"]
+GOAL_AVR_STEP = 6000          # cycles, fixed-point (16, 8) full step
+GOAL_HOST_PER_S = 5e6         # samples/s per core, (16, 8)
+CPU_HZ = 16e6
+DOC = ROOT / "docs" / "performance.md"
+FIGURES = ROOT / "docs" / "figures" / "bench_observer.json"
+BEGIN, END = "<!-- bench_observer:begin (generated) -->", "<!-- bench_observer:end -->"
+COMMAND = "hpddo bench --observer --write-docs"
+
+PEER_SCRIPT = r"""
+import sys, numpy as np
+from sklearn.neural_network import MLPRegressor
+import emlearn
+d = np.load(sys.argv[1])
+n = int(d["n"])
+est = MLPRegressor(hidden_layer_sizes=tuple(d[f"w{k}"].shape[0] for k in range(n - 1)), max_iter=1)
+est.partial_fit(np.zeros((2, d["w0"].shape[1])), np.zeros(2))
+est.coefs_ = [d[f"w{k}"].T.astype(np.float64) for k in range(n)]
+est.intercepts_ = [d[f"b{k}"].astype(np.float64) for k in range(n)]
+emlearn.convert(est, method="loadable").save(file=sys.argv[2], name="hpddo_peer")
+print(emlearn.__version__, emlearn.includedir)
+"""
+
+
+def _run(cmd, **kw) -> str:
+    res = subprocess.run([str(c) for c in cmd], capture_output=True, text=True, **kw)
+    if res.returncode != 0:
+        raise RuntimeError(f"{' '.join(map(str, cmd))} failed ({res.returncode}):\n{res.stdout[-2000:]}{res.stderr[-2000:]}")
+    return res.stdout
+
+
+def _avr_includes():
+    return [f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}", f"-I{ROOT / 'models' / 'default'}",
+            f"-I{ROOT / 'test' / 'fixtures'}"]
+
+
+def avr_size(elf: pathlib.Path) -> dict:
+    """Flash (.text + .data) and static RAM (.data + .bss + .noinit) of an ELF, bytes."""
+    sec = {}
+    for line in _run(["avr-size", "-A", elf]).splitlines():
+        p = line.split()
+        if len(p) >= 2 and p[0].startswith(".") and p[1].isdigit():
+            sec[p[0]] = int(p[1])
+    return {"flash_B": sec.get(".text", 0) + sec.get(".data", 0),
+            "ram_B": sec.get(".data", 0) + sec.get(".bss", 0) + sec.get(".noinit", 0)}
+
+
+def cycles(harness: pathlib.Path, elf: pathlib.Path) -> tuple[dict, int]:
+    """{stage: [cycles per region]} and the program's result byte (golden misses)."""
+    out = _run([harness, elf, "120"])
+    regions, result = {}, None
+    for line in out.splitlines():
+        p = line.split()
+        if len(p) == 2 and p[0] == "done":
+            result = int(p[1])
+        elif len(p) == 2 and p[0].isdigit():
+            regions.setdefault(STAGES[int(p[0])], []).append(int(p[1]))
+    if result is None:
+        raise RuntimeError(f"{elf.name}: no end marker")
+    return regions, result
+
+
+def _stats(v) -> dict:
+    return {"median": float(statistics.median(v)), "max": int(max(v)), "min": int(min(v)), "n": len(v)}
+
+
+def _peer_python(arg) -> pathlib.Path | None:
+    cand = pathlib.Path(arg) if arg else ROOT / ".venv-bench" / "bin" / "python"
+    return cand if cand.exists() else None
+
+
+def _network_npz(model, path: pathlib.Path) -> None:
+    arrays = {"n": np.array(len(model.layers))}
+    for k, (w, b) in enumerate(model.layers):
+        arrays[f"w{k}"], arrays[f"b{k}"] = np.asarray(w, np.float32), np.asarray(b, np.float32)
+    np.savez(path, **arrays)
+
+
+def avr(build: pathlib.Path, model, peer_python) -> dict:
+    """Builds and runs the AVR programs; the figures."""
+    build.mkdir(parents=True, exist_ok=True)
+    src = ROOT / "test" / "bench"
+    harness = build / "cycles_sim"
+    _run(["gcc", "-O2", "-I/usr/include/simavr", src / "cycles_sim.c", "-lsimavr", "-o", harness])
+    fig = {"cpu_hz": CPU_HZ, "compiler": _run(["avr-g++", "--version"]).splitlines()[0], "flags": " ".join(AVR_FLAGS)}
+    for kind, define in (("float", []), ("fixed", ["-DHPDDO_BENCH_FIXED"])):
+        elf = build / f"step_{kind}.elf"
+        _run(["avr-g++", *AVR_FLAGS, *define, *_avr_includes(), src / "avr_step.cpp", "-Wl,--gc-sections", "-o", elf])
+        size_elf = build / f"size_{kind}.elf"
+        _run(["avr-g++", *AVR_FLAGS, *define, "-DHPDDO_BENCH_SIZE", *_avr_includes(), src / "avr_step.cpp",
+              "-Wl,--gc-sections", "-o", size_elf])
+        regions, misses = cycles(harness, elf)
+        fig[kind] = {"stages": {k: _stats(v) for k, v in regions.items()}, "golden_misses": misses,
+                     "size": avr_size(size_elf)}
+    py = _peer_python(peer_python)
+    if py is None:
+        fig["peer"] = {"status": "not run: no Python with emlearn (python3 -m venv .venv-bench && "
+                                 ".venv-bench/bin/pip install emlearn==0.23.2 scikit-learn numpy)"}
+        return fig
+    peer_dir = build / "peer"
+    peer_dir.mkdir(exist_ok=True)
+    _network_npz(model, peer_dir / "net.npz")
+    # emlearn's convert leaves scratch files in tmp/ of its working folder: the build folder.
+    ver, inc = _run([py, "-c", PEER_SCRIPT, peer_dir / "net.npz", peer_dir / "peer_model.h"], cwd=peer_dir).split()
+    (peer_dir / "hpddo_emlearn_model.h").write_text(
+        '#include "peer_model.h"\nstatic inline float hpddo_emlearn_predict(const float* z) '
+        "{ return hpddo_peer_regress1(z, 5); }\n")
+    elf = build / "step_peer.elf"
+    inc_flags = [f"-I{peer_dir}", f"-I{inc}"]
+    _run(["avr-g++", *AVR_FLAGS, "-DHPDDO_BENCH_EMLEARN", *_avr_includes(), *inc_flags, src / "avr_step.cpp",
+          "-Wl,--gc-sections", "-o", elf])
+    size_elf = build / "size_peer.elf"
+    _run(["avr-g++", *AVR_FLAGS, "-DHPDDO_BENCH_EMLEARN", "-DHPDDO_BENCH_SIZE", *_avr_includes(), *inc_flags,
+          src / "avr_step.cpp", "-Wl,--gc-sections", "-o", size_elf])
+    regions, misses = cycles(harness, elf)
+    fig["peer"] = {"status": "run", "emlearn": ver, "stages": {k: _stats(v) for k, v in regions.items()},
+                   "golden_misses": misses, "size": avr_size(size_elf)}
+    return fig
+
+
+def wide_model(model, seed: int = 14):
+    """The default model with random (128, 64) layers: a timing model, not a trained one."""
+    import copy
+    rng = np.random.default_rng(seed)
+    m = copy.deepcopy(model)
+    sizes = (5, 128, 64, 1)
+    m.layers = [(rng.normal(0, (2.0 / i) ** 0.5, (o, i)).astype(np.float32), rng.normal(0, 0.1, o).astype(np.float32))
+                for i, o in zip(sizes[:-1], sizes[1:])]
+    return m
+
+
+def host(build: pathlib.Path, model, repeat: int) -> dict:
+    """Builds and runs host_step; scikit-learn's predict on the same rows."""
+    from . import dataset, export, quant
+    build.mkdir(parents=True, exist_ok=True)
+    wide = wide_model(model)
+    prov = {"command": "tools/hpddo/perf.py (timing model: random (128, 64) weights, seed 14)"}
+    (build / "model_wide.h").write_text(export.model_header(wide, "wide", prov))
+    (build / "model_wide_q.h").write_text(export.model_header_q(wide, quant.quantise(wide), "wide", prov))
+    exe = build / "host_step"
+    _run(["g++", "-std=c++17", "-O2", "-ffp-contract=off", f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}",
+          f"-I{ROOT / 'models' / 'default'}", f"-I{ROOT / 'host'}", f"-I{build}", ROOT / "test" / "bench" / "host_step.cpp",
+          "-o", exe])
+    logs = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]
+    fig = json.loads(_run([exe, repeat, *logs]).strip().splitlines()[-1])
+    fig["compiler"] = _run(["g++", "--version"]).splitlines()[0]
+    # scikit-learn on the same rows: features from the float reference's definition (train.features).
+    from . import train
+    recs = dataset.load_recordings(logs)
+    x = np.concatenate([train.features(r, model.physics)[0] for r in recs]).astype(np.float64)
+    fig["sklearn_rows"] = int(len(x))
+    for key, m in (("16_8", model), ("128_64", wide)):
+        fig[f"sklearn_{key}"] = len(x) / _sklearn_best(m, x, repeat)
+    return fig
+
+
+def _sklearn_best(model, x, repeat: int) -> float:
+    from sklearn.neural_network import MLPRegressor
+    from sklearn.preprocessing import StandardScaler
+    hidden = model.hidden
+    peer = MLPRegressor(hidden_layer_sizes=hidden, max_iter=1)
+    peer.partial_fit(np.zeros((2, 5)), np.zeros(2))
+    peer.coefs_ = [np.asarray(w, np.float64).T for w, _ in model.layers]
+    peer.intercepts_ = [np.asarray(b, np.float64) for _, b in model.layers]
+    sc = StandardScaler()
+    sc.mean_ = np.asarray(model.scaler_mean, np.float64)
+    sc.scale_ = np.asarray(model.scaler_scale, np.float64)
+    sc.var_ = sc.scale_ ** 2
+    sc.n_features_in_ = 5
+    best = 1e30
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        peer.predict(sc.transform(x))
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def table(fig: dict) -> str:
+    """The Markdown table of the figures."""
+    a, h = fig["avr"], fig["host"]
+    fs, qs = a["float"]["stages"], a["fixed"]["stages"]
+    rows = ["| What | Float | Fixed point | Goal / peer |", "|---|---:|---:|---|"]
+    goal = "met" if qs["step"]["median"] <= GOAL_AVR_STEP and qs["step"]["max"] <= GOAL_AVR_STEP else "**missed**"
+    rows.append(f"| AVR full step (16, 8), cycles, median / max over {qs['step']['n']} golden rows | "
+                f"{fs['step']['median']:,.0f} / {fs['step']['max']:,} | {qs['step']['median']:,.0f} / {qs['step']['max']:,} "
+                f"| goal {GOAL_AVR_STEP:,} (fixed): {goal} |")
+    rows.append(f"| AVR full step, ms at 16 MHz (median) | {fs['step']['median'] / CPU_HZ * 1e3:.2f} | "
+                f"{qs['step']['median'] / CPU_HZ * 1e3:.2f} | |")
+    rows.append(f"| AVR network (residual: scaler + MLP), cycles, median | {fs['residual']['median']:,.0f} | "
+                f"{qs['residual']['median']:,.0f} | float / fixed {fs['residual']['median'] / qs['residual']['median']:.2f}x |")
+    p = a["peer"]
+    if p["status"] == "run":
+        pm = p["stages"]["peer_predict"]["median"]
+        rows.append(f"| emlearn {p['emlearn']} predict, same network (peer), cycles, median / max | "
+                    f"{pm:,.0f} / {p['stages']['peer_predict']['max']:,} | | peer / fixed network "
+                    f"{pm / qs['residual']['median']:.2f}x; peer / float network {pm / fs['residual']['median']:.2f}x |")
+        rows.append(f"| emlearn predict alone: flash / RAM, bytes | {p['size']['flash_B']:,} / {p['size']['ram_B']:,} | | weights in RAM |")
+    else:
+        rows.append(f"| emlearn predict (peer) | {p['status']} | | |")
+    rows.append(f"| AVR one-step program: flash / RAM, bytes | {a['float']['size']['flash_B']:,} / {a['float']['size']['ram_B']:,} "
+                f"| {a['fixed']['size']['flash_B']:,} / {a['fixed']['size']['ram_B']:,} | |")
+    rows.append(f"| AVR steps off the golden estimate (1e-4 rel.) | {a['float']['golden_misses']} | {a['fixed']['golden_misses']} | 0 |")
+    for key, label in (("16_8", "(16, 8)"), ("128_64", "(128, 64) timing model")):
+        f, q, sk = h[f"float_{key}"], h[f"fixed_{key}"], h[f"sklearn_{key}"]
+        g = ""
+        if key == "16_8":
+            g = f"goal {GOAL_HOST_PER_S:.0e}: {'met' if max(f, q) >= GOAL_HOST_PER_S else '**missed**'}; "
+        rows.append(f"| Host Observer::step {label}, samples/s, one core | {f:,.0f} | {q:,.0f} | {g}scikit-learn predict "
+                    f"{sk:,.0f}/s: ratio {f / sk:.1f}x (float), {q / sk:.1f}x (fixed) |")
+    ns = lambda per_s: 1e9 / per_s
+    rows.append(f"| Host (16, 8) per sample, ns: prepare + finish (physics, envelope, gate, clamp) / network "
+                f"| {ns(h['prepare_finish_float_16_8']):.0f} / {ns(h['network_float_16_8']):.0f} "
+                f"| {ns(h['prepare_finish_fixed_16_8']):.0f} / {ns(h['network_fixed_16_8']):.0f} | each alone, best of the passes |")
+    rows.append("| ESP8266 (QEMU lx106) instruction counts | not measured | not measured | QEMU not installed here |")
+    prof = ["", "Profile per stage on the AVR (cycles, median over the golden rows; each stage timed alone):", "",
+            "| Stage | Float | Fixed point |", "|---|---:|---:|"]
+    for k in ("prepare", "residual", "finish", "gate", "physics", "physics_all_effects", "thermal_on", "scaler", "envelope"):
+        if k in fs:
+            q = f"{qs[k]['median']:,.0f}" if k in qs else "folded into layer 0"
+            prof.append(f"| {k} | {fs[k]['median']:,.0f} | {q} |")
+    return "\n".join(rows + prof) + "\n"
+
+
+def write_doc(fig: dict, text: str) -> None:
+    doc = DOC.read_text() if DOC.exists() else ""
+    block = (f"{BEGIN}\nMeasured by `{COMMAND}` on {fig['when']} ({fig['machine']}); figures in "
+             f"`docs/figures/bench_observer.json`.\n\n{text}{END}")
+    if BEGIN in doc and END in doc:
+        doc = doc[:doc.index(BEGIN)] + block + doc[doc.index(END) + len(END):]
+    else:
+        doc = doc + ("\n" if doc else "") + block + "\n"
+    DOC.write_text(doc)
+    FIGURES.parent.mkdir(parents=True, exist_ok=True)
+    FIGURES.write_text(json.dumps(fig, indent=1, sort_keys=True) + "\n")
+
+
+def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = False) -> dict:
+    from . import export
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
+    fig = {"command": COMMAND, "when": time.strftime("%Y-%m-%d", time.gmtime()),
+           "machine": f"{os.uname().machine}, {os.cpu_count()} cores",
+           "avr": avr(build / "avr", model, peer_python), "host": host(build / "host", model, repeat)}
+    text = table(fig)
+    print(text, end="")
+    if write:
+        write_doc(fig, text)
+        print(f"wrote {DOC.relative_to(ROOT)} and {FIGURES.relative_to(ROOT)}")
+    return fig
+
+
+if __name__ == "__main__":
+    sys.exit(0 if run(ROOT / "build-bench") else 1)
