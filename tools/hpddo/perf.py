@@ -105,8 +105,16 @@ def _stats(v) -> dict:
 
 
 def _peer_python(arg) -> pathlib.Path | None:
-    cand = pathlib.Path(arg) if arg else ROOT / ".venv-bench" / "bin" / "python"
-    return cand if cand.exists() else None
+    """The Python that runs emlearn's converter: the one given, else .venv-bench, else this
+    one when it has emlearn (requirements-test.txt pins it into the project venv)."""
+    import importlib.util
+    if arg:
+        cand = pathlib.Path(arg)
+        return cand if cand.exists() else None
+    cand = ROOT / ".venv-bench" / "bin" / "python"
+    if cand.exists():
+        return cand
+    return pathlib.Path(sys.executable) if importlib.util.find_spec("emlearn") else None
 
 
 def _network_npz(model, path: pathlib.Path) -> None:
