@@ -22,6 +22,7 @@
 #include <stdint.h>
 
 #include "hpddo/platform.h"
+#include "hpddo/text.h"
 #include "infer_telemetry.h"
 
 namespace infer {
@@ -36,40 +37,21 @@ static const float kJsonLimit = 99999.0f;
 /// Longest line format_json() writes, newline included, bytes (checked by a test).
 static const uint8_t kJsonMaxLine = 240;
 
-/// Appends characters to a fixed buffer; drops what does not fit and remembers it.
-class JsonWriter {
+/// The telemetry's text writer: hpddo::TextWriter (bounded, NUL-terminated, overflow
+/// remembered) with the JSON numbers.
+class JsonWriter : public hpddo::TextWriter {
  public:
-  JsonWriter(char* buf, size_t cap) : buf_(buf), cap_(cap), len_(0), overflow_(false) {}
-  void put(char c) {
-    if (len_ + 1 < cap_) {
-      buf_[len_++] = c;
-      buf_[len_] = '\0';
-    } else {
-      overflow_ = true;
-    }
-  }
-  void str(const char* s) {
-    while (*s) put(*s++);
-  }
-  void u32(uint32_t v) {
-    char d[10];
-    uint8_t n = 0;
-    do {
-      d[n++] = static_cast<char>('0' + v % 10u);
-      v /= 10u;
-    } while (v);
-    while (n) put(d[--n]);
-  }
+  JsonWriter(char* buf, size_t cap) : hpddo::TextWriter(buf, cap) {}
+
   /// v with `decimals` fixed decimals, rounded half away from zero; null if not finite.
-  void fixed(float v, uint8_t decimals) {
+  void number(float v, uint8_t decimals) {
     if (!hpddo::is_finite(v)) {
       str("null");
       return;
     }
     if (v > kJsonLimit) v = kJsonLimit;
     if (v < -kJsonLimit) v = -kJsonLimit;
-    uint32_t scale = 1u;
-    for (uint8_t k = 0; k < decimals; ++k) scale *= 10u;
+    const uint32_t scale = pow10(decimals);
     const bool negative = v < 0.0f;
     const float mag = negative ? -v : v;
     // Whole part and fraction apart (both exact below 2^23), so large values keep
@@ -84,20 +66,9 @@ class JsonWriter {
     u32(whole);
     if (decimals) {
       put('.');
-      for (uint32_t d = scale / 10u; d; d /= 10u) {
-        put(static_cast<char>('0' + frac / d));
-        frac %= d;
-      }
+      digits(frac, scale);
     }
   }
-  size_t length() const { return len_; }
-  bool overflowed() const { return overflow_; }
-
- private:
-  char* buf_;
-  size_t cap_;
-  size_t len_;
-  bool overflow_;
 };
 
 /// Writes the telemetry line of t, newline included, into buf (cap bytes, NUL-terminated);
@@ -107,25 +78,25 @@ inline size_t format_json(const Telemetry& t, char* buf, size_t cap) {
   w.str("{\"seq\":");
   w.u32(t.seq);
   w.str(",\"rpm\":");
-  w.fixed(t.rpm, 2);
+  w.number(t.rpm, 2);
   w.str(",\"rpm_m2\":");
-  w.fixed(t.rpm_m2, 2);
+  w.number(t.rpm_m2, 2);
   w.str(",\"residual\":");
-  w.fixed(t.residual_rpm, 2);
+  w.number(t.residual_rpm, 2);
   w.str(",\"confidence\":");
-  w.fixed(t.confidence, 3);
+  w.number(t.confidence, 3);
   w.str(",\"status\":\"");
   w.str(hpddo::status_name(t.status));
   w.str("\",\"us\":");
   w.u32(t.infer_us);
   if (hpddo::is_finite(t.rpm_ref)) {
     w.str(",\"rpm_ref\":");
-    w.fixed(t.rpm_ref, 2);
+    w.number(t.rpm_ref, 2);
   }
   w.str(",\"v\":");
-  w.fixed(t.v_V, 3);
+  w.number(t.v_V, 3);
   w.str(",\"i\":");
-  w.fixed(t.i_A, 3);
+  w.number(t.i_A, 3);
   w.str(",\"gaps\":");
   w.u32(t.gaps);
   w.str(",\"lost\":");
@@ -133,7 +104,7 @@ inline size_t format_json(const Telemetry& t, char* buf, size_t cap) {
   w.str(",\"crc_errors\":");
   w.u32(t.crc_errors);
   w.str("}\n");
-  return w.overflowed() ? 0 : w.length();
+  return w.overflow() ? 0 : w.length();
 }
 
 }  // namespace infer

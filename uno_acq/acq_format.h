@@ -8,6 +8,7 @@
 #include <stdint.h>
 
 #include "hpddo/platform.h"
+#include "hpddo/text.h"
 
 namespace acq {
 
@@ -21,67 +22,17 @@ HPDDO_FLASH static const char kLogHeaderEstimate[] = ",rpm_est,est_status";
 /// Longest line the board writes, with its terminating NUL.
 static const uint8_t kLineMax = 96;
 
-/// Appends text to a bounded buffer; keeps it NUL-terminated and remembers
-/// an overflow instead of writing past the end.
-class LineWriter {
+/// The bench log's text writer: hpddo::TextWriter (bounded, NUL-terminated, overflow
+/// remembered) with the CSV cells of floats.
+class LineWriter : public hpddo::TextWriter {
  public:
-  LineWriter(char* buf, size_t cap) : buf_(buf), cap_(cap), len_(0), overflow_(false) {
-    if (cap_) buf_[0] = '\0';
-  }
+  LineWriter(char* buf, size_t cap) : hpddo::TextWriter(buf, cap) {}
 
-  void put(char c) {
-    if (len_ + 1 < cap_) {
-      buf_[len_++] = c;
-      buf_[len_] = '\0';
-    } else {
-      overflow_ = true;
-    }
-  }
-  void str(const char* s) {
-    while (*s) put(*s++);
-  }
-  /// Unsigned decimal.
-  void u32(uint32_t v) {
-    char tmp[10];
-    uint8_t n = 0;
-    do {
-      tmp[n++] = static_cast<char>('0' + v % 10u);
-      v /= 10u;
-    } while (v);
-    while (n) put(tmp[--n]);
-  }
-  /// Signed decimal.
-  void i32(int32_t v) {
-    if (v < 0) {
-      put('-');
-      u32(static_cast<uint32_t>(-(v + 1)) + 1u);
-    } else {
-      u32(static_cast<uint32_t>(v));
-    }
-  }
-  /// Fixed point: scaled / 10^decimals with exactly `decimals` digits.
-  void fixed(int32_t scaled, uint8_t decimals) {
-    uint32_t div = 1;
-    for (uint8_t k = 0; k < decimals; ++k) div *= 10u;
-    uint32_t mag = scaled < 0 ? static_cast<uint32_t>(-(scaled + 1)) + 1u : static_cast<uint32_t>(scaled);
-    if (scaled < 0) put('-');
-    u32(mag / div);
-    if (decimals) {
-      put('.');
-      uint32_t frac = mag % div;
-      for (uint32_t d = div / 10u; d; d /= 10u) {
-        put(static_cast<char>('0' + frac / d));
-        frac %= d;
-      }
-    }
-  }
   /// A float rounded to `decimals` digits (|x| < 2e9 / 10^decimals);
   /// writes nothing for NaN or infinity, an empty CSV cell.
   void real(float x, uint8_t decimals) {
     if (!hpddo::is_finite(x)) return;
-    float scale = 1.0f;
-    for (uint8_t k = 0; k < decimals; ++k) scale *= 10.0f;
-    const float s = x * scale;
+    const float s = x * static_cast<float>(pow10(decimals));
     if (s > 2.0e9f || s < -2.0e9f) return;
     fixed(static_cast<int32_t>(s >= 0.0f ? s + 0.5f : s - 0.5f), decimals);
   }
@@ -96,16 +47,6 @@ class LineWriter {
     }
     fixed(s, dec);
   }
-
-  size_t length() const { return len_; }
-  bool overflow() const { return overflow_; }
-  const char* c_str() const { return buf_; }
-
- private:
-  char* buf_;
-  size_t cap_;
-  size_t len_;
-  bool overflow_;
 };
 
 /// One row of the log.
@@ -128,11 +69,7 @@ inline void format_row(LineWriter& w, const LogRow& r) {
   const uint64_t t_us = static_cast<uint64_t>(r.elapsed_samples) * r.period_us;
   w.u32(static_cast<uint32_t>(t_us / 1000000u));
   w.put('.');
-  uint32_t frac = static_cast<uint32_t>(t_us % 1000000u);
-  for (uint32_t d = 100000u; d; d /= 10u) {
-    w.put(static_cast<char>('0' + frac / d));
-    frac %= d;
-  }
+  w.digits(static_cast<uint32_t>(t_us % 1000000u), 1000000u);
   w.put(',');
   w.fixed(r.duty_q, 4);
   w.put(',');

@@ -565,6 +565,13 @@ def _effects_md() -> str:
         rows.append(f"| {e.name} | `{e.field}` | {e.unit} | {e.show_unit} | "
                     f"{lo * e.show_scale:.3g}..{hi * e.show_scale:.3g} {e.show_unit} | {md_cell(e.meaning)} | "
                     f"{md_cell(e.excited_by)} |")
+    rows += ["", "The shape parameters (`Shape`: the forms of a term physics allows, fitted wherever its "
+                 "effect is named; the default is the base form):", "",
+             "| effect | field | SI unit | default | range | forms |", "|---|---|---|---|---|---|"]
+    for e in EFFECTS:
+        for sh in e.shapes:
+            rows.append(f"| {e.name} | `{sh.field}` | {sh.unit} | {sh.default:g} | {sh.bounds[0]:g}..{sh.bounds[1]:g} | "
+                        f"{md_cell(sh.forms)} |")
     return "\n".join(rows) + "\n"
 
 
