@@ -79,7 +79,7 @@ def test_the_installed_package_is_not_the_tree(installed):
 def test_help_of_the_command_and_every_subcommand(installed):
     bin_dir, cwd = installed
     top = _run([bin_dir / "hpddo", "--help"], cwd=cwd).stdout
-    for sub in ("train", "diagnose", "twin", "capture", "demo", "bench", "fixtures"):
+    for sub in ("train", "evaluate", "diagnose", "compare", "twin", "capture", "demo", "bench", "fixtures"):
         assert sub in top
     train = _run([bin_dir / "hpddo", "train", "--help"], cwd=cwd).stdout
     for flag in ("--out", "--effects", "--ra-ohm", "--seed", "--no-glitch-filter", "--quiet"):
@@ -126,6 +126,8 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
 SHARED = {  # subcommand -> the shared options it takes
     "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
     "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
+    "evaluate": {"--out", "--no-glitch-filter"},
+    "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
     "twin": {"--out", "--quiet", "--seed", "--effects"},
     "capture": {"--out", "--quiet"},
     "demo": {"--out", "--quiet", "--seed", "--ra-ohm", "--no-glitch-filter"},
