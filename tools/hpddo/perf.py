@@ -166,6 +166,131 @@ def avr(build: pathlib.Path, model, peer_python) -> dict:
     return fig
 
 
+# ESP8266 (Xtensa LX106) in QEMU's sim machine: instruction counts (docs/performance.md).
+LX_CXX = "xtensa-lx106-elf-g++"
+LX_CC = "xtensa-lx106-elf-gcc"
+LX_SPECS = "-specs=/usr/lib/xtensa-lx106-elf/picolibc.specs"
+LX_FLAGS = ["-std=c++11", LX_SPECS, "-O2", "-mlongcalls", "-mtext-section-literals", "-DESP8266", "-fno-exceptions",
+            "-fno-rtti", "-ffunction-sections", "-ffp-contract=off"]
+LX_QEMU = ["qemu-system-xtensa", "-M", "sim", "-cpu", "lx106", "-semihosting", "-display", "none", "-monitor", "none",
+           "-serial", "none", "-icount", "shift=10"]
+LX_CLOCK_HZ = 80e6             # the ESP8266's default CPU clock
+PAPER_LX106_MS = 21.79         # the paper's (128, 64) float inference on the ESP8266
+GOAL_LX106_WIDE_FIXED = 70000  # instructions, fixed-point (128, 64) full step
+# The soft-float and division helpers that the ESP8266 has in ROM and Debian's lx106 libgcc
+# lacks, assembled from GCC's own sources (Debian's gcc-12-source; libgcc/config/xtensa/t-xtensa).
+LX_LIB1FUNCS = ("_mulsi3 _divsi3 _modsi3 _udivsi3 _umodsi3 _umulsidi3 _clz _clzsi2 _ctzsi2 _ffssi2 _ashldi3 _ashrdi3 "
+                "_lshrdi3 _bswapsi2 _bswapdi2 _negsf2 _addsubsf3 _mulsf3 _divsf3 _cmpsf2 _fixsfsi _fixsfdi _fixunssfsi "
+                "_fixunssfdi _floatsisf _floatunsisf _sqrtf _recipsf2 _rsqrtsf2 _floatdisf _floatundisf _negdf2 "
+                "_addsubdf3 _muldf3 _divdf3 _cmpdf2 _fixdfsi _fixdfdi _fixunsdfsi _fixunsdfdi _floatsidf _floatunsidf "
+                "_floatdidf _floatundidf _truncdfsf2 _extendsfdf2 _sqrt _recipdf2 _rsqrtdf2").split()
+GCC_SOURCE_GLOB = "/usr/src/gcc-12/gcc-12*.tar.xz"
+XTENSA_CONFIG_DIR = "/usr/lib/gcc/xtensa-lx106-elf/12.2.0/plugin/include"
+
+
+def _debian_packages(probe, packages) -> str | None:
+    """None when probe() holds, installing the Debian packages first when root (apt-get);
+    otherwise what is missing and the command that installs it."""
+    if probe():
+        return None
+    cmd = ["apt-get", "install", "-y", "-q", *packages]
+    if os.geteuid() != 0:
+        return f"not run: {' '.join(packages)} missing (as root: {' '.join(cmd)})"
+    print(f"bench: installing {' '.join(packages)} (apt-get) for the lx106 figures", flush=True)
+    env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+    subprocess.run(cmd, check=False, env=env, stdout=subprocess.DEVNULL)
+    return None if probe() else f"not run: apt-get install {' '.join(packages)} failed"
+
+
+def _lx106_libgcc(build: pathlib.Path) -> pathlib.Path:
+    """libgcc's xtensa soft-float and division helpers, assembled into build/libsoft.a."""
+    import glob
+    import tarfile
+    lib = build / "libsoft.a"
+    if lib.exists():
+        return lib
+    src = build / "libgcc-xtensa"
+    tar_path = sorted(glob.glob(GCC_SOURCE_GLOB))[0]
+    with tarfile.open(tar_path) as tar:
+        members = [m for m in tar.getmembers() if "/libgcc/config/xtensa/" in m.name and m.isfile()]
+        for m in members:
+            m.name = pathlib.Path(m.name).name
+            tar.extract(m, src)
+    objs = []
+    for f in LX_LIB1FUNCS:
+        o = build / f"lib1{f}.o"
+        _run([LX_CC, "-c", "-mlongcalls", f"-DL{f}", "-xassembler-with-cpp", f"-I{XTENSA_CONFIG_DIR}", f"-I{src}",
+              src / "lib1funcs.S", "-o", o])
+        objs.append(o)
+    _run(["xtensa-lx106-elf-ar", "rcs", lib, *objs])
+    return lib
+
+
+def _lx106_run(build: pathlib.Path, name: str, includes: str, inc_dirs, libsoft) -> dict:
+    """Builds lx106_step with bench_model.h = includes, runs it in QEMU; the counts."""
+    d = build / name
+    d.mkdir(parents=True, exist_ok=True)
+    (d / "bench_model.h").write_text(includes)
+    src = ROOT / "test" / "bench"
+    obj, elf = d / "step.o", d / "step.elf"
+    _run([LX_CXX, *LX_FLAGS, f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}", f"-I{d}", *[f"-I{i}" for i in inc_dirs],
+          "-c", src / "lx106_step.cpp", "-o", obj])
+    _run([LX_CC, LX_SPECS, "-nostartfiles", "-T", src / "lx106.ld", src / "lx106_start.S", obj,
+          "-Wl,--start-group", libsoft, "-lc", "-lm", "-Wl,--end-group", "-o", elf])
+    out = subprocess.run([*LX_QEMU, "-kernel", str(elf)], check=True, capture_output=True, text=True,
+                         timeout=600).stdout
+    vals = {}
+    steps = []
+    for line in out.splitlines():
+        key, _, v = line.partition(" ")
+        if key == "step":
+            steps.append(int(v))
+        elif key in ("empty", "nop100", "bad"):
+            vals[key] = int(v)
+    per_insn = (vals["nop100"] - vals["empty"]) / 100.0
+    insns = [round((c - vals["empty"]) / per_insn) for c in steps]
+    return {"step": _stats(insns), "counts_per_instruction": per_insn, "golden_misses": vals.get("bad"),
+            "code_B": int(_run(["xtensa-lx106-elf-size", "-A", obj]).split("Total")[1].split()[0])}
+
+
+def lx106(build: pathlib.Path, model) -> dict:
+    """Instruction counts of one full observer step on the lx106 in QEMU: (16, 8) float and
+    fixed point on models/default and its goldens, and the (128, 64) timing model on the same
+    rows. QEMU and GCC's sources are installed on demand (apt-get, as root)."""
+    import glob
+    import shutil as _sh
+    from . import export, quant
+    for probe, pkgs in ((lambda: _sh.which("qemu-system-xtensa"), ["qemu-system-misc"]),
+                        (lambda: glob.glob(GCC_SOURCE_GLOB), ["gcc-12-source"]),
+                        (lambda: _sh.which(LX_CXX), ["gcc-xtensa-lx106", "binutils-xtensa-lx106",
+                                                     "picolibc-xtensa-lx106-elf"])):
+        missing = _debian_packages(probe, pkgs)
+        if missing:
+            return {"status": missing}
+    build.mkdir(parents=True, exist_ok=True)
+    libsoft = _lx106_libgcc(build)
+    wide = wide_model(model)
+    prov = {"command": "tools/hpddo/perf.py (timing model: random (128, 64) weights, seed 14)"}
+    (build / "model_wide.h").write_text(export.model_header(wide, "wide", prov))
+    (build / "model_wide_q.h").write_text(export.model_header_q(wide, quant.quantise(wide), "wide", prov))
+    default = ROOT / "models" / "default"
+    fig = {"status": "run", "qemu": _run(["qemu-system-xtensa", "--version"]).splitlines()[0],
+           "compiler": _run([LX_CXX, "--version"]).splitlines()[0], "flags": " ".join(LX_FLAGS)}
+    cases = {
+        "float_16_8": ('#include "model_default.h"\n#include "golden_default.h"\n'
+                       "namespace m = hpddo_model_default;\nnamespace g = hpddo_golden_default;\n"),
+        "fixed_16_8": ('#include "model_default_q.h"\n#include "golden_default_q.h"\n'
+                       "namespace m = hpddo_model_default_q;\nnamespace g = hpddo_golden_default_q;\n"),
+        "float_128_64": ('#define BENCH_NO_CHECK\n#include "model_wide.h"\n#include "golden_default.h"\n'
+                         "namespace m = hpddo_model_wide;\nnamespace g = hpddo_golden_default;\n"),
+        "fixed_128_64": ('#define BENCH_NO_CHECK\n#include "model_wide_q.h"\n#include "golden_default.h"\n'
+                         "namespace m = hpddo_model_wide_q;\nnamespace g = hpddo_golden_default;\n"),
+    }
+    for name, inc in cases.items():
+        fig[name] = _lx106_run(build, name, inc, [default, build], libsoft)
+    return fig
+
+
 def wide_model(model, seed: int = 14):
     """The default model with random (128, 64) layers: a timing model, not a trained one."""
     import copy
@@ -259,7 +384,23 @@ def table(fig: dict) -> str:
     rows.append(f"| Host (16, 8) per sample, ns: prepare + finish (physics, envelope, gate, clamp) / network "
                 f"| {ns(h['prepare_finish_float_16_8']):.0f} / {ns(h['network_float_16_8']):.0f} "
                 f"| {ns(h['prepare_finish_fixed_16_8']):.0f} / {ns(h['network_fixed_16_8']):.0f} | each alone, best of the passes |")
-    rows.append("| ESP8266 (QEMU lx106) instruction counts | not measured | not measured | QEMU not installed here |")
+    lx = fig.get("lx106", {"status": "not run"})
+    if lx.get("status") == "run":
+        for key, label in (("16_8", "(16, 8)"), ("128_64", "(128, 64) timing model")):
+            f, q = lx[f"float_{key}"]["step"], lx[f"fixed_{key}"]["step"]
+            note = ""
+            if key == "128_64":
+                ok = q["median"] <= GOAL_LX106_WIDE_FIXED and q["max"] <= GOAL_LX106_WIDE_FIXED
+                note = (f"goal {GOAL_LX106_WIDE_FIXED:,} (fixed): {'met' if ok else '**missed**'}; the paper's float "
+                        f"(128, 64): {PAPER_LX106_MS} ms")
+            rows.append(f"| ESP8266 (QEMU lx106) full step {label}, instructions, median / max | "
+                        f"{f['median']:,.0f} / {f['max']:,} | {q['median']:,.0f} / {q['max']:,} | {note} |")
+            rows.append(f"| the same, ms at 80 MHz, one instruction a cycle (a lower bound), median | "
+                        f"{f['median'] / LX_CLOCK_HZ * 1e3:.3f} | {q['median'] / LX_CLOCK_HZ * 1e3:.3f} | |")
+        rows.append(f"| ESP8266 steps off the golden estimate (1e-4 rel.), (16, 8) | "
+                    f"{lx['float_16_8']['golden_misses']} | {lx['fixed_16_8']['golden_misses']} | 0 |")
+    else:
+        rows.append(f"| ESP8266 (QEMU lx106) instruction counts | {lx.get('status')} | | |")
     prof = ["", "Profile per stage on the AVR (cycles, median over the golden rows; each stage timed alone):", "",
             "| Stage | Float | Fixed point |", "|---|---:|---:|"]
     for k in ("prepare", "residual", "finish", "gate", "physics", "physics_all_effects", "thermal_on", "scaler", "envelope"):
@@ -282,13 +423,14 @@ def write_doc(fig: dict, text: str) -> None:
     FIGURES.write_text(json.dumps(fig, indent=1, sort_keys=True) + "\n")
 
 
-def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = False) -> dict:
+def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = False, lx: bool = True) -> dict:
     from . import export
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
     fig = {"command": COMMAND, "when": time.strftime("%Y-%m-%d", time.gmtime()),
            "machine": f"{os.uname().machine}, {os.cpu_count()} cores",
-           "avr": avr(build / "avr", model, peer_python), "host": host(build / "host", model, repeat)}
+           "avr": avr(build / "avr", model, peer_python), "host": host(build / "host", model, repeat),
+           "lx106": lx106(build / "lx106", model) if lx else {"status": "not run (--no-lx106)"}}
     text = table(fig)
     print(text, end="")
     if write:

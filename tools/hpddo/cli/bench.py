@@ -10,7 +10,7 @@
    (network only, features precomputed, one BLAS thread), measured in the same run.
    Target: at least 1e6 samples/s per core for the per-sample path.
 
-    hpddo bench --observer [--write-docs] [--build DIR] [--peer-python PY]
+    hpddo bench --observer [--write-docs] [--no-lx106] [--build DIR] [--peer-python PY]
 
 instead measures the observer on the boards and the host, float against fixed point
 (tools/hpddo/perf.py: AVR cycle-exact in simavr with emlearn as the peer, host samples/s
@@ -42,6 +42,9 @@ def parser(prog: str = "hpddo bench") -> argparse.ArgumentParser:
                         "docs/figures/bench_observer.json")
     p.add_argument("--build", type=pathlib.Path, default=resource_root() / "build-bench", metavar="DIR",
                    help="--observer: build folder (default build-bench in the source tree)")
+    p.add_argument("--no-lx106", action="store_true",
+                   help="--observer: leave out the ESP8266 instruction counts (QEMU's lx106; without this, "
+                        "qemu-system-misc and gcc-12-source are installed on demand when root, about 700 MB)")
     p.add_argument("--peer-python", type=pathlib.Path, default=None, metavar="PY",
                    help="--observer: a Python with emlearn 0.23.2 and scikit-learn, for the peer "
                         "(default .venv-bench/bin/python of the source tree)")
@@ -62,7 +65,7 @@ def sklearn_peer(net):
 def run(args) -> int:
     if args.observer:
         from .. import perf
-        perf.run(args.build, min(args.repeat, 20), args.peer_python, write=args.write_docs)
+        perf.run(args.build, min(args.repeat, 20), args.peer_python, write=args.write_docs, lx=not args.no_lx106)
         return 0
     import numpy as np
 
