@@ -46,7 +46,8 @@ inline float true_current_A(const PhysicsParams& p, float i_A) { return i_A - p.
 
 /// Terminal voltage with the voltage channel's offset and gain error removed, V.
 inline float true_voltage_V(const PhysicsParams& p, float v_V) {
-  return (v_V - p.v_offset_V) / (1.0f + p.v_gain);
+  // Without a gain error no division: x / 1 is x, the same float.
+  return p.v_gain == 0.0f ? v_V - p.v_offset_V : (v_V - p.v_offset_V) / (1.0f + p.v_gain);
 }
 
 /// Armature resistance at temperature temp_C, ohm.
@@ -56,6 +57,7 @@ inline float ra_at_ohm(const PhysicsParams& p, float temp_C) {
 
 /// Brush contact drop at current i_A (true current), V.
 inline float brush_drop_V(const PhysicsParams& p, float i_A) {
+  if (p.brush_V == 0.0f) return 0.0f;  // off: no division (0 x a finite ratio is 0)
   const float mag = i_A < 0.0f ? -i_A : i_A;
   const float knee = p.brush_knee_A > kBrushKneeMin_A ? p.brush_knee_A : kBrushKneeMin_A;
   return p.brush_V * i_A / (mag + knee);
