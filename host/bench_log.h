@@ -10,6 +10,7 @@
 #include <cfloat>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -351,6 +352,17 @@ inline BenchLog read_bench_log(const std::string& path) {
   ss << in.rdbuf();
   const std::string text = ss.str();
   return parse_bench_log(path, text);
+}
+
+/// The first row of a log's test part: its metadata split_row where that is a row of it
+/// (what hpddo writes into the logs it prepares), else floor(fraction x rows).
+inline size_t split_row(const BenchLog& log, double fraction) {
+  auto it = log.meta.find("split_row");
+  if (it != log.meta.end()) {
+    const long s = std::strtol(it->second.c_str(), nullptr, 10);
+    if (s >= 0 && static_cast<size_t>(s) < log.size()) return static_cast<size_t>(s);
+  }
+  return static_cast<size_t>(std::floor(fraction * static_cast<double>(log.size())));
 }
 
 }  // namespace hpddo_host

@@ -44,15 +44,6 @@ struct Row {
   uint8_t status;
 };
 
-size_t split_row(const hpddo_host::BenchLog& log, double fraction) {
-  auto it = log.meta.find("split_row");
-  if (it != log.meta.end()) {
-    const long s = std::strtol(it->second.c_str(), nullptr, 10);
-    if (s >= 0 && static_cast<size_t>(s) < log.size()) return static_cast<size_t>(s);
-  }
-  return static_cast<size_t>(std::floor(fraction * static_cast<double>(log.size())));
-}
-
 float first_dt(const hpddo_host::BenchLog& log) {
   auto it = log.meta.find("sample_rate_hz");
   if (it != log.meta.end()) {
@@ -229,7 +220,7 @@ int main(int argc, char** argv) {
 
   double max_diff = 0.0;
   for (const auto& log : logs) {
-    const size_t split = split_row(log, fraction);
+    const size_t split = hpddo_host::split_row(log, fraction);
     std::vector<Row> rows, other;
     if (batched) run_batched(log, split, rows); else run_per_sample(log, split, rows);
     if (check) {
@@ -262,7 +253,7 @@ int main(int argc, char** argv) {
       for (int rep = 0; rep < bench; ++rep) {
         const auto t0 = std::chrono::steady_clock::now();
         for (const auto& log : logs) {
-          const size_t split = split_row(log, fraction);
+          const size_t split = hpddo_host::split_row(log, fraction);
           if (mode == 0) run_per_sample(log, split, rows); else run_batched(log, split, rows);
         }
         const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -62,19 +62,10 @@ double first_dt(const hpddo_host::BenchLog& log) {
   return d[d.size() / 2];
 }
 
-size_t split_row(const hpddo_host::BenchLog& log, double fraction) {
-  auto it = log.meta.find("split_row");
-  if (it != log.meta.end()) {
-    const long s = std::strtol(it->second.c_str(), nullptr, 10);
-    if (s >= 0 && static_cast<size_t>(s) < log.size()) return static_cast<size_t>(s);
-  }
-  return static_cast<size_t>(std::floor(fraction * static_cast<double>(log.size())));
-}
-
 Log load(const std::string& path, double fraction) {
   Log L{hpddo_host::read_bench_log(path), {}, {}};
   const auto& d = L.data;
-  const size_t n = d.size(), split = split_row(d, fraction);
+  const size_t n = d.size(), split = hpddo_host::split_row(d, fraction);
   L.start.assign(n, 0);
   L.dt.assign(n, first_dt(d));
   for (size_t k = 0; k < n; ++k) {
@@ -303,7 +294,7 @@ int run(const Motor& m, const EkfParams& e, const SmoParams& s, const std::strin
     const auto ekf = replay(L, Ekf(m, e));
     const auto smo = replay(L, Smo(m, s));
     const auto nn = has_mlp ? replay_mlp(L, net) : std::vector<double>(L.data.size(), NAN);
-    const size_t split = split_row(L.data, fraction);
+    const size_t split = hpddo_host::split_row(L.data, fraction);
     std::string stem = p.substr(p.find_last_of('/') + 1);
     stem = stem.substr(0, stem.find_last_of('.'));
     const std::string path = out_dir + "/" + stem + ".observers.csv";
