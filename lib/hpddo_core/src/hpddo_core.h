@@ -18,5 +18,6 @@
 #include "hpddo/model.h"
 #include "hpddo/observer.h"
 #include "hpddo/frame.h"
+#include "hpddo/text.h"
 
 #endif  // HPDDO_CORE_H
