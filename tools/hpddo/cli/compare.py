@@ -24,16 +24,6 @@ from . import options
 TOOL = "compare"
 
 
-def _hidden(text: str) -> tuple:
-    try:
-        h = tuple(int(v) for v in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"hidden sizes as N or N,M expected, got {text!r}") from None
-    if not 1 <= len(h) <= 2 or min(h) < 1:
-        raise argparse.ArgumentTypeError(f"one or two positive layer sizes expected, got {text!r}")
-    return h
-
-
 def parser(prog: str = "hpddo compare") -> argparse.ArgumentParser:
     p = options.new_parser(prog, __doc__)
     options.logs(p)
@@ -41,7 +31,7 @@ def parser(prog: str = "hpddo compare") -> argparse.ArgumentParser:
     p.add_argument("--validation", nargs="+", type=pathlib.Path, default=[], metavar="LOG",
                    help="labelled recordings no training sees, scored whole (e.g. data/validation/*.csv)")
     options.effects(p, "also score M2 with these effect terms")
-    p.add_argument("--hidden", type=_hidden, default=(16, 8), metavar="N[,M]",
+    p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,M]",
                    help="hidden layers of M3 and of the pure network (default 16,8)")
     p.add_argument("--quick", action="store_true", help="60 epochs per network and two architectures (tests)")
     p.add_argument("--workers", type=options.positive_int, default=2,

@@ -76,6 +76,17 @@ def _int_at_least(text: str, low: int, fault: str) -> int:
     return value
 
 
+def hidden_sizes(text: str) -> tuple:
+    """--hidden N[,N]: one or two hidden layers of 1..255 neurons (the core's Mlp)."""
+    try:
+        sizes = tuple(int(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"hidden sizes like 16,8 expected, got {text!r}") from None
+    if not 1 <= len(sizes) <= 2 or min(sizes) < 1 or max(sizes) > 255:
+        raise argparse.ArgumentTypeError("one or two hidden layers of 1..255 neurons (the core's Mlp)")
+    return sizes
+
+
 def positive_int(text: str) -> int:
     """An argparse type: an integer of at least 1."""
     return _int_at_least(text, 1, "is not a positive integer")

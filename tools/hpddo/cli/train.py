@@ -35,16 +35,6 @@ from . import options
 PROVENANCE_COMMAND = "tools/gen_weights.py"
 
 
-def hidden_sizes(text: str) -> tuple:
-    try:
-        sizes = tuple(int(s) for s in text.split(","))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"hidden sizes like 16,8 expected, got {text!r}") from None
-    if not 1 <= len(sizes) <= 2 or min(sizes) < 1 or max(sizes) > 255:
-        raise argparse.ArgumentTypeError("one or two hidden layers of 1..255 neurons (the core's Mlp)")
-    return sizes
-
-
 def split_fraction(text: str) -> float:
     try:
         value = float(text)
@@ -70,7 +60,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     p.add_argument("--ke-fit", choices=["eq20", "lsq"], default="eq20",
                    help="M2 Ke: mean of per-window ratios (paper eq. 20, the default) or least squares")
     options.effects(p, "effect terms to add to the physics model M2")
-    p.add_argument("--hidden", type=hidden_sizes, default=(16, 8), metavar="N[,N]",
+    p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,N]",
                    help="hidden layer sizes of M3 (default 16,8; the paper's is 128,64)")
     p.add_argument("--max-iter", type=options.positive_int, default=2000, metavar="EPOCHS",
                    help="training epochs of M3, no early stop (default 2000)")
