@@ -631,9 +631,9 @@ def residuals(inp: Inputs, mf: ModelFit, sel: Selection) -> Residuals:
 
 def ra_verdict(ra: RaFit | None) -> str:
     """The verdict's sentence on Ra; "" when the reading fits."""
-    rel = ra.supported_ohm / ra.given_ohm - 1.0
     if ra is None or (not ra.mismatch and not ra.confounded_with):
         return ""
+    rel = ra.supported_ohm / ra.given_ohm - 1.0
     if not ra.mismatch:
         return (f"An error proportional to the current remains that a wrong Ra (the data support "
                 f"{ra.supported_ohm:.3g} ohm against the {ra.given_ohm:.3g} ohm given, within the reading's "
