@@ -366,18 +366,6 @@ def tune_observers(jobs: dict, work: pathlib.Path, coarse: bool = False) -> dict
     return out
 
 
-def build_replay(model_dir: pathlib.Path, name: str, exe: pathlib.Path) -> pathlib.Path:
-    """host/replay.cpp built against model_dir/model_<name>.h in a build folder of its own
-    (replay.build serialises its one folder; two models compile at once here)."""
-    with tempfile.TemporaryDirectory(prefix="hpddo-compare-replay-") as d:
-        replay._cmake(["-S", str(replay.SOURCE), "-B", d, f"-DHPDDO_MODEL_DIR={pathlib.Path(model_dir).resolve()}",
-                       f"-DHPDDO_MODEL_NAME={name}"], "configuring the native replay")
-        replay._cmake(["--build", d], "building the native replay")
-        exe.parent.mkdir(parents=True, exist_ok=True)
-        shutil.copy2(pathlib.Path(d) / "replay", exe)
-    return exe
-
-
 def write_mlp(scaler: network.Scaler, net: network.Network, path: pathlib.Path) -> pathlib.Path:
     """The pure network for compare_observers (its read_mlp), floats to 9 digits."""
     sizes = [len(scaler.mean_)] + [w.shape[1] for w in net.coefs_]
@@ -712,7 +700,7 @@ def replay_m3(recs, vrecs, m1, m2, fit: Fitted, gated: bool, work, cfg) -> dict:
     (mdir / f"model_{mname}.h").write_text(export.model_header(model, mname, {
         "command": cfg.command, "seed": cfg.seed, "note": "hpddo compare, chronological training part"}))
     rdir = work / "replay" / mname
-    exe = build_replay(mdir, mname, rdir / "replay")
+    exe = replay.build(mdir, mname, rdir / "replay")
     out = {}
     for part, rs, split in (("chronological", recs, None), ("validation", vrecs, 0.0)):
         d = rdir / part

@@ -2,21 +2,17 @@
 
 The replay is built by CMake only: host/CMakeLists.txt, standalone, for one model folder
 (-DHPDDO_MODEL_DIR, -DHPDDO_MODEL_NAME, Eigen through find_package(Eigen3)), the same
-recipe and flags (-O2, -ffp-contract=off) the root project uses for its own replay. One
-build folder is configured per process (about a second, compiler detection) and
-re-pointed at each new model (a regeneration, well under a second); the executable is
-copied to where the caller asked, and the build folder is removed when the process ends.
+recipe and flags (-O2, -ffp-contract=off) the root project uses for its own replay. Each
+build has a temporary folder of its own (so that several models build at once, as hpddo
+compare does); the executable is copied to where the caller asked and the folder removed.
 """
 from __future__ import annotations
 
-import atexit
 import json
-import os
 import pathlib
 import shutil
 import subprocess
 import tempfile
-import threading
 
 from . import resource_root
 from .errors import InputError
@@ -24,23 +20,9 @@ from .errors import InputError
 ROOT = resource_root()
 SOURCE = ROOT / "host"
 
-_lock = threading.Lock()
-_build_dir: pathlib.Path | None = None
-
 
 class ToolchainError(InputError):
     """CMake, a C++ compiler or Eigen is missing: the message says what to install."""
-
-
-def _own_build_dir() -> pathlib.Path:
-    """This process's build folder, made on first use and removed at exit."""
-    global _build_dir
-    if _build_dir is None:
-        d = pathlib.Path(tempfile.mkdtemp(prefix="hpddo-replay-"))
-        pid = os.getpid()
-        atexit.register(lambda: os.getpid() == pid and shutil.rmtree(d, ignore_errors=True))
-        _build_dir = d
-    return _build_dir
 
 
 def _cmake(args, what: str) -> None:
@@ -65,13 +47,13 @@ def build(model_dir: pathlib.Path, name: str, out: pathlib.Path) -> pathlib.Path
                              "and libeigen3-dev (scripts/bootstrap.sh does)")
     if not (SOURCE / "replay.cpp").is_file():
         raise ToolchainError(f"the replay's sources are not at {SOURCE}: reinstall hpddo")
-    with _lock:
-        bdir = _own_build_dir()
-        _cmake(["-S", str(SOURCE), "-B", str(bdir), f"-DHPDDO_MODEL_DIR={pathlib.Path(model_dir).resolve()}",
+    with tempfile.TemporaryDirectory(prefix="hpddo-replay-") as bdir:
+        _cmake(["-S", str(SOURCE), "-B", bdir, f"-DHPDDO_MODEL_DIR={pathlib.Path(model_dir).resolve()}",
                 f"-DHPDDO_MODEL_NAME={name}"], "configuring the native replay")
-        _cmake(["--build", str(bdir), "--clean-first"], "building the native replay")
+        _cmake(["--build", bdir], "building the native replay")
         out = pathlib.Path(out)
-        shutil.copy2(bdir / "replay", out)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(pathlib.Path(bdir) / "replay", out)
     return out
 
 
