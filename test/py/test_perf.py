@@ -45,8 +45,7 @@ def test_lx106_step_in_qemu_matches_the_goldens(tmp_path):
     if not (shutil.which("qemu-system-xtensa") and glob.glob(perf.GCC_SOURCE_GLOB) and shutil.which(perf.LX_CXX)):
         pytest.skip("qemu-system-misc, gcc-12-source or the lx106 GCC not installed (hpddo bench --observer installs them)")
     libsoft = perf._lx106_libgcc(tmp_path)
-    inc = ('#include "model_default_q.h"\n#include "golden_default_q.h"\n'
-           "namespace m = hpddo_model_default_q;\nnamespace g = hpddo_golden_default_q;\n")
+    inc = perf.bench_model_h("model_default_q", "golden_default_q")
     got = perf._lx106_run(tmp_path, "fixed_16_8", inc, [ROOT / "models" / "default"], libsoft)
     assert got["golden_misses"] == 0
     committed = json.loads(perf.FIGURES.read_text())["lx106"]["fixed_16_8"]["step"]

@@ -21,6 +21,7 @@ bench markers), with the command, and the figures into docs/figures/bench_observ
 """
 from __future__ import annotations
 
+import glob
 import json
 import os
 import pathlib
@@ -204,7 +205,6 @@ def _debian_packages(probe, packages) -> str | None:
 
 def _lx106_libgcc(build: pathlib.Path) -> pathlib.Path:
     """libgcc's xtensa soft-float and division helpers, assembled into build/libsoft.a."""
-    import glob
     import tarfile
     lib = build / "libsoft.a"
     if lib.exists():
@@ -224,6 +224,13 @@ def _lx106_libgcc(build: pathlib.Path) -> pathlib.Path:
         objs.append(o)
     _run(["xtensa-lx106-elf-ar", "rcs", lib, *objs])
     return lib
+
+
+def bench_model_h(model: str, golden: str, check: bool = True) -> str:
+    """bench_model.h of lx106_step.cpp: the model header and golden rows it includes (their
+    file stems; the namespaces are hpddo_<stem>), and whether the estimates are checked."""
+    return (("" if check else "#define BENCH_NO_CHECK\n") + f'#include "{model}.h"\n#include "{golden}.h"\n'
+            f"namespace m = hpddo_{model};\nnamespace g = hpddo_{golden};\n")
 
 
 def _lx106_run(build: pathlib.Path, name: str, includes: str, inc_dirs, libsoft) -> dict:
@@ -257,12 +264,10 @@ def lx106(build: pathlib.Path, model) -> dict:
     """Instruction counts of one full observer step on the lx106 in QEMU: (16, 8) float and
     fixed point on models/default and its goldens, and the (128, 64) timing model on the same
     rows. QEMU and GCC's sources are installed on demand (apt-get, as root)."""
-    import glob
-    import shutil as _sh
     from . import export, quant
-    for probe, pkgs in ((lambda: _sh.which("qemu-system-xtensa"), ["qemu-system-misc"]),
+    for probe, pkgs in ((lambda: shutil.which("qemu-system-xtensa"), ["qemu-system-misc"]),
                         (lambda: glob.glob(GCC_SOURCE_GLOB), ["gcc-12-source"]),
-                        (lambda: _sh.which(LX_CXX), ["gcc-xtensa-lx106", "binutils-xtensa-lx106",
+                        (lambda: shutil.which(LX_CXX), ["gcc-xtensa-lx106", "binutils-xtensa-lx106",
                                                      "picolibc-xtensa-lx106-elf"])):
         missing = _debian_packages(probe, pkgs)
         if missing:
@@ -276,16 +281,10 @@ def lx106(build: pathlib.Path, model) -> dict:
     default = ROOT / "models" / "default"
     fig = {"status": "run", "qemu": _run(["qemu-system-xtensa", "--version"]).splitlines()[0],
            "compiler": _run([LX_CXX, "--version"]).splitlines()[0], "flags": " ".join(LX_FLAGS)}
-    cases = {
-        "float_16_8": ('#include "model_default.h"\n#include "golden_default.h"\n'
-                       "namespace m = hpddo_model_default;\nnamespace g = hpddo_golden_default;\n"),
-        "fixed_16_8": ('#include "model_default_q.h"\n#include "golden_default_q.h"\n'
-                       "namespace m = hpddo_model_default_q;\nnamespace g = hpddo_golden_default_q;\n"),
-        "float_128_64": ('#define BENCH_NO_CHECK\n#include "model_wide.h"\n#include "golden_default.h"\n'
-                         "namespace m = hpddo_model_wide;\nnamespace g = hpddo_golden_default;\n"),
-        "fixed_128_64": ('#define BENCH_NO_CHECK\n#include "model_wide_q.h"\n#include "golden_default.h"\n'
-                         "namespace m = hpddo_model_wide_q;\nnamespace g = hpddo_golden_default;\n"),
-    }
+    cases = {"float_16_8": bench_model_h("model_default", "golden_default"),
+             "fixed_16_8": bench_model_h("model_default_q", "golden_default_q"),
+             "float_128_64": bench_model_h("model_wide", "golden_default", check=False),
+             "fixed_128_64": bench_model_h("model_wide_q", "golden_default", check=False)}
     for name, inc in cases.items():
         fig[name] = _lx106_run(build, name, inc, [default, build], libsoft)
     return fig
