@@ -133,16 +133,24 @@ def test_the_physics_only_residual_never_corrects():
     assert res.note == f"not trained: 48 {NOTE}" and not res.trained
 
 
+@pytest.mark.parametrize("rows", [60, 150])
 @pytest.mark.parametrize("ra", [RA_OHM * 0.9, RA_OHM, RA_OHM * 1.1])
-def test_the_diagnosis_of_a_dyno_table_names_no_effect_and_finds_a_wrong_ra(tmp_path, ra):
-    """A 150-row steady-state table of a motor with no effect: with the Ra reading right,
-    nothing is named; 10 % off, nothing is named either and the verdict gives the Ra the
-    table supports, within 3 % of the true 4.5 ohm."""
+def test_the_diagnosis_of_a_dyno_table_names_no_effect_and_finds_a_wrong_ra(tmp_path, ra, rows):
+    """A 60- or 150-row steady-state table (sorted by voltage, as dyno tables are) of a
+    motor with no effect: with the Ra reading right, nothing is named; 10 % off, nothing is
+    named either and the verdict gives the Ra the table supports, closer to the true 4.5 ohm
+    than the reading (60 rows: the prior still pulls; 150: within 3 %). Every row is held out
+    once (cross-validation over operating points): the chronological 20 % of a sorted table
+    is only its highest voltages, which did not show a wrong Ra in 60 rows."""
     from hpddo.diagnosis import core
-    log = dyno_table(tmp_path / "dyno150.csv", 150)
+    log = dyno_table(tmp_path / f"dyno{rows}.csv", rows)
     res = core.diagnose([log], core.Options(bootstrap=0, hybrid=False, ra_ohm=ra)).to_json()
+    assert res["thresholds"]["held_out"].startswith("every row once"), res["thresholds"]
     assert res["missing_effects"] == [], res["verdict"]
     assert res["ra_fit"]["mismatch"] == (ra != RA_OHM), res["ra_fit"]
     if ra != RA_OHM:
-        assert res["ra_fit"]["supported_ohm"] == pytest.approx(RA_OHM, rel=0.03)
+        sup = res["ra_fit"]["supported_ohm"]
+        assert abs(sup - RA_OHM) < 0.5 * abs(ra - RA_OHM), res["ra_fit"]
+        if rows == 150:
+            assert sup == pytest.approx(RA_OHM, rel=0.03)
         assert res["verdict"].startswith("The Ra you gave")

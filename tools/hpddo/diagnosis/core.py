@@ -408,13 +408,14 @@ def load(paths, opt: Options) -> Inputs:
     ra, ra_source = identify.ra_from_logs(recs, opt.ra_ohm)
     m2 = identify.m2_params(recs, ra)
     given = list(fx.check_names(opt.effects))
-    rows = [fx.rows_of(r) for r in recs]
+    data = ranking.make_data([fx.rows_of(r) for r in recs])
+    rows = data.rows  # under cross-validation (small data) every labelled row is train and test
     held_out = sum(int(r.test.sum()) for r in rows)
     if held_out < MIN_HELD_OUT_ROWS:
         raise InputError(f"only {held_out} held-out rows with rpm_ref > {fx.MIN_RPM} RPM in "
                          f"{', '.join(str(r.source) for r in recs)}: the diagnosis scores every effect on rows "
                          f"not used to fit it and needs at least {MIN_HELD_OUT_ROWS}; give longer recordings")
-    return Inputs(recs=recs, rows=rows, data=ranking.make_data(rows), ra=ra, ra_source=ra_source, m2=m2, given=given)
+    return Inputs(recs=recs, rows=rows, data=data, ra=ra, ra_source=ra_source, m2=m2, given=given)
 
 
 def fit_model(inp: Inputs) -> ModelFit:
@@ -422,8 +423,7 @@ def fit_model(inp: Inputs) -> ModelFit:
     d = inp.data
     model = fx.identify(inp.recs, inp.m2, inp.given) if inp.given else inp.m2
     res_model = ranking.residuals(d, model)
-    base = fx.fit(inp.rows, inp.m2, inp.given)
-    res_base = ranking.residuals(d, base)
+    base, res_base = ranking.scored(d, lambda rows, st: fx.fit(rows, inp.m2, inp.given, start=st))
     sigma2 = ranking.noise_var(d, res_base)
     return ModelFit(model=model, base=base, res_model=res_model, res_base=res_base, sigma2=sigma2,
                     mse_base=ranking.held_out_mse(d, res_base))
@@ -488,11 +488,13 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
         if c in chosen or c == RA:
             continue
         try:
-            pc = ranking.fit_names(rows, m2, given + chosen + [c], sigma2, start=final)
+            pc, rc = ranking.scored_names(d, m2, given + chosen + [c], sigma2, start=final)
         except Exception:
             continue
-        res_final = ranking.residuals(d, final) if res_final is None else res_final
-        g, z = ranking.gain_z(d, res_final, ranking.residuals(d, pc), sigma2)
+        if res_final is None:  # the final model's held-out residuals (refitted per fold under cross-validation)
+            res_final = (ranking.residuals(d, final) if d.folds is None
+                         else ranking.scored_names(d, m2, given + chosen, sigma2, start=final)[1])
+        g, z = ranking.gain_z(d, res_final, rc, sigma2)
         single = first.get(c)
         table.append(EffectResult(c, "candidate", score=_score(g, mf.mse_base), gain_rpm2=g, z=z,
                                   inclusion=boot.get(c),
@@ -574,19 +576,22 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
             continue
         oeff = fx.LIBRARY[other]
         try:
-            alt = fx.fit(rows, m2, given + missing + [other])
+            alt, res_alt = ranking.scored(d, lambda rs, st: fx.fit(rs, m2, given + missing + [other], start=st))
         except Exception:
             continue
-        mse_sel = ranking.held_out_mse(d, ranking.residuals(d, final))
-        mse_alt = ranking.held_out_mse(d, ranking.residuals(d, alt))
+        res_sel = (ranking.residuals(d, final) if d.folds is None
+                   else ranking.scored(d, lambda rs, st: fx.fit(rs, m2, given + missing, start=st), final)[1])
+        mse_sel = ranking.held_out_mse(d, res_sel)
+        mse_alt = ranking.held_out_mse(d, res_alt)
         if not (oeff.plausibility(getattr(alt, oeff.field))[0] and mse_alt <= mse_sel + MATERIAL_SLACK * sigma2):
             continue
         missing.append(other)
         final = alt
         table = [e.at(final, inp.blind) if e.named else e for e in table if e.effect != other]
         # its share: what it removes once the material's coefficient is held
-        held = fx.fit(rows, m2, given + missing[:-1], hold={name: eff.material})
-        g, z = ranking.gain_z(d, ranking.residuals(d, held), ranking.residuals(d, alt), sigma2)
+        res_held = ranking.scored(d, lambda rs, st: fx.fit(rs, m2, given + missing[:-1], hold={name: eff.material},
+                                                           start=st))[1]
+        g, z = ranking.gain_z(d, res_held, res_alt, sigma2)
         table.insert(len([e for e in table if e.named]),
                      EffectResult(other, "named", score=_score(g, mf.mse_base), gain_rpm2=g, z=z, inclusion=None,
                                   note=f"named with {name} held at {eff.material_name}'s coefficient, "
@@ -802,7 +807,8 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         steps=[RankingStep.of(s) for s in sel.steps],
         thresholds={"z_min": ranking.Z_MIN, "rel_min": ranking.REL_MIN, "excess_min": ranking.EXCESS_MIN,
                     "score_min": ranking.SCORE_MIN,
-                    "confound_gain": ranking.CONFOUND_GAIN, "bootstrap": opt.bootstrap},
+                    "confound_gain": ranking.CONFOUND_GAIN, "bootstrap": opt.bootstrap,
+                    "held_out": inp.data.scheme},
         hybrid=hyb, runtime_s=time.perf_counter() - t0,
         thermal_node={"path": fx.node_path(inp.blind), "model": fx.node_plausibility(mf.model, inp.blind),
                       "after_model": fx.node_plausibility(resid.after_model, inp.blind)},

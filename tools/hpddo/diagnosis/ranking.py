@@ -48,6 +48,13 @@ SCORE_MIN = 0.02
 BLOCK_S = 15.0          # held-out blocks: at most this long, seconds (op_blocks)
 TRAIN_BLOCK_S = 30.0    # bootstrap blocks: one operating point, at most this long, seconds (op_blocks)
 BOOTSTRAP = 12
+# Small data (steady-state tables, short runs): with at most CV_MAX_ROWS labelled rows, a
+# chronological 20 % is too few rows, and the end of a sorted table (its highest voltages),
+# not a sample of its operating points. Every row is then held out once instead: CV_FOLDS
+# folds of whole operating points (op_blocks, dealt round-robin over the recordings), each
+# scored by the model fitted on the others.
+CV_MAX_ROWS = 1000
+CV_FOLDS = 5
 IDENT_SIGMAS = 4.0      # a plausible coefficient must be this many standard errors to be seen
 CONFOUND_CORR = 0.95    # partial correlation of two regressors above which they are confounded
 CONFOUND_GAIN = 0.6     # an alternative explaining this share of the chosen gain is confounded
@@ -126,6 +133,16 @@ class Data:
     w_test: list       # per recording: per-row weight of held-out rows (sums to 1 per recording)
     blocks_test: list  # per recording: block id per row (-1 outside the held-out rows)
     blocks_train: list  # per recording: block id per row (-1 outside the training rows)
+    # cross-validation (small data, CV_MAX_ROWS): per fold, the rows of every recording with
+    # the fold's rows as test and the others as train; None: the chronological split
+    folds: list | None = None
+
+    @property
+    def scheme(self) -> str:
+        """How the rows are held out, in words."""
+        if self.folds is None:
+            return "the last 20 % of each recording (chronological)"
+        return f"every row once, {len(self.folds)} folds of whole operating points (cross-validation)"
 
 
 def op_blocks(r, mask: np.ndarray, max_s: float) -> np.ndarray:
@@ -155,19 +172,69 @@ def op_blocks(r, mask: np.ndarray, max_s: float) -> np.ndarray:
     return out
 
 
+def cv_folds(rows, k: int = CV_FOLDS) -> list | None:
+    """The folds of cross-validation over whole operating points (op_blocks of the labelled
+    rows), dealt round-robin over the blocks of all recordings in order; None with fewer
+    than two blocks."""
+    blocks = [op_blocks(r, r.train | r.test, BLOCK_S) for r in rows]
+    n_blocks = sum(int(b.max()) + 1 for b in blocks if len(b) and b.max() >= 0)
+    k = min(k, n_blocks)
+    if k < 2:
+        return None
+    folds = [[] for _ in range(k)]
+    offset = 0
+    for r, b in zip(rows, blocks):
+        fold_of = np.where(b >= 0, (b + offset) % k, -1)
+        offset += int(b.max()) + 1 if len(b) and b.max() >= 0 else 0
+        good = r.train | r.test
+        for f in range(k):
+            folds[f].append(dataclasses.replace(r, train=good & (fold_of != f), test=good & (fold_of == f)))
+    return folds
+
+
 def make_data(rows) -> Data:
+    """The rows as the diagnosis scores them: the chronological split, or (at most
+    CV_MAX_ROWS labelled rows) every labelled row held out once by cross-validation (the
+    rows' train and test masks then both cover every labelled row)."""
+    folds = None
+    if sum(int((r.train | r.test).sum()) for r in rows) <= CV_MAX_ROWS:
+        folds = cv_folds(rows)
+        if folds is not None:
+            rows = [dataclasses.replace(r, train=r.train | r.test, test=r.train | r.test) for r in rows]
     w, bt, btr = [], [], []
     for r in rows:
         n = int(r.test.sum())
         w.append(np.where(r.test, 1.0 / max(n, 1), 0.0))
         bt.append(op_blocks(r, r.test, BLOCK_S))
         btr.append(op_blocks(r, r.train, TRAIN_BLOCK_S))
-    return Data(rows=list(rows), w_test=w, blocks_test=bt, blocks_train=btr)
+    return Data(rows=list(rows), w_test=w, blocks_test=bt, blocks_train=btr, folds=folds)
 
 
 def residuals(d: Data, p: ph.PhysicsParams) -> list:
     """rpm_ref - n_M2 for every row of every recording (NaN where undefined)."""
     return [r.ref - fx.predict(r, p) for r in d.rows]
+
+
+def scored(d: Data, fitter, start=None) -> tuple:
+    """(params, held-out residuals) of a model refitted by fitter(rows, start) -> params:
+    fitted on the training rows of d.rows; the residuals are rpm_ref - n_M2 of those params
+    (chronological split) or, under cross-validation, each fold's rows by the model fitted
+    on the other folds (NaN outside the labelled rows)."""
+    p = fitter(d.rows, start)
+    if d.folds is None:
+        return p, residuals(d, p)
+    res = [np.full(len(r.ref), np.nan) for r in d.rows]
+    for fold in d.folds:
+        pf = fitter(fold, p)
+        for e, rf in zip(res, fold):
+            if rf.test.any():
+                e[rf.test] = (rf.ref - fx.predict(rf, pf))[rf.test]
+    return p, res
+
+
+def scored_names(d: Data, m2: ph.PhysicsParams, names, sigma2: float, weights=None, start=None) -> tuple:
+    """scored() of fit_names: the effects in names (and a moving Ra with RA_MISMATCH)."""
+    return scored(d, lambda rows, st: fit_names(rows, m2, names, sigma2, weights=weights, start=st), start)
 
 
 def held_out_mse(d: Data, res) -> float:
@@ -315,8 +382,7 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
                    start=None) -> tuple[list, ph.PhysicsParams]:
     """Forward selection from the model with `given` effects; returns (steps, final params)."""
     chosen = list(given)
-    p = fit_names(d.rows, m2, chosen, sigma2, weights=weights, start=start)
-    res = residuals(d, p)
+    p, res = scored_names(d, m2, chosen, sigma2, weights=weights, start=start)
     mse = held_out_mse(d, res)
     mse_start = mse
     steps = []
@@ -325,10 +391,9 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
         tried = []
         for c in remaining:
             try:
-                pc = fit_names(d.rows, m2, chosen + [c], sigma2, weights=weights, start=p)
+                pc, rc = scored_names(d, m2, chosen + [c], sigma2, weights=weights, start=p)
             except Exception:  # a degenerate fit is simply not a candidate
                 continue
-            rc = residuals(d, pc)
             g, z = gain_z(d, res, rc, sigma2)
             tried.append((c, g, z, _physical(c, _value(c, pc), m2), pc, rc))
         ok = [t for t in tried if t[3] and t[2] >= Z_MIN and t[1] >= REL_MIN * mse
