@@ -12,6 +12,8 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
+
 from .. import bench as _bench
 from .. import schema
 
@@ -137,6 +139,10 @@ EFFECT_NAMES = tuple(EFFECTS)
 SATURATION_ONSET_A = 0.3     # "onset": no armature reaction below this current
 BRUSH_KNEE_SOFT_A = 0.1      # "knee_100mA": the drop reaches half its value at 100 mA
 BRUSH_EXP_A = 0.05           # "exp_50mA": 1 - exp(-i / 50 mA)
+MAGNET_LAG_S = 600.0         # "lag_600s": the magnets' own node, 600 s behind the case
+WARMUP_S = 300.0             # "warmup": a sensor offset settling after power-up,
+WARMUP_AT_ONCE = 0.8         # ... this share of it at once (an amplifier's drift while it warms)
+V_BOW_V = 8.0                # "bowed": the voltage channel's gain error g at 8 V, 0 at 0 V
 FORMS = {
     "saturation": {
         "linear": "Ke (1 - s |i|)",
@@ -152,7 +158,42 @@ FORMS = {
         "winding": "the copper at the winding node's temperature (it runs hotter than the case under load)",
         "case": "the copper at the case temperature (a winding tightly coupled to its case)",
     },
+    "magnet_thermal": {
+        "case": "the magnets at the case temperature (stator magnets bonded to the can)",
+        "winding": "the magnets at the winding node's temperature (magnets heated across the air gap)",
+        "lag_600s": f"the magnets as a node of their own, {MAGNET_LAG_S:g} s behind the case (their heat capacity "
+                    "behind a bond line)",
+    },
+    "current_offset": {
+        "constant": "a fixed offset of the current channel",
+        "warmup": f"an offset that settles after power-up: {WARMUP_AT_ONCE:.0%} of it at once, the rest with a "
+                  f"{WARMUP_S:g} s time constant (an amplifier warming up)",
+    },
+    "v_offset": {
+        "constant": "a fixed offset of the voltage channel",
+        "warmup": f"an offset that settles after power-up: {WARMUP_AT_ONCE:.0%} of it at once, the rest with a "
+                  f"{WARMUP_S:g} s time constant",
+    },
+    "v_gain": {
+        "constant": "a fixed gain error (divider tolerance, ADC reference)",
+        "bowed": f"a gain error growing with the voltage, g V / {V_BOW_V:g} V (a bowed transfer curve: "
+                 "a divider's self-heating, the ADC's integral nonlinearity)",
+    },
 }
+
+
+def warmup_share(form: str, t_s):
+    """The share of a sensor offset present at time t_s after power-up (1: all of it)."""
+    if form == "warmup":
+        return 1.0 - (1.0 - WARMUP_AT_ONCE) * np.exp(-np.asarray(t_s, float) / WARMUP_S)
+    return np.ones_like(np.asarray(t_s, float))
+
+
+def v_gain_share(form: str, v_V):
+    """The gain error's share at the (true) voltage v_V: 1 for a fixed gain."""
+    if form == "bowed":
+        return np.asarray(v_V, float) / V_BOW_V
+    return np.ones_like(np.asarray(v_V, float))
 
 
 def saturation_shape(form: str, i_A: float) -> float:

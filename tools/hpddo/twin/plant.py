@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from .params import Bench, brush_share, saturation_shape
+from .params import MAGNET_LAG_S, Bench, brush_share, saturation_shape
 
 
 def _seg(A, B, tau, t):
@@ -151,6 +151,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
     s_sat = b.effect_si("saturation")
     la = b.effect_si("inductance")
     sat_form, brush_form, copper_form = b.form("saturation"), b.form("brush_drop"), b.form("thermal_ra")
+    magnet_form = b.form("magnet_thermal")
     ra_ref = b.ra_ohm
     t_ref = b.ra_ref_C
     ke0 = b.ke_vs_per_rad
@@ -171,6 +172,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
     ib = 0.0
     Tw = Ta
     Tc = Ta
+    Tm = Ta  # the magnets' own node ("lag_600s" form)
     theta = 0.0
     out = {k: np.empty(n) for k in ("v_mean", "i_mean", "w_mean", "v_var", "i_var", "cond",
                                      "ra", "ke", "tw", "tc", "i2_mean")}
@@ -202,7 +204,8 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
             if t_rem - hh < 0.25 * hh:
                 hh = t_rem
             ra = ra_ref * (1.0 + a_cu * ((Tc if copper_form == "case" else Tw) - t_ref))
-            ke_flux = ke0 * (1.0 + b_mag * (Tc - t_ref))
+            t_mag = Tw if magnet_form == "winding" else Tm if magnet_form == "lag_600s" else Tc
+            ke_flux = ke0 * (1.0 + b_mag * (t_mag - t_ref))
             ib_pos = ib if ib > 0.0 else 0.0
             sat = saturation_shape(sat_form, ib_pos)
             ke = ke_flux * (1.0 - s_sat * sat)  # mean EMF constant (armature reaction)
@@ -269,6 +272,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
             Tw_new = Tw + hh / Cw * (p_cu - q_wc)
             Tc = Tc + hh / Cc * (q_wc + p_br + p_fm - q_ca)
             Tw = Tw_new
+            Tm = Tm + (Tc - Tm) * -math.expm1(-hh / MAGNET_LAG_S)
             # sample accumulators
             s_v += v_step * hh
             s_i += i_step * hh

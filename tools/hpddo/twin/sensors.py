@@ -27,7 +27,7 @@ import numpy as np
 
 from .. import bench as _hw
 from .. import libm
-from .params import Bench
+from .params import Bench, v_gain_share, warmup_share
 
 
 def adc_channel(x, var, gain, shift, n_conv, bench: Bench, rng):
@@ -65,8 +65,10 @@ def measure(bench: Bench, res, duty, load, rng):
                             (libm.sin(x2) - libm.sin(x1)) / np.where(small, 1.0, span))
         i_true = i_true + a_rip * res.i_mean * mean_cos
         i_var = i_var + 0.5 * (a_rip * res.i_mean) ** 2
-    v_meas_in = res.v_mean * (1.0 + bench.effect_si("v_gain")) + bench.effect_si("v_offset")
-    i_meas_in = i_true + bench.effect_si("current_offset")
+    t_mid = (np.arange(n) + 0.5) * Ts  # the sample's middle, after power-up
+    v_meas_in = (res.v_mean * (1.0 + bench.effect_si("v_gain") * v_gain_share(bench.form("v_gain"), res.v_mean))
+                 + bench.effect_si("v_offset") * warmup_share(bench.form("v_offset"), t_mid))
+    i_meas_in = i_true + bench.effect_si("current_offset") * warmup_share(bench.form("current_offset"), t_mid)
 
     v = adc_channel(v_meas_in, res.v_var, bench.v_div_gain, bench.v_shift_V, n_conv, bench, rng)
     i = adc_channel(i_meas_in, i_var, bench.i_gain_V_per_A, 0.0, n_conv, bench, rng)
