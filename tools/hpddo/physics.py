@@ -136,7 +136,8 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     for s0 in range(0, len(i), _BLOCK):
         al, be = alpha[s0:s0 + _BLOCK], beta[s0:s0 + _BLOCK]
         rf = ref[s0:s0 + _BLOCK]
-        prod = np.cumprod(al)
+        with np.errstate(over="ignore"):  # an overflow is caught below (isfinite) and redone step by step
+            prod = np.cumprod(al)
         blk = None
         if prod.min() > 1e-250 and np.isfinite(prod[-1]):
             with np.errstate(over="ignore", invalid="ignore"):
