@@ -167,7 +167,7 @@ DIAGNOSIS_TEXT = " ".join([
     "score: share of the held-out mean squared error of the model under test that the effect removes (at its "
     "step of the forward selection; for effects not named, added to the final model). z: that gain in standard "
     "errors of what noise would give. inclusion: share of bootstrap resamples of the training rows' operating "
-    "points in which the effect is named (naming does not depend on it).",
+    "points in which the effect is named (naming does not depend on it). Held out: the last 20 % of each recording.",
     "Effects that these recordings cannot tell apart current_offset / brush_drop (regressors correlated "
     "r = -1.00 once Ke is fitted): record rows at zero current <coasting>.",
     "Estimate against encoder Dashed line: the chronological 80/20 split; only the rows after it are scored.",

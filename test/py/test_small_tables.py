@@ -154,3 +154,22 @@ def test_the_diagnosis_of_a_dyno_table_names_no_effect_and_finds_a_wrong_ra(tmp_
         if rows == 150:
             assert sup == pytest.approx(RA_OHM, rel=0.03)
         assert res["verdict"].startswith("The Ra you gave")
+
+
+def test_a_table_says_how_few_operating_points_its_bootstrap_draws_from(tmp_path):
+    """Six voltage levels are six operating points to resample: the inclusion of a named
+    effect (or of the wrong Ra) is printed with that caveat, and the HTML says it."""
+    from hpddo.cli import diagnose as diagnose_cli
+    from hpddo.diagnosis import core
+    log = dyno_table(tmp_path / "dyno60.csv", 60)
+    d = core.diagnose([log], core.Options(bootstrap=2, hybrid=False, ra_ohm=RA_OHM * 0.9))
+    res = d.to_json()
+    assert res["thresholds"]["bootstrap_blocks"] == 6
+    assert res["ra_fit"]["mismatch"]
+    from hpddo.reports import diagnosis as report
+    (tmp_path / "out").mkdir()
+    report.write(tmp_path / "out", res, d.plot())
+    html = (tmp_path / "out" / "index.html").read_text()
+    assert "draw from 6 operating points,\ntoo few for the inclusion to mean much" in html
+    assert "every row once, 5 folds of whole operating points" in html
+    assert "Ra: 4.05 ohm given" in diagnose_cli.summary(d)

@@ -73,6 +73,8 @@ def summary(d) -> str:
     for e in res["ranking"]:
         if e["named"]:
             incl = "" if e["inclusion"] is None else f", inclusion {100 * e['inclusion']:.0f} %"
+            if incl and res["thresholds"].get("bootstrap_blocks", 99) < core.ranking.FEW_BLOCKS:
+                incl += f" (of {res['thresholds']['bootstrap_blocks']} operating points: means little)"
             lines.append(f"  {e['effect']:15s} {e['shown']:>14s}  score {e['score']:.3f}{incl}; {e['plausibility']}")
     ra = res.get("ra_fit")
     if ra:

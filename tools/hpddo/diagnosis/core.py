@@ -808,7 +808,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         thresholds={"z_min": ranking.Z_MIN, "rel_min": ranking.REL_MIN, "excess_min": ranking.EXCESS_MIN,
                     "score_min": ranking.SCORE_MIN,
                     "confound_gain": ranking.CONFOUND_GAIN, "bootstrap": opt.bootstrap,
-                    "held_out": inp.data.scheme},
+                    "held_out": inp.data.scheme, "bootstrap_blocks": ranking.n_train_blocks(inp.data)},
         hybrid=hyb, runtime_s=time.perf_counter() - t0,
         thermal_node={"path": fx.node_path(inp.blind), "model": fx.node_plausibility(mf.model, inp.blind),
                       "after_model": fx.node_plausibility(resid.after_model, inp.blind)},

@@ -434,6 +434,14 @@ def _select_names(args) -> list:
     return [s.name for s in steps if s.name]
 
 
+FEW_BLOCKS = 10  # below this many operating points to resample, an inclusion frequency means little
+
+
+def n_train_blocks(d: Data) -> int:
+    """How many operating-point blocks the bootstrap resamples (all recordings)."""
+    return int(sum(len(np.unique(b[b >= 0])) for b in d.blocks_train))
+
+
 def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7) -> dict:
     """Inclusion frequency of each candidate over n block resamples of the training rows.
     The resamples are drawn in order from one seed, then selected on all cores."""

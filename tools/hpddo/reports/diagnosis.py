@@ -15,7 +15,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .. import benchlog  # noqa: E402
-from ..diagnosis import analysis  # noqa: E402
+from ..diagnosis import analysis, ranking  # noqa: E402
 from . import png, render  # noqa: E402
 
 RESIDUALS = (("residual_before", "model under test"), ("residual_after", "after adding the missing effects"))
@@ -79,7 +79,10 @@ def fig_where(res, plot):
     axes[2].set_xlabel("temperature (°C)")
     axes[2].set_ylabel("mean squared error (RPM²)")
     axes[2].set_title("by temperature (all rows)", fontsize=10)
-    axes[2].legend(fontsize=7)
+    if axes[2].get_lines():
+        axes[2].legend(fontsize=7)
+    else:  # no temperature read (a dyno table)
+        axes[2].text(0.5, 0.5, "no temperature read", ha="center", va="center", transform=axes[2].transAxes)
     fig.tight_layout()
     return png(fig)
 
@@ -123,7 +126,7 @@ def page(res, figs) -> str:
     """The page's HTML; figs: data URIs by key (overlays, where, residual_before, residual_after)."""
     conds, rows = rmse_rows(res)
     return render("diagnosis.html.j2", res=res, conditions=conds, rmse_rows=rows, figures=figs,
-                  residuals=RESIDUALS)
+                  residuals=RESIDUALS, few_blocks=ranking.FEW_BLOCKS)
 
 
 def figures(res, plot) -> dict:
