@@ -68,12 +68,14 @@ def diagnose_into(logs, opt, out: pathlib.Path):
 
 def summary(d) -> str:
     """The verdict, the named effects and the RMSE table, as the command prints them."""
+    from ..diagnosis.ranking import FEW_BLOCKS
+
     res = d.to_json()
     lines = [res["verdict"]]
     for e in res["ranking"]:
         if e["named"]:
             incl = "" if e["inclusion"] is None else f", inclusion {100 * e['inclusion']:.0f} %"
-            if incl and res["thresholds"].get("bootstrap_blocks", 99) < core.ranking.FEW_BLOCKS:
+            if incl and res["thresholds"].get("bootstrap_blocks", 99) < FEW_BLOCKS:
                 incl += f" (of {res['thresholds']['bootstrap_blocks']} operating points: means little)"
             lines.append(f"  {e['effect']:15s} {e['shown']:>14s}  score {e['score']:.3f}{incl}; {e['plausibility']}")
     ra = res.get("ra_fit")
