@@ -164,7 +164,8 @@ class Observer {
     PhysicsInput in;
     in.v_V = s.v_V;
     in.i_A = s.i_A;
-    in.di_dt_A_per_s = has_lag_ ? (s.i_A - i_lag_A_) / dt_s : 0.0f;
+    // di/dt only where the inductance term uses it (la_H = 0: no division).
+    in.di_dt_A_per_s = has_lag_ && p.la_H != 0.0f ? (s.i_A - i_lag_A_) / dt_s : 0.0f;
     // The copper follows the winding (estimated above the case reading, or above the
     // ambient); the magnets sit on the case: its reading, else the only thermal state.
     in.temp_C = ThermalEstimator::enabled(p) ? thermal_.temp_C(ref_C) : (temp_read ? s.temp_C : p.t_ref_C);
