@@ -122,12 +122,30 @@ inline void dense_q(const W* w, const int32_t* b, const int16_t* in, int16_t* ou
   }
 }
 
+/// t >> s (0 <= s < 32; arithmetic for a signed T) as whole-byte moves first: on the AVR
+/// a shift by a variable count is a loop of one bit a turn.
+template <class T>
+inline T shift_right(T t, uint8_t s) {
+  if (s >= 16) {
+    t >>= 16;
+    s = static_cast<uint8_t>(s - 16);
+  }
+  if (s >= 8) {
+    t >>= 8;
+    s = static_cast<uint8_t>(s - 8);
+  }
+  return t >> s;
+}
+
 /// sat16(round(x 2^e)), halves away from zero, NaN -> 0: from the bits of x, no libm.
 inline int16_t quantise_input(float x, int8_t e) {
   uint32_t u = 0;
   __builtin_memcpy(&u, &x, sizeof u);
   const bool negative = (u >> 31) != 0;
-  const int16_t biased = static_cast<int16_t>((u >> 23) & 0xFFu);
+  // The exponent from the top two bytes (a shift by 23 is a loop of 23 turns on the AVR).
+  const uint8_t top = static_cast<uint8_t>(u >> 24);
+  const uint8_t next = static_cast<uint8_t>(u >> 16);
+  const int16_t biased = static_cast<int16_t>(static_cast<uint8_t>((top << 1) | (next >> 7)));
   const uint32_t frac = u & 0x7FFFFFu;
   if (biased == 0xFF && frac != 0) return 0;  // NaN
   if (biased == 0) return 0;                  // zero or subnormal: below 2^-126 2^60, rounds to 0
@@ -140,7 +158,7 @@ inline int16_t quantise_input(float x, int8_t e) {
     mag = 0u;      // below 1/2
   } else {
     const uint32_t mant = frac | 0x800000u;
-    mag = ((mant >> static_cast<uint8_t>(-sh - 1)) + 1u) >> 1;  // floor(2 v) then halves up
+    mag = (shift_right(mant, static_cast<uint8_t>(-sh - 1)) + 1u) >> 1;  // floor(2 v) then halves up
     if (mag > 32767u) mag = 32767u;
   }
   const int16_t m = static_cast<int16_t>(mag);
