@@ -205,11 +205,16 @@ struct MlpQ {
     for (uint8_t j = 0; j < kIn; ++j) xq[j] = detail::quantise_input(x[j], flash_int8(w.in_exp + j));
   }
 
+  /// Network output for inputs already quantised (quantise()), RPM.
+  static float forward_q(const Weights& w, const int16_t (&xq)[kIn]) {
+    return static_cast<float>(forward_acc(w, xq)) * flash_float(w.out_scale);
+  }
+
   /// Network output for the raw features x, RPM.
   static float forward_raw(const Weights& w, const float (&x)[kIn]) {
     int16_t xq[kIn];
     quantise(w, x, xq);
-    return static_cast<float>(forward_acc(w, xq)) * flash_float(w.out_scale);
+    return forward_q(w, xq);
   }
 
   /// The observer's residual for features x, RPM: the scaler is folded into layer 0.
