@@ -73,7 +73,7 @@ struct Gate {
     }
     float best = r_out_sq;
 #if !HPDDO_GATE_EARLY_EXIT
-    // Every sum in full (the same order of terms), then the first minimum: a sum that the
+    // Every sum in full (the same order of terms), then the minimum: a sum that the
     // early exit would stop is at least best in full too (the terms are not negative).
     float d2[kProtos];
     for (uint8_t k = 0; k < kProtos; ++k) {
@@ -87,12 +87,7 @@ struct Gate {
       d2[k] = acc;
     }
     for (uint8_t k = 0; k < kProtos; ++k) best = d2[k] < best ? d2[k] : best;  // a vector min
-    for (uint8_t k = 0; k < kProtos; ++k) {
-      if (d2[k] == best) {
-        *first = k;
-        break;
-      }
-    }
+    (void)first;  // the hint serves the early exits only: left as it is
 #else
     uint8_t k = *first < kProtos ? *first : 0;
     for (uint8_t n = 0; n < kProtos; ++n, k = static_cast<uint8_t>(k + 1u == kProtos ? 0u : k + 1u)) {

@@ -103,7 +103,7 @@ struct GateQ {
     }
     int32_t best = r_out_q;
 #if !HPDDO_GATE_EARLY_EXIT
-    // Every sum in full, then the first minimum (gate.h); the sums cannot overflow.
+    // Every sum in full, then the minimum (gate.h); the sums cannot overflow.
     int32_t d2[kProtos];
     for (uint8_t k = 0; k < kProtos; ++k) {
       const int16_t* p = prototypes + static_cast<uint16_t>(k) * kDims;
@@ -116,12 +116,7 @@ struct GateQ {
       d2[k] = acc;
     }
     for (uint8_t k = 0; k < kProtos; ++k) best = d2[k] < best ? d2[k] : best;  // a vector min
-    for (uint8_t k = 0; k < kProtos; ++k) {
-      if (d2[k] == best) {
-        *first = k;
-        break;
-      }
-    }
+    (void)first;  // the hint serves the early exits only: left as it is
 #else
     // A prototype whose first difference alone reaches best is passed over on a 16-bit
     // compare: |d0| > bound implies d0^2 >= best (detail::sqrt_bound), the same test as
