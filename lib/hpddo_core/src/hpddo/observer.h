@@ -113,7 +113,9 @@ class Observer {
  public:
   /// Keeps a reference to model: pass one that outlives the observer (a generated kModel).
   explicit Observer(const Model<Net>& model)
-      : model_(model), speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)) {
+      : model_(model),
+        physics_const_(physics_const(model.physics)),
+        speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)) {
     reset();
   }
 
@@ -209,7 +211,7 @@ class Observer {
     in.temp_C = ThermalEstimator::enabled(p) ? thermal_.temp_C(ref_C) : (temp_read ? s.temp_C : p.t_ref_C);
     in.magnet_C = temp_read ? s.temp_C : in.temp_C;
     float m2 = 0.0f;
-    if (!physics_rpm(p, in, &m2) || !(m2 <= speed_limit_rpm_ && m2 >= -speed_limit_rpm_)) {
+    if (!physics_rpm(p, physics_const_, in, &m2) || !(m2 <= speed_limit_rpm_ && m2 >= -speed_limit_rpm_)) {
       has_lag_ = false;
       return out;
     }
@@ -273,6 +275,7 @@ class Observer {
   }
 
   const Model<Net>& model_;
+  PhysicsConst physics_const_;  ///< the model's reciprocals: no division per step (physics.h)
   float speed_limit_rpm_;
   ThermalEstimator thermal_;
   Estimate last_;
