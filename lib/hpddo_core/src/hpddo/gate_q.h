@@ -19,6 +19,10 @@
 #include "mlp_q.h"
 #include "platform.h"
 
+#if !HPDDO_GATE_EARLY_EXIT && defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace hpddo {
 
 /// Fraction bits of the integer gate's scaled space (quant.GATE_FRAC).
@@ -55,6 +59,48 @@ inline uint16_t sqrt_bound(uint32_t x) {
 }
 
 }  // namespace detail
+
+#if !HPDDO_GATE_EARLY_EXIT && defined(__SSE2__)
+namespace detail {
+
+/// The hosts' smallest sum of squares over the prototypes (x86-64 has SSE2 always): one
+/// prototype's kDims <= 8 differences in one register, squared and summed in pairs by
+/// PMADDWD, then across. Exact: |zq - pq| <= 2 kGateZMax fits int16, every sum int32.
+template <uint8_t kDims, uint8_t kProtos>
+inline int32_t min_distance_sse2(const int16_t (&z)[kDims], const int16_t* protos, int32_t best) {
+  // kDims <= 5 (GateQ's static_assert): one register of 8 lanes holds a prototype.
+  int16_t zz[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  int16_t keep[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  for (uint8_t j = 0; j < kDims; ++j) {
+    zz[j] = z[j];
+    keep[j] = -1;
+  }
+  const __m128i vz = _mm_loadu_si128(reinterpret_cast<const __m128i*>(zz));
+  const __m128i mask = _mm_loadu_si128(reinterpret_cast<const __m128i*>(keep));
+  const uint16_t n = static_cast<uint16_t>(kProtos * kDims);
+  for (uint16_t k = 0; k < kProtos; ++k) {
+    const uint16_t at = static_cast<uint16_t>(k * kDims);
+    const int16_t* p = protos + at;
+    __m128i vp;
+    if (at + 8u <= n) {
+      vp = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));  // the lanes past kDims are masked
+    } else {  // the last rows: no read past the array
+      int16_t t[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+      for (uint8_t j = 0; j < kDims; ++j) t[j] = p[j];
+      vp = _mm_loadu_si128(reinterpret_cast<const __m128i*>(t));
+    }
+    const __m128i d = _mm_and_si128(_mm_sub_epi16(vz, vp), mask);
+    __m128i sq = _mm_madd_epi16(d, d);
+    sq = _mm_add_epi32(sq, _mm_shuffle_epi32(sq, _MM_SHUFFLE(1, 0, 3, 2)));
+    sq = _mm_add_epi32(sq, _mm_shuffle_epi32(sq, _MM_SHUFFLE(2, 3, 0, 1)));
+    const int32_t acc = _mm_cvtsi128_si32(sq);
+    best = acc < best ? acc : best;
+  }
+  return best;
+}
+
+}  // namespace detail
+#endif
 
 /// Distance-to-prototypes gate in integers, kDims inputs, kProtos prototypes in flash.
 template <uint8_t kDims, uint8_t kProtos>
@@ -102,7 +148,10 @@ struct GateQ {
       z[j] = static_cast<int16_t>(t > kGateZMax ? kGateZMax : t < -kGateZMax ? -kGateZMax : t);
     }
     int32_t best = r_out_q;
-#if !HPDDO_GATE_EARLY_EXIT
+#if !HPDDO_GATE_EARLY_EXIT && defined(__SSE2__)
+    best = detail::min_distance_sse2<kDims, kProtos>(z, prototypes, best);
+    (void)first;  // the hint serves the early exits only: left as it is
+#elif !HPDDO_GATE_EARLY_EXIT
     // Every sum in full, then the minimum (gate.h); the sums cannot overflow.
     int32_t d2[kProtos];
     for (uint8_t k = 0; k < kProtos; ++k) {
