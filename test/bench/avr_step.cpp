@@ -135,6 +135,9 @@ int main() {
   hpddo::ThermalEstimator th;
   hpddo::ThermalEstimator th_on;
   const hpddo::PhysicsParams& all = hpddo_model_tiny::kModel.physics;
+  // The reciprocals the observer computes once (physics.h): the stages time the step's physics.
+  const hpddo::PhysicsConst pk = hpddo::physics_const(pp);
+  const hpddo::PhysicsConst all_k = hpddo::physics_const(all);
   for (uint16_t r = 0; r < g::kCount; ++r) {
     float x[5];
     for (uint8_t j = 0; j < 5; ++j) x[j] = g::at(r, static_cast<uint8_t>(g::kCol_x0 + j));
@@ -147,14 +150,14 @@ int main() {
     in.magnet_C = in.temp_C;
     float rpm = 0.0f;
     start(kStagePhysics);
-    const bool ok = hpddo::physics_rpm(pp, in, &rpm);
+    const bool ok = hpddo::physics_rpm(pp, pk, in, &rpm);
     stop();
     start(kStageThermal);
     th.step(pp, in.i_A, 0.5f, 31.0f);
     stop();
     float rpm_all = 0.0f;
     start(kStagePhysicsAll);
-    const bool ok_all = hpddo::physics_rpm(all, in, &rpm_all);
+    const bool ok_all = hpddo::physics_rpm(all, all_k, in, &rpm_all);
     stop();
     start(kStageThermalOn);
     th_on.step(all, in.i_A, 0.5f, 31.0f);

@@ -45,8 +45,19 @@ def true_current_A(p, i_A, dtype=np.float64):
     return np.asarray(i_A, dtype) - _f(p, "i_offset_A", dtype)
 
 
+def _board(dtype) -> bool:
+    """float32 is the boards' arithmetic: the divisions by a parameter become multiplies by
+    its reciprocal, computed once per model (physics.h, PhysicsConst); float64 is the
+    algebra (identification, training) and divides. The two differ by a rounding."""
+    return np.dtype(dtype) == np.float32
+
+
 def true_voltage_V(p, v_V, dtype=np.float64):
-    return (np.asarray(v_V, dtype) - _f(p, "v_offset_V", dtype)) / (dtype(1.0) + _f(p, "v_gain", dtype))
+    v = np.asarray(v_V, dtype) - _f(p, "v_offset_V", dtype)
+    if _board(dtype):  # physics_const(): v_gain_inv = 1 / (1 + v_gain), none without a gain error
+        g = _f(p, "v_gain", dtype)
+        return v if g == 0 else v * dtype(dtype(1.0) / (dtype(1.0) + g))
+    return v / (dtype(1.0) + _f(p, "v_gain", dtype))
 
 
 def ra_at_ohm(p, temp_C, dtype=np.float64):
@@ -103,6 +114,13 @@ def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
     """Output-shaft RPM; NaN where the effective Ke is not positive. temp_C: a Temps
     (winding for Ra, magnets for Ke) or one temperature for both."""
     ke = ke_at_vs_per_rad(p, _split(temp_C)[1], true_current_A(p, i_A, dtype), dtype)
+    if _board(dtype) and p.ke_tc_per_K == 0 and p.ke_sat_per_A == 0:
+        # A constant Ke: the back-EMF times rpm_per_V = RPM_PER_RAD_S / Ke (physics_const()).
+        ke0 = _f(p, "ke_vs_per_rad", dtype)
+        if not ke0 > 0:
+            return np.full(np.shape(ke), np.nan, dtype)
+        rpm_per_V = dtype(dtype(RPM_PER_RAD_S) / ke0)
+        return (back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) * rpm_per_V).astype(dtype)
     with np.errstate(divide="ignore", invalid="ignore"):
         n = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) / ke * dtype(RPM_PER_RAD_S)
     return np.where(ke > 0, n, np.nan).astype(dtype)

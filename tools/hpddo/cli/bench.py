@@ -65,7 +65,8 @@ def sklearn_peer(net):
 def run(args) -> int:
     if args.observer:
         from .. import perf
-        perf.run(args.build, min(args.repeat, 20), args.peer_python, write=args.write_docs, lx=not args.no_lx106)
+        # absolute: emlearn's converter runs inside the build folder (a relative --build failed there)
+        perf.run(args.build.resolve(), min(args.repeat, 20), args.peer_python, write=args.write_docs, lx=not args.no_lx106)
         return 0
     import numpy as np
 

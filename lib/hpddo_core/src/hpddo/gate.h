@@ -72,6 +72,23 @@ struct Gate {
       z[j] = (g[j] - flash_float(centre + j)) / flash_float(scale + j);
     }
     float best = r_out_sq;
+#if !HPDDO_GATE_EARLY_EXIT
+    // Every sum in full (the same order of terms), then the minimum: a sum that the
+    // early exit would stop is at least best in full too (the terms are not negative).
+    float d2[kProtos];
+    for (uint8_t k = 0; k < kProtos; ++k) {
+      const float* p = prototypes + static_cast<uint32_t>(k) * kDims;
+      float acc = 0.0f;
+#pragma GCC unroll 8
+      for (uint8_t j = 0; j < kDims; ++j) {
+        const float diff = z[j] - flash_float(p + j);
+        acc = acc + diff * diff;
+      }
+      d2[k] = acc;
+    }
+    for (uint8_t k = 0; k < kProtos; ++k) best = d2[k] < best ? d2[k] : best;  // a vector min
+    (void)first;  // the hint serves the early exits only: left as it is
+#else
     uint8_t k = *first < kProtos ? *first : 0;
     for (uint8_t n = 0; n < kProtos; ++n, k = static_cast<uint8_t>(k + 1u == kProtos ? 0u : k + 1u)) {
       const float* p = prototypes + static_cast<uint32_t>(k) * kDims;
@@ -86,6 +103,7 @@ struct Gate {
         *first = k;
       }
     }
+#endif
     if (!(best < r_out_sq)) return 0.0f;
     if (best <= r_in_sq) return 1.0f;
     return (r_out_sq - best) / (r_out_sq - r_in_sq);

@@ -19,12 +19,88 @@
 #include "mlp_q.h"
 #include "platform.h"
 
+#if !HPDDO_GATE_EARLY_EXIT && defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace hpddo {
 
 /// Fraction bits of the integer gate's scaled space (quant.GATE_FRAC).
 static const uint8_t kGateFrac = 10;
 /// Largest |zq| and |pq| (quant.GATE_ZMAX): 5 squared differences fit int32.
 static const int16_t kGateZMax = 8191;
+
+namespace detail {
+
+/// A bound b >= floor(sqrt(x - 1)) for 0 < x < 2^31 (so |d| > b implies d^2 >= x), cheap:
+/// the integer square root of x reduced to 16 bits, rounded up. 65535 at most.
+inline uint16_t sqrt_bound(uint32_t x) {
+  uint8_t m = 0;
+  while (x > 0xFFFFu) {
+    x >>= 2;
+    ++m;
+  }
+  uint16_t v = static_cast<uint16_t>(x);
+  uint16_t r = 0;
+  uint16_t bit = static_cast<uint16_t>(1u << 14);
+  while (bit > v) bit >>= 2;
+  while (bit) {
+    if (v >= r + bit) {
+      v = static_cast<uint16_t>(v - (r + bit));
+      r = static_cast<uint16_t>((r >> 1) + bit);
+    } else {
+      r >>= 1;
+    }
+    bit >>= 2;
+  }
+  // r^2 <= (x >> 2m) < (r + 1)^2, so sqrt(x) < (r + 1) 2^m.
+  const uint32_t b = static_cast<uint32_t>(r + 1u) << m;
+  return static_cast<uint16_t>(b > 0xFFFFu ? 0xFFFFu : b);
+}
+
+}  // namespace detail
+
+#if !HPDDO_GATE_EARLY_EXIT && defined(__SSE2__)
+namespace detail {
+
+/// The hosts' smallest sum of squares over the prototypes (x86-64 has SSE2 always): one
+/// prototype's kDims <= 8 differences in one register, squared and summed in pairs by
+/// PMADDWD, then across. Exact: |zq - pq| <= 2 kGateZMax fits int16, every sum int32.
+template <uint8_t kDims, uint8_t kProtos>
+inline int32_t min_distance_sse2(const int16_t (&z)[kDims], const int16_t* protos, int32_t best) {
+  // kDims <= 5 (GateQ's static_assert): one register of 8 lanes holds a prototype.
+  int16_t zz[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  int16_t keep[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+  for (uint8_t j = 0; j < kDims; ++j) {
+    zz[j] = z[j];
+    keep[j] = -1;
+  }
+  const __m128i vz = _mm_loadu_si128(reinterpret_cast<const __m128i*>(zz));
+  const __m128i mask = _mm_loadu_si128(reinterpret_cast<const __m128i*>(keep));
+  const uint16_t n = static_cast<uint16_t>(kProtos * kDims);
+  for (uint16_t k = 0; k < kProtos; ++k) {
+    const uint16_t at = static_cast<uint16_t>(k * kDims);
+    const int16_t* p = protos + at;
+    __m128i vp;
+    if (at + 8u <= n) {
+      vp = _mm_loadu_si128(reinterpret_cast<const __m128i*>(p));  // the lanes past kDims are masked
+    } else {  // the last rows: no read past the array
+      int16_t t[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+      for (uint8_t j = 0; j < kDims; ++j) t[j] = p[j];
+      vp = _mm_loadu_si128(reinterpret_cast<const __m128i*>(t));
+    }
+    const __m128i d = _mm_and_si128(_mm_sub_epi16(vz, vp), mask);
+    __m128i sq = _mm_madd_epi16(d, d);
+    sq = _mm_add_epi32(sq, _mm_shuffle_epi32(sq, _MM_SHUFFLE(1, 0, 3, 2)));
+    sq = _mm_add_epi32(sq, _mm_shuffle_epi32(sq, _MM_SHUFFLE(2, 3, 0, 1)));
+    const int32_t acc = _mm_cvtsi128_si32(sq);
+    best = acc < best ? acc : best;
+  }
+  return best;
+}
+
+}  // namespace detail
+#endif
 
 /// Distance-to-prototypes gate in integers, kDims inputs, kProtos prototypes in flash.
 template <uint8_t kDims, uint8_t kProtos>
@@ -49,30 +125,78 @@ struct GateQ {
 
   /// The same; prototypes visited from *first on, which receives the nearest (gate.h).
   float weight(const float (&g)[kDims], uint8_t* first) const {
+    int16_t gq[kDims];
+    return weight(g, first, gq);
+  }
+
+  /// The same, and gq receives the quantised inputs sat16(round(g_j 2^e_j)), the
+  /// network's where in_exp is the network's (the generated models): the observer hands
+  /// them on to the network instead of quantising twice. Complete where the weight is
+  /// above 0 (a NaN or infinite g_j stops early, with weight 0).
+  float weight(const float (&g)[kDims], uint8_t* first, int16_t (&gq)[kDims]) const {
     int16_t z[kDims];
     for (uint8_t j = 0; j < kDims; ++j) {
       if (!is_finite(g[j])) return 0.0f;
-      const int16_t gq = detail::quantise_input(g[j], flash_int8(in_exp + j));
+      gq[j] = detail::quantise_input(g[j], flash_int8(in_exp + j));
       const uint8_t s = static_cast<uint8_t>(flash_int8(shift + j));
-      int32_t t = static_cast<int32_t>(static_cast<int32_t>(gq) - flash_int16(centre + j)) * flash_int16(mult + j);
-      if (s > 0) t = (t + (static_cast<int32_t>(1) << (s - 1))) >> s;
+      const int32_t diff = static_cast<int32_t>(gq[j]) - flash_int16(centre + j);
+      const int16_t mj = flash_int16(mult + j);
+      // A 16 x 16-bit product where the difference fits int16 (the usual case), else 32-bit.
+      int32_t t = diff == static_cast<int16_t>(diff) ? detail::mac16(0, static_cast<int16_t>(diff), mj)
+                                                      : diff * mj;
+      if (s > 0) t = detail::shift_right(t + (static_cast<int32_t>(1) << (s - 1)), s);
       z[j] = static_cast<int16_t>(t > kGateZMax ? kGateZMax : t < -kGateZMax ? -kGateZMax : t);
     }
     int32_t best = r_out_q;
-    uint8_t k = *first < kProtos ? *first : 0;
-    for (uint8_t n = 0; n < kProtos; ++n, k = static_cast<uint8_t>(k + 1u == kProtos ? 0u : k + 1u)) {
+#if !HPDDO_GATE_EARLY_EXIT && defined(__SSE2__)
+    best = detail::min_distance_sse2<kDims, kProtos>(z, prototypes, best);
+    (void)first;  // the hint serves the early exits only: left as it is
+#elif !HPDDO_GATE_EARLY_EXIT
+    // Every sum in full, then the minimum (gate.h); the sums cannot overflow.
+    int32_t d2[kProtos];
+    for (uint8_t k = 0; k < kProtos; ++k) {
       const int16_t* p = prototypes + static_cast<uint16_t>(k) * kDims;
       int32_t acc = 0;
-      uint8_t j = 0;
-      for (; j < kDims && acc < best; ++j) {
-        const int16_t d = static_cast<int16_t>(z[j] - flash_int16(p + j));
-        acc = detail::mac16(acc, d, d);
+#pragma GCC unroll 8
+      for (uint8_t j = 0; j < kDims; ++j) {
+        const int32_t d = static_cast<int32_t>(z[j]) - flash_int16(p + j);
+        acc += d * d;
       }
-      if (j == kDims && acc < best) {
-        best = acc;
-        *first = k;
+      d2[k] = acc;
+    }
+    for (uint8_t k = 0; k < kProtos; ++k) best = d2[k] < best ? d2[k] : best;  // a vector min
+    (void)first;  // the hint serves the early exits only: left as it is
+#else
+    // A prototype whose first difference alone reaches best is passed over on a 16-bit
+    // compare: |d0| > bound implies d0^2 >= best (detail::sqrt_bound), the same test as
+    // the 32-bit one after the first term, but without the square.
+    uint16_t bound = detail::sqrt_bound(static_cast<uint32_t>(best));
+    uint8_t k = *first < kProtos ? *first : 0;
+    const int16_t* p = prototypes + static_cast<uint16_t>(k) * kDims;
+    for (uint8_t n = 0; n < kProtos; ++n) {
+      const int16_t d0 = static_cast<int16_t>(z[0] - flash_int16(p));
+      const uint16_t m0 = static_cast<uint16_t>(d0 < 0 ? -d0 : d0);
+      if (m0 <= bound) {
+        int32_t acc = detail::mac16(0, d0, d0);
+        uint8_t j = 1;
+        for (; j < kDims && acc < best; ++j) {
+          const int16_t d = static_cast<int16_t>(z[j] - flash_int16(p + j));
+          acc = detail::mac16(acc, d, d);
+        }
+        if (j == kDims && acc < best) {
+          best = acc;
+          *first = k;
+          bound = detail::sqrt_bound(static_cast<uint32_t>(best));
+        }
+      }
+      if (++k == kProtos) {
+        k = 0;
+        p = prototypes;
+      } else {
+        p += kDims;
       }
     }
+#endif
     if (!(best < r_out_q)) return 0.0f;
     if (best <= r_in_q) return 1.0f;
     return static_cast<float>(r_out_q - best) * fade;

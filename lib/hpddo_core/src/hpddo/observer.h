@@ -70,6 +70,40 @@ struct Estimate {
   Status status;
 };
 
+namespace detail {
+
+/// The gate's weight of the features x; a fixed-point model's integer gate also leaves the
+/// quantised features in xq (gate_q.h), for its network.
+template <class Gate>
+inline float gate_weight(const Gate& gate, const float (&x)[kFeatureCount], uint8_t* first,
+                         int16_t (&)[kFeatureCount]) {
+  return gate.weight(x, first);
+}
+inline float gate_weight(const FeatureGateQ& gate, const float (&x)[kFeatureCount], uint8_t* first,
+                         int16_t (&xq)[kFeatureCount]) {
+  return gate.weight(x, first, xq);
+}
+
+/// The network's residual of features x, RPM: scaler and network.
+template <class Net>
+struct Residual {
+  static float of(const Model<Net>& m, const float (&x)[kFeatureCount], const int16_t (&)[kFeatureCount]) {
+    return Net::residual(m.scaler, m.weights, x);
+  }
+};
+/// The fixed-point network takes the inputs the gate quantised (the same exponents: the
+/// generated models share one array), else quantises them itself.
+template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1>
+struct Residual<MlpQ<kIn, kH1, kH2, WH, kR0, kR1> > {
+  typedef MlpQ<kIn, kH1, kH2, WH, kR0, kR1> Net;
+  static float of(const Model<Net>& m, const float (&x)[kFeatureCount], const int16_t (&xq)[kFeatureCount]) {
+    if (m.gate.in_exp == m.weights.in_exp) return Net::forward_q(m.weights, xq);
+    return Net::residual(m.scaler, m.weights, x);
+  }
+};
+
+}  // namespace detail
+
 /// Per-sample observer over a Model; no heap, a few dozen bytes of state.
 template <class Net>
 class Observer {
@@ -79,7 +113,9 @@ class Observer {
  public:
   /// Keeps a reference to model: pass one that outlives the observer (a generated kModel).
   explicit Observer(const Model<Net>& model)
-      : model_(model), speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)) {
+      : model_(model),
+        physics_const_(physics_const(model.physics)),
+        speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)) {
     reset();
   }
 
@@ -118,6 +154,7 @@ class Observer {
   struct Prepared {
     Estimate physics;         ///< rpm = rpm_m2, status fallback; status invalid: no usable reading
     float x[kFeatureCount];   ///< the network's inputs [v, i, n_M2, i(t-1), n_M2(t-1)]
+    int16_t xq[kFeatureCount];  ///< fixed-point model: x quantised by the gate, for the network (where use_network)
     float confidence;         ///< the gate's weight inside the envelope, else 0
     bool use_network;         ///< confidence > 0: the residual applies
   };
@@ -136,7 +173,10 @@ class Observer {
     out.confidence = 0.0f;
     out.physics = Estimate();
     out.physics.status = kStatusInvalid;
-    for (uint8_t j = 0; j < kFeatureCount; ++j) out.x[j] = 0.0f;
+    for (uint8_t j = 0; j < kFeatureCount; ++j) {
+      out.x[j] = 0.0f;
+      out.xq[j] = 0;
+    }
     const PhysicsParams& p = model_.physics;
     if (s.has_seq) {
       if (has_seq_ && s.seq != static_cast<uint16_t>(last_seq_ + 1u)) {
@@ -164,13 +204,14 @@ class Observer {
     PhysicsInput in;
     in.v_V = s.v_V;
     in.i_A = s.i_A;
-    in.di_dt_A_per_s = has_lag_ ? (s.i_A - i_lag_A_) / dt_s : 0.0f;
+    // di/dt only where the inductance term uses it (la_H = 0: no division).
+    in.di_dt_A_per_s = has_lag_ && p.la_H != 0.0f ? (s.i_A - i_lag_A_) / dt_s : 0.0f;
     // The copper follows the winding (estimated above the case reading, or above the
     // ambient); the magnets sit on the case: its reading, else the only thermal state.
     in.temp_C = ThermalEstimator::enabled(p) ? thermal_.temp_C(ref_C) : (temp_read ? s.temp_C : p.t_ref_C);
     in.magnet_C = temp_read ? s.temp_C : in.temp_C;
     float m2 = 0.0f;
-    if (!physics_rpm(p, in, &m2) || !(m2 <= speed_limit_rpm_ && m2 >= -speed_limit_rpm_)) {
+    if (!physics_rpm(p, physics_const_, in, &m2) || !(m2 <= speed_limit_rpm_ && m2 >= -speed_limit_rpm_)) {
       has_lag_ = false;
       return out;
     }
@@ -190,7 +231,7 @@ class Observer {
     out.physics.residual_rpm = 0.0f;
     out.physics.status = kStatusFallback;
     if (model_.envelope.contains(out.x)) {
-      out.confidence = model_.gate.weight(out.x, &gate_first_);
+      out.confidence = detail::gate_weight(model_.gate, out.x, &gate_first_, out.xq);
       if (!(out.confidence > 0.0f)) out.physics.status = kStatusGated;  // inside the box, far from the rows
     }
     out.use_network = out.confidence > 0.0f;
@@ -199,7 +240,7 @@ class Observer {
 
   /// The network's residual for a prepared sample, RPM, unclamped (scaler and MLP; a
   /// fixed-point network has the scaler folded into its first layer).
-  float residual(const Prepared& p) const { return Net::residual(model_.scaler, model_.weights, p.x); }
+  float residual(const Prepared& p) const { return detail::Residual<Net>::of(model_, p.x, p.xq); }
 
   /// The second half of step(): the estimate of a prepared sample, given the
   /// network's residual (ignored where the network does not apply; a non-finite
@@ -234,6 +275,7 @@ class Observer {
   }
 
   const Model<Net>& model_;
+  PhysicsConst physics_const_;  ///< the model's reciprocals: no division per step (physics.h)
   float speed_limit_rpm_;
   ThermalEstimator thermal_;
   Estimate last_;

@@ -41,18 +41,49 @@ struct PhysicsInput {
   float magnet_C;       ///< magnet temperature, for magnet_thermal, C
 };
 
-/// Armature current with the current-channel offset removed, A.
-inline float true_current_A(const PhysicsParams& p, float i_A) { return i_A - p.i_offset_A; }
+// A term whose coefficient is zero is skipped below, not computed: with finite inputs
+// (the observer checks them) x - 0, x (1 + 0 y) and x - 0 y are x, the same float, so the
+// result is the one of the full expression (tools/hpddo/physics.py computes it in full),
+// and the default model (every effect off) pays no float operation for them (on the AVR
+// each costs about 100 to 500 cycles).
 
-/// Terminal voltage with the voltage channel's offset and gain error removed, V.
-inline float true_voltage_V(const PhysicsParams& p, float v_V) {
-  // Without a gain error no division: x / 1 is x, the same float.
-  return p.v_gain == 0.0f ? v_V - p.v_offset_V : (v_V - p.v_offset_V) / (1.0f + p.v_gain);
+/// Armature current with the current-channel offset removed, A.
+inline float true_current_A(const PhysicsParams& p, float i_A) {
+  return p.i_offset_A == 0.0f ? i_A : i_A - p.i_offset_A;
 }
+
+/// Reciprocals the physics model would otherwise divide by at every sample, computed once
+/// per model (physics_const(); the observer keeps them): the step multiplies instead. The
+/// brush term's |i| + knee depends on the current and stays a division (only when the
+/// term is on), as does an effective Ke that depends on temperature or current.
+struct PhysicsConst {
+  float v_gain_inv;   ///< 1 / (1 + v_gain)
+  float rpm_per_V;    ///< kRpmPerRadS / ke_vs_per_rad: RPM per volt of back-EMF (0 when Ke <= 0)
+  bool ke_constant;   ///< no ke_tc_per_K and no ke_sat_per_A: the effective Ke is ke_vs_per_rad
+};
+
+/// The reciprocals of the parameters p (two float divisions, once).
+inline PhysicsConst physics_const(const PhysicsParams& p) {
+  PhysicsConst k;
+  k.v_gain_inv = p.v_gain == 0.0f ? 1.0f : 1.0f / (1.0f + p.v_gain);
+  k.rpm_per_V = p.ke_vs_per_rad > 0.0f ? kRpmPerRadS / p.ke_vs_per_rad : 0.0f;
+  k.ke_constant = p.ke_tc_per_K == 0.0f && p.ke_sat_per_A == 0.0f;
+  return k;
+}
+
+/// Terminal voltage with the voltage channel's offset and gain error removed, V:
+/// (v - v_offset) x 1 / (1 + v_gain), the reciprocal from k.
+inline float true_voltage_V(const PhysicsParams& p, const PhysicsConst& k, float v_V) {
+  const float v = p.v_offset_V == 0.0f ? v_V : v_V - p.v_offset_V;
+  return p.v_gain == 0.0f ? v : v * k.v_gain_inv;  // without a gain error x 1 is skipped: the same float
+}
+
+/// The same, the reciprocal computed here (the same float as physics_const()'s).
+inline float true_voltage_V(const PhysicsParams& p, float v_V) { return true_voltage_V(p, physics_const(p), v_V); }
 
 /// Armature resistance at temperature temp_C, ohm.
 inline float ra_at_ohm(const PhysicsParams& p, float temp_C) {
-  return p.ra_ohm * (1.0f + p.ra_tc_per_K * (temp_C - p.t_ref_C));
+  return p.ra_tc_per_K == 0.0f ? p.ra_ohm : p.ra_ohm * (1.0f + p.ra_tc_per_K * (temp_C - p.t_ref_C));
 }
 
 /// Brush contact drop at current i_A (true current), V.
@@ -72,26 +103,40 @@ inline float saturation_shape_A(const PhysicsParams& p, float i_A) {
 
 /// Effective back-EMF constant at temperature temp_C and current i_A, V s/rad.
 inline float ke_at_vs_per_rad(const PhysicsParams& p, float temp_C, float i_A) {
-  return p.ke_vs_per_rad * (1.0f + p.ke_tc_per_K * (temp_C - p.t_ref_C)) *
-         (1.0f - p.ke_sat_per_A * saturation_shape_A(p, i_A));
+  float ke = p.ke_vs_per_rad;
+  if (p.ke_tc_per_K != 0.0f) ke = ke * (1.0f + p.ke_tc_per_K * (temp_C - p.t_ref_C));
+  if (p.ke_sat_per_A != 0.0f) ke = ke * (1.0f - p.ke_sat_per_A * saturation_shape_A(p, i_A));
+  return ke;
 }
 
 /// Back-EMF implied by the voltage balance, V.
-inline float back_emf_V(const PhysicsParams& p, const PhysicsInput& in) {
+inline float back_emf_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in) {
   const float i = true_current_A(p, in.i_A);
-  return true_voltage_V(p, in.v_V) - ra_at_ohm(p, in.temp_C) * i - brush_drop_V(p, i) -
-         p.la_H * in.di_dt_A_per_s;
+  float emf = true_voltage_V(p, k, in.v_V) - ra_at_ohm(p, in.temp_C) * i;
+  if (p.brush_V != 0.0f) emf = emf - brush_drop_V(p, i);
+  if (p.la_H != 0.0f) emf = emf - p.la_H * in.di_dt_A_per_s;
+  return emf;
 }
 
-/// Output-shaft speed in RPM; false (and *rpm untouched) when the effective
-/// Ke is not positive or the result is not finite.
-inline bool physics_rpm(const PhysicsParams& p, const PhysicsInput& in, float* rpm) {
-  const float ke = ke_at_vs_per_rad(p, in.magnet_C, true_current_A(p, in.i_A));
+/// The same, the reciprocals computed here.
+inline float back_emf_V(const PhysicsParams& p, const PhysicsInput& in) { return back_emf_V(p, physics_const(p), in); }
+
+/// Output-shaft speed in RPM; false (and *rpm untouched) when the effective Ke is not
+/// positive or the result is not finite. k = physics_const(p). With a constant Ke the
+/// speed is emf x rpm_per_V (one multiply); else emf / ke x kRpmPerRadS.
+inline bool physics_rpm(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in, float* rpm) {
+  const float ke = k.ke_constant ? p.ke_vs_per_rad : ke_at_vs_per_rad(p, in.magnet_C, true_current_A(p, in.i_A));
   if (!(ke > 0.0f)) return false;
-  const float n = back_emf_V(p, in) / ke * kRpmPerRadS;
+  const float emf = back_emf_V(p, k, in);
+  const float n = k.ke_constant ? emf * k.rpm_per_V : emf / ke * kRpmPerRadS;
   if (!is_finite(n)) return false;
   *rpm = n;
   return true;
+}
+
+/// The same, the reciprocals computed here (tools and tests; the observer keeps them).
+inline bool physics_rpm(const PhysicsParams& p, const PhysicsInput& in, float* rpm) {
+  return physics_rpm(p, physics_const(p), in, rpm);
 }
 
 /// Edge of the model's physical speed range, RPM: kSpeedLimitFactor times the speed at

@@ -33,6 +33,20 @@
 #define HPDDO_FLASH
 #endif
 
+/// 1 where the novelty gate stops a prototype's distance sum once it reaches the best so
+/// far (the boards: no vector unit, a taken branch costs a cycle or two), 0 where every
+/// sum runs in full and the minimum is taken without a data-dependent branch (hosts: the
+/// early exits mispredict, the full sums vectorise). The weight is the same either way.
+/// The host flash fake (below) stands for a board: its tests run the boards' path.
+#if !defined(HPDDO_GATE_EARLY_EXIT)
+#if defined(__AVR__) || defined(ESP8266) || defined(ARDUINO_ARCH_ESP8266) || defined(__XTENSA__) || \
+    defined(HPDDO_FLASH_FAKE)
+#define HPDDO_GATE_EARLY_EXIT 1
+#else
+#define HPDDO_GATE_EARLY_EXIT 0
+#endif
+#endif
+
 #if defined(HPDDO_FLASH_FAKE) && !defined(__AVR__) && !defined(ESP8266) && !defined(ARDUINO_ARCH_ESP8266)
 #define HPDDO_FLASH_FAKE_ACTIVE 1
 #include <stdio.h>
