@@ -492,8 +492,8 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
         except Exception:
             continue
         if res_final is None:  # the final model's held-out residuals (refitted per fold under cross-validation)
-            res_final = (ranking.residuals(d, final) if d.folds is None
-                         else ranking.scored_names(d, m2, given + chosen, sigma2, start=final)[1])
+            res_final = ranking.held_out_residuals(
+                d, final, lambda rs, st: ranking.fit_names(rs, m2, given + chosen, sigma2, start=st))
         g, z = ranking.gain_z(d, res_final, rc, sigma2)
         single = first.get(c)
         table.append(EffectResult(c, "candidate", score=_score(g, mf.mse_base), gain_rpm2=g, z=z,
@@ -579,8 +579,7 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
             alt, res_alt = ranking.scored(d, lambda rs, st: fx.fit(rs, m2, given + missing + [other], start=st))
         except Exception:
             continue
-        res_sel = (ranking.residuals(d, final) if d.folds is None
-                   else ranking.scored(d, lambda rs, st: fx.fit(rs, m2, given + missing, start=st), final)[1])
+        res_sel = ranking.held_out_residuals(d, final, lambda rs, st: fx.fit(rs, m2, given + missing, start=st))
         mse_sel = ranking.held_out_mse(d, res_sel)
         mse_alt = ranking.held_out_mse(d, res_alt)
         if not (oeff.plausibility(getattr(alt, oeff.field))[0] and mse_alt <= mse_sel + MATERIAL_SLACK * sigma2):

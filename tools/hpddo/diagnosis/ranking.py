@@ -177,15 +177,13 @@ def cv_folds(rows, k: int = CV_FOLDS) -> list | None:
     rows), dealt round-robin over the blocks of all recordings in order; None with fewer
     than two blocks."""
     blocks = [op_blocks(r, r.train | r.test, BLOCK_S) for r in rows]
-    n_blocks = sum(int(b.max()) + 1 for b in blocks if len(b) and b.max() >= 0)
-    k = min(k, n_blocks)
+    counts = [int(b.max()) + 1 if len(b) else 0 for b in blocks]  # op_blocks numbers from 0; -1 for none
+    k = min(k, sum(counts))
     if k < 2:
         return None
     folds = [[] for _ in range(k)]
-    offset = 0
-    for r, b in zip(rows, blocks):
+    for r, b, offset in zip(rows, blocks, np.cumsum([0] + counts[:-1])):
         fold_of = np.where(b >= 0, (b + offset) % k, -1)
-        offset += int(b.max()) + 1 if len(b) and b.max() >= 0 else 0
         good = r.train | r.test
         for f in range(k):
             folds[f].append(dataclasses.replace(r, train=good & (fold_of != f), test=good & (fold_of == f)))
@@ -221,15 +219,22 @@ def scored(d: Data, fitter, start=None) -> tuple:
     (chronological split) or, under cross-validation, each fold's rows by the model fitted
     on the other folds (NaN outside the labelled rows)."""
     p = fitter(d.rows, start)
+    return p, held_out_residuals(d, p, fitter)
+
+
+def held_out_residuals(d: Data, p: ph.PhysicsParams, fitter) -> list:
+    """The held-out residuals of model p, fitted by fitter(rows, start) on d.rows' training
+    rows: rpm_ref - n_M2 of p itself (chronological split) or, under cross-validation, of
+    each fold's refit (started from p) on the fold's rows (NaN outside the labelled rows)."""
     if d.folds is None:
-        return p, residuals(d, p)
+        return residuals(d, p)
     res = [np.full(len(r.ref), np.nan) for r in d.rows]
     for fold in d.folds:
         pf = fitter(fold, p)
         for e, rf in zip(res, fold):
             if rf.test.any():
                 e[rf.test] = (rf.ref - fx.predict(rf, pf))[rf.test]
-    return p, res
+    return res
 
 
 def scored_names(d: Data, m2: ph.PhysicsParams, names, sigma2: float, weights=None, start=None) -> tuple:
