@@ -113,14 +113,14 @@ def back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
 def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
     """Output-shaft RPM; NaN where the effective Ke is not positive. temp_C: a Temps
     (winding for Ra, magnets for Ke) or one temperature for both."""
-    ke = ke_at_vs_per_rad(p, _split(temp_C)[1], true_current_A(p, i_A, dtype), dtype)
     if _board(dtype) and p.ke_tc_per_K == 0 and p.ke_sat_per_A == 0:
         # A constant Ke: the back-EMF times rpm_per_V = RPM_PER_RAD_S / Ke (physics_const()).
+        emf = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype)
         ke0 = _f(p, "ke_vs_per_rad", dtype)
         if not ke0 > 0:
-            return np.full(np.shape(ke), np.nan, dtype)
-        rpm_per_V = dtype(dtype(RPM_PER_RAD_S) / ke0)
-        return (back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) * rpm_per_V).astype(dtype)
+            return np.full(np.shape(emf), np.nan, dtype)
+        return (emf * dtype(dtype(RPM_PER_RAD_S) / ke0)).astype(dtype)
+    ke = ke_at_vs_per_rad(p, _split(temp_C)[1], true_current_A(p, i_A, dtype), dtype)
     with np.errstate(divide="ignore", invalid="ignore"):
         n = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) / ke * dtype(RPM_PER_RAD_S)
     return np.where(ke > 0, n, np.nan).astype(dtype)

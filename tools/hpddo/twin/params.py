@@ -143,6 +143,8 @@ MAGNET_LAG_S = 600.0         # "lag_600s": the magnets' own node, 600 s behind t
 WARMUP_S = 300.0             # "warmup": a sensor offset settling after power-up,
 WARMUP_AT_ONCE = 0.8         # ... this share of it at once (an amplifier's drift while it warms)
 V_BOW_V = 8.0                # "bowed": the voltage channel's gain error g at 8 V, 0 at 0 V
+_WARMUP = (f"an offset that settles after power-up: {WARMUP_AT_ONCE:.0%} of it at once, the rest with a "
+           f"{WARMUP_S:g} s time constant (an amplifier warming up)")
 FORMS = {
     "saturation": {
         "linear": "Ke (1 - s |i|)",
@@ -166,13 +168,11 @@ FORMS = {
     },
     "current_offset": {
         "constant": "a fixed offset of the current channel",
-        "warmup": f"an offset that settles after power-up: {WARMUP_AT_ONCE:.0%} of it at once, the rest with a "
-                  f"{WARMUP_S:g} s time constant (an amplifier warming up)",
+        "warmup": _WARMUP,
     },
     "v_offset": {
         "constant": "a fixed offset of the voltage channel",
-        "warmup": f"an offset that settles after power-up: {WARMUP_AT_ONCE:.0%} of it at once, the rest with a "
-                  f"{WARMUP_S:g} s time constant",
+        "warmup": _WARMUP,
     },
     "v_gain": {
         "constant": "a fixed gain error (divider tolerance, ADC reference)",
