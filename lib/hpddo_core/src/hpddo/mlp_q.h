@@ -90,19 +90,27 @@ struct Dot {
 };
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__) && !defined(HPDDO_FLASH_FAKE_ACTIVE)
 /// int16 weights on the AVR: the row read with LPM Z+ (post-increment), no address
-/// arithmetic per weight; about 35 cycles a weight.
+/// arithmetic per weight; about 35 cycles a weight. kSkipZero: a zero input skips its
+/// weight (2 cycles instead of about 35; the sum is the same).
+template <uint8_t kIn, bool kSkipZero>
+inline int32_t dot_lpm16(const int16_t* row, int32_t bias, const int16_t* in) {
+  int32_t acc = bias;
+  const int16_t* p = row;
+  for (uint8_t k = 0; k < kIn; ++k) {
+    const int16_t v = in[k];
+    if (kSkipZero && v == 0) {
+      ++p;
+      continue;
+    }
+    int16_t w;
+    __asm__ __volatile__("lpm %A0, Z+\n\tlpm %B0, Z+" : "=r"(w), "+z"(p));
+    acc = mac16(acc, w, v);
+  }
+  return acc;
+}
 template <uint8_t kIn>
 struct Dot<kIn, int16_t> {
-  static int32_t run(const int16_t* row, int32_t bias, const int16_t* in) {
-    int32_t acc = bias;
-    const int16_t* p = row;
-    for (uint8_t k = 0; k < kIn; ++k) {
-      int16_t w;
-      __asm__ __volatile__("lpm %A0, Z+\n\tlpm %B0, Z+" : "=r"(w), "+z"(p));
-      acc = mac16(acc, w, in[k]);
-    }
-    return acc;
-  }
+  static int32_t run(const int16_t* row, int32_t bias, const int16_t* in) { return dot_lpm16<kIn, false>(row, bias, in); }
 };
 #endif
 template <uint8_t kIn, class W>
@@ -111,8 +119,8 @@ __attribute__((always_inline)) inline int32_t dot_q(const W* row, int32_t bias, 
 }
 
 /// The same over the outputs of a ReLU layer, where about half the inputs are 0: on the
-/// AVR a zero input skips its weight (2 cycles instead of about 35; the sum is the same),
-/// elsewhere (a branch that mispredicts costs more than the multiply) the plain dot.
+/// AVR a zero input skips its weight (dot_lpm16), elsewhere (a branch that mispredicts
+/// costs more than the multiply) the plain dot.
 template <uint8_t kIn, class W>
 struct DotRelu {
   static int32_t run(const W* row, int32_t bias, const int16_t* in) { return Dot<kIn, W>::run(row, bias, in); }
@@ -120,21 +128,7 @@ struct DotRelu {
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__) && !defined(HPDDO_FLASH_FAKE_ACTIVE)
 template <uint8_t kIn>
 struct DotRelu<kIn, int16_t> {
-  static int32_t run(const int16_t* row, int32_t bias, const int16_t* in) {
-    int32_t acc = bias;
-    const int16_t* p = row;
-    for (uint8_t k = 0; k < kIn; ++k) {
-      const int16_t v = in[k];
-      if (v == 0) {
-        ++p;
-        continue;
-      }
-      int16_t w;
-      __asm__ __volatile__("lpm %A0, Z+\n\tlpm %B0, Z+" : "=r"(w), "+z"(p));
-      acc = mac16(acc, w, v);
-    }
-    return acc;
-  }
+  static int32_t run(const int16_t* row, int32_t bias, const int16_t* in) { return dot_lpm16<kIn, true>(row, bias, in); }
 };
 #endif
 template <uint8_t kIn, class W>
