@@ -290,7 +290,7 @@ def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
 
 
 def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
-        start: ph.PhysicsParams | None = None, hold=None, ra_prior=None) -> ph.PhysicsParams:
+        start: ph.PhysicsParams | None = None, hold=None, ra_prior=None, ra_bounds=None) -> ph.PhysicsParams:
     """Least squares of rpm_ref - n_M2 over the `mask` rows of `rows` (weights per row,
     optional), moving Ke and the coefficients of `names` (but those in `hold`, {effect:
     coefficient}, which stay at the value given); Ra, t_ref stay at base's.
@@ -299,11 +299,14 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     prior of mean ra0 and standard deviation sd_ohm (the multimeter reading and its
     tolerance): one more residual sigma_rpm (ra - ra0) / sd_ohm, sigma_rpm the noise level
     of the speed error, so that the sum of squares over sigma_rpm^2 is the negative log
-    posterior."""
+    posterior.
+
+    ra_bounds (the diagnosis only): (lo, hi) ohm moves Ra too, within those bounds and with no
+    prior: Ra as the data alone determine it (diagnosis.intervals)."""
     spec = spec_for(rows, names, hold)
-    if ra_prior is not None:
+    if ra_prior is not None or ra_bounds is not None:
         spec.free.append("ra_ohm")
-        spec.scales.append(float(ra_prior[1]))
+        spec.scales.append(float(ra_prior[1]) if ra_prior is not None else 0.05 * base.ra_ohm)
     p0 = _plain(base) if start is None else start
     x0 = [getattr(p0, f) if (start is not None or f in ("ke_vs_per_rad", "ra_ohm") or f in spec.bounds) else 0.0
           for f in spec.free]
@@ -337,9 +340,9 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     lo = [-np.inf] * len(x0)
     hi = [np.inf] * len(x0)
     lo[0] = min(1e-6, 0.1 * x0[0]) if x0[0] > 0 else 1e-6  # Ke > 0, whatever its scale
-    if ra_prior is not None:  # Ra within a factor 3 of the reading
+    if ra_prior is not None or ra_bounds is not None:  # Ra within a factor 3 of the reading, or ra_bounds
         k = spec.free.index("ra_ohm")
-        lo[k], hi[k] = ra_prior[0] / 3.0, ra_prior[0] * 3.0
+        lo[k], hi[k] = ra_bounds if ra_bounds is not None else (ra_prior[0] / 3.0, ra_prior[0] * 3.0)
         x0[k] = min(max(x0[k], lo[k] * 1.001), hi[k] * 0.999)
     for k, f in enumerate(spec.free):  # a shape within the forms physics allows
         if f in spec.bounds:

@@ -78,14 +78,14 @@ def summary(d) -> str:
             if incl and res["thresholds"].get("bootstrap_blocks", 99) < FEW_BLOCKS:
                 incl += f" (of {res['thresholds']['bootstrap_blocks']} operating points: means little)"
             lines.append(f"  {e['effect']:15s} {e['shown']:>14s}  score {e['score']:.3f}{incl}; {e['plausibility']}")
+            for iv in e.get("intervals", []):
+                lines.append(f"    {iv['text']}")
     ra = res.get("ra_fit")
     if ra:
-        state = ("a mismatch" if ra["mismatch"] else
-                 "not told apart from " + " or ".join(ra["confounded_with"]) if ra["confounded_with"] else
-                 "within the reading's tolerance" if abs(ra["sigmas"]) <= 1.0 else
-                 "no mismatch: moving Ra does not lower the held-out error")
-        lines.append(f"  Ra: {ra['given_ohm']:.3g} ohm given, the data support {ra['supported_ohm']:.3g} ohm "
-                     f"({ra['sigmas']:+.1f} x the {100 * ra['tolerance']:.0f} % tolerance): {state}")
+        lines.append(f"  Ra: {ra['statement']}")
+    for iv in res.get("intervals", []):
+        if iv["field"] == "ke_vs_per_rad":
+            lines.append(f"  {iv['text']}")
     node = getattr(d, "thermal_node", None) or res.get("thermal_node") or {}
     for which, lab in (("after_model", "with the missing effects"), ("model", "model under test")):
         if node.get(which):

@@ -27,7 +27,7 @@ from ..errors import InputError
 from .. import effects as fx
 from .. import physics as ph
 from ..train import TrainConfig, TrainingError, hybrid_rpm, train_residual
-from . import analysis, ranking
+from . import analysis, intervals, ranking
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
 HYBRID_ITER = 150  # training iterations of the hybrid in the diagnosis (gen_weights: 2000)
@@ -75,6 +75,7 @@ class EffectResult:
     se: float | None = None               # unseen: standard error of its coefficient
     needs: str = ""                       # unseen: the recording that would show it
     node: list = dataclasses.field(default_factory=list)  # thermal: its winding node's plausibility
+    intervals: list = dataclasses.field(default_factory=list)  # named: its coefficient's and shapes' Interval
 
     @property
     def named(self) -> bool:
@@ -101,6 +102,8 @@ class EffectResult:
             out.update(physical=self.physical, alone_gain_rpm2=self.alone_gain_rpm2)
         if self.node:
             out["thermal_node"] = self.node
+        if self.intervals:
+            out["intervals"] = [iv.to_json() for iv in self.intervals]
         if self.note is not None:
             out["note"] = self.note
         return out
@@ -283,11 +286,25 @@ class RaFit:
     mismatch: bool
     inclusion: float | None = None
     confounded_with: list = dataclasses.field(default_factory=list)
+    # Ra as the data alone determine it (no prior; ranking.fit_ra_free): its value and 95 %
+    # interval, or that these recordings do not determine it (intervals.Interval)
+    data: intervals.Interval | None = None
+
+    @property
+    def determined(self) -> bool:
+        return self.data is None or self.data.determined
+
+    @property
+    def reading_inside(self) -> bool:
+        """The reading lies within the data-alone interval."""
+        return self.data is None or not self.data.determined or self.data.lo <= self.given_ohm <= self.data.hi
 
     def to_json(self) -> dict:
         return {"given_ohm": self.given_ohm, "supported_ohm": self.supported_ohm, "tolerance": self.tolerance,
                 "sigmas": self.sigmas, "mismatch": bool(self.mismatch), "inclusion": self.inclusion,
-                "confounded_with": list(self.confounded_with)}
+                "confounded_with": list(self.confounded_with), "determined": bool(self.determined),
+                "data_alone": self.data.to_json() if self.data is not None else None,
+                "statement": ra_statement(self)}
 
 
 @dataclasses.dataclass
@@ -298,6 +315,7 @@ class Selection:
     missing: list      # effects named, in order
     ranking: list      # EffectResult
     ra_fit: RaFit | None = None
+    intervals: list = dataclasses.field(default_factory=list)  # intervals.Interval of the final model's fields
 
 
 @dataclasses.dataclass
@@ -352,6 +370,9 @@ class Diagnosis:
     told_apart: list = dataclasses.field(default_factory=list)  # Confounding.told_apart
     # the channel offsets read at rest (effects.rest_offsets): {effect: {value, se, rows}}
     rest_offsets: dict = dataclasses.field(default_factory=dict)
+    # every quantity the model with the missing effects fitted (Ke, coefficients, shapes, the
+    # winding node), with its interval from the data or "not determined" (intervals.Interval)
+    intervals: list = dataclasses.field(default_factory=list)
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -372,6 +393,7 @@ class Diagnosis:
             "separating_recordings": [s.to_json() for s in self.separating_recordings],
             "told_apart": self.told_apart,
             "rest_offsets": self.rest_offsets,
+            "intervals": [iv.to_json() for iv in self.intervals],
             "not_identifiable": self.not_identifiable,
             "ranking": [e.to_json() for e in self.ranking],
             "verdict": self.verdict,
@@ -522,7 +544,20 @@ def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, i
             final = inp.m2
     given = inp.m2.ra_ohm
     return RaFit(given_ohm=given, supported_ohm=float(final.ra_ohm), tolerance=ranking.RA_TOLERANCE,
-                 sigmas=float(ranking.ra_sigmas(inp.m2, final.ra_ohm)), mismatch=named, inclusion=inclusion)
+                 sigmas=float(ranking.ra_sigmas(inp.m2, final.ra_ohm)), mismatch=named, inclusion=inclusion,
+                 data=ra_alone(inp, names))
+
+
+def ra_alone(inp: Inputs, names) -> intervals.Interval | None:
+    """Ra as the data alone determine it, with Ke and the effects in names fitted alongside
+    (no prior around the reading): its Interval; None when the fit fails."""
+    names = [n for n in names if n != ranking.RA_MISMATCH]
+    try:
+        p = ranking.fit_ra_free(inp.rows, inp.m2, names)
+    except Exception:
+        return None
+    ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
+    return next(iv for iv in ivs if iv.field == "ra_ohm")
 
 
 def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
@@ -633,20 +668,63 @@ def residuals(inp: Inputs, mf: ModelFit, sel: Selection) -> Residuals:
                      after=analyse(inp, res_after, mf.sigma2))
 
 
-def ra_verdict(ra: RaFit | None) -> str:
-    """The verdict's sentence on Ra; "" when the reading fits."""
-    if ra is None or (not ra.mismatch and not ra.confounded_with):
+def _alone(ra: RaFit) -> str:
+    """Ra from the data alone, in words ("" without it)."""
+    d = ra.data
+    if d is None:
         return ""
+    return f"the data alone put Ra at {d.value:.3g} ohm ({100 * intervals.LEVEL:.0f} % interval {d.lo:.3g}..{d.hi:.3g})"
+
+
+def ra_statement(ra: RaFit | None) -> str:
+    """What the recordings say of Ra, one clause for the summary: never a value they do not
+    determine."""
+    if ra is None:
+        return ""
+    if not ra.determined:
+        return (f"{ra.given_ohm:.3g} ohm given; Ra is not determined by these recordings ({ra.data.why}), so "
+                f"whether the reading is right cannot be told; what would determine it: {ra.data.needs}")
+    head = f"{ra.given_ohm:.3g} ohm given; " + (_alone(ra) + "; " if ra.data is not None else "")
+    if ra.mismatch:
+        return head + (f"with the reading's {100 * ra.tolerance:.0f} % tolerance as a prior {ra.supported_ohm:.3g} "
+                       f"ohm ({ra.sigmas:+.1f} x the tolerance): a mismatch")
+    if ra.confounded_with:
+        return head + "not told apart from " + " or ".join(ra.confounded_with)
+    if ra.reading_inside:
+        return head + "consistent with the reading"
+    return head + "the reading lies outside it, but moving Ra does not lower the held-out error enough to name a mismatch"
+
+
+def ra_verdict(ra: RaFit | None) -> str:
+    """The verdict's sentence on Ra; "" when the reading fits (or the data cannot tell)."""
+    if ra is None:
+        return ""
+    if not ra.determined:
+        if not ra.mismatch and not ra.confounded_with:
+            return ""
+        return (f"Whether the Ra you gave ({ra.given_ohm:.3g} ohm) is right cannot be told: Ra is not determined "
+                f"by these recordings ({ra.data.why}); the effects were looked for with the reading. What would "
+                f"determine Ra: {ra.data.needs}.")
+    if not ra.mismatch and not ra.confounded_with:
+        if ra.reading_inside:
+            return ""
+        d = ra.data
+        far = abs(d.value / ra.given_ohm - 1.0) > ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance
+        return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}"
+                + (f", {d.value / ra.given_ohm:.3g} times the reading, beyond what the error of a reading explains "
+                   f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); the effects were looked for with the "
+                   "reading and may be wrong: check the reading (its unit, the leads' resistance), or pass "
+                   f"--ra-ohm {d.value:.3g} if you trust these recordings." if far else
+                   "; moving Ra does not lower the held-out error enough to name a mismatch."))
     rel = ra.supported_ohm / ra.given_ohm - 1.0
+    alone = f" ({_alone(ra)})" if ra.data is not None else ""
     if not ra.mismatch:
-        return (f"An error proportional to the current remains that a wrong Ra (the data support "
-                f"{ra.supported_ohm:.3g} ohm against the {ra.given_ohm:.3g} ohm given, within the reading's "
-                f"{ra.tolerance:.0%} tolerance) explains as well as {' or '.join(ra.confounded_with)}, so "
-                f"neither is named; to separate them: {ranking.RA_SEPARATOR}.")
-    text = (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings: they support "
-            f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the reading's "
-            f"{ra.tolerance:.0%} tolerance), an error proportional to the current; the effects were "
-            "looked for with Ra at that value.")
+        return (f"An error proportional to the current remains that a wrong Ra{alone} explains as well as "
+                f"{' or '.join(ra.confounded_with)}, so neither is named; to separate them: {ranking.RA_SEPARATOR}.")
+    text = (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings{alone}: with the reading's "
+            f"{ra.tolerance:.0%} tolerance as a prior they support "
+            f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error "
+            "proportional to the current; the effects were looked for with Ra at that value.")
     if ra.confounded_with:
         text += (f" These recordings cannot tell a wrong Ra from {' or '.join(ra.confounded_with)}, so "
                  f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect; "
@@ -675,7 +753,7 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float)
         if sel.ra_fit is not None and sel.ra_fit.mismatch:
             return "No effect missing once Ra is corrected: the residual is then consistent with measurement noise."
         return "Nothing missing: the residual is consistent with measurement noise."
-    text = "Missing: " + ", ".join(f"{e.effect} ({e.shown})" for e in sel.ranking if e.named) + "."
+    text = "Missing: " + ", ".join(f"{e.effect} ({_size(e)})" for e in sel.ranking if e.named) + "."
     if conf.groups:
         text += " " + " ".join(_pair_sentence(s) for s in conf.pairs if ranking.RA_MISMATCH not in s.effects)
     if conf.told_apart:
@@ -688,6 +766,19 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float)
                  ", ".join(f"{c['input']} (r = {c['peak']:+.2f})" for c in after.correlates[:3]
                            if c["significant"]) + ".")
     return text
+
+
+def _size(e: EffectResult) -> str:
+    """A named effect's size in words: its value and interval, or that the recordings do not
+    determine it (its coefficient's interval, intervals.Interval)."""
+    iv = next((iv for iv in e.intervals if iv.field == fx.LIBRARY[e.effect].field), None)
+    if iv is None:
+        return e.shown
+    if not iv.determined:
+        rng = (f": {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g} "
+               f"{iv.show_unit}" if iv.lo is not None else "")
+        return f"fitted {e.shown}, but its size is not determined by these recordings{rng}"
+    return f"{e.shown}, {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g}"
 
 
 def _pair_sentence(s: ConfoundedPair) -> str:
@@ -774,7 +865,8 @@ def diagnose(paths, opt: Options) -> Diagnosis:
         # the Ra the data support with the effects the material check added
         sup = _ra_fit(inp, None, inp.given + sel.missing, mf.sigma2, sel.ra_fit.inclusion)
         sel = dataclasses.replace(sel, ra_fit=dataclasses.replace(sel.ra_fit, supported_ohm=sup.supported_ohm,
-                                                                  sigmas=sup.sigmas))
+                                                                  sigmas=sup.sigmas, data=sup.data))
+    sel = with_intervals(inp, sel)
     resid = residuals(inp, mf, sel)
     text = verdict(sel, conf, resid, mf.sigma2)
     changed = bool(sel.missing) or sel.ra_fit.mismatch
@@ -786,6 +878,23 @@ def diagnose(paths, opt: Options) -> Diagnosis:
         d.leave_one_out = leave_one_out(inp, sel.missing)
         d.runtime_s = time.perf_counter() - t0
     return d
+
+
+def with_intervals(inp: Inputs, sel: Selection) -> Selection:
+    """sel with the Interval of every quantity its final model fitted: on the selection (its
+    `intervals`) and on the named rows of its ranking table (their coefficient and shapes)."""
+    names = inp.given + sel.missing
+    hold = ranking.material_holds(names) if sel.ra_fit is not None and sel.ra_fit.mismatch else None
+    ivs = intervals.of_fit(inp.data, sel.final, names, hold)
+    by_field = {iv.field: iv for iv in ivs}
+    table = []
+    for e in sel.ranking:
+        if e.named:
+            eff = fx.LIBRARY[e.effect]
+            e = dataclasses.replace(e, intervals=[by_field[f] for f in [eff.field] + [sh.field for sh in eff.shapes]
+                                                  if f in by_field])
+        table.append(e)
+    return dataclasses.replace(sel, ranking=table, intervals=ivs)
 
 
 def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) -> Diagnosis:
@@ -800,7 +909,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         told_apart=conf.told_apart,
         rest_offsets={k: {"value": v, "se": se, "rows": n} for k, (v, se, n) in fx.rest_offsets(rows).items()},
         not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
-        ranking=sel.ranking, verdict=text, noise_rpm=float(np.sqrt(mf.sigma2)),
+        ranking=sel.ranking, verdict=text, intervals=sel.intervals, noise_rpm=float(np.sqrt(mf.sigma2)),
         rmse_before=_rmse_by_condition(rows, mf.res_model), rmse_after=_rmse_by_condition(rows, resid.res_after),
         after_model=resid.after_model, residual_before=resid.before, residual_after=resid.after,
         steps=[RankingStep.of(s) for s in sel.steps],

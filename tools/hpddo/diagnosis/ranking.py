@@ -93,15 +93,36 @@ def fit_names(rows, m2: ph.PhysicsParams, names, sigma2: float, **kw) -> ph.Phys
     if RA_MISMATCH in names:
         names.remove(RA_MISMATCH)
         kw["ra_prior"] = ra_prior(m2, sigma2)
-        # With Ra moving, a material coefficient (copper's) is held at the material's value:
-        # Ra and a free temperature coefficient trade off (Ra (1 + a (T - t_ref)) with the
-        # winding node's rise), and only the material constant tells them apart.
-        hold = dict(kw.get("hold") or {})
-        for n in names:
-            if fx.LIBRARY[n].material is not None and n not in hold:
-                hold[n] = fx.LIBRARY[n].material
-        kw["hold"] = hold
+        kw["hold"] = material_holds(names, kw.get("hold"))
     return fx.fit(rows, m2, names, **kw)
+
+
+def material_holds(names, hold=None) -> dict:
+    """hold with every material coefficient among names held at the material's value (where
+    Ra moves): Ra and a free temperature coefficient trade off (Ra (1 + a (T - t_ref)) with
+    the winding node's rise), and only the material constant tells them apart."""
+    hold = dict(hold or {})
+    for n in names:
+        if fx.LIBRARY[n].material is not None and n not in hold:
+            hold[n] = fx.LIBRARY[n].material
+    return hold
+
+
+# Ra as the data alone determine it (no prior): moved within a factor RA_DATA_RANGE of the
+# reading; a fit that stops at either edge says the data do not determine it.
+RA_DATA_RANGE = 100.0
+
+
+def ra_data_bounds(m2: ph.PhysicsParams) -> tuple:
+    return (m2.ra_ohm / RA_DATA_RANGE, m2.ra_ohm * RA_DATA_RANGE)
+
+
+def fit_ra_free(rows, m2: ph.PhysicsParams, names, **kw) -> ph.PhysicsParams:
+    """fx.fit of the effects in names (RA_MISMATCH dropped) with Ra moving and no prior
+    (ra_data_bounds): Ra as the data alone determine it."""
+    names = [n for n in names if n != RA_MISMATCH]
+    kw["hold"] = material_holds(names, kw.get("hold"))
+    return fx.fit(rows, m2, names, ra_bounds=ra_data_bounds(m2), **kw)
 
 
 def ra_sigmas(m2: ph.PhysicsParams, ra: float) -> float:

@@ -1,0 +1,242 @@
+"""How well the recordings determine each identified quantity: a 95 % interval from the
+data for Ke, Ra and every fitted effect coefficient, shape and winding-node parameter, and
+whether the recordings determine it at all.
+
+The interval is the linearised least-squares one with a covariance robust to the errors of
+one operating point being alike (statsmodels' cluster-robust sandwich, clusters = the
+bootstrap's operating-point blocks, ranking.op_blocks): the asymptotic form of a bootstrap
+over whole operating points, from one Jacobian at the fitted values, with Student's t on
+(clusters - 1) degrees of freedom. With fewer clusters than parameters + 2 the rows are
+taken as independent (heteroskedasticity-robust HC1) and the interval says so.
+
+A quantity is *not determined by these recordings* when
+  * the fit stopped at the edge of the range it was allowed (the data pull it further),
+  * its interval reaches outside the range that is physical for it (Ra or Ke through zero,
+    a shape beyond its forms), or
+  * the objective is flat along it (its column of the Jacobian is zero, or a combination
+    of the others': no standard error).
+Such a quantity is reported with the measurement that would determine it, never as a value
+the data support.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import statsmodels.api as sm
+from scipy import stats
+
+from .. import effects as fx
+from .. import physics as ph
+from .. import schema
+
+LEVEL = 0.95
+# relative step of the central differences of the Jacobian (of the field, or of its typical scale)
+STEP_REL = 1e-4
+EDGE_REL = 1e-6  # a value this close to a bound of its fit (relative to the range) sits on it
+
+# The measurement that determines each quantity that is no effect coefficient (an effect's
+# is its declaration's excited_by, schema.py).
+KE_NEEDS = ("coasting: the supply switched off with the motor turning, the back-EMF read at the open "
+            "terminals while it runs down (or runs at several speeds with little load)")
+RA_NEEDS = ("stall dwells (the motor held at standstill with current flowing, a few current levels), or "
+            "heavy load next to light load at one voltage")
+THERMAL_NEEDS = "a cold-then-warm run: the motor started cold and run at load until its temperature settles"
+
+# field -> (quantity shown, unit shown, scale to the unit shown, physical range, what determines it)
+_OTHER = {
+    "ke_vs_per_rad": ("Ke", "V s/rad", 1.0, (0.0, math.inf), KE_NEEDS),
+    "ra_ohm": ("Ra", "ohm", 1.0, (0.0, math.inf), RA_NEEDS),
+}
+
+
+@dataclasses.dataclass
+class Interval:
+    """A quantity's value and its 95 % interval from the data (SI); determined: whether
+    the recordings determine it; why: the reason when not; needs: what would."""
+
+    quantity: str
+    field: str
+    unit: str
+    value: float
+    lo: float | None
+    hi: float | None
+    determined: bool
+    why: str = ""
+    needs: str = ""
+    clusters: int = 0
+    method: str = ""
+    show_scale: float = 1.0
+    show_unit: str = ""
+
+    def to_json(self) -> dict:
+        return {"quantity": self.quantity, "field": self.field, "unit": self.unit, "value": self.value,
+                "lo": self.lo, "hi": self.hi, "level": LEVEL, "determined": bool(self.determined),
+                "why": self.why, "needs": self.needs, "clusters": self.clusters, "method": self.method,
+                "text": self.text()}
+
+    def text(self) -> str:
+        """The quantity in words: its value with the interval, or that it is not determined."""
+        s, u = self.show_scale, self.show_unit or self.unit
+        if not self.determined:
+            return (f"{self.quantity} not determined by these recordings ({self.why}); "
+                    f"what would determine it: {self.needs}")
+        return (f"{self.quantity} = {self.value * s:.4g} {u} "
+                f"({100 * LEVEL:.0f} % interval {self.lo * s:.4g}..{self.hi * s:.4g} {u})")
+
+
+def _describe(field: str) -> tuple:
+    """(quantity, unit shown, show scale, physical range, needs, SI unit) of a fitted field."""
+    if field in _OTHER:
+        q, u, s, phys, needs = _OTHER[field]
+        return q, u, s, phys, needs, u
+    for e in schema.EFFECTS:
+        needs = THERMAL_NEEDS if e.thermal else e.excited_by
+        if e.field == field:  # an interval through zero leaves even the effect's sign open
+            phys = (min(e.physical[0], 0.0), max(e.physical[1], 0.0))
+            return e.name, e.show_unit, e.show_scale, phys, needs, e.unit
+        for sh in e.shapes:
+            if sh.field == field:
+                return f"{e.name} shape {field}", sh.unit, 1.0, sh.bounds, needs, sh.unit
+    for n in schema.NODE:
+        if n.field == field:
+            return f"winding node {field}", n.show_unit, 1.0, n.physical, THERMAL_NEEDS, n.show_unit
+    return field, "", 1.0, (-math.inf, math.inf), "", ""
+
+
+def _predict_all(rows, masks, p: ph.PhysicsParams) -> np.ndarray:
+    """n_M2 of p at the masked rows of every recording (temperatures recomputed at p)."""
+    return np.concatenate([fx.predict(r, p)[m] for r, m in zip(rows, masks)])
+
+
+def jacobian(rows, masks, p: ph.PhysicsParams, fields) -> np.ndarray:
+    """d n_M2 / d field at p for every masked row (columns in the order of fields), by
+    central differences through the physics and the winding node (fx.predict)."""
+    cols = []
+    for f in fields:
+        c = float(getattr(p, f))
+        h = STEP_REL * max(abs(c), _scale(f))
+        up = _predict_all(rows, masks, dataclasses.replace(p, **{f: c + h}))
+        dn = _predict_all(rows, masks, dataclasses.replace(p, **{f: c - h}))
+        cols.append((up - dn) / (2 * h))
+    return np.column_stack(cols) if cols else np.zeros((0, 0))
+
+
+def _scale(field: str) -> float:
+    for e in schema.EFFECTS:
+        if e.field == field:
+            return abs(e.scale)
+        for sh in e.shapes:
+            if sh.field == field:
+                return sh.scale
+    return 1e-3
+
+
+def covariance(jac: np.ndarray, e: np.ndarray, groups: np.ndarray) -> tuple[np.ndarray, int, str]:
+    """(covariance of the fitted fields, degrees of freedom of the t quantile, method) from
+    the Jacobian jac of the prediction and the residual e at the fit: the cluster-robust
+    sandwich over the operating-point groups (statsmodels), HC1 with too few groups. NaN
+    where the objective is flat along a field."""
+    k = jac.shape[1]
+    norms = np.sqrt(np.sum(jac * jac, axis=0))
+    flat = norms <= 0
+    cov = np.full((k, k), np.nan)
+    if flat.all():
+        return cov, 1, "flat"
+    x = jac[:, ~flat] / norms[~flat]
+    n_groups = len(np.unique(groups))
+    if n_groups >= x.shape[1] + 2:
+        res = sm.OLS(e, x).fit(cov_type="cluster", cov_kwds={"groups": groups}, use_t=True)
+        df, method = n_groups - 1, f"cluster-robust over {n_groups} operating points"
+    else:
+        res = sm.OLS(e, x).fit(cov_type="HC1")
+        df, method = max(len(e) - x.shape[1], 1), (f"rows taken as independent (only {n_groups} operating "
+                                                   "points)")
+    c = np.asarray(res.cov_params()) / np.outer(norms[~flat], norms[~flat])
+    # a combination of the other columns: the information along it is (numerically) nil
+    sv = np.linalg.svd(x, compute_uv=False)
+    if sv[-1] <= 1e-9 * sv[0]:
+        return cov, df, "flat"
+    idx = np.flatnonzero(~flat)
+    cov[np.ix_(idx, idx)] = c
+    return cov, df, method
+
+
+def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | None = None) -> list[Interval]:
+    """The Interval of every field of p fitted on the training rows of `rows` (groups_per_rec:
+    the operating-point block id per row of each recording, -1 outside the training rows;
+    bounds: {field: (lo, hi)} the fit was held within)."""
+    bounds = dict(bounds or {})
+    masks = []
+    groups = []
+    offset = 0
+    for r, g in zip(rows, groups_per_rec):
+        n = fx.predict(r, p)
+        m = r.train & np.isfinite(r.ref) & np.isfinite(n) & (g >= 0)
+        masks.append(m)
+        groups.append(g[m] + offset)
+        offset += int(g.max()) + 1 if len(g) else 0
+    ref = np.concatenate([r.ref[m] for r, m in zip(rows, masks)])
+    e = ref - _predict_all(rows, masks, p)
+    # a field on an edge of its bounds is held there (an active constraint): out of the covariance
+    edge = [f in bounds and _on_edge(float(getattr(p, f)), bounds[f]) for f in fields]
+    free = [f for f, on in zip(fields, edge) if not on]
+    jac = jacobian(rows, masks, p, free)
+    cov, df, method = covariance(jac, e, np.concatenate(groups))
+    t = float(stats.t.ppf(0.5 + LEVEL / 2, df))
+    var = dict(zip(free, np.diag(cov)))
+    out = []
+    for f in fields:
+        q, unit, scale, phys, needs, si = _describe(f)
+        v = float(getattr(p, f))
+        c = var.get(f, math.nan)
+        se = float(np.sqrt(c)) if np.isfinite(c) and c >= 0 else math.inf
+        lo, hi = v - t * se, v + t * se
+        why = ""
+        b = bounds.get(f)
+        if b is not None and _on_edge(v, b):
+            why = f"the fit stopped at the edge of the range allowed, {_rng(b, scale, unit)}: the data pull it further"
+        elif not math.isfinite(se):
+            why = "the objective is flat along it: these rows do not move the speed estimate with it"
+        elif lo <= phys[0] or hi >= phys[1]:
+            why = (f"its interval {lo * scale:.3g}..{hi * scale:.3g} {unit} reaches outside the physical "
+                   f"{_rng(phys, scale, unit)}")
+        out.append(Interval(q, f, si, v, lo if math.isfinite(se) else None, hi if math.isfinite(se) else None,
+                            determined=not why, why=why, needs=needs, clusters=len(np.unique(np.concatenate(groups))),
+                            method=method, show_scale=scale, show_unit=unit))
+    return out
+
+
+def _on_edge(v: float, b: tuple) -> bool:
+    lo, hi = b
+    span = (hi - lo) if math.isfinite(hi - lo) else max(abs(v), 1.0)
+    return abs(v - lo) <= EDGE_REL * span or abs(v - hi) <= EDGE_REL * span
+
+
+def _rng(b: tuple, scale: float, unit: str) -> str:
+    lo, hi = b
+    return f"{lo * scale:.3g}..{hi * scale:.3g} {unit}" if math.isfinite(hi) else f"above {lo * scale:.3g} {unit}"
+
+
+def fitted_fields(rows, names, hold=None, ra_bounds=None) -> tuple[list, dict]:
+    """(fields, {field: bounds}) that fx.fit moves for the effects in names (hold as fx.fit's;
+    ra_bounds: Ra moved too, within them): Ke, the coefficients not held, their shapes, the
+    winding node of a thermal effect."""
+    spec = fx.spec_for(rows, names, hold)
+    fields, bounds = list(spec.free), dict(spec.bounds)
+    if spec.thermal_state:
+        for n in fx.node_params(spec.blind):
+            fields.append(n.field)
+            bounds[n.field] = n.physical
+    if ra_bounds is not None:
+        fields.append("ra_ohm")
+        bounds["ra_ohm"] = tuple(ra_bounds)
+    return fields, bounds
+
+
+def of_fit(data, p: ph.PhysicsParams, names, hold=None, ra_bounds=None) -> list[Interval]:
+    """The Interval of every quantity that fx.fit(data.rows, ..., names, hold, ra_bounds)
+    moved to reach p (its training rows, the bootstrap's operating-point blocks)."""
+    fields, bounds = fitted_fields(data.rows, names, hold, ra_bounds)
+    return intervals(data.rows, data.blocks_train, p, fields, bounds)
