@@ -197,6 +197,8 @@ def test_stages_on_the_bundled_recordings(default_stages):
     assert sel2.missing[-1] == "magnet_thermal" and ["thermal_ra", "magnet_thermal"] in conf2.groups
     assert sel2.final.ra_tc_per_K == pytest.approx(fx.COPPER_TC_PER_K)
     assert sel.missing[-1] != "magnet_thermal"  # the stage returns new values, its inputs stay
+    sel2 = core.with_intervals(inp, sel2)
+    assert {iv.quantity for iv in sel2.intervals} >= {"Ke", "brush_drop", "magnet_thermal"}
     resid = core.residuals(inp, mf, sel2)
     text = core.verdict(sel2, conf2, resid, mf.sigma2)
     assert text.startswith("Missing: thermal_ra")
@@ -206,7 +208,7 @@ def test_stages_on_the_bundled_recordings(default_stages):
     js = res.to_json()
     assert list(js) == ["recordings", "warnings", "ra_ohm", "ra_source", "ra_fit", "model_effects", "model",
                         "missing_effects", "confounded", "separating_recordings", "told_apart", "rest_offsets",
-                        "not_identifiable", "ranking", "verdict", "noise_rpm", "rmse_rpm", "after_model",
+                        "intervals", "not_identifiable", "ranking", "verdict", "noise_rpm", "rmse_rpm", "after_model",
                         "thermal_node", "residual_before", "residual_after",
                         "steps", "thresholds", "runtime_s"]
     check = [s["material_check"] for s in js["separating_recordings"] if "material_check" in s]

@@ -16,28 +16,8 @@ import pytest
 import gen_weights
 from hpddo import gate, train
 from hpddo.cli import evaluate as evaluate_cli
-
-RA_OHM = 4.5
-KE_VS_PER_RAD = 0.4
+from twin_benches import KE_VS_PER_RAD, RA_OHM, dyno_table
 NOTE = "labelled training rows, at least 200 (one batch) are needed; the model is physics only (M3 = M2)"
-
-
-def dyno_table(path, rows: int, seed: int = 3):
-    """A steady-state table in the bench log format (docs/bench-log.md): one row per
-    operating point, voltage steps of a sweep and rising load current at each, t_s one
-    second apart, speed (V - I Ra) / Ke with tachometer noise, no temperature."""
-    rng = np.random.default_rng(seed)
-    volts = np.linspace(3.0, 12.0, 6)
-    lines = [f"# condition=dyno{rows}", f"# ra_ohm={RA_OHM}", "t_s,duty,v_V,i_A,rpm_ref"]
-    for k in range(rows):
-        v = volts[k * len(volts) // rows]
-        step = k % math.ceil(rows / len(volts))
-        i = 0.1 + 0.02 * step
-        rpm = (v - i * RA_OHM) / KE_VS_PER_RAD * 60.0 / (2.0 * math.pi)
-        lines.append(f"{k:.1f},{v / 12.0:.3f},{v + rng.normal(0, 0.01):.4f},{i + rng.normal(0, 0.002):.4f},"
-                     f"{rpm + rng.normal(0, 2.0):.2f}")
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def _train(argv) -> tuple[int, str]:

@@ -9,6 +9,7 @@ diagnose() strings the stages together, each a function of typed values:
   select          forward selection, bootstrap, the ranking table            -> Selection
   confounding     alternatives that explained nearly as much                 -> Confounding
   material_check  a material constant as a test of confounding               -> (Selection, Confounding)
+  with_intervals  each fitted quantity's interval from the data, or "not determined" -> Selection
   residuals       residual analysis before and after adding the effects      -> Residuals
   verdict         the verdict text                                           -> str
   hybrid          the hybrid's RMSE before and after (optional)              -> Hybrid | None
@@ -296,8 +297,12 @@ class RaFit:
 
     @property
     def reading_inside(self) -> bool:
-        """The reading lies within the data-alone interval."""
-        return self.data is None or not self.data.determined or self.data.lo <= self.given_ohm <= self.data.hi
+        """The data-alone interval meets the reading's own band (RA_MISMATCH_SIGMAS tolerances
+        around it): a shift within the reading's uncertainty is no contradiction."""
+        if self.data is None or not self.data.determined:
+            return True
+        band = ranking.RA_MISMATCH_SIGMAS * self.tolerance * self.given_ohm
+        return self.data.lo <= self.given_ohm + band and self.data.hi >= self.given_ohm - band
 
     def to_json(self) -> dict:
         return {"given_ohm": self.given_ohm, "supported_ohm": self.supported_ohm, "tolerance": self.tolerance,
@@ -499,6 +504,12 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
         if st.name in ra_confounded:
             ra_fit.confounded_with += [a for a, z in st.told_apart.items()
                                        if a != RA and z < ranking.Z_MIN and a not in ra_fit.confounded_with]
+    if RA in chosen and not ra_fit.determined:
+        # the held-out gain of a moving Ra is no mismatch where the data alone do not determine
+        # Ra: the reading is kept (ra_verdict says that it cannot be told)
+        chosen.remove(RA)
+        final = fx.fit(rows, m2, given + chosen, start=final)
+        ra_fit.mismatch = False
 
     # single-effect gains on the base model (the first step's trial) for the ranking table
     first = {a[0]: a for a in steps[0].alternatives} if steps else {}
@@ -635,7 +646,12 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
         pairs.append(ConfoundedPair([name, other], ranking.separator(name, other),
                                     ranking.partial_corr(d, mf.base, name, other, given),
                                     MaterialCheck(name, other, getattr(sel.steps_final, eff.field), mse_sel, mse_alt)))
-    return (dataclasses.replace(sel, final=final, missing=missing, ranking=table),
+    ra_fit = sel.ra_fit
+    if ra_fit is not None and not ra_fit.mismatch and missing != sel.missing:
+        # the Ra the data support with the effects the material check added
+        sup = _ra_fit(inp, None, given + missing, sigma2, ra_fit.inclusion)
+        ra_fit = dataclasses.replace(ra_fit, supported_ohm=sup.supported_ohm, sigmas=sup.sigmas, data=sup.data)
+    return (dataclasses.replace(sel, final=final, missing=missing, ranking=table, ra_fit=ra_fit),
             Confounding(groups=groups, pairs=pairs, told_apart=conf.told_apart))
 
 
@@ -673,7 +689,7 @@ def _alone(ra: RaFit) -> str:
     d = ra.data
     if d is None:
         return ""
-    return f"the data alone put Ra at {d.value:.3g} ohm ({100 * intervals.LEVEL:.0f} % interval {d.lo:.3g}..{d.hi:.3g})"
+    return f"with Ke and the named effects fitted alongside, the data alone put Ra at {d.value:.3g} ohm ({100 * intervals.LEVEL:.0f} % interval {d.lo:.3g}..{d.hi:.3g})"
 
 
 def ra_statement(ra: RaFit | None) -> str:
@@ -691,7 +707,7 @@ def ra_statement(ra: RaFit | None) -> str:
     if ra.confounded_with:
         return head + "not told apart from " + " or ".join(ra.confounded_with)
     if ra.reading_inside:
-        return head + "consistent with the reading"
+        return head + f"consistent with the reading and its {100 * ra.tolerance:.0f} % tolerance"
     return head + "the reading lies outside it, but moving Ra does not lower the held-out error enough to name a mismatch"
 
 
@@ -700,22 +716,23 @@ def ra_verdict(ra: RaFit | None) -> str:
     if ra is None:
         return ""
     if not ra.determined:
-        if not ra.mismatch and not ra.confounded_with:
+        if not ra.confounded_with:
             return ""
-        return (f"Whether the Ra you gave ({ra.given_ohm:.3g} ohm) is right cannot be told: Ra is not determined "
+        return (f"An error proportional to the current remains that a wrong Ra explains as well as "
+                f"{' or '.join(ra.confounded_with)}, so none of them is named; whether the Ra you gave "
+                f"({ra.given_ohm:.3g} ohm) is right cannot be told: Ra is not determined "
                 f"by these recordings ({ra.data.why}); the effects were looked for with the reading. What would "
-                f"determine Ra: {ra.data.needs}.")
+                f"determine Ra: {ra.data.needs}; to separate them: {ranking.RA_SEPARATOR}.")
     if not ra.mismatch and not ra.confounded_with:
-        if ra.reading_inside:
-            return ""
         d = ra.data
-        far = abs(d.value / ra.given_ohm - 1.0) > ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance
-        return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}"
-                + (f", {d.value / ra.given_ohm:.3g} times the reading, beyond what the error of a reading explains "
-                   f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); the effects were looked for with the "
-                   "reading and may be wrong: check the reading (its unit, the leads' resistance), or pass "
-                   f"--ra-ohm {d.value:.3g} if you trust these recordings." if far else
-                   "; moving Ra does not lower the held-out error enough to name a mismatch."))
+        band = ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance * ra.given_ohm  # the whole interval beyond it
+        if ra.reading_inside or not (d.lo > ra.given_ohm + band or d.hi < ra.given_ohm - band):
+            return ""  # within what a reading's error and the held-out test leave open: the summary says it
+        return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}, "
+                f"{d.value / ra.given_ohm:.3g} times the reading, beyond what the error of a reading explains "
+                f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); the effects were looked for with the "
+                "reading and may be wrong: check the reading (its unit, the leads' resistance), or pass "
+                f"--ra-ohm {d.value:.3g} if you trust these recordings.")
     rel = ra.supported_ohm / ra.given_ohm - 1.0
     alone = f" ({_alone(ra)})" if ra.data is not None else ""
     if not ra.mismatch:
@@ -859,13 +876,7 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     conf = confounding(inp, mf, sel)
     if sel.ra_fit.mismatch:  # from here on, Ra is held at the value the data support
         inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
-    named = list(sel.missing)
     sel, conf = material_check(inp, mf, sel, conf)
-    if not sel.ra_fit.mismatch and sel.missing != named:
-        # the Ra the data support with the effects the material check added
-        sup = _ra_fit(inp, None, inp.given + sel.missing, mf.sigma2, sel.ra_fit.inclusion)
-        sel = dataclasses.replace(sel, ra_fit=dataclasses.replace(sel.ra_fit, supported_ohm=sup.supported_ohm,
-                                                                  sigmas=sup.sigmas, data=sup.data))
     sel = with_intervals(inp, sel)
     resid = residuals(inp, mf, sel)
     text = verdict(sel, conf, resid, mf.sigma2)

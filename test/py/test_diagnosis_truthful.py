@@ -1,0 +1,125 @@
+"""Issue 21: no verdict states a value outside what the data determine. Every fitted
+quantity carries a 95 % interval from the data (diagnosis/intervals.py) or is reported as
+"not determined by these recordings" with the measurement that would determine it; Ra is
+said as the data alone put it (no prior around the reading). Twin tables (30 rows, Ra 10 %
+off either way, a brush drop with Ra 10 % high) and the bundled recordings with a reading
+ten times too low."""
+import math
+
+import pytest
+
+from conftest import ROOT
+from twin_benches import RA_OHM, dyno_table
+
+from hpddo.cli import diagnose as diagnose_cli
+from hpddo.diagnosis import core, intervals, ranking
+
+BUNDLED = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]
+
+
+def diagnose(paths, ra):
+    return core.diagnose(paths, core.Options(bootstrap=0, hybrid=False, ra_ohm=ra))
+
+
+def check_truthful(d):
+    """What every diagnosis must hold to: no value stated as supported where the data do not
+    determine it; every undetermined quantity said so, with what would determine it."""
+    res = d.to_json()
+    text = diagnose_cli.summary(d)
+    assert "the data support" not in text, text
+    for iv in res["intervals"] + [res["ra_fit"]["data_alone"]]:
+        if iv is None:
+            continue
+        if iv["determined"]:
+            assert iv["lo"] <= iv["value"] <= iv["hi"], iv
+        else:
+            assert "not determined by these recordings" in iv["text"] and iv["needs"], iv
+    ra = res["ra_fit"]
+    if not ra["determined"]:
+        assert "Ra is not determined by these recordings" in text and intervals.RA_NEEDS in text, text
+        assert not ra["mismatch"], ra
+    return res, text
+
+
+def test_a_reading_ten_times_too_low_is_said_with_the_ra_the_data_determine():
+    """Before: "the data support 1.35 ohm, +40 x the tolerance: no mismatch" (the prior's bound
+    at three times the reading). Now: the data alone put Ra at 5.29 ohm (5.26..5.33) with the
+    plain model (measured), and the verdict says the reading is not what they show."""
+    d = diagnose(BUNDLED, 0.45)
+    res, text = check_truthful(d)
+    alone = res["ra_fit"]["data_alone"]
+    assert alone["determined"] and alone["lo"] > 3 * 0.45 * (1 + 3 * ranking.RA_TOLERANCE), alone
+    assert res["verdict"].startswith("The Ra you gave (0.45 ohm) is not what these recordings show"), res["verdict"]
+    assert f"--ra-ohm {alone['value']:.3g}" in res["verdict"]
+    assert "no mismatch" not in text
+
+
+@pytest.mark.parametrize("seed", (3, 4))
+@pytest.mark.parametrize("factor", (0.9, 1.1))
+def test_a_30_row_table_with_ra_10_percent_off_says_only_what_it_determines(tmp_path, seed, factor):
+    """A 30-row table cannot show a 10 % Ra error reliably (docs/diagnosis.md: reported in 1 of
+    10 tables): the interval it gives for Ra holds the true 4.5 ohm, and a mismatch is said
+    only where that interval excludes the reading's band."""
+    d = diagnose([dyno_table(tmp_path / "dyno30.csv", 30, seed)], RA_OHM * factor)
+    res, text = check_truthful(d)
+    ra = res["ra_fit"]
+    alone = ra["data_alone"]
+    assert alone["lo"] <= RA_OHM <= alone["hi"], alone
+    if not (alone["lo"] > ra["given_ohm"] * 1.05 or alone["hi"] < ra["given_ohm"] * 0.95):
+        assert not ra["mismatch"] and "consistent with the reading" in ra["statement"], ra["statement"]
+    assert all(iv["determined"] for iv in res["intervals"] if iv["quantity"] == "Ke")
+
+
+@pytest.mark.parametrize("seed", (3, 4))
+def test_a_brush_drop_with_ra_10_percent_high_is_never_a_bounded_fit_stated_as_fact(tmp_path, seed):
+    """A 0.3 V brush drop on a table whose currents have one sign is a constant drop, a
+    voltage offset, a current offset through Ra and (with the wrong reading) an Ra error
+    alike: whatever is named is said with its interval and the confounding; a wrong Ra is
+    never called right at a fit's bound."""
+    d = diagnose([dyno_table(tmp_path / "brush30.csv", 30, seed, brush_V=0.3)], RA_OHM * 1.1)
+    res, text = check_truthful(d)
+    ra = res["ra_fit"]
+    assert res["missing_effects"] or ra["mismatch"] or ra["confounded_with"], res["verdict"]
+    if ra["confounded_with"]:
+        assert "cannot tell a wrong Ra from" in res["verdict"] or "explains as well as" in res["verdict"]
+    for e in res["ranking"]:  # a named coefficient is said with its interval, or as not determined
+        if e["named"]:
+            iv = e["intervals"][0]
+            assert iv["quantity"] == e["effect"]
+            assert (f"{e['effect']} ({e['shown']}, 95 % interval" in res["verdict"] if iv["determined"] else
+                    "its size is not determined by these recordings" in res["verdict"]), res["verdict"]
+
+
+def test_a_fit_at_its_bound_is_not_determined(tmp_path):
+    """A table of a motor whose speed does not fall with the current (Ra 0 ohm behind a 4.5 ohm
+    reading): Ra from the data alone goes to the edge of the range searched, which is said as
+    "not determined", never as a value, and no mismatch is named from it."""
+    path = tmp_path / "flat.csv"
+    dyno_table(path, 30, 3)
+    lines = path.read_text().splitlines()
+    out = []
+    for line in lines:  # the speed as if Ra were zero
+        cells = line.split(",")
+        if line[0].isdigit():
+            v, i = float(cells[2]), float(cells[3])
+            cells[4] = f"{(v + 0.0 * i) / 0.4 * 60 / (2 * math.pi):.2f}"
+        out.append(",".join(cells))
+    path.write_text("\n".join(out) + "\n")
+    d = diagnose([path], RA_OHM)
+    res, text = check_truthful(d)
+    alone = res["ra_fit"]["data_alone"]
+    assert not alone["determined"] and "edge of the range allowed" in alone["why"], alone
+
+
+def test_intervals_cover_a_known_linear_fit():
+    """The interval of a fit whose answer is known: y = 2 x + noise over 40 operating points
+    of 10 rows, the 95 % interval of the slope holds 2 and is about 1.96 standard errors wide."""
+    import numpy as np
+    rng = np.random.default_rng(5)
+    x = np.repeat(np.linspace(1, 4, 40), 10)
+    e = rng.normal(0, 0.5, len(x))
+    groups = np.repeat(np.arange(40), 10)
+    cov, df, method = intervals.covariance(x[:, None], e - x * np.dot(x, e) / np.dot(x, x), groups)
+    se = math.sqrt(cov[0, 0])
+    se_ols = 0.5 / math.sqrt(np.dot(x, x))
+    assert se == pytest.approx(se_ols, rel=0.3) and df == 39 and "cluster" in method
