@@ -209,6 +209,69 @@ def temp_read_C(rec: Recording) -> np.ndarray:
     return np.where(np.isfinite(t) & (t >= TEMP_RANGE_C[0]) & (t <= TEMP_RANGE_C[1]), t, np.nan)
 
 
+# What a log may declare about itself in its metadata (docs/bench-log.md, Known keys), read
+# by the diagnosis: the log's kind, and the resolution of its sensors (the noise floor they set).
+KINDS = ("time_series", "steady_state")  # metadata `kind`
+SENSOR_KEYS = {
+    "encoder_counts_per_rev": "encoder counts per output-shaft revolution (quadrature and gear included)",
+    "encoder_window_s": "the time the encoder's counts are taken over, s (default: the sample period)",
+    "v_lsb_V": "the step of the logged voltage (its resolution), V",
+    "i_lsb_A": "the step of the logged current (its resolution), A",
+}
+
+
+def _meta_error(rec: Recording, key: str, fault: str) -> benchlog.BenchLogError:
+    """A fault of metadata `key`, naming its file and line."""
+    line = None
+    try:
+        for k, text in enumerate(rec.source.read_text(encoding="utf-8-sig").splitlines(), 1):
+            if not text.startswith("#"):
+                break
+            if re.match(rf"#[ \t]*{re.escape(key)}[ \t]*=", text):
+                line = k
+                break
+    except OSError:
+        pass
+    return benchlog.BenchLogError(rec.source, line, f"metadata {key}={rec.meta.get(key)!r} {fault}")
+
+
+def kind(rec: Recording) -> tuple[str, str]:
+    """(kind, how it is known) of a recording: "steady_state" (a table: one settled row per
+    operating point, no clock: the rows' order and t_s say nothing of time) or "time_series"
+    (rows one sample period apart). Declared by the metadata `kind`, else detected: a log with
+    no sample_rate_hz whose duty never falls from row to row (the rows sorted by operating
+    point) over at most STEADY_MAX_ROWS rows is a table."""
+    declared = rec.meta.get("kind")
+    if declared is not None:
+        if declared not in KINDS:
+            raise _meta_error(rec, "kind", f"is not one of {', '.join(KINDS)}")
+        return declared, "declared"
+    duty = rec.df["duty"].to_numpy(float)
+    if ("sample_rate_hz" not in rec.meta and rec.n <= STEADY_MAX_ROWS and len(np.unique(duty)) > 1
+            and bool(np.all(np.diff(duty) >= 0))):
+        return "steady_state", "detected: no sample_rate_hz, the rows sorted by duty"
+    return "time_series", "default"
+
+
+STEADY_MAX_ROWS = 1000
+
+
+def sensor_meta(rec: Recording) -> dict:
+    """{key: value} of the SENSOR_KEYS the recording declares, each a positive number."""
+    out = {}
+    for key in SENSOR_KEYS:
+        if key not in rec.meta:
+            continue
+        try:
+            v = float(rec.meta[key])
+        except ValueError:
+            raise _meta_error(rec, key, "is not a number") from None
+        if not (np.isfinite(v) and v > 0):
+            raise _meta_error(rec, key, "is not a positive number")
+        out[key] = v
+    return out
+
+
 def write_clean(rec: Recording, path) -> pathlib.Path:
     """Writes the cleaned rows as a bench log (the file the native replay reads)."""
     meta = dict(rec.meta)

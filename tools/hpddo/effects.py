@@ -32,7 +32,7 @@ from scipy.optimize import least_squares
 
 from . import physics as ph
 from . import schema
-from .dataset import Recording, di_dt_A_per_s, dt_s, temp_read_C
+from .dataset import Recording, di_dt_A_per_s, dt_s, kind, temp_read_C
 from .identify import MIN_RPM, IdentificationError
 
 # One entry of the library: the declaration in schema.py (name, field, units, plausible
@@ -83,6 +83,7 @@ class Rows:
     train: np.ndarray     # bool: training row usable for fitting (rpm_ref > MIN_RPM)
     test: np.ndarray      # bool: held-out row usable for scoring (rpm_ref > MIN_RPM)
     duty: np.ndarray
+    steady: bool = False  # a steady-state table (dataset.kind): settled rows, no clock, dI/dt 0
 
     @property
     def needs_state(self) -> bool:
@@ -93,7 +94,8 @@ def rows_of(rec: Recording) -> Rows:
     df = rec.df
     i = df["i_A"].to_numpy(float)
     dt = dt_s(rec)
-    di_dt = di_dt_A_per_s(rec)
+    steady = kind(rec)[0] == "steady_state"
+    di_dt = np.zeros(rec.n) if steady else di_dt_A_per_s(rec)  # a settled row: the current does not change
     t = temp_read_C(rec)
     ok = np.isfinite(t)
     ref = df["rpm_ref"].to_numpy(float) if "rpm_ref" in df else np.full(rec.n, np.nan)
@@ -101,7 +103,7 @@ def rows_of(rec: Recording) -> Rows:
     idx = np.arange(rec.n)
     return Rows(rec=rec, v=df["v_V"].to_numpy(float), i=i, di_dt=di_dt, dt=dt, temp=np.where(ok, t, np.nan),
                 has_temp=ok, ref=ref, train=good & (idx < rec.n_train), test=good & (idx >= rec.n_train),
-                duty=df["duty"].to_numpy(float))
+                duty=df["duty"].to_numpy(float), steady=steady)
 
 
 # Fields of PhysicsParams the temperatures depend on; a fit's Jacobian moves the others

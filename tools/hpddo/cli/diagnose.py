@@ -93,6 +93,12 @@ def summary(d) -> str:
             for q in node[which]:
                 lines.append(f"    {q['field']:13s} {q['shown']:>14s}  {q['plausibility']}")
             break
+    if res.get("noise_floor"):
+        lines.append(f"  {res['noise_floor']['text']}")
+    kinds = [f"{r['name']} ({r['kind_source']})" for r in res["recordings"] if r.get("kind") == "steady_state"]
+    if kinds:
+        lines.append("  steady-state tables, no lag, dI/dt or whiteness statistics: " + ", ".join(kinds))
+    lines.append(f"  held out: {res['thresholds']['held_out']}")
     conds = list(res["rmse_rpm"]["before"])
     lines.append("RMSE on the test parts (RPM)   " + " ".join(f"{c:>9s}" for c in conds))
     rows = [("physics before", res["rmse_rpm"]["before"]), ("physics after", res["rmse_rpm"]["after"])]

@@ -129,7 +129,7 @@ def whiteness(parts) -> dict:
             "white": bool(p > 0.001 or outside <= 0.1)}
 
 
-def correlates(parts_e, parts_u: dict) -> list:
+def correlates(parts_e, parts_u: dict, max_lag: int = MAX_LAG) -> list:
     """Cross-correlation of the residual with each input, the largest |r| and its lag, and
     whether it leaves the 95 % band; the significant ones first, each group by |r| (the
     band of a slowly varying input, duty steps, is wide, but an r of -0.9 outside it says
@@ -141,11 +141,11 @@ def correlates(parts_e, parts_u: dict) -> list:
         u = np.concatenate([p - p.mean() for p in parts])
         if len(u) < 3 or not np.all(np.isfinite(u)) or np.std(u) <= 0:
             continue
-        r = ccf(e, u)
-        band = ccf_band(e, u)
+        r = ccf(e, u, max_lag)
+        band = ccf_band(e, u, max_lag)
         k = int(np.argmax(np.abs(r)))
         out.append({"input": name, "ccf": r.tolist(), "band": band, "peak": float(r[k]),
-                    "peak_lag": k - MAX_LAG, "at_lag0": float(r[MAX_LAG]),
+                    "peak_lag": k - max_lag, "at_lag0": float(r[max_lag]),
                     "significant": bool(abs(r[k]) > band), "strength": float(abs(r[k]) / band) if band > 0 else 0.0})
     out.sort(key=lambda d: (not d["significant"], -abs(d["peak"])))
     return out

@@ -19,6 +19,7 @@ The result is a Diagnosis; Diagnosis.to_json() is diagnosis.json.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 
 import numpy as np
@@ -28,7 +29,7 @@ from ..errors import InputError
 from .. import effects as fx
 from .. import physics as ph
 from ..train import TrainConfig, TrainingError, hybrid_rpm, train_residual
-from . import analysis, intervals, ranking
+from . import analysis, intervals, noise, ranking
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
 HYBRID_ITER = 150  # training iterations of the hybrid in the diagnosis (gen_weights: 2000)
@@ -269,8 +270,9 @@ class ModelFit:
     base: ph.PhysicsParams    # the same with Ke by least squares: the ranking's reference
     res_model: list
     res_base: list
-    sigma2: float             # noise variance
+    sigma2: float             # noise variance (noise.var_rpm2)
     mse_base: float
+    noise: noise.NoiseFloor | None = None  # the floor and its parts
 
 
 @dataclasses.dataclass
@@ -378,6 +380,7 @@ class Diagnosis:
     # every quantity the model with the missing effects fitted (Ke, coefficients, shapes, the
     # winding node), with its interval from the data or "not determined" (intervals.Interval)
     intervals: list = dataclasses.field(default_factory=list)
+    noise_floor: dict = dataclasses.field(default_factory=dict)  # noise.NoiseFloor.to_json()
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -403,6 +406,7 @@ class Diagnosis:
             "ranking": [e.to_json() for e in self.ranking],
             "verdict": self.verdict,
             "noise_rpm": self.noise_rpm,
+            "noise_floor": self.noise_floor,
             "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after},
             "after_model": dataclasses.asdict(self.after_model),
             "thermal_node": self.thermal_node,
@@ -451,9 +455,33 @@ def fit_model(inp: Inputs) -> ModelFit:
     model = fx.identify(inp.recs, inp.m2, inp.given) if inp.given else inp.m2
     res_model = ranking.residuals(d, model)
     base, res_base = ranking.scored(d, lambda rows, st: fx.fit(rows, inp.m2, inp.given, start=st))
-    sigma2 = ranking.noise_var(d, res_base)
-    return ModelFit(model=model, base=base, res_model=res_model, res_base=res_base, sigma2=sigma2,
-                    mse_base=ranking.held_out_mse(d, res_base))
+    mse_base = ranking.held_out_mse(d, res_base)
+    # a table that repeats no point: the selection starts from the row-to-row floor, and the
+    # floor is then what its final model leaves out of fold (refloor)
+    nf = noise.floor(d, inp.recs, res_base, ranking.noise_var(d, res_base), inp.m2)
+    return ModelFit(model=model, base=base, res_model=res_model, res_base=res_base, sigma2=nf.var_rpm2,
+                    mse_base=mse_base, noise=nf)
+
+
+def refloor(inp: Inputs, mf: ModelFit, sel: "Selection") -> tuple[ModelFit, bool]:
+    """A table that repeats no operating point has no noise floor but what a model leaves
+    out of fold (noise.measured): the first selection ran against the row-to-row floor of
+    the plain model's residual; the floor is then what the selection's final model leaves.
+    (ModelFit with that floor, whether it moved by more than REFLOOR_REL: select again);
+    (mf, False) where the floor was measured otherwise."""
+    if mf.noise is None or not mf.noise.from_model:
+        return mf, False
+    names = inp.given + sel.missing + ([ranking.RA_MISMATCH] if sel.ra_fit is not None and sel.ra_fit.mismatch
+                                       else [])
+    res = ranking.held_out_residuals(inp.data, sel.final,
+                                     lambda rs, st: ranking.fit_names(rs, inp.m2, names, mf.sigma2, start=st))
+    mse = ranking.held_out_mse(inp.data, res)
+    nf = noise.floor(inp.data, inp.recs, res, mse, inp.m2)
+    moved = abs(nf.var_rpm2 - mf.sigma2) > REFLOOR_REL * mf.sigma2
+    return dataclasses.replace(mf, sigma2=nf.var_rpm2, noise=nf), moved
+
+
+REFLOOR_REL = 0.1
 
 
 def identifiability(inp: Inputs, mf: ModelFit) -> dict:
@@ -663,14 +691,26 @@ RESIDUAL_INPUTS = (("V", "v"), ("I", "i"), ("duty", "duty"), ("temp_C", "temp"),
 def analyse(inp: Inputs, res, sigma2: float) -> ResidualAnalysis:
     """Whiteness and correlates of the held-out residual res (contiguous runs)."""
     rows = inp.rows
-    parts = analysis.parts(rows, res)
+    steady = any(r.steady for r in rows)
+    # A steady-state table has no clock: no lag, dI/dt or whiteness statistic means anything
+    # there; its residual is correlated with the inputs at lag 0 only, over whole rows.
+    which = "test"
+    parts = analysis.parts(rows, res, which=which)
     inputs = {}
     for key, attr in RESIDUAL_INPUTS:
-        pieces = analysis.parts(rows, res, [getattr(r, attr) for r in rows])
+        if steady and attr == "di_dt":
+            continue
+        pieces = analysis.parts(rows, res, [getattr(r, attr) for r in rows], which=which)
         if pieces and all(np.all(np.isfinite(a)) for a in pieces):
             inputs[key] = pieces
-    w = analysis.whiteness(parts)
-    corr = analysis.correlates(parts, inputs)
+    if steady:
+        w = {"acf": [], "band": None, "outside": None, "q": None, "p": None, "white": None,
+             "not_computed": "a steady-state table has no clock, so its rows have no order in time to test"}
+    else:
+        w = analysis.whiteness(parts)
+        if w["white"] is None:
+            w["not_computed"] = f"no contiguous run of more than {analysis.MAX_LAG + 2} held-out rows"
+    corr = analysis.correlates(parts, inputs, max_lag=0 if steady else analysis.MAX_LAG)
     mse = ranking.held_out_mse(inp.data, res)
     return ResidualAnalysis(mse=mse, noise_var=sigma2, excess=max(0.0, mse - sigma2), whiteness=w, correlates=corr)
 
@@ -751,16 +791,28 @@ def ra_verdict(ra: RaFit | None) -> str:
     return text
 
 
-def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float) -> str:
+def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
+            floor: noise.NoiseFloor | None = None) -> str:
     ra = ra_verdict(sel.ra_fit)
-    text = _verdict(sel, conf, resid, sigma2)
+    text = _verdict(sel, conf, resid, sigma2, floor)
     return f"{ra} {text}" if ra else text
 
 
-def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float) -> str:
+def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
+             floor: noise.NoiseFloor | None = None) -> str:
     after = resid.after
-    structured_left = (after.excess > 0.5 * sigma2) and not after.whiteness["white"]
+    above = after.excess > 0.5 * sigma2
+    structured_left = above and after.whiteness["white"] is False
     if not sel.missing:
+        if floor is not None and floor.from_model:
+            return ("No library effect is named. Whether anything is missing below "
+                    f"{math.sqrt(floor.measured_rpm2):.3g} RPM cannot be told: this table repeats no operating "
+                    "point, so its noise floor is what the model leaves out of fold; repeat a few operating "
+                    "points to measure the noise.")
+        if above and after.whiteness["white"] is None:
+            return ("No library effect explains the residual, which is "
+                    f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor; whether "
+                    f"it is structured cannot be tested ({after.whiteness.get('not_computed', 'no whiteness test')}).")
         if structured_left:
             return ("No library effect explains the residual, but it is not noise: it is "
                     f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor "
@@ -873,13 +925,17 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     mf = fit_model(inp)
     ident = identifiability(inp, mf)
     sel = select(inp, mf, ident, opt)
+    mf, moved = refloor(inp, mf, sel)
+    if moved:  # a table with no repeated point: selected again against what the model leaves
+        ident = identifiability(inp, mf)
+        sel = select(inp, mf, ident, opt)
     conf = confounding(inp, mf, sel)
     if sel.ra_fit.mismatch:  # from here on, Ra is held at the value the data support
         inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
     sel, conf = material_check(inp, mf, sel, conf)
     sel = with_intervals(inp, sel)
     resid = residuals(inp, mf, sel)
-    text = verdict(sel, conf, resid, mf.sigma2)
+    text = verdict(sel, conf, resid, mf.sigma2, mf.noise)
     changed = bool(sel.missing) or sel.ra_fit.mismatch
     hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt) if opt.hybrid else (None, [])
     d = _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
@@ -913,7 +969,8 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
     unseen = [c for c, i in ident.items() if not i.identifiable]
     return Diagnosis(
         recordings=[{"name": r.name, "file": str(r.source), "rows": r.n, "train_rows": r.n_train,
-                     "glitches_removed": len(r.removed), "has_temp": r.has_temp()} for r in inp.recs],
+                     "glitches_removed": len(r.removed), "has_temp": r.has_temp(),
+                     "kind": dataset.kind(r)[0], "kind_source": dataset.kind(r)[1]} for r in inp.recs],
         warnings=[w for r in inp.recs for w in r.warnings] + hyb_warnings,
         ra_ohm=inp.ra, ra_source=inp.ra_source, ra_fit=sel.ra_fit, model_effects=inp.given, model=mf.model,
         missing_effects=sel.missing, confounded=conf.groups, separating_recordings=conf.pairs,
@@ -921,6 +978,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         rest_offsets={k: {"value": v, "se": se, "rows": n} for k, (v, se, n) in fx.rest_offsets(rows).items()},
         not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
         ranking=sel.ranking, verdict=text, intervals=sel.intervals, noise_rpm=float(np.sqrt(mf.sigma2)),
+        noise_floor=mf.noise.to_json() if mf.noise is not None else {},
         rmse_before=_rmse_by_condition(rows, mf.res_model), rmse_after=_rmse_by_condition(rows, resid.res_after),
         after_model=resid.after_model, residual_before=resid.before, residual_after=resid.after,
         steps=[RankingStep.of(s) for s in sel.steps],

@@ -1,0 +1,137 @@
+"""The noise floor of the speed error, and what the sensors themselves limit.
+
+The floor the diagnosis compares the residual with is the larger of
+  * the floor measured on the residual: from first differences of the held-out residual
+    of a time series (analysis.robust_noise_var); on a steady-state table, whose rows have no
+    clock, from the operating points it repeats, or, where it repeats none, the model's own
+    out-of-fold residual (then "consistent with measurement noise" cannot be said: the floor
+    is what the model leaves), and
+  * the floor of the sensors, from the log's metadata (docs/bench-log.md): the encoder's
+    quantisation (counts per output-shaft revolution over the counting window) and the
+    resolution of the voltage and current channels, each through the model's sensitivity.
+Each part is reported.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .. import dataset
+from ..identify import RAD_S_PER_RPM
+from . import analysis
+
+# Repeated operating points of a table: rows of one recording at the same duty and load whose
+# currents differ by at most REPEAT_I_REL (relative) or REPEAT_I_A; at least REPEAT_MIN pairs.
+REPEAT_I_REL = 0.02
+REPEAT_I_A = 0.002
+REPEAT_MIN = 5
+
+
+@dataclasses.dataclass
+class NoiseFloor:
+    """The noise floor (variance, RPM^2) and its parts."""
+
+    var_rpm2: float        # the floor used: the largest of measured and the sensors' sum
+    measured_rpm2: float   # the floor measured on the residual
+    source: str            # how it was measured, in words
+    sensors: dict          # {part: variance RPM^2} from the log's metadata (may be empty)
+    from_model: bool = False  # the measured floor is the model's own out-of-fold residual
+
+    @property
+    def sensors_rpm2(self) -> float:
+        return float(sum(self.sensors.values()))
+
+    @property
+    def limited_by_sensors(self) -> bool:
+        return self.sensors_rpm2 > self.measured_rpm2
+
+    def to_json(self) -> dict:
+        return {"rpm": math.sqrt(self.var_rpm2), "var_rpm2": self.var_rpm2, "measured_rpm2": self.measured_rpm2,
+                "source": self.source, "from_model": self.from_model,
+                "sensors_rpm2": dict(self.sensors), "sensors_rpm": {k: math.sqrt(v) for k, v in self.sensors.items()},
+                "limited_by_sensors": self.limited_by_sensors, "text": self.text()}
+
+    def text(self) -> str:
+        parts = [f"measured {math.sqrt(self.measured_rpm2):.3g} RPM ({self.source})"]
+        parts += [f"{k} {math.sqrt(v):.3g} RPM" for k, v in self.sensors.items()]
+        head = f"noise floor {math.sqrt(self.var_rpm2):.3g} RPM"
+        if self.limited_by_sensors:
+            head += " (set by the sensors)"
+        return head + ": " + "; ".join(parts)
+
+
+def repeats(rows, res) -> np.ndarray:
+    """Differences of the residual res between rows of a steady-state table that repeat one
+    operating point (the same duty and load, currents within REPEAT_I_REL / REPEAT_I_A),
+    taking consecutive repeats pairwise, labelled rows only."""
+    out = []
+    for r, e in zip(rows, res):
+        if not r.steady:
+            continue
+        df = r.rec.df
+        load = df["load"].to_numpy() if "load" in df else np.zeros(len(r.i))
+        ok = np.flatnonzero((r.train | r.test) & np.isfinite(e))
+        key = sorted(ok, key=lambda k: (r.duty[k], load[k], r.i[k]))
+        for a, b in zip(key[:-1], key[1:]):
+            if (r.duty[a] == r.duty[b] and load[a] == load[b]
+                    and abs(r.i[a] - r.i[b]) <= max(REPEAT_I_A, REPEAT_I_REL * abs(r.i[a]))):
+                out.append(e[a] - e[b])
+    return np.asarray(out, float)
+
+
+def measured(data, res, mse_out_of_fold: float) -> tuple[float, str, bool]:
+    """(variance RPM^2, how, from the model) of the noise measured on the held-out residual res:
+    first differences where the rows are a time series; on steady-state tables the repeated
+    operating points, else the model's out-of-fold mean squared error mse_out_of_fold."""
+    rows = data.rows
+    if not any(r.steady for r in rows):
+        return (analysis.robust_noise_var(analysis.parts(rows, res)),
+                "the white part of the held-out residual, from row-to-row differences", False)
+    d = repeats(rows, res)
+    if len(d) >= REPEAT_MIN:
+        return float(np.mean(d * d) / 2.0), f"{len(d)} repeated operating points of the table", False
+    return (float(mse_out_of_fold),
+            "the model's own out-of-fold residual: the table repeats no operating point (repeat a few to "
+            "measure the noise)", True)
+
+
+def sensors(recs, rows, p) -> dict:
+    """{part: variance RPM^2} of the speed error that the sensors' resolution alone gives, from
+    each recording's metadata (dataset.sensor_meta), pooled over the labelled rows: the
+    encoder's quantisation (a count over a window of T s at c counts per output-shaft
+    revolution steps by q = 60 / (c T) RPM, and the two ends of the window each fall anywhere
+    within a count: variance q^2 / 6) and the channels' resolution (a step s: s^2 / 12),
+    each through the model's sensitivity to it (dn/dV = 1 / Ke, dn/dI = -Ra / Ke, in RPM)."""
+    sums, n = {}, 0
+    for rec, r in zip(recs, rows):
+        m = r.train | r.test
+        k = int(m.sum())
+        if not k:
+            continue
+        n += k
+        meta = dataset.sensor_meta(rec)
+        parts = {}
+        if meta.get("encoder_counts_per_rev"):
+            window = meta.get("encoder_window_s") or r.dt[m]
+            q = 60.0 / (meta["encoder_counts_per_rev"] * np.asarray(window, float))
+            parts["encoder quantisation"] = float(np.mean(q * q / 6.0 * np.ones(k)))
+        per_v = 1.0 / (p.ke_vs_per_rad * RAD_S_PER_RPM)  # RPM per volt
+        if meta.get("v_lsb_V"):
+            parts["voltage resolution"] = (meta["v_lsb_V"] * per_v) ** 2 / 12.0
+        if meta.get("i_lsb_A"):
+            parts["current resolution"] = (meta["i_lsb_A"] * p.ra_ohm * per_v) ** 2 / 12.0
+        for key, v in parts.items():
+            sums[key] = sums.get(key, 0.0) + v * k
+    return {key: v / n for key, v in sums.items()} if n else {}
+
+
+def floor(data, recs, res, mse_out_of_fold: float, p) -> NoiseFloor:
+    """The NoiseFloor of the held-out residual res of model p (mse_out_of_fold: its held-out
+    mean squared error, the floor of a table that repeats no point)."""
+    var, how, from_model = measured(data, res, mse_out_of_fold)
+    parts = sensors(recs, data.rows, p)
+    total = max(var if np.isfinite(var) else 0.0, float(sum(parts.values())))
+    return NoiseFloor(var_rpm2=total if total > 0 else var, measured_rpm2=var, source=how, sensors=parts,
+                      from_model=from_model and not total > var)
