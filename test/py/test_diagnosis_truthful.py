@@ -125,3 +125,68 @@ def test_intervals_cover_a_known_linear_fit():
     se = math.sqrt(cov[0, 0])
     se_ols = 0.5 / math.sqrt(np.dot(x, x))
     assert se == pytest.approx(se_ols, rel=0.3) and df == 39 and "cluster" in method
+
+
+def _html(tmp_path, d):
+    from hpddo.reports import diagnosis as report
+    out = tmp_path / "report"
+    out.mkdir()
+    report.write(out, d.to_json(), d.plot())
+    return (out / "index.html").read_text()
+
+
+def test_a_declared_steady_state_table_has_no_lag_didt_or_whiteness_statistics(tmp_path):
+    """`# kind=steady_state` (docs/bench-log.md): no whiteness test is printed (the page says
+    why), the residual is correlated with the inputs at lag 0 only and never with dI/dt, and
+    the header states the hold-out scheme actually used (cross-validation)."""
+    log = dyno_table(tmp_path / "dyno40.csv", 40, 3, meta=("kind=steady_state", "sample_rate_hz=1"))
+    d = diagnose([log], RA_OHM)
+    res = d.to_json()
+    assert res["recordings"][0]["kind"] == "steady_state" and res["recordings"][0]["kind_source"] == "declared"
+    for key in ("residual_before", "residual_after"):
+        w = res[key]["whiteness"]
+        assert w["white"] is None and w["q"] is None and "no clock" in w["not_computed"]
+        assert res[key]["correlates"] and all(len(c["ccf"]) == 1 and c["peak_lag"] == 0
+                                              for c in res[key]["correlates"])
+        assert "dI/dt" not in [c["input"] for c in res[key]["correlates"]]
+    assert "inductance" in [u["effect"] for u in res["not_identifiable"]]  # dI/dt is 0 on settled rows
+    html = _html(tmp_path, d)
+    assert "Ljung-Box" not in html and "no whiteness test: a steady-state table has no clock" in html
+    assert "Held-out rows: every row once, 5 folds of whole operating points (cross-validation)" in html
+    assert "the last 20 %" not in html.split("<h2>")[0]
+
+
+def test_a_table_that_repeats_its_points_measures_its_noise_there(tmp_path):
+    """Every operating point logged twice (two draws of the same 40-row table, interleaved):
+    the floor comes from the repeats (tachometer noise 2 RPM, the channels' noise through the
+    model about 0.5 RPM more), not from what the model leaves."""
+    first = dyno_table(tmp_path / "a.csv", 40, 3).read_text().splitlines()
+    second = dyno_table(tmp_path / "b.csv", 40, 5).read_text().splitlines()
+    head = [line for line in first if not line[0].isdigit()]
+    rows = [r for pair in zip(first[len(head):], second[len(head):]) for r in pair]
+    rows = [f"{k:.1f}," + r.split(",", 1)[1] for k, r in enumerate(rows)]  # t_s one second apart again
+    log = tmp_path / "twice.csv"
+    log.write_text("\n".join(head + rows) + "\n")
+    res = diagnose([log], RA_OHM).to_json()
+    nf = res["noise_floor"]
+    assert "repeated operating points" in nf["source"] and not nf["from_model"], nf
+    assert 1.5 < nf["rpm"] < 2.8, nf
+    assert res["verdict"].startswith("Nothing missing"), res["verdict"]
+
+
+def test_a_bad_kind_is_refused_with_its_file_and_line(tmp_path):
+    from hpddo import benchlog
+    log = dyno_table(tmp_path / "dyno.csv", 20, 3, meta=("kind=table",))
+    with pytest.raises(benchlog.BenchLogError) as exc:
+        diagnose([log], RA_OHM)
+    assert exc.value.line == 3 and "kind='table' is not one of time_series, steady_state" in str(exc.value)
+
+
+def test_a_time_series_page_states_the_chronological_split_and_prints_only_computed_statistics(tmp_path):
+    """The bundled recordings: the header says the last 20 % (chronological), the whiteness
+    test is printed with its figures, the intervals and the noise floor are on the page."""
+    d = diagnose(BUNDLED, None)
+    html = _html(tmp_path, d)
+    assert "Held-out rows: the last 20 % of each recording (chronological)" in html
+    assert "Ljung-Box Q = " in html and "Q = –" not in html and "Q = -" not in html
+    assert "What the recordings determine" in html and "Ke" in html and "Noise floor" in html
