@@ -795,6 +795,13 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
             floor: noise.NoiseFloor | None = None) -> str:
     ra = ra_verdict(sel.ra_fit)
     text = _verdict(sel, conf, resid, sigma2, floor)
+    if floor is not None and floor.limited_by_sensors:
+        text += (" The sensors set the noise floor (" + ", ".join(f"{k} {math.sqrt(v):.3g} RPM" for k, v in
+                                                           floor.sensors.items())
+                 + f"; measured on the residual {math.sqrt(floor.measured_rpm2):.3g} RPM): an effect smaller than "
+                 f"{math.sqrt(floor.var_rpm2):.3g} RPM cannot be seen on these rows.")
+    if floor is not None and floor.truncated:
+        text += f" Ke and Ra are not determined: {floor.truncated}; what would: {ENCODER_NEEDS}."
     return f"{ra} {text}" if ra else text
 
 
@@ -933,7 +940,7 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     if sel.ra_fit.mismatch:  # from here on, Ra is held at the value the data support
         inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
     sel, conf = material_check(inp, mf, sel, conf)
-    sel = with_intervals(inp, sel)
+    sel = with_intervals(inp, sel, mf.noise)
     resid = residuals(inp, mf, sel)
     text = verdict(sel, conf, resid, mf.sigma2, mf.noise)
     changed = bool(sel.missing) or sel.ra_fit.mismatch
@@ -947,12 +954,22 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     return d
 
 
-def with_intervals(inp: Inputs, sel: Selection) -> Selection:
+def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
     """sel with the Interval of every quantity its final model fitted: on the selection (its
-    `intervals`) and on the named rows of its ranking table (their coefficient and shapes)."""
+    `intervals`) and on the named rows of its ranking table (their coefficient and shapes).
+    A coarse encoder's truncated rows (floor.truncated) leave Ke and Ra not determined."""
     names = inp.given + sel.missing
     hold = ranking.material_holds(names) if sel.ra_fit is not None and sel.ra_fit.mismatch else None
     ivs = intervals.of_fit(inp.data, sel.final, names, hold)
+    why = floor.truncated if floor is not None else ""
+    if why:
+        biased = lambda iv: dataclasses.replace(iv, determined=False, why=why, needs=ENCODER_NEEDS)  # noqa: E731
+        ivs = [biased(iv) if iv.field == "ke_vs_per_rad" else iv for iv in ivs]
+        if sel.ra_fit is not None and sel.ra_fit.data is not None:
+            ra_fit = dataclasses.replace(sel.ra_fit, data=biased(sel.ra_fit.data))
+            if ra_fit.mismatch:  # the reading is kept: a biased fit names no mismatch
+                ra_fit.mismatch = False
+            sel = dataclasses.replace(sel, ra_fit=ra_fit)
     by_field = {iv.field: iv for iv in ivs}
     table = []
     for e in sel.ranking:
@@ -962,6 +979,10 @@ def with_intervals(inp: Inputs, sel: Selection) -> Selection:
                                                   if f in by_field])
         table.append(e)
     return dataclasses.replace(sel, ranking=table, intervals=ivs)
+
+
+ENCODER_NEEDS = ("speed from encoder periods (the time between counts) or counts over longer windows, or an encoder "
+                 "with more counts per revolution")
 
 
 def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) -> Diagnosis:

@@ -19,7 +19,7 @@ import math
 import numpy as np
 
 from .. import dataset
-from ..identify import RAD_S_PER_RPM
+from ..identify import MIN_RPM, RAD_S_PER_RPM
 from . import analysis
 
 # Repeated operating points of a table: rows of one recording at the same duty and load whose
@@ -27,6 +27,11 @@ from . import analysis
 REPEAT_I_REL = 0.02
 REPEAT_I_A = 0.002
 REPEAT_MIN = 5
+# A coarse encoder: where one count per window is a step of more than MIN_RPM and more than
+# TRUNCATED_MAX of the driven rows (duty > 0) read at most MIN_RPM, those rows fall out of
+# every fit (rpm_ref > MIN_RPM) while the motor turns: a truncated sample, which biases Ke
+# and Ra however narrow their intervals.
+TRUNCATED_MAX = 0.02
 
 
 @dataclasses.dataclass
@@ -38,6 +43,17 @@ class NoiseFloor:
     source: str            # how it was measured, in words
     sensors: dict          # {part: variance RPM^2} from the log's metadata (may be empty)
     from_model: bool = False  # the measured floor is the model's own out-of-fold residual
+    encoder_step_rpm: float = 0.0  # one encoder count per window, RPM (the coarsest recording's)
+    truncated_share: float = 0.0   # driven rows reading at most MIN_RPM, of all driven rows
+
+    @property
+    def truncated(self) -> str:
+        """Why Ke and Ra are not determined by a coarse encoder's rows ("" when they are)."""
+        if self.encoder_step_rpm <= MIN_RPM or self.truncated_share <= TRUNCATED_MAX:
+            return ""
+        return (f"one encoder count per window is {self.encoder_step_rpm:.3g} RPM, so "
+                f"{100 * self.truncated_share:.0f} % of the rows with the motor driven read {MIN_RPM:g} RPM or "
+                "less and fall out of every fit: a truncated sample, which biases it")
 
     @property
     def sensors_rpm2(self) -> float:
@@ -51,7 +67,8 @@ class NoiseFloor:
         return {"rpm": math.sqrt(self.var_rpm2), "var_rpm2": self.var_rpm2, "measured_rpm2": self.measured_rpm2,
                 "source": self.source, "from_model": self.from_model,
                 "sensors_rpm2": dict(self.sensors), "sensors_rpm": {k: math.sqrt(v) for k, v in self.sensors.items()},
-                "limited_by_sensors": self.limited_by_sensors, "text": self.text()}
+                "limited_by_sensors": self.limited_by_sensors, "encoder_step_rpm": self.encoder_step_rpm,
+                "truncated_share": self.truncated_share, "truncated": self.truncated, "text": self.text()}
 
     def text(self) -> str:
         parts = [f"measured {math.sqrt(self.measured_rpm2):.3g} RPM ({self.source})"]
@@ -97,6 +114,35 @@ def measured(data, res, mse_out_of_fold: float) -> tuple[float, str, bool]:
             "measure the noise)", True)
 
 
+def step_rpm(rec, r) -> float | None:
+    """One encoder count over the counting window, RPM (None: the log declares no encoder):
+    the window is encoder_window_s, else the sample period (1 / sample_rate_hz, else the
+    median spacing of the rows; not the time since the previous row, which a removed glitch
+    row doubles)."""
+    meta = dataset.sensor_meta(rec)
+    if not meta.get("encoder_counts_per_rev"):
+        return None
+    window = meta.get("encoder_window_s")
+    if window is None:
+        try:
+            window = 1.0 / float(rec.meta["sample_rate_hz"])
+        except (KeyError, ValueError, ZeroDivisionError):
+            window = float(np.median(r.dt))
+    return 60.0 / (meta["encoder_counts_per_rev"] * window)
+
+
+def encoder_step_rpm(recs, rows) -> float:
+    """The largest step_rpm over the recordings (0 where none declares its encoder)."""
+    return max((q for rec, r in zip(recs, rows) for q in [step_rpm(rec, r)] if q is not None), default=0.0)
+
+
+def truncated_share(rows) -> float:
+    """Share of the rows with the motor driven (duty > 0, speed read) that read MIN_RPM or less."""
+    driven = sum(int(np.sum((r.duty > 0) & np.isfinite(r.ref))) for r in rows)
+    low = sum(int(np.sum((r.duty > 0) & np.isfinite(r.ref) & (r.ref <= MIN_RPM))) for r in rows)
+    return low / driven if driven else 0.0
+
+
 def sensors(recs, rows, p) -> dict:
     """{part: variance RPM^2} of the speed error that the sensors' resolution alone gives, from
     each recording's metadata (dataset.sensor_meta), pooled over the labelled rows: the
@@ -113,10 +159,9 @@ def sensors(recs, rows, p) -> dict:
         n += k
         meta = dataset.sensor_meta(rec)
         parts = {}
-        if meta.get("encoder_counts_per_rev"):
-            window = meta.get("encoder_window_s") or r.dt[m]
-            q = 60.0 / (meta["encoder_counts_per_rev"] * np.asarray(window, float))
-            parts["encoder quantisation"] = float(np.mean(q * q / 6.0 * np.ones(k)))
+        q = step_rpm(rec, r)
+        if q is not None:
+            parts["encoder quantisation"] = q * q / 6.0
         per_v = 1.0 / (p.ke_vs_per_rad * RAD_S_PER_RPM)  # RPM per volt
         if meta.get("v_lsb_V"):
             parts["voltage resolution"] = (meta["v_lsb_V"] * per_v) ** 2 / 12.0
@@ -134,4 +179,5 @@ def floor(data, recs, res, mse_out_of_fold: float, p) -> NoiseFloor:
     parts = sensors(recs, data.rows, p)
     total = max(var if np.isfinite(var) else 0.0, float(sum(parts.values())))
     return NoiseFloor(var_rpm2=total if total > 0 else var, measured_rpm2=var, source=how, sensors=parts,
-                      from_model=from_model and not total > var)
+                      from_model=from_model and not total > var,
+                      encoder_step_rpm=encoder_step_rpm(recs, data.rows), truncated_share=truncated_share(data.rows))

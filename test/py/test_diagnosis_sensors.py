@@ -1,0 +1,90 @@
+"""Issue 21, item 3: the noise floor includes what the sensors themselves limit, from the log
+header (docs/bench-log.md: encoder_counts_per_rev, encoder_window_s, v_lsb_V, i_lsb_A), and
+the report shows each part. A twin recording at 50 Hz with a coarse encoder (1 pulse per
+motor revolution: 17.6 counts per output-shaft revolution, one count per 20 ms window is
+170 RPM)."""
+import math
+
+import pytest
+
+from conftest import ROOT
+import twin_benches
+
+from hpddo.cli import diagnose as diagnose_cli
+from hpddo.diagnosis import core
+from hpddo.twin import generate
+
+RATE_HZ = 50.0
+
+
+@pytest.fixture(scope="module")
+def coarse(tmp_path_factory):
+    """(log without the sensor keys, log with them, counts per output revolution, bench)."""
+    d = tmp_path_factory.mktemp("coarse50")
+    b = twin_benches.bench({}, encoder_ppr=1)
+    generate.generate(b, "sweep", RATE_HZ, 3, out_dir=d, preset_name="ideal")
+    plain = d / "sweep.csv"
+    cpr = 4 * b.encoder_ppr * b.gear_ratio  # quadrature
+    n_conv = int(b.adc_conv_per_s / 2.0 / RATE_HZ)  # conversions averaged per logged value
+    v_lsb = b.adc_vref_V / 2 ** b.adc_bits / b.v_div_gain / n_conv
+    i_lsb = b.adc_vref_V / 2 ** b.adc_bits / b.i_gain_V_per_A / n_conv
+    meta = d / "meta" / "sweep.csv"
+    meta.parent.mkdir()
+    meta.write_text(f"# encoder_counts_per_rev={cpr:g}\n# v_lsb_V={v_lsb:.6g}\n# i_lsb_A={i_lsb:.6g}\n"
+                    + plain.read_text())
+    return plain, meta, cpr, (v_lsb, i_lsb)
+
+
+def run(paths):
+    return core.diagnose(paths, core.Options(bootstrap=0, hybrid=False))
+
+
+def test_a_coarse_encoder_sets_the_noise_floor_and_each_part_is_shown(coarse, tmp_path):
+    plain, meta, cpr, (v_lsb, i_lsb) = coarse
+    before = run([plain]).to_json()["noise_floor"]
+    assert before["sensors_rpm2"] == {} and not before["limited_by_sensors"]
+    d = run([meta])
+    res = d.to_json()
+    nf = res["noise_floor"]
+    q = 60.0 / (cpr / RATE_HZ)  # one count per window, RPM
+    assert nf["encoder_step_rpm"] == pytest.approx(q)
+    assert nf["sensors_rpm"]["encoder quantisation"] == pytest.approx(q / math.sqrt(6.0))
+    ke, ra = res["model"]["ke_vs_per_rad"], res["model"]["ra_ohm"]
+    per_v = 60.0 / (2 * math.pi * ke)
+    assert nf["sensors_rpm"]["voltage resolution"] == pytest.approx(v_lsb * per_v / math.sqrt(12.0), rel=1e-5)
+    assert nf["sensors_rpm"]["current resolution"] == pytest.approx(i_lsb * ra * per_v / math.sqrt(12.0), rel=1e-5)
+    # the measured floor (from row-to-row differences) is far below the encoder's own
+    assert nf["measured_rpm2"] == pytest.approx(before["measured_rpm2"])
+    assert nf["limited_by_sensors"] and nf["rpm"] == pytest.approx(math.sqrt(sum(nf["sensors_rpm2"].values())))
+    assert nf["rpm"] > 4 * math.sqrt(before["measured_rpm2"])
+    # the verdict: no effect on this ideal bench, and what the sensors leave unseen
+    assert res["missing_effects"] == [], res["verdict"]
+    assert "The sensors set the noise floor (encoder quantisation" in res["verdict"], res["verdict"]
+    # rows that read 0 RPM while driven fall out of every fit: Ke and Ra not determined
+    assert nf["truncated_share"] > 0.02 and nf["truncated"]
+    assert not res["ra_fit"]["determined"] and not res["ra_fit"]["mismatch"]
+    assert not next(iv for iv in res["intervals"] if iv["quantity"] == "Ke")["determined"]
+    text = diagnose_cli.summary(d)
+    for part in ("encoder quantisation", "voltage resolution", "current resolution", "set by the sensors"):
+        assert part in text, text
+    from hpddo.reports import diagnosis as report
+    (tmp_path / "r").mkdir()
+    report.write(tmp_path / "r", res, d.plot())
+    html = (tmp_path / "r" / "index.html").read_text()
+    assert "encoder quantisation" in html and "current resolution" in html
+
+
+def test_a_fine_encoder_leaves_the_bundled_verdict_as_it_was(tmp_path):
+    """The bundled recordings' encoder (44 counts per motor revolution, gear 4.4, 2 Hz: one
+    count is 0.31 RPM) declared in their headers: the sensors' floor is far below the measured
+    one, and the verdict is the same word for word."""
+    paths = []
+    for n in ("load", "long", "sweep"):
+        p = tmp_path / f"{n}.csv"
+        p.write_text("# encoder_counts_per_rev=193.6\n" + (ROOT / "data" / "default" / f"{n}.csv").read_text())
+        paths.append(p)
+    res = run(paths).to_json()
+    ref = run([ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]).to_json()
+    assert not res["noise_floor"]["limited_by_sensors"]
+    assert res["noise_floor"]["sensors_rpm"]["encoder quantisation"] == pytest.approx(60 / (193.6 * 0.5) / 6 ** 0.5)
+    assert res["verdict"] == ref["verdict"] and res["noise_rpm"] == ref["noise_rpm"]
