@@ -99,6 +99,10 @@ def summary(d) -> str:
     if kinds:
         lines.append("  steady-state tables, no lag, dI/dt or whiteness statistics: " + ", ".join(kinds))
     lines.append(f"  held out: {res['thresholds']['held_out']}")
+    for u in (res.get("consistency") or {}).get("units", []):
+        if u["inconsistent"]:
+            lines.append(f"  disagrees with the rest: {u['kind']} {u['name']}, {u['rmse_rpm']:.3g} RPM by the model "
+                         f"identified without it (the others: {u['others_rpm']:.3g} RPM median)")
     conds = list(res["rmse_rpm"]["before"])
     lines.append("RMSE on the test parts (RPM)   " + " ".join(f"{c:>9s}" for c in conds))
     rows = [("physics before", res["rmse_rpm"]["before"]), ("physics after", res["rmse_rpm"]["after"])]

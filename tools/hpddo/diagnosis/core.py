@@ -48,6 +48,8 @@ class Options:
     seed: int = 1
     glitch_filter: bool = True
     leave_one_out: bool = False  # also score the physics before/after on each recording, fitted on the others
+    ke_fit: str = "eq20"         # Ke of M2: "eq20" (the paper's mean ratio) or "lsq" (least squares)
+    consistency: bool = True     # check each recording (a table's operating groups) against the others
 
 
 # ---------------------------------------------------------------------------------------
@@ -381,6 +383,9 @@ class Diagnosis:
     # winding node), with its interval from the data or "not determined" (intervals.Interval)
     intervals: list = dataclasses.field(default_factory=list)
     noise_floor: dict = dataclasses.field(default_factory=dict)  # noise.NoiseFloor.to_json()
+    # each recording (a table's operating groups) against the model identified without it
+    # (consistency(): {"units": [Unit.to_json()], "without": the verdict without the odd one})
+    consistency: dict = dataclasses.field(default_factory=dict)
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -407,6 +412,7 @@ class Diagnosis:
             "verdict": self.verdict,
             "noise_rpm": self.noise_rpm,
             "noise_floor": self.noise_floor,
+            "consistency": self.consistency,
             "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after},
             "after_model": dataclasses.asdict(self.after_model),
             "thermal_node": self.thermal_node,
@@ -435,9 +441,13 @@ class Diagnosis:
 
 def load(paths, opt: Options) -> Inputs:
     """The recordings, their rows, Ra and M2; refuses recordings with too few held-out rows."""
-    recs = dataset.load_recordings(paths, glitch_filter=opt.glitch_filter)
+    return inputs_of(dataset.load_recordings(paths, glitch_filter=opt.glitch_filter), opt)
+
+
+def inputs_of(recs, opt: Options) -> Inputs:
+    """load() of recordings already read."""
     ra, ra_source = identify.ra_from_logs(recs, opt.ra_ohm)
-    m2 = identify.m2_params(recs, ra)
+    m2 = identify.m2_params(recs, ra, opt.ke_fit)
     given = list(fx.check_names(opt.effects))
     data = ranking.make_data([fx.rows_of(r) for r in recs])
     rows = data.rows  # under cross-validation (small data) every labelled row is train and test
@@ -447,6 +457,106 @@ def load(paths, opt: Options) -> Inputs:
                          f"{', '.join(str(r.source) for r in recs)}: the diagnosis scores every effect on rows "
                          f"not used to fit it and needs at least {MIN_HELD_OUT_ROWS}; give longer recordings")
     return Inputs(recs=recs, rows=rows, data=data, ra=ra, ra_source=ra_source, m2=m2, given=given)
+
+
+# A recording (or an operating group of a steady-state table) disagrees with the rest when
+# the model identified without it misses it by more than CONSIST_X times the median miss of
+# the others (each left out in turn, RMSE) and by more than the noise floor allows
+# (CONSIST_Z standard errors of its mean squared error under noise alone); at least
+# CONSIST_MIN_UNITS units and CONSIST_MIN_ROWS labelled rows in the unit.
+CONSIST_X = 2.0
+CONSIST_Z = 3.0
+CONSIST_MIN_UNITS = 3
+CONSIST_MIN_ROWS = 3
+
+
+@dataclasses.dataclass
+class Unit:
+    """A recording, or an operating group (one duty and load) of a steady-state table, with
+    the RMSE of the model identified without it on its labelled rows."""
+
+    name: str
+    kind: str            # "recording" or "operating group"
+    rows: int
+    rmse_rpm: float      # the model identified without it, on its rows
+    others_rpm: float    # the median of the others' (each left out in turn)
+    inconsistent: bool
+    masks: list = dataclasses.field(repr=False, default_factory=list)  # per recording: the unit's rows
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "kind": self.kind, "rows": self.rows, "rmse_rpm": self.rmse_rpm,
+                "others_rpm": self.others_rpm, "inconsistent": bool(self.inconsistent)}
+
+    def text(self) -> str:
+        return (f"{self.kind} {self.name} disagrees with the rest: the model identified without it misses its "
+                f"{self.rows} rows by {self.rmse_rpm:.3g} RPM RMS, the others (each left out in turn) by "
+                f"{self.others_rpm:.3g} RPM (median)")
+
+
+def _units(rows) -> list:
+    """(name, kind, per-recording row masks) of the units the consistency check leaves out:
+    the recordings of a time series, the operating groups (duty, load) of each steady-state
+    table."""
+    out = []
+    labelled = [r.train | r.test for r in rows]
+    for k, r in enumerate(rows):
+        if r.steady:
+            df = r.rec.df
+            load = df["load"].to_numpy() if "load" in df else np.zeros(len(r.i))
+            for duty, ld in sorted({(float(a), int(b)) for a, b in zip(r.duty[labelled[k]], load[labelled[k]])}):
+                m = labelled[k] & (r.duty == duty) & (load == ld)
+                name = f"{r.rec.name} duty {duty:g}" + (f" load {ld}" if "load" in df else "")
+                out.append((name, "operating group", [m if j == k else np.zeros(len(x.i), bool)
+                                                      for j, x in enumerate(rows)]))
+        else:
+            out.append((r.rec.name, "recording", [labelled[k] if j == k else np.zeros(len(x.i), bool)
+                                                  for j, x in enumerate(rows)]))
+    return out
+
+
+def consistency(inp: Inputs, sigma2: float) -> list:
+    """Each unit (_units) against the model (M2 with the effects under test: Ke refitted) identified
+    on every labelled row but its own: [Unit], empty with fewer than CONSIST_MIN_UNITS units."""
+    units = _units(inp.rows)
+    if len(units) < CONSIST_MIN_UNITS:
+        return []
+    scored = []
+    for name, kind, masks in units:
+        n = int(sum(int(m.sum()) for m in masks))
+        if n < CONSIST_MIN_ROWS:
+            continue
+        rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, masks)]
+        try:
+            p = fx.fit(rest, inp.m2, inp.given)
+        except Exception:
+            continue
+        e = np.concatenate([(r.ref - fx.predict(r, p))[m] for r, m in zip(rest, masks)])
+        e = e[np.isfinite(e)]
+        if len(e):
+            scored.append((name, kind, len(e), float(np.mean(e * e)), masks))
+    out = []
+    for name, kind, n, mse, masks in scored:
+        others = [x[3] for x in scored if x[0] != name]
+        if not others:
+            continue
+        med = float(np.median(others))
+        beyond_noise = mse - max(sigma2, 0.0) > CONSIST_Z * max(sigma2, 1e-12) * math.sqrt(2.0 / n)
+        bad = mse > CONSIST_X ** 2 * max(med, sigma2) and beyond_noise
+        out.append(Unit(name, kind, n, math.sqrt(mse), math.sqrt(med), bool(bad), masks))
+    return out
+
+
+def without(inp: Inputs, unit: Unit, opt: Options) -> Inputs:
+    """The inputs with the unit's rows left out (a recording dropped; an operating group's rows
+    removed from its table)."""
+    recs = []
+    for r, rows, m in zip(inp.recs, inp.rows, unit.masks):
+        if not m.any():
+            recs.append(r)
+        elif unit.kind == "operating group":
+            df = r.df.loc[~m].reset_index(drop=True)
+            recs.append(dataclasses.replace(r, df=df, n_train=int(np.floor(dataset.TRAIN_FRACTION * len(df)))))
+    return inputs_of(recs, dataclasses.replace(opt, ra_ohm=inp.ra))
 
 
 def fit_model(inp: Inputs) -> ModelFit:
@@ -929,6 +1039,36 @@ def leave_one_out(inp: Inputs, missing: list) -> dict:
 def diagnose(paths, opt: Options) -> Diagnosis:
     t0 = time.perf_counter()
     inp = load(paths, opt)
+    inp, mf, ident, sel, conf, resid, text = physics(inp, opt)
+    units = consistency(inp, mf.sigma2) if opt.consistency else []
+    odd = max((u for u in units if u.inconsistent), key=lambda u: u.rmse_rpm / max(u.others_rpm, 1e-9), default=None)
+    without_it = None
+    if odd is not None:
+        # the verdict without it (no bootstrap): the user sees both and what the one recording changes
+        try:
+            w = physics(without(inp, odd, opt), dataclasses.replace(opt, bootstrap=0))
+        except Exception as exc:  # too little left without it
+            without_it = {"unit": odd.name, "verdict": None, "why": str(exc)}
+            text += f" Checked before ranking: {odd.text()}; without it too little is left to diagnose ({exc})."
+        else:
+            without_it = {"unit": odd.name, "verdict": w[6], "missing_effects": w[3].missing,
+                          "ra_fit": w[3].ra_fit.to_json() if w[3].ra_fit is not None else None}
+            text += f" Checked before ranking: {odd.text()}. Without it: {w[6]}"
+    changed = bool(sel.missing) or sel.ra_fit.mismatch
+    hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt) if opt.hybrid else (None, [])
+    d = _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
+    d.consistency = {"units": [u.to_json() for u in units], "without": without_it}
+    if opt.leave_one_out:
+        if len(inp.recs) < 2:
+            raise InputError("leave-one-out needs at least two recordings (one to leave out, one to fit on)")
+        d.leave_one_out = leave_one_out(inp, sel.missing)
+    d.runtime_s = time.perf_counter() - t0
+    return d
+
+
+def physics(inp: Inputs, opt: Options) -> tuple:
+    """The physics stages from fit_model to verdict: (inputs (Ra moved where it is a
+    mismatch), ModelFit, identifiability, Selection, Confounding, Residuals, verdict text)."""
     mf = fit_model(inp)
     ident = identifiability(inp, mf)
     sel = select(inp, mf, ident, opt)
@@ -942,16 +1082,7 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     sel, conf = material_check(inp, mf, sel, conf)
     sel = with_intervals(inp, sel, mf.noise)
     resid = residuals(inp, mf, sel)
-    text = verdict(sel, conf, resid, mf.sigma2, mf.noise)
-    changed = bool(sel.missing) or sel.ra_fit.mismatch
-    hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt) if opt.hybrid else (None, [])
-    d = _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
-    if opt.leave_one_out:
-        if len(inp.recs) < 2:
-            raise InputError("leave-one-out needs at least two recordings (one to leave out, one to fit on)")
-        d.leave_one_out = leave_one_out(inp, sel.missing)
-        d.runtime_s = time.perf_counter() - t0
-    return d
+    return inp, mf, ident, sel, conf, resid, verdict(sel, conf, resid, mf.sigma2, mf.noise)
 
 
 def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
