@@ -127,6 +127,11 @@ def check_ke(ke: float, v, i, ra_ohm: float, ra_source: str = "") -> None:
                               "(sign, gain) and the rpm_ref column")
 
 
+# How M2's Ke is identified (hpddo train and diagnose --ke-fit): the paper's eq. 20 (mean of the
+# per-window ratios (V - I Ra) / w) or least squares of V - I Ra on w.
+KE_FITS = ("eq20", "lsq")
+
+
 def m2_params(recs: list[Recording], ra_ohm: float, ke_fit: str = "eq20") -> ph.PhysicsParams:
     """Plain M2: measured Ra, identified Ke, no effects."""
     v, i, n = steady_rows(recs)

@@ -31,6 +31,7 @@ def parser(prog: str = "hpddo diagnose") -> argparse.ArgumentParser:
                    "hpddo diagnose")
     options.effects(p, "effects already in the model under test")
     options.ra_ohm(p)
+    options.ke_fit(p)
     p.add_argument("--bootstrap", type=options.non_negative_int, default=core.ranking.BOOTSTRAP, metavar="N",
                    help=f"block-bootstrap resamples for the inclusion frequency (default {core.ranking.BOOTSTRAP}; "
                         "0: none)")
@@ -49,7 +50,8 @@ def options_of(args):
     from ..diagnosis import core
     return core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
                         hybrid=not args.no_hybrid, hybrid_iter=args.hybrid_iter, seed=args.seed,
-                        glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out)
+                        glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
+                        ke_fit=args.ke_fit)
 
 
 def diagnose_into(logs, opt, out: pathlib.Path):

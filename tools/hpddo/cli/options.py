@@ -32,6 +32,12 @@ def ra_ohm(p) -> None:
                    help="armature resistance, ohm (default: the logs' ra_ohm metadata)")
 
 
+def ke_fit(p) -> None:
+    from ..identify import KE_FITS
+    p.add_argument("--ke-fit", choices=list(KE_FITS), default=KE_FITS[0],
+                   help="M2 Ke: mean of per-window ratios (paper eq. 20, the default) or least squares")
+
+
 def glitch_filter(p) -> None:
     p.add_argument("--no-glitch-filter", action="store_true",
                    help="keep every row (no glitch filter; docs/pipeline.md, step 2)")

@@ -57,8 +57,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
                    help="nameplate voltage for M1, V (default 12)")
     p.add_argument("--rated-rpm", type=options.positive_float, default=None, metavar="RPM",
                    help="nameplate no-load speed for M1, RPM (default 1000)")
-    p.add_argument("--ke-fit", choices=["eq20", "lsq"], default="eq20",
-                   help="M2 Ke: mean of per-window ratios (paper eq. 20, the default) or least squares")
+    options.ke_fit(p)
     options.effects(p, "effect terms to add to the physics model M2")
     p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,N]",
                    help="hidden layer sizes of M3 (default 16,8; the paper's is 128,64)")

@@ -23,6 +23,7 @@ import math
 import time
 
 import numpy as np
+from scipy import stats
 
 from .. import dataset, identify
 from ..errors import InputError
@@ -275,6 +276,7 @@ class ModelFit:
     sigma2: float             # noise variance (noise.var_rpm2)
     mse_base: float
     noise: noise.NoiseFloor | None = None  # the floor and its parts
+    ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check(): eq. 20 against least squares
 
 
 @dataclasses.dataclass
@@ -386,6 +388,7 @@ class Diagnosis:
     # each recording (a table's operating groups) against the model identified without it
     # (consistency(): {"units": [Unit.to_json()], "without": the verdict without the odd one})
     consistency: dict = dataclasses.field(default_factory=dict)
+    ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check()
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -413,6 +416,7 @@ class Diagnosis:
             "noise_rpm": self.noise_rpm,
             "noise_floor": self.noise_floor,
             "consistency": self.consistency,
+            "ke_check": self.ke_check,
             "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after},
             "after_model": dataclasses.asdict(self.after_model),
             "thermal_node": self.thermal_node,
@@ -1066,6 +1070,72 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     return d
 
 
+# A residual correlated with the measured speed at lag 0 by at least KE_BIAS_R (and beyond its
+# band) is the mark of a biased Ke: n (Ke_true / Ke - 1) grows with the speed.
+KE_BIAS_R = 0.3
+KE_BIAS_P = 0.001
+KE_BIAS_DROP = 0.2    # ... and Ke by least squares takes this much of the correlation away
+KE_DISAGREE_REL = 0.15  # eq. 20 and least squares disagree: least squares' held-out RMSE this much lower
+KE_TRUST = ("least squares (--ke-fit lsq): it minimises the speed error the model is judged by, where eq. 20's "
+            "mean of ratios weighs the slow rows most, on which noise and quantisation divide by a small speed")
+
+
+def _speed_corr(inp: Inputs, model: ph.PhysicsParams, res) -> tuple[float, float]:
+    """(r, p) of the held-out residual res of model with its own speed estimate at lag 0,
+    pooled over the recordings (scipy's pearsonr)."""
+    e, n = [], []
+    for r, x in zip(inp.rows, res):
+        m = r.test & np.isfinite(x)
+        e.append(x[m])
+        n.append(fx.predict(r, model)[m])
+    e, n = np.concatenate(e), np.concatenate(n)
+    ok = np.isfinite(n)
+    if ok.sum() <= 3 or np.std(n[ok]) <= 0 or np.std(e[ok]) <= 0:
+        return float("nan"), 1.0
+    r0, p0 = stats.pearsonr(e[ok], n[ok])
+    return float(r0), float(p0)
+
+
+def ke_check(inp: Inputs, mf: ModelFit, ke_fit: str) -> dict:
+    """Ke by eq. 20 against least squares (intervals.ke_two_ways), and the lag-0 correlation of
+    the model under test's held-out residual with its own speed estimate (a biased Ke makes the
+    error grow with the speed; the measured speed would not do as the regressor: it carries the
+    error itself, and within one operating point its variation is mostly that error), against
+    the same with Ke by least squares (ModelFit.base): a biased Ke when the first is at least
+    KE_BIAS_R (p < KE_BIAS_P) and least squares takes KE_BIAS_DROP of it away (a missing
+    effect would leave it) or the two Ke disagree: their intervals apart, or least squares'
+    held-out RMSE KE_DISAGREE_REL lower (z >= Z_MIN). "text": what the verdict says ("" for
+    nothing)."""
+    two = intervals.ke_two_ways(inp.data, inp.m2.ra_ohm)
+    r0, p0 = _speed_corr(inp, mf.model, mf.res_model)
+    r_ls, _ = _speed_corr(inp, mf.base, mf.res_base)
+    rmse_model = math.sqrt(ranking.held_out_mse(inp.data, mf.res_model))
+    rmse_ls = math.sqrt(ranking.held_out_mse(inp.data, mf.res_base))
+    _, z = ranking.gain_z(inp.data, mf.res_model, mf.res_base, mf.sigma2)
+    disagree = bool(two["apart"] or (rmse_ls <= (1.0 - KE_DISAGREE_REL) * rmse_model and z >= ranking.Z_MIN))
+    correlated = bool(np.isfinite(r0) and abs(r0) >= KE_BIAS_R and p0 < KE_BIAS_P)
+    biased = correlated and (disagree or not (np.isfinite(r_ls) and abs(r_ls) > abs(r0) - KE_BIAS_DROP))
+    parts = []
+    if disagree:
+        (a, alo, ahi), (b, blo, bhi) = two["eq20"], two["lsq"]
+        parts.append(f"Ke by eq. 20 ({a:.4g} V s/rad, 95 % interval {alo:.4g}..{ahi:.4g}) and by least squares "
+                     f"({b:.4g}, {blo:.4g}..{bhi:.4g}) disagree: the model under test ({ke_fit}) misses the "
+                     f"held-out rows by {rmse_model:.3g} RPM, with Ke by least squares by {rmse_ls:.3g} RPM")
+    if biased:
+        parts.append(f"its residual correlates with its speed estimate at lag 0 (r = {r0:+.2f}; {r_ls:+.2f} with Ke "
+                     f"by least squares): the mark of a biased Ke")
+    text = ""
+    if parts:
+        text = "; ".join(parts) + "."
+        text = text[0].upper() + text[1:]
+        if ke_fit != "lsq":
+            text += f" Trust {KE_TRUST}."
+    return {"eq20": list(two["eq20"]), "lsq": list(two["lsq"]), "apart": two["apart"], "clusters": two["clusters"],
+            "rmse_model_rpm": rmse_model, "rmse_lsq_rpm": rmse_ls, "z": float(z), "disagree": disagree,
+            "speed_r_lag0": r0, "speed_p": p0, "speed_r_lag0_lsq": r_ls, "biased": bool(biased), "ke_fit": ke_fit,
+            "text": text}
+
+
 def physics(inp: Inputs, opt: Options) -> tuple:
     """The physics stages from fit_model to verdict: (inputs (Ra moved where it is a
     mismatch), ModelFit, identifiability, Selection, Confounding, Residuals, verdict text)."""
@@ -1082,7 +1152,12 @@ def physics(inp: Inputs, opt: Options) -> tuple:
     sel, conf = material_check(inp, mf, sel, conf)
     sel = with_intervals(inp, sel, mf.noise)
     resid = residuals(inp, mf, sel)
-    return inp, mf, ident, sel, conf, resid, verdict(sel, conf, resid, mf.sigma2, mf.noise)
+    text = verdict(sel, conf, resid, mf.sigma2, mf.noise)
+    ke = ke_check(inp, mf, opt.ke_fit)
+    if ke["text"]:
+        text += " " + ke["text"]
+    mf.ke_check = ke
+    return inp, mf, ident, sel, conf, resid, text
 
 
 def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
@@ -1130,7 +1205,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         rest_offsets={k: {"value": v, "se": se, "rows": n} for k, (v, se, n) in fx.rest_offsets(rows).items()},
         not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
         ranking=sel.ranking, verdict=text, intervals=sel.intervals, noise_rpm=float(np.sqrt(mf.sigma2)),
-        noise_floor=mf.noise.to_json() if mf.noise is not None else {},
+        noise_floor=mf.noise.to_json() if mf.noise is not None else {}, ke_check=mf.ke_check,
         rmse_before=_rmse_by_condition(rows, mf.res_model), rmse_after=_rmse_by_condition(rows, resid.res_after),
         after_model=resid.after_model, residual_before=resid.before, residual_after=resid.after,
         steps=[RankingStep.of(s) for s in sel.steps],

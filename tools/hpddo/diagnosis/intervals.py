@@ -245,3 +245,32 @@ def of_fit(data, p: ph.PhysicsParams, names, hold=None, ra_bounds=None) -> list[
     moved to reach p (its training rows, the bootstrap's operating-point blocks)."""
     fields, bounds = fitted_fields(data.rows, names, hold, ra_bounds)
     return intervals(data.rows, data.blocks_train, p, fields, bounds)
+
+
+def ke_two_ways(data, ra_ohm: float) -> dict:
+    """Ke on the training rows by the paper's eq. 20 (the mean of (V - I Ra) / w) and by least
+    squares (V - I Ra on w, no intercept), each with its 95 % interval (cluster-robust over the
+    bootstrap's operating-point blocks, at least the rows' own), Ra at ra_ohm:
+    {"eq20": (value, lo, hi), "lsq": (value, lo, hi), "apart": bool (the two intervals do not
+    overlap), "clusters": int}."""
+    emf, w, groups, offset = [], [], [], 0
+    for r, g in zip(data.rows, data.blocks_train):
+        m = r.train & np.isfinite(r.ref) & (g >= 0)
+        emf.append(r.v[m] - r.i[m] * ra_ohm)
+        w.append(r.ref[m] * 2.0 * math.pi / 60.0)
+        groups.append(g[m] + offset)
+        offset += int(g.max()) + 1 if len(g) else 0
+    emf, w, groups = np.concatenate(emf), np.concatenate(w), np.concatenate(groups)
+    out = {"clusters": int(len(np.unique(groups)))}
+    for key, (y, x) in (("eq20", (emf / w, np.ones_like(w))), ("lsq", (emf, w))):
+        fit = sm.OLS(y, x[:, None]).fit()
+        var = float(fit.cov_params()[0, 0])
+        df = max(len(y) - 1, 1)
+        if out["clusters"] >= 3:
+            clu = sm.OLS(y, x[:, None]).fit(cov_type="cluster", cov_kwds={"groups": groups})
+            var, df = max(var, float(clu.cov_params()[0, 0])), out["clusters"] - 1
+        t = float(stats.t.ppf(0.5 + LEVEL / 2, df))
+        k, se = float(fit.params[0]), math.sqrt(var)
+        out[key] = (k, k - t * se, k + t * se)
+    out["apart"] = bool(out["eq20"][1] > out["lsq"][2] or out["lsq"][1] > out["eq20"][2])
+    return out
