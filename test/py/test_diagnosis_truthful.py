@@ -269,3 +269,48 @@ def test_the_bundled_ke_needs_no_remark():
     effects', which least squares leaves (+0.33): no remark on Ke."""
     k = diagnose(BUNDLED, None).to_json()["ke_check"]
     assert not k["disagree"] and not k["biased"] and k["text"] == "", k
+
+
+def _cells(src, dst, col, value):
+    """src with column col of every row replaced by value(old cell text), written to dst."""
+    lines = src.read_text().splitlines()
+    hdr = next(k for k, line in enumerate(lines) if not line.startswith("#"))
+    k = lines[hdr].split(",").index(col)
+    out = lines[: hdr + 1]
+    for line in lines[hdr + 1:]:
+        c = line.split(",")
+        c[k] = value(c[k])
+        out.append(",".join(c))
+    dst.write_text("\n".join(out) + "\n")
+    return dst
+
+
+CURRENT_CANNOT = "Ra and every effect that acts through the current"
+
+
+@pytest.mark.parametrize("fault, value, figure", [
+    ("stuck", lambda c: "0.15", "1 distinct values over 30 driven rows at 6 duties"),
+    ("saturated", lambda c: f"{min(float(c), 0.16):.4f}", "8 of 30 driven rows read exactly 0.16 (top of its range)"),
+    ("too coarse", lambda c: f"{round(float(c) / 0.05) * 0.05:.4f}", "steps of 0.05 over a range of 0.1: 2 levels"),
+])
+def test_a_faulty_current_channel_of_a_table_is_named_with_what_cannot_be_concluded(tmp_path, fault, value, figure):
+    log = _cells(dyno_table(tmp_path / "t.csv", 30, 3), tmp_path / "dyno30.csv", "i_A", value)
+    res = diagnose([log], RA_OHM * 0.9).to_json()
+    assert [(f["channel"], f["fault"], f["figure"]) for f in res["channels"]] == [("current", fault, figure)]
+    assert f"Channel health: the current channel of dyno30 is {fault} ({figure}): {CURRENT_CANNOT}" in res["verdict"]
+
+
+def test_a_current_channel_that_explains_nothing_of_the_load_is_named(tmp_path):
+    """Twin recordings of the ideal bench, the load recording's current replaced by 0.3 A and
+    10 mA of noise: at each duty the speed varies with the load by 3.8 RPM RMS beyond the
+    voltage (measured), of which the current takes nothing."""
+    import numpy as np
+    import twin_benches
+    rng = np.random.default_rng(1)
+    paths = twin_benches.recordings(tmp_path / "ideal", twin_benches.bench({}), 3)
+    dead = _cells(paths[1], tmp_path / "load.csv", "i_A", lambda c: f"{0.3 + rng.normal(0, 0.01):.6f}")
+    res = diagnose([paths[0], dead, paths[2]], RA_OHM).to_json()
+    faults = [(f["recording"], f["channel"], f["fault"]) for f in res["channels"]]
+    assert faults == [("load", "current", "explains nothing of the load")], res["channels"]
+    assert "the current channel of load explains nothing of the load" in res["verdict"]
+    assert diagnose(BUNDLED, None).to_json()["channels"] == []

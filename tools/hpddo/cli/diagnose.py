@@ -101,6 +101,8 @@ def summary(d) -> str:
     if kinds:
         lines.append("  steady-state tables, no lag, dI/dt or whiteness statistics: " + ", ".join(kinds))
     lines.append(f"  held out: {res['thresholds']['held_out']}")
+    for f in res.get("channels", []):
+        lines.append(f"  channel: {f['channel']} of {f['recording']} {f['fault']} ({f['figure']})")
     for u in (res.get("consistency") or {}).get("units", []):
         if u["inconsistent"]:
             lines.append(f"  disagrees with the rest: {u['kind']} {u['name']}, {u['rmse_rpm']:.3g} RPM by the model "

@@ -30,7 +30,7 @@ from ..errors import InputError
 from .. import effects as fx
 from .. import physics as ph
 from ..train import TrainConfig, TrainingError, hybrid_rpm, train_residual
-from . import analysis, intervals, noise, ranking
+from . import analysis, channels, intervals, noise, ranking
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
 HYBRID_ITER = 150  # training iterations of the hybrid in the diagnosis (gen_weights: 2000)
@@ -277,6 +277,7 @@ class ModelFit:
     mse_base: float
     noise: noise.NoiseFloor | None = None  # the floor and its parts
     ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check(): eq. 20 against least squares
+    channels: list = dataclasses.field(default_factory=list)  # channels.ChannelFault
 
 
 @dataclasses.dataclass
@@ -389,6 +390,7 @@ class Diagnosis:
     # (consistency(): {"units": [Unit.to_json()], "without": the verdict without the odd one})
     consistency: dict = dataclasses.field(default_factory=dict)
     ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check()
+    channels: list = dataclasses.field(default_factory=list)  # channels.ChannelFault.to_json()
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -417,6 +419,7 @@ class Diagnosis:
             "noise_floor": self.noise_floor,
             "consistency": self.consistency,
             "ke_check": self.ke_check,
+            "channels": self.channels,
             "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after},
             "after_model": dataclasses.asdict(self.after_model),
             "thermal_node": self.thermal_node,
@@ -1157,6 +1160,9 @@ def physics(inp: Inputs, opt: Options) -> tuple:
     if ke["text"]:
         text += " " + ke["text"]
     mf.ke_check = ke
+    mf.channels = channels.check(inp.recs, inp.rows, mf.sigma2)
+    if mf.channels:
+        text += " Channel health: " + "; ".join(f.text() for f in mf.channels) + "."
     return inp, mf, ident, sel, conf, resid, text
 
 
@@ -1206,6 +1212,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
         ranking=sel.ranking, verdict=text, intervals=sel.intervals, noise_rpm=float(np.sqrt(mf.sigma2)),
         noise_floor=mf.noise.to_json() if mf.noise is not None else {}, ke_check=mf.ke_check,
+        channels=[f.to_json() for f in mf.channels],
         rmse_before=_rmse_by_condition(rows, mf.res_model), rmse_after=_rmse_by_condition(rows, resid.res_after),
         after_model=resid.after_model, residual_before=resid.before, residual_after=resid.after,
         steps=[RankingStep.of(s) for s in sel.steps],

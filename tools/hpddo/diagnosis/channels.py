@@ -1,0 +1,97 @@
+"""Channel health: a voltage or current channel that is saturated, stuck, too coarse for its
+range, or (the current) explains nothing of the load, named with its figure and with what
+cannot be concluded because of it. Checked on the rows with the motor driven (duty > 0) of
+each recording.
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import statsmodels.api as sm
+
+from .. import dataset
+
+SATURATED_SHARE = 0.02   # driven rows at the channel's extreme value, exactly: saturated
+SATURATED_MIN_ROWS = 5
+STUCK_LEVELS = 2         # at most this many distinct values while the duty takes STUCK_DUTIES or more
+STUCK_DUTIES = 3
+COARSE_LEVELS = 20       # fewer steps than this over the range of the driven rows: too coarse
+# The current explains nothing of the load when, with the speed varying beyond the voltage by
+# more than LOAD_MIN_NOISE noise variances, it takes less than LOAD_SHARE of that variation.
+LOAD_SHARE = 0.10
+LOAD_MIN_NOISE = 4.0
+
+CHANNELS = (("current", "i_A", "i_lsb_A"), ("voltage", "v_V", "v_lsb_V"))
+# what cannot be concluded from a faulty channel
+CANNOT = {
+    "current": ("Ra and every effect that acts through the current (brush_drop, saturation, current_offset, the "
+                "winding's heating for thermal_ra) cannot be concluded from it"),
+    "voltage": ("Ke and every effect that acts through the voltage (v_gain, v_offset) cannot be concluded from it, "
+                "nor anything that rests on the back-EMF"),
+}
+
+
+@dataclasses.dataclass
+class ChannelFault:
+    recording: str
+    channel: str     # "current" or "voltage"
+    fault: str       # "saturated", "stuck", "too coarse", "explains nothing of the load"
+    figure: str      # the measurement, in words
+
+    def to_json(self) -> dict:
+        return {"recording": self.recording, "channel": self.channel, "fault": self.fault, "figure": self.figure,
+                "cannot": CANNOT[self.channel], "text": self.text()}
+
+    def text(self) -> str:
+        verb = "" if self.fault.startswith("explains") else "is "
+        return (f"the {self.channel} channel of {self.recording} {verb}{self.fault} ({self.figure}): "
+                f"{CANNOT[self.channel]}")
+
+
+def _faults(rec, r, sigma2: float) -> list:
+    driven = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i)
+    if driven.sum() < SATURATED_MIN_ROWS:
+        return []
+    out = []
+    meta = dataset.sensor_meta(rec)
+    duties = len(np.unique(r.duty[driven]))
+    for name, col, lsb_key in CHANNELS:
+        x = rec.df[col].to_numpy(float)[driven]
+        levels = np.unique(x)
+        if len(levels) <= STUCK_LEVELS and duties >= STUCK_DUTIES:
+            out.append(ChannelFault(rec.name, name, "stuck", f"{len(levels)} distinct values over {len(x)} driven "
+                                    f"rows at {duties} duties"))
+            continue
+        # its step: the declared resolution, else the smallest step between the values it logs
+        step = meta.get(lsb_key) or float(np.min(np.diff(levels)))
+        span = float(np.ptp(x))
+        if step > 0 and span > 0 and span / step < COARSE_LEVELS:
+            out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
+                                    f"{span / step:.0f} levels"))
+            continue  # a coarse channel repeats its extremes as it repeats every level
+        for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
+            n = int(np.sum(x == edge))
+            if n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)):
+                out.append(ChannelFault(rec.name, name, "saturated", f"{n} of {len(x)} driven rows read exactly "
+                                        f"{edge:.4g} ({which} of its range)"))
+                break
+    # the current and the load: what the current explains of the speed beyond the voltage
+    lab = driven & (r.train | r.test) & np.isfinite(r.ref)
+    if lab.sum() > 10 and not any(f.channel == "current" and f.fault == "stuck" for f in out):
+        y = r.ref[lab]
+        xv = sm.add_constant(r.v[lab])
+        sse_v = float(np.sum(sm.OLS(y, xv).fit().resid ** 2))
+        sse_vi = float(np.sum(sm.OLS(y, np.column_stack([xv, r.i[lab]])).fit().resid ** 2))
+        if sse_v > LOAD_MIN_NOISE * max(sigma2, 1e-12) * lab.sum():
+            share = 1.0 - sse_vi / sse_v
+            if share < LOAD_SHARE:
+                out.append(ChannelFault(rec.name, "current", "explains nothing of the load",
+                                        f"the speed varies by {np.sqrt(sse_v / lab.sum()):.3g} RPM RMS beyond what the "
+                                        f"voltage explains; the current takes {100 * share:.0f} % of it"))
+    return out
+
+
+def check(recs, rows, sigma2: float) -> list:
+    """[ChannelFault] over the recordings (rows: effects.Rows of each; sigma2: the noise floor)."""
+    return [f for rec, r in zip(recs, rows) for f in _faults(rec, r, sigma2)]
