@@ -97,10 +97,11 @@ def summary(d) -> str:
             break
     if res.get("noise_floor"):
         lines.append(f"  {res['noise_floor']['text']}")
-    kinds = [f"{r['name']} ({r['kind_source']})" for r in res["recordings"] if r.get("kind") == "steady_state"]
+    kinds = [f"{r['name']} ({r['kind_source']})" for r in res.get("recordings", []) if r.get("kind") == "steady_state"]
     if kinds:
         lines.append("  steady-state tables, no lag, dI/dt or whiteness statistics: " + ", ".join(kinds))
-    lines.append(f"  held out: {res['thresholds']['held_out']}")
+    if (res.get("thresholds") or {}).get("held_out"):
+        lines.append(f"  held out: {res['thresholds']['held_out']}")
     for f in res.get("channels", []):
         lines.append(f"  channel: {f['channel']} of {f['recording']} {f['fault']} ({f['figure']})")
     for u in (res.get("consistency") or {}).get("units", []):
