@@ -92,5 +92,10 @@ def test_a_knee_shaped_brush_drop_is_not_named_as_something_else(root, seed):
     missing = res["missing_effects"]
     assert set(missing) <= {"brush_drop"}, res["verdict"]
     if "brush_drop" not in missing:
-        assert res["ra_fit"]["mismatch"] and "brush_drop" in res["ra_fit"]["confounded_with"], res["verdict"]
-        assert "cannot tell a wrong Ra from" in res["verdict"], res["verdict"]
+        # a wrong Ra said not to be told from the brush drop; since issue 21 the reading (right
+        # on this bench) is no longer called wrong: with the brush drop fitted alongside, the data
+        # alone put Ra at 4.94 (4.61..5.28, seed 3), which holds the reading
+        assert "brush_drop" in res["ra_fit"]["confounded_with"], res["verdict"]
+        assert ("cannot tell a wrong Ra from" in res["verdict"] if res["ra_fit"]["mismatch"] else
+                "a wrong Ra (with Ke, the named effects and brush_drop fitted alongside" in res["verdict"]), \
+            res["verdict"]

@@ -127,6 +127,13 @@ def test_the_diagnosis_of_a_dyno_table_names_no_effect_and_finds_a_wrong_ra(tmp_
     res = core.diagnose([log], core.Options(bootstrap=0, hybrid=False, ra_ohm=ra)).to_json()
     assert res["thresholds"]["held_out"].startswith("every row once"), res["thresholds"]
     assert res["missing_effects"] == [], res["verdict"]
+    if rows == 60 and ra < RA_OHM and not res["ra_fit"]["mismatch"]:
+        # 60 rows, the reading 10 % low: with a brush drop fitted alongside, the data alone hold the
+        # reading (issue 21: a wrong Ra is claimed only where no alternative the held-out test
+        # could not tell from it reconciles the reading), so the verdict says the two explain alike
+        assert res["ra_fit"]["confounded_with"] and res["ra_fit"]["data_alone"]["determined"], res["ra_fit"]
+        assert "that a wrong Ra (with Ke, the named effects and" in res["verdict"], res["verdict"]
+        return
     if rows == 60 and ra > RA_OHM and not res["ra_fit"]["mismatch"]:
         # 60 rows, the reading 10 % high: with the table's noise floor taken from what the model
         # leaves out of fold (2.08 RPM; the tachometer's is 2.0) rather than from neighbouring
@@ -154,7 +161,8 @@ def test_a_table_says_how_few_operating_points_its_bootstrap_draws_from(tmp_path
     d = core.diagnose([log], core.Options(bootstrap=2, hybrid=False, ra_ohm=RA_OHM * 0.9))
     res = d.to_json()
     assert res["thresholds"]["bootstrap_blocks"] == 6
-    assert res["ra_fit"]["mismatch"]
+    # a wrong Ra is said: named, or not told apart from an effect that holds the reading
+    assert res["ra_fit"]["mismatch"] or res["ra_fit"]["confounded_with"], res["ra_fit"]
     from hpddo.reports import diagnosis as report
     (tmp_path / "out").mkdir()
     report.write(tmp_path / "out", res, d.plot())

@@ -18,7 +18,8 @@ STUCK_LEVELS = 2         # at most this many distinct values while the duty take
 STUCK_DUTIES = 3
 COARSE_LEVELS = 20       # fewer steps than this over the range of the driven rows: too coarse
 # The current explains nothing of the load when, with the speed varying beyond the voltage by
-# more than LOAD_MIN_NOISE noise variances, it takes less than LOAD_SHARE of that variation.
+# more than LOAD_MIN_NOISE noise variances, it takes less than LOAD_SHARE of that variation
+# (in a recording whose load column, if it has one, holds more than one state).
 LOAD_SHARE = 0.10
 LOAD_MIN_NOISE = 4.0
 
@@ -77,8 +78,12 @@ def _faults(rec, r, sigma2: float) -> list:
                                         f"{edge:.4g} ({which} of its range)"))
                 break
     # the current and the load: what the current explains of the speed beyond the voltage
+    # (a recording whose load column holds one state has no load to explain: its speed varies
+    # beyond the voltage with the temperature, not the load)
     lab = driven & (r.train | r.test) & np.isfinite(r.ref)
-    if lab.sum() > 10 and not any(f.channel == "current" and f.fault == "stuck" for f in out):
+    loads = rec.df["load"].to_numpy()[lab] if "load" in rec.df else None
+    varied = loads is None or len(np.unique(loads)) > 1
+    if varied and lab.sum() > 10 and not any(f.channel == "current" and f.fault == "stuck" for f in out):
         y = r.ref[lab]
         xv = sm.add_constant(r.v[lab])
         sse_v = float(np.sum(sm.OLS(y, xv).fit().resid ** 2))

@@ -297,6 +297,7 @@ class RaFit:
     # Ra as the data alone determine it (no prior; ranking.fit_ra_free): its value and 95 %
     # interval, or that these recordings do not determine it (intervals.Interval)
     data: intervals.Interval | None = None
+    alongside: list = dataclasses.field(default_factory=list)  # effects fitted with it beyond the named ones
 
     @property
     def determined(self) -> bool:
@@ -649,9 +650,22 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
         if st.name in ra_confounded:
             ra_fit.confounded_with += [a for a, z in st.told_apart.items()
                                        if a != RA and z < ranking.Z_MIN and a not in ra_fit.confounded_with]
-    if RA in chosen and not ra_fit.determined:
+    if ra_fit.determined and not (ra_fit.reading_inside and RA not in chosen):
+        # Before saying the reading is wrong: does it still hold with any one identifiable
+        # candidate fitted alongside? A constant drop absorbed by Ra I on a table of one current
+        # sign moves Ra by the drop over the mean current, with a narrow interval.
+        # the probes: what explained nearly as much as the wrong Ra where it was tried (its own
+        # step, else the first), whatever its z: a fitted Ra must survive them
+        st = next((x for x in steps if x.name == RA), steps[0] if steps else None)
+        ra_gain = st.gain if st is not None and st.name == RA else next(
+            (g for a, g, z, phy in (st.alternatives if st else []) if a == RA), None)
+        others = [a for a, g, z, phy in (st.alternatives if st else []) if ra_gain is not None and ra_gain > 0
+                  and a != RA and a not in chosen and phy and g >= ranking.CONFOUND_GAIN * ra_gain]
+        robust_ra(inp, ra_fit, given + chosen, others)
+    if RA in chosen and (not ra_fit.determined or ra_fit.reading_inside):
         # the held-out gain of a moving Ra is no mismatch where the data alone do not determine
-        # Ra: the reading is kept (ra_verdict says that it cannot be told)
+        # Ra, or do with another effect alongside and then hold the reading: the reading is kept
+        # (ra_verdict says that it cannot be told)
         chosen.remove(RA)
         final = fx.fit(rows, m2, given + chosen, start=final)
         ra_fit.mismatch = False
@@ -702,6 +716,24 @@ def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, i
     return RaFit(given_ohm=given, supported_ohm=float(final.ra_ohm), tolerance=ranking.RA_TOLERANCE,
                  sigmas=float(ranking.ra_sigmas(inp.m2, final.ra_ohm)), mismatch=named, inclusion=inclusion,
                  data=ra_alone(inp, names))
+
+
+def robust_ra(inp: Inputs, ra_fit: RaFit, names, others) -> None:
+    """ra_fit.data with each of `others` fitted alongside `names` in turn: the first with
+    which the data determine Ra and hold the reading replaces it, and that effect joins
+    ra_fit.confounded_with and ra_fit.alongside. (One with which Ra is not determined says
+    nothing either way: v_gain rescales Ke and Ra together, a flat objective.)"""
+    for c in others:
+        alt = ra_alone(inp, list(names) + [c])
+        if alt is None:
+            continue
+        probe = dataclasses.replace(ra_fit, data=alt)
+        if probe.determined and probe.reading_inside:
+            ra_fit.data = alt
+            ra_fit.alongside = [c]
+            if c not in ra_fit.confounded_with:
+                ra_fit.confounded_with.append(c)
+            return
 
 
 def ra_alone(inp: Inputs, names) -> intervals.Interval | None:
@@ -795,7 +827,10 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
     if ra_fit is not None and not ra_fit.mismatch and missing != sel.missing:
         # the Ra the data support with the effects the material check added
         sup = _ra_fit(inp, None, given + missing, sigma2, ra_fit.inclusion)
-        ra_fit = dataclasses.replace(ra_fit, supported_ohm=sup.supported_ohm, sigmas=sup.sigmas, data=sup.data)
+        # (an effect it could not be told from, now named, is no longer the alternative)
+        ra_fit = dataclasses.replace(ra_fit, supported_ohm=sup.supported_ohm, sigmas=sup.sigmas, data=sup.data,
+                                     confounded_with=[c for c in ra_fit.confounded_with if c not in missing],
+                                     alongside=[])
     return (dataclasses.replace(sel, final=final, missing=missing, ranking=table, ra_fit=ra_fit),
             Confounding(groups=groups, pairs=pairs, told_apart=conf.told_apart))
 
@@ -846,7 +881,12 @@ def _alone(ra: RaFit) -> str:
     d = ra.data
     if d is None:
         return ""
-    return f"with Ke and the named effects fitted alongside, the data alone put Ra at {d.value:.3g} ohm ({100 * intervals.LEVEL:.0f} % interval {d.lo:.3g}..{d.hi:.3g})"
+    with_ = "Ke, the named effects and " + " and ".join(ra.alongside) if ra.alongside else "Ke and the named effects"
+    return f"with {with_} fitted alongside, the data alone put Ra at {d.value:.3g} ohm ({100 * intervals.LEVEL:.0f} % interval {d.lo:.3g}..{d.hi:.3g})"
+
+
+def _with(ra: RaFit) -> str:
+    return f" with {' and '.join(ra.alongside)} fitted alongside" if ra.alongside else ""
 
 
 def ra_statement(ra: RaFit | None) -> str:
@@ -855,7 +895,7 @@ def ra_statement(ra: RaFit | None) -> str:
     if ra is None:
         return ""
     if not ra.determined:
-        return (f"{ra.given_ohm:.3g} ohm given; Ra is not determined by these recordings ({ra.data.why}), so "
+        return (f"{ra.given_ohm:.3g} ohm given; Ra is not determined by these recordings{_with(ra)} ({ra.data.why}), so "
                 f"whether the reading is right cannot be told; what would determine it: {ra.data.needs}")
     head = f"{ra.given_ohm:.3g} ohm given; " + (_alone(ra) + "; " if ra.data is not None else "")
     if ra.mismatch:
@@ -878,7 +918,7 @@ def ra_verdict(ra: RaFit | None) -> str:
         return (f"An error proportional to the current remains that a wrong Ra explains as well as "
                 f"{' or '.join(ra.confounded_with)}, so none of them is named; whether the Ra you gave "
                 f"({ra.given_ohm:.3g} ohm) is right cannot be told: Ra is not determined "
-                f"by these recordings ({ra.data.why}); the effects were looked for with the reading. What would "
+                f"by these recordings{_with(ra)} ({ra.data.why}); the effects were looked for with the reading. What would "
                 f"determine Ra: {ra.data.needs}; to separate them: {ranking.RA_SEPARATOR}.")
     if not ra.mismatch and not ra.confounded_with:
         d = ra.data
