@@ -97,17 +97,8 @@ def test_a_fit_at_its_bound_is_not_determined(tmp_path):
     """A table of a motor whose speed does not fall with the current (Ra 0 ohm behind a 4.5 ohm
     reading): Ra from the data alone goes to the edge of the range searched, which is said as
     "not determined", never as a value, and no mismatch is named from it."""
-    path = tmp_path / "flat.csv"
-    dyno_table(path, 30, 3)
-    lines = path.read_text().splitlines()
-    out = []
-    for line in lines:  # the speed as if Ra were zero
-        cells = line.split(",")
-        if line[0].isdigit():
-            v, i = float(cells[2]), float(cells[3])
-            cells[4] = f"{(v + 0.0 * i) / 0.4 * 60 / (2 * math.pi):.2f}"
-        out.append(",".join(cells))
-    path.write_text("\n".join(out) + "\n")
+    path = _cells(dyno_table(tmp_path / "t.csv", 30, 3), tmp_path / "flat.csv", "rpm_ref",
+                  lambda x, c: f"{float(c[2]) / 0.4 * 60 / (2 * math.pi):.2f}")  # the speed as if Ra were zero
     d = diagnose([path], RA_OHM)
     res, text = check_truthful(d)
     alone = res["ra_fit"]["data_alone"]
@@ -193,19 +184,24 @@ def test_a_time_series_page_states_the_chronological_split_and_prints_only_compu
     assert "What the recordings determine" in html and "Ke" in html and "Noise floor" in html
 
 
-def _scaled(src, dst, col, factor, where=lambda cells: True):
-    """src with column col multiplied by factor on the rows where(cells) holds, written to dst."""
+def _cells(src, dst, col, value):
+    """src with the cell of column col of every row replaced by value(cell, the row's cells),
+    written to dst."""
     lines = src.read_text().splitlines()
     hdr = next(k for k, line in enumerate(lines) if not line.startswith("#"))
     k = lines[hdr].split(",").index(col)
     out = lines[: hdr + 1]
     for line in lines[hdr + 1:]:
         c = line.split(",")
-        if c[k] and where(c):
-            c[k] = f"{float(c[k]) * factor:.4f}"
+        c[k] = value(c[k], c)
         out.append(",".join(c))
     dst.write_text("\n".join(out) + "\n")
     return dst
+
+
+def _scaled(src, dst, col, factor, where=lambda cells: True):
+    """src with column col multiplied by factor on the rows where(cells) holds, written to dst."""
+    return _cells(src, dst, col, lambda x, c: f"{float(x) * factor:.4f}" if x and where(c) else x)
 
 
 def test_an_operating_group_that_contradicts_the_table_is_named_and_the_verdict_given_without_it(tmp_path):
@@ -275,27 +271,13 @@ def test_the_bundled_ke_needs_no_remark():
     assert not k["disagree"] and not k["biased"] and k["text"] == "", k
 
 
-def _cells(src, dst, col, value):
-    """src with column col of every row replaced by value(old cell text), written to dst."""
-    lines = src.read_text().splitlines()
-    hdr = next(k for k, line in enumerate(lines) if not line.startswith("#"))
-    k = lines[hdr].split(",").index(col)
-    out = lines[: hdr + 1]
-    for line in lines[hdr + 1:]:
-        c = line.split(",")
-        c[k] = value(c[k])
-        out.append(",".join(c))
-    dst.write_text("\n".join(out) + "\n")
-    return dst
-
-
 CURRENT_CANNOT = "Ra and every effect that acts through the current"
 
 
 @pytest.mark.parametrize("fault, value, figure", [
-    ("stuck", lambda c: "0.15", "1 distinct values over 30 driven rows at 6 duties"),
-    ("saturated", lambda c: f"{min(float(c), 0.16):.4f}", "8 of 30 driven rows read exactly 0.16 (top of its range)"),
-    ("too coarse", lambda c: f"{round(float(c) / 0.05) * 0.05:.4f}", "steps of 0.05 over a range of 0.1: 2 levels"),
+    ("stuck", lambda x, c: "0.15", "1 distinct values over 30 driven rows at 6 duties"),
+    ("saturated", lambda x, c: f"{min(float(x), 0.16):.4f}", "8 of 30 driven rows read exactly 0.16 (top of its range)"),
+    ("too coarse", lambda x, c: f"{round(float(x) / 0.05) * 0.05:.4f}", "steps of 0.05 over a range of 0.1: 2 levels"),
 ])
 def test_a_faulty_current_channel_of_a_table_is_named_with_what_cannot_be_concluded(tmp_path, fault, value, figure):
     log = _cells(dyno_table(tmp_path / "t.csv", 30, 3), tmp_path / "dyno30.csv", "i_A", value)
@@ -312,7 +294,7 @@ def test_a_current_channel_that_explains_nothing_of_the_load_is_named(tmp_path):
     import twin_benches
     rng = np.random.default_rng(1)
     paths = twin_benches.recordings(tmp_path / "ideal", twin_benches.bench({}), 3)
-    dead = _cells(paths[1], tmp_path / "load.csv", "i_A", lambda c: f"{0.3 + rng.normal(0, 0.01):.6f}")
+    dead = _cells(paths[1], tmp_path / "load.csv", "i_A", lambda x, c: f"{0.3 + rng.normal(0, 0.01):.6f}")
     res = diagnose([paths[0], dead, paths[2]], RA_OHM).to_json()
     faults = [(f["recording"], f["channel"], f["fault"]) for f in res["channels"]]
     assert faults == [("load", "current", "explains nothing of the load")], res["channels"]
