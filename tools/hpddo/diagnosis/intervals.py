@@ -139,10 +139,12 @@ def covariance(jac: np.ndarray, e: np.ndarray, groups: np.ndarray) -> tuple[np.n
     sandwich over the operating-point groups (statsmodels), HC1 with too few groups. NaN
     where the objective is flat along a field."""
     k = jac.shape[1]
+    ok = np.isfinite(e) & np.all(np.isfinite(jac), axis=1)  # a prediction that overflows says nothing
+    jac, e, groups = jac[ok], e[ok], groups[ok]
     norms = np.sqrt(np.sum(jac * jac, axis=0))
-    flat = norms <= 0
+    flat = ~(norms > 0) | ~np.isfinite(norms)
     cov = np.full((k, k), np.nan)
-    if flat.all():
+    if flat.all() or len(e) <= k:
         return cov, 1, "flat"
     x = jac[:, ~flat] / norms[~flat]
     n_groups = len(np.unique(groups))
@@ -261,7 +263,12 @@ def ke_two_ways(data, ra_ohm: float) -> dict:
         groups.append(g[m] + offset)
         offset += int(g.max()) + 1 if len(g) else 0
     emf, w, groups = np.concatenate(emf), np.concatenate(w), np.concatenate(groups)
+    ok = np.isfinite(emf) & np.isfinite(w) & (w > 0) & np.isfinite(emf / np.where(w > 0, w, 1.0))
+    emf, w, groups = emf[ok], w[ok], groups[ok]
     out = {"clusters": int(len(np.unique(groups)))}
+    if len(w) < 3:  # too few rows to say either
+        nan = (math.nan, math.nan, math.nan)
+        return {**out, "eq20": nan, "lsq": nan, "apart": False}
     for key, (y, x) in (("eq20", (emf / w, np.ones_like(w))), ("lsq", (emf, w))):
         fit = sm.OLS(y, x[:, None]).fit()
         var = float(fit.cov_params()[0, 0])
