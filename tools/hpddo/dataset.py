@@ -194,10 +194,16 @@ def lagged(x: np.ndarray, starts: np.ndarray) -> np.ndarray:
 def di_dt_A_per_s(rec: Recording) -> np.ndarray:
     """The current's rate of change per row as the observer takes it (observer.h): the
     step from the previous row over the period, 0 where the lags restart."""
+    return rate_per_s(rec, "i_A")
+
+
+def rate_per_s(rec: Recording, col: str) -> np.ndarray:
+    """A column's rate of change per row: the step from the previous row over the period,
+    0 where the lags restart (di_dt_A_per_s for the current, dV/dt for the diagnosis)."""
     starts = segment_starts(rec)
-    i = rec.df["i_A"].to_numpy(float)
+    x = rec.df[col].to_numpy(float)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(starts, 0.0, (i - lagged(i, starts)) / dt_s(rec))
+        return np.where(starts, 0.0, (x - lagged(x, starts)) / dt_s(rec))
 
 
 def temp_read_C(rec: Recording) -> np.ndarray:

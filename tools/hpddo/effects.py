@@ -32,7 +32,7 @@ from scipy.optimize import least_squares
 
 from . import physics as ph
 from . import schema
-from .dataset import Recording, di_dt_A_per_s, dt_s, kind, temp_read_C
+from .dataset import Recording, di_dt_A_per_s, dt_s, kind, rate_per_s, temp_read_C
 from .identify import MIN_RPM, IdentificationError
 
 # One entry of the library: the declaration in schema.py (name, field, units, plausible
@@ -84,6 +84,11 @@ class Rows:
     test: np.ndarray      # bool: held-out row usable for scoring (rpm_ref > MIN_RPM)
     duty: np.ndarray
     steady: bool = False  # a steady-state table (dataset.kind): settled rows, no clock, dI/dt 0
+
+    @property
+    def dv_dt(self) -> np.ndarray:
+        """The voltage's rate of change per row, V/s (0 on a steady-state table's settled rows)."""
+        return np.zeros(len(self.v)) if self.steady else rate_per_s(self.rec, "v_V")
 
     @property
     def needs_state(self) -> bool:
