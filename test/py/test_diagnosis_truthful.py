@@ -53,6 +53,7 @@ def test_a_reading_ten_times_too_low_is_said_with_the_ra_the_data_determine():
     assert res["verdict"].startswith("The Ra you gave (0.45 ohm) is not what these recordings show"), res["verdict"]
     assert f"--ra-ohm {alone['value']:.3g}" in res["verdict"]
     assert "no mismatch" not in text
+    assert res["ra_fit"]["supported_at_bound"]  # the prior's fit at 3x the reading is flagged as its edge
 
 
 @pytest.mark.parametrize("seed", (3, 4))

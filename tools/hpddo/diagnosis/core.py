@@ -316,6 +316,10 @@ class RaFit:
         return {"given_ohm": self.given_ohm, "supported_ohm": self.supported_ohm, "tolerance": self.tolerance,
                 "sigmas": self.sigmas, "mismatch": bool(self.mismatch), "inclusion": self.inclusion,
                 "confounded_with": list(self.confounded_with), "determined": bool(self.determined),
+                # the fit with the prior stopped at its range (a third or three times the reading):
+                # supported_ohm is then that edge, not a value the data support
+                "supported_at_bound": bool(min(abs(self.supported_ohm - self.given_ohm / 3.0),
+                                               abs(self.supported_ohm - 3.0 * self.given_ohm)) <= 1e-6 * self.given_ohm),
                 "data_alone": self.data.to_json() if self.data is not None else None,
                 "statement": ra_statement(self)}
 
@@ -846,6 +850,10 @@ RATES = ("dI/dt", "dV/dt")  # the inputs no steady-state table has
 # dI/dt at r = -0.52 (sweep and load: -0.46); the bundled recordings at 2 Hz, whose residual is
 # the thermal effects', follow dV/dt at -0.36 (the rows of a duty step).
 DYNAMICS_R = 0.45
+# ... on rows DYNAMICS_MAX_DT_S apart or closer (20 Hz and up): at 2 Hz the motor's time constants
+# (tens of ms) are over within a row, and a residual following dI/dt (r = -0.50 on the ideal twin's
+# sweep and long) is the few rows of a duty step, at the noise floor.
+DYNAMICS_MAX_DT_S = 0.05
 
 
 def analyse(inp: Inputs, res, sigma2: float) -> ResidualAnalysis:
@@ -986,7 +994,7 @@ def dynamics(before: ResidualAnalysis, dt_s: float) -> str:
     and lag; "" otherwise."""
     top = max((c for c in before.correlates if c["significant"] and c["input"] in RATES),
               key=lambda c: abs(c["peak"]), default=None)
-    if top is None or abs(top["peak"]) < DYNAMICS_R:
+    if top is None or abs(top["peak"]) < DYNAMICS_R or not dt_s <= DYNAMICS_MAX_DT_S:
         return ""
     lag = top["peak_lag"]
     return (f"The residual follows {top['input']} (r = {top['peak']:+.2f} at a lag of {lag} rows, "
