@@ -124,8 +124,8 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
 # In process, against the tree: one set of flag names and one error convention.
 
 SHARED = {  # subcommand -> the shared options it takes
-    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
-    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
+    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter"},
+    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter"},
     "evaluate": {"--out", "--no-glitch-filter"},
     "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
     "twin": {"--out", "--quiet", "--seed", "--effects"},
