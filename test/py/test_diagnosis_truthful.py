@@ -301,3 +301,17 @@ def test_a_current_channel_that_explains_nothing_of_the_load_is_named(tmp_path):
     assert faults == [("load", "current", "explains nothing of the load")], res["channels"]
     assert "the current channel of load explains nothing of the load" in res["verdict"]
     assert diagnose(BUNDLED, None).to_json()["channels"] == []
+
+
+def test_what_ke_absorbs_is_said_when_nothing_is_named(tmp_path):
+    """A 60-row table of a motor with saturation of the wrong sign (Ke rising 3 %/A): at the
+    noise floor, nothing is named; the verdict says that these recordings would not show a
+    saturation up to 6.5 %/A (measured: 2.5 standard errors with Ke fitted alongside, which
+    takes up more than 90 % of its speed error), so the hidden one stays Ke's."""
+    import re
+    log = _cells(dyno_table(tmp_path / "t.csv", 60, 3), tmp_path / "sat.csv", "rpm_ref",
+                 lambda x, c: f"{float(x) / (1 + 0.03 * float(c[3])):.2f}")
+    res = diagnose([log], RA_OHM).to_json()
+    assert res["missing_effects"] == [], res["verdict"]
+    m = re.search(r"these recordings would not show .*saturation up to ([0-9.]+) %/A", res["verdict"])
+    assert m and float(m.group(1)) > 3.0, res["verdict"]

@@ -218,6 +218,7 @@ class ConfoundedPair:
 class Identifiability:
     se: float
     identifiable: bool
+    absorbed: float = 0.0  # the share of its speed error that Ke (and the effects under test) take up
 
 
 @dataclasses.dataclass
@@ -613,7 +614,7 @@ def identifiability(inp: Inputs, mf: ModelFit) -> dict:
     for c in fx.NAMES:
         if c not in inp.given:
             r = ranking.identifiability(inp.data, mf.base, c, mf.sigma2, inp.given)
-            out[c] = Identifiability(se=r["se"], identifiable=r["identifiable"])
+            out[c] = Identifiability(se=r["se"], identifiable=r["identifiable"], absorbed=r["absorbed"])
     return out
 
 
@@ -1157,6 +1158,24 @@ def diagnose(paths, opt: Options) -> Diagnosis:
 # A residual correlated with the measured speed at lag 0 by at least KE_BIAS_R (and beyond its
 # band) is the mark of a biased Ke: n (Ke_true / Ke - 1) grows with the speed.
 KE_BIAS_R = 0.3
+# With nothing named, the effects whose speed error Ke takes up this much (Identifiability.absorbed)
+# are said with the size below which Ke absorbs them: a brush drop or a saturation of the wrong
+# sign at the noise floor is Ke's, unseen.
+KE_ABSORBS = 0.9
+
+
+def absorbed_by_ke(ident: dict) -> list:
+    """["brush_drop up to 0.21 V", ...]: the identifiable effects whose speed error Ke takes up by
+    KE_ABSORBS or more, with the size below which a fit with Ke does not tell them from noise
+    (Z_MIN standard errors), where that size is above the effect's typical magnitude (its
+    declared scale, schema.py)."""
+    out = []
+    for c, i in ident.items():
+        eff = fx.LIBRARY[c]
+        limit = ranking.Z_MIN * i.se
+        if i.identifiable and i.absorbed >= KE_ABSORBS and limit > abs(eff.scale):
+            out.append(f"{c} up to {limit * eff.show_scale:.2g} {eff.show_unit}")
+    return out
 KE_BIAS_P = 0.001
 KE_BIAS_DROP = 0.2    # ... and Ke by least squares takes this much of the correlation away
 KE_DISAGREE_REL = 0.15  # eq. 20 and least squares disagree: least squares' held-out RMSE this much lower,
@@ -1240,6 +1259,11 @@ def physics(inp: Inputs, opt: Options) -> tuple:
     sel = with_intervals(inp, sel, mf.noise)
     resid = residuals(inp, mf, sel)
     text = verdict(sel, conf, resid, mf.sigma2, mf.noise)
+    if not sel.missing:
+        hidden = absorbed_by_ke(ident)
+        if hidden:
+            text += (" What Ke absorbs is not seen: these recordings would not show " + ", ".join(hidden)
+                     + f" ({ranking.Z_MIN:g} standard errors of its coefficient with Ke fitted alongside).")
     ke = ke_check(inp, mf, opt.ke_fit)
     if ke["text"]:
         text += " " + ke["text"]

@@ -321,13 +321,16 @@ def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, othe
     other = np.column_stack(list(x.values())) if x else np.zeros((len(target), 0))
     ok = np.isfinite(target) & np.all(np.isfinite(other), axis=1)
     target, other = target[ok], other[ok]
+    whole = float(np.dot(target, target))
     if other.shape[1]:
         coef, *_ = np.linalg.lstsq(other, target, rcond=None)
         target = target - other @ coef
     info = float(np.dot(target, target))
     se = float(np.sqrt(sigma2 / info)) if info > 0 else float("inf")
     mag = max(abs(eff.plausible[0]), abs(eff.plausible[1]))
-    return {"se": se, "identifiable": bool(mag >= IDENT_SIGMAS * se)}
+    # the share of the effect's speed error that Ke (and `others`) would take up in a fit
+    absorbed = 1.0 - info / whole if whole > 0 else 1.0
+    return {"se": se, "identifiable": bool(mag >= IDENT_SIGMAS * se), "absorbed": absorbed}
 
 
 def _regressor(r, p, name, t):
