@@ -94,7 +94,7 @@ def test_two_hidden_effects_are_both_named(root, seed):
 def test_cli_writes_report_and_json_and_refuses_bad_logs(root, tmp_path, capsys):
     paths = bench_dir(root, "saturation", SINGLE["saturation"], SEEDS[0])
     out = tmp_path / "diag"
-    rc = diagnose.main([str(p) for p in paths] + ["--out", str(out), "--bootstrap", "4", "--hybrid-iter", "30"])
+    rc = diagnose.main([str(p) for p in paths] + ["--out", str(out), "--bootstrap", "4", "--epochs", "30"])
     assert rc == 0
     res = json.loads((out / "diagnosis.json").read_text())
     for key in ("model_effects", "missing_effects", "confounded", "ranking", "rmse_rpm"):
@@ -173,3 +173,14 @@ def test_thermal_ra_and_magnet_thermal_together_are_named_as_a_confounded_pair(r
     ideal = run(bench_dir(root, "ideal", {}, seed))
     ok, info = _halfway(res, ideal)
     assert ok, info
+
+
+@pytest.mark.parametrize("names", [("sweep", "load"), ("load", "sweep")])
+def test_two_bundled_recordings_are_diagnosed(names):
+    """The bundled sweep and load alone (no long run): the forward selection takes a wrong
+    Ra, then an effect that a wrong Ra cannot be told from; refitting Ra with it (once, not
+    twice: it crashed with KeyError 'ra_mismatch') gives a verdict about Ra."""
+    res = run([ROOT / "data" / "default" / f"{n}.csv" for n in names])
+    assert res["ra_fit"]["mismatch"], res["verdict"]
+    assert "Ra" in res["verdict"]
+    assert all(v == v for v in res["rmse_rpm"]["after"].values())  # no NaN

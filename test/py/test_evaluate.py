@@ -118,7 +118,7 @@ def test_leave_one_out_trains_without_the_recording_it_scores(tmp_path):
     import gen_weights
     logs = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "sweep")]
     out = tmp_path / "m"
-    assert gen_weights.main([*map(str, logs), "--out", str(out), "--max-iter", "3", "--quiet",
+    assert gen_weights.main([*map(str, logs), "--out", str(out), "--epochs", "3", "--quiet",
                              "--leave-one-out"]) == 0
     loo = json.loads((out / "metrics.json").read_text())["leave_one_out"]
     assert set(loo["recordings"]) == {"load", "sweep"}
@@ -133,7 +133,7 @@ def test_leave_one_out_trains_without_the_recording_it_scores(tmp_path):
     avg = np.mean([loo["recordings"][c]["M2"] for c in ("load", "sweep")])
     assert loo["average"]["M2"] == pytest.approx(avg, rel=1e-5)
     # a rerun into the same folder is allowed (the tool wrote everything in it)
-    assert gen_weights.main([*map(str, logs), "--out", str(out), "--max-iter", "3", "--quiet",
+    assert gen_weights.main([*map(str, logs), "--out", str(out), "--epochs", "3", "--quiet",
                              "--leave-one-out"]) == 0
 
 

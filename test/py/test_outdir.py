@@ -31,7 +31,7 @@ TOOLS = {
     "diagnose": lambda logs, out: diagnose.main([*map(str, logs), "--out", str(out), "--bootstrap", "0",
                                                  "--no-hybrid"]),
     "gen_weights": lambda logs, out: gen_weights.main([*map(str, logs), "--out", str(out), "--quiet",
-                                                       "--max-iter", "1"]),
+                                                       "--epochs", "1"]),
     "demo": lambda logs, out: demo.main(["--data", str(logs[0].parent), "--out", str(out)]),
     "twin": lambda logs, out: twin.main(["--protocol", "sweep", "--time-scale", "0.05", "--out", str(out),
                                          "--quiet"]),

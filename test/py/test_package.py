@@ -114,7 +114,7 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
     share = bin_dir.parent / "share" / "hpddo"
     log = share / "data" / "default" / "sweep.csv"
     assert log.is_file() and (share / "host" / "CMakeLists.txt").is_file()
-    res = _run([bin_dir / "hpddo", "train", log, "--out", "m", "--max-iter", "1", "--quiet"], cwd=cwd)
+    res = _run([bin_dir / "hpddo", "train", log, "--out", "m", "--epochs", "1", "--quiet"], cwd=cwd)
     assert "wrote m/" in res.stdout
     metrics = json.loads((cwd / "m" / "metrics.json").read_text())
     assert metrics["source"].startswith("native replay") and "sweep" in metrics["rmse_rpm"]["M2"]

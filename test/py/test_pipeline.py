@@ -35,7 +35,7 @@ def test_bad_log_is_refused_with_file_line_fault_and_no_output(tmp_path, capsys,
     bad = tmp_path / name
     bad.write_text(text)
     out = tmp_path / "out"
-    rc = gen_weights.main([str(DATA[0]), str(bad), "--out", str(out), "--quiet", "--max-iter", "2"])
+    rc = gen_weights.main([str(DATA[0]), str(bad), "--out", str(out), "--quiet", "--epochs", "2"])
     err = capsys.readouterr().err
     assert rc == 1
     assert name in err and fault in err

@@ -43,7 +43,7 @@ def dyno_table(path, rows: int, seed: int = 3):
 def _train(argv) -> tuple[int, str]:
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        rc = gen_weights.main([*map(str, argv), "--quiet", "--max-iter", "5"])
+        rc = gen_weights.main([*map(str, argv), "--quiet", "--epochs", "5"])
     return rc, out.getvalue()
 
 

@@ -38,7 +38,7 @@ def test_two_logs_with_the_same_name_are_refused(tmp_path, capsys):
     a.write_bytes(DATA[-1].read_bytes())
     b.write_bytes(DATA[-1].read_bytes())
     out = tmp_path / "out"
-    assert gen_weights.main([str(a), str(b), "--out", str(out), "--quiet", "--max-iter", "1"]) == 1
+    assert gen_weights.main([str(a), str(b), "--out", str(out), "--quiet", "--epochs", "1"]) == 1
     err = capsys.readouterr().err
     assert str(a) in err and str(b) in err and "condition" in err
     assert not out.exists()
@@ -60,7 +60,7 @@ def test_condition_with_quote_and_backslash_reaches_valid_metrics(tmp_path):
     log = tmp_path / "odd.csv"
     log.write_text(LONG.read_text().replace("# condition=long", '# condition=run "7" \\ hot'))
     out = tmp_path / "out"
-    assert gen_weights.main([str(log), "--out", str(out), "--quiet", "--max-iter", "1"]) == 0
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet", "--epochs", "1"]) == 0
     metrics = json.loads((out / "metrics.json").read_text())
     assert 'run "7" \\ hot' in metrics["rmse_rpm"]["M2"]
 
@@ -214,7 +214,7 @@ def test_a_loud_warning_when_the_filter_removes_many_rows(tmp_path, capsys):
     assert len(rec.removed) >= 10
     assert rec.warnings and "--no-glitch-filter" in rec.warnings[0]
     assert gen_weights.main([str(log), *map(str, DATA[:2]), "--out", str(tmp_path / "o"), "--quiet",
-                             "--max-iter", "1"]) == 0
+                             "--epochs", "1"]) == 0
     assert "WARNING" in capsys.readouterr().err
     assert len(dataset.load_recording(log, glitch_filter=False).removed) == 0
 

@@ -50,7 +50,7 @@ import time
 
 import numpy as np
 
-from . import baseline, dataset, export, identify, network, outdir, replay, resource_root
+from . import baseline, dataset, export, identify, interrupt, network, outdir, replay, resource_root
 from . import gate as gate_mod
 from . import metrics as metrics_mod
 from . import physics as ph
@@ -106,9 +106,12 @@ class CompareConfig:
     glitch_filter: bool = True
     progress: bool = True
     command: str = "hpddo compare"
+    epochs_given: int | None = None  # --epochs; None: QUICK_EPOCHS with --quick, else network's default
 
     @property
     def epochs(self) -> int:
+        if self.epochs_given is not None:
+            return self.epochs_given
         return QUICK_EPOCHS if self.quick else network.AdamConfig.max_iter
 
     @property
@@ -248,7 +251,8 @@ class Trainer:
     first. Results by key; a line on stderr as each job finishes."""
 
     def __init__(self, workers: int, progress: bool):
-        self.pool = cf.ProcessPoolExecutor(max_workers=max(1, workers)) if workers > 1 else None
+        self.pool = cf.ProcessPoolExecutor(max_workers=max(1, workers), initializer=interrupt.worker_init) \
+            if workers > 1 else None
         self.futures = {}
         self.done = {}
         self.jobs = 0

@@ -390,11 +390,11 @@ def main(argv=None) -> int:
     ap.add_argument("--cost", metavar="OUT", help="after --measure OUT: the chosen gate (x, fps, q99; 16, 32, 64 "
                     "prototypes; and xT at 32) of the default twin with the named effects on the AVR (simavr "
                     "cycles, bytes) and the ESP8266 (bytes)")
-    ap.add_argument("--max-iter", type=int, default=None, help="epochs of M3 (default: TrainConfig's)")
+    ap.add_argument("--epochs", type=int, default=None, help="epochs of M3 (default: TrainConfig's)")
     ap.add_argument("--quiet", action="store_true")
     a = ap.parse_args(argv)
     if a.measure:
-        res = measure(a.measure, progress=not a.quiet, max_iter=a.max_iter)
+        res = measure(a.measure, progress=not a.quiet, max_iter=a.epochs)
     elif a.table:
         res = json.loads(pathlib.Path(a.table).read_text())
     elif a.cost:

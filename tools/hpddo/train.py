@@ -93,7 +93,7 @@ def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig)
                             f"(at least one batch, {cfg.batch_size}); record longer, or give more recordings")
     scaler = network.Scaler.fit(x)
     z = scaler.transform(x)
-    bar = functools.partial(tqdm, desc=f"train M3 {cfg.hidden}", unit="epoch", disable=not cfg.progress,
+    bar = functools.partial(tqdm, desc=f"train M3 {cfg.hidden}", unit="epoch", disable=None if cfg.progress else True,  # None: no bar off a terminal
                             mininterval=0.5, leave=False)
     mlp, losses = network.train(z, e, cfg, progress=bar)
     lo, hi = x.min(axis=0), x.max(axis=0)

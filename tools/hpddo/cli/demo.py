@@ -37,7 +37,7 @@ def parser(prog: str = "hpddo demo") -> argparse.ArgumentParser:
     options.ra_ohm(p)
     options.glitch_filter(p)
     options.seed(p, "the networks and the bootstrap")
-    options.quiet(p, "no progress bars")
+    options.quiet(p)
     return p
 
 

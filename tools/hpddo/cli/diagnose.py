@@ -35,12 +35,11 @@ def parser(prog: str = "hpddo diagnose") -> argparse.ArgumentParser:
                    help=f"block-bootstrap resamples for the inclusion frequency (default {core.ranking.BOOTSTRAP}; "
                         "0: none)")
     p.add_argument("--no-hybrid", action="store_true", help="skip retraining the hybrid before/after")
-    p.add_argument("--hybrid-iter", type=options.positive_int, default=core.HYBRID_ITER, metavar="EPOCHS",
-                   help=f"training epochs of the hybrid (default {core.HYBRID_ITER})")
+    options.epochs(p, core.HYBRID_ITER, "the hybrid before and after")
     options.seed(p, "the bootstrap and the network")
     options.glitch_filter(p)
     options.leave_one_out(p)
-    options.quiet(p, "print only warnings and errors (no summary)")
+    options.quiet(p)
     return p
 
 
@@ -48,7 +47,7 @@ def options_of(args):
     """The diagnosis options a command line gives."""
     from ..diagnosis import core
     return core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
-                        hybrid=not args.no_hybrid, hybrid_iter=args.hybrid_iter, seed=args.seed,
+                        hybrid=not args.no_hybrid, hybrid_iter=args.epochs, seed=args.seed,
                         glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out)
 
 
@@ -116,10 +115,9 @@ def run(args) -> int:
     d = diagnose_into(args.logs, options_of(args), args.out)
     for w in d.warnings:
         print(f"hpddo diagnose: WARNING: {w}", file=sys.stderr)
-    if args.quiet:
-        return 0
     print(summary(d))
-    print(f"wrote {args.out}/index.html and diagnosis.json; diagnosis took {time.perf_counter() - t0:.1f} s")
+    if not args.quiet:
+        print(f"wrote {args.out}/index.html and diagnosis.json; diagnosis took {time.perf_counter() - t0:.1f} s")
     return 0
 
 

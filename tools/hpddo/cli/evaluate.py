@@ -30,6 +30,7 @@ def parser(prog: str = "hpddo evaluate") -> argparse.ArgumentParser:
     options.logs(p)
     options.out(p, "output folder: new, empty, or a previous output of hpddo evaluate")
     options.glitch_filter(p)
+    options.quiet(p)
     return p
 
 
@@ -53,7 +54,8 @@ def run(args) -> int:
             print(f"hpddo evaluate: {r.source}: no encoder readings (rpm_ref): its estimates are written "
                   f"({args.out / 'work' / 'estimates'}), there is nothing to score them against")
     print(ev.table, end="")
-    print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
+    if not args.quiet:
+        print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
     return 0
 
 

@@ -19,7 +19,7 @@ def parser(prog: str = "hpddo fixtures") -> argparse.ArgumentParser:
     options.out(p, "output folder (default: test/fixtures of the source tree; required when hpddo is "
                    "installed from a wheel, which has no tests)", required=False,
                 default=tree if tree.is_dir() else None)
-    options.quiet(p, "do not list the files written")
+    options.quiet(p)
     return p
 
 

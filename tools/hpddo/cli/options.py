@@ -19,8 +19,24 @@ def out(p, help: str, required: bool = True, default=None, alias: str | None = N
                    metavar="PATH", help=help)
 
 
-def quiet(p, what: str = "no progress bar") -> None:
-    p.add_argument("--quiet", action="store_true", help=what)
+QUIET_HELP = ("no progress output (bars, progress lines, lists of files written); the results, warnings and "
+              "errors still print")
+
+
+def quiet(p) -> None:
+    """--quiet: one meaning in every subcommand."""
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+
+
+def epochs(p, default: int, what: str) -> None:
+    """--epochs N: training epochs of a network (no early stop)."""
+    p.add_argument("--epochs", type=positive_int, default=default, metavar="N",
+                   help=f"training epochs of {what}, no early stop (default {default})")
+
+
+def rate_hz(p, help: str, default=None) -> None:
+    """--rate-hz HZ: a sample rate."""
+    p.add_argument("--rate-hz", type=positive_float, default=default, metavar="HZ", help=help)
 
 
 def seed(p, what: str) -> None:

@@ -62,8 +62,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     options.effects(p, "effect terms to add to the physics model M2")
     p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,N]",
                    help="hidden layer sizes of M3 (default 16,8; the paper's is 128,64)")
-    p.add_argument("--max-iter", type=options.positive_int, default=2000, metavar="EPOCHS",
-                   help="training epochs of M3, no early stop (default 2000)")
+    options.epochs(p, 2000, "M3")
     options.seed(p, "the network")
     p.add_argument("--no-gate", action="store_true",
                    help="no novelty gate: the whole learned correction wherever the features lie inside the "
@@ -72,7 +71,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
                    help="training fraction of each recording, 0.1..0.95 (default 0.8)")
     options.glitch_filter(p)
     options.leave_one_out(p)
-    options.quiet(p, "no progress bar")
+    options.quiet(p)
     return p
 
 
@@ -95,7 +94,7 @@ def provenance(args) -> str:
                             ("--rated-rpm", "rated_rpm", str), ("--ke-fit", "ke_fit", str),
                             ("--effects", "effects", ",".join),
                             ("--hidden", "hidden", lambda h: ",".join(map(str, h))),
-                            ("--max-iter", "max_iter", str), ("--split", "split", str)):
+                            ("--epochs", "epochs", str), ("--split", "split", str)):
         if getattr(args, key) != getattr(defaults, key):
             words += [flag, show(getattr(args, key))]
     words += ["--seed", str(args.seed)]
@@ -120,7 +119,7 @@ def run(args) -> int:
                          nameplate_source=("default", "partly given", "given")[given],
                          ke_fit=args.ke_fit, effects=args.effects, train_fraction=args.split,
                          glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
-                         train=TrainConfig(hidden=args.hidden, max_iter=args.max_iter, seed=args.seed,
+                         train=TrainConfig(hidden=args.hidden, max_iter=args.epochs, seed=args.seed,
                                            gate=not args.no_gate, progress=not args.quiet),
                          command=provenance(args))
     t0 = time.perf_counter()

@@ -458,7 +458,7 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
     if ra_confounded:
         chosen = [c for c in chosen if c not in ra_confounded]
         missing = [c for c in missing if c not in ra_confounded]
-        final = ranking.fit_names(rows, m2, given + chosen + [RA], sigma2, start=final)
+        final = ranking.fit_names(rows, m2, given + [c for c in chosen if c != RA] + [RA], sigma2, start=final)
         if abs(ranking.ra_sigmas(m2, final.ra_ohm)) > ranking.RA_MISMATCH_SIGMAS and RA not in chosen:
             chosen.append(RA)
         elif RA not in chosen:
