@@ -160,3 +160,29 @@ def test_a_recording_without_encoder_readings_gets_estimates_and_no_scores(tmp_p
     est = pd.read_csv(est_path)
     assert len(est) == 120 and est["rpm_m3"].notna().all()
     assert (out / "report" / "index.html").is_file()
+
+
+def test_a_thermal_model_on_a_log_without_temperature_is_warned_about(tmp_path, capsys):
+    """A model with thermal effects scored on a hot run whose temp_C column is gone takes
+    the case at its ambient on every row and errs more: said, with what to do."""
+    import gen_weights
+    model = tmp_path / "m"
+    assert gen_weights.main([*map(str, TRAINING), "--out", str(model), "--epochs", "3", "--quiet",
+                             "--effects", "thermal_ra,magnet_thermal"]) == 0
+    df = dataset.load_recording(VALIDATION[1], 0.0, glitch_filter=False).df.drop(columns=["temp_C"])
+    log = tmp_path / "hot_no_temp.csv"
+    log.write_text("# condition=hot_no_temp\n" + df.to_csv(index=False))
+    capsys.readouterr()
+    out = tmp_path / "e"
+    assert cli.main(["--model", str(model), str(log), str(VALIDATION[1]), "--out", str(out), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    warned = [ln for ln in err.splitlines() if "no temp_C" in ln]
+    assert len(warned) == 1 and str(log) in warned[0] and "thermal_ra, magnet_thermal" in warned[0], err
+    m = json.loads((out / "metrics.json").read_text())
+    assert any("no temp_C" in w for w in m["warnings"])
+    # the warning is about a real loss: the same run with its temperature scores better
+    assert m["rmse_rpm"]["M2"]["hot_no_temp"] > 1.5 * m["rmse_rpm"]["M2"]["hot"]
+    # a plain model has nothing to warn about
+    capsys.readouterr()
+    assert cli.main(["--model", str(MODEL), str(log), "--out", str(tmp_path / "e2"), "--quiet"]) == 0
+    assert "no temp_C" not in capsys.readouterr().err

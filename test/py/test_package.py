@@ -124,12 +124,12 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
 # In process, against the tree: one set of flag names and one error convention.
 
 SHARED = {  # subcommand -> the shared options it takes
-    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
-    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
-    "evaluate": {"--out", "--no-glitch-filter"},
-    "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
-    "twin": {"--out", "--quiet", "--seed", "--effects"},
-    "capture": {"--out", "--quiet"},
+    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter", "--epochs"},
+    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter", "--epochs"},
+    "evaluate": {"--out", "--no-glitch-filter", "--quiet"},
+    "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter", "--epochs"},
+    "twin": {"--out", "--quiet", "--seed", "--effects", "--rate-hz"},
+    "capture": {"--out", "--quiet", "--rate-hz"},
     "demo": {"--out", "--quiet", "--seed", "--ra-ohm", "--no-glitch-filter"},
     "bench": set(),
     "fixtures": {"--out", "--quiet"},
@@ -145,6 +145,31 @@ def test_every_subcommand_uses_the_shared_flag_names_with_help_on_every_option(s
     assert not flags & {"--no-progress", "--effect", "--no-effect", "--output"}, "the former names are gone"
     assert all(a.help for a in p._actions), [a.dest for a in p._actions if not a.help]
     assert p.prog == f"hpddo {sub}"
+
+
+# One word per concept: the spellings a subcommand must not use for what another calls by the
+# shared name (the left side), and what the shared option must mean everywhere.
+SYNONYMS = {"--epochs": {"--max-iter", "--hybrid-iter", "--iterations", "--iter", "--epoch"},
+            "--rate-hz": {"--rate", "--hz", "--sample-rate", "--rate_hz"},
+            "--quiet": {"-q", "--silent", "--no-progress", "--verbose"},
+            "--out": {"--output", "--out-dir", "--outdir"},
+            "--effects": {"--effect", "--with-effects"}}
+
+
+@pytest.mark.parametrize("sub", sorted(SHARED))
+def test_one_vocabulary_of_options_across_subcommands(sub):
+    from hpddo import cli
+    from hpddo.cli import options
+    p = cli.parser(sub)
+    for a in p._actions:
+        for shared, other in SYNONYMS.items():
+            assert not set(a.option_strings) & other, f"hpddo {sub}: {a.option_strings} where others say {shared}"
+        if "--quiet" in a.option_strings:
+            assert a.help == options.QUIET_HELP, f"hpddo {sub} --quiet means something of its own: {a.help}"
+        if a.help and "epochs" in a.help.lower() and a.option_strings and a.option_strings[0].startswith("--"):
+            assert a.option_strings[0] in ("--epochs", "--quick"), (sub, a.option_strings, a.help)
+        if a.metavar == "HZ" and "sample rate" in (a.help or ""):
+            assert a.option_strings == ["--rate-hz"], (sub, a.option_strings)
 
 
 def test_user_errors_are_one_line_named_after_the_subcommand_with_status_1(tmp_path, capsys):

@@ -260,3 +260,48 @@ def test_a_bad_ra_in_the_metadata_names_the_file(tmp_path, capsys, value):
     assert gen_weights.main([str(log), "--out", str(tmp_path / "o"), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert "r.csv" in err and "ra_ohm" in err
+
+
+# What a spreadsheet's export does to a log, named as such (the fault keyword stays the
+# format's, which the C++ reader shares).
+EXPORTS = {
+    "semicolons": ("t_s;duty;v_V;i_A;rpm_ref\n0,0;0,2;2,3;0,1;40\n", 1, "separated by semicolons"),
+    "tabs": ("t_s\tduty\tv_V\ti_A\n0\t0.2\t2.3\t0.1\n", 1, "separated by tabs"),
+    "quoted header": ('"t_s","duty","v_V","i_A"\n0.0,0.2,2.3,0.1\n', 1, "in quotes"),
+    "decimal commas": ('t_s,duty,v_V,i_A\n"0,0","0,2","2,3","0,1"\n', 2, "decimal commas"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(EXPORTS))
+def test_a_spreadsheet_export_is_named_for_what_it_is(case, tmp_path, capsys):
+    text, line, words = EXPORTS[case]
+    log = tmp_path / "export.csv"
+    log.write_text(text)
+    out = tmp_path / "o"
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    _no_traceback(err)
+    assert f"{log}:{line}:" in err and words in err, err
+    assert not out.exists()
+
+
+def test_a_reading_beyond_full_scale_is_refused_without_the_glitch_filter(tmp_path, capsys):
+    """One voltage of 1e30 kept by --no-glitch-filter identified Ke of about 8e25 V s/rad and
+    exported the model; now it is refused with its line, and the filter removes it."""
+    lines = DATA[-1].read_text().splitlines(keepends=True)
+    head = next(k for k, ln in enumerate(lines) if ln.startswith("t_s"))
+    cols = lines[head].strip().split(",")
+    row = lines[head + 50].rstrip("\n").split(",")
+    row[cols.index("v_V")] = "1e30"
+    lines[head + 50] = ",".join(row) + "\n"
+    log = tmp_path / "big.csv"
+    log.write_text("".join(lines))
+    out = tmp_path / "o"
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet", "--no-glitch-filter", "--epochs", "1"]) == 1
+    err = capsys.readouterr().err
+    _no_traceback(err)
+    assert f"{log}:{head + 51}:" in err and "v_V=1e+30" in err and "full scale" in err, err
+    assert not out.exists()
+    rec = dataset.load_recording(log)
+    assert (head + 51) in [ln for ln, _ in rec.removed]
+    assert float(np.abs(rec.df["v_V"]).max()) <= dataset.LIMITS.v_max_V

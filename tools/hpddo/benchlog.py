@@ -236,8 +236,10 @@ def _parse_bytes(raw: bytes):
         elif ln.startswith("#"):
             struct = ("metadata after header", f"metadata after header: {ln!r}")
         else:
-            struct = ("field count",
-                      f"field count: row has {ln.count(',') + 1} fields, header has {len(columns)}")
+            n = ln.count(",") + 1
+            hint = ("; decimal commas? (numbers are written with '.', docs/bench-log.md)"
+                    if n > len(columns) and '"' in ln and re.search(r"\d,\d", ln) else "")
+            struct = ("field count", f"field count: row has {n} fields, header has {len(columns)}{hint}")
         data = data[:bad_row]
     if cr_line is not None and cr_line - first < len(data):
         data = data[:max(cr_line - first, 0)]
@@ -305,8 +307,24 @@ def header_fault(line: str):
         seen.add(c)
     missing = [c for c in REQUIRED_COLUMNS if c not in seen]
     if missing:
-        return "missing required column", f"missing required column(s) {', '.join(missing)} in header"
+        return "missing required column", (f"missing required column(s) {', '.join(missing)} in header"
+                                           + _export_hint(line))
     return None
+
+
+def _export_hint(header: str) -> str:
+    """What a spreadsheet's export did to a header whose required columns are all there in
+    another dress: another separator (and with it, often, decimal commas), or quotes."""
+    for sep, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")):
+        cells = [c.strip(_PAD + "\"'") for c in header.split(sep)]
+        if sep in header and all(c in cells for c in REQUIRED_COLUMNS):
+            return (f": the columns are separated by {name}, the format takes commas and decimal points "
+                    "(docs/bench-log.md); export the file as CSV with ',' between columns and '.' in numbers "
+                    "(a spreadsheet set to a locale with decimal commas writes ';' and '0,5')")
+    cells = [c.strip(_PAD) for c in header.split(",")]
+    if any(c[:1] in "\"'" for c in cells) and all(c in [x.strip("\"'") for x in cells] for c in REQUIRED_COLUMNS):
+        return ": the column names are in quotes; the format takes them bare (t_s,duty,v_V,i_A; docs/bench-log.md)"
+    return ""
 
 
 def parse_row(header: str, row: str) -> dict:

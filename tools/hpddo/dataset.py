@@ -15,7 +15,7 @@ import re
 import numpy as np
 import pandas as pd
 
-from . import benchlog
+from . import benchlog, schema
 
 TRAIN_FRACTION = 0.8
 MIN_ROWS = 10  # fewer rows than this cannot be split into training and test parts
@@ -36,7 +36,8 @@ GLITCH_FLOOR = {"v_V": 0.5, "i_A": 0.15, "rpm_ref": 25.0}
 GLITCH_QUANTA = 3.0
 GLITCH_TAIL = 2.0
 GLITCH_WARN_SHARE = 0.01
-TEMP_RANGE_C = (-55.0, 125.0)  # DS18B20 range: a reading outside it is taken as not read,
+LIMITS = schema.Limits()  # the readings the observer accepts
+TEMP_RANGE_C = (LIMITS.temp_min_C, LIMITS.temp_max_C)  # a reading outside it is taken as not read,
 # as the observer does (the row's V, I and speed stay: a faulty temperature sensor must
 # not cost the recording)
 
@@ -110,6 +111,16 @@ def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:
     return bad, reasons
 
 
+def outside_limits(df: pd.DataFrame) -> dict:
+    """{row index: reason} of the rows whose v_V or i_A the observer would refuse (LIMITS)."""
+    out = {}
+    for col, lim in (("i_A", LIMITS.i_max_A), ("v_V", LIMITS.v_max_V)):
+        x = df[col].to_numpy(float)
+        for k in np.flatnonzero(np.abs(x) > lim):
+            out[int(k)] = f"{col}={x[k]:.6g} is beyond the channel's full scale (|{col}| <= {lim:g}, schema.Limits)"
+    return dict(sorted(out.items()))
+
+
 def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True) -> Recording:
     """Reads, cleans and splits one bench log (raises benchlog.BenchLogError on format faults)."""
     log = benchlog.read_log(path)
@@ -118,8 +129,16 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
     if "seq" not in df:
         df["seq"] = np.arange(len(df), dtype=np.int64)
     removed, warnings = [], []
+    outside = outside_limits(df)
+    if outside and not glitch_filter:
+        k, why = next(iter(outside.items()))
+        raise benchlog.BenchLogError(path, int(lines[k]), f"{why}; the board marks such a sample invalid and no "
+                                     f"model is fitted to it ({len(outside)} such row(s)): correct the row(s), or "
+                                     "let the glitch filter remove them (drop --no-glitch-filter)")
     if glitch_filter:
         bad, reasons = glitch_mask(df)
+        for k, why in outside.items():
+            bad[k], reasons[k] = True, why
         removed = [(int(lines[k]), reasons[k]) for k in np.flatnonzero(bad)]
         df = df.loc[~bad].reset_index(drop=True)
         share = len(removed) / max(len(log.df), 1)

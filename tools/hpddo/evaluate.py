@@ -67,7 +67,29 @@ def evaluate(model_dir, log_paths, work_dir: pathlib.Path | None = None, name: s
     return _replay_and_score(model_dir, model_name, checksum, lookup, recs, pathlib.Path(work_dir))
 
 
+def temperature_warning(physics, rec) -> str | None:
+    """The line for a recording without temp_C that a model with thermal effects is scored
+    on: the observer then takes the case at the model's ambient on every row (as a board
+    without a sensor does), and the thermal terms correct for a temperature that was not
+    there. None where that is not the case."""
+    from . import schema
+    thermal = [n for n in physics.effect_names() if schema.BY_NAME[n].thermal]
+    if not thermal or rec.has_temp():
+        return None
+    return (f"{rec.source}: no temp_C, and the model's {', '.join(thermal)} read the case temperature: the "
+            f"observer takes it at the model's ambient, {physics.t_amb_C:.1f} C, on every row, so where the motor "
+            "was warmer or colder this recording's error is larger than the model's; record temp_C (a sensor on "
+            "the motor's case), or compare with a model trained without thermal effects")
+
+
 def _replay_and_score(model_dir, model_name, checksum, lookup, recs, work: pathlib.Path) -> Evaluation:
+    from .export import read_model_header
+    header = pathlib.Path(model_dir) / f"model_{model_name}.h"
+    physics = read_model_header(header.read_text(encoding="utf-8")).physics
+    for r in recs:
+        w = temperature_warning(physics, r)
+        if w:
+            r.warnings.append(w)
     est = replay_natively(recs, model_dir, model_name, work, split=0.0)
     m = score_recordings(recs, est, checksum, lookup, part="all")
     m["source"] = SOURCE

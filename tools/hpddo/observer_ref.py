@@ -16,12 +16,7 @@ F32 = np.float32
 STATUS = {"ok": 0, "clamped": 1, "fallback": 2, "invalid": 3, "gated": 4}
 
 
-@dataclasses.dataclass
-class Limits:
-    v_max_V: float = 40.0
-    i_max_A: float = 10.0
-    temp_min_C: float = -55.0
-    temp_max_C: float = 125.0
+from .schema import Limits  # noqa: E402,F401 (declared once, in schema.py; re-exported)
 
 
 @dataclasses.dataclass

@@ -35,6 +35,18 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 COMMAND = "cd tools && ../.venv/bin/python -m hpddo.schema --write"
 
 
+@dataclasses.dataclass
+class Limits:
+    """The readings the observer accepts (limits.h, hpddo::Limits; a model header carries
+    them): the channels' full scale and the temperature sensor's range. A sample outside
+    is invalid on the boards, and no recording row outside is used to fit a model."""
+
+    v_max_V: float = 40.0      # largest |v_V| the voltage channel can report, V
+    i_max_A: float = 10.0      # largest |i_A| the current channel can report, A
+    temp_min_C: float = -55.0  # the temperature sensor's range (DS18B20), C
+    temp_max_C: float = 125.0
+
+
 @dataclasses.dataclass(frozen=True)
 class Param:
     """One float field of PhysicsParams that is no effect coefficient."""

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import pathlib
+import sys
 import time
 
 from . import options
@@ -48,7 +49,7 @@ def run(args) -> int:
                "recordings it was not trained on; lookup: the mean training speed of the nearest "
                "training operating point."])
     for w in ev.metrics["warnings"]:
-        print(f"hpddo evaluate: WARNING: {w}")
+        print(f"hpddo evaluate: WARNING: {w}", file=sys.stderr)
     for r in ev.recordings:
         if "rpm_ref" not in r.df or not r.df["rpm_ref"].notna().any():
             print(f"hpddo evaluate: {r.source}: no encoder readings (rpm_ref): its estimates are written "
