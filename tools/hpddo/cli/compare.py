@@ -28,8 +28,8 @@ def parser(prog: str = "hpddo compare") -> argparse.ArgumentParser:
     p = options.new_parser(prog, __doc__)
     options.logs(p)
     options.out(p, "output folder: new, empty, or a previous output of hpddo compare")
-    p.add_argument("--validation", nargs="+", type=pathlib.Path, default=[], metavar="LOG",
-                   help="labelled recordings no training sees, scored whole (e.g. data/validation/*.csv)")
+    options.logs(p, "--validation", "labelled recordings no training sees, scored whole (e.g. data/validation/*.csv)",
+                 default=[])
     options.effects(p, "also score M2 with these effect terms")
     p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,M]",
                    help="hidden layers of M3 and of the pure network (default 16,8)")

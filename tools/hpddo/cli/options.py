@@ -66,9 +66,27 @@ def effects(p, what: str) -> None:
                    help=f"{what}, comma separated: {', '.join(fx.NAMES)}")
 
 
-def logs(p) -> None:
-    p.add_argument("logs", nargs="+", type=pathlib.Path, metavar="LOG",
-                   help="labelled bench logs (CSV, docs/bench-log.md)")
+class _Logs(argparse.Action):
+    """Bench logs, less the twin's ground-truth sidecars given beside their own logs (as
+    `hpddo train out/*.csv` gives them after `hpddo twin --out out`), each left out with a
+    note on stderr."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        import sys
+        from ..twin.generate import TRUTH_CSV
+
+        names = {str(v) for v in values}
+        sidecar = [v for v in values if v.name.endswith(TRUTH_CSV)
+                   and str(v.with_name(v.name[:-len(TRUTH_CSV)] + ".csv")) in names]
+        for v in sidecar:
+            print(f"{parser.prog}: note: left out {v}: the twin's ground truth beside its log, not a bench log",
+                  file=sys.stderr)
+        setattr(namespace, self.dest, [v for v in values if v not in sidecar])
+
+
+def logs(p, name: str = "logs", help: str = "labelled bench logs (CSV, docs/bench-log.md)", **kw) -> None:
+    """LOG... (or --NAME LOG...): bench logs; the twin's truth sidecars beside them left out."""
+    p.add_argument(name, nargs="+", type=pathlib.Path, metavar="LOG", action=_Logs, help=help, **kw)
 
 
 def positive_float(text: str) -> float:
