@@ -6,7 +6,7 @@
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
-bash scripts/bootstrap.sh --with-browser
+bash scripts/bootstrap.sh --tests
 
 jobs=$(nproc)
 gen=(); command -v ninja >/dev/null && gen=(-G Ninja)

@@ -117,7 +117,7 @@ def test_cli_writes_report_and_json_and_refuses_bad_logs(root, tmp_path, capsys)
 def test_report_renders_in_headless_chromium(root, tmp_path):
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if not chromium:
-        pytest.skip("chromium is not installed (scripts/bootstrap.sh --with-browser installs it)")
+        pytest.skip("chromium is not installed (scripts/bootstrap.sh --tests installs it)")
     paths = bench_dir(root, "pair", PAIR, SEEDS[0])
     out = tmp_path / "diag"
     assert diagnose.main([str(p) for p in paths] + ["--out", str(out), "--bootstrap", "0", "--no-hybrid"]) == 0

@@ -89,8 +89,17 @@ def test_another_tools_output_is_refused(tmp_path, capsys):
     assert TOOLS["twin"](DATA, out) == 0
     before = _snapshot(out)
     assert TOOLS["diagnose"](DATA, out) == 1
-    assert "'twin'" in capsys.readouterr().err
+    assert "'hpddo twin'" in capsys.readouterr().err
     assert _snapshot(out) == before
+
+
+def test_a_refusal_names_the_tools_as_the_user_types_them(tmp_path, capsys):
+    out = tmp_path / "m"
+    assert TOOLS["gen_weights"](DATA[:1], out) == 0
+    capsys.readouterr()
+    assert TOOLS["twin"](DATA, out) == 1
+    err = capsys.readouterr().err
+    assert "written by 'hpddo train', not 'hpddo twin'" in err and "gen_weights" not in err, err
 
 
 def test_a_failure_inside_the_stage_leaves_nothing(tmp_path):

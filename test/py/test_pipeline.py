@@ -97,7 +97,7 @@ def test_report_renders_in_headless_chromium(regenerated, tmp_path):
     from hpddo import browser
     from hpddo.reports import training as report
     if browser.chromium() is None:
-        pytest.skip("chromium not installed (scripts/bootstrap.sh --with-browser installs it)")
+        pytest.skip("chromium not installed (scripts/bootstrap.sh --tests installs it)")
     metrics = json.loads((regenerated / "metrics.json").read_text())
     page = report.write(metrics, regenerated / "work" / "estimates", tmp_path / "report", "hpddo test report", [])
     png = tmp_path / "report.png"

@@ -338,7 +338,7 @@ def test_templates_autoescape_and_ship_in_the_package():
 
 def test_both_pages_render_in_headless_chromium(tmp_path):
     if browser.chromium() is None:
-        pytest.skip("chromium not installed (scripts/bootstrap.sh --with-browser installs it)")
+        pytest.skip("chromium not installed (scripts/bootstrap.sh --tests installs it)")
     path, _ = training_page(tmp_path)
     diag = tmp_path / "diagnosis"
     diag.mkdir()

@@ -21,7 +21,7 @@ def render(html_path, png_path, width: int = 1280, height: int = 2400, timeout: 
     """Loads the page; writes a screenshot; returns {"dom": str, "console_errors": [str]}."""
     exe = chromium()
     if exe is None:
-        raise RuntimeError("chromium is not installed: run scripts/bootstrap.sh --with-browser")
+        raise RuntimeError("chromium is not installed: on Debian/Ubuntu, sudo apt-get install chromium (in a clone, scripts/bootstrap.sh --tests does)")
     url = pathlib.Path(html_path).resolve().as_uri()
     with tempfile.TemporaryDirectory() as profile:
         base = [exe, *FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}"]

@@ -326,7 +326,7 @@ def observers_exe() -> pathlib.Path:
         if _exe is None:
             if shutil.which("cmake") is None:
                 raise replay.ToolchainError("cmake not found, needed to build the observers of hpddo compare: "
-                                            "install cmake, g++ and libeigen3-dev (scripts/bootstrap.sh does)")
+                                            f"{replay.INSTALL}")
             d = pathlib.Path(tempfile.mkdtemp(prefix="hpddo-compare-"))
             pid = os.getpid()
             atexit.register(lambda: os.getpid() == pid and shutil.rmtree(d, ignore_errors=True))

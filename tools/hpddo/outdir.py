@@ -26,6 +26,14 @@ import tempfile
 from .errors import InputError
 
 MANIFEST = ".hpddo-output.json"
+# The tool's name in a manifest, where it is not the subcommand's (kept: folders written
+# before the subcommand was named read as the same tool's).
+SUBCOMMAND = {"gen_weights": "train"}
+
+
+def shown(tool: str) -> str:
+    """A manifest's tool as the user types it: 'hpddo train'."""
+    return f"'hpddo {SUBCOMMAND.get(tool, tool)}'"
 
 
 class OutputDirError(InputError):
@@ -54,12 +62,12 @@ def check(out, tool: str, entries=None) -> None:
         return
     owner, ours = _manifest(out)
     if owner != tool:
-        whose = "no hpddo tool" if owner is None else f"'{owner}'"
-        raise OutputDirError(f"{out}: folder is not empty and was written by {whose}, not '{tool}'; give --out "
+        whose = "no hpddo tool" if owner is None else shown(owner)
+        raise OutputDirError(f"{out}: folder is not empty and was written by {whose}, not {shown(tool)}; give --out "
                              "a new or empty folder, or a previous output of this tool (nothing was written)")
     clash = sorted(n for n in (entries or ()) if n in present and n not in ours)
     if clash:
-        raise OutputDirError(f"{out}: would replace {', '.join(clash)}, which '{tool}' did not write; move "
+        raise OutputDirError(f"{out}: would replace {', '.join(clash)}, which {shown(tool)} did not write; move "
                              "them or give --out another folder (nothing was written)")
 
 

@@ -25,17 +25,20 @@ class ToolchainError(InputError):
     """CMake, a C++ compiler or Eigen is missing: the message says what to install."""
 
 
+#: How to get the native replay's toolchain, for pip users and clones alike.
+INSTALL = ("on Debian/Ubuntu: sudo apt-get install cmake g++ libeigen3-dev (in a clone of hpddo, "
+           "scripts/bootstrap.sh runs it)")
+
+
 def _cmake(args, what: str) -> None:
     res = subprocess.run(["cmake", *args], capture_output=True, text=True)
     if res.returncode == 0:
         return
     text = res.stdout + res.stderr
     if "CMAKE_CXX_COMPILER" in text and "could not be found" in text.replace("\n", " "):
-        raise ToolchainError("no C++ compiler for the native replay: install g++ "
-                             "(scripts/bootstrap.sh does)")
+        raise ToolchainError(f"no C++ compiler for the native replay: {INSTALL}")
     if "Eigen3" in text and "find_package" in text.replace("\n", " "):
-        raise ToolchainError("Eigen 3 not found by CMake (find_package(Eigen3)) for the native replay: "
-                             "install libeigen3-dev (scripts/bootstrap.sh does)")
+        raise ToolchainError(f"Eigen 3 not found by CMake (find_package(Eigen3)) for the native replay: {INSTALL}")
     raise RuntimeError(f"{what} failed: cmake {' '.join(args)}\n{text}")
 
 
@@ -43,8 +46,7 @@ def build(model_dir: pathlib.Path, name: str, out: pathlib.Path) -> pathlib.Path
     """Builds replay for model_<name>.h in model_dir with CMake; writes the executable
     to out and returns it."""
     if shutil.which("cmake") is None:
-        raise ToolchainError("cmake not found, needed to build the native replay: install cmake, g++ "
-                             "and libeigen3-dev (scripts/bootstrap.sh does)")
+        raise ToolchainError(f"cmake not found, needed to build the native replay: {INSTALL}")
     if not (SOURCE / "replay.cpp").is_file():
         raise ToolchainError(f"the replay's sources are not at {SOURCE}: reinstall hpddo")
     with tempfile.TemporaryDirectory(prefix="hpddo-replay-") as bdir:

@@ -30,7 +30,7 @@ from ..train import TrainConfig, TrainingError, hybrid_rpm, train_residual
 from . import analysis, ranking
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
-HYBRID_ITER = 150  # training iterations of the hybrid in the diagnosis (gen_weights: 2000)
+HYBRID_ITER = 150  # training epochs of the hybrid in the diagnosis (hpddo train: 2000)
 # The material reading (e.g. copper plus magnets) is taken when its held-out mean squared
 # error is at most this many noise variances above the freely fitted one's.
 MATERIAL_SLACK = 0.5
