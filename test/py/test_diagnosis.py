@@ -184,3 +184,18 @@ def test_two_bundled_recordings_are_diagnosed(names):
     assert res["ra_fit"]["mismatch"], res["verdict"]
     assert "Ra" in res["verdict"]
     assert all(v == v for v in res["rmse_rpm"]["after"].values())  # no NaN
+
+
+def test_the_diagnosis_prints_the_train_command_that_adds_what_it_named(tmp_path, capsys):
+    import shlex
+    from hpddo import cli
+    logs = [str(ROOT / "data" / "default" / f"{n}.csv") for n in ("sweep", "load")]
+    assert diagnose.main([*logs, "--out", str(tmp_path / "d"), "--bootstrap", "0", "--no-hybrid"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    k = next(i for i, ln in enumerate(out) if ln.startswith("next ("))
+    words = shlex.split(out[k + 1])
+    assert words[:2] == ["hpddo", "train"] and words[2:4] == logs
+    res = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
+    args = cli.parser("train").parse_args(words[2:])  # it is a command train takes, as printed
+    assert tuple(args.effects) == tuple(res["missing_effects"])
+    assert args.ra_ohm == pytest.approx(res["ra_fit"]["supported_ohm"], rel=1e-3)

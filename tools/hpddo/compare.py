@@ -971,7 +971,15 @@ def rmse_text(title: str, rm: dict, paper: dict | None = None) -> str:
 
 def text_summary(t: dict) -> str:
     t7 = t["table7"]
-    parts = [rmse_text("Table 7, chronological test parts (RPM)", t7["chronological"]["rmse_rpm"], t7["paper"])]
+    st = t7.get("settings", {})
+    head = []
+    if st.get("quick"):
+        head.append(f"A quick look (--quick: {st.get('epochs')} epochs per network, two architectures, coarse "
+                    "tuning): not the comparison; run without --quick for it.\n")
+    if st.get("effects"):
+        head.append(f"M2 + effects: M2 with {', '.join(st['effects'])}.\n")
+    head.append("Rows 'paper': the paper's figures on its own recordings, quoted; all others measured on yours.\n")
+    parts = head + [rmse_text("Table 7, chronological test parts (RPM)", t7["chronological"]["rmse_rpm"], t7["paper"])]
     if "validation" in t7:
         parts.append(rmse_text("Table 7, never-seen recordings (--validation), every row", t7["validation"]["rmse_rpm"]))
     parts.append(rmse_text("Table 7, leave one recording out, every row", t7["leave_one_out"]["rmse_rpm"]))

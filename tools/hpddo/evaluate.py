@@ -93,7 +93,7 @@ def _replay_and_score(model_dir, model_name, checksum, lookup, recs, work: pathl
     est = replay_natively(recs, model_dir, model_name, work, split=0.0)
     m = score_recordings(recs, est, checksum, lookup, part="all")
     m["source"] = SOURCE
-    m["model"] = {"folder": str(model_dir), "name": model_name}
+    m["model"] = {"folder": str(model_dir), "name": model_name, "effects": physics.effect_names()}
     m.update(recordings_record(recs))
     return Evaluation(recs, m, metrics_mod.table(m, TABLE_TITLE), work / "estimates")
 

@@ -42,6 +42,7 @@ class PipelineConfig:
     glitch_filter: bool = True
     leave_one_out: bool = False  # also train on all recordings but one and score it, for each
     command: str = "tools/gen_weights.py"
+    report: bool = False  # also write report/index.html (estimate against encoder, the RMSE table)
 
 
 @dataclasses.dataclass
@@ -197,9 +198,17 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         if cfg.leave_one_out:
             metrics["leave_one_out"] = leave_one_out(
                 log_paths, stage / "leave_one_out",
-                dataclasses.replace(cfg, leave_one_out=False, train=dataclasses.replace(cfg.train, progress=False)))
+                dataclasses.replace(cfg, leave_one_out=False, report=False, train=dataclasses.replace(cfg.train, progress=False)))
         (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
         (work / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
+        if cfg.report:
+            from .reports import training as report
+            report.write(metrics, work / "estimates", stage / "report", f"hpddo train: {out}",
+                         [f"Model header: {out / f'model_{name}.h'}. Effects in the physics model: "
+                          f"{', '.join(m2.effect_names()) or 'none'}. RMSE of the held-out "
+                          f"{1 - cfg.train_fraction:.0%} of each recording (chronological split), measured by "
+                          "the native replay through the board observer (hpddo_core); lookup: the mean "
+                          "training speed of the nearest training operating point."])
     return PipelineResult(recs, m1, m2, res, model, metrics, table, out)
 
 

@@ -35,6 +35,11 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 COMMAND = "cd tools && ../.venv/bin/python -m hpddo.schema --write"
 
 
+def quantity(value: float, unit: str) -> str:
+    """A value with its unit as text; a dimensionless one ("1") without it."""
+    return f"{value:g}" if unit == "1" else f"{value:g} {unit}"
+
+
 @dataclasses.dataclass
 class Limits:
     """The readings the observer accepts (limits.h, hpddo::Limits; a model header carries

@@ -110,12 +110,41 @@ def summary(d) -> str:
     return "\n".join(lines)
 
 
+def next_steps(d, args) -> str:
+    """What to type next: train with the named effects (and the Ra the data support, where
+    they name a mismatch), then score that model on a recording it never saw."""
+    import shlex
+
+    res = d.to_json()
+    lines = []
+    if "rmse_rpm_hybrid" in res:
+        lines.append(f"(hybrid: M3 retrained here for {res['rmse_rpm_hybrid']['iterations']} epochs on each physics "
+                     "model, to compare before and after; hpddo train trains 2000, so its M3 figures differ)")
+    ra = res.get("ra_fit") or {}
+    effects = list(args.effects) + [e for e in res["missing_effects"] if e not in args.effects]
+    words = ["hpddo", "train", *map(str, args.logs), "--out", "MODEL"]
+    if effects:
+        words += ["--effects", ",".join(effects)]
+    if ra.get("mismatch"):
+        words += ["--ra-ohm", f"{ra['supported_ohm']:.4g}"]
+    elif args.ra_ohm is not None:
+        words += ["--ra-ohm", repr(args.ra_ohm)]
+    if args.no_glitch_filter:
+        words.append("--no-glitch-filter")
+    what = ("add what the diagnosis named" if effects != list(args.effects) or ra.get("mismatch")
+            else "nothing to add: train the model as it is")
+    lines.append(f"next ({what}):\n  {shlex.join(words)}")
+    lines.append("then score it on a recording it never saw:\n  hpddo evaluate --model MODEL NEW_RUN.csv --out EVAL")
+    return "\n".join(lines)
+
+
 def run(args) -> int:
     t0 = time.perf_counter()
     d = diagnose_into(args.logs, options_of(args), args.out)
     for w in d.warnings:
         print(f"hpddo diagnose: WARNING: {w}", file=sys.stderr)
     print(summary(d))
+    print(next_steps(d, args))
     if not args.quiet:
         print(f"wrote {args.out}/index.html and diagnosis.json; diagnosis took {time.perf_counter() - t0:.1f} s")
     return 0

@@ -45,9 +45,10 @@ def run(args) -> int:
     with outdir.staged(args.out, TOOL) as stage:
         ev = evaluate(args.model, args.logs, stage / "work", args.name, not args.no_glitch_filter)
         write(ev, stage, f"hpddo evaluate: {args.model}",
-              [f"Model {args.model}, replayed natively through the board observer on every row of "
-               "recordings it was not trained on; lookup: the mean training speed of the nearest "
-               "training operating point."])
+              [f"Model {args.model} (effects in its physics model: {', '.join(ev.metrics['model']['effects']) or 'none'}), "
+               "replayed natively through the board observer on every row of recordings it was not trained on "
+               "(no split: every row is scored); lookup: the mean training speed of the nearest training "
+               "operating point."])
     for w in ev.metrics["warnings"]:
         print(f"hpddo evaluate: WARNING: {w}", file=sys.stderr)
     for r in ev.recordings:
@@ -56,7 +57,7 @@ def run(args) -> int:
                   f"({args.out / 'work' / 'estimates'}), there is nothing to score them against")
     print(ev.table, end="")
     if not args.quiet:
-        print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
+        print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s; report: {args.out / 'report' / 'index.html'}")
     return 0
 
 

@@ -121,7 +121,7 @@ def run(args) -> int:
                          glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
                          train=TrainConfig(hidden=args.hidden, max_iter=args.epochs, seed=args.seed,
                                            gate=not args.no_gate, progress=not args.quiet),
-                         command=provenance(args))
+                         command=provenance(args), report=True)
     t0 = time.perf_counter()
     res = run_pipeline(args.logs, args.out, cfg)
     for r in res.recordings:
@@ -144,7 +144,8 @@ def run(args) -> int:
     if "leave_one_out" in res.metrics:
         from ..pipeline import leave_one_out_table
         print(leave_one_out_table(res.metrics["leave_one_out"]), end="")
-    print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
+    if not args.quiet:
+        print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s; report: {args.out / 'report' / 'index.html'}")
     return 0
 
 

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from .. import dataset, identify
+from .. import dataset, identify, schema
 from ..errors import InputError
 from .. import effects as fx
 from .. import physics as ph
@@ -118,8 +118,8 @@ def _described(name: str, p: ph.PhysicsParams, blind: bool = False) -> dict:
         v, (lo, hi) = float(getattr(p, sh.field)), sh.bounds
         edge = lo if abs(v - lo) <= 1e-6 * (hi - lo) else hi if abs(v - hi) <= 1e-6 * (hi - lo) else None
         if edge is not None and edge != sh.default:
-            text += (f"; its form ({sh.field} = {v:g} {sh.unit}) is at the edge of those allowed "
-                     f"({lo:g}..{hi:g} {sh.unit}): these recordings do not fix it")
+            text += (f"; its form ({sh.field} = {schema.quantity(v, sh.unit)}) is at the edge of those allowed "
+                     f"({lo:g}..{schema.quantity(hi, sh.unit)}): these recordings do not fix it")
     node = []
     if eff.thermal and p.thermal_enabled():
         params.update(th_r_K_per_W=p.th_r_K_per_W, th_tau_s=p.th_tau_s)
