@@ -107,6 +107,16 @@ def test_twin_writes_a_bench_log_outside_the_repository(installed):
     assert (cwd / "afile").read_text() == "keep\n"
 
 
+def test_the_demo_of_a_pip_install_has_its_recordings_never_seen(installed):
+    """hpddo demo's step 4 scores data/validation: the wheel carries it (it skipped the step
+    without a word when it did not)."""
+    bin_dir, _ = installed
+    share = bin_dir.parent / "share" / "hpddo"
+    assert {"hot.csv", "unseen.csv"} <= {p.name for p in (share / "data" / "validation").glob("*.csv")}
+    res = _run([bin_dir / "hpddo", "demo", "--help"], cwd=bin_dir)
+    assert str(share / "data" / "validation") in "".join(res.stdout.split())  # argparse wraps the path
+
+
 def test_train_builds_the_native_replay_from_the_installed_sources(installed):
     """The wheel carries the replay's CMake project, the core headers and the bundled
     recordings (<venv>/share/hpddo): a short training run builds and replays natively."""
@@ -114,8 +124,8 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
     share = bin_dir.parent / "share" / "hpddo"
     log = share / "data" / "default" / "sweep.csv"
     assert log.is_file() and (share / "host" / "CMakeLists.txt").is_file()
-    res = _run([bin_dir / "hpddo", "train", log, "--out", "m", "--epochs", "1", "--quiet"], cwd=cwd)
-    assert "wrote m/" in res.stdout
+    res = _run([bin_dir / "hpddo", "train", log, "--out", "m", "--epochs", "1"], cwd=cwd)
+    assert "wrote m/" in res.stdout and (cwd / "m" / "report" / "index.html").is_file()
     metrics = json.loads((cwd / "m" / "metrics.json").read_text())
     assert metrics["source"].startswith("native replay") and "sweep" in metrics["rmse_rpm"]["M2"]
     assert (cwd / "m" / "model_default.h").read_text().startswith("// GENERATED model header")

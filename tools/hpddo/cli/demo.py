@@ -33,7 +33,8 @@ def parser(prog: str = "hpddo demo") -> argparse.ArgumentParser:
                    help="folder of labelled bench logs, *.csv (default: the bundled data/default)")
     p.add_argument("--validation", type=pathlib.Path, default=resource_root() / "data" / "validation",
                    metavar="DIR", help="folder of labelled bench logs the models are not trained on, scored whole "
-                                       "(default: the bundled data/validation; an empty or missing folder: none)")
+                                       f"(default: the bundled {resource_root() / 'data' / 'validation'}; an empty or "
+                                       "missing folder: none, and the demo says so)")
     options.ra_ohm(p)
     options.glitch_filter(p)
     options.seed(p, "the networks and the bootstrap")
@@ -174,6 +175,10 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
                    effects=after.metrics["identification"]["effects"])
     print("== 4. memory against estimation: the chronological split (rows from the training runs) and "
           "recordings no training covers (RMSE, RPM)")
+    if not validation:
+        print(f"   no recordings the models never saw: {args.validation} holds no bench log, so only the "
+              "chronological split is scored, and memory cannot be told from estimation; give --validation DIR "
+              "(recordings at other duty/load pairs or temperatures)")
     print_side_by_side("physics as identified, M3 on top:", side_by_side(base.metrics, base_valid))
     print_side_by_side(f"with {', '.join(missing)}, M3 on top:", side_by_side(after.metrics, after_valid))
     (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
