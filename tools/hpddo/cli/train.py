@@ -140,6 +140,12 @@ def run(args) -> int:
         print(f"M3 {args.hidden}: clamp +-{ident['clamp_rpm']:.2f} RPM, {ident['train_rows']} training rows")
     if "note" in ident["nameplate"]:
         print(f"note: {ident['nameplate']['note']}")
+        fastest = max((float(r.df["rpm_ref"].max()) for r in res.recordings if "rpm_ref" in r.df), default=None)
+        if fastest and fastest > 0 and not 0.5 <= cfg.rated_rpm / fastest <= 2.0:
+            print(f"hpddo train: WARNING: M1's nameplate says {cfg.rated_rpm:g} RPM at {cfg.rated_V:g} V, and the "
+                  f"fastest speed in these recordings is {fastest:.0f} RPM: M1's figures compare with a motor that is "
+                  "not yours; read the rated voltage and the output shaft's no-load speed on its label or datasheet "
+                  "and pass --rated-v and --rated-rpm", file=sys.stderr)
     print(res.table, end="")
     if "leave_one_out" in res.metrics:
         from ..pipeline import leave_one_out_table
