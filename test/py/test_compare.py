@@ -12,6 +12,8 @@ import pytest
 
 from hpddo import cli, compare, dataset, identify
 
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DEFAULT = [ROOT / "data" / "default" / f"{n}.csv" for n in ("sweep", "load", "long")]
 VALIDATION = [ROOT / "data" / "validation" / f"{n}.csv" for n in ("hot", "unseen")]

@@ -13,6 +13,8 @@ from hpddo import identify
 from hpddo.diagnosis import core
 import twin_benches
 
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
+
 SEED, VALIDATION_SEED = 3, 11
 CASES = {
     "thermal_ra": ({"thermal_ra": 0.393}, {}),

@@ -112,6 +112,7 @@ def test_metrics_pool_conditions_and_keep_any_condition_name():
     assert "lookup" not in back["rmse_rpm"]
 
 
+@pytest.mark.slow
 def test_leave_one_out_trains_without_the_recording_it_scores(tmp_path):
     """hpddo train --leave-one-out: per recording, a model trained on the others only,
     scored on every row of the one left out; the figures land in metrics.json."""
@@ -162,6 +163,7 @@ def test_a_recording_without_encoder_readings_gets_estimates_and_no_scores(tmp_p
     assert (out / "report" / "index.html").is_file()
 
 
+@pytest.mark.slow
 def test_a_thermal_model_on_a_log_without_temperature_is_warned_about(tmp_path, capsys):
     """A model with thermal effects scored on a hot run whose temp_C column is gone takes
     the case at its ambient on every row and errs more: said, with what to do."""

@@ -60,6 +60,7 @@ def test_an_existing_file_at_the_output_path_is_refused_and_kept(tmp_path, capsy
     assert sorted(p.name for p in tmp_path.iterdir()) == ["result"]
 
 
+@pytest.mark.slow
 def test_rerun_replaces_only_what_the_tool_wrote(tmp_path):
     out = tmp_path / "diag"
     assert TOOLS["diagnose"](DATA, out) == 0
@@ -71,6 +72,7 @@ def test_rerun_replaces_only_what_the_tool_wrote(tmp_path):
     assert (out / "diagnosis.json").is_file()
 
 
+@pytest.mark.slow
 def test_a_user_file_where_the_tool_would_write_is_refused(tmp_path, capsys):
     out = tmp_path / "diag"
     assert TOOLS["diagnose"](DATA, out) == 0
@@ -93,6 +95,7 @@ def test_another_tools_output_is_refused(tmp_path, capsys):
     assert _snapshot(out) == before
 
 
+@pytest.mark.slow
 def test_a_refusal_names_the_tools_as_the_user_types_them(tmp_path, capsys):
     out = tmp_path / "m"
     assert TOOLS["gen_weights"](DATA[:1], out) == 0

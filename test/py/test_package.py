@@ -17,6 +17,8 @@ import pytest
 
 from conftest import ROOT
 
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
+
 PY = sys.executable
 TOP_LEVEL_SKIP = {".git", ".venv", "out", "models"}
 

@@ -3,8 +3,12 @@ docs/performance.md are one measurement: the table is perf.table() of the figure
 the measurement itself was sound: no step off its golden row on the AVR."""
 import json
 
+import pytest
+
 from conftest import ROOT
 from hpddo import perf
+
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 
 
 def test_committed_table_is_the_table_of_the_committed_figures():

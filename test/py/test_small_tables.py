@@ -17,6 +17,8 @@ import gen_weights
 from hpddo import gate, train
 from hpddo.cli import evaluate as evaluate_cli
 
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
+
 RA_OHM = 4.5
 KE_VS_PER_RAD = 0.4
 NOTE = "labelled training rows, at least 200 (one batch) are needed; the model is physics only (M3 = M2)"

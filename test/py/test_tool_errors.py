@@ -305,3 +305,16 @@ def test_a_reading_beyond_full_scale_is_refused_without_the_glitch_filter(tmp_pa
     rec = dataset.load_recording(log)
     assert (head + 51) in [ln for ln, _ in rec.removed]
     assert float(np.abs(rec.df["v_V"]).max()) <= dataset.LIMITS.v_max_V
+
+
+@pytest.mark.slow
+def test_no_progress_bar_goes_into_a_redirected_log(tmp_path):
+    """Off a terminal (a log file, a pipe, CI) the progress bars stay quiet: a training run's
+    stderr holds lines, not hundreds of carriage-return updates."""
+    import subprocess
+    import sys
+    res = subprocess.run([sys.executable, "-m", "hpddo", "train", str(DATA[-1]), "--out", str(tmp_path / "m"),
+                          "--epochs", "400"], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert "\r" not in res.stderr and "epoch/s" not in res.stderr, res.stderr[:500]
+    assert "RMSE" in res.stdout

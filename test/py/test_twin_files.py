@@ -134,6 +134,7 @@ def test_glitches_are_listed_and_rare():
     assert g["truth"]["glitch"].sum() == 3
 
 
+@pytest.mark.slow
 def test_the_first_train_a_user_types_after_the_twin_works(tmp_path, capsys):
     """`hpddo twin --out out` then `hpddo train out/*.csv`: the glob takes the truth sidecars
     too; they are left out with a note each, and the logs train."""

@@ -14,6 +14,8 @@ import pytest
 from hpddo import bench, benchlog
 from hpddo.twin import generate, params, protocols
 
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
+
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DEFAULT_DIR = ROOT / "data" / "default"
 VALIDATION_DIR = ROOT / "data" / "validation"

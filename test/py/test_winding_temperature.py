@@ -24,6 +24,8 @@ from hpddo import pipeline
 from hpddo.train import TrainConfig
 import twin_benches
 
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
+
 CONDITIONS = ("load", "long", "sweep")
 SEED = 5
 MAX_ITER = 30

@@ -145,6 +145,9 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
     d = diagnose.diagnose_into(logs, core.Options(ra_ohm=args.ra_ohm, seed=args.seed,
                                                   glitch_filter=not args.no_glitch_filter), stage / "diagnosis")
     print(diagnose.summary(d))
+    note = diagnose.hybrid_note(d)
+    if note:
+        print(note)
     print(f"   diagnosis took {time.perf_counter() - t1:.1f} s; report: {args.out / 'diagnosis' / 'index.html'}")
     missing = list(d.missing_effects)
     summary = {"missing_effects": missing, "before": base.metrics["rmse_rpm"],

@@ -110,6 +110,14 @@ def summary(d) -> str:
     return "\n".join(lines)
 
 
+def hybrid_note(d) -> str | None:
+    """Why the diagnosis' hybrid figures are not hpddo train's M3 figures."""
+    if d.hybrid is None:
+        return None
+    return (f"(hybrid: M3 retrained here for {d.hybrid.iterations} epochs on each physics model, to compare before "
+            "and after; hpddo train trains it for 2000, so its M3 figures differ)")
+
+
 def next_steps(d, args) -> str:
     """What to type next: train with the named effects (and the Ra the data support, where
     they name a mismatch), then score that model on a recording it never saw."""
@@ -117,9 +125,6 @@ def next_steps(d, args) -> str:
 
     res = d.to_json()
     lines = []
-    if "rmse_rpm_hybrid" in res:
-        lines.append(f"(hybrid: M3 retrained here for {res['rmse_rpm_hybrid']['iterations']} epochs on each physics "
-                     "model, to compare before and after; hpddo train trains 2000, so its M3 figures differ)")
     ra = res.get("ra_fit") or {}
     effects = list(args.effects) + [e for e in res["missing_effects"] if e not in args.effects]
     words = ["hpddo", "train", *map(str, args.logs), "--out", "MODEL"]
@@ -144,6 +149,9 @@ def run(args) -> int:
     for w in d.warnings:
         print(f"hpddo diagnose: WARNING: {w}", file=sys.stderr)
     print(summary(d))
+    note = hybrid_note(d)
+    if note:
+        print(note)
     print(next_steps(d, args))
     if not args.quiet:
         print(f"wrote {args.out}/index.html and diagnosis.json; diagnosis took {time.perf_counter() - t0:.1f} s")
