@@ -1,5 +1,5 @@
 // Instruction counts of the observer on the ESP8266's core (Xtensa LX106), run in QEMU
-// (qemu-system-xtensa -M sim -cpu lx106 -icount shift=10; tools/hpddo/perf.py): one full
+// (qemu-system-xtensa -M sim -cpu lx106 -icount shift=10; tools/hpddo/studies/perf.py): one full
 // Observer::step per golden row of models/default, the model and rows chosen by
 // bench_model.h in the build folder (float or fixed point, (16, 8) or the (128, 64)
 // timing model). CCOUNT is read around each step; with -icount shift=10 it advances

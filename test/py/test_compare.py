@@ -10,7 +10,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hpddo import cli, compare, dataset, identify
+from hpddo import cli
+from hpddo.studies import compare
+from hpddo.logs import dataset
+from hpddo.model import identify
 
 pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 
@@ -81,7 +84,7 @@ def test_tuning_and_training_never_see_a_test_row(tmp_path):
     """A marker planted in every test row changes none of what is identified, tuned or
     trained on: the observers' parameters (the tuner's whole output), M2, the rows of
     the residual network and of the pure network, the lookup table."""
-    from hpddo import baseline
+    from hpddo.evaluation import baseline
     recs = dataset.load_recordings(DEFAULT[:2])  # sweep, load: about 1000 training rows
     marked = [_planted(r) for r in recs]
     assert not all(a.df.equals(b.df) for a, b in zip(recs, marked))
@@ -230,7 +233,7 @@ def test_lockstep_training_is_network_train():
     """Networks trained together (compare.train_lockstep), of other inputs and widths
     padded into one shape, are the ones network.train gives each on its own rows: same
     initialisation, permutations, batches and Adam steps; the padding stays zero."""
-    from hpddo import network
+    from hpddo.model import network
     rng = np.random.default_rng(0)
     z1, z2, z3 = rng.normal(size=(1030, 5)), rng.normal(size=(455, 3)), rng.normal(size=(300, 4))
     y1, y2, y3 = np.sin(z1[:, 0]) + z1[:, 1] ** 2, np.cos(z2[:, 2]), z3[:, 0]  # short last batches
@@ -245,7 +248,7 @@ def test_lockstep_training_is_network_train():
 
 
 def test_docs_quote_the_committed_figures():
-    """docs/compare.md holds the tables `python -m hpddo.compare docs/figures` prints from
+    """docs/compare.md holds the tables `python -m hpddo.studies.compare docs/figures` prints from
     the committed JSON of the run it quotes (figures measured, not typed)."""
     tables = compare.markdown(ROOT / "docs" / "figures")
     doc = (ROOT / "docs" / "compare.md").read_text()

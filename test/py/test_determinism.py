@@ -3,7 +3,7 @@
 The committed model headers, golden vectors and metrics must come out byte for byte
 the same whatever BLAS kernel OpenBLAS picks for the CPU (OPENBLAS_CORETYPE), however
 many threads it runs, and whichever SIMD paths numpy dispatches to. The training
-(hpddo/network.py) and the golden reference (hpddo/observer_ref.py) avoid BLAS for
+(hpddo/model/network.py) and the golden reference (hpddo/model/observer_ref.py) avoid BLAS for
 that reason; these tests run them in fresh processes under several such settings and
 compare the bytes.
 """

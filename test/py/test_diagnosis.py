@@ -141,7 +141,7 @@ def test_structured_residual_outside_the_library_is_not_forced_onto_a_name(root)
     residual is structured and shows its strongest correlates."""
     import numpy as np
 
-    from hpddo import benchlog
+    from hpddo.logs import benchlog
     src = bench_dir(root, "ideal", {}, SEEDS[0])
     out = root / "unexplained"
     out.mkdir(exist_ok=True)

@@ -7,9 +7,9 @@ together."""
 import numpy as np
 import pytest
 
-from hpddo import dataset
-from hpddo import effects as fx
-from hpddo import identify
+from hpddo.logs import dataset
+from hpddo.model import effects as fx
+from hpddo.model import identify
 from hpddo.diagnosis import core
 import twin_benches
 

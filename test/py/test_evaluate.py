@@ -1,5 +1,5 @@
 """hpddo evaluate: a trained model scored on every row of recordings it never saw, beside
-the lookup baseline; the scores of hpddo.metrics; the lookup table itself."""
+the lookup baseline; the scores of hpddo.evaluation.metrics; the lookup table itself."""
 import json
 import pathlib
 
@@ -9,9 +9,11 @@ import pytest
 
 from conftest import ROOT
 
-from hpddo import baseline, dataset, metrics, train
+from hpddo.evaluation import baseline, metrics
+from hpddo.logs import dataset
+from hpddo.model import train
 from hpddo.cli import evaluate as cli
-from hpddo.identify import m2_params, ra_from_logs
+from hpddo.model.identify import m2_params, ra_from_logs
 
 MODEL = ROOT / "models" / "default"
 VALIDATION = [ROOT / "data" / "validation" / f"{n}.csv" for n in ("unseen", "hot")]

@@ -1,4 +1,4 @@
-"""No tool deletes or overwrites what it did not write (hpddo/outdir.py and every CLI)."""
+"""No tool deletes or overwrites what it did not write (hpddo/logs/outdir.py and every CLI)."""
 import json
 import pathlib
 
@@ -10,7 +10,7 @@ import demo
 import diagnose
 import gen_weights
 import twin
-from hpddo import outdir
+from hpddo.logs import outdir
 
 DATA = sorted(p for p in (ROOT / "data" / "default").glob("*.csv") if not p.name.endswith(".truth.csv"))
 

@@ -6,7 +6,7 @@ import json
 import pytest
 
 from conftest import ROOT
-from hpddo import perf
+from hpddo.studies import perf
 
 pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 

@@ -20,7 +20,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from conftest import ROOT  # noqa: E402
 
-from hpddo import browser, reports  # noqa: E402
+from hpddo.reports import browser
+from hpddo import reports  # noqa: E402
 from hpddo.reports import training as report  # noqa: E402
 from hpddo.reports import diagnosis as diagnosis_report  # noqa: E402
 

@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 import gen_weights
-from hpddo import gate, train
+from hpddo.model import gate, train
 from hpddo.cli import evaluate as evaluate_cli
 
 pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick

@@ -12,7 +12,8 @@ import demo
 import diagnose
 import gen_weights
 import twin
-from hpddo import benchlog, dataset, identify
+from hpddo.logs import benchlog, dataset
+from hpddo.model import identify
 
 DATA = sorted(p for p in (ROOT / "data" / "default").glob("*.csv") if not p.name.endswith(".truth.csv"))
 LONG = ROOT / "data" / "default" / "long.csv"

@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from hpddo import benchlog
+from hpddo.logs import benchlog
 from hpddo.twin import EFFECT_NAMES, check, generate, params
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]

@@ -1,13 +1,13 @@
 """The command line: `hpddo SUBCOMMAND [options]` (also `python -m hpddo`).
 
-One module per subcommand, each with parser(prog), run(args) -> exit status, main(argv)
+May import: anything of hpddo (it is the top). One module per subcommand, each with parser(prog), run(args) -> exit status, main(argv)
 and, where options depend on each other, validate(args, parser). A subcommand's
 module is imported only when it runs, so `hpddo --help` and `hpddo twin` do not load the
 training and diagnosis code.
 
 One convention for every subcommand: the same flag names for the same things
 (--out, --quiet, --seed, --ra-ohm, --effects NAME[,NAME...], --no-glitch-filter); a user
-error (hpddo.errors.USER_ERRORS: a bad log, a refused output folder, an input the
+error (hpddo.logs.errors.USER_ERRORS: a bad log, a refused output folder, an input the
 pipeline cannot use, a failed capture) is one line `hpddo SUBCOMMAND: message` on
 stderr and exit status 1; a bad command line is argparse's usage message and status 2;
 Ctrl-C (SIGINT) or SIGTERM is one line and status 130 or 143, with no process of the tool
@@ -61,7 +61,7 @@ def run(name: str, argv=None) -> int:
 
     try:
         with interrupt.handling():
-            from ..errors import USER_ERRORS  # (here: it loads the log reader, pandas; `hpddo --help` need not)
+            from ..logs.errors import USER_ERRORS  # (here: it loads the log reader, pandas; `hpddo --help` need not)
 
             mod = _module(name)
             p = mod.parser(f"hpddo {name}")

@@ -32,8 +32,8 @@ import shutil
 import sys
 import time
 
-from .. import benchlog
-from ..errors import InputError
+from ..logs import benchlog
+from ..logs.errors import InputError
 from . import options
 
 try:
@@ -60,7 +60,7 @@ EXIT_OK, EXIT_FAILED, EXIT_GARBLED, EXIT_INTERRUPTED = 0, 1, 3, 130
 
 class CaptureError(InputError):
     """A capture that produced no log; the message is one line naming the fault (one of
-    hpddo.errors.USER_ERRORS: reported as `hpddo capture: message`, exit status 1)."""
+    hpddo.logs.errors.USER_ERRORS: reported as `hpddo capture: message`, exit status 1)."""
 
 
 class PortError(CaptureError):

@@ -48,7 +48,7 @@ def parser(prog: str = "hpddo compare") -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from ..compare import CompareConfig, command_line, run as run_compare, text_summary
+    from ..studies.compare import CompareConfig, command_line, run as run_compare, text_summary
 
     t0 = time.perf_counter()
     argv = [*map(str, args.logs), "--out", str(args.out)]

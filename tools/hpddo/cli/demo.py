@@ -48,7 +48,7 @@ def pipeline(logs, out: pathlib.Path, shown: pathlib.Path, effects, args, title:
     effects as the diagnosis fitted it (not identified again)."""
     from ..reports import training as report
     from ..pipeline import PipelineConfig, run as run_pipeline
-    from ..train import TrainConfig
+    from ..model.train import TrainConfig
 
     res = run_pipeline(logs, out / "model", PipelineConfig(effects=tuple(effects), physics=physics, ra_ohm=args.ra_ohm,
                                                            glitch_filter=not args.no_glitch_filter,
@@ -69,8 +69,8 @@ def bench_logs(folder: pathlib.Path) -> list:
 
 
 def run(args) -> int:
-    from .. import outdir
-    from ..errors import InputError
+    from ..logs import outdir
+    from ..logs.errors import InputError
 
     logs = bench_logs(args.data)
     if not logs:
@@ -88,7 +88,8 @@ def score_validation(res, validation, out: pathlib.Path, shown: pathlib.Path, la
     """Scores the model of a pipeline result on the validation recordings (hpddo evaluate)
     into out/validation (metrics.json, report/, work/); the metrics, or None without
     validation recordings."""
-    from ..evaluate import evaluate, write
+    from ..evaluation.evaluate import evaluate
+    from ..reports.training import write_evaluation as write
 
     if not validation:
         return None

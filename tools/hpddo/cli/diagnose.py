@@ -5,7 +5,7 @@
 Fits the physics model (plain M2, or M2 with --effects) on the training rows (first 80 %
 of each recording), analyses its residual on the held-out rows (where the squared error
 sits, whiteness, cross-correlation with V, I, duty, temperature), ranks the effects of the
-library (tools/hpddo/effects.py) by the share of the held-out residual each explains,
+library (tools/hpddo/model/effects.py) by the share of the held-out residual each explains,
 says which are missing (or that nothing is), adds them, and reports the error before and
 after for the physics model and for the hybrid retrained on top. Writes DIR/index.html
 and DIR/diagnosis.json together, or nothing (a malformed log is refused with its file,
@@ -54,7 +54,7 @@ def options_of(args):
 def diagnose_into(logs, opt, out: pathlib.Path):
     """Runs the diagnosis and writes its report (index.html, diagnosis.json) into out,
     whole or not at all; returns the typed result (hpddo.diagnosis.Diagnosis)."""
-    from .. import outdir
+    from ..logs import outdir
     from ..diagnosis import core
     from ..reports import diagnosis as report
 

@@ -36,8 +36,9 @@ def parser(prog: str = "hpddo evaluate") -> argparse.ArgumentParser:
 
 
 def run(args) -> int:
-    from .. import outdir
-    from ..evaluate import evaluate, model_header, write
+    from ..logs import outdir
+    from ..evaluation.evaluate import evaluate, model_header
+    from ..reports.training import write_evaluation as write
 
     t0 = time.perf_counter()
     model_header(args.model, args.name)  # a missing model is refused before any work

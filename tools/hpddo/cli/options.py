@@ -60,8 +60,8 @@ def leave_one_out(p) -> None:
 
 
 def effects(p, what: str) -> None:
-    """--effects NAME,NAME...: effect terms of the physics model (hpddo/effects.py)."""
-    from .. import effects as fx
+    """--effects NAME,NAME...: effect terms of the physics model (hpddo/model/effects.py)."""
+    from ..model import effects as fx
     p.add_argument("--effects", type=fx.parse_names, default=(), metavar="NAME[,NAME...]",
                    help=f"{what}, comma separated: {', '.join(fx.NAMES)}")
 

@@ -108,9 +108,9 @@ def provenance(args) -> str:
 
 
 def run(args) -> int:
-    from .. import physics
+    from ..model import physics
     from ..pipeline import DEFAULT_RATED_RPM, DEFAULT_RATED_V, PipelineConfig, run as run_pipeline
-    from ..train import TrainConfig
+    from ..model.train import TrainConfig
 
     given = (args.rated_v is not None) + (args.rated_rpm is not None)
     cfg = PipelineConfig(name=args.name, ra_ohm=args.ra_ohm,

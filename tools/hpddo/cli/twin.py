@@ -154,7 +154,7 @@ def simulate(bench, prot: str, args, stage: pathlib.Path) -> None:
 
 
 def run(args) -> int:
-    from .. import outdir
+    from ..logs import outdir
     from ..twin import protocols
 
     if args.list_effects:

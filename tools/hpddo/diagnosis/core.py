@@ -22,11 +22,13 @@ import time
 
 import numpy as np
 
-from .. import dataset, identify, schema
-from ..errors import InputError
-from .. import effects as fx
-from .. import physics as ph
-from ..train import TrainConfig, TrainingError, hybrid_rpm, train_residual
+from ..logs import dataset
+from ..model import identify
+from .. import schema
+from ..logs.errors import InputError
+from ..model import effects as fx
+from ..model import physics as ph
+from ..model.train import TrainConfig, TrainingError, hybrid_rpm, train_residual
 from . import analysis, ranking
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
@@ -743,8 +745,8 @@ def leave_one_out(inp: Inputs, missing: list) -> dict:
     test, and it with the missing effects), scored on every row of the one left out.
     {"recordings": {name: {"before", "after"}}, "average": {"before", "after"}}, RMSE in RPM.
     The physics only: the hybrid's cross-recording figure is hpddo train --leave-one-out."""
-    from ..metrics import figure, rmse
-    from ..train import physics_rpm
+    from ..evaluation.metrics import figure, rmse
+    from ..model.train import physics_rpm
 
     scores = {}
     for k, held in enumerate(inp.recs):

@@ -36,9 +36,9 @@ import os
 
 import numpy as np
 
-from .. import effects as fx
+from ..model import effects as fx
 from .. import interrupt
-from .. import physics as ph
+from ..model import physics as ph
 from .. import schema
 from . import analysis
 

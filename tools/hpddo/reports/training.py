@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from .. import benchlog  # noqa: E402
+from ..logs import benchlog  # noqa: E402
 from . import png, render  # noqa: E402
 
 MODELS = ("M1", "M2", "M3")
@@ -84,3 +84,12 @@ def write(metrics: dict, estimates_dir: pathlib.Path, out: pathlib.Path, title: 
         name = f.name.replace(".estimates.csv", "")
         recordings.append({"name": name, "figure": overlay_figure(pd.read_csv(f), name)})
     return benchlog.write_text_atomic(pathlib.Path(out) / "index.html", page(metrics, recordings, title, notes, caption))
+
+
+def write_evaluation(ev, out: pathlib.Path, title: str, notes: list) -> pathlib.Path:
+    """Writes an evaluation's (hpddo.evaluation.evaluate.Evaluation) metrics.json and
+    report/index.html into out; the page."""
+    import json
+    (pathlib.Path(out) / "metrics.json").write_text(json.dumps(ev.metrics, indent=2) + "\n")
+    return write(ev.metrics, ev.estimates, pathlib.Path(out) / "report", title, notes,
+                 caption=ev.table.splitlines()[0])

@@ -23,7 +23,7 @@ import pathlib
 import numpy as np
 import pandas as pd
 
-from .. import benchlog
+from ..logs import benchlog
 from . import plant, protocols, sensors
 from .params import EFFECT_NAMES, EFFECTS, GENERATOR_VERSION, Bench
 

@@ -1,7 +1,7 @@
 // Fixed-size dense ReLU network with a linear scalar output, the residual
 // learner of M3. Sizes are template parameters; weights stay in flash and are
 // laid out row-major per layer, W[out][in] (the transpose of coefs_ in
-// tools/hpddo/network.py, which keeps scikit-learn's W[in][out]), biases
+// tools/hpddo/model/network.py, which keeps scikit-learn's W[in][out]), biases
 // b[out]. kH2 == 0 means one hidden layer.
 #ifndef HPDDO_MLP_H
 #define HPDDO_MLP_H

@@ -36,7 +36,7 @@ Arithmetic order (the contract with gate.h; all float32):
 is the same.)
 
 The measurement behind the chosen gate (the twins, the variants, the cost on the boards)
-is hpddo.gate_study (docs/gate.md).
+is hpddo.studies.gate_study (docs/gate.md).
 """
 from __future__ import annotations
 

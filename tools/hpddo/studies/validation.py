@@ -1,6 +1,6 @@
 """The validation table: memory against estimation, on the bundled recordings.
 
-    python -m hpddo.validation --out DIR        (about 4 minutes on 2 cores)
+    python -m hpddo.studies.validation --out DIR        (about 4 minutes on 2 cores)
 
 Trains four models on data/default (sweep, load, long; chronological 80 %): the physics
 as identified and with the effects the diagnosis names, each with and without the
@@ -14,7 +14,7 @@ import argparse
 import json
 import pathlib
 
-from . import resource_root
+from .. import resource_root
 
 #: The effects the diagnosis names on data/default (docs/diagnosis.md; hpddo demo, step 2).
 NAMED_EFFECTS = ("thermal_ra", "brush_drop", "magnet_thermal")
@@ -25,9 +25,9 @@ VALIDATION = ("hot", "unseen")
 def run(out: pathlib.Path, progress: bool = False) -> dict:
     """Trains and scores the four models into out/<variant>/; returns {variant: {"chrono":
     rmse_rpm of the held-out 20 %, "validation": rmse_rpm of every row of data/validation}}."""
-    from .evaluate import evaluate
-    from .pipeline import PipelineConfig, run as run_pipeline
-    from .train import TrainConfig
+    from ..evaluation.evaluate import evaluate
+    from ..pipeline import PipelineConfig, run as run_pipeline
+    from ..model.train import TrainConfig
 
     root = resource_root() / "data"
     logs = [root / "default" / f"{n}.csv" for n in TRAINING]
@@ -61,7 +61,7 @@ def table(results: dict) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.validation", description=__doc__,
+    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.validation", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--out", type=pathlib.Path, help="a new folder for the models and scores")
     ap.add_argument("--table", type=pathlib.Path, metavar="JSON",

@@ -3,7 +3,7 @@ named coefficient of the physics model, its regressor and its identification.
 
 Every effect is declared once, in schema.py (its PhysicsParams field, units, plausible
 range, meaning, excitation and bit; the C++ struct and bits are generated from it); the
-term itself exists once here (through tools/hpddo/physics.py) and once in lib/hpddo_core
+term itself exists once here (through tools/hpddo/model/physics.py) and once in lib/hpddo_core
 (physics.h), and test/py/test_effects_parity.py holds the two together.
 
 The regressor of an effect is the sensitivity of the speed estimate to its coefficient,
@@ -31,8 +31,8 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from . import physics as ph
-from . import schema
-from .dataset import Recording, di_dt_A_per_s, dt_s, temp_read_C
+from .. import schema
+from ..logs.dataset import Recording, di_dt_A_per_s, dt_s, temp_read_C
 from .identify import MIN_RPM, IdentificationError
 
 # One entry of the library: the declaration in schema.py (name, field, units, plausible

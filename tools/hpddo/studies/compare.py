@@ -50,12 +50,15 @@ import time
 
 import numpy as np
 
-from . import baseline, dataset, export, identify, interrupt, network, outdir, replay, resource_root
-from . import gate as gate_mod
-from . import metrics as metrics_mod
-from . import physics as ph
-from . import train as train_mod
-from .errors import InputError
+from ..evaluation import baseline, replay
+from ..logs import dataset, outdir
+from ..model import export, identify, network
+from .. import interrupt, resource_root
+from ..model import gate as gate_mod
+from ..evaluation import metrics as metrics_mod
+from ..model import physics as ph
+from ..model import train as train_mod
+from ..logs.errors import InputError
 
 TOOL = "compare"
 SOURCE = resource_root() / "host" / "compare"
@@ -344,7 +347,7 @@ def training_log(rec: dataset.Recording, path: pathlib.Path) -> pathlib.Path:
     meta["condition"] = rec.name
     meta["note"] = f"training rows 0..{rec.n_train - 1} of {rec.source.name} (cleaned), for tuning"
     meta["split_row"] = str(part.n)
-    from . import benchlog
+    from ..logs import benchlog
     return benchlog.write_log(path, part.df, meta)
 
 
@@ -578,7 +581,7 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
     m2 = _m2(recs, ra)
     m2e = None
     if cfg.effects:
-        from . import effects
+        from ..model import effects
         m2e = effects.identify(recs, m2, cfg.effects)
     say = (lambda s: print(f"[{time.perf_counter() - t0:6.1f} s] {s}", file=sys.stderr, flush=True)) \
         if cfg.progress else (lambda s: None)
@@ -675,7 +678,7 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
             for name, t in tables.items():
                 (stage / f"{name}.json").write_text(json.dumps(t, indent=1) + "\n")
             seconds = time.perf_counter() - t0
-            from .reports import compare as report
+            from ..reports import compare as report
             report.write(tables, stage / "report", cfg.command, seconds)
             (stage / "summary.txt").write_text(text_summary(tables) + f"\nfinished in {seconds:.1f} s\n")
     finally:
@@ -695,7 +698,7 @@ def replay_m3(recs, vrecs, m1, m2, fit: Fitted, gated: bool, work, cfg) -> dict:
     """The board observer, compiled against the chronological M3 with (or without) the
     gate, replayed on the chronological split and the never-seen recordings:
     {(model, part): [estimates DataFrame per recording]}."""
-    from .pipeline import model_data
+    from ..pipeline import model_data
     name = "M3 gated" if gated else "M3"
     model = model_data(m1, m2, fit.as_residual(gated))
     mname = "compare_gated" if gated else "compare_nogate"
@@ -773,7 +776,7 @@ def table7_chrono_and_validation(recs, vrecs, m2, m2e, fit: Fitted, replays: dic
                        "EKF, SMO, pure NN": "native replay of host/compare (compare_observers): EKF and SMO in "
                                             "double, the network in float32",
                        "M2 + effects": "physics.physics_rpm in float64 with the observer's lag and thermal rules",
-                       "lookup": "hpddo.baseline.Lookup of the training rows"}}
+                       "lookup": "hpddo.evaluation.baseline.Lookup of the training rows"}}
     if vrecs:
         out["validation"] = {"what": "every row of recordings no training saw (--validation); models of the "
                                      "chronological training part",
@@ -807,7 +810,7 @@ def table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra) -> dic
         v = m3_variants(fit, x, n2)
         est = {"M1": _physics(rec, m1), "M2": n2}
         if m2e is not None:
-            from . import effects
+            from ..model import effects
             est["M2 + effects"] = _physics(rec, effects.identify(others, p, cfg.effects))
         est.update(obs)
         est["M3"] = v["clamped + fallback"]
@@ -1059,7 +1062,7 @@ CONDITIONS_DOC = ("sweep", "load", "long", "average")
 
 def main(argv=None) -> int:
     import argparse
-    ap = argparse.ArgumentParser(prog="python -m hpddo.compare",
+    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.compare",
                                  description="print the markdown tables of docs/compare.md from a run's JSON files")
     ap.add_argument("folder", type=pathlib.Path, help="an output of hpddo compare, or docs/figures")
     args = ap.parse_args(argv)

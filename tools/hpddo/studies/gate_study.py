@@ -2,12 +2,12 @@
 without the named effects, M3, and ten gate variants scored on the chronological split,
 never-seen (duty, load) pairs and a hot motor; the gate's cost on the boards.
 
-    python -m hpddo.gate_study --measure OUT   # the twins' recordings, training, the tables
-    python -m hpddo.gate_study --table JSON    # the tables of a gate_measure.json
-    python -m hpddo.gate_study --cost OUT      # after --measure OUT: bytes and AVR cycles
+    python -m hpddo.studies.gate_study --measure OUT   # the twins' recordings, training, the tables
+    python -m hpddo.studies.gate_study --table JSON    # the tables of a gate_measure.json
+    python -m hpddo.studies.gate_study --cost OUT      # after --measure OUT: bytes and AVR cycles
 
-The gate itself is hpddo.gate; the lookup column is hpddo.baseline.Lookup, the RMSE
-hpddo.metrics.rmse and the residual train.correction, as everywhere else in the project.
+The gate itself is hpddo.model.gate; the lookup column is hpddo.evaluation.baseline.Lookup, the RMSE
+hpddo.evaluation.metrics.rmse and the residual train.correction, as everywhere else in the project.
 """
 from __future__ import annotations
 
@@ -16,10 +16,10 @@ import functools
 
 import numpy as np
 
-from .gate import F32, GateData, _floats, cpp_data, fit, open_gate, weight
+from ..model.gate import F32, GateData, _floats, cpp_data, fit, open_gate, weight
 
 # --------------------------------------------------------------------------------------
-# Measurement (docs/gate.md): python -m hpddo.gate_study --measure OUT
+# Measurement (docs/gate.md): python -m hpddo.studies.gate_study --measure OUT
 # --------------------------------------------------------------------------------------
 
 RATE_HZ = 2.0
@@ -57,15 +57,15 @@ def _write_custom(bench, segments, seed: int, out_dir, condition: str):
 
     import pandas as pd
 
-    from . import benchlog
-    from .twin import plant, protocols, sensors
+    from ..logs import benchlog
+    from ..twin import plant, protocols, sensors
 
     duty, load = protocols.per_sample(segments, RATE_HZ)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 7]))
     res = plant.simulate(bench, duty, load, RATE_HZ)
     cols, _ = sensors.measure(bench, res, duty, load, rng)
     meta = {"condition": condition, "sample_rate_hz": f"{RATE_HZ:g}", "motor": "25GA371 1:4.4 (bench twin)",
-            "ra_ohm": f"{bench.ra_ohm:.2f}", "note": f"hpddo.gate_study measurement, seed={seed}"}
+            "ra_ohm": f"{bench.ra_ohm:.2f}", "note": f"hpddo.studies.gate_study measurement, seed={seed}"}
     out = pathlib.Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     path = benchlog.write_log(out / f"{condition}.csv", pd.DataFrame(cols), meta)
@@ -78,8 +78,8 @@ def make_twin_data(name: str, out, seed: int = 1) -> dict:
     import dataclasses as dc
     import pathlib
 
-    from .twin import generate
-    from .twin.params import preset, with_effects
+    from ..twin import generate
+    from ..twin.params import preset, with_effects
 
     pre, eff = TWINS[name]
     bench = with_effects(preset(pre), **eff)
@@ -102,7 +102,7 @@ def make_twin_data(name: str, out, seed: int = 1) -> dict:
 
 def gate_inputs(rec, p) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Features x (N, 5), the temperature the observer uses (N,) and n_M2 of a recording."""
-    from . import train
+    from ..model import train
 
     x, n2 = train.features(rec, p)
     temp = np.asarray(train.temperature_used(rec, p).winding_C, float)
@@ -125,7 +125,7 @@ def training_inputs(recs, p, with_temp: bool) -> np.ndarray:
 def m3_residual(res, x: np.ndarray) -> np.ndarray:
     """The clamped residual the observer adds (0 outside the envelope), vectorised, as if
     there were no gate (the gate's weight is applied by the caller, per variant)."""
-    from . import train
+    from ..model import train
     return train.correction(dataclasses.replace(res, gate=open_gate(x.shape[1])), x)[0]
 
 
@@ -135,9 +135,10 @@ def measure(out, progress: bool = True, max_iter: int | None = None) -> dict:
     import pathlib
     import pickle
 
-    from . import dataset, effects, identify, train
-    from .baseline import Lookup
-    from .metrics import rmse
+    from ..logs import dataset
+    from ..model import effects, identify, train
+    from ..evaluation.baseline import Lookup
+    from ..evaluation.metrics import rmse
 
     out = pathlib.Path(out)
     results = {}
@@ -248,7 +249,7 @@ def verdict(results: dict) -> str:
 
 
 # --------------------------------------------------------------------------------------
-# Cost on the boards (docs/gate.md): python -m hpddo.gate_study --cost OUT
+# Cost on the boards (docs/gate.md): python -m hpddo.studies.gate_study --cost OUT
 # --------------------------------------------------------------------------------------
 
 _AVR_PROGRAM = r"""
@@ -308,7 +309,7 @@ def cost(gd: GateData, vectors: np.ndarray, out) -> dict:
     import pathlib
     import subprocess
 
-    root = pathlib.Path(__file__).resolve().parents[2]
+    root = pathlib.Path(__file__).resolve().parents[3]
     src = root / "lib" / "hpddo_core" / "src"
     out = pathlib.Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -356,7 +357,7 @@ def measure_cost(out) -> dict:
     import pathlib
     import pickle
 
-    from . import dataset
+    from ..logs import dataset
 
     out = pathlib.Path(out)
     m2, _ = pickle.loads((out / "cache" / "default_named.pkl").read_bytes())
@@ -383,7 +384,7 @@ def main(argv=None) -> int:
     import json
     import pathlib
 
-    ap = argparse.ArgumentParser(prog="python -m hpddo.gate_study", description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.gate_study", description=__doc__.split("\n\n")[0])
     ap.add_argument("--measure", metavar="OUT", help="make the twins' data under OUT/data, train, measure, "
                     "write OUT/gate_measure.json and print the tables of docs/gate.md")
     ap.add_argument("--table", metavar="JSON", help="print the tables of a gate_measure.json")

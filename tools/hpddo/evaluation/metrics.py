@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 #: Estimate columns scored, by model name: the observer's three, and the lookup baseline
-#: (hpddo.baseline) where the caller added it to every frame.
+#: (hpddo.evaluation.baseline) where the caller added it to every frame.
 MODELS = {"M1": "rpm_m1", "M2": "rpm_m2", "M3": "rpm_m3", "lookup": "rpm_lookup"}
 STATUS_SHARES = {"clamped_share": "clamped", "fallback_share": "fallback", "gated_share": "gated",
                  "invalid_share": "invalid"}

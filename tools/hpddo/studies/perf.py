@@ -33,7 +33,7 @@ import time
 
 import numpy as np
 
-from . import resource_root
+from .. import resource_root
 
 ROOT = resource_root()
 STAGES = {1: "step", 2: "prepare", 3: "residual", 4: "finish", 5: "physics", 6: "envelope", 7: "gate",
@@ -264,7 +264,7 @@ def lx106(build: pathlib.Path, model) -> dict:
     """Instruction counts of one full observer step on the lx106 in QEMU: (16, 8) float and
     fixed point on models/default and its goldens, and the (128, 64) timing model on the same
     rows. QEMU and GCC's sources are installed on demand (apt-get, as root)."""
-    from . import export, quant
+    from ..model import export, quant
     for probe, pkgs in ((lambda: shutil.which("qemu-system-xtensa"), ["qemu-system-misc"]),
                         (lambda: glob.glob(GCC_SOURCE_GLOB), ["gcc-12-source"]),
                         (lambda: shutil.which(LX_CXX), ["gcc-xtensa-lx106", "binutils-xtensa-lx106",
@@ -275,7 +275,7 @@ def lx106(build: pathlib.Path, model) -> dict:
     build.mkdir(parents=True, exist_ok=True)
     libsoft = _lx106_libgcc(build)
     wide = wide_model(model)
-    prov = {"command": "tools/hpddo/perf.py (timing model: random (128, 64) weights, seed 14)"}
+    prov = {"command": "tools/hpddo/studies/perf.py (timing model: random (128, 64) weights, seed 14)"}
     (build / "model_wide.h").write_text(export.model_header(wide, "wide", prov))
     (build / "model_wide_q.h").write_text(export.model_header_q(wide, quant.quantise(wide), "wide", prov))
     default = ROOT / "models" / "default"
@@ -303,10 +303,11 @@ def wide_model(model, seed: int = 14):
 
 def host(build: pathlib.Path, model, repeat: int) -> dict:
     """Builds and runs host_step; scikit-learn's predict on the same rows."""
-    from . import dataset, export, quant
+    from ..logs import dataset
+    from ..model import export, quant
     build.mkdir(parents=True, exist_ok=True)
     wide = wide_model(model)
-    prov = {"command": "tools/hpddo/perf.py (timing model: random (128, 64) weights, seed 14)"}
+    prov = {"command": "tools/hpddo/studies/perf.py (timing model: random (128, 64) weights, seed 14)"}
     (build / "model_wide.h").write_text(export.model_header(wide, "wide", prov))
     (build / "model_wide_q.h").write_text(export.model_header_q(wide, quant.quantise(wide), "wide", prov))
     exe = build / "host_step"
@@ -317,7 +318,7 @@ def host(build: pathlib.Path, model, repeat: int) -> dict:
     fig = json.loads(_run([exe, repeat, *logs]).strip().splitlines()[-1])
     fig["compiler"] = _run(["g++", "--version"]).splitlines()[0]
     # scikit-learn on the same rows: features from the float reference's definition (train.features).
-    from . import train
+    from ..model import train
     recs = dataset.load_recordings(logs)
     x = np.concatenate([train.features(r, model.physics)[0] for r in recs]).astype(np.float64)
     fig["sklearn_rows"] = int(len(x))
@@ -427,7 +428,7 @@ def write_doc(fig: dict, text: str) -> None:
 
 
 def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = False, lx: bool = True) -> dict:
-    from . import export
+    from ..model import export
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
     fig = {"command": COMMAND, "when": time.strftime("%Y-%m-%d", time.gmtime()),

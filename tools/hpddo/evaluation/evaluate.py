@@ -14,10 +14,52 @@ import pathlib
 import re
 import tempfile
 
-from . import baseline, dataset
+import numpy as np
+
+from . import baseline, replay
+from ..logs import dataset
 from . import metrics as metrics_mod
-from .errors import InputError
-from .pipeline import recordings_record, replay_natively, score_recordings
+from ..logs.errors import InputError
+
+REPLAY_SOURCE = "native replay (hpddo_core observer, per-sample)"
+
+
+def score_recordings(recs, estimates, checksum: int | None, lookup: baseline.Lookup | None = None,
+                     part: str = "test") -> dict:
+    """The metrics of the replay's estimates of recs (one DataFrame each, every row) and
+    of the lookup baseline where given, scored on the rows of `part` ("test": the
+    held-out rows; "all": every row)."""
+    scored = []
+    for r, est in zip(recs, estimates):
+        if len(est) != r.n:
+            raise RuntimeError(f"replay wrote {len(est)} estimates for {r.n} rows of {r.name}")
+        if lookup is not None:
+            est = est.assign(rpm_lookup=lookup.predict_rows(r))
+        ref = r.df["rpm_ref"].to_numpy(float) if "rpm_ref" in r.df else np.full(r.n, np.nan)
+        mask = np.ones(r.n, bool) if part == "all" else np.arange(r.n) >= r.n_train
+        scored.append((r.name, ref, est, mask))
+    return metrics_mod.score(scored, REPLAY_SOURCE, checksum)
+
+
+def recordings_record(recs) -> dict:
+    """What metrics.json says of the recordings themselves: the rows the glitch filter
+    removed (file line and reason), the warnings, the recording names."""
+    return {"glitches_removed": {r.name: {"file": r.source.name, "rows_in_file": r.rows_in_file,
+                                          "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
+                                 for r in recs},
+            "warnings": [w for r in recs for w in r.warnings],
+            "recordings": [r.name for r in recs]}
+
+
+def replay_natively(recs, model_dir: pathlib.Path, name: str, work: pathlib.Path, split: float | None = None) -> list:
+    """Writes the cleaned recordings into work/logs, builds the replay for model_<name>.h of
+    model_dir into work/replay and replays them into work/estimates; their estimates."""
+    (work / "logs").mkdir(parents=True, exist_ok=True)
+    (work / "estimates").mkdir(exist_ok=True)
+    clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
+    exe = replay.build(pathlib.Path(model_dir), name, work / "replay")
+    return replay.run(exe, clean, work / "estimates", split)
+
 
 SOURCE = "native replay (hpddo_core observer, per-sample), every row of recordings the model was not trained on"
 
@@ -72,7 +114,7 @@ def temperature_warning(physics, rec) -> str | None:
     on: the observer then takes the case at the model's ambient on every row (as a board
     without a sensor does), and the thermal terms correct for a temperature that was not
     there. None where that is not the case."""
-    from . import schema
+    from .. import schema
     thermal = [n for n in physics.effect_names() if schema.BY_NAME[n].thermal]
     if not thermal or rec.has_temp():
         return None
@@ -83,7 +125,7 @@ def temperature_warning(physics, rec) -> str | None:
 
 
 def _replay_and_score(model_dir, model_name, checksum, lookup, recs, work: pathlib.Path) -> Evaluation:
-    from .export import read_model_header
+    from ..model.export import read_model_header
     header = pathlib.Path(model_dir) / f"model_{model_name}.h"
     physics = read_model_header(header.read_text(encoding="utf-8")).physics
     for r in recs:
@@ -96,13 +138,6 @@ def _replay_and_score(model_dir, model_name, checksum, lookup, recs, work: pathl
     m["model"] = {"folder": str(model_dir), "name": model_name, "effects": physics.effect_names()}
     m.update(recordings_record(recs))
     return Evaluation(recs, m, metrics_mod.table(m, TABLE_TITLE), work / "estimates")
-
-
-def write(ev: Evaluation, out: pathlib.Path, title: str, notes: list) -> pathlib.Path:
-    """Writes an evaluation's metrics.json and report/index.html into out; the page."""
-    from .reports import training as report
-    (out / "metrics.json").write_text(json.dumps(ev.metrics, indent=2) + "\n")
-    return report.write(ev.metrics, ev.estimates, out / "report", title, notes, caption=ev.table.splitlines()[0])
 
 
 TABLE_TITLE = "RMSE on every row of recordings the model never saw (RPM)"

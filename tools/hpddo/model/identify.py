@@ -12,8 +12,8 @@ import math
 import numpy as np
 
 from . import physics as ph
-from .dataset import Recording
-from .errors import InputError
+from ..logs.dataset import Recording
+from ..logs.errors import InputError
 
 RAD_S_PER_RPM = 2.0 * np.pi / 60.0  # the paper's 0.10472
 MIN_RPM = 10.0  # eq. 20 uses rows above 10 RPM: below, stiction and encoder quantisation rule

@@ -10,8 +10,8 @@ from tqdm import tqdm
 from . import gate as gate_mod
 from . import network
 from . import physics as ph
-from .dataset import Recording, di_dt_A_per_s, dt_s, lagged, segment_starts, temp_read_C
-from .errors import InputError
+from ..logs.dataset import Recording, di_dt_A_per_s, dt_s, lagged, segment_starts, temp_read_C
+from ..logs.errors import InputError
 
 FEATURES = ["v_V", "i_A", "n_M2", "i_A_lag1", "n_M2_lag1"]
 CLAMP_PERCENTILE = 99.0   # paper 4.10: the 99th percentile of absolute training residuals

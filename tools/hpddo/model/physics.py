@@ -17,7 +17,7 @@ from .libm import exp
 # The parameters and effects are declared once, in schema.py: PhysicsParams (fields and
 # units as the C++ PhysicsParams, generated from the same declaration) and EFFECT_BITS
 # (effect name -> (C++ bit, the PhysicsParams field that carries its coefficient)).
-from .schema import EFFECT_BITS, PhysicsParams  # noqa: F401
+from ..schema import EFFECT_BITS, PhysicsParams  # noqa: F401
 
 RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
 BRUSH_KNEE_MIN_A = 0.001   # the smallest brush knee the term takes (hpddo::kBrushKneeMin_A)

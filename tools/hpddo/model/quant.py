@@ -317,7 +317,7 @@ def weight_bytes(q: QuantNet) -> bytes:
 
 def _stream(rec, rows):
     """(v, i, temp or None, dt, seq) of the given rows of a recording, as the replay feeds them."""
-    from . import dataset
+    from ..logs import dataset
     df = rec.df
     dt = dataset.dt_s(rec)
     temp = dataset.temp_read_C(rec)

@@ -17,11 +17,11 @@ import zlib
 import numpy as np
 
 from . import physics as ph
-from . import schema
+from .. import schema
 from .gate import DEFAULT_PROTOTYPES
 from .observer_ref import ModelData, ReferenceObserver
 
-GENERATOR = "hpddo.export 2"
+GENERATOR = "hpddo.model.export 2"
 GATE_PROTOTYPES = DEFAULT_PROTOTYPES  # hpddo::kGatePrototypes; the header asserts they agree
 
 
@@ -137,7 +137,7 @@ def model_header(model: ModelData, name: str, provenance: dict) -> str:
             c_array("kGateCentre", g.centre), c_array("kGateScale", g.scale),
             c_array("kGatePrototypes", g.prototypes, per_line=5), "\n",
             f"static_assert(hpddo::kGatePrototypes == {GATE_PROTOTYPES}, \"the core's gate size (model.h) is "
-            f"hpddo.gate.DEFAULT_PROTOTYPES\");\n"]
+            f"hpddo.model.gate.DEFAULT_PROTOTYPES\");\n"]
     counts = ["kW0Count", "kW1Count", "kW2Count"]
     for k, (cname, arr) in enumerate(network_arrays(model)):
         if cname.startswith("kW"):
@@ -242,7 +242,7 @@ def model_header_q(model: ModelData, q, name: str, provenance: dict) -> str:
     shifts = list(q.shifts) + [0] * (2 - len(q.shifts))
     crc = model_checksum_q(model, q)
     prov = dict(provenance)
-    prov.update(generator=GENERATOR, quantiser="hpddo.quant (tools/hpddo/quant.py)",
+    prov.update(generator=GENERATOR, quantiser="hpddo.model.quant (tools/hpddo/model/quant.py)",
                 shapes="-".join(str(n) for n in (5, *hidden, 1)),
                 weights=f"layer 0 int16 (scaler folded in), hidden {q.hidden_type}, output int16; int32 sums",
                 shifts=" ".join(map(str, q.shifts)), checksum=f"crc32 0x{crc:08x}")
@@ -306,7 +306,7 @@ def golden_header_q(rows: np.ndarray, ints, name: str, provenance: dict) -> str:
     guard = f"HPDDO_GOLDEN_{name.upper()}_Q_H"
     cols = GOLDEN_INPUTS + GOLDEN_Q_STAGES
     prov = dict(provenance)
-    prov.update(generator=GENERATOR, reference="hpddo.quant.forward_int (Python integers) in hpddo.observer_ref",
+    prov.update(generator=GENERATOR, reference="hpddo.model.quant.forward_int (Python integers) in hpddo.model.observer_ref",
                 rows=len(rows), columns=" ".join(cols), int_columns=" ".join(GOLDEN_Q_INTS))
     enums = ",\n".join(f"  kCol_{c} = {k}" for k, c in enumerate(cols))
     ienums = ",\n".join(f"  kInt_{c} = {k}" for k, c in enumerate(GOLDEN_Q_INTS))

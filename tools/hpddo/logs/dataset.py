@@ -15,7 +15,8 @@ import re
 import numpy as np
 import pandas as pd
 
-from . import benchlog, schema
+from . import benchlog
+from .. import schema
 
 TRAIN_FRACTION = 0.8
 MIN_ROWS = 10  # fewer rows than this cannot be split into training and test parts

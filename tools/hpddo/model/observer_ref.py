@@ -16,7 +16,7 @@ F32 = np.float32
 STATUS = {"ok": 0, "clamped": 1, "fallback": 2, "invalid": 3, "gated": 4}
 
 
-from .schema import Limits  # noqa: E402,F401 (declared once, in schema.py; re-exported)
+from ..schema import Limits  # noqa: E402,F401 (declared once, in schema.py; re-exported)
 
 
 @dataclasses.dataclass

@@ -14,8 +14,8 @@ import shutil
 import subprocess
 import tempfile
 
-from . import resource_root
-from .errors import InputError
+from .. import resource_root
+from ..logs.errors import InputError
 
 ROOT = resource_root()
 SOURCE = ROOT / "host"

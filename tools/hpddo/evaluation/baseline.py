@@ -80,11 +80,11 @@ class Lookup:
         points = [{"load": int(k), "duty": float(d), "rpm": float(f"{v:.9g}"), "rows": int(n)}
                   for k, d, v, n in zip(self.load, self.duty, self.rpm, self.rows)]
         return json.dumps({"what": "mean encoder speed of the training rows per operating point (duty, load); "
-                                   "hpddo.baseline", "points": points}, indent=1) + "\n"
+                                   "hpddo.evaluation.baseline", "points": points}, indent=1) + "\n"
 
     @staticmethod
     def read(path) -> "Lookup":
-        from .errors import InputError
+        from ..logs.errors import InputError
         try:
             pts = json.loads(pathlib.Path(path).read_text(encoding="utf-8"))["points"]
             return Lookup(duty=np.array([float(p["duty"]) for p in pts], float),

@@ -81,7 +81,7 @@ def commit(stage: pathlib.Path, out: pathlib.Path, tool: str, prune: bool = True
     and writes the manifest. With prune, what the tool wrote there before and did not write
     now is removed (the folder is one result, as a report); without, it stays (the folder
     collects results, as recordings). Removes stage."""
-    from .interrupt import held
+    from ..interrupt import held
 
     with held():  # a signal waits until every entry is in place
         return _commit(stage, out, tool, prune)
