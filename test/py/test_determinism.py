@@ -61,7 +61,7 @@ SNIPPET = r"""
 import hashlib, sys
 sys.path.insert(0, sys.argv[1])
 import numpy as np
-from hpddo import network, fixtures, export
+from hpddo.model import network, fixtures, export
 rng = np.random.default_rng(7)
 x = rng.normal(size=(1500, 5)) * [3.0, 0.4, 80.0, 0.4, 80.0] + [8.0, 0.5, 180.0, 0.5, 180.0]
 y = 0.02 * x[:, 2] - 1.5 * x[:, 1] ** 2 + rng.normal(0, 0.3, 1500)

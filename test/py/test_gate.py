@@ -137,7 +137,7 @@ def test_fit_is_deterministic_across_blas_kernels(method):
     here = _digest(gate.fit(g, k=16, method=method))
     assert _digest(gate.fit(g, k=16, method=method)) == here
     code = ("import sys, hashlib, numpy as np; sys.path.insert(0, %r); sys.path.insert(0, %r);"
-            "import test_gate as t; from hpddo import gate;"
+            "import test_gate as t; from hpddo.model import gate;"
             "print(t._digest(gate.fit(t.training_rows(), k=16, method=%r)))"
             % (str(ROOT / "tools"), str(ROOT / "test/py"), method))
     for core in ("Prescott", "Haswell"):
