@@ -6,7 +6,8 @@
 #                                        compiler, CMake and Eigen for the native replay
 #        scripts/bootstrap.sh --tests    and what every test needs (scripts/test.sh): googletest,
 #                                        the AVR and ESP8266 toolchains, simavr, clang's
-#                                        sanitizers and fuzzer, Chromium for the reports
+#                                        sanitizers and fuzzer, Chromium for the reports, the
+#                                        C++ headers of the ESP8266 sketch's compile-only check
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
@@ -16,7 +17,8 @@ case "${1:-}" in
   --tests) apt_pkgs+=(git googletest libgtest-dev
                       gcc-avr avr-libc arduino-core-avr simavr libsimavr-dev
                       gcc-xtensa-lx106 binutils-xtensa-lx106 picolibc-xtensa-lx106-elf
-                      clang libclang-rt-14-dev chromium) ;;
+                      clang libclang-rt-14-dev chromium
+                      libstdc++-arm-none-eabi-dev) ;;  # its C++ headers: the ESP8266 sketch's compile check
   "") ;;
   *) echo "usage: scripts/bootstrap.sh [--tests]" >&2; exit 2 ;;
 esac

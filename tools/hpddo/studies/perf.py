@@ -15,6 +15,12 @@
    (128, 64) timing model (the default model's physics, scaler, envelope and gate with
    random weights: speed does not depend on their values); scikit-learn's predict
    (scaler + network, features precomputed, one BLAS thread) on the same rows.
+3. ESP8266 (Xtensa lx106) in QEMU, exact instruction counts (installed on demand): the full
+   step (test/bench/lx106_step.cpp), and the ESP8266's JSON with ArduinoJson 7.2.0 from
+   ../shared/vendor (test/bench/lx106_line.cpp): one telemetry line, and an uploaded
+   model's parse and checks.
+4. `hpddo upload` of the default model to the board's logic built for the host
+   (host/esp_host.cpp) over a pseudo-terminal at an emulated 460800 baud, seconds.
 
 Prints the table; with --write-docs writes it into docs/performance.md (between the
 bench markers), with the command, and the figures into docs/figures/bench_observer.json.
@@ -178,6 +184,11 @@ LX_QEMU = ["qemu-system-xtensa", "-M", "sim", "-cpu", "lx106", "-semihosting", "
 LX_CLOCK_HZ = 80e6             # the ESP8266's default CPU clock
 PAPER_LX106_MS = 21.79         # the paper's (128, 64) float inference on the ESP8266
 GOAL_LX106_WIDE_FIXED = 70000  # instructions, fixed-point (128, 64) full step
+GOAL_LX106_LINE = 40000        # instructions, one telemetry line with ArduinoJson (issue 25)
+# Third-party sources the benchmark builds against but the project does not copy (the
+# ESP8266's ArduinoJson): ../shared/vendor beside the clone, or HPDDO_VENDOR_DIR.
+VENDOR = pathlib.Path(os.environ.get("HPDDO_VENDOR_DIR", ROOT.parent / "shared" / "vendor"))
+ARDUINOJSON = VENDOR / "ArduinoJson-7.2.0" / "src"
 # The soft-float and division helpers that the ESP8266 has in ROM and Debian's lx106 libgcc
 # lacks, assembled from GCC's own sources (Debian's gcc-12-source; libgcc/config/xtensa/t-xtensa).
 LX_LIB1FUNCS = ("_mulsi3 _divsi3 _modsi3 _udivsi3 _umodsi3 _umulsidi3 _clz _clzsi2 _ctzsi2 _ffssi2 _ashldi3 _ashrdi3 "
@@ -233,31 +244,71 @@ def bench_model_h(model: str, golden: str, check: bool = True) -> str:
             f"namespace m = hpddo_{model};\nnamespace g = hpddo_{golden};\n")
 
 
+def _lx106_build_run(d: pathlib.Path, source: str, inc_dirs, libsoft, extra=()) -> tuple[str, pathlib.Path]:
+    """Builds test/bench/<source> (and the extra sources beside it) for the lx106, objects in
+    d, runs it in QEMU; its output and the object file of source."""
+    src = ROOT / "test" / "bench"
+    objs = []
+    for name in (source, *extra):
+        objs.append(d / (pathlib.Path(name).stem + ".o"))
+        _run([LX_CXX, *LX_FLAGS, f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}", f"-I{d}", f"-I{src}",
+              *[f"-I{i}" for i in inc_dirs], "-c", src / name, "-o", objs[-1]])
+    elf = d / (pathlib.Path(source).stem + ".elf")
+    _run([LX_CC, LX_SPECS, "-nostartfiles", "-T", src / "lx106.ld", src / "lx106_start.S", *objs,
+          "-Wl,--start-group", libsoft, "-lc", "-lm", "-Wl,--end-group", "-o", elf])
+    out = subprocess.run([*LX_QEMU, "-kernel", str(elf)], check=True, capture_output=True, text=True,
+                         timeout=600).stdout
+    return out, objs[0]
+
+
+def _lx106_counts(out: str, key: str) -> tuple[list, dict]:
+    """The instruction counts of the lines "<key> N" of a benchmark's output (CCOUNT less
+    the empty region, over the counts per instruction of the nop100 region), and the
+    output's other "name N" values."""
+    vals, raw = {}, []
+    for line in out.splitlines():
+        name, _, v = line.partition(" ")
+        if name == key:
+            raw.append(int(v))
+        elif v.isdigit():
+            vals.setdefault(name, []).append(int(v))
+    empty, nop100 = vals.pop("empty")[0], vals.pop("nop100")[0]
+    per_insn = (nop100 - empty) / 100.0
+    vals["counts_per_instruction"] = per_insn
+    return [round((c - empty) / per_insn) for c in raw], vals
+
+
 def _lx106_run(build: pathlib.Path, name: str, includes: str, inc_dirs, libsoft) -> dict:
     """Builds lx106_step with bench_model.h = includes, runs it in QEMU; the counts."""
     d = build / name
     d.mkdir(parents=True, exist_ok=True)
     (d / "bench_model.h").write_text(includes)
-    src = ROOT / "test" / "bench"
-    obj, elf = d / "step.o", d / "step.elf"
-    _run([LX_CXX, *LX_FLAGS, f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}", f"-I{d}", *[f"-I{i}" for i in inc_dirs],
-          "-c", src / "lx106_step.cpp", "-o", obj])
-    _run([LX_CC, LX_SPECS, "-nostartfiles", "-T", src / "lx106.ld", src / "lx106_start.S", obj,
-          "-Wl,--start-group", libsoft, "-lc", "-lm", "-Wl,--end-group", "-o", elf])
-    out = subprocess.run([*LX_QEMU, "-kernel", str(elf)], check=True, capture_output=True, text=True,
-                         timeout=600).stdout
-    vals = {}
-    steps = []
-    for line in out.splitlines():
-        key, _, v = line.partition(" ")
-        if key == "step":
-            steps.append(int(v))
-        elif key in ("empty", "nop100", "bad"):
-            vals[key] = int(v)
-    per_insn = (vals["nop100"] - vals["empty"]) / 100.0
-    insns = [round((c - vals["empty"]) / per_insn) for c in steps]
-    return {"step": _stats(insns), "counts_per_instruction": per_insn, "golden_misses": vals.get("bad"),
+    out, obj = _lx106_build_run(d, "lx106_step.cpp", inc_dirs, libsoft)
+    insns, vals = _lx106_counts(out, "step")
+    return {"step": _stats(insns), "counts_per_instruction": vals["counts_per_instruction"],
+            "golden_misses": vals.get("bad", [None])[0],
             "code_B": int(_run(["xtensa-lx106-elf-size", "-A", obj]).split("Total")[1].split()[0])}
+
+
+def lx106_line(build: pathlib.Path, libsoft) -> dict:
+    """Instruction counts of one telemetry line (infer::LineWriter::write, ArduinoJson 7.2.0
+    from VENDOR) on the lx106 in QEMU, over the golden rows of models/default, and the
+    lines' lengths in bytes."""
+    if not (ARDUINOJSON / "ArduinoJson.h").is_file():
+        return {"status": f"not run: ArduinoJson 7.2.0 not found at {ARDUINOJSON} (set HPDDO_VENDOR_DIR)"}
+    d = build / "telemetry_line"
+    d.mkdir(parents=True, exist_ok=True)
+    doc = (ROOT / "test" / "fixtures" / "upload_default.json").read_text()
+    (d / "upload_doc.h").write_text(f"static const char kUploadDoc[] = {json.dumps(doc)};\n")
+    out, _ = _lx106_build_run(d, "lx106_line.cpp", [ROOT / "esp_infer", ROOT / "models" / "default",
+                                                    ARDUINOJSON], libsoft, extra=["lx106_di.cpp"])
+    insns, vals = _lx106_counts(out, "line")
+    parse, _ = _lx106_counts(out, "parse")
+    return {"status": "run", "line": _stats(insns), "bytes": _stats(vals["len"]),
+            "counts_per_instruction": vals["counts_per_instruction"], "arduinojson": "7.2.0",
+            "upload_parse": {"instructions": parse[0], "accepted": vals["parse_ok"][0] == 1,
+                             "arena_peak_B": vals["arena"][0], "arena_capacity_B": vals["arena_capacity"][0],
+                             "document_B": len(doc)}}
 
 
 def lx106(build: pathlib.Path, model) -> dict:
@@ -287,7 +338,47 @@ def lx106(build: pathlib.Path, model) -> dict:
              "fixed_128_64": bench_model_h("model_wide_q", "golden_default", check=False)}
     for name, inc in cases.items():
         fig[name] = _lx106_run(build, name, inc, [default, build], libsoft)
+    fig["telemetry_line"] = lx106_line(build, libsoft)
     return fig
+
+
+GOAL_UPLOAD_S = 5.0  # seconds, the default model to the ESP8266 at 460800 baud (issue 25)
+
+
+def esp_upload(build: pathlib.Path, repeat: int = 5) -> dict:
+    """Seconds `hpddo upload` takes to put the default model in force on the board's logic
+    built for the host (host/esp_host.cpp: infer::App, ArduinoJson from VENDOR) over a
+    pseudo-terminal whose every byte takes its time at 460800 baud (esp_host --baud):
+    the line and the stop-and-wait replies, not a USB bridge's latency. Median of repeat."""
+    from ..model import upload
+    if not (ARDUINOJSON / "ArduinoJson.h").is_file():
+        return {"status": f"not run: ArduinoJson 7.2.0 not found at {ARDUINOJSON} (set HPDDO_VENDOR_DIR)"}
+    try:
+        import serial
+    except ImportError:  # pragma: no cover
+        return {"status": "not run: pyserial is not installed"}
+    build.mkdir(parents=True, exist_ok=True)
+    exe = build / "esp_host"
+    _run(["g++", "-std=c++17", "-O2", "-ffp-contract=off", f"-I{ROOT / 'host'}", f"-I{ROOT / 'esp_infer'}",
+          f"-I{ROOT / 'models' / 'default'}", f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}", "-isystem", ARDUINOJSON,
+          ROOT / "host" / "esp_host.cpp", "-o", exe])
+    doc = upload.document(upload.read_model(ROOT / "models" / "default"))
+    times = []
+    for k in range(repeat):
+        store = build / f"store{k}"
+        shutil.rmtree(store, ignore_errors=True)
+        proc = subprocess.Popen([str(exe), "--store", str(store), "--pty", "--baud", str(upload.BAUD)],
+                                stdout=subprocess.PIPE, text=True)
+        try:
+            port_name = proc.stdout.readline().split()[1]
+            with serial.Serial(port_name, upload.BAUD, timeout=0.2, exclusive=True) as port:
+                done = upload.send(port, doc, log=None)
+            times.append(done["seconds"])
+        finally:
+            proc.terminate()
+            proc.wait(timeout=10)
+    return {"status": "run", "seconds": {"median": float(statistics.median(times)), "max": max(times), "n": len(times)},
+            "document_B": len(doc), "chunks": done["chunks"], "baud": upload.BAUD}
 
 
 def wide_model(model, seed: int = 14):
@@ -403,8 +494,33 @@ def table(fig: dict) -> str:
                         f"{f['median'] / LX_CLOCK_HZ * 1e3:.3f} | {q['median'] / LX_CLOCK_HZ * 1e3:.3f} | |")
         rows.append(f"| ESP8266 steps off the golden estimate (1e-4 rel.), (16, 8) | "
                     f"{lx['float_16_8']['golden_misses']} | {lx['fixed_16_8']['golden_misses']} | 0 |")
+        tl = lx.get("telemetry_line", {"status": "not run"})
+        if tl.get("status") == "run":
+            ln = tl["line"]
+            ok = ln["median"] <= GOAL_LX106_LINE and ln["max"] <= GOAL_LX106_LINE
+            rows.append(f"| ESP8266 (QEMU lx106) telemetry line, ArduinoJson {tl['arduinojson']}, instructions, median / max "
+                        f"over {ln['n']} golden rows ({tl['bytes']['median']:.0f} bytes) | {ln['median']:,.0f} / {ln['max']:,} "
+                        f"| | goal {GOAL_LX106_LINE:,}: {'met' if ok else '**missed**'}; "
+                        f"{ln['median'] / (LX_CLOCK_HZ / 100) * 100:.1f} % of a 100 Hz sample at 80 MHz |")
+            up = tl["upload_parse"]
+            rows.append(f"| ESP8266 (QEMU lx106) model upload: parse and checks of the default model's document "
+                        f"({up['document_B']:,} bytes; accepted: {'yes' if up['accepted'] else '**no**'}), instructions | "
+                        f"{up['instructions']:,} | | {up['instructions'] / LX_CLOCK_HZ * 1e3:.1f} ms at 80 MHz (a lower "
+                        f"bound); ArduinoJson arena peak {up['arena_peak_B']:,} of {up['arena_capacity_B']:,} bytes |")
+        else:
+            rows.append(f"| ESP8266 (QEMU lx106) telemetry line | {tl.get('status')} | | |")
     else:
         rows.append(f"| ESP8266 (QEMU lx106) instruction counts | {lx.get('status')} | | |")
+    up = fig.get("esp_upload", {"status": "not run"})
+    if up.get("status") == "run":
+        t = up["seconds"]
+        ok = t["max"] <= GOAL_UPLOAD_S
+        rows.append(f"| ESP8266 model upload (`hpddo upload`), default model, {up['document_B']:,} bytes in {up['chunks']} "
+                    f"chunks, to the board's logic built for the host over a pseudo-terminal at an emulated "
+                    f"{up['baud']:,} baud, s, median / max of {t['n']} | {t['median']:.3f} / {t['max']:.3f} | | "
+                    f"goal {GOAL_UPLOAD_S:g} s: {'met' if ok else '**missed**'}; no USB bridge latency, no flash writes |")
+    else:
+        rows.append(f"| ESP8266 model upload | {up.get('status')} | | |")
     prof = ["", "Profile per stage on the AVR (cycles, median over the golden rows; each stage timed alone):", "",
             "| Stage | Float | Fixed point |", "|---|---:|---:|"]
     for k in ("prepare", "residual", "finish", "gate", "physics", "physics_all_effects", "thermal_on", "scaler", "envelope"):
@@ -434,7 +550,8 @@ def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = F
     fig = {"command": COMMAND, "when": time.strftime("%Y-%m-%d", time.gmtime()),
            "machine": f"{os.uname().machine}, {os.cpu_count()} cores",
            "avr": avr(build / "avr", model, peer_python), "host": host(build / "host", model, repeat),
-           "lx106": lx106(build / "lx106", model) if lx else {"status": "not run (--no-lx106)"}}
+           "lx106": lx106(build / "lx106", model) if lx else {"status": "not run (--no-lx106)"},
+           "esp_upload": esp_upload(build / "esp_upload")}
     text = table(fig)
     print(text, end="")
     if write:
