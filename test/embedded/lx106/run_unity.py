@@ -27,7 +27,7 @@ def main() -> int:
     ap.add_argument("--build", type=pathlib.Path, required=True)
     a = ap.parse_args()
     sys.path.insert(0, str(a.root / "tools"))
-    from hpddo import perf
+    from hpddo.studies import perf
 
     if not (shutil.which("qemu-system-xtensa") and glob.glob(perf.GCC_SOURCE_GLOB) and shutil.which(perf.LX_CXX)):
         print("skipped: qemu-system-misc, gcc-12-source or the lx106 GCC not installed "

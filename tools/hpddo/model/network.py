@@ -134,6 +134,21 @@ def init_network(n_in: int, hidden: tuple, rng: np.random.Generator) -> tuple[np
     return vec, flat
 
 
+def adam_rate(cfg: AdamConfig, b1_t: float, b2_t: float) -> float:
+    """Adam's step size with both moments' bias corrected (b1_t, b2_t: the betas to the power
+    of the step's number)."""
+    return cfg.learning_rate * np.sqrt(1.0 - b2_t) / (1.0 - b1_t)
+
+
+def adam_step(theta: np.ndarray, grad: np.ndarray, m: np.ndarray, v: np.ndarray, lr_t: float) -> None:
+    """One Adam step of the parameters theta in place, with their moments m and v."""
+    m *= ADAM_BETA1
+    m += (1.0 - ADAM_BETA1) * grad
+    v *= ADAM_BETA2
+    v += (1.0 - ADAM_BETA2) * (grad * grad)
+    theta -= lr_t * m / (np.sqrt(v) + ADAM_EPS)
+
+
 def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None) -> tuple[Network, list]:
     """Fits the network to targets y on standardised rows z; returns it and the loss per
     epoch (mean of the halved squared error plus the L2 term, over the epoch's batches).
@@ -173,11 +188,94 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None) -> tuple
                     delta *= acts[k] > 0
             b1_t *= ADAM_BETA1
             b2_t *= ADAM_BETA2
-            m *= ADAM_BETA1
-            m += (1.0 - ADAM_BETA1) * grad
-            v *= ADAM_BETA2
-            v += (1.0 - ADAM_BETA2) * (grad * grad)
-            lr_t = cfg.learning_rate * np.sqrt(1.0 - b2_t) / (1.0 - b1_t)
-            theta -= lr_t * m / (np.sqrt(v) + ADAM_EPS)
+            adam_step(theta, grad, m, v, adam_rate(cfg, b1_t, b2_t))
         losses.append(acc_loss / n)
     return Network(coefs_=[w.copy() for w in ws], intercepts_=[b.copy() for b in bs]), losses
+
+
+def train_lockstep(zs: list, ys: list, cfg: AdamConfig, hiddens: list | None = None) -> list:
+    """network.train for several networks at once, each on its own rows: the same
+    initialisation (its own generator seeded cfg.seed), the same fresh permutation each
+    epoch, the same batches, loss gradients, L2 term and Adam steps, so each network is
+    the one network.train gives on its rows (to the rounding of the BLAS products). The
+    networks step together, their batches stacked into one array: Python's cost per
+    step, which dominates for small networks, is paid once for all. A network whose rows
+    are fewer takes fewer steps and is frozen when its last epoch ends.
+
+    The networks may differ in their inputs and layer widths (hiddens[k], default
+    cfg.hidden for all; the same number of layers): each is embedded in the widest shape
+    with zeros, and the zeros stay zeros (a zero input or unit has no gradient, the L2
+    term of a zero weight is zero, Adam does not move a weight whose gradients were all
+    zero), so the padding changes nothing but the cost. Returns one Network per (z, y)."""
+    K = len(zs)
+    zs = [np.asarray(z, float) for z in zs]
+    ys = [np.asarray(y, float).reshape(-1) for y in ys]
+    hiddens = [tuple(cfg.hidden)] * K if hiddens is None else [tuple(h) for h in hiddens]
+    sizes = [(z.shape[1], *h, 1) for z, h in zip(zs, hiddens)]
+    if len({len(sz) for sz in sizes}) != 1:
+        raise ValueError("lockstep networks need the same number of layers")
+    widest = [max(sz[j] for sz in sizes) for j in range(len(sizes[0]))]
+    L = len(widest) - 1
+    W = [np.zeros((K, widest[l], widest[l + 1])) for l in range(L)]   # (K, in, out)
+    b = [np.zeros((K, widest[l + 1])) for l in range(L)]              # (K, out)
+    rngs = [np.random.default_rng(cfg.seed) for _ in range(K)]
+    for k, (rng, sz) in enumerate(zip(rngs, sizes)):
+        vec, flat = init_network(sz[0], tuple(sz[1:-1]), rng)
+        ws, bs = flat.views(vec)
+        for l in range(L):
+            W[l][k, : sz[l], : sz[l + 1]] = ws[l]
+            b[l][k, : sz[l + 1]] = bs[l]
+    n_in = widest[0]
+    B = cfg.batch_size
+    params = W + b
+    m = [np.zeros_like(a) for a in params]
+    v = [np.zeros_like(a) for a in params]
+    n = np.array([len(z) for z in zs])
+    per_epoch = -(-n // B)
+    total = per_epoch * cfg.max_iter
+    result = [None] * K
+    X = np.zeros((K, B, n_in))
+    Y = np.zeros((K, B, 1))
+    mask = np.zeros((K, B, 1))
+    nb = np.ones(K)
+    shuffled = [None] * K
+    b1_t = b2_t = 1.0
+    for t in range(int(total.max())):
+        mask[:] = 0.0
+        for k in range(K):
+            if t >= total[k]:
+                continue
+            j = t % per_epoch[k]
+            if j == 0:
+                order = rngs[k].permutation(n[k])
+                shuffled[k] = (zs[k][order], ys[k][order])
+            lo = j * B
+            zb, yb = shuffled[k][0][lo: lo + B], shuffled[k][1][lo: lo + B]
+            c = len(zb)
+            X[k, :c, : sizes[k][0]] = zb
+            Y[k, :c, 0] = yb
+            mask[k, :c] = 1.0
+            nb[k] = c
+        acts = [X]
+        for l in range(L):
+            h = acts[-1] @ W[l] + b[l][:, None, :]
+            if l < L - 1:
+                np.maximum(h, 0.0, out=h)
+            acts.append(h)
+        delta = (acts[-1] - Y) * mask
+        grads_w, grads_b = [None] * L, [None] * L
+        for l in range(L - 1, -1, -1):
+            grads_w[l] = (np.swapaxes(acts[l], 1, 2) @ delta + cfg.alpha * W[l]) / nb[:, None, None]
+            grads_b[l] = delta.sum(axis=1) / nb[:, None]
+            if l:
+                delta = (delta @ np.swapaxes(W[l], 1, 2)) * (acts[l] > 0)
+        b1_t *= ADAM_BETA1
+        b2_t *= ADAM_BETA2
+        lr_t = adam_rate(cfg, b1_t, b2_t)
+        for a, g, mm, vv in zip(params, grads_w + grads_b, m, v):
+            adam_step(a, g, mm, vv, lr_t)
+        for k in np.flatnonzero(total == t + 1):
+            sz = sizes[k]
+            result[k] = Network(coefs_=[W[l][k, : sz[l], : sz[l + 1]].copy() for l in range(L)],
+                                        intercepts_=[b[l][k, : sz[l + 1]].copy() for l in range(L)])
+    return result
