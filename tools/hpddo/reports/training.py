@@ -48,8 +48,8 @@ def overlay_figure(est: pd.DataFrame, title: str) -> str:
     ax.plot(t, est["rpm_m3"], color=COLOURS["rpm_m3"], lw=1.3, label="M3 hybrid")
     ax.plot(t, est["rpm_m2"], color=COLOURS["rpm_m2"], lw=0.8, label="M2 identified physics")
     ax.set_ylabel("output shaft speed (RPM)")
-    ax2.plot(t, est["rpm_m2"] - est["rpm_ref"], color=COLOURS["rpm_m2"], lw=0.8, label="M2 error")
-    ax2.plot(t, est["rpm_m3"] - est["rpm_ref"], color=COLOURS["rpm_m3"], lw=0.8, label="M3 error")
+    ax2.plot(t, est["rpm_m3"] - est["rpm_ref"], color=COLOURS["rpm_m3"], lw=1.1, label="M3 error")
+    ax2.plot(t, est["rpm_m2"] - est["rpm_ref"], color=COLOURS["rpm_m2"], lw=0.7, label="M2 error")
     ax2.set_ylabel("error (RPM)")
     ax2.set_xlabel("time (s)")
     test = est.index[est["part"] == "test"]
