@@ -1,53 +1,79 @@
-// hpddo inference board (ESP8266 NodeMCU, 80 MHz): receives the UNO's frames
-// on GPIO14 (D5) at 38400 baud, runs the observer with the exported model and
-// writes one JSON line per sample to USB (infer::kHostBaud, 460800 baud). Thin glue
-// only: the logic is in infer_link.h, infer_telemetry.h and infer_json.h (the line
-// with fixed decimals and its budget), tested on the host.
+// hpddo inference board (ESP8266 NodeMCU, 80 MHz): receives the UNO's frames on GPIO14
+// (D5) at 38400 baud, runs the observer with the model in force and writes one JSON line
+// per sample to USB (infer::kHostBaud, 460800 baud); reads JSON commands from USB, among
+// them a new model, kept in LittleFS (docs/firmware.md). Every JSON is ArduinoJson's.
+// Nothing listens on Wi-Fi: the sketch links no network library, and the core (3.x) turns
+// the radio off at boot unless a sketch calls enableWiFiAtBootTime()
+// (core_esp8266_main.cpp, __disableWiFiAtBootTime). Thin glue only: the logic is
+// infer::App (infer_app.h), tested on the host and run there by host/esp_host.cpp.
 #include <Arduino.h>
+#include <LittleFS.h>
 #include <SoftwareSerial.h>
 
 #include "hpddo_core.h"
-#include "infer_json.h"
-#include "infer_link.h"
+#include "infer_app.h"
 #include "infer_model.h"
-#include "infer_telemetry.h"
 
 namespace {
 
 const uint8_t kPinLinkRx = 14;  // D5, from the UNO's D11 through a 1k/2k divider
 const uint32_t kLinkBaud = 38400;
+const size_t kHostRxBuffer = 1024;  // two whole command lines (infer::kCommandMax)
+
+/// The board's files: LittleFS (formatted on first use).
+class FsStore : public infer::Store {
+ public:
+  bool begin_write(const char* path) override {
+    w_ = LittleFS.open(path, "w");
+    return static_cast<bool>(w_);
+  }
+  bool append(const uint8_t* data, size_t n) override { return w_ && w_.write(data, n) == n; }
+  bool end_write() override {
+    if (!w_) return false;
+    w_.close();
+    return true;
+  }
+  bool open_read(const char* path) override {
+    r_ = LittleFS.open(path, "r");
+    return static_cast<bool>(r_);
+  }
+  int read() override { return r_.read(); }
+  size_t read_bytes(char* out, size_t n) override { return r_.read(reinterpret_cast<uint8_t*>(out), n); }
+  void close_read() override { r_.close(); }
+  bool rename(const char* from, const char* to) override { return LittleFS.rename(from, to); }
+  bool remove(const char* path) override { return LittleFS.remove(path); }
+  bool exists(const char* path) override { return LittleFS.exists(path); }
+
+ private:
+  File w_;
+  File r_;
+};
 
 SoftwareSerial g_link(kPinLinkRx, -1);
-infer::LinkReceiver g_rx(&infer::model::kModel.limits);  // frames beyond the model's channels are damage
-hpddo::Observer<infer::model::Net> g_observer(infer::model::kModel);
+FsStore g_store;
+infer::App<infer::model::Net> g_app(infer::model::kModel, infer::model::kChecksum, g_store);
+
+class SerialSink : public infer::LineSink {
+ public:
+  void line(const char* text, size_t n) override { Serial.write(reinterpret_cast<const uint8_t*>(text), n); }
+};
+SerialSink g_out;
 
 uint32_t now_us() { return micros(); }
-
-void write_json(const infer::Telemetry& t) {
-  char line[infer::kJsonMaxLine + 1];  // on the stack; the widest line fits (InferJson tests)
-  const size_t n = infer::format_json(t, line, sizeof line);
-  if (n == 0) {
-    Serial.println("{\"event\":\"telemetry_overflow\"}");
-    return;
-  }
-  Serial.write(reinterpret_cast<const uint8_t*>(line), n);
-}
 
 }  // namespace
 
 void setup() {
+  Serial.setRxBufferSize(kHostRxBuffer);
   Serial.begin(infer::kHostBaud);
   g_link.begin(kLinkBaud);
-  const uint32_t crc = hpddo::model_checksum(infer::model::kModel);
-  Serial.printf("{\"event\":\"ready\",\"model_crc_ok\":%s}\n", crc == infer::model::kChecksum ? "true" : "false");
+  LittleFS.begin();
+  g_app.begin(g_out);
 }
 
 void loop() {
-  while (g_link.available() > 0) {
-    hpddo::SampleFrame f;
-    if (g_rx.push(static_cast<uint8_t>(g_link.read()), millis(), &f)) {
-      write_json(infer::infer_step(g_observer, f, g_rx, now_us));
-    }
-  }
+  while (g_link.available() > 0) g_app.link_byte(static_cast<uint8_t>(g_link.read()), millis(), now_us, g_out);
+  while (Serial.available() > 0) g_app.host_byte(static_cast<uint8_t>(Serial.read()), millis(), g_out);
+  g_app.poll(millis(), g_out);
   yield();
 }

@@ -1,5 +1,5 @@
 // Host-side reader of bench logs for the native tools. The format is specified in
-// docs/bench-log.md; this reader and tools/hpddo/benchlog.py follow it exactly (same
+// docs/bench-log.md; this reader and tools/hpddo/logs/benchlog.py follow it exactly (same
 // accept/refuse, same first fault line and keyword, same values), held to it by the
 // conformance corpus test/fixtures/logs/ and a differential fuzz test.
 #ifndef HPDDO_HOST_BENCH_LOG_H

@@ -8,7 +8,7 @@
 // metadata; 0 makes every row a test row) are the training part, the rest the
 // test part; the observer's lags restart at the split, so no feature crosses it.
 // --out-dir writes DIR/<log stem>.estimates.csv with every row's M1, M2 and M3
-// estimates, status and part (hpddo.metrics scores them). --batched runs the
+// estimates, status and part (hpddo.evaluation.metrics scores them). --batched runs the
 // same Observer in two passes (Observer::prepare for every row, the residual
 // network for all rows in the envelope at once as Eigen matrix products, then
 // Observer::finish for every row); --check-batched runs both and prints their
@@ -260,7 +260,7 @@ int main(int argc, char** argv) {
         best[mode] = std::min(best[mode], s);
       }
     }
-    // One JSON object on its own line, for hpddo.replay.bench.
+    // One JSON object on its own line, for hpddo.evaluation.replay.bench.
     std::printf("{\"bench\": {\"samples\": %zu, \"repeat\": %d, \"per_sample_per_s\": %.6g, "
                 "\"batched_per_s\": %.6g}}\n",
                 total, bench, static_cast<double>(total) / best[0], static_cast<double>(total) / best[1]);

@@ -2,17 +2,26 @@
 # Installs everything hpddo needs on a Debian/Ubuntu machine, idempotently:
 # system packages through apt-get (when root; otherwise prints the command),
 # Python packages into the project venv at .venv.
-# Usage: scripts/bootstrap.sh [--with-browser]
+# Usage: scripts/bootstrap.sh            what the main job needs (scripts/demo.sh): a C++
+#                                        compiler, CMake and Eigen for the native replay
+#        scripts/bootstrap.sh --tests    and what every test needs (scripts/test.sh): googletest,
+#                                        the AVR and ESP8266 toolchains, simavr, clang's
+#                                        sanitizers and fuzzer, Chromium for the reports, the
+#                                        C++ headers of the ESP8266 sketch's compile-only check
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 
-apt_pkgs=(cmake g++ make python3 python3-venv python3-pip git
-          googletest libgtest-dev libeigen3-dev
-          gcc-avr avr-libc arduino-core-avr simavr libsimavr-dev
-          gcc-xtensa-lx106 binutils-xtensa-lx106 picolibc-xtensa-lx106-elf
-          clang libclang-rt-14-dev)
-if [[ "${1:-}" == "--with-browser" ]]; then apt_pkgs+=(chromium); fi
+apt_pkgs=(cmake g++ make python3 python3-venv python3-pip libeigen3-dev)
+case "${1:-}" in
+  --tests) apt_pkgs+=(git googletest libgtest-dev
+                      gcc-avr avr-libc arduino-core-avr simavr libsimavr-dev
+                      gcc-xtensa-lx106 binutils-xtensa-lx106 picolibc-xtensa-lx106-elf
+                      clang libclang-rt-14-dev chromium
+                      libstdc++-arm-none-eabi-dev) ;;  # its C++ headers: the ESP8266 sketch's compile check
+  "") ;;
+  *) echo "usage: scripts/bootstrap.sh [--tests]" >&2; exit 2 ;;
+esac
 
 missing=()
 for p in "${apt_pkgs[@]}"; do

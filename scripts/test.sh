@@ -1,12 +1,24 @@
 #!/usr/bin/env bash
 # Runs every test of hpddo: the host build with googletest, the three-compiler
 # header checks, firmware simulation and fuzzing (all through ctest), the same
-# host tests under AddressSanitizer and UndefinedBehaviorSanitizer, and pytest
-# for the tools. Installs what it needs first (scripts/bootstrap.sh).
+# host tests under AddressSanitizer and UndefinedBehaviorSanitizer, the benchmarks,
+# and pytest for the tools on every core. Installs what it needs first
+# (scripts/bootstrap.sh --tests).
+#
+# Usage: scripts/test.sh            the full run (the README's test command, CI)
+#        scripts/test.sh --quick    for work in progress: the host build and its ctest
+#                                   (no fuzzing), and pytest without the tests marked slow
+#                                   (pyproject.toml, markers); no sanitizers, no benchmarks
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
-bash scripts/bootstrap.sh --with-browser
+quick=0
+case "${1:-}" in
+  --quick) quick=1 ;;
+  "") ;;
+  *) echo "usage: scripts/test.sh [--quick]" >&2; exit 2 ;;
+esac
+bash scripts/bootstrap.sh --tests
 
 jobs=$(nproc)
 gen=(); command -v ninja >/dev/null && gen=(-G Ninja)
@@ -14,6 +26,11 @@ gen=(); command -v ninja >/dev/null && gen=(-G Ninja)
 echo "== host build and ctest"
 cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build build -j "$jobs"
+if ((quick)); then
+  ctest --test-dir build -j "$jobs" --output-on-failure -E '^firmware\.fuzz\.'
+  echo "== pytest (quick: not the slow tests)"
+  exec .venv/bin/python -m pytest -q -n "$jobs" -m "not slow" test/py
+fi
 ctest --test-dir build -j "$jobs" --output-on-failure
 
 echo "== sanitizer build (ASan + UBSan) and ctest"
@@ -28,4 +45,4 @@ echo "== benchmark (prints its figures; the targets are judged against peers mea
 .venv/bin/hpddo bench --observer --no-lx106
 
 echo "== pytest"
-.venv/bin/python -m pytest -q test/py
+.venv/bin/python -m pytest -q -n "$jobs" test/py

@@ -237,7 +237,7 @@ std::vector<double> numbers(const std::string& text, size_t count, const std::st
   return out;
 }
 
-/// The pure network's file (hpddo.compare writes it): "hpddo-mlp 1", the layer sizes
+/// The pure network's file (hpddo.studies.compare writes it): "hpddo-mlp 1", the layer sizes
 /// (inputs first, output 1 last), the scaler's mean and scale, then per layer its
 /// weights [out x in] row by row and its biases.
 Mlp read_mlp(const std::string& path) {

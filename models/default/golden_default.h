@@ -7,7 +7,7 @@
 // ke_fit: eq20
 // effects: none
 // training: Adam lr=0.001 batch=200 iterations=2000, 6759 rows, chronological 80% of each recording
-// generator: hpddo.export 2
+// generator: hpddo.model.export 2
 // rows: 77
 // columns: v_V i_A temp_C dt_s seq has_seq x0 x1 x2 x3 x4 z0 z1 z2 z3 z4 mlp_rpm rpm_m2 residual_rpm rpm temp_used_C confidence status
 #ifndef HPDDO_GOLDEN_DEFAULT_H

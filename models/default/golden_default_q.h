@@ -7,8 +7,8 @@
 // ke_fit: eq20
 // effects: none
 // training: Adam lr=0.001 batch=200 iterations=2000, 6759 rows, chronological 80% of each recording
-// generator: hpddo.export 2
-// reference: hpddo.quant.forward_int (Python integers) in hpddo.observer_ref
+// generator: hpddo.model.export 2
+// reference: hpddo.model.quant.forward_int (Python integers) in hpddo.model.observer_ref
 // rows: 77
 // columns: v_V i_A temp_C dt_s seq has_seq x0 x1 x2 x3 x4 mlp_rpm rpm_m2 residual_rpm rpm temp_used_C confidence status
 // int_columns: xq0 xq1 xq2 xq3 xq4 acc

@@ -7,7 +7,7 @@
 // ke_fit: eq20
 // effects: none
 // training: Adam lr=0.001 batch=200 iterations=2000, 6759 rows, chronological 80% of each recording
-// generator: hpddo.export 2
+// generator: hpddo.model.export 2
 // shapes: 5-16-8-1
 // checksum: crc32 0x31a93193
 // parameter_layout: crc32 0x71a0bead (hpddo::kParamsSchema, hpddo.schema 1)
@@ -125,7 +125,7 @@ HPDDO_FLASH static const float kGatePrototypes[160] = {
     -0.294368804f, -2.55211616f, 1.59306049f, -2.53768492f, 1.74832332f,
     0.156858116f, 0.458639503f, -0.157901481f, 0.417990893f, -0.0641765594f};
 
-static_assert(hpddo::kGatePrototypes == 32, "the core's gate size (model.h) is hpddo.gate.DEFAULT_PROTOTYPES");
+static_assert(hpddo::kGatePrototypes == 32, "the core's gate size (model.h) is hpddo.model.gate.DEFAULT_PROTOTYPES");
 static_assert(sizeof(kW0) / sizeof(float) == Net::kW0Count, "kW0 shape");
 static_assert(sizeof(kW1) / sizeof(float) == Net::kW1Count, "kW1 shape");
 static_assert(sizeof(kW2) / sizeof(float) == Net::kW2Count, "kW2 shape");

@@ -7,8 +7,8 @@
 // ke_fit: eq20
 // effects: none
 // training: Adam lr=0.001 batch=200 iterations=2000, 6759 rows, chronological 80% of each recording
-// generator: hpddo.export 2
-// quantiser: hpddo.quant (tools/hpddo/quant.py)
+// generator: hpddo.model.export 2
+// quantiser: hpddo.model.quant (tools/hpddo/model/quant.py)
 // shapes: 5-16-8-1
 // weights: layer 0 int16 (scaler folded in), hidden int16, output int16; int32 sums
 // shifts: 16 16

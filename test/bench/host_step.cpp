@@ -1,7 +1,7 @@
 // Host throughput of the observer, one thread: best of N passes (and at least half a
 // second of them) of Observer::step over
 // every row of the given bench logs, for the float and the fixed-point form of two
-// models (models/default (16, 8) and a (128, 64) timing model, tools/hpddo/perf.py).
+// models (models/default (16, 8) and a (128, 64) timing model, tools/hpddo/studies/perf.py).
 // Prints one JSON object: samples per second per model.
 //
 // usage: host_step N LOG...

@@ -1,5 +1,5 @@
 // Instruction counts of the observer on the ESP8266's core (Xtensa LX106), run in QEMU
-// (qemu-system-xtensa -M sim -cpu lx106 -icount shift=10; tools/hpddo/perf.py): one full
+// (qemu-system-xtensa -M sim -cpu lx106 -icount shift=10; tools/hpddo/studies/perf.py): one full
 // Observer::step per golden row of models/default, the model and rows chosen by
 // bench_model.h in the build folder (float or fixed point, (16, 8) or the (128, 64)
 // timing model). CCOUNT is read around each step; with -icount shift=10 it advances
@@ -9,42 +9,14 @@
 // output (through the simulator's simcall write) is one line per measurement, then exit.
 #include <stdint.h>
 #include "bench_model.h"
+#include "lx106_io.h"
 
 extern "C" void lx106_main();
 
 namespace {
-char g_out[16384];
-uint32_t g_out_n;
-void put(const char* s) {
-  while (*s && g_out_n + 1 < sizeof g_out) g_out[g_out_n++] = *s++;
-}
-void putu(uint32_t v) {
-  char b[12];
-  int n = 11;
-  b[n] = 0;
-  do {
-    b[--n] = static_cast<char>('0' + v % 10u);
-    v /= 10u;
-  } while (v);
-  put(b + n);
-}
-inline uint32_t ccount() {
-  uint32_t c;
-  __asm__ __volatile__("rsr.ccount %0" : "=a"(c)::"memory");
-  return c;
-}
-void finish(int code) {
-  register int a2 __asm__("a2") = 4;
-  register int a3 __asm__("a3") = 1;
-  register char* a4 __asm__("a4") = g_out;
-  register uint32_t a5 __asm__("a5") = g_out_n;
-  __asm__ __volatile__("simcall" : "+r"(a2), "+r"(a3) : "r"(a4), "r"(a5) : "memory");
-  register int b2 __asm__("a2") = 1;
-  register int b3 __asm__("a3") = code;
-  __asm__ __volatile__("simcall" : "+r"(b2), "+r"(b3)::"memory");
-  for (;;) {
-  }
-}
+using bench::ccount;
+using bench::put;
+using bench::putu;
 __attribute__((unused)) bool close(float got, float want) {
   if (want != want) return got != got;
   const float scale = (want > 1.0f || want < -1.0f) ? (want < 0 ? -want : want) : 1.0f;
@@ -55,17 +27,8 @@ volatile float g_sink;
 }  // namespace
 
 extern "C" void lx106_main() {
-  uint32_t t0 = ccount();
-  uint32_t t1 = ccount();
-  put("empty ");
-  putu(t1 - t0);
-  put("\n");
-  t0 = ccount();
-  __asm__ __volatile__(".rept 100\n nop\n .endr");
-  t1 = ccount();
-  put("nop100 ");
-  putu(t1 - t0);
-  put("\n");
+  bench::calibrate();
+  uint32_t t0, t1;
   uint32_t bad = 0;
   hpddo::Observer<m::Net> obs(m::kModel);
   for (uint16_t r = 0; r < g::kCount; ++r) {
@@ -84,5 +47,5 @@ extern "C" void lx106_main() {
   put("bad ");
   putu(bad);
   put("\n");
-  finish(0);
+  bench::finish(0);
 }

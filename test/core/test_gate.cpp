@@ -1,7 +1,7 @@
 // hpddo::Gate: weight 1 near a prototype, 0 beyond r_out, the linear fade in d2
 // between, 0 for NaN and infinities, monotone away from the data, and the early stop
 // of the sum equal to the full minimum. Built plain and over the host flash fake
-// (core.flash_fake.gate). test/py/test_gate.py holds it to tools/hpddo/gate.py.
+// (core.flash_fake.gate). test/py/test_gate.py holds it to tools/hpddo/model/gate.py.
 #include <math.h>
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// The fixed-point network (mlp_q.h) against the integer reference of tools/hpddo/quant.py:
+// The fixed-point network (mlp_q.h) against the integer reference of tools/hpddo/model/quant.py:
 // quantised inputs, output accumulator and residual bit for bit; the whole observer
 // with it within the golden tolerance (its physics is float, as in the float goldens).
 #include <cmath>

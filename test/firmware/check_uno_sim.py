@@ -18,7 +18,7 @@ encoder in quadrature. Then:
   (tools/hpddo/bench.py, from which the firmware's bench_gen.h is generated);
 * with --observer fixed/float (the firmware runs the observer, issue 14): every row
   after the first carries rpm_est and est_status, equal to the reference observer
-  (tools/hpddo/observer_ref.py; the fixed-point network from tools/hpddo/quant.py) run
+  (tools/hpddo/model/observer_ref.py; the fixed-point network from tools/hpddo/model/quant.py) run
   on the window's exact ADC means within --max-est-diff RPM, with the same status.
 """
 import argparse
@@ -31,7 +31,7 @@ import sys
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "tools"))
 from hpddo import bench  # noqa: E402
-from hpddo.benchlog import read_log  # noqa: E402
+from hpddo.logs.benchlog import read_log  # noqa: E402
 
 # The bench's values, from the one description the firmware's bench_gen.h is
 # generated from (uno_sim.c includes that header).
@@ -76,8 +76,8 @@ def check_estimates(df, windows, a, lsb_v, lsb_i, period):
     inputs of each window (the first row is skipped: the board's lags may hold a window
     closed before the recording started)."""
     import numpy as np
-    from hpddo import export, quant
-    from hpddo.observer_ref import ReferenceObserver
+    from hpddo.model import export, quant
+    from hpddo.model.observer_ref import ReferenceObserver
     if "rpm_est" not in df or "est_status" not in df:
         fail("no rpm_est / est_status columns: the firmware does not run the observer")
     model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
@@ -105,7 +105,7 @@ def check_estimates(df, windows, a, lsb_v, lsb_i, period):
 def recording_table(n):
     """n rows (V, I, speed) of the test part of data/default/long.csv: operating points
     the default model was trained around, so that its network runs on the board."""
-    from hpddo.benchlog import read_log as _read
+    from hpddo.logs.benchlog import read_log as _read
     df = _read(ROOT / "data" / "default" / "long.csv").df
     part = df.iloc[int(0.8 * len(df)):].iloc[:n]
     return [(round(v, 4), round(i, 4), round(r, 3)) for v, i, r in zip(part["v_V"], part["i_A"], part["rpm_ref"])]

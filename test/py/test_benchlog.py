@@ -6,8 +6,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hpddo import benchlog
-from hpddo.benchlog import BenchLogError, read_log, write_log
+from hpddo.logs import benchlog
+from hpddo.logs.benchlog import BenchLogError, read_log, write_log
 
 GOOD = """\
 # condition=sweep

@@ -1,7 +1,7 @@
 """hpddo capture (tools/capture.py) against a fake serial port."""
 import pytest
 
-from hpddo.benchlog import read_log
+from hpddo.logs.benchlog import read_log
 from hpddo.cli import capture
 
 HEAD = ["! uno_acq 1 ready rate=2", "# condition=sweep", "# sample_rate_hz=2", "# motor=25GA371 1:4.4",

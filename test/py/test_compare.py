@@ -10,7 +10,12 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hpddo import cli, compare, dataset, identify
+from hpddo import cli
+from hpddo.studies.compare import config, methods, observers, tables, text, training
+from hpddo.logs import dataset
+from hpddo.model import identify, network
+
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DEFAULT = [ROOT / "data" / "default" / f"{n}.csv" for n in ("sweep", "load", "long")]
@@ -42,8 +47,8 @@ def truth_rpm(folder, rec):
 
 def test_classical_observers_recover_the_true_speed_on_an_exact_twin(ideal, tmp_path):
     folder, recs, m2 = ideal
-    tuned = compare.tune_observers({"ideal": (recs, m2)}, tmp_path / "tune")["ideal"]
-    est = compare.run_observers(tuned, recs, tmp_path / "run", None)
+    tuned = observers.tune_observers({"ideal": (recs, m2)}, tmp_path / "tune")["ideal"]
+    est = observers.run_observers(tuned, recs, tmp_path / "run", None)
     for r, e in zip(recs, est):
         truth = truth_rpm(folder, r)
         test = np.arange(r.n) >= r.n_train
@@ -79,7 +84,7 @@ def test_tuning_and_training_never_see_a_test_row(tmp_path):
     """A marker planted in every test row changes none of what is identified, tuned or
     trained on: the observers' parameters (the tuner's whole output), M2, the rows of
     the residual network and of the pure network, the lookup table."""
-    from hpddo import baseline
+    from hpddo.evaluation import baseline
     recs = dataset.load_recordings(DEFAULT[:2])  # sweep, load: about 1000 training rows
     marked = [_planted(r) for r in recs]
     assert not all(a.df.equals(b.df) for a, b in zip(recs, marked))
@@ -87,9 +92,9 @@ def test_tuning_and_training_never_see_a_test_row(tmp_path):
     out = {}
     for name, rs in (("clean", recs), ("marked", marked)):
         m2 = identify.m2_params(rs, ra)
-        tuned = compare.tune_observers({name: (rs, m2)}, tmp_path / name, coarse=True)[name]
-        x, e = compare._x_e(rs, m2)
-        xn, yn = compare.stack_rows(rs, lambda r: (compare.nn_features(r), compare.reference(r)))
+        tuned = observers.tune_observers({name: (rs, m2)}, tmp_path / name, coarse=True)[name]
+        x, e = methods._x_e(rs, m2)
+        xn, yn = methods.stack_rows(rs, lambda r: (methods.nn_features(r), methods.reference(r)))
         lk = baseline.Lookup.fit(rs)
         out[name] = (m2, tuned, x, e, xn, yn, lk.to_json())
     (m2a, ta, xa, ea, xna, yna, la), (m2b, tb, xb, eb, xnb, ynb, lb) = out["clean"], out["marked"]
@@ -109,23 +114,23 @@ def test_eq26_counts_what_the_clamp_prevents():
     n2 = np.array([105.0, 95.0, 100.0, 100.0])
     clamp = 3.0
     raw = np.array([-20.0, 2.0, 5.0, 1.0])
-    ok = compare.eq26(n2 + np.clip(raw, -clamp, clamp), n2, ref, clamp)
+    ok = tables.eq26(n2 + np.clip(raw, -clamp, clamp), n2, ref, clamp)
     assert ok["violations"] == 0 and ok["samples"] == 3
-    bad = compare.eq26(n2 + raw, n2, ref, clamp)
+    bad = tables.eq26(n2 + raw, n2, ref, clamp)
     assert bad["violations"] == 2 and bad["largest_excess_rpm"] == pytest.approx(7.0)  # |85 - 100| - (5 + 3)
 
 
 def test_pure_network_file_replays_what_python_computes(tmp_path):
     """The float32 network of compare_observers against the float64 numpy network."""
     recs = dataset.load_recordings(DEFAULT[:1])
-    x, y = compare.stack_rows(recs, lambda r: (compare.nn_features(r), compare.reference(r)))
-    scaler, net = compare.fit_network(x, y, (8,), 5, 1, standardise_target=True)
-    mlp = compare.write_mlp(scaler, net, tmp_path / "nn.mlp")
+    x, y = methods.stack_rows(recs, lambda r: (methods.nn_features(r), methods.reference(r)))
+    scaler, net = training.fit_network(x, y, (8,), 5, 1, standardise_target=True)
+    mlp = observers.write_mlp(scaler, net, tmp_path / "nn.mlp")
     tuned = {"motor": {"ke_vs_per_rad": 0.4, "ra_ohm": 4.5, "b_nms_per_rad": 0.0, "tc_nm": 0.1},
              "ekf": {"j_kgm2": 1e-3, "q_w": 1.0, "q_t": 1e-6, "r_A2": 1e-6},
              "smo": {"k_V": 1.0, "phi_A": 0.5, "tau_s": 0.1}}
-    est = compare.run_observers(tuned, recs, tmp_path / "run", mlp)[0]["pure NN"]
-    want = net.predict(scaler.transform(compare.nn_features(recs[0])))
+    est = observers.run_observers(tuned, recs, tmp_path / "run", mlp)[0]["pure NN"]
+    want = net.predict(scaler.transform(methods.nn_features(recs[0])))
     assert np.max(np.abs(est - want)) < 1e-3 * max(1.0, np.max(np.abs(want)))
 
 
@@ -168,7 +173,7 @@ def test_tables_json_schema(quick):
     t = {n: json.loads((out / f"{n}.json").read_text()) for n in TABLES}
     for name, table in t.items():
         assert table["command"].startswith("hpddo compare ") and "--out" in table["command"], name
-        assert table["settings"]["quick"] is True and table["settings"]["epochs"] == compare.QUICK_EPOCHS
+        assert table["settings"]["quick"] is True and table["settings"]["epochs"] == config.QUICK_EPOCHS
         assert "paper" in table and "title" in table
     t7 = t["table7"]
     methods = ["M1", "M2", "M2 + effects", "EKF", "SMO", "pure NN", "M3", "M3 gated", "lookup"]
@@ -189,7 +194,7 @@ def test_tables_json_schema(quick):
     assert rows9["(8)"]["params"] == 57 and rows9["(16, 8)"]["params"] == 241  # the paper's counts
     assert rows9["(16, 8)"]["bytes"] == 4 * 241
     _rmse_block({k: v["rmse_rpm"] for k, v in rows9.items()})
-    assert list(t["table10"]["rows"]) == list(compare.FEATURE_SETS)
+    assert list(t["table10"]["rows"]) == list(config.FEATURE_SETS)
     assert t["table10"]["rows"]["without lags"]["features"] == ["v_V", "i_A", "n_M2"]
     _rmse_block({k: v["rmse_rpm"] for k, v in t["table10"]["rows"].items()})
     # the chronological M3 of Table 8 is the one of Table 10's full set
@@ -225,16 +230,16 @@ def test_a_log_without_encoder_is_refused_in_one_line(tmp_path, capsys):
 
 
 def test_lockstep_training_is_network_train():
-    """Networks trained together (compare.train_lockstep), of other inputs and widths
+    """Networks trained together (network.train_lockstep), of other inputs and widths
     padded into one shape, are the ones network.train gives each on its own rows: same
     initialisation, permutations, batches and Adam steps; the padding stays zero."""
-    from hpddo import network
+    from hpddo.model import network
     rng = np.random.default_rng(0)
     z1, z2, z3 = rng.normal(size=(1030, 5)), rng.normal(size=(455, 3)), rng.normal(size=(300, 4))
     y1, y2, y3 = np.sin(z1[:, 0]) + z1[:, 1] ** 2, np.cos(z2[:, 2]), z3[:, 0]  # short last batches
     for hiddens in ([(16, 8)] * 3, [(16, 8), (32, 16), (8, 4)], [(8,), (64,), (16,)]):
         cfg = network.AdamConfig(hidden=hiddens[0], max_iter=20, seed=1)
-        got = compare.train_lockstep([z1, z2, z3], [y1, y2, y3], cfg, hiddens)
+        got = network.train_lockstep([z1, z2, z3], [y1, y2, y3], cfg, hiddens)
         for (z, y), g, h in zip(((z1, y1), (z2, y2), (z3, y3)), got, hiddens):
             ref, _ = network.train(z, y, network.AdamConfig(hidden=h, max_iter=20, seed=1))
             assert [w.shape for w in g.coefs_] == [w.shape for w in ref.coefs_]
@@ -243,9 +248,9 @@ def test_lockstep_training_is_network_train():
 
 
 def test_docs_quote_the_committed_figures():
-    """docs/compare.md holds the tables `python -m hpddo.compare docs/figures` prints from
+    """docs/compare.md holds the tables `python -m hpddo.studies.compare docs/figures` prints from
     the committed JSON of the run it quotes (figures measured, not typed)."""
-    tables = compare.markdown(ROOT / "docs" / "figures")
+    tables = text.markdown(ROOT / "docs" / "figures")
     doc = (ROOT / "docs" / "compare.md").read_text()
     for line in tables.splitlines():
         assert line in doc, line

@@ -16,8 +16,8 @@ import time
 import numpy as np
 import pytest
 
-from hpddo import benchlog
-from hpddo.benchlog import BenchLogError, read_log
+from hpddo.logs import benchlog
+from hpddo.logs.benchlog import BenchLogError, read_log
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 LOGS = ROOT / "test" / "fixtures" / "logs"

@@ -3,7 +3,7 @@
 The committed model headers, golden vectors and metrics must come out byte for byte
 the same whatever BLAS kernel OpenBLAS picks for the CPU (OPENBLAS_CORETYPE), however
 many threads it runs, and whichever SIMD paths numpy dispatches to. The training
-(hpddo/network.py) and the golden reference (hpddo/observer_ref.py) avoid BLAS for
+(hpddo/model/network.py) and the golden reference (hpddo/model/observer_ref.py) avoid BLAS for
 that reason; these tests run them in fresh processes under several such settings and
 compare the bytes.
 """
@@ -17,6 +17,8 @@ import sys
 import pytest
 
 from conftest import ROOT
+
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 
 PY = sys.executable
 DATA = sorted(p for p in (ROOT / "data" / "default").glob("*.csv") if not p.name.endswith(".truth.csv"))
@@ -59,7 +61,7 @@ SNIPPET = r"""
 import hashlib, sys
 sys.path.insert(0, sys.argv[1])
 import numpy as np
-from hpddo import network, fixtures, export
+from hpddo.model import network, fixtures, export
 rng = np.random.default_rng(7)
 x = rng.normal(size=(1500, 5)) * [3.0, 0.4, 80.0, 0.4, 80.0] + [8.0, 0.5, 180.0, 0.5, 180.0]
 y = 0.02 * x[:, 2] - 1.5 * x[:, 1] ** 2 + rng.normal(0, 0.3, 1500)

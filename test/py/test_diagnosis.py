@@ -94,7 +94,7 @@ def test_two_hidden_effects_are_both_named(root, seed):
 def test_cli_writes_report_and_json_and_refuses_bad_logs(root, tmp_path, capsys):
     paths = bench_dir(root, "saturation", SINGLE["saturation"], SEEDS[0])
     out = tmp_path / "diag"
-    rc = diagnose.main([str(p) for p in paths] + ["--out", str(out), "--bootstrap", "4", "--hybrid-iter", "30"])
+    rc = diagnose.main([str(p) for p in paths] + ["--out", str(out), "--bootstrap", "4", "--epochs", "30"])
     assert rc == 0
     res = json.loads((out / "diagnosis.json").read_text())
     for key in ("model_effects", "missing_effects", "confounded", "ranking", "rmse_rpm"):
@@ -117,7 +117,7 @@ def test_cli_writes_report_and_json_and_refuses_bad_logs(root, tmp_path, capsys)
 def test_report_renders_in_headless_chromium(root, tmp_path):
     chromium = shutil.which("chromium") or shutil.which("chromium-browser")
     if not chromium:
-        pytest.skip("chromium is not installed (scripts/bootstrap.sh --with-browser installs it)")
+        pytest.skip("chromium is not installed (scripts/bootstrap.sh --tests installs it)")
     paths = bench_dir(root, "pair", PAIR, SEEDS[0])
     out = tmp_path / "diag"
     assert diagnose.main([str(p) for p in paths] + ["--out", str(out), "--bootstrap", "0", "--no-hybrid"]) == 0
@@ -141,7 +141,7 @@ def test_structured_residual_outside_the_library_is_not_forced_onto_a_name(root)
     residual is structured and shows its strongest correlates."""
     import numpy as np
 
-    from hpddo import benchlog
+    from hpddo.logs import benchlog
     src = bench_dir(root, "ideal", {}, SEEDS[0])
     out = root / "unexplained"
     out.mkdir(exist_ok=True)
@@ -173,3 +173,29 @@ def test_thermal_ra_and_magnet_thermal_together_are_named_as_a_confounded_pair(r
     ideal = run(bench_dir(root, "ideal", {}, seed))
     ok, info = _halfway(res, ideal)
     assert ok, info
+
+
+@pytest.mark.parametrize("names", [("sweep", "load"), ("load", "sweep")])
+def test_two_bundled_recordings_are_diagnosed(names):
+    """The bundled sweep and load alone (no long run): the forward selection takes a wrong
+    Ra, then an effect that a wrong Ra cannot be told from; refitting Ra with it (once, not
+    twice: it crashed with KeyError 'ra_mismatch') gives a verdict about Ra."""
+    res = run([ROOT / "data" / "default" / f"{n}.csv" for n in names])
+    assert res["ra_fit"]["mismatch"], res["verdict"]
+    assert "Ra" in res["verdict"]
+    assert all(v == v for v in res["rmse_rpm"]["after"].values())  # no NaN
+
+
+def test_the_diagnosis_prints_the_train_command_that_adds_what_it_named(tmp_path, capsys):
+    import shlex
+    from hpddo import cli
+    logs = [str(ROOT / "data" / "default" / f"{n}.csv") for n in ("sweep", "load")]
+    assert diagnose.main([*logs, "--out", str(tmp_path / "d"), "--bootstrap", "0", "--no-hybrid"]) == 0
+    out = capsys.readouterr().out.splitlines()
+    k = next(i for i, ln in enumerate(out) if ln.startswith("next ("))
+    words = shlex.split(out[k + 1])
+    assert words[:2] == ["hpddo", "train"] and words[2:4] == logs
+    res = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
+    args = cli.parser("train").parse_args(words[2:])  # it is a command train takes, as printed
+    assert tuple(args.effects) == tuple(res["missing_effects"])
+    assert args.ra_ohm == pytest.approx(res["ra_fit"]["supported_ohm"], rel=1e-3)

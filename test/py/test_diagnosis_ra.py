@@ -10,6 +10,8 @@ from conftest import ROOT
 from hpddo.diagnosis import core, ranking
 import twin_benches
 
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
+
 SEEDS = (3, 4)
 RA_TRUE = 4.5  # the ideal bench's Ra (twin.params.Bench.ra_ohm)
 

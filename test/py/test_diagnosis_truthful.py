@@ -168,7 +168,7 @@ def test_a_table_that_repeats_its_points_measures_its_noise_there(tmp_path):
 
 
 def test_a_bad_kind_is_refused_with_its_file_and_line(tmp_path):
-    from hpddo import benchlog
+    from hpddo.logs import benchlog
     log = dyno_table(tmp_path / "dyno.csv", 20, 3, meta=("kind=table",))
     with pytest.raises(benchlog.BenchLogError) as exc:
         diagnose([log], RA_OHM)

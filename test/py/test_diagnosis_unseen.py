@@ -7,11 +7,13 @@ together."""
 import numpy as np
 import pytest
 
-from hpddo import dataset
-from hpddo import effects as fx
-from hpddo import identify
+from hpddo.logs import dataset
+from hpddo.model import effects as fx
+from hpddo.model import identify
 from hpddo.diagnosis import core
 import twin_benches
+
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 
 SEED, VALIDATION_SEED = 3, 11
 CASES = {

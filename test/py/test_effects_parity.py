@@ -1,4 +1,4 @@
-"""Parity of every library effect between Python (tools/hpddo/physics.py through
+"""Parity of every library effect between Python (tools/hpddo/model/physics.py through
 effects.py, float32) and hpddo_core (physics.h, thermal.h): a small C++ probe evaluates
 the board's terms for the same parameters and inputs, each effect switched on alone at
 its typical size and at the edges of its plausible range, then all together."""
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from hpddo import effects as fx
-from hpddo import physics as ph
+from hpddo.model import effects as fx
+from hpddo.model import physics as ph
 from hpddo import schema
 
 F32 = np.float32

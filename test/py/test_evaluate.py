@@ -1,5 +1,5 @@
 """hpddo evaluate: a trained model scored on every row of recordings it never saw, beside
-the lookup baseline; the scores of hpddo.metrics; the lookup table itself."""
+the lookup baseline; the scores of hpddo.evaluation.metrics; the lookup table itself."""
 import json
 import pathlib
 
@@ -9,9 +9,11 @@ import pytest
 
 from conftest import ROOT
 
-from hpddo import baseline, dataset, metrics, train
+from hpddo.evaluation import baseline, metrics
+from hpddo.logs import dataset
+from hpddo.model import train
 from hpddo.cli import evaluate as cli
-from hpddo.identify import m2_params, ra_from_logs
+from hpddo.model.identify import m2_params, ra_from_logs
 
 MODEL = ROOT / "models" / "default"
 VALIDATION = [ROOT / "data" / "validation" / f"{n}.csv" for n in ("unseen", "hot")]
@@ -112,13 +114,14 @@ def test_metrics_pool_conditions_and_keep_any_condition_name():
     assert "lookup" not in back["rmse_rpm"]
 
 
+@pytest.mark.slow
 def test_leave_one_out_trains_without_the_recording_it_scores(tmp_path):
     """hpddo train --leave-one-out: per recording, a model trained on the others only,
     scored on every row of the one left out; the figures land in metrics.json."""
     import gen_weights
     logs = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "sweep")]
     out = tmp_path / "m"
-    assert gen_weights.main([*map(str, logs), "--out", str(out), "--max-iter", "3", "--quiet",
+    assert gen_weights.main([*map(str, logs), "--out", str(out), "--epochs", "3", "--quiet",
                              "--leave-one-out"]) == 0
     loo = json.loads((out / "metrics.json").read_text())["leave_one_out"]
     assert set(loo["recordings"]) == {"load", "sweep"}
@@ -133,7 +136,7 @@ def test_leave_one_out_trains_without_the_recording_it_scores(tmp_path):
     avg = np.mean([loo["recordings"][c]["M2"] for c in ("load", "sweep")])
     assert loo["average"]["M2"] == pytest.approx(avg, rel=1e-5)
     # a rerun into the same folder is allowed (the tool wrote everything in it)
-    assert gen_weights.main([*map(str, logs), "--out", str(out), "--max-iter", "3", "--quiet",
+    assert gen_weights.main([*map(str, logs), "--out", str(out), "--epochs", "3", "--quiet",
                              "--leave-one-out"]) == 0
 
 
@@ -160,3 +163,30 @@ def test_a_recording_without_encoder_readings_gets_estimates_and_no_scores(tmp_p
     est = pd.read_csv(est_path)
     assert len(est) == 120 and est["rpm_m3"].notna().all()
     assert (out / "report" / "index.html").is_file()
+
+
+@pytest.mark.slow
+def test_a_thermal_model_on_a_log_without_temperature_is_warned_about(tmp_path, capsys):
+    """A model with thermal effects scored on a hot run whose temp_C column is gone takes
+    the case at its ambient on every row and errs more: said, with what to do."""
+    import gen_weights
+    model = tmp_path / "m"
+    assert gen_weights.main([*map(str, TRAINING), "--out", str(model), "--epochs", "3", "--quiet",
+                             "--effects", "thermal_ra,magnet_thermal"]) == 0
+    df = dataset.load_recording(VALIDATION[1], 0.0, glitch_filter=False).df.drop(columns=["temp_C"])
+    log = tmp_path / "hot_no_temp.csv"
+    log.write_text("# condition=hot_no_temp\n" + df.to_csv(index=False))
+    capsys.readouterr()
+    out = tmp_path / "e"
+    assert cli.main(["--model", str(model), str(log), str(VALIDATION[1]), "--out", str(out), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    warned = [ln for ln in err.splitlines() if "no temp_C" in ln]
+    assert len(warned) == 1 and str(log) in warned[0] and "thermal_ra, magnet_thermal" in warned[0], err
+    m = json.loads((out / "metrics.json").read_text())
+    assert any("no temp_C" in w for w in m["warnings"])
+    # the warning is about a real loss: the same run with its temperature scores better
+    assert m["rmse_rpm"]["M2"]["hot_no_temp"] > 1.5 * m["rmse_rpm"]["M2"]["hot"]
+    # a plain model has nothing to warn about
+    capsys.readouterr()
+    assert cli.main(["--model", str(MODEL), str(log), "--out", str(tmp_path / "e2"), "--quiet"]) == 0
+    assert "no temp_C" not in capsys.readouterr().err

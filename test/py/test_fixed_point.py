@@ -1,10 +1,11 @@
-"""The fixed-point network (tools/hpddo/quant.py, lib/hpddo_core/src/hpddo/mlp_q.h): its
+"""The fixed-point network (tools/hpddo/model/quant.py, lib/hpddo_core/src/hpddo/mlp_q.h): its
 accuracy cost against the float model, its overflow bounds, and its committed files."""
 import numpy as np
 import pytest
 
 from conftest import ROOT
-from hpddo import dataset, export, quant
+from hpddo.logs import dataset
+from hpddo.model import export, quant
 
 MODEL = ROOT / "models" / "default"
 DATA = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]

@@ -18,8 +18,8 @@ def test_fixtures_regenerate_identically(tmp_path: pathlib.Path):
 def test_golden_stream_reaches_the_bounds():
     """The tiny stream's last rows exercise the bounds of docs/core.md in the reference."""
     import numpy as np
-    from hpddo import export, fixtures
-    from hpddo import physics as ph
+    from hpddo.model import export, fixtures
+    from hpddo.model import physics as ph
 
     model = fixtures.tiny_model()
     rows = export.golden_rows(model, fixtures.tiny_stream())
@@ -36,8 +36,8 @@ def test_golden_stream_reaches_the_bounds():
 
 def test_thermal_trajectory_is_bounded_in_float64_and_float32():
     import numpy as np
-    from hpddo import fixtures
-    from hpddo import physics as ph
+    from hpddo.model import fixtures
+    from hpddo.model import physics as ph
 
     p = fixtures.tiny_model().physics
     n_hot, n_calm = 4 * 3600 * 2, 2 * 3600 * 2  # 4 h of full-scale current, 2 h normal, at 2 Hz

@@ -1,4 +1,4 @@
-"""The novelty gate (tools/hpddo/gate.py) and its board half (lib/hpddo_core/src/hpddo/gate.h):
+"""The novelty gate (tools/hpddo/model/gate.py) and its board half (lib/hpddo_core/src/hpddo/gate.h):
 weight 1 on the training rows, 0 far away, monotone away from the data, 0 for NaN and
 infinities, a deterministic BLAS-free fit, and the C++ weight equal bit for bit to the
 Python one (a small probe compiled plain and over the host flash fake)."""
@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from hpddo import gate
+from hpddo.model import gate
 
 F32 = np.float32
 
@@ -137,7 +137,7 @@ def test_fit_is_deterministic_across_blas_kernels(method):
     here = _digest(gate.fit(g, k=16, method=method))
     assert _digest(gate.fit(g, k=16, method=method)) == here
     code = ("import sys, hashlib, numpy as np; sys.path.insert(0, %r); sys.path.insert(0, %r);"
-            "import test_gate as t; from hpddo import gate;"
+            "import test_gate as t; from hpddo.model import gate;"
             "print(t._digest(gate.fit(t.training_rows(), k=16, method=%r)))"
             % (str(ROOT / "tools"), str(ROOT / "test/py"), method))
     for core in ("Prescott", "Haswell"):
@@ -212,11 +212,11 @@ def test_cpp_weight_equals_python_bit_for_bit(probe, fitted):
 
 
 def test_study_lives_apart_and_prints_its_tables(tmp_path, capsys):
-    """The measurement is hpddo.gate_study (python -m hpddo.gate_study --table JSON);
-    hpddo.gate holds only the gate."""
+    """The measurement is hpddo.studies.gate_study (python -m hpddo.studies.gate_study --table JSON);
+    hpddo.model.gate holds only the gate."""
     import json
 
-    from hpddo import gate_study
+    from hpddo.studies import gate_study
 
     assert not any(hasattr(gate, n) for n in ("measure", "table", "verdict", "cost", "main", "VARIANTS"))
     names = [v[0] for v in gate_study.VARIANTS]
@@ -237,7 +237,7 @@ def test_the_open_gate_of_no_gate_models_exports_and_keeps_every_finite_correcti
     infinity), weight 1 at any finite input, 0 for a NaN."""
     import dataclasses as dc
 
-    from hpddo import export, fixtures
+    from hpddo.model import export, fixtures
     og = gate.open_gate(5)
     model = dc.replace(fixtures.tiny_model(), gate=og)
     text = export.model_header(model, "open", {"command": "test"})

@@ -1,4 +1,4 @@
-"""No tool deletes or overwrites what it did not write (hpddo/outdir.py and every CLI)."""
+"""No tool deletes or overwrites what it did not write (hpddo/logs/outdir.py and every CLI)."""
 import json
 import pathlib
 
@@ -10,7 +10,7 @@ import demo
 import diagnose
 import gen_weights
 import twin
-from hpddo import outdir
+from hpddo.logs import outdir
 
 DATA = sorted(p for p in (ROOT / "data" / "default").glob("*.csv") if not p.name.endswith(".truth.csv"))
 
@@ -31,7 +31,7 @@ TOOLS = {
     "diagnose": lambda logs, out: diagnose.main([*map(str, logs), "--out", str(out), "--bootstrap", "0",
                                                  "--no-hybrid"]),
     "gen_weights": lambda logs, out: gen_weights.main([*map(str, logs), "--out", str(out), "--quiet",
-                                                       "--max-iter", "1"]),
+                                                       "--epochs", "1"]),
     "demo": lambda logs, out: demo.main(["--data", str(logs[0].parent), "--out", str(out)]),
     "twin": lambda logs, out: twin.main(["--protocol", "sweep", "--time-scale", "0.05", "--out", str(out),
                                          "--quiet"]),
@@ -60,6 +60,7 @@ def test_an_existing_file_at_the_output_path_is_refused_and_kept(tmp_path, capsy
     assert sorted(p.name for p in tmp_path.iterdir()) == ["result"]
 
 
+@pytest.mark.slow
 def test_rerun_replaces_only_what_the_tool_wrote(tmp_path):
     out = tmp_path / "diag"
     assert TOOLS["diagnose"](DATA, out) == 0
@@ -71,6 +72,7 @@ def test_rerun_replaces_only_what_the_tool_wrote(tmp_path):
     assert (out / "diagnosis.json").is_file()
 
 
+@pytest.mark.slow
 def test_a_user_file_where_the_tool_would_write_is_refused(tmp_path, capsys):
     out = tmp_path / "diag"
     assert TOOLS["diagnose"](DATA, out) == 0
@@ -89,8 +91,18 @@ def test_another_tools_output_is_refused(tmp_path, capsys):
     assert TOOLS["twin"](DATA, out) == 0
     before = _snapshot(out)
     assert TOOLS["diagnose"](DATA, out) == 1
-    assert "'twin'" in capsys.readouterr().err
+    assert "'hpddo twin'" in capsys.readouterr().err
     assert _snapshot(out) == before
+
+
+@pytest.mark.slow
+def test_a_refusal_names_the_tools_as_the_user_types_them(tmp_path, capsys):
+    out = tmp_path / "m"
+    assert TOOLS["gen_weights"](DATA[:1], out) == 0
+    capsys.readouterr()
+    assert TOOLS["twin"](DATA, out) == 1
+    err = capsys.readouterr().err
+    assert "written by 'hpddo train', not 'hpddo twin'" in err and "gen_weights" not in err, err
 
 
 def test_a_failure_inside_the_stage_leaves_nothing(tmp_path):

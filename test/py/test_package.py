@@ -17,6 +17,8 @@ import pytest
 
 from conftest import ROOT
 
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
+
 PY = sys.executable
 TOP_LEVEL_SKIP = {".git", ".venv", "out", "models"}
 
@@ -107,6 +109,16 @@ def test_twin_writes_a_bench_log_outside_the_repository(installed):
     assert (cwd / "afile").read_text() == "keep\n"
 
 
+def test_the_demo_of_a_pip_install_has_its_recordings_never_seen(installed):
+    """hpddo demo's step 4 scores data/validation: the wheel carries it (it skipped the step
+    without a word when it did not)."""
+    bin_dir, _ = installed
+    share = bin_dir.parent / "share" / "hpddo"
+    assert {"hot.csv", "unseen.csv"} <= {p.name for p in (share / "data" / "validation").glob("*.csv")}
+    res = _run([bin_dir / "hpddo", "demo", "--help"], cwd=bin_dir)
+    assert str(share / "data" / "validation") in "".join(res.stdout.split())  # argparse wraps the path
+
+
 def test_train_builds_the_native_replay_from_the_installed_sources(installed):
     """The wheel carries the replay's CMake project, the core headers and the bundled
     recordings (<venv>/share/hpddo): a short training run builds and replays natively."""
@@ -114,8 +126,8 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
     share = bin_dir.parent / "share" / "hpddo"
     log = share / "data" / "default" / "sweep.csv"
     assert log.is_file() and (share / "host" / "CMakeLists.txt").is_file()
-    res = _run([bin_dir / "hpddo", "train", log, "--out", "m", "--max-iter", "1", "--quiet"], cwd=cwd)
-    assert "wrote m/" in res.stdout
+    res = _run([bin_dir / "hpddo", "train", log, "--out", "m", "--epochs", "1"], cwd=cwd)
+    assert "wrote m/" in res.stdout and (cwd / "m" / "report" / "index.html").is_file()
     metrics = json.loads((cwd / "m" / "metrics.json").read_text())
     assert metrics["source"].startswith("native replay") and "sweep" in metrics["rmse_rpm"]["M2"]
     assert (cwd / "m" / "model_default.h").read_text().startswith("// GENERATED model header")
@@ -124,12 +136,12 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
 # In process, against the tree: one set of flag names and one error convention.
 
 SHARED = {  # subcommand -> the shared options it takes
-    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter"},
-    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter"},
-    "evaluate": {"--out", "--no-glitch-filter"},
-    "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter"},
-    "twin": {"--out", "--quiet", "--seed", "--effects"},
-    "capture": {"--out", "--quiet"},
+    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter", "--epochs"},
+    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter", "--epochs"},
+    "evaluate": {"--out", "--no-glitch-filter", "--quiet"},
+    "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter", "--epochs"},
+    "twin": {"--out", "--quiet", "--seed", "--effects", "--rate-hz"},
+    "capture": {"--out", "--quiet", "--rate-hz"},
     "demo": {"--out", "--quiet", "--seed", "--ra-ohm", "--no-glitch-filter"},
     "bench": set(),
     "fixtures": {"--out", "--quiet"},
@@ -145,6 +157,31 @@ def test_every_subcommand_uses_the_shared_flag_names_with_help_on_every_option(s
     assert not flags & {"--no-progress", "--effect", "--no-effect", "--output"}, "the former names are gone"
     assert all(a.help for a in p._actions), [a.dest for a in p._actions if not a.help]
     assert p.prog == f"hpddo {sub}"
+
+
+# One word per concept: the spellings a subcommand must not use for what another calls by the
+# shared name (the left side), and what the shared option must mean everywhere.
+SYNONYMS = {"--epochs": {"--max-iter", "--hybrid-iter", "--iterations", "--iter", "--epoch"},
+            "--rate-hz": {"--rate", "--hz", "--sample-rate", "--rate_hz"},
+            "--quiet": {"-q", "--silent", "--no-progress", "--verbose"},
+            "--out": {"--output", "--out-dir", "--outdir"},
+            "--effects": {"--effect", "--with-effects"}}
+
+
+@pytest.mark.parametrize("sub", sorted(SHARED))
+def test_one_vocabulary_of_options_across_subcommands(sub):
+    from hpddo import cli
+    from hpddo.cli import options
+    p = cli.parser(sub)
+    for a in p._actions:
+        for shared, other in SYNONYMS.items():
+            assert not set(a.option_strings) & other, f"hpddo {sub}: {a.option_strings} where others say {shared}"
+        if "--quiet" in a.option_strings:
+            assert a.help == options.QUIET_HELP, f"hpddo {sub} --quiet means something of its own: {a.help}"
+        if a.help and "epochs" in a.help.lower() and a.option_strings and a.option_strings[0].startswith("--"):
+            assert a.option_strings[0] in ("--epochs", "--quick"), (sub, a.option_strings, a.help)
+        if a.metavar == "HZ" and "sample rate" in (a.help or ""):
+            assert a.option_strings == ["--rate-hz"], (sub, a.option_strings)
 
 
 def test_user_errors_are_one_line_named_after_the_subcommand_with_status_1(tmp_path, capsys):

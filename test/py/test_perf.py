@@ -3,8 +3,12 @@ docs/performance.md are one measurement: the table is perf.table() of the figure
 the measurement itself was sound: no step off its golden row on the AVR."""
 import json
 
+import pytest
+
 from conftest import ROOT
-from hpddo import perf
+from hpddo.studies import perf
+
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 
 
 def test_committed_table_is_the_table_of_the_committed_figures():
@@ -50,3 +54,37 @@ def test_lx106_step_in_qemu_matches_the_goldens(tmp_path):
     assert got["golden_misses"] == 0
     committed = json.loads(perf.FIGURES.read_text())["lx106"]["fixed_16_8"]["step"]
     assert got["step"] == committed
+
+
+def test_committed_telemetry_line_and_upload_parse_on_the_lx106():
+    """The ArduinoJson telemetry line within its goal (40,000 instructions), and the default
+    model's document accepted by the board's parser on the lx106 (hpddo bench --observer)."""
+    tl = json.loads(perf.FIGURES.read_text())["lx106"]["telemetry_line"]
+    assert tl["status"] == "run" and tl["line"]["n"] >= 70
+    assert tl["line"]["max"] <= perf.GOAL_LX106_LINE
+    assert tl["bytes"]["max"] <= 240  # infer::kJsonMaxLine
+    assert tl["upload_parse"]["accepted"] is True
+    assert tl["upload_parse"]["arena_peak_B"] < tl["upload_parse"]["arena_capacity_B"]
+
+
+def test_lx106_line_in_qemu_gives_the_committed_counts(tmp_path):
+    """The telemetry line and the upload parse on the lx106, where QEMU and GCC's sources are
+    installed: the same exact instruction counts as committed, the document accepted."""
+    import glob
+    import shutil
+
+    import pytest
+    if not (shutil.which("qemu-system-xtensa") and glob.glob(perf.GCC_SOURCE_GLOB) and shutil.which(perf.LX_CXX)):
+        pytest.skip("qemu-system-misc, gcc-12-source or the lx106 GCC not installed (hpddo bench --observer installs them)")
+    got = perf.lx106_line(tmp_path, perf._lx106_libgcc(tmp_path))
+    if got["status"] != "run":
+        pytest.skip(got["status"])
+    committed = json.loads(perf.FIGURES.read_text())["lx106"]["telemetry_line"]
+    assert got["line"] == committed["line"] and got["upload_parse"] == committed["upload_parse"]
+
+
+def test_committed_upload_of_the_default_model_within_its_goal():
+    """hpddo upload of the default model to the host-built board at an emulated 460800 baud."""
+    up = json.loads(perf.FIGURES.read_text())["esp_upload"]
+    assert up["status"] == "run" and up["baud"] == 460800 and up["seconds"]["n"] >= 3
+    assert up["seconds"]["max"] <= perf.GOAL_UPLOAD_S

@@ -12,7 +12,8 @@ import pytest
 from conftest import ROOT
 
 import gen_weights
-from hpddo import dataset, train
+from hpddo.logs import dataset
+from hpddo.model import train
 
 DATA = sorted(p for p in (ROOT / "data" / "default").glob("*.csv") if not p.name.endswith(".truth.csv"))
 MODEL = ROOT / "models" / "default"
@@ -35,7 +36,7 @@ def test_bad_log_is_refused_with_file_line_fault_and_no_output(tmp_path, capsys,
     bad = tmp_path / name
     bad.write_text(text)
     out = tmp_path / "out"
-    rc = gen_weights.main([str(DATA[0]), str(bad), "--out", str(out), "--quiet", "--max-iter", "2"])
+    rc = gen_weights.main([str(DATA[0]), str(bad), "--out", str(out), "--quiet", "--epochs", "2"])
     err = capsys.readouterr().err
     assert rc == 1
     assert name in err and fault in err
@@ -82,7 +83,7 @@ def test_replay_orders_m3_below_m2_below_m1_on_every_condition(regenerated):
 
 def test_replay_agrees_with_the_python_model(regenerated):
     """The C++ observer (float32) and the Python model (float64, scikit-learn) agree."""
-    from hpddo.identify import m2_params, ra_from_logs
+    from hpddo.model.identify import m2_params, ra_from_logs
     recs = [dataset.load_recording(p) for p in DATA]
     meta = json.loads((regenerated / "metrics.json").read_text())["identification"]
     p = m2_params(recs, ra_from_logs(recs, None)[0])
@@ -94,10 +95,10 @@ def test_replay_agrees_with_the_python_model(regenerated):
 
 
 def test_report_renders_in_headless_chromium(regenerated, tmp_path):
-    from hpddo import browser
+    from hpddo.reports import browser
     from hpddo.reports import training as report
     if browser.chromium() is None:
-        pytest.skip("chromium not installed (scripts/bootstrap.sh --with-browser installs it)")
+        pytest.skip("chromium not installed (scripts/bootstrap.sh --tests installs it)")
     metrics = json.loads((regenerated / "metrics.json").read_text())
     page = report.write(metrics, regenerated / "work" / "estimates", tmp_path / "report", "hpddo test report", [])
     png = tmp_path / "report.png"

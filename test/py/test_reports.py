@@ -20,7 +20,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 from conftest import ROOT  # noqa: E402
 
-from hpddo import browser, reports  # noqa: E402
+from hpddo.reports import browser
+from hpddo import reports  # noqa: E402
 from hpddo.reports import training as report  # noqa: E402
 from hpddo.reports import diagnosis as diagnosis_report  # noqa: E402
 
@@ -125,9 +126,13 @@ TRAINING_TABLE = [
 TRAINING_TEXT = (
     "Report <T> n & <b>m</b> RMSE on the held-out test parts (RPM) condition M1 M2 M3 sweep 85.42 4.13 2.51 "
     "load 362.42 13.92 13.99 " + EVIL + " 12.00 12.00 3.00 average 153.28 10.02 6.50 "
+    "In bold green : the lowest RMSE of its row. lookup: the mean training speed of the nearest training operating "
+    "point, memory alone with no physics; a model close to it on the training recordings and far from it on new ones "
+    "has memorised them. In the plots, M2 is drawn over M3: where only M2 shows, M3 equals it (the novelty gate "
+    "faded the correction out, or the observer fell back to physics). "
     "Residual clamp active on sweep 0.0 %, load 1.2 %, " + EVIL + " 50.0 %; physics fallback on sweep 0.1 %, "
-    "load 0.0 %, " + EVIL + " 25.0 % of the test samples. "
-    "RMSE over every test row with an encoder reading; rows removed by the glitch filter before the split: "
+    "load 0.0 %, " + EVIL + " 25.0 % of the scored samples. "
+    "RMSE over every scored row with an encoder reading; rows removed by the glitch filter before scoring: "
     "sweep 3 of 660, " + EVIL + " 0 of 12. Warning: Ra & Ke <fitted> at the bound sweep")
 
 DIAGNOSIS_TABLES = [
@@ -156,7 +161,7 @@ DIAGNOSIS_TEXT = " ".join([
     "model load " + EVIL + " average physics, before 13.92 5.88 9.90 physics, after + thermal_ra, current_offset "
     "2.68 – 2.68 hybrid, before 4.35 4.87 4.61 hybrid, after 2.08 1.46 1.77",
     "Noise level of the residual (white part, from row-to-row differences): 2.42 RPM.",
-    "Hybrid: (16, 8) network retrained on top of each physics model for 150 iterations (gen_weights trains 2000).",
+    "Hybrid: (16, 8) network retrained on top of each physics model for 150 epochs (hpddo train trains 2000).",
     "Candidate effects, ranked effect named score z inclusion fitted parameter plausibility meaning",
     "thermal_ra missing 0.778 32.4 100 % +0.393 %/K +0.393 %/K within the plausible 0.33..0.46 %/K copper "
     "resistance rises with temperature",
@@ -338,7 +343,7 @@ def test_templates_autoescape_and_ship_in_the_package():
 
 def test_both_pages_render_in_headless_chromium(tmp_path):
     if browser.chromium() is None:
-        pytest.skip("chromium not installed (scripts/bootstrap.sh --with-browser installs it)")
+        pytest.skip("chromium not installed (scripts/bootstrap.sh --tests installs it)")
     path, _ = training_page(tmp_path)
     diag = tmp_path / "diagnosis"
     diag.mkdir()
@@ -352,3 +357,34 @@ def test_both_pages_render_in_headless_chromium(tmp_path):
         dom = seen["dom"]
         assert dom.count("<img") == n_img and "<script>" not in dom and "&lt;script&gt;" in dom
         assert Page(dom).tables == ([TRAINING_TABLE] if n_img == 1 else DIAGNOSIS_TABLES)
+
+
+def _command_reports(tmp: pathlib.Path) -> dict:
+    """{command: its report page}, each written by the command as a user runs it."""
+    from hpddo import cli
+    logs = [str(ROOT / "data" / "default" / f"{c}.csv") for c in ("sweep", "load")]
+    valid = [str(ROOT / "data" / "validation" / "unseen.csv")]
+    assert cli.main(["train", *logs, "--out", str(tmp / "train"), "--epochs", "30", "--quiet"]) == 0
+    assert cli.main(["evaluate", "--model", str(tmp / "train"), *valid, "--out", str(tmp / "evaluate"),
+                     "--quiet"]) == 0
+    assert cli.main(["diagnose", *logs, "--out", str(tmp / "diagnose"), "--bootstrap", "0", "--no-hybrid",
+                     "--quiet"]) == 0
+    assert cli.main(["compare", *logs, "--validation", *valid, "--out", str(tmp / "compare"), "--quick",
+                     "--epochs", "20", "--quiet"]) == 0
+    return {"train": tmp / "train" / "report" / "index.html", "evaluate": tmp / "evaluate" / "report" / "index.html",
+            "diagnose": tmp / "diagnose" / "index.html", "compare": tmp / "compare" / "report" / "index.html"}
+
+
+@pytest.mark.slow
+def test_every_commands_report_loads_with_its_plots_in_headless_chromium(tmp_path):
+    """What each command that produces figures writes beside its JSON, opened as a person
+    would open it: it loads, its plots are there, the console is clean."""
+    if browser.chromium() is None:
+        pytest.skip("chromium not installed (scripts/bootstrap.sh --tests installs it)")
+    for command, page in _command_reports(tmp_path).items():
+        assert page.is_file(), f"hpddo {command} wrote no report"
+        png = tmp_path / f"{command}.png"
+        seen = browser.render(page, png, height=1600)
+        assert seen["console_errors"] == [], (command, seen["console_errors"])
+        assert png.stat().st_size > 20000, f"hpddo {command}: the screenshot is (nearly) blank"
+        assert seen["dom"].count("<img") >= 1, f"hpddo {command}: no plot in the report"

@@ -11,36 +11,37 @@ import zlib
 import pytest
 
 from conftest import ROOT
-from hpddo import effects as fx
-from hpddo import export, fixtures, schema
-from hpddo import physics as ph
+from hpddo.model import effects as fx
+from hpddo.model import export, fixtures
+from hpddo import regenerate, schema
+from hpddo.model import physics as ph
 from hpddo.diagnosis import ranking
 from hpddo.twin import params as twin
 
 
 def test_generated_files_regenerate_identically():
-    files = schema.generated()
+    files = regenerate.generated()
     assert {"lib/hpddo_core/src/hpddo/params_gen.h", "docs/core.md", "docs/twin.md"} <= set(files)
     for rel, text in files.items():
-        assert (ROOT / rel).read_bytes() == text.encode(), f"{rel} differs: run {schema.COMMAND}"
+        assert (ROOT / rel).read_bytes() == text.encode(), f"{rel} differs: run {regenerate.COMMAND}"
 
 
 def test_check_mode_reports_a_stale_file(tmp_path, capsys):
-    assert schema.main(["--check"]) == 0
-    for rel in schema.generated():
+    assert regenerate.main(["--check"]) == 0
+    for rel in regenerate.generated():
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
     # the document around its generated block is the user's: only the block is rewritten
-    doc = (ROOT / schema.EFFECTS_DOC).read_text()
+    doc = (ROOT / regenerate.EFFECTS_DOC).read_text()
     what, source = "the effects table", "tools/hpddo/schema.py"
-    begin = schema.DOC_BEGIN.format(what=what, source=source, command=schema.COMMAND)
-    end = schema.DOC_END.format(what=what)
-    (tmp_path / schema.EFFECTS_DOC).write_text("# prose\n" + begin + "\n| stale |\n" + end + "\nmore prose\n")
-    twin = (ROOT / schema.TWIN_DOC).read_text()  # the twin's block: as committed (up to date)
-    (tmp_path / schema.TWIN_DOC).write_text(twin)
-    assert schema.main(["--check", "--root", str(tmp_path)]) == 1
-    assert schema.main(["--write", "--root", str(tmp_path)]) == 0
-    assert schema.main(["--check", "--root", str(tmp_path)]) == 0
-    text = (tmp_path / schema.EFFECTS_DOC).read_text()
+    begin = regenerate.DOC_BEGIN.format(what=what, source=source, command=regenerate.COMMAND)
+    end = regenerate.DOC_END.format(what=what)
+    (tmp_path / regenerate.EFFECTS_DOC).write_text("# prose\n" + begin + "\n| stale |\n" + end + "\nmore prose\n")
+    twin = (ROOT / regenerate.TWIN_DOC).read_text()  # the twin's block: as committed (up to date)
+    (tmp_path / regenerate.TWIN_DOC).write_text(twin)
+    assert regenerate.main(["--check", "--root", str(tmp_path)]) == 1
+    assert regenerate.main(["--write", "--root", str(tmp_path)]) == 0
+    assert regenerate.main(["--check", "--root", str(tmp_path)]) == 0
+    text = (tmp_path / regenerate.EFFECTS_DOC).read_text()
     assert text.startswith("# prose\n") and text.endswith(end + "\nmore prose\n") and "| stale |" not in text
     for e in schema.EFFECTS:
         assert f"| {e.name} | `{e.field}` | {e.unit} | {e.show_unit} |" in text
@@ -51,7 +52,7 @@ def test_banner_carries_provenance_and_the_checksum_of_the_text():
     text = (ROOT / "lib/hpddo_core/src/hpddo/params_gen.h").read_text()
     banner, body = text.split("#ifndef", 1)
     assert banner.startswith("// GENERATED") and "DO NOT EDIT" in banner
-    assert f"// command: {schema.COMMAND}" in banner and "// source: tools/hpddo/schema.py" in banner
+    assert f"// command: {regenerate.COMMAND}" in banner and "// source: tools/hpddo/schema.py" in banner
     crc = int(re.search(r"checksum: crc32 0x([0-9a-f]{8})", banner).group(1), 16)
     assert crc == zlib.crc32(("#ifndef" + body).encode())
     assert f"kParamsSchema = 0x{schema.layout_crc():08x}u" in body
@@ -159,4 +160,4 @@ int main() {{
 def test_the_worked_example_names_the_generator():
     doc = (ROOT / "docs/diagnosis.md").read_text()
     example = doc[doc.index("## Worked example: adding your own effect"):]
-    assert "python -m hpddo.schema --write" in example and "tools/hpddo/schema.py" in example
+    assert "python -m hpddo.regenerate --write" in example and "tools/hpddo/schema.py" in example

@@ -14,16 +14,18 @@ import pandas as pd
 import pytest
 
 import gen_weights
-from hpddo import gate, train
+from hpddo.model import gate, train
 from hpddo.cli import evaluate as evaluate_cli
 from twin_benches import KE_VS_PER_RAD, RA_OHM, dyno_table
+
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 NOTE = "labelled training rows, at least 200 (one batch) are needed; the model is physics only (M3 = M2)"
 
 
 def _train(argv) -> tuple[int, str]:
     out = io.StringIO()
     with contextlib.redirect_stdout(out):
-        rc = gen_weights.main([*map(str, argv), "--quiet", "--max-iter", "5"])
+        rc = gen_weights.main([*map(str, argv), "--quiet", "--epochs", "5"])
     return rc, out.getvalue()
 
 

@@ -8,8 +8,10 @@ import pytest
 
 from conftest import ROOT
 
-from hpddo import dataset, identify, schema
-from hpddo import effects as fx
+from hpddo.logs import dataset
+from hpddo.model import identify
+from hpddo import schema
+from hpddo.model import effects as fx
 from hpddo.cli import diagnose as diagnose_cli
 
 DEFAULT = [ROOT / "data" / "default" / f"{c}.csv" for c in ("load", "long", "sweep")]

@@ -12,7 +12,8 @@ import demo
 import diagnose
 import gen_weights
 import twin
-from hpddo import benchlog, dataset, identify
+from hpddo.logs import benchlog, dataset
+from hpddo.model import identify
 
 DATA = sorted(p for p in (ROOT / "data" / "default").glob("*.csv") if not p.name.endswith(".truth.csv"))
 LONG = ROOT / "data" / "default" / "long.csv"
@@ -38,7 +39,7 @@ def test_two_logs_with_the_same_name_are_refused(tmp_path, capsys):
     a.write_bytes(DATA[-1].read_bytes())
     b.write_bytes(DATA[-1].read_bytes())
     out = tmp_path / "out"
-    assert gen_weights.main([str(a), str(b), "--out", str(out), "--quiet", "--max-iter", "1"]) == 1
+    assert gen_weights.main([str(a), str(b), "--out", str(out), "--quiet", "--epochs", "1"]) == 1
     err = capsys.readouterr().err
     assert str(a) in err and str(b) in err and "condition" in err
     assert not out.exists()
@@ -60,7 +61,7 @@ def test_condition_with_quote_and_backslash_reaches_valid_metrics(tmp_path):
     log = tmp_path / "odd.csv"
     log.write_text(LONG.read_text().replace("# condition=long", '# condition=run "7" \\ hot'))
     out = tmp_path / "out"
-    assert gen_weights.main([str(log), "--out", str(out), "--quiet", "--max-iter", "1"]) == 0
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet", "--epochs", "1"]) == 0
     metrics = json.loads((out / "metrics.json").read_text())
     assert 'run "7" \\ hot' in metrics["rmse_rpm"]["M2"]
 
@@ -214,7 +215,7 @@ def test_a_loud_warning_when_the_filter_removes_many_rows(tmp_path, capsys):
     assert len(rec.removed) >= 10
     assert rec.warnings and "--no-glitch-filter" in rec.warnings[0]
     assert gen_weights.main([str(log), *map(str, DATA[:2]), "--out", str(tmp_path / "o"), "--quiet",
-                             "--max-iter", "1"]) == 0
+                             "--epochs", "1"]) == 0
     assert "WARNING" in capsys.readouterr().err
     assert len(dataset.load_recording(log, glitch_filter=False).removed) == 0
 
@@ -260,3 +261,61 @@ def test_a_bad_ra_in_the_metadata_names_the_file(tmp_path, capsys, value):
     assert gen_weights.main([str(log), "--out", str(tmp_path / "o"), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert "r.csv" in err and "ra_ohm" in err
+
+
+# What a spreadsheet's export does to a log, named as such (the fault keyword stays the
+# format's, which the C++ reader shares).
+EXPORTS = {
+    "semicolons": ("t_s;duty;v_V;i_A;rpm_ref\n0,0;0,2;2,3;0,1;40\n", 1, "separated by semicolons"),
+    "tabs": ("t_s\tduty\tv_V\ti_A\n0\t0.2\t2.3\t0.1\n", 1, "separated by tabs"),
+    "quoted header": ('"t_s","duty","v_V","i_A"\n0.0,0.2,2.3,0.1\n', 1, "in quotes"),
+    "decimal commas": ('t_s,duty,v_V,i_A\n"0,0","0,2","2,3","0,1"\n', 2, "decimal commas"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(EXPORTS))
+def test_a_spreadsheet_export_is_named_for_what_it_is(case, tmp_path, capsys):
+    text, line, words = EXPORTS[case]
+    log = tmp_path / "export.csv"
+    log.write_text(text)
+    out = tmp_path / "o"
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    _no_traceback(err)
+    assert f"{log}:{line}:" in err and words in err, err
+    assert not out.exists()
+
+
+def test_a_reading_beyond_full_scale_is_refused_without_the_glitch_filter(tmp_path, capsys):
+    """One voltage of 1e30 kept by --no-glitch-filter identified Ke of about 8e25 V s/rad and
+    exported the model; now it is refused with its line, and the filter removes it."""
+    lines = DATA[-1].read_text().splitlines(keepends=True)
+    head = next(k for k, ln in enumerate(lines) if ln.startswith("t_s"))
+    cols = lines[head].strip().split(",")
+    row = lines[head + 50].rstrip("\n").split(",")
+    row[cols.index("v_V")] = "1e30"
+    lines[head + 50] = ",".join(row) + "\n"
+    log = tmp_path / "big.csv"
+    log.write_text("".join(lines))
+    out = tmp_path / "o"
+    assert gen_weights.main([str(log), "--out", str(out), "--quiet", "--no-glitch-filter", "--epochs", "1"]) == 1
+    err = capsys.readouterr().err
+    _no_traceback(err)
+    assert f"{log}:{head + 51}:" in err and "v_V=1e+30" in err and "full scale" in err, err
+    assert not out.exists()
+    rec = dataset.load_recording(log)
+    assert (head + 51) in [ln for ln, _ in rec.removed]
+    assert float(np.abs(rec.df["v_V"]).max()) <= dataset.LIMITS.v_max_V
+
+
+@pytest.mark.slow
+def test_no_progress_bar_goes_into_a_redirected_log(tmp_path):
+    """Off a terminal (a log file, a pipe, CI) the progress bars stay quiet: a training run's
+    stderr holds lines, not hundreds of carriage-return updates."""
+    import subprocess
+    import sys
+    res = subprocess.run([sys.executable, "-m", "hpddo", "train", str(DATA[-1]), "--out", str(tmp_path / "m"),
+                          "--epochs", "400"], capture_output=True, text=True, timeout=600)
+    assert res.returncode == 0, res.stderr
+    assert "\r" not in res.stderr and "epoch/s" not in res.stderr, res.stderr[:500]
+    assert "RMSE" in res.stdout

@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from hpddo import benchlog
+from hpddo.logs import benchlog
 from hpddo.twin import EFFECT_NAMES, check, generate, params
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -132,3 +132,22 @@ def test_glitches_are_listed_and_rare():
         assert g["log"][x["column"]].iloc[x["row"]] == pytest.approx(x["logged"], abs=1e-6)
         assert x["logged"] != x["true"]
     assert g["truth"]["glitch"].sum() == 3
+
+
+@pytest.mark.slow
+def test_the_first_train_a_user_types_after_the_twin_works(tmp_path, capsys):
+    """`hpddo twin --out out` then `hpddo train out/*.csv`: the glob takes the truth sidecars
+    too; they are left out with a note each, and the logs train."""
+    from hpddo import cli
+    out = tmp_path / "out"
+    assert cli.main(["twin", "--protocol", "sweep", "--time-scale", "0.2", "--out", str(out), "--quiet"]) == 0
+    given = sorted(out.glob("*.csv"))
+    assert {p.name for p in given} == {"sweep.csv", "sweep.truth.csv"}
+    capsys.readouterr()
+    assert cli.main(["train", *map(str, given), "--out", str(tmp_path / "m"), "--epochs", "2", "--quiet"]) == 0
+    cap = capsys.readouterr()
+    assert "hpddo train: note: left out" in cap.err and "sweep.truth.csv" in cap.err
+    assert "sweep.csv: " in cap.out and "truth" not in cap.out.split("\n")[0]
+    # a truth file given without its log is not a sidecar to leave out: the reader says what it lacks
+    assert cli.main(["train", str(out / "sweep.truth.csv"), "--out", str(tmp_path / "m2"), "--quiet"]) == 1
+    assert "missing required column" in capsys.readouterr().err

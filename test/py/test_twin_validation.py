@@ -11,8 +11,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from hpddo import bench, benchlog
+from hpddo import bench
+from hpddo.logs import benchlog
 from hpddo.twin import generate, params, protocols
+
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DEFAULT_DIR = ROOT / "data" / "default"

@@ -1,5 +1,5 @@
 """The validation figures in README.md and docs/validation.md are the measured ones: they
-match docs/figures/validation_table.json (written by python -m hpddo.validation), whose
+match docs/figures/validation_table.json (written by python -m hpddo.studies.validation), whose
 gated plain-physics chronological figures are those of the regenerated models/default."""
 import json
 
@@ -7,7 +7,7 @@ import pytest
 
 from conftest import ROOT
 
-from hpddo import validation
+from hpddo.studies import validation
 
 TABLE = json.loads((ROOT / "docs" / "figures" / "validation_table.json").read_text())
 

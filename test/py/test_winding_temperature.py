@@ -21,8 +21,10 @@ import pytest
 from conftest import ROOT
 
 from hpddo import pipeline
-from hpddo.train import TrainConfig
+from hpddo.model.train import TrainConfig
 import twin_benches
+
+pytestmark = pytest.mark.slow  # runs tools for seconds to minutes: not in scripts/test.sh --quick
 
 CONDITIONS = ("load", "long", "sweep")
 SEED = 5

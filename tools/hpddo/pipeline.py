@@ -10,12 +10,15 @@ import pathlib
 
 import numpy as np
 
-from . import baseline, dataset, export, identify, outdir, replay
-from . import metrics as metrics_mod
-from . import physics as ph
-from .errors import InputError
-from .observer_ref import Limits, ModelData
-from .train import TrainConfig, Residual, residual_or_physics_only
+from .evaluation import baseline
+from .evaluation.evaluate import recordings_record, replay_natively, score_recordings
+from .logs import dataset, outdir
+from .model import export, identify
+from .evaluation import metrics as metrics_mod
+from .model import physics as ph
+from .logs.errors import InputError
+from .model.observer_ref import Limits, ModelData
+from .model.train import TrainConfig, Residual, residual_or_physics_only
 
 GOLDEN_ROWS_PER_RECORDING = 24
 # M1's nameplate when the user gives none (hpddo train --rated-v, --rated-rpm)
@@ -42,6 +45,7 @@ class PipelineConfig:
     glitch_filter: bool = True
     leave_one_out: bool = False  # also train on all recordings but one and score it, for each
     command: str = "tools/gen_weights.py"
+    report: bool = False  # also write report/index.html (estimate against encoder, the RMSE table)
 
 
 @dataclasses.dataclass
@@ -83,46 +87,6 @@ def model_data(m1, m2, res: Residual) -> ModelData:
                      gate=res.gate, clamp_rpm=float(np.float32(res.clamp_rpm)), limits=Limits(), nameplate=m1)
 
 
-SOURCE = "native replay (hpddo_core observer, per-sample)"
-
-
-def score_recordings(recs, estimates, checksum: int | None, lookup: baseline.Lookup | None = None,
-                     part: str = "test") -> dict:
-    """The metrics of the replay's estimates of recs (one DataFrame each, every row) and
-    of the lookup baseline where given, scored on the rows of `part` ("test": the
-    held-out rows; "all": every row)."""
-    scored = []
-    for r, est in zip(recs, estimates):
-        if len(est) != r.n:
-            raise RuntimeError(f"replay wrote {len(est)} estimates for {r.n} rows of {r.name}")
-        if lookup is not None:
-            est = est.assign(rpm_lookup=lookup.predict_rows(r))
-        ref = r.df["rpm_ref"].to_numpy(float) if "rpm_ref" in r.df else np.full(r.n, np.nan)
-        mask = np.ones(r.n, bool) if part == "all" else np.arange(r.n) >= r.n_train
-        scored.append((r.name, ref, est, mask))
-    return metrics_mod.score(scored, SOURCE, checksum)
-
-
-def recordings_record(recs) -> dict:
-    """What metrics.json says of the recordings themselves: the rows the glitch filter
-    removed (file line and reason), the warnings, the recording names."""
-    return {"glitches_removed": {r.name: {"file": r.source.name, "rows_in_file": r.rows_in_file,
-                                          "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
-                                 for r in recs},
-            "warnings": [w for r in recs for w in r.warnings],
-            "recordings": [r.name for r in recs]}
-
-
-def replay_natively(recs, model_dir: pathlib.Path, name: str, work: pathlib.Path, split: float | None = None) -> list:
-    """Writes the cleaned recordings into work/logs, builds the replay for model_<name>.h of
-    model_dir into work/replay and replays them into work/estimates; their estimates."""
-    (work / "logs").mkdir(parents=True, exist_ok=True)
-    (work / "estimates").mkdir(exist_ok=True)
-    clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
-    exe = replay.build(pathlib.Path(model_dir), name, work / "replay")
-    return replay.run(exe, clean, work / "estimates", split)
-
-
 def golden_samples(recs):
     """A stream of test rows from each recording, and faults the boards must survive."""
     out = []
@@ -154,7 +118,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     else:
         m2 = identify.m2_params(recs, ra, cfg.ke_fit)
         if cfg.effects:
-            from . import effects
+            from .model import effects
             m2 = effects.identify(recs, m2, cfg.effects)
     res = residual_or_physics_only(recs, m2, cfg.train)  # physics only below one batch of rows
     model = model_data(m1, m2, res)
@@ -197,9 +161,17 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         if cfg.leave_one_out:
             metrics["leave_one_out"] = leave_one_out(
                 log_paths, stage / "leave_one_out",
-                dataclasses.replace(cfg, leave_one_out=False, train=dataclasses.replace(cfg.train, progress=False)))
+                dataclasses.replace(cfg, leave_one_out=False, report=False, train=dataclasses.replace(cfg.train, progress=False)))
         (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
         (work / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
+        if cfg.report:
+            from .reports import training as report
+            report.write(metrics, work / "estimates", stage / "report", f"hpddo train: {out}",
+                         [f"Model header: {out / f'model_{name}.h'}. Effects in the physics model: "
+                          f"{', '.join(m2.effect_names()) or 'none'}. RMSE of the held-out "
+                          f"{1 - cfg.train_fraction:.0%} of each recording (chronological split), measured by "
+                          "the native replay through the board observer (hpddo_core); lookup: the mean "
+                          "training speed of the nearest training operating point."])
     return PipelineResult(recs, m1, m2, res, model, metrics, table, out)
 
 
@@ -211,10 +183,10 @@ def _check_leave_one_out(log_paths) -> None:
 def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
     """Cross-recording validation: for each recording, the pipeline on all the others into
     out_dir/<stem>/model, and that model scored on every row of the one left out
-    (hpddo.evaluate) into out_dir/<stem>/evaluation. Returns {recording: rmse_rpm of its
+    (hpddo.evaluation.evaluate) into out_dir/<stem>/evaluation. Returns {recording: rmse_rpm of its
     rows (M1, M2, M3, lookup)} plus "average" per model: the figure to trust for a new
     run, as no row of a scored recording was seen in training."""
-    from .evaluate import evaluate
+    from .evaluation.evaluate import evaluate
 
     paths = [pathlib.Path(p) for p in log_paths]
     _check_leave_one_out(paths)

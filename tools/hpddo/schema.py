@@ -15,24 +15,38 @@ derived from these records:
     (twin/params.py) and the diagnosis' separating recordings (ranking.SEPARATORS).
 
 The struct order is: BASE, then each effect's coefficient in the order of EFFECTS, then
-the effects' shape parameters (Shape, in the same order), then STATE, then the effect bits. Regenerate after any change (a pytest compares byte for byte):
+the effects' shape parameters (Shape, in the same order), then STATE, then the effect bits. Regenerate after any change (a pytest compares byte for byte; hpddo/regenerate.py):
 
-    cd tools && ../.venv/bin/python -m hpddo.schema --write      # or --check
+    cd tools && ../.venv/bin/python -m hpddo.regenerate --write      # or --check
 
 Adding an effect: one Effect record appended to EFFECTS (next free bit), its term in
 physics.h and physics.py, the generator above (docs/diagnosis.md, worked example).
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import pathlib
-import sys
 import zlib
 
 GENERATOR = "hpddo.schema 1"
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-COMMAND = "cd tools && ../.venv/bin/python -m hpddo.schema --write"
+
+
+def quantity(value: float, unit: str) -> str:
+    """A value with its unit as text; a dimensionless one ("1") without it."""
+    return f"{value:g}" if unit == "1" else f"{value:g} {unit}"
+
+
+@dataclasses.dataclass
+class Limits:
+    """The readings the observer accepts (limits.h, hpddo::Limits; a model header carries
+    them): the channels' full scale and the temperature sensor's range. A sample outside
+    is invalid on the boards, and no recording row outside is used to fit a model."""
+
+    v_max_V: float = 40.0      # largest |v_V| the voltage channel can report, V
+    i_max_A: float = 10.0      # largest |i_A| the current channel can report, A
+    temp_min_C: float = -55.0  # the temperature sensor's range (DS18B20), C
+    temp_max_C: float = 125.0
 
 
 @dataclasses.dataclass(frozen=True)
@@ -535,22 +549,6 @@ inline void for_each_param(Params& p, F& f) {{
 """
 
 
-def _banner(kind: str, body: str, source: str) -> str:
-    lines = [f"// GENERATED {kind}: DO NOT EDIT. Regenerate with the command below.",
-             f"// command: {COMMAND}",
-             f"// source: {source}",
-             f"// generator: {GENERATOR}",
-             f"// layout: crc32 0x{layout_crc():08x} (kParamsSchema)",
-             f"// checksum: crc32 0x{zlib.crc32(body.encode()) & 0xFFFFFFFF:08x} of the text below this banner"]
-    return "\n".join(lines) + "\n"
-
-
-DOC_BEGIN = "<!-- BEGIN GENERATED: {what}, from {source} ({command}); do not edit -->"
-DOC_END = "<!-- END GENERATED: {what} -->"
-EFFECTS_DOC = "docs/core.md"
-TWIN_DOC = "docs/twin.md"
-
-
 def md_cell(text: str) -> str:
     """Text for a markdown table cell (a pipe would end the cell)."""
     return text.replace("|", "\\|")
@@ -573,76 +571,3 @@ def _effects_md() -> str:
             rows.append(f"| {e.name} | `{sh.field}` | {sh.unit} | {sh.default:g} | {sh.bounds[0]:g}..{sh.bounds[1]:g} | "
                         f"{md_cell(sh.forms)} |")
     return "\n".join(rows) + "\n"
-
-
-def with_generated_block(text: str, block: str, path: str, what: str, source: str) -> str:
-    """text with the part between the BEGIN and END markers of `what` replaced by block."""
-    begin, end = DOC_BEGIN.format(what=what, source=source, command=COMMAND), DOC_END.format(what=what)
-    i, j = text.find(begin), text.find(end)
-    if i < 0 or j < i:
-        raise ValueError(f"{path}: the markers of the generated {what} are missing")
-    return text[: i + len(begin)] + "\n" + block + text[j:]
-
-
-def doc_blocks() -> list:
-    """(document, what, source, block text) of every generated block in the documents."""
-    from .twin import params as twin_params  # the twin's magnitudes and physics (its units are the schema's)
-    return [(EFFECTS_DOC, "the effects table", "tools/hpddo/schema.py", _effects_md()),
-            (TWIN_DOC, "the twin's effects table", "tools/hpddo/twin/params.py", twin_params.effects_md())]
-
-
-def generated(root: pathlib.Path = ROOT) -> dict:
-    """{path relative to the repository: text} of every file generated from the schema
-    (whole files, and the documents with a generated block, as they should read)."""
-    body = _params_h_body()
-    out = {"lib/hpddo_core/src/hpddo/params_gen.h": _banner("parameter schema", body, "tools/hpddo/schema.py") + body}
-    for doc, what, source, block in doc_blocks():
-        text = out.get(doc) or (pathlib.Path(root) / doc).read_text(encoding="utf-8")
-        out[doc] = with_generated_block(text, block, doc, what, source)
-    return out
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.schema", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    g = ap.add_mutually_exclusive_group(required=True)
-    g.add_argument("--write", action="store_true", help="write the generated files")
-    g.add_argument("--check", action="store_true", help="exit 1 when a generated file is out of date")
-    ap.add_argument("--root", default=str(ROOT), help="repository root (default: this checkout)")
-    args = ap.parse_args(argv)
-    root = pathlib.Path(args.root)
-    stale = []
-    for rel, text in generated(root).items():
-        path = root / rel
-        old = path.read_bytes() if path.exists() else None
-        if old == text.encode():
-            continue
-        stale.append(rel)
-        if args.write:
-            path.write_bytes(text.encode())
-            print(f"wrote {rel}")
-    if args.check and stale:
-        print("out of date (run: " + COMMAND + "): " + ", ".join(stale), file=sys.stderr)
-        return 1
-    if not stale:
-        print("generated files up to date")
-    for rel, command in stale_models(root):
-        print(f"note: {rel} was written for another parameter layout; regenerate it: {command}")
-    return 0
-
-
-def stale_models(root: pathlib.Path = ROOT) -> list[tuple[str, str]]:
-    """(path, the command in its banner) of every committed model header (models/*/,
-    test/fixtures/) that asserts another parameter layout than this schema's."""
-    want = f"hpddo::kParamsSchema == 0x{layout_crc():08x}u"
-    out = []
-    for path in sorted([*root.glob("models/*/model_*.h"), *root.glob("test/fixtures/model_*.h")]):
-        text = path.read_text()
-        if want not in text:
-            cmd = next((ln.split(":", 1)[1].strip() for ln in text.splitlines() if ln.startswith("// command:")), "?")
-            out.append((str(path.relative_to(root)), cmd))
-    return out
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,15 +1,17 @@
 """The command line: `hpddo SUBCOMMAND [options]` (also `python -m hpddo`).
 
-One module per subcommand, each with parser(prog), run(args) -> exit status, main(argv)
+May import: anything of hpddo (it is the top). One module per subcommand, each with parser(prog), run(args) -> exit status, main(argv)
 and, where options depend on each other, validate(args, parser). A subcommand's
 module is imported only when it runs, so `hpddo --help` and `hpddo twin` do not load the
 training and diagnosis code.
 
 One convention for every subcommand: the same flag names for the same things
 (--out, --quiet, --seed, --ra-ohm, --effects NAME[,NAME...], --no-glitch-filter); a user
-error (hpddo.errors.USER_ERRORS: a bad log, a refused output folder, an input the
+error (hpddo.logs.errors.USER_ERRORS: a bad log, a refused output folder, an input the
 pipeline cannot use, a failed capture) is one line `hpddo SUBCOMMAND: message` on
-stderr and exit status 1; a bad command line is argparse's usage message and status 2.
+stderr and exit status 1; a bad command line is argparse's usage message and status 2;
+Ctrl-C (SIGINT) or SIGTERM is one line and status 130 or 143, with no process of the tool
+left running and nothing half-written (hpddo.interrupt).
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ SUBCOMMANDS = {
     "diagnose": ("diagnose", "name the physical effects the physics model misses (tools/diagnose.py)"),
     "twin": ("twin", "simulate the bench and write bench logs with ground truth (tools/twin.py)"),
     "capture": ("capture", "record the acquisition board's USB stream to a bench log (tools/capture.py)"),
+    "upload": ("upload", "send a trained model to the running ESP8266 board, without reflashing"),
     "demo": ("demo", "the whole job on the bundled recordings: train, diagnose, add effects "
                      "(tools/demo.py)"),
     "bench": ("bench", "time the pipeline and the native replay (tools/bench_pipeline.py)"),
@@ -55,18 +58,28 @@ def report(name: str, message) -> None:
 def run(name: str, argv=None) -> int:
     """Parses argv for subcommand NAME and runs it; returns its exit status (a user error:
     its one line on stderr and 1; a bad command line: SystemExit(2) from argparse)."""
-    from ..errors import USER_ERRORS  # (here: it loads the log reader, pandas; `hpddo --help` need not)
+    from .. import interrupt
 
-    mod = _module(name)
-    p = mod.parser(f"hpddo {name}")
-    args = p.parse_args(argv)
-    if hasattr(mod, "validate"):  # checks across options: a usage error, status 2
-        mod.validate(args, p)
     try:
-        return mod.run(args)
-    except USER_ERRORS as exc:
-        report(name, exc)
-        return 1
+        with interrupt.handling():
+            from ..logs.errors import USER_ERRORS  # (here: it loads the log reader, pandas; `hpddo --help` need not)
+
+            mod = _module(name)
+            p = mod.parser(f"hpddo {name}")
+            args = p.parse_args(argv)
+            if hasattr(mod, "validate"):  # checks across options: a usage error, status 2
+                mod.validate(args, p)
+            try:
+                return mod.run(args)
+            except USER_ERRORS as exc:
+                report(name, exc)
+                return 1
+    except KeyboardInterrupt as exc:  # interrupt.Interrupted, or Ctrl-C before the handler was in place
+        status = getattr(exc, "status", interrupt.STATUS[interrupt.signal.SIGINT])
+        what = exc.args[0] if isinstance(exc, interrupt.Interrupted) else "SIGINT"
+        report(name, f"stopped by {what}: its processes ended, nothing half-written (an output "
+                     "folder is as it was, or complete)")
+        return status
 
 
 def top_parser() -> argparse.ArgumentParser:

@@ -13,7 +13,7 @@
     hpddo bench --observer [--write-docs] [--no-lx106] [--build DIR] [--peer-python PY]
 
 instead measures the observer on the boards and the host, float against fixed point
-(tools/hpddo/perf.py: AVR cycle-exact in simavr with emlearn as the peer, host samples/s
+(tools/hpddo/studies/perf.py: AVR cycle-exact in simavr with emlearn as the peer, host samples/s
 against scikit-learn) and prints the table; with --write-docs it also writes the table
 into docs/performance.md and the figures into docs/figures/bench_observer.json.
 """
@@ -36,7 +36,7 @@ def parser(prog: str = "hpddo bench") -> argparse.ArgumentParser:
                    help="folder of labelled bench logs, *.csv (default: the bundled data/default)")
     p.add_argument("--observer", action="store_true",
                    help="measure the observer step on the AVR (simavr) and the host, float against fixed point "
-                        "(tools/hpddo/perf.py) instead of the pipeline")
+                        "(tools/hpddo/studies/perf.py) instead of the pipeline")
     p.add_argument("--write-docs", action="store_true",
                    help="--observer: write the table into docs/performance.md and the figures into "
                         "docs/figures/bench_observer.json")
@@ -64,16 +64,17 @@ def sklearn_peer(net):
 
 def run(args) -> int:
     if args.observer:
-        from .. import perf
+        from ..studies import perf
         # absolute: emlearn's converter runs inside the build folder (a relative --build failed there)
         perf.run(args.build.resolve(), min(args.repeat, 20), args.peer_python, write=args.write_docs, lx=not args.no_lx106)
         return 0
     import numpy as np
 
-    from .. import replay, train
-    from ..errors import InputError
+    from ..evaluation import replay
+    from ..model import train
+    from ..logs.errors import InputError
     from ..pipeline import PipelineConfig, run as run_pipeline
-    from ..train import TrainConfig
+    from ..model.train import TrainConfig
 
     logs = sorted(p for p in args.data.glob("*.csv") if not p.name.endswith(".truth.csv"))
     if not logs:

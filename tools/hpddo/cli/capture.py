@@ -32,8 +32,8 @@ import shutil
 import sys
 import time
 
-from .. import benchlog
-from ..errors import InputError
+from ..logs import benchlog
+from ..logs.errors import InputError
 from . import options
 
 try:
@@ -60,7 +60,7 @@ EXIT_OK, EXIT_FAILED, EXIT_GARBLED, EXIT_INTERRUPTED = 0, 1, 3, 130
 
 class CaptureError(InputError):
     """A capture that produced no log; the message is one line naming the fault (one of
-    hpddo.errors.USER_ERRORS: reported as `hpddo capture: message`, exit status 1)."""
+    hpddo.logs.errors.USER_ERRORS: reported as `hpddo capture: message`, exit status 1)."""
 
 
 class PortError(CaptureError):
@@ -232,7 +232,7 @@ def capture(port, out: pathlib.Path, command: str | None = None, rows: int | Non
             raise PortError(f"cannot send {command!r} to serial port {port_name}: {exc}; "
                             f"nothing recorded") from None
     start = time.monotonic()
-    bar = tqdm(total=rows, unit="row", disable=not progress) if tqdm else None
+    bar = tqdm(total=rows, unit="row", disable=None if progress else True) if tqdm else None  # None: off a terminal
     pending = b""  # the start of a line that a read timeout cut
     try:
         with f:
@@ -317,13 +317,13 @@ def parser(prog: str = "hpddo capture") -> argparse.ArgumentParser:
     what = p.add_mutually_exclusive_group()
     what.add_argument("--run", choices=["sweep", "load", "long"], help="start this protocol and record it")
     what.add_argument("--rec", metavar="CONDITION", help="start a recording by hand with this condition")
-    p.add_argument("--rate", type=options.positive_float, metavar="HZ", help="set the sample rate first (Hz)")
+    options.rate_hz(p, "set the board's sample rate first")
     p.add_argument("--hold", type=options.positive_float, metavar="S", help="set the protocol step length first (s)")
     p.add_argument("--rows", type=options.positive_int,
                    help="stop after this many rows (the log says complete=false, cut=--rows N)")
     p.add_argument("--seconds", type=options.positive_float,
                    help="stop after this many seconds (the log says complete=false, cut=--seconds S)")
-    options.quiet(p, "no progress bar")
+    options.quiet(p)
     return p
 
 
@@ -340,7 +340,7 @@ def record(a: argparse.Namespace) -> int:
         try:
             time.sleep(BOARD_RESET_S)
             port.reset_input_buffer()
-            for cmd, val in (("rate", a.rate), ("hold", a.hold)):
+            for cmd, val in (("rate", a.rate_hz), ("hold", a.hold)):
                 if val is not None:
                     port.write(f"{cmd} {val:g}\n".encode())
                     print(port.readline().decode(errors="replace").rstrip())

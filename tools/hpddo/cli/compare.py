@@ -28,23 +28,27 @@ def parser(prog: str = "hpddo compare") -> argparse.ArgumentParser:
     p = options.new_parser(prog, __doc__)
     options.logs(p)
     options.out(p, "output folder: new, empty, or a previous output of hpddo compare")
-    p.add_argument("--validation", nargs="+", type=pathlib.Path, default=[], metavar="LOG",
-                   help="labelled recordings no training sees, scored whole (e.g. data/validation/*.csv)")
+    options.logs(p, "--validation", "labelled recordings no training sees, scored whole (e.g. data/validation/*.csv)",
+                 default=[])
     options.effects(p, "also score M2 with these effect terms")
     p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,M]",
                    help="hidden layers of M3 and of the pure network (default 16,8)")
-    p.add_argument("--quick", action="store_true", help="60 epochs per network and two architectures (tests)")
+    p.add_argument("--quick", action="store_true",
+                   help="a quick look, not the comparison: 60 epochs per network (unless --epochs), two "
+                        "architectures, coarse observer tuning; the report says so")
+    p.add_argument("--epochs", type=options.positive_int, default=None, metavar="N",
+                   help="training epochs of every network, no early stop (default 2000; 60 with --quick)")
     p.add_argument("--workers", type=options.positive_int, default=2,
                    help="processes training networks at once (default 2)")
     options.ra_ohm(p)
     options.seed(p, "the networks and the cross-validation folds")
     options.glitch_filter(p)
-    options.quiet(p, "no progress lines")
+    options.quiet(p)
     return p
 
 
 def run(args) -> int:
-    from ..compare import CompareConfig, command_line, run as run_compare, text_summary
+    from ..studies.compare import CompareConfig, command_line, run as run_compare, text_summary
 
     t0 = time.perf_counter()
     argv = [*map(str, args.logs), "--out", str(args.out)]
@@ -56,6 +60,8 @@ def run(args) -> int:
         argv += ["--hidden", ",".join(map(str, args.hidden))]
     if args.quick:
         argv.append("--quick")
+    if args.epochs is not None:
+        argv += ["--epochs", str(args.epochs)]
     if args.seed != 1:
         argv += ["--seed", str(args.seed)]
     if args.ra_ohm is not None:
@@ -64,7 +70,8 @@ def run(args) -> int:
         argv.append("--no-glitch-filter")
     cfg = CompareConfig(hidden=tuple(args.hidden), effects=tuple(args.effects), ra_ohm=args.ra_ohm, seed=args.seed,
                         quick=args.quick, workers=args.workers, glitch_filter=not args.no_glitch_filter,
-                        progress=not args.quiet, command=command_line(argv))
+                        progress=not args.quiet, command=command_line(argv),
+                        epochs_given=args.epochs)
     res = run_compare(args.logs, args.out, cfg, args.validation)
     print(text_summary(res.tables), end="")
     print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")

@@ -33,11 +33,12 @@ def parser(prog: str = "hpddo demo") -> argparse.ArgumentParser:
                    help="folder of labelled bench logs, *.csv (default: the bundled data/default)")
     p.add_argument("--validation", type=pathlib.Path, default=resource_root() / "data" / "validation",
                    metavar="DIR", help="folder of labelled bench logs the models are not trained on, scored whole "
-                                       "(default: the bundled data/validation; an empty or missing folder: none)")
+                                       f"(default: the bundled {resource_root() / 'data' / 'validation'}; an empty or "
+                                       "missing folder: none, and the demo says so)")
     options.ra_ohm(p)
     options.glitch_filter(p)
     options.seed(p, "the networks and the bootstrap")
-    options.quiet(p, "no progress bars")
+    options.quiet(p)
     return p
 
 
@@ -47,7 +48,7 @@ def pipeline(logs, out: pathlib.Path, shown: pathlib.Path, effects, args, title:
     effects as the diagnosis fitted it (not identified again)."""
     from ..reports import training as report
     from ..pipeline import PipelineConfig, run as run_pipeline
-    from ..train import TrainConfig
+    from ..model.train import TrainConfig
 
     res = run_pipeline(logs, out / "model", PipelineConfig(effects=tuple(effects), physics=physics, ra_ohm=args.ra_ohm,
                                                            glitch_filter=not args.no_glitch_filter,
@@ -68,8 +69,8 @@ def bench_logs(folder: pathlib.Path) -> list:
 
 
 def run(args) -> int:
-    from .. import outdir
-    from ..errors import InputError
+    from ..logs import outdir
+    from ..logs.errors import InputError
 
     logs = bench_logs(args.data)
     if not logs:
@@ -87,7 +88,8 @@ def score_validation(res, validation, out: pathlib.Path, shown: pathlib.Path, la
     """Scores the model of a pipeline result on the validation recordings (hpddo evaluate)
     into out/validation (metrics.json, report/, work/); the metrics, or None without
     validation recordings."""
-    from ..evaluate import evaluate, write
+    from ..evaluation.evaluate import evaluate
+    from ..reports.training import write_evaluation as write
 
     if not validation:
         return None
@@ -144,6 +146,9 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
     d = diagnose.diagnose_into(logs, core.Options(ra_ohm=args.ra_ohm, seed=args.seed,
                                                   glitch_filter=not args.no_glitch_filter), stage / "diagnosis")
     print(diagnose.summary(d))
+    note = diagnose.hybrid_note(d)
+    if note:
+        print(note)
     print(f"   diagnosis took {time.perf_counter() - t1:.1f} s; report: {args.out / 'diagnosis' / 'index.html'}")
     missing = list(d.missing_effects)
     summary = {"missing_effects": missing, "before": base.metrics["rmse_rpm"],
@@ -174,6 +179,10 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
                    effects=after.metrics["identification"]["effects"])
     print("== 4. memory against estimation: the chronological split (rows from the training runs) and "
           "recordings no training covers (RMSE, RPM)")
+    if not validation:
+        print(f"   no recordings the models never saw: {args.validation} holds no bench log, so only the "
+              "chronological split is scored, and memory cannot be told from estimation; give --validation DIR "
+              "(recordings at other duty/load pairs or temperatures)")
     print_side_by_side("physics as identified, M3 on top:", side_by_side(base.metrics, base_valid))
     print_side_by_side(f"with {', '.join(missing)}, M3 on top:", side_by_side(after.metrics, after_valid))
     (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")

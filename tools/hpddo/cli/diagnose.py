@@ -5,7 +5,7 @@
 Fits the physics model (plain M2, or M2 with --effects) on the training rows (first 80 %
 of each recording), analyses its residual on the held-out rows (where the squared error
 sits, whiteness, cross-correlation with V, I, duty, temperature), ranks the effects of the
-library (tools/hpddo/effects.py) by the share of the held-out residual each explains,
+library (tools/hpddo/model/effects.py) by the share of the held-out residual each explains,
 says which are missing (or that nothing is), adds them, and reports the error before and
 after for the physics model and for the hybrid retrained on top. Writes DIR/index.html
 and DIR/diagnosis.json together, or nothing (a malformed log is refused with its file,
@@ -36,12 +36,11 @@ def parser(prog: str = "hpddo diagnose") -> argparse.ArgumentParser:
                    help=f"block-bootstrap resamples for the inclusion frequency (default {core.ranking.BOOTSTRAP}; "
                         "0: none)")
     p.add_argument("--no-hybrid", action="store_true", help="skip retraining the hybrid before/after")
-    p.add_argument("--hybrid-iter", type=options.positive_int, default=core.HYBRID_ITER, metavar="EPOCHS",
-                   help=f"training epochs of the hybrid (default {core.HYBRID_ITER})")
+    options.epochs(p, core.HYBRID_ITER, "the hybrid before and after")
     options.seed(p, "the bootstrap and the network")
     options.glitch_filter(p)
     options.leave_one_out(p)
-    options.quiet(p, "print only warnings and errors (no summary)")
+    options.quiet(p)
     return p
 
 
@@ -49,7 +48,7 @@ def options_of(args):
     """The diagnosis options a command line gives."""
     from ..diagnosis import core
     return core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
-                        hybrid=not args.no_hybrid, hybrid_iter=args.hybrid_iter, seed=args.seed,
+                        hybrid=not args.no_hybrid, hybrid_iter=args.epochs, seed=args.seed,
                         glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
                         ke_fit=args.ke_fit)
 
@@ -57,7 +56,7 @@ def options_of(args):
 def diagnose_into(logs, opt, out: pathlib.Path):
     """Runs the diagnosis and writes its report (index.html, diagnosis.json) into out,
     whole or not at all; returns the typed result (hpddo.diagnosis.Diagnosis)."""
-    from .. import outdir
+    from ..logs import outdir
     from ..diagnosis import core
     from ..reports import diagnosis as report
 
@@ -126,15 +125,51 @@ def summary(d) -> str:
     return "\n".join(lines)
 
 
+def hybrid_note(d) -> str | None:
+    """Why the diagnosis' hybrid figures are not hpddo train's M3 figures."""
+    if d.hybrid is None:
+        return None
+    return (f"(hybrid: M3 retrained here for {d.hybrid.iterations} epochs on each physics model, to compare before "
+            "and after; hpddo train trains it for 2000, so its M3 figures differ)")
+
+
+def next_steps(d, args) -> str:
+    """What to type next: train with the named effects (and the Ra the data support, where
+    they name a mismatch), then score that model on a recording it never saw."""
+    import shlex
+
+    res = d.to_json()
+    lines = []
+    ra = res.get("ra_fit") or {}
+    effects = list(args.effects) + [e for e in res["missing_effects"] if e not in args.effects]
+    words = ["hpddo", "train", *map(str, args.logs), "--out", "MODEL"]
+    if effects:
+        words += ["--effects", ",".join(effects)]
+    if ra.get("mismatch"):
+        words += ["--ra-ohm", f"{ra['supported_ohm']:.4g}"]
+    elif args.ra_ohm is not None:
+        words += ["--ra-ohm", repr(args.ra_ohm)]
+    if args.no_glitch_filter:
+        words.append("--no-glitch-filter")
+    what = ("add what the diagnosis named" if effects != list(args.effects) or ra.get("mismatch")
+            else "nothing to add: train the model as it is")
+    lines.append(f"next ({what}):\n  {shlex.join(words)}")
+    lines.append("then score it on a recording it never saw:\n  hpddo evaluate --model MODEL NEW_RUN.csv --out EVAL")
+    return "\n".join(lines)
+
+
 def run(args) -> int:
     t0 = time.perf_counter()
     d = diagnose_into(args.logs, options_of(args), args.out)
     for w in d.warnings:
         print(f"hpddo diagnose: WARNING: {w}", file=sys.stderr)
-    if args.quiet:
-        return 0
     print(summary(d))
-    print(f"wrote {args.out}/index.html and diagnosis.json; diagnosis took {time.perf_counter() - t0:.1f} s")
+    note = hybrid_note(d)
+    if note:
+        print(note)
+    print(next_steps(d, args))
+    if not args.quiet:
+        print(f"wrote {args.out}/index.html and diagnosis.json; diagnosis took {time.perf_counter() - t0:.1f} s")
     return 0
 
 

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import pathlib
+import sys
 import time
 
 from . import options
@@ -30,12 +31,14 @@ def parser(prog: str = "hpddo evaluate") -> argparse.ArgumentParser:
     options.logs(p)
     options.out(p, "output folder: new, empty, or a previous output of hpddo evaluate")
     options.glitch_filter(p)
+    options.quiet(p)
     return p
 
 
 def run(args) -> int:
-    from .. import outdir
-    from ..evaluate import evaluate, model_header, write
+    from ..logs import outdir
+    from ..evaluation.evaluate import evaluate, model_header
+    from ..reports.training import write_evaluation as write
 
     t0 = time.perf_counter()
     model_header(args.model, args.name)  # a missing model is refused before any work
@@ -43,17 +46,19 @@ def run(args) -> int:
     with outdir.staged(args.out, TOOL) as stage:
         ev = evaluate(args.model, args.logs, stage / "work", args.name, not args.no_glitch_filter)
         write(ev, stage, f"hpddo evaluate: {args.model}",
-              [f"Model {args.model}, replayed natively through the board observer on every row of "
-               "recordings it was not trained on; lookup: the mean training speed of the nearest "
-               "training operating point."])
+              [f"Model {args.model} (effects in its physics model: {', '.join(ev.metrics['model']['effects']) or 'none'}), "
+               "replayed natively through the board observer on every row of recordings it was not trained on "
+               "(no split: every row is scored); lookup: the mean training speed of the nearest training "
+               "operating point."])
     for w in ev.metrics["warnings"]:
-        print(f"hpddo evaluate: WARNING: {w}")
+        print(f"hpddo evaluate: WARNING: {w}", file=sys.stderr)
     for r in ev.recordings:
         if "rpm_ref" not in r.df or not r.df["rpm_ref"].notna().any():
             print(f"hpddo evaluate: {r.source}: no encoder readings (rpm_ref): its estimates are written "
                   f"({args.out / 'work' / 'estimates'}), there is nothing to score them against")
     print(ev.table, end="")
-    print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
+    if not args.quiet:
+        print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s; report: {args.out / 'report' / 'index.html'}")
     return 0
 
 

@@ -2,7 +2,7 @@
 
     hpddo fixtures [--out test/fixtures]     (tools/gen_fixtures.py is the same command)
 
-The expected outputs are computed in numpy float32 (hpddo/observer_ref.py), never by the C++
+The expected outputs are computed in numpy float32 (hpddo/model/observer_ref.py), never by the C++
 code under test. A pytest regenerates them and compares byte for byte.
 """
 from __future__ import annotations
@@ -19,7 +19,7 @@ def parser(prog: str = "hpddo fixtures") -> argparse.ArgumentParser:
     options.out(p, "output folder (default: test/fixtures of the source tree; required when hpddo is "
                    "installed from a wheel, which has no tests)", required=False,
                 default=tree if tree.is_dir() else None)
-    options.quiet(p, "do not list the files written")
+    options.quiet(p)
     return p
 
 
@@ -29,7 +29,8 @@ def validate(args, p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
-    from .. import benchlog, export, fixtures
+    from ..logs import benchlog
+    from ..model import export, fixtures
 
     out = args.out
     out.mkdir(parents=True, exist_ok=True)

@@ -19,8 +19,24 @@ def out(p, help: str, required: bool = True, default=None, alias: str | None = N
                    metavar="PATH", help=help)
 
 
-def quiet(p, what: str = "no progress bar") -> None:
-    p.add_argument("--quiet", action="store_true", help=what)
+QUIET_HELP = ("no progress output (bars, progress lines, lists of files written); the results, warnings and "
+              "errors still print")
+
+
+def quiet(p) -> None:
+    """--quiet: one meaning in every subcommand."""
+    p.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+
+
+def epochs(p, default: int, what: str) -> None:
+    """--epochs N: training epochs of a network (no early stop)."""
+    p.add_argument("--epochs", type=positive_int, default=default, metavar="N",
+                   help=f"training epochs of {what}, no early stop (default {default})")
+
+
+def rate_hz(p, help: str, default=None) -> None:
+    """--rate-hz HZ: a sample rate."""
+    p.add_argument("--rate-hz", type=positive_float, default=default, metavar="HZ", help=help)
 
 
 def seed(p, what: str) -> None:
@@ -33,7 +49,7 @@ def ra_ohm(p) -> None:
 
 
 def ke_fit(p) -> None:
-    from ..identify import KE_FITS
+    from ..model.identify import KE_FITS
     p.add_argument("--ke-fit", choices=list(KE_FITS), default=KE_FITS[0],
                    help="M2 Ke: mean of per-window ratios (paper eq. 20, the default) or least squares")
 
@@ -50,15 +66,33 @@ def leave_one_out(p) -> None:
 
 
 def effects(p, what: str) -> None:
-    """--effects NAME,NAME...: effect terms of the physics model (hpddo/effects.py)."""
-    from .. import effects as fx
+    """--effects NAME,NAME...: effect terms of the physics model (hpddo/model/effects.py)."""
+    from ..model import effects as fx
     p.add_argument("--effects", type=fx.parse_names, default=(), metavar="NAME[,NAME...]",
                    help=f"{what}, comma separated: {', '.join(fx.NAMES)}")
 
 
-def logs(p) -> None:
-    p.add_argument("logs", nargs="+", type=pathlib.Path, metavar="LOG",
-                   help="labelled bench logs (CSV, docs/bench-log.md)")
+class _Logs(argparse.Action):
+    """Bench logs, less the twin's ground-truth sidecars given beside their own logs (as
+    `hpddo train out/*.csv` gives them after `hpddo twin --out out`), each left out with a
+    note on stderr."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        import sys
+        from ..twin.generate import TRUTH_CSV
+
+        names = {str(v) for v in values}
+        sidecar = [v for v in values if v.name.endswith(TRUTH_CSV)
+                   and str(v.with_name(v.name[:-len(TRUTH_CSV)] + ".csv")) in names]
+        for v in sidecar:
+            print(f"{parser.prog}: note: left out {v}: the twin's ground truth beside its log, not a bench log",
+                  file=sys.stderr)
+        setattr(namespace, self.dest, [v for v in values if v not in sidecar])
+
+
+def logs(p, name: str = "logs", help: str = "labelled bench logs (CSV, docs/bench-log.md)", **kw) -> None:
+    """LOG... (or --NAME LOG...): bench logs; the twin's truth sidecars beside them left out."""
+    p.add_argument(name, nargs="+", type=pathlib.Path, metavar="LOG", action=_Logs, help=help, **kw)
 
 
 def positive_float(text: str) -> float:

@@ -61,8 +61,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     options.effects(p, "effect terms to add to the physics model M2")
     p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,N]",
                    help="hidden layer sizes of M3 (default 16,8; the paper's is 128,64)")
-    p.add_argument("--max-iter", type=options.positive_int, default=2000, metavar="EPOCHS",
-                   help="training epochs of M3, no early stop (default 2000)")
+    options.epochs(p, 2000, "M3")
     options.seed(p, "the network")
     p.add_argument("--no-gate", action="store_true",
                    help="no novelty gate: the whole learned correction wherever the features lie inside the "
@@ -71,7 +70,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
                    help="training fraction of each recording, 0.1..0.95 (default 0.8)")
     options.glitch_filter(p)
     options.leave_one_out(p)
-    options.quiet(p, "no progress bar")
+    options.quiet(p)
     return p
 
 
@@ -94,7 +93,7 @@ def provenance(args) -> str:
                             ("--rated-rpm", "rated_rpm", str), ("--ke-fit", "ke_fit", str),
                             ("--effects", "effects", ",".join),
                             ("--hidden", "hidden", lambda h: ",".join(map(str, h))),
-                            ("--max-iter", "max_iter", str), ("--split", "split", str)):
+                            ("--epochs", "epochs", str), ("--split", "split", str)):
         if getattr(args, key) != getattr(defaults, key):
             words += [flag, show(getattr(args, key))]
     words += ["--seed", str(args.seed)]
@@ -108,9 +107,9 @@ def provenance(args) -> str:
 
 
 def run(args) -> int:
-    from .. import physics
+    from ..model import physics
     from ..pipeline import DEFAULT_RATED_RPM, DEFAULT_RATED_V, PipelineConfig, run as run_pipeline
-    from ..train import TrainConfig
+    from ..model.train import TrainConfig
 
     given = (args.rated_v is not None) + (args.rated_rpm is not None)
     cfg = PipelineConfig(name=args.name, ra_ohm=args.ra_ohm,
@@ -119,9 +118,9 @@ def run(args) -> int:
                          nameplate_source=("default", "partly given", "given")[given],
                          ke_fit=args.ke_fit, effects=args.effects, train_fraction=args.split,
                          glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
-                         train=TrainConfig(hidden=args.hidden, max_iter=args.max_iter, seed=args.seed,
+                         train=TrainConfig(hidden=args.hidden, max_iter=args.epochs, seed=args.seed,
                                            gate=not args.no_gate, progress=not args.quiet),
-                         command=provenance(args))
+                         command=provenance(args), report=True)
     t0 = time.perf_counter()
     res = run_pipeline(args.logs, args.out, cfg)
     for r in res.recordings:
@@ -140,11 +139,18 @@ def run(args) -> int:
         print(f"M3 {args.hidden}: clamp +-{ident['clamp_rpm']:.2f} RPM, {ident['train_rows']} training rows")
     if "note" in ident["nameplate"]:
         print(f"note: {ident['nameplate']['note']}")
+        fastest = max((float(r.df["rpm_ref"].max()) for r in res.recordings if "rpm_ref" in r.df), default=None)
+        if fastest and fastest > 0 and not 0.5 <= cfg.rated_rpm / fastest <= 2.0:
+            print(f"hpddo train: WARNING: M1's nameplate says {cfg.rated_rpm:g} RPM at {cfg.rated_V:g} V, and the "
+                  f"fastest speed in these recordings is {fastest:.0f} RPM: M1's figures compare with a motor that is "
+                  "not yours; read the rated voltage and the output shaft's no-load speed on its label or datasheet "
+                  "and pass --rated-v and --rated-rpm", file=sys.stderr)
     print(res.table, end="")
     if "leave_one_out" in res.metrics:
         from ..pipeline import leave_one_out_table
         print(leave_one_out_table(res.metrics["leave_one_out"]), end="")
-    print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
+    if not args.quiet:
+        print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s; report: {args.out / 'report' / 'index.html'}")
     return 0
 
 

@@ -75,8 +75,7 @@ def parser(prog: str = "hpddo twin") -> argparse.ArgumentParser:
                    "all: the three (default). Validation (hpddo's, not in training): unseen: duty/load "
                    "pairs no training protocol holds, 20 s each; hot: training pairs at 55 C ambient "
                    "after a 20 min warm-up; validation: the two")
-    p.add_argument("--rate-hz", type=options.positive_float, default=2.0, metavar="HZ",
-                   help="sample rate (default 2, the paper's)")
+    options.rate_hz(p, "sample rate (default 2, the paper's)", default=2.0)
     p.add_argument("--preset", default="default", choices=PRESETS,
                    help="default: every effect at its default magnitude + 3 glitches per "
                    "recording; ideal: every effect off, no glitches")
@@ -95,7 +94,7 @@ def parser(prog: str = "hpddo twin") -> argparse.ArgumentParser:
     options.seed(p, "the simulation")
     options.out(p, "output folder: new, empty, or a previous output of hpddo twin (protocols add up)",
                 required=False)
-    options.quiet(p, "no progress bar, no summary")
+    options.quiet(p)
     p.add_argument("--list-effects", action="store_true", help="print the effects and exit")
     return p
 
@@ -140,7 +139,7 @@ def simulate(bench, prot: str, args, stage: pathlib.Path) -> None:
         from tqdm import tqdm
 
         bar = tqdm(total=round(total, 3), unit="s", desc=f"{prot} (simulated s)",
-                   file=sys.stderr, mininterval=0.5, leave=False,
+                   file=sys.stderr, mininterval=0.5, leave=False, disable=None,  # None: no bar off a terminal
                    bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s [{elapsed}<{remaining}]")
         cb = bar.update
     g = generate.generate(bench, prot, args.rate_hz, args.seed, out_dir=stage,
@@ -155,7 +154,7 @@ def simulate(bench, prot: str, args, stage: pathlib.Path) -> None:
 
 
 def run(args) -> int:
-    from .. import outdir
+    from ..logs import outdir
     from ..twin import protocols
 
     if args.list_effects:

@@ -10,7 +10,7 @@ import dataclasses
 import numpy as np
 import statsmodels.api as sm
 
-from .. import dataset
+from ..logs import dataset
 
 SATURATED_SHARE = 0.02   # driven rows at the channel's extreme value, exactly: saturated
 SATURATED_MIN_ROWS = 5

@@ -25,15 +25,17 @@ import time
 import numpy as np
 from scipy import stats
 
-from .. import dataset, identify
-from ..errors import InputError
-from .. import effects as fx
-from .. import physics as ph
-from ..train import TrainConfig, TrainingError, hybrid_rpm, train_residual
+from ..logs import dataset
+from ..model import identify
+from .. import schema
+from ..logs.errors import InputError
+from ..model import effects as fx
+from ..model import physics as ph
+from ..model.train import TrainConfig, TrainingError, hybrid_rpm, train_residual
 from . import analysis, channels, intervals, noise, ranking
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
-HYBRID_ITER = 150  # training iterations of the hybrid in the diagnosis (gen_weights: 2000)
+HYBRID_ITER = 150  # training epochs of the hybrid in the diagnosis (hpddo train: 2000)
 # The material reading (e.g. copper plus magnets) is taken when its held-out mean squared
 # error is at most this many noise variances above the freely fitted one's.
 MATERIAL_SLACK = 0.5
@@ -126,8 +128,8 @@ def _described(name: str, p: ph.PhysicsParams, blind: bool = False) -> dict:
         v, (lo, hi) = float(getattr(p, sh.field)), sh.bounds
         edge = lo if abs(v - lo) <= 1e-6 * (hi - lo) else hi if abs(v - hi) <= 1e-6 * (hi - lo) else None
         if edge is not None and edge != sh.default:
-            text += (f"; its form ({sh.field} = {v:g} {sh.unit}) is at the edge of those allowed "
-                     f"({lo:g}..{hi:g} {sh.unit}): these recordings do not fix it")
+            text += (f"; its form ({sh.field} = {schema.quantity(v, sh.unit)}) is at the edge of those allowed "
+                     f"({lo:g}..{schema.quantity(hi, sh.unit)}): these recordings do not fix it")
     node = []
     if eff.thermal and p.thermal_enabled():
         params.update(th_r_K_per_W=p.th_r_K_per_W, th_tau_s=p.th_tau_s)
@@ -637,7 +639,7 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
     if ra_confounded:
         chosen = [c for c in chosen if c not in ra_confounded]
         missing = [c for c in missing if c not in ra_confounded]
-        final = ranking.fit_names(rows, m2, given + chosen + [RA], sigma2, start=final)
+        final = ranking.fit_names(rows, m2, given + [c for c in chosen if c != RA] + [RA], sigma2, start=final)
         if abs(ranking.ra_sigmas(m2, final.ra_ohm)) > ranking.RA_MISMATCH_SIGMAS and RA not in chosen:
             chosen.append(RA)
         elif RA not in chosen:
@@ -1109,8 +1111,8 @@ def leave_one_out(inp: Inputs, missing: list) -> dict:
     test, and it with the missing effects), scored on every row of the one left out.
     {"recordings": {name: {"before", "after"}}, "average": {"before", "after"}}, RMSE in RPM.
     The physics only: the hybrid's cross-recording figure is hpddo train --leave-one-out."""
-    from ..metrics import figure, rmse
-    from ..train import physics_rpm
+    from ..evaluation.metrics import figure, rmse
+    from ..model.train import physics_rpm
 
     scores = {}
     for k, held in enumerate(inp.recs):

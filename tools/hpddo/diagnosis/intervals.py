@@ -27,8 +27,8 @@ import numpy as np
 import statsmodels.api as sm
 from scipy import stats
 
-from .. import effects as fx
-from .. import physics as ph
+from ..model import effects as fx
+from ..model import physics as ph
 from .. import schema
 
 LEVEL = 0.95

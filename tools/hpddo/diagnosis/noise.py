@@ -18,8 +18,8 @@ import math
 
 import numpy as np
 
-from .. import dataset
-from ..identify import MIN_RPM, RAD_S_PER_RPM
+from ..logs import dataset
+from ..model.identify import MIN_RPM, RAD_S_PER_RPM
 from . import analysis
 
 # Repeated operating points of a table: rows of one recording at the same duty and load whose

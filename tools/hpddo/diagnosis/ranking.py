@@ -36,8 +36,9 @@ import os
 
 import numpy as np
 
-from .. import effects as fx
-from .. import physics as ph
+from ..model import effects as fx
+from .. import interrupt
+from ..model import physics as ph
 from .. import schema
 from . import analysis
 
@@ -89,7 +90,7 @@ def ra_prior(m2: ph.PhysicsParams, sigma2: float) -> tuple:
 def fit_names(rows, m2: ph.PhysicsParams, names, sigma2: float, **kw) -> ph.PhysicsParams:
     """fx.fit of the effects in names; with RA_MISMATCH among them, Ra moves too (prior
     around m2's reading)."""
-    names = list(names)
+    names = list(dict.fromkeys(names))  # each effect once, in order
     if RA_MISMATCH in names:
         names.remove(RA_MISMATCH)
         kw["ra_prior"] = ra_prior(m2, sigma2)
@@ -492,7 +493,7 @@ def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int =
         jobs.append((d, m2, list(given), list(candidates), sigma2, weights, start))
     workers = min(n, os.cpu_count() or 1)
     if workers > 1:
-        with concurrent.futures.ProcessPoolExecutor(max_workers=workers,
+        with concurrent.futures.ProcessPoolExecutor(max_workers=workers, initializer=interrupt.worker_init,
                                                     mp_context=multiprocessing.get_context("fork")) as pool:
             chosen = list(pool.map(_select_names, jobs))
     else:

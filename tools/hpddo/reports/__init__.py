@@ -7,7 +7,10 @@ as an embedded PNG data URI, the figure closed after use). Every page is self-co
     reports.diagnosis.write(...)  the diagnosis report (hpddo diagnose)
 
 The submodules are imported on use, so importing this package does not load the
-diagnosis.
+diagnosis. `browser` opens a page in headless Chromium, as a person would (the tests).
+
+May import: the foundations, hpddo.logs, hpddo.model, hpddo.evaluation and hpddo.diagnosis
+(the diagnosis page shows its stages).
 """
 from __future__ import annotations
 

@@ -14,7 +14,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .. import benchlog  # noqa: E402
+from ..logs import benchlog  # noqa: E402
 from ..diagnosis import analysis, ranking  # noqa: E402
 from . import png, render  # noqa: E402
 

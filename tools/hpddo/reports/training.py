@@ -12,7 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from .. import benchlog  # noqa: E402
+from ..logs import benchlog  # noqa: E402
 from . import png, render  # noqa: E402
 
 MODELS = ("M1", "M2", "M3")
@@ -44,11 +44,12 @@ def overlay_figure(est: pd.DataFrame, title: str) -> str:
     ax1.set_ylabel("RPM")
     ax1.set_title(title)
     ax.plot(t, est["rpm_ref"], color=COLOURS["rpm_ref"], lw=1.6, label="encoder")
-    ax.plot(t, est["rpm_m2"], color=COLOURS["rpm_m2"], lw=0.9, label="M2 identified physics")
-    ax.plot(t, est["rpm_m3"], color=COLOURS["rpm_m3"], lw=0.9, label="M3 hybrid")
+    # M3 under M2: where the gate or the fallback leaves M3 equal to M2, M2 shows
+    ax.plot(t, est["rpm_m3"], color=COLOURS["rpm_m3"], lw=1.3, label="M3 hybrid")
+    ax.plot(t, est["rpm_m2"], color=COLOURS["rpm_m2"], lw=0.8, label="M2 identified physics")
     ax.set_ylabel("output shaft speed (RPM)")
-    ax2.plot(t, est["rpm_m2"] - est["rpm_ref"], color=COLOURS["rpm_m2"], lw=0.8, label="M2 error")
-    ax2.plot(t, est["rpm_m3"] - est["rpm_ref"], color=COLOURS["rpm_m3"], lw=0.8, label="M3 error")
+    ax2.plot(t, est["rpm_m3"] - est["rpm_ref"], color=COLOURS["rpm_m3"], lw=1.1, label="M3 error")
+    ax2.plot(t, est["rpm_m2"] - est["rpm_ref"], color=COLOURS["rpm_m2"], lw=0.7, label="M2 error")
     ax2.set_ylabel("error (RPM)")
     ax2.set_xlabel("time (s)")
     test = est.index[est["part"] == "test"]
@@ -56,7 +57,7 @@ def overlay_figure(est: pd.DataFrame, title: str) -> str:
     for a in (ax1, ax, ax2):
         if split:
             a.axvline(t.iloc[test[0]], color="k", ls="--", lw=1)
-        a.legend(loc="upper left", ncol=3, fontsize=8)
+        a.legend(loc="upper left", bbox_to_anchor=(1.005, 1.0), fontsize=8, frameon=False)  # beside the data
         a.grid(alpha=0.3)
     if split:
         ax1.text(t.iloc[test[0]], 1.0, " test part (last 20 %)", va="bottom", fontsize=9,
@@ -83,3 +84,12 @@ def write(metrics: dict, estimates_dir: pathlib.Path, out: pathlib.Path, title: 
         name = f.name.replace(".estimates.csv", "")
         recordings.append({"name": name, "figure": overlay_figure(pd.read_csv(f), name)})
     return benchlog.write_text_atomic(pathlib.Path(out) / "index.html", page(metrics, recordings, title, notes, caption))
+
+
+def write_evaluation(ev, out: pathlib.Path, title: str, notes: list) -> pathlib.Path:
+    """Writes an evaluation's (hpddo.evaluation.evaluate.Evaluation) metrics.json and
+    report/index.html into out; the page."""
+    import json
+    (pathlib.Path(out) / "metrics.json").write_text(json.dumps(ev.metrics, indent=2) + "\n")
+    return write(ev.metrics, ev.estimates, pathlib.Path(out) / "report", title, notes,
+                 caption=ev.table.splitlines()[0])

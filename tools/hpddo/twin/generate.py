@@ -23,9 +23,11 @@ import pathlib
 import numpy as np
 import pandas as pd
 
-from .. import benchlog
+from ..logs import benchlog
 from . import plant, protocols, sensors
 from .params import EFFECT_NAMES, EFFECTS, GENERATOR_VERSION, Bench
+
+TRUTH_CSV = ".truth.csv"  # the per-sample ground truth beside each log: <condition>.truth.csv
 
 PROTOCOL_SEED_OFFSET = {"sweep": 0, "load": 1, "long": 2, "unseen": 3, "hot": 4}
 
@@ -138,7 +140,7 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
         arrs = [truth[c].tolist() for c in truth.columns]
         row_fmt = ",".join(fmts)
         lines += [row_fmt % tuple(r) for r in zip(*arrs)]
-        paths["truth_csv"] = out / f"{condition}.truth.csv"
+        paths["truth_csv"] = out / f"{condition}{TRUTH_CSV}"
         benchlog.write_text_atomic(paths["truth_csv"], "\n".join(lines) + "\n")
         paths["truth_json"] = out / f"{condition}.truth.json"
         benchlog.write_text_atomic(paths["truth_json"], json.dumps(info, indent=1, sort_keys=True) + "\n")

@@ -16,7 +16,7 @@ import pathlib
 
 import pandas as pd
 
-from .. import benchlog
+from ..logs import benchlog
 from . import check, generate, params
 
 CONDS = ("sweep", "load", "long")

@@ -26,7 +26,7 @@ import math
 import numpy as np
 
 from .. import bench as _hw
-from .. import libm
+from ..model import libm
 from .params import Bench, v_gain_share, warmup_share
 
 

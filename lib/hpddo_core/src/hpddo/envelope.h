@@ -1,5 +1,5 @@
 // Training envelope: the per-feature range seen in training, widened by 10 %
-// of it on each side (tools/hpddo/train.py, ENVELOPE_MARGIN). Outside it the
+// of it on each side (tools/hpddo/model/train.py, ENVELOPE_MARGIN). Outside it the
 // residual is an extrapolation, and the observer falls back to the physics model.
 #ifndef HPDDO_ENVELOPE_H
 #define HPDDO_ENVELOPE_H

@@ -6,7 +6,7 @@
 // keeps the learned correction where the network saw data and falls back to the
 // physics where it did not (a per-feature box, envelope.h, cannot tell: a point inside
 // every feature's range can still be far from every training row). w is also the
-// estimate's confidence. Fitted by tools/hpddo/gate.py (fit(); the rule of the
+// estimate's confidence. Fitted by tools/hpddo/model/gate.py (fit(); the rule of the
 // thresholds is stated there and in docs/gate.md).
 //
 // The input g (kDims values) is scaled by the gate's own centre and scale, and its
@@ -17,7 +17,7 @@
 //   r_in_sq < d2 < r_out_sq   -> w = (r_out_sq - d2) / (r_out_sq - r_in_sq)
 //   d2 >= r_out_sq            -> w = 0        (and w = 0 for any NaN or infinite g_j)
 //
-// Arithmetic order (the contract with tools/hpddo/gate.py weight(), which computes
+// Arithmetic order (the contract with tools/hpddo/model/gate.py weight(), which computes
 // the golden vectors; float32 throughout):
 //   z_j  = (g_j - centre_j) / scale_j                         j = 0 .. kDims-1
 //   acc  = 0; for j = 0 .. kDims-1: diff = z_j - p_kj; acc = acc + diff * diff

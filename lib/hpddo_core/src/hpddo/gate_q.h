@@ -1,6 +1,6 @@
 // The novelty gate (gate.h) in integers, for the fixed-point model: the same prototypes,
 // thresholds and rule in units of 2^-kGateFrac of the gate's scaled space. The integer
-// reference and the rule of every constant are in tools/hpddo/quant.py (quantise_gate,
+// reference and the rule of every constant are in tools/hpddo/model/quant.py (quantise_gate,
 // gate_weight_int), which computes the golden vectors:
 //
 //   gq_j  = sat16(round(g_j 2^e_j))                   the network's input quantisation

@@ -1,7 +1,7 @@
 // Fixed-size dense ReLU network with a linear scalar output, the residual
 // learner of M3. Sizes are template parameters; weights stay in flash and are
 // laid out row-major per layer, W[out][in] (the transpose of coefs_ in
-// tools/hpddo/network.py, which keeps scikit-learn's W[in][out]), biases
+// tools/hpddo/model/network.py, which keeps scikit-learn's W[in][out]), biases
 // b[out]. kH2 == 0 means one hidden layer.
 #ifndef HPDDO_MLP_H
 #define HPDDO_MLP_H
@@ -48,11 +48,23 @@ struct MlpShape {
                                   (kH2 ? static_cast<uint32_t>(kH1) * kH2 + kH2 + kH2 : static_cast<uint32_t>(kH1)) + 1u;
   static_assert(kParams <= 0xFFFFu, "hpddo::Mlp: more than 65535 parameters do not fit kParamCount (uint16_t)");
 };
+
+/// What both forms of Mlp (Net) share beside their forward(): the observer's residual.
+template <class Net, uint8_t kIn>
+struct MlpResidual {
+  /// The observer's residual for raw features x, RPM: scaler, then Net::forward().
+  template <class Scaler>
+  static float residual(const Scaler& scaler, const MlpWeights& w, const float (&x)[kIn]) {
+    float z[kIn];
+    scaler.transform(x, z);
+    return Net::forward(w, z);
+  }
+};
 }  // namespace detail
 
 /// Two hidden layers: kIn -> kH1 (ReLU) -> kH2 (ReLU) -> 1 (linear).
 template <uint8_t kIn, uint8_t kH1, uint8_t kH2>
-struct Mlp : private detail::MlpShape<kIn, kH1, kH2> {
+struct Mlp : private detail::MlpShape<kIn, kH1, kH2>, public detail::MlpResidual<Mlp<kIn, kH1, kH2>, kIn> {
   static const uint8_t kInputs = kIn;
   static const uint8_t kHidden1 = kH1;
   static const uint8_t kHidden2 = kH2;
@@ -63,14 +75,6 @@ struct Mlp : private detail::MlpShape<kIn, kH1, kH2> {
       static_cast<uint16_t>(kW0Count + kH1 + kW1Count + kH2 + kW2Count + 1);
 
   typedef MlpWeights Weights;
-
-  /// The observer's residual for raw features x, RPM: scaler, then forward().
-  template <class Scaler>
-  static float residual(const Scaler& scaler, const MlpWeights& w, const float (&x)[kIn]) {
-    float z[kIn];
-    scaler.transform(x, z);
-    return forward(w, z);
-  }
 
   /// Network output for standardised inputs z.
   static float forward(const MlpWeights& w, const float (&z)[kIn]) {
@@ -86,7 +90,7 @@ struct Mlp : private detail::MlpShape<kIn, kH1, kH2> {
 
 /// One hidden layer: kIn -> kH1 (ReLU) -> 1 (linear); w1/b1 hold the output.
 template <uint8_t kIn, uint8_t kH1>
-struct Mlp<kIn, kH1, 0> : private detail::MlpShape<kIn, kH1, 0> {
+struct Mlp<kIn, kH1, 0> : private detail::MlpShape<kIn, kH1, 0>, public detail::MlpResidual<Mlp<kIn, kH1, 0>, kIn> {
   static const uint8_t kInputs = kIn;
   static const uint8_t kHidden1 = kH1;
   static const uint8_t kHidden2 = 0;
@@ -96,14 +100,6 @@ struct Mlp<kIn, kH1, 0> : private detail::MlpShape<kIn, kH1, 0> {
   static const uint16_t kParamCount = static_cast<uint16_t>(kW0Count + kH1 + kW1Count + 1);
 
   typedef MlpWeights Weights;
-
-  /// The observer's residual for raw features x, RPM: scaler, then forward().
-  template <class Scaler>
-  static float residual(const Scaler& scaler, const MlpWeights& w, const float (&x)[kIn]) {
-    float z[kIn];
-    scaler.transform(x, z);
-    return forward(w, z);
-  }
 
   /// Network output for standardised inputs z.
   static float forward(const MlpWeights& w, const float (&z)[kIn]) {

@@ -1,4 +1,4 @@
-// Fixed-point form of the residual network (tools/hpddo/quant.py quantises a float
+// Fixed-point form of the residual network (tools/hpddo/model/quant.py quantises a float
 // model and computes the golden vectors, in Python integers): the scaler is folded
 // into the first layer, every sum is int32, one float multiply at the end.
 //

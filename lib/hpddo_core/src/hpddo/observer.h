@@ -113,7 +113,7 @@ class Observer {
  public:
   /// Keeps a reference to model: pass one that outlives the observer (a generated kModel).
   explicit Observer(const Model<Net>& model)
-      : model_(model),
+      : model_(&model),
         physics_const_(physics_const(model.physics)),
         speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)) {
     reset();
@@ -177,7 +177,7 @@ class Observer {
       out.x[j] = 0.0f;
       out.xq[j] = 0;
     }
-    const PhysicsParams& p = model_.physics;
+    const PhysicsParams& p = model_->physics;
     if (s.has_seq) {
       if (has_seq_ && s.seq != static_cast<uint16_t>(last_seq_ + 1u)) {
         ++seq_gaps_;
@@ -197,8 +197,8 @@ class Observer {
       ++period_breaks_;
       has_lag_ = false;
     }
-    const bool temp_read = is_finite(s.temp_C) && s.temp_C >= model_.limits.temp_min_C &&
-                           s.temp_C <= model_.limits.temp_max_C;
+    const bool temp_read = is_finite(s.temp_C) && s.temp_C >= model_->limits.temp_min_C &&
+                           s.temp_C <= model_->limits.temp_max_C;
     const float ref_C = temp_read ? s.temp_C : p.t_amb_C;
     thermal_.step(p, i_true_A, dt_s, ref_C);
     PhysicsInput in;
@@ -230,8 +230,8 @@ class Observer {
     out.physics.temp_C = in.temp_C;
     out.physics.residual_rpm = 0.0f;
     out.physics.status = kStatusFallback;
-    if (model_.envelope.contains(out.x)) {
-      out.confidence = detail::gate_weight(model_.gate, out.x, &gate_first_, out.xq);
+    if (model_->envelope.contains(out.x)) {
+      out.confidence = detail::gate_weight(model_->gate, out.x, &gate_first_, out.xq);
       if (!(out.confidence > 0.0f)) out.physics.status = kStatusGated;  // inside the box, far from the rows
     }
     out.use_network = out.confidence > 0.0f;
@@ -240,7 +240,7 @@ class Observer {
 
   /// The network's residual for a prepared sample, RPM, unclamped (scaler and MLP; a
   /// fixed-point network has the scaler folded into its first layer).
-  float residual(const Prepared& p) const { return detail::Residual<Net>::of(model_, p.x, p.xq); }
+  float residual(const Prepared& p) const { return detail::Residual<Net>::of(*model_, p.x, p.xq); }
 
   /// The second half of step(): the estimate of a prepared sample, given the
   /// network's residual (ignored where the network does not apply; a non-finite
@@ -257,7 +257,7 @@ class Observer {
     }
     Estimate e = p.physics;
     if (p.use_network && is_finite(residual_rpm)) {
-      const bool clamped = clamp_residual(model_.clamp_rpm, &residual_rpm);
+      const bool clamped = clamp_residual(model_->clamp_rpm, &residual_rpm);
       e.status = p.confidence < 1.0f ? kStatusGated : clamped ? kStatusClamped : kStatusOk;
       e.residual_rpm = p.confidence * residual_rpm;
       e.confidence = p.confidence;
@@ -269,12 +269,12 @@ class Observer {
 
  private:
   bool reading_valid(const Sample& s) const {
-    const InputLimits& lim = model_.limits;
+    const InputLimits& lim = model_->limits;
     return is_finite(s.v_V) && is_finite(s.i_A) && s.v_V <= lim.v_max_V && s.v_V >= -lim.v_max_V &&
            s.i_A <= lim.i_max_A && s.i_A >= -lim.i_max_A && s.dt_s > 0.0f && is_finite(s.dt_s);
   }
 
-  const Model<Net>& model_;
+  const Model<Net>* model_;  ///< a pointer, not a reference: an observer can be assigned (a new model in force)
   PhysicsConst physics_const_;  ///< the model's reciprocals: no division per step (physics.h)
   float speed_limit_rpm_;
   ThermalEstimator thermal_;

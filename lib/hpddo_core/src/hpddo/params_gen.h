@@ -1,5 +1,5 @@
 // GENERATED parameter schema: DO NOT EDIT. Regenerate with the command below.
-// command: cd tools && ../.venv/bin/python -m hpddo.schema --write
+// command: cd tools && ../.venv/bin/python -m hpddo.regenerate --write
 // source: tools/hpddo/schema.py
 // generator: hpddo.schema 1
 // layout: crc32 0x71a0bead (kParamsSchema)

@@ -8,7 +8,7 @@
 // any effect terms that diagnosis found missing. Each effect is one named
 // coefficient; zero switches it off. The parameters and effects are declared
 // once, in tools/hpddo/schema.py, from which params_gen.h is generated; the
-// terms below exist once more in Python (tools/hpddo/physics.py) and a parity
+// terms below exist once more in Python (tools/hpddo/model/physics.py) and a parity
 // test holds the two together.
 #ifndef HPDDO_PHYSICS_H
 #define HPDDO_PHYSICS_H
@@ -43,7 +43,7 @@ struct PhysicsInput {
 
 // A term whose coefficient is zero is skipped below, not computed: with finite inputs
 // (the observer checks them) x - 0, x (1 + 0 y) and x - 0 y are x, the same float, so the
-// result is the one of the full expression (tools/hpddo/physics.py computes it in full),
+// result is the one of the full expression (tools/hpddo/model/physics.py computes it in full),
 // and the default model (every effect off) pays no float operation for them (on the AVR
 // each costs about 100 to 500 cycles).
 

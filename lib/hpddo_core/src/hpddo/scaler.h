@@ -1,5 +1,5 @@
 // StandardScaler: z_j = (x_j - mean_j) / scale_j, statistics fitted on the
-// training rows only (tools/hpddo/network.py) and stored in flash by the model
+// training rows only (tools/hpddo/model/network.py) and stored in flash by the model
 // exporter.
 #ifndef HPDDO_SCALER_H
 #define HPDDO_SCALER_H

@@ -1,0 +1,105 @@
+"""Scores of the observer's estimates against the encoder: the RMSE table of M1, M2 and M3.
+
+The native replay (host/replay.cpp) writes every row's estimates; this module turns
+them into the figures every report shows, on the rows it is told to score:
+
+* RMSE per condition (recording name), pooled over its scored rows that carry an
+  encoder reading, and "average", the mean over conditions;
+* the share of scored rows whose residual was clamped, that fell back to physics
+  (outside the per-feature box), whose correction the novelty gate reduced ("gated"),
+  or whose reading was invalid, per condition and over all ("all");
+* the number of scored rows.
+
+Figures are kept to 6 significant digits (what the reports print and what is compared
+between machines; the last bits of a float32 sum are not).
+"""
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pandas as pd
+
+#: Estimate columns scored, by model name: the observer's three, and the lookup baseline
+#: (hpddo.evaluation.baseline) where the caller added it to every frame.
+MODELS = {"M1": "rpm_m1", "M2": "rpm_m2", "M3": "rpm_m3", "lookup": "rpm_lookup"}
+STATUS_SHARES = {"clamped_share": "clamped", "fallback_share": "fallback", "gated_share": "gated",
+                 "invalid_share": "invalid"}
+
+
+def figure(x: float) -> float | int | None:
+    """x to 6 significant digits, as JSON reads the number printed so (an integer when it
+    is one: 0, not 0.0); None (JSON null) when not finite."""
+    return json.loads(f"{x:.6g}") if math.isfinite(x) else None
+
+
+def rmse(err: np.ndarray) -> float:
+    """Root mean square of the finite errors; NaN when there are none."""
+    e = np.asarray(err, float)
+    e = e[np.isfinite(e)]
+    return float(np.sqrt(np.sum(e * e) / len(e))) if len(e) else float("nan")
+
+
+def score(scored: list, source: str, checksum: int | None = None) -> dict:
+    """scored: (condition, rpm_ref per row, estimates DataFrame, bool mask of the rows to
+    score) per recording; recordings sharing a condition are pooled. Returns the metrics
+    dict (rmse_rpm, the status shares, test_rows, source, model_checksum)."""
+    models = {m: col for m, col in MODELS.items() if all(col in est for _, _, est, _ in scored)}
+    order: list[str] = []
+    err: dict[str, dict[str, list]] = {}
+    status: dict[str, list] = {}
+    for cond, ref, est, mask in scored:
+        if cond not in err:
+            order.append(cond)
+            err[cond] = {m: [] for m in models}
+            status[cond] = []
+        mask = np.asarray(mask, bool)
+        ref = np.asarray(ref, float)[mask]
+        labelled = np.isfinite(ref)
+        for m, col in models.items():
+            err[cond][m].append((est[col].to_numpy(float)[mask] - ref)[labelled])
+        status[cond].append(est["status"].to_numpy(str)[mask])
+    out: dict = {"rmse_rpm": {}}
+    for m in models:
+        per = {c: rmse(np.concatenate(err[c][m])) for c in order}
+        avg = sum(per[c] / len(order) for c in order) if order else float("nan")
+        out["rmse_rpm"][m] = {**{c: figure(v) for c, v in per.items()}, "average": figure(avg)}
+    st = {c: np.concatenate(status[c]) for c in order}
+    total = sum(len(s) for s in st.values())
+    for key, name in STATUS_SHARES.items():
+        out[key] = {c: figure(float(np.mean(st[c] == name)) if len(st[c]) else float("nan")) for c in order}
+        out[key]["all"] = figure(sum(int(np.sum(s == name)) for s in st.values()) / total if total else float("nan"))
+    out["test_rows"] = {**{c: len(st[c]) for c in order}, "all": total}
+    out["source"] = source
+    if checksum is not None:
+        out["model_checksum"] = f"0x{checksum:08x}"
+    return out
+
+
+def table_cell(x: float | None) -> str:
+    """One RMSE of a text table, 10 wide; "nan" where there is none."""
+    return f"{x:10.2f}" if x is not None else f"{'nan':>10s}"
+
+
+def table(metrics: dict, title: str = "RMSE on the test parts (RPM)") -> str:
+    """The RMSE table as text: one line per condition, then the average."""
+    rm = metrics["rmse_rpm"]
+    models = [m for m in MODELS if m in rm]
+    conds = [c for c in rm["M1"] if c != "average"]
+    num = table_cell
+
+    lines = [title, f"{'condition':<10s} " + " ".join(f"{m:>10s}" for m in models)
+             + f" {'rows':>8s} {'clamped':>8s} {'fallback':>9s} {'gated':>8s}"]
+    for c in conds:
+        lines.append(f"{c:<10s} " + " ".join(num(rm[m][c]) for m in models)
+                     + f" {metrics['test_rows'][c]:8d} {100 * (metrics['clamped_share'][c] or 0):7.1f}% "
+                     f"{100 * (metrics['fallback_share'][c] or 0):8.1f}% "
+                     f"{100 * (metrics.get('gated_share', {}).get(c) or 0):7.1f}%")
+    lines.append(f"{'average':<10s} " + " ".join(num(rm[m]["average"]) for m in models))
+    return "\n".join(lines) + "\n"
+
+
+def read_estimates(path) -> pd.DataFrame:
+    """One estimates file of the replay (host/replay.cpp, --out-dir)."""
+    return pd.read_csv(path, dtype={"status": str, "part": str})

@@ -1,0 +1,6 @@
+"""Reading and writing: bench logs (benchlog: the format of docs/bench-log.md; dataset:
+a log cleaned and split into a recording), output folders that never lose a user's file
+(outdir), and the errors a user's input can cause (errors).
+
+May import: the foundations (hpddo.schema, hpddo.bench, hpddo.interrupt) and nothing else of hpddo.
+"""

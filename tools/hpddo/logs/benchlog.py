@@ -1,0 +1,566 @@
+"""Reader and writer for the bench log format, specified in docs/bench-log.md.
+
+A bench log is UTF-8 CSV text::
+
+    # condition=sweep
+    # sample_rate_hz=2
+    t_s,duty,v_V,i_A,rpm_ref,temp_C,load
+    0.0,0.000,0.012,0.003,0.0,31.7,0
+
+`read_log` accepts every file that follows docs/bench-log.md and refuses any other with
+a `BenchLogError` whose message names the file, the 1-based line number in the file
+and the fault (``.line``, ``.kind`` the fault keyword of the specification). It never
+drops a row. The C++ reader host/bench_log.h follows the same page; the conformance
+corpus test/fixtures/logs/ and a differential fuzz test keep the two in agreement.
+
+Conventions of the returned `BenchLog`:
+
+* ``df``: all columns of the file, in file order; extra columns are kept too
+  (float where every non-empty cell is a number, text otherwise);
+* an optional column that is absent from the file is absent from ``df``
+  (it is *not* added as an all-NaN column);
+* required columns ``t_s, duty, v_V, i_A`` are float64 and always finite;
+* ``rpm_ref`` and ``temp_C`` are float64, an empty cell is NaN;
+* ``load`` and ``seq`` are int64 (the format has no empty cell there);
+* ``lines``: int64 array, the 1-based file line of each row of ``df``.
+
+`write_log` writes only files the format accepts, atomically (temporary file in the
+same directory, then ``os.replace``), so a reader never sees a partial file.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+import pathlib
+import re
+import tempfile
+
+import numpy as np
+import pandas as pd
+
+__all__ = [
+    "BenchLog",
+    "BenchLogError",
+    "REQUIRED_COLUMNS",
+    "OPTIONAL_FLOAT_COLUMNS",
+    "OPTIONAL_INT_COLUMNS",
+    "KNOWN_COLUMNS",
+    "COLUMN_FORMATS",
+    "INT_MAX",
+    "FAULTS",
+    "NUMBER_RE",
+    "INTEGER_RE",
+    "read_log",
+    "write_log",
+    "write_text_atomic",
+]
+
+REQUIRED_COLUMNS = ("t_s", "duty", "v_V", "i_A")
+OPTIONAL_FLOAT_COLUMNS = ("rpm_ref", "temp_C")
+OPTIONAL_INT_COLUMNS = ("load", "seq")
+KNOWN_COLUMNS = REQUIRED_COLUMNS + OPTIONAL_FLOAT_COLUMNS + OPTIONAL_INT_COLUMNS
+
+#: Largest value of each integer column (docs/bench-log.md, Integers).
+INT_MAX = {"load": 255, "seq": 2**53 - 1}
+
+#: Fault keywords of docs/bench-log.md, in the order a line is checked.
+FAULTS = (
+    "not UTF-8", "empty file", "carriage return", "blank line", "malformed metadata",
+    "duplicate metadata key", "no header", "empty column name", "duplicate column",
+    "missing required column", "no rows", "metadata after header", "field count",
+    "empty value", "non-finite", "non-numeric", "non-integer", "out of range",
+    "t_s not increasing", "duty outside 0..1",
+)
+
+#: printf formats used by `write_log` for the known columns. The digits keep what
+#: the acquisition chain resolves (10-bit ADC, 0.0625 C sensor, encoder counts)
+#: with margin, so a written file reads back to the same numbers to that precision.
+COLUMN_FORMATS = {
+    "t_s": "%.4f",
+    "duty": "%.4f",
+    "v_V": "%.6f",
+    "i_A": "%.6f",
+    "rpm_ref": "%.3f",
+    "temp_C": "%.4f",
+    "load": "%d",
+    "seq": "%d",
+}
+
+_PAD = " \t"  # the only padding the format knows
+_META_KEY_RE = re.compile(r"[A-Za-z0-9_.\-]+")
+_META_RE = re.compile(r"#[ \t]*([^=]*?)[ \t]*=(.*)", re.S)
+#: The number grammar of docs/bench-log.md (to be used with fullmatch, on a cell without padding).
+NUMBER_RE = r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?"
+#: The integer grammar of docs/bench-log.md (load, seq): digits only.
+INTEGER_RE = r"[0-9]+"
+_NUMBER_RE = NUMBER_RE
+_NONFINITE_RE = r"[+-]?(?:[iI][nN][fF](?:[iI][nN][iI][tT][yY])?|[nN][aA][nN])"
+_NUMBER_CHARS = frozenset("0123456789+-.eE")
+_DIGITS = frozenset("0123456789")
+_DBL_MIN = 2.2250738585072014e-308
+
+
+class BenchLogError(ValueError):
+    """A bench log that does not follow the format. The message names file, line, fault."""
+
+    def __init__(self, path, line, fault, kind=None):
+        self.path = str(path)
+        self.line = line
+        self.fault = fault
+        self.kind = kind  # the fault keyword of docs/bench-log.md, None for other errors
+        where = f"{self.path}:{line}" if line is not None else self.path
+        super().__init__(f"{where}: {fault}")
+
+
+class _Fault(Exception):
+    """A format fault found while parsing: its line, keyword and message."""
+
+    def __init__(self, line, kind, message):
+        super().__init__(message)
+        self.line, self.kind, self.message = line, kind, message
+
+
+@dataclasses.dataclass
+class BenchLog:
+    """One recording: its path, its ``# key=value`` metadata, its rows and their file lines."""
+
+    path: pathlib.Path
+    meta: dict
+    df: pd.DataFrame
+    lines: np.ndarray = None  # 1-based file line of each row of df
+
+    @property
+    def condition(self) -> str:
+        """The ``condition`` metadata value, else the file name without extension."""
+        return self.meta.get("condition") or pathlib.Path(self.path).stem
+
+    @property
+    def sample_rate_hz(self):
+        """The ``sample_rate_hz`` metadata as float, or None when absent or not a number."""
+        try:
+            return float(self.meta["sample_rate_hz"])
+        except (KeyError, ValueError):
+            return None
+
+
+# ----------------------------------------------------------------------------- reading
+
+
+def read_log(path) -> BenchLog:
+    """Read and validate a bench log; raise `BenchLogError` on any format fault."""
+    path = pathlib.Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise BenchLogError(path, None, f"cannot read file: {exc.strerror or exc}") from None
+    try:
+        meta, df, lines = _parse_bytes(raw)
+    except _Fault as f:
+        raise BenchLogError(path, f.line, f.message, f.kind) from None
+    return BenchLog(path=path, meta=meta, df=df, lines=lines)
+
+
+def _parse_bytes(raw: bytes):
+    """Parses the bytes of a bench log into (meta, df, lines); raises _Fault on a format fault."""
+    if raw[:3] == b"\xef\xbb\xbf":
+        raw = raw[3:]
+    if not raw:
+        raise _Fault(1, "empty file", "empty file")
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise _Fault(line, "not UTF-8", f"not UTF-8 text (byte 0x{raw[exc.start]:02x})") from None
+
+    cr_line = None  # the first line with a CR that does not end it (checked first on its line)
+    if "\r" in text:
+        text = text.replace("\r\n", "\n")
+        k = text.find("\r")
+        if k >= 0:
+            cr_line = text.count("\n", 0, k) + 1
+    lines = text.split("\n")
+    if lines[-1] == "":
+        lines.pop()  # the line end of the last line
+    n = len(lines)
+
+    def fault(line, kind, message):
+        if cr_line is not None and cr_line <= line:
+            raise _Fault(cr_line, "carriage return",
+                         "carriage return inside a line (only CR LF ends a line)")
+        raise _Fault(line, kind, message)
+
+    meta: dict = {}
+    i = 0
+    while i < n:
+        ln = lines[i]
+        if not ln.strip(_PAD):
+            fault(i + 1, "blank line", "blank line")
+        if not ln.startswith("#"):
+            break
+        kv = parse_meta_line(ln)
+        if kv is None:
+            fault(i + 1, "malformed metadata",
+                  f"malformed metadata line {ln!r} (expected '# key=value', key of A-Z a-z 0-9 _ . -)")
+        key = kv[0]
+        if key in meta:
+            fault(i + 1, "duplicate metadata key", f"duplicate metadata key {key!r}")
+        meta[key] = kv[1]
+        i += 1
+    if i >= n:
+        fault(n, "no header", "no header row after the metadata")
+
+    hline = i + 1
+    problem = header_fault(lines[i])
+    if problem is not None:
+        fault(hline, *problem)
+    columns = [c.strip(_PAD) for c in lines[i].split(",")]
+    data = lines[i + 1:]
+    if not data:
+        fault(hline, "no rows", "header with no rows")
+    first = hline + 1  # file line of data[0]
+
+    # Structure of the row lines: the first line that is blank, metadata or of the wrong
+    # field count ends what the cells are read from (a cell fault before it comes first).
+    ncomma = len(columns) - 1
+    counts = np.fromiter((ln.count(",") for ln in data), dtype=np.int64, count=len(data))
+    bad_row = _first(counts != ncomma)
+    hash_row = _first_hash_row(data)
+    if hash_row is not None and (bad_row is None or hash_row < bad_row):
+        bad_row = hash_row
+    struct = None
+    if bad_row is not None:
+        ln = data[bad_row]
+        if not ln.strip(_PAD):
+            struct = ("blank line", "blank line")
+        elif ln.startswith("#"):
+            struct = ("metadata after header", f"metadata after header: {ln!r}")
+        else:
+            n = ln.count(",") + 1
+            hint = ("; decimal commas? (numbers are written with '.', docs/bench-log.md)"
+                    if n > len(columns) and '"' in ln and re.search(r"\d,\d", ln) else "")
+            struct = ("field count", f"field count: row has {n} fields, header has {len(columns)}{hint}")
+        data = data[:bad_row]
+    if cr_line is not None and cr_line - first < len(data):
+        data = data[:max(cr_line - first, 0)]
+
+    nrows = len(data)
+    joined = ",".join(data)
+    if nrows:  # every row has len(columns) fields: one split, one reshape
+        cells = np.array(joined.split(","), dtype=object).reshape(nrows, len(columns))
+    else:
+        cells = np.empty((0, len(columns)), dtype=object)
+    padded = " " in joined or "\t" in joined
+
+    out = {}
+    best = None  # (row, column index, kind, message) of the first cell fault
+    for j, col in enumerate(columns):
+        vals = cells[:, j]
+        if padded:
+            vals = pd.Series(vals, dtype=object).str.strip(_PAD).to_numpy(dtype=object)
+        if col in REQUIRED_COLUMNS or col in OPTIONAL_FLOAT_COLUMNS:
+            x, bad = _parse_numbers(vals, col, required=col in REQUIRED_COLUMNS)
+            if col == "t_s" and nrows > 1:
+                inc = np.zeros(nrows, bool)
+                inc[1:] = ~(x[1:] > x[:-1])
+                bad = _merge(bad, inc, "t_s not increasing",
+                             lambda r: f"t_s not increasing: {vals[r]} after {vals[r - 1]}")
+            elif col == "duty":
+                bad = _merge(bad, (x < 0) | (x > 1), "duty outside 0..1",
+                             lambda r: f"duty outside 0..1: {vals[r]}")
+            out[col] = x
+        elif col in OPTIONAL_INT_COLUMNS:
+            x, bad = _parse_ints(vals, col)
+            out[col] = x
+        else:
+            out[col] = _extra(vals)
+            bad = None
+        if bad is not None and (best is None or bad[0] < best[0]):
+            best = (bad[0], j, bad[1], bad[2])
+    if best is not None:
+        fault(first + best[0], best[2], best[3])
+    if struct is not None:
+        fault(first + bad_row, *struct)
+    if cr_line is not None:
+        fault(cr_line, "", "")
+
+    df = pd.DataFrame(out, columns=columns)
+    return meta, df, np.arange(first, first + nrows, dtype=np.int64)
+
+
+def parse_meta_line(line: str):
+    """(key, value) of a '# key=value' metadata line, None when it is not one."""
+    m = _META_RE.fullmatch(line)
+    if m is None or not _META_KEY_RE.fullmatch(m.group(1)):
+        return None
+    return m.group(1), m.group(2).strip(_PAD)
+
+
+def header_fault(line: str):
+    """(fault keyword, message) of a header line that the format refuses, else None."""
+    seen = set()
+    for c in (c.strip(_PAD) for c in line.split(",")):
+        if c == "":
+            return "empty column name", "empty column name in header"
+        if c in seen:
+            return "duplicate column", f"duplicate column {c!r} in header"
+        seen.add(c)
+    missing = [c for c in REQUIRED_COLUMNS if c not in seen]
+    if missing:
+        return "missing required column", (f"missing required column(s) {', '.join(missing)} in header"
+                                           + _export_hint(line))
+    return None
+
+
+def _export_hint(header: str) -> str:
+    """What a spreadsheet's export did to a header whose required columns are all there in
+    another dress: another separator (and with it, often, decimal commas), or quotes."""
+    for sep, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")):
+        cells = [c.strip(_PAD + "\"'") for c in header.split(sep)]
+        if sep in header and all(c in cells for c in REQUIRED_COLUMNS):
+            return (f": the columns are separated by {name}, the format takes commas and decimal points "
+                    "(docs/bench-log.md); export the file as CSV with ',' between columns and '.' in numbers "
+                    "(a spreadsheet set to a locale with decimal commas writes ';' and '0,5')")
+    cells = [c.strip(_PAD) for c in header.split(",")]
+    if any(c[:1] in "\"'" for c in cells) and all(c in [x.strip("\"'") for x in cells] for c in REQUIRED_COLUMNS):
+        return ": the column names are in quotes; the format takes them bare (t_s,duty,v_V,i_A; docs/bench-log.md)"
+    return ""
+
+
+def parse_row(header: str, row: str) -> dict:
+    """The values of one data row under its header, read with the reader's own rules (for
+    tools that check rows one by one as they arrive); raises BenchLogError whose fault
+    names what is wrong (its line: 2, the row's line in that two-line log)."""
+    try:
+        _, df, _ = _parse_bytes(f"{header}\n{row}\n".encode("utf-8"))
+    except _Fault as f:
+        raise BenchLogError("<row>", f.line, f.message, f.kind) from None
+    return {c: df[c].iloc[0] for c in df.columns}
+
+
+def _first(mask):
+    idx = np.flatnonzero(mask)
+    return int(idx[0]) if idx.size else None
+
+
+def _first_hash_row(data):
+    """Index of the first row line that starts with '#', or None."""
+    body = "\n" + "\n".join(data)
+    k = body.find("\n#")
+    return None if k < 0 else body.count("\n", 0, k + 1) - 1
+
+
+def _merge(bad, mask, kind, message):
+    """The earlier of a cell fault so far (row, kind, message) and the first row of mask."""
+    r = _first(mask)
+    if r is None or (bad is not None and bad[0] <= r):
+        return bad
+    return (r, kind, message(r))
+
+
+def _cells_off(vals, chars):
+    """True when some cell has a character outside chars (or is empty)."""
+    return not set("".join(vals)) <= chars
+
+
+def _parse_numbers(vals, col, required):
+    """Float values of a number column and its first cell fault (row, kind, message) or None."""
+    nrows = len(vals)
+    empty = vals == ""
+    has_empty = bool(empty.any())
+    x = np.full(nrows, np.nan)
+    bad = None
+    fast = not _cells_off(vals, _NUMBER_CHARS)
+    if fast:
+        try:
+            if has_empty:
+                x[~empty] = vals[~empty].astype(np.float64)
+            else:
+                x = vals.astype(np.float64)
+        except ValueError:
+            fast = False
+    if not fast:  # some cell is off the grammar: find it, cell by cell but in C loops
+        s = pd.Series(vals, dtype=object)
+        ok = s.str.fullmatch(_NUMBER_RE).to_numpy(dtype=bool)
+        nonfin = s.str.fullmatch(_NONFINITE_RE).to_numpy(dtype=bool)
+        x = np.full(nrows, np.nan)
+        x[ok] = vals[ok].astype(np.float64)
+        bad = _merge(bad, nonfin, "non-finite",
+                     lambda r: f"non-finite value {vals[r]!r} in column {col}")
+        bad = _merge(bad, ~ok & ~empty & ~nonfin, "non-numeric",
+                     lambda r: f"non-numeric value {vals[r]!r} in column {col}")
+    if required and has_empty:
+        bad = _merge(bad, empty, "empty value", lambda r: f"empty value in required column {col}")
+    ax = np.abs(x)
+    oor = np.isinf(x) | ((ax < _DBL_MIN) & (ax > 0))
+    zero = np.flatnonzero(x == 0)
+    if zero.size:
+        nonzero_text = pd.Series(vals[zero], dtype=object).str.contains(r"^[^eE]*[1-9]").to_numpy(dtype=bool)
+        oor[zero[nonzero_text]] = True
+    bad = _merge(bad, oor, "out of range", lambda r: f"out of range value {vals[r]!r} in column {col}")
+    return x, bad
+
+
+def _parse_ints(vals, col):
+    """int64 values of an integer column and its first cell fault (row, kind, message) or None."""
+    nrows = len(vals)
+    bad = None
+    if _cells_off(vals, _DIGITS) or (vals == "").any():
+        s = pd.Series(vals, dtype=object)
+        ok = s.str.fullmatch(INTEGER_RE).to_numpy(dtype=bool)
+        empty = vals == ""
+        bad = _merge(bad, empty, "empty value", lambda r: f"empty value in column {col}")
+        bad = _merge(bad, ~ok & ~empty, "non-integer",
+                     lambda r: f"non-integer value {vals[r]!r} in column {col} (digits only)")
+        vals = np.where(ok, vals, "0")
+    # digits only: a double is exact up to 2^53, and any larger decimal rounds to >= 2^53
+    x = vals.astype(np.float64) if nrows else np.zeros(0)
+    big = x > INT_MAX[col]
+    bad = _merge(bad, big, "out of range",
+                 lambda r: f"out of range value {vals[r]!r} in column {col} (0..{INT_MAX[col]})")
+    x[big] = 0
+    return x.astype(np.int64), bad
+
+
+def _extra(vals):
+    """An extra column: float where every non-empty cell is a number, text otherwise."""
+    s = pd.Series(vals, dtype=object)
+    nonempty = vals != ""
+    if s[nonempty].str.fullmatch(_NUMBER_RE).all():
+        x = np.full(len(vals), np.nan)
+        x[nonempty] = vals[nonempty].astype(np.float64)
+        return x
+    return vals
+
+
+# ----------------------------------------------------------------------------- writing
+
+
+def _format_column(name: str, values) -> list:
+    fmt = COLUMN_FORMATS.get(name)
+    s = pd.Series(values)
+    if fmt == "%d":
+        return ["" if pd.isna(v) else "%d" % int(v) for v in s.tolist()]
+    if fmt is not None or pd.api.types.is_float_dtype(s):
+        fmt = fmt or "%.10g"
+        return ["" if (v is None or (isinstance(v, float) and math.isnan(v))) else fmt % v
+                for v in s.astype(float).tolist()]
+    if pd.api.types.is_integer_dtype(s):
+        return ["" if pd.isna(v) else "%d" % int(v) for v in s.tolist()]
+    out = []
+    for v in s.tolist():
+        txt = "" if v is None or (isinstance(v, float) and math.isnan(v)) else str(v)
+        if "," in txt or "\n" in txt or "\r" in txt:
+            raise ValueError(f"column {name}: value {txt!r} contains a separator or newline")
+        out.append(txt)
+    return out
+
+
+def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
+    """Write ``df`` (and ``meta`` as ``# key=value`` lines) as a bench log, atomically.
+
+    Known columns are written in the order of docs/bench-log.md (t_s, duty, v_V, i_A,
+    rpm_ref, temp_C, load, seq), extra columns after them in ``df`` order. NaN in
+    rpm_ref, temp_C or an extra column is written as an empty cell. Raises ValueError
+    for data the format cannot hold (missing or non-finite required values, t_s not
+    increasing once written, duty outside 0..1, infinite rpm_ref/temp_C, missing,
+    fractional or out-of-range load/seq, metadata with line ends, bad column names);
+    the text is read back before it is written, so only files the format accepts are
+    written.
+    """
+    path = pathlib.Path(path)
+    meta = {str(k): str(v) for k, v in (meta or {}).items()}
+    if len(meta) != len(meta or {}):
+        raise ValueError("two metadata keys are the same text")
+    for k, v in meta.items():
+        if not _META_KEY_RE.fullmatch(k):
+            raise ValueError(f"metadata key {k!r} is not of A-Z a-z 0-9 _ . -")
+        if "\n" in v or "\r" in v:
+            raise ValueError(f"metadata value for {k!r} contains a line end")
+    missing = [c for c in REQUIRED_COLUMNS if c not in df.columns]
+    if missing:
+        raise ValueError(f"missing required column(s): {', '.join(missing)}")
+    if len(df) == 0:
+        raise ValueError("no rows to write")
+    for c in REQUIRED_COLUMNS:
+        a = df[c].to_numpy(dtype=float)
+        if not np.isfinite(a).all():
+            raise ValueError(f"non-finite value in required column {c}")
+    if len(df) > 1 and not (np.diff(df["t_s"].to_numpy(dtype=float)) > 0).all():
+        raise ValueError("t_s not strictly increasing")
+    duty = df["duty"].to_numpy(dtype=float)
+    if ((duty < 0) | (duty > 1)).any():
+        raise ValueError("duty outside 0..1")
+    for c in OPTIONAL_FLOAT_COLUMNS:
+        if c in df.columns and np.isinf(df[c].to_numpy(dtype=float)).any():
+            raise ValueError(f"infinite value in column {c} (NaN, written empty, means not measured)")
+    for c in OPTIONAL_INT_COLUMNS:
+        if c in df.columns:
+            if df[c].isna().any():
+                raise ValueError(f"missing value in column {c} (the format has no empty {c} cell)")
+            a = df[c].to_numpy(dtype=float)
+            if not ((a == np.round(a)) & (a >= 0) & (a <= INT_MAX[c])).all():
+                raise ValueError(f"column {c} holds a value that is not an integer in 0..{INT_MAX[c]}")
+
+    cols = [c for c in KNOWN_COLUMNS if c in df.columns]
+    cols += [c for c in df.columns if c not in KNOWN_COLUMNS]
+    names = [str(c) for c in cols]
+    for c in names:
+        if (not c.strip(_PAD) or c != c.strip(_PAD) or any(ch in c for ch in ",\n\r")):
+            raise ValueError(f"bad column name {c!r}")
+    if len(set(names)) != len(names):
+        raise ValueError("two columns have the same name")
+    formatted = [_format_column(c, df[c]) for c in cols]
+
+    parts = [f"# {k}={v}\n" for k, v in meta.items()]
+    parts.append(",".join(names) + "\n")
+    body = "\n".join(",".join(row) for row in zip(*formatted))
+    parts.append(body + "\n")
+    text = "".join(parts)
+    try:
+        _parse_bytes(text.encode("utf-8"))
+    except _Fault as f:
+        raise ValueError(f"the text would not be a valid bench log (line {f.line}: {f.message})") from None
+
+    return write_text_atomic(path, text)
+
+
+def write_text_atomic(path, text: str) -> pathlib.Path:
+    """Writes text (UTF-8, LF) to a temporary file beside path, then renames it over path,
+    so a reader sees the old file or the whole new one, never a part."""
+    return write_bytes_atomic(path, text.encode("utf-8"))
+
+
+def write_bytes_atomic(path, data, opener=None) -> pathlib.Path:
+    """Writes data to a temporary file beside path (flushed and fsynced, mode 0644), then
+    renames it over path, so a reader sees the old file or the whole new one, never a part;
+    on any failure the temporary file is removed and path is untouched. data: bytes, or a
+    function that writes into the open binary file it is given (to stream a large source).
+    opener(temporary path) opens the temporary file for writing (default: the file
+    tempfile made)."""
+    path = pathlib.Path(path)
+    directory = path.parent if str(path.parent) else pathlib.Path(".")
+    directory.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=directory)
+    try:
+        if opener is None:
+            fh = os.fdopen(fd, "wb")
+        else:
+            os.close(fd)
+            fh = opener(tmp)
+        with fh:
+            if callable(data):
+                data(fh)
+            else:
+                fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o644)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+    return path

@@ -1,0 +1,309 @@
+"""Recordings prepared for identification, training and replay.
+
+Loads bench logs, removes sensor glitches (and says which rows, by file line), splits
+each recording chronologically (first 80 % train, last 20 % test) and marks where the
+one-step lags restart: the first row, the first test row (lags never cross the split)
+and every seq gap. These rules are the board observer's (observer.h): the replay of the
+cleaned logs restarts the observer at the same rows.
+"""
+from __future__ import annotations
+
+import dataclasses
+import pathlib
+import re
+
+import numpy as np
+import pandas as pd
+
+from . import benchlog
+from .. import schema
+
+TRAIN_FRACTION = 0.8
+MIN_ROWS = 10  # fewer rows than this cannot be split into training and test parts
+
+# A sample is a glitch when it departs from the median of its 5-sample neighbourhood by
+# more than GLITCH_SIGMAS robust standard deviations of such departures, by more than an
+# absolute floor in the channel's unit, and by more than GLITCH_QUANTA steps of the
+# channel's resolution (its quantum, estimated from the data: an encoder at 1 kHz moves
+# in steps of 310 RPM, and a sample one step from its neighbours is no glitch), and by
+# more than GLITCH_TAIL times the 99th percentile of all departures (at 100 Hz and more
+# the V and I channels alias the PWM into heavy-tailed noise that a robust sigma misses;
+# a glitch must stand out of that tail, not only out of the typical spread). Real
+# steps (load, duty) move the median with them and survive; isolated spikes of one or two
+# samples do not. Glitches are rare by nature: a recording that loses more than
+# GLITCH_WARN_SHARE of its rows to the filter is reported loudly.
+GLITCH_SIGMAS = 12.0
+GLITCH_FLOOR = {"v_V": 0.5, "i_A": 0.15, "rpm_ref": 25.0}
+GLITCH_QUANTA = 3.0
+GLITCH_TAIL = 2.0
+GLITCH_WARN_SHARE = 0.01
+LIMITS = schema.Limits()  # the readings the observer accepts
+TEMP_RANGE_C = (LIMITS.temp_min_C, LIMITS.temp_max_C)  # a reading outside it is taken as not read,
+# as the observer does (the row's V, I and speed stay: a faulty temperature sensor must
+# not cost the recording)
+
+
+@dataclasses.dataclass
+class Recording:
+    """One cleaned recording."""
+
+    name: str             # condition (metadata) or file stem; unique among the recordings of a run
+    source: pathlib.Path  # the log it came from
+    meta: dict
+    df: pd.DataFrame      # cleaned rows, with a seq column (the source's, or its row index)
+    removed: list         # [(file line, reason), ...] of rows the glitch filter removed
+    n_train: int          # rows [0, n_train) train, [n_train, n) test
+    rows_in_file: int = 0  # data rows of the log before the glitch filter
+    warnings: list = dataclasses.field(default_factory=list)  # what a user must be told loudly
+
+    @property
+    def n(self) -> int:
+        return len(self.df)
+
+    def part(self, which: str) -> pd.DataFrame:
+        return self.df.iloc[: self.n_train] if which == "train" else self.df.iloc[self.n_train:]
+
+    def has_temp(self) -> bool:
+        return "temp_C" in self.df and self.df["temp_C"].notna().any()
+
+    @property
+    def file_stem(self) -> str:
+        """The name as a safe file name (work files of the run are named by it)."""
+        return safe_name(self.name)
+
+
+def safe_name(name: str) -> str:
+    """A recording name reduced to letters, digits, '_', '-' and '.' for file names."""
+    out = re.sub(r"[^A-Za-z0-9_.-]", "_", name).strip(".")
+    return out or "recording"
+
+
+def quantum(x: np.ndarray) -> float:
+    """The channel's resolution as the data shows it: the 10th percentile of the non-zero
+    steps between consecutive samples (a quantised channel never steps by less than one
+    quantum; for a continuous noisy channel this is far below its noise)."""
+    x = x[np.isfinite(x)]
+    d = np.abs(np.diff(x))
+    d = d[d > 0]
+    return float(np.percentile(d, 10)) if d.size >= 20 else 0.0
+
+
+def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:
+    """Boolean mask of glitch rows and the reason for each."""
+    n = len(df)
+    bad = np.zeros(n, bool)
+    reasons = [""] * n
+    for col, floor in GLITCH_FLOOR.items():
+        if col not in df or n < 5:
+            continue
+        x = df[col].to_numpy(float)
+        med = pd.Series(x).rolling(5, center=True, min_periods=3).median().to_numpy()
+        dev = np.abs(x - med)
+        finite = np.isfinite(dev)
+        if not finite.any():
+            continue
+        sigma = 1.4826 * np.median(dev[finite])
+        thresh = max(GLITCH_SIGMAS * sigma, floor, GLITCH_QUANTA * quantum(x),
+                     GLITCH_TAIL * float(np.percentile(dev[finite], 99)))
+        hit = finite & (dev > thresh)
+        for k in np.flatnonzero(hit & ~bad):
+            reasons[k] = f"{col}={x[k]:.6g} departs {dev[k]:.3g} from its neighbours' median (threshold {thresh:.3g})"
+        bad |= hit
+    return bad, reasons
+
+
+def outside_limits(df: pd.DataFrame) -> dict:
+    """{row index: reason} of the rows whose v_V or i_A the observer would refuse (LIMITS)."""
+    out = {}
+    for col, lim in (("i_A", LIMITS.i_max_A), ("v_V", LIMITS.v_max_V)):
+        x = df[col].to_numpy(float)
+        for k in np.flatnonzero(np.abs(x) > lim):
+            out[int(k)] = f"{col}={x[k]:.6g} is beyond the channel's full scale (|{col}| <= {lim:g}, schema.Limits)"
+    return dict(sorted(out.items()))
+
+
+def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True) -> Recording:
+    """Reads, cleans and splits one bench log (raises benchlog.BenchLogError on format faults)."""
+    log = benchlog.read_log(path)
+    df = log.df.copy()
+    lines = np.asarray(log.lines, np.int64)
+    if "seq" not in df:
+        df["seq"] = np.arange(len(df), dtype=np.int64)
+    removed, warnings = [], []
+    outside = outside_limits(df)
+    if outside and not glitch_filter:
+        k, why = next(iter(outside.items()))
+        raise benchlog.BenchLogError(path, int(lines[k]), f"{why}; the board marks such a sample invalid and no "
+                                     f"model is fitted to it ({len(outside)} such row(s)): correct the row(s), or "
+                                     "let the glitch filter remove them (drop --no-glitch-filter)")
+    if glitch_filter:
+        bad, reasons = glitch_mask(df)
+        for k, why in outside.items():
+            bad[k], reasons[k] = True, why
+        removed = [(int(lines[k]), reasons[k]) for k in np.flatnonzero(bad)]
+        df = df.loc[~bad].reset_index(drop=True)
+        share = len(removed) / max(len(log.df), 1)
+        if share > GLITCH_WARN_SHARE:
+            warnings.append(f"{path}: the glitch filter removed {len(removed)} of {len(log.df)} rows "
+                            f"({100 * share:.1f} %), more than glitches should be; look at the rows it names, "
+                            "or keep every row with --no-glitch-filter")
+    if "temp_C" in df:
+        t = df["temp_C"].to_numpy(float)
+        outside = int((np.isfinite(t) & ((t < TEMP_RANGE_C[0]) | (t > TEMP_RANGE_C[1]))).sum())
+        if outside:
+            warnings.append(f"{path}: {outside} temp_C readings lie outside the sensor range {TEMP_RANGE_C} C "
+                            "and are taken as not read")
+    if len(df) < MIN_ROWS:
+        raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows"
+                                     + (f" after removing {len(removed)} glitch rows" if removed else "")
+                                     + f": at least {MIN_ROWS} are needed to split train/test")
+    n_train = int(np.floor(train_fraction * len(df)))
+    return Recording(name=log.condition, source=pathlib.Path(path), meta=dict(log.meta), df=df,
+                     removed=removed, n_train=n_train, rows_in_file=len(log.df), warnings=warnings)
+
+
+def load_recordings(paths, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True) -> list[Recording]:
+    """load_recording for each path; refuses two recordings with the same name (condition
+    metadata, else file name), which would be counted as one."""
+    recs = [load_recording(p, train_fraction, glitch_filter) for p in paths]
+    seen = {}
+    for r in recs:
+        key = r.file_stem.lower()
+        if key in seen:
+            other = seen[key]
+            raise benchlog.BenchLogError(
+                r.source, None, f"recording name {r.name!r} is also the name of {other.source} "
+                f"({other.name!r}); each recording needs its own name: set '# condition=NAME' in one "
+                "of them, or rename the file")
+        seen[key] = r
+    return recs
+
+
+def segment_starts(rec: Recording) -> np.ndarray:
+    """True where the one-step lags restart: first row, first test row, after a seq gap."""
+    seq = rec.df["seq"].to_numpy(np.int64)
+    start = np.zeros(rec.n, bool)
+    start[0] = True
+    start[1:] = (seq[1:] - seq[:-1]) % 65536 != 1
+    start[rec.n_train] = True
+    return start
+
+
+def dt_s(rec: Recording) -> np.ndarray:
+    """Sample period of each row: the time since the previous row; the first row takes the
+    nominal period (metadata sample_rate_hz, else the median spacing)."""
+    t = rec.df["t_s"].to_numpy(float)
+    dt = np.empty_like(t)
+    dt[1:] = np.diff(t)
+    rate = rec.meta.get("sample_rate_hz")
+    try:
+        dt[0] = 1.0 / float(rate)
+    except (TypeError, ValueError, ZeroDivisionError):
+        dt[0] = float(np.median(dt[1:])) if len(t) > 1 else 1.0
+    return dt
+
+
+def lagged(x: np.ndarray, starts: np.ndarray) -> np.ndarray:
+    """x(t-1), with x(t) itself at segment starts (as the observer does after a reset)."""
+    out = np.empty_like(x)
+    out[1:] = x[:-1]
+    out[starts] = x[starts]
+    return out
+
+
+def di_dt_A_per_s(rec: Recording) -> np.ndarray:
+    """The current's rate of change per row as the observer takes it (observer.h): the
+    step from the previous row over the period, 0 where the lags restart."""
+    return rate_per_s(rec, "i_A")
+
+
+def rate_per_s(rec: Recording, col: str) -> np.ndarray:
+    """A column's rate of change per row: the step from the previous row over the period,
+    0 where the lags restart (di_dt_A_per_s for the current, dV/dt for the diagnosis)."""
+    starts = segment_starts(rec)
+    x = rec.df[col].to_numpy(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(starts, 0.0, (x - lagged(x, starts)) / dt_s(rec))
+
+
+def temp_read_C(rec: Recording) -> np.ndarray:
+    """The case temperature per row as the observer takes it: the reading where the log has
+    one within the sensor's range (TEMP_RANGE_C), NaN elsewhere."""
+    if "temp_C" not in rec.df:
+        return np.full(rec.n, np.nan)
+    t = rec.df["temp_C"].to_numpy(float)
+    return np.where(np.isfinite(t) & (t >= TEMP_RANGE_C[0]) & (t <= TEMP_RANGE_C[1]), t, np.nan)
+
+
+# What a log may declare about itself in its metadata (docs/bench-log.md, Known keys), read
+# by the diagnosis: the log's kind, and the resolution of its sensors (the noise floor they set).
+KINDS = ("time_series", "steady_state")  # metadata `kind`
+SENSOR_KEYS = {
+    "encoder_counts_per_rev": "encoder counts per output-shaft revolution (quadrature and gear included)",
+    "encoder_window_s": "the time the encoder's counts are taken over, s (default: the sample period)",
+    "v_lsb_V": "the step of the logged voltage (its resolution), V",
+    "i_lsb_A": "the step of the logged current (its resolution), A",
+}
+
+
+def _meta_error(rec: Recording, key: str, fault: str) -> benchlog.BenchLogError:
+    """A fault of metadata `key`, naming its file and line."""
+    line = None
+    try:
+        for k, text in enumerate(rec.source.read_text(encoding="utf-8-sig").splitlines(), 1):
+            if not text.startswith("#"):
+                break
+            if re.match(rf"#[ \t]*{re.escape(key)}[ \t]*=", text):
+                line = k
+                break
+    except OSError:
+        pass
+    return benchlog.BenchLogError(rec.source, line, f"metadata {key}={rec.meta.get(key)!r} {fault}")
+
+
+def kind(rec: Recording) -> tuple[str, str]:
+    """(kind, how it is known) of a recording: "steady_state" (a table: one settled row per
+    operating point, no clock: the rows' order and t_s say nothing of time) or "time_series"
+    (rows one sample period apart). Declared by the metadata `kind`, else detected: a log with
+    no sample_rate_hz whose duty never falls from row to row (the rows sorted by operating
+    point) over at most STEADY_MAX_ROWS rows is a table."""
+    declared = rec.meta.get("kind")
+    if declared is not None:
+        if declared not in KINDS:
+            raise _meta_error(rec, "kind", f"is not one of {', '.join(KINDS)}")
+        return declared, "declared"
+    duty = rec.df["duty"].to_numpy(float)
+    if ("sample_rate_hz" not in rec.meta and rec.n <= STEADY_MAX_ROWS and len(np.unique(duty)) > 1
+            and bool(np.all(np.diff(duty) >= 0))):
+        return "steady_state", "detected: no sample_rate_hz, the rows sorted by duty"
+    return "time_series", "default"
+
+
+STEADY_MAX_ROWS = 1000
+
+
+def sensor_meta(rec: Recording) -> dict:
+    """{key: value} of the SENSOR_KEYS the recording declares, each a positive number."""
+    out = {}
+    for key in SENSOR_KEYS:
+        if key not in rec.meta:
+            continue
+        try:
+            v = float(rec.meta[key])
+        except ValueError:
+            raise _meta_error(rec, key, "is not a number") from None
+        if not (np.isfinite(v) and v > 0):
+            raise _meta_error(rec, key, "is not a positive number")
+        out[key] = v
+    return out
+
+
+def write_clean(rec: Recording, path) -> pathlib.Path:
+    """Writes the cleaned rows as a bench log (the file the native replay reads)."""
+    meta = dict(rec.meta)
+    meta["condition"] = rec.name
+    split = (f"train rows 0..{rec.n_train - 1}, test rows {rec.n_train}..{rec.n - 1}" if rec.n_train
+             else f"no training rows, test rows 0..{rec.n - 1}")
+    meta["note"] = f"cleaned from {rec.source.name}: {len(rec.removed)} glitch rows removed; {split}"
+    meta["split_row"] = str(rec.n_train)
+    return benchlog.write_log(path, rec.df, meta)

@@ -1,0 +1,8 @@
+"""What a model is, how it is fitted, and how it reaches the boards: the physics (physics,
+its float32 libm), the effect library (effects) and its identification (identify), the
+residual network (network) and its training (train), the novelty gate (gate), fixed
+point (quant), the float and integer references of the board observer (observer_ref),
+the model headers and golden vectors (export), and the core's test models (fixtures).
+
+May import: the foundations (hpddo.schema, hpddo.bench, hpddo.interrupt) and hpddo.logs.
+"""

@@ -1,0 +1,399 @@
+"""The effect library: physical effects that the plain model M2 leaves out, each as one
+named coefficient of the physics model, its regressor and its identification.
+
+Every effect is declared once, in schema.py (its PhysicsParams field, units, plausible
+range, meaning, excitation and bit; the C++ struct and bits are generated from it); the
+term itself exists once here (through tools/hpddo/model/physics.py) and once in lib/hpddo_core
+(physics.h), and test/py/test_effects_parity.py holds the two together.
+
+The regressor of an effect is the sensitivity of the speed estimate to its coefficient,
+d n_M2 / d c (RPM per unit of the coefficient), taken by central difference through
+physics.physics_rpm, so a new term needs no hand-written derivative.
+
+`identify` fits Ke and the named coefficients on the training rows (rpm_ref > 10, as
+eq. 20) with Ra held at its measured value, by least squares on the speed error.
+
+Temperature (physics.temperatures, as the boards): a thermal effect brings the winding
+node (th_r_K_per_W, th_tau_s), fitted with the coefficients. Where the log reads the case
+temperature, the copper (thermal_ra) follows the node's rise above the reading and the
+magnets (magnet_thermal) the reading. Where it reads none, the node rises above ambient,
+the magnets follow it too, and a state and a coefficient only show as their product, so
+the coefficient is held at its material value: thermal_ra at copper's +0.00393 /K,
+magnet_thermal alone at ferrite's -0.002 /K. With both thermal effects named, copper's
+coefficient is always held (only the material constant tells the two apart).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from . import physics as ph
+from .. import schema
+from ..logs.dataset import Recording, di_dt_A_per_s, dt_s, kind, rate_per_s, temp_read_C
+from .identify import MIN_RPM, IdentificationError
+
+# One entry of the library: the declaration in schema.py (name, field, units, plausible
+# range, meaning, excitation, separating recordings, material constant, bit).
+Effect = schema.Effect
+
+LIBRARY = dict(schema.BY_NAME)
+
+NAMES = tuple(LIBRARY)
+
+COPPER_TC_PER_K = LIBRARY["thermal_ra"].material      # 0.00393, declared in schema.py
+FERRITE_TC_PER_K = LIBRARY["magnet_thermal"].material  # -0.002
+
+
+def check_names(names) -> tuple:
+    names = tuple(names)
+    unknown = [n for n in names if n not in LIBRARY]
+    if unknown:
+        raise IdentificationError(f"unknown effect(s) {unknown}; known: {', '.join(NAMES)}")
+    return names
+
+
+def parse_names(text: str) -> tuple:
+    """Effect names from a comma-separated option value (an argparse type)."""
+    import argparse
+    try:
+        return check_names(s.strip() for s in text.split(",") if s.strip())
+    except IdentificationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+# ---------------------------------------------------------------------------------------
+# Rows: what the physics model sees, per recording
+
+
+@dataclasses.dataclass
+class Rows:
+    """Inputs of the physics model for every row of one recording, and its masks."""
+
+    rec: Recording
+    v: np.ndarray
+    i: np.ndarray
+    di_dt: np.ndarray
+    dt: np.ndarray
+    temp: np.ndarray      # temp_C where read (NaN elsewhere)
+    has_temp: np.ndarray  # bool per row
+    ref: np.ndarray       # rpm_ref (NaN where absent)
+    train: np.ndarray     # bool: training row usable for fitting (rpm_ref > MIN_RPM)
+    test: np.ndarray      # bool: held-out row usable for scoring (rpm_ref > MIN_RPM)
+    duty: np.ndarray
+    steady: bool = False  # a steady-state table (dataset.kind): settled rows, no clock, dI/dt 0
+
+    @property
+    def dv_dt(self) -> np.ndarray:
+        """The voltage's rate of change per row, V/s (0 on a steady-state table's settled rows)."""
+        return np.zeros(len(self.v)) if self.steady else rate_per_s(self.rec, "v_V")
+
+    @property
+    def needs_state(self) -> bool:
+        return not bool(self.has_temp.all())
+
+
+def rows_of(rec: Recording) -> Rows:
+    df = rec.df
+    i = df["i_A"].to_numpy(float)
+    dt = dt_s(rec)
+    steady = kind(rec)[0] == "steady_state"
+    di_dt = np.zeros(rec.n) if steady else di_dt_A_per_s(rec)  # a settled row: the current does not change
+    t = temp_read_C(rec)
+    ok = np.isfinite(t)
+    ref = df["rpm_ref"].to_numpy(float) if "rpm_ref" in df else np.full(rec.n, np.nan)
+    good = np.isfinite(ref) & (ref > MIN_RPM)
+    idx = np.arange(rec.n)
+    return Rows(rec=rec, v=df["v_V"].to_numpy(float), i=i, di_dt=di_dt, dt=dt, temp=np.where(ok, t, np.nan),
+                has_temp=ok, ref=ref, train=good & (idx < rec.n_train), test=good & (idx >= rec.n_train),
+                duty=df["duty"].to_numpy(float), steady=steady)
+
+
+# Fields of PhysicsParams the temperatures depend on; a fit's Jacobian moves the others
+# without recomputing the thermal state.
+_THERMAL_FIELDS = ("ra_ohm", "ra_tc_per_K", "t_ref_C", "i_offset_A", "th_r_K_per_W", "th_tau_s", "t_amb_C")
+_temp_cache: dict = {}
+
+
+def temperature(r: Rows, p: ph.PhysicsParams) -> ph.Temps:
+    """The winding and magnet temperatures the thermal effects see, as the boards compute
+    them (physics.temperatures, observer.h); the last few are kept per recording."""
+    key = (id(r), tuple(getattr(p, f) for f in _THERMAL_FIELDS))
+    hit = _temp_cache.get(key)
+    if hit is not None and hit[0] is r:
+        return hit[1]
+    t = ph.temperatures(p, r.i, r.dt, r.temp)
+    if len(_temp_cache) > 64:
+        _temp_cache.clear()
+    _temp_cache[key] = (r, t)
+    return t
+
+
+def predict(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:
+    """n_M2 (RPM) of every row, float64."""
+    t = temperature(r, p) if temp is None else temp
+    return ph.physics_rpm(p, r.v, r.i, r.di_dt, t)
+
+
+def sensitivity(r: Rows, p: ph.PhysicsParams, field: str, h: float, temp=None) -> np.ndarray:
+    """d n_M2 / d field at p, RPM per unit of the field, by central difference (step h)
+    through physics.physics_rpm; temp: the temperatures (default: those at p)."""
+    t = temperature(r, p) if temp is None else temp
+    c = getattr(p, field)
+    up = dataclasses.replace(p, **{field: c + h})
+    dn = dataclasses.replace(p, **{field: c - h})
+    return (ph.physics_rpm(up, r.v, r.i, r.di_dt, t) - ph.physics_rpm(dn, r.v, r.i, r.di_dt, t)) / (2 * h)
+
+
+def regressor(r: Rows, p: ph.PhysicsParams, name: str, temp=None) -> np.ndarray:
+    """d n_M2 / d coefficient of effect `name` at p, RPM per unit of the field (central
+    difference through physics.physics_rpm)."""
+    eff = LIBRARY[name]
+    return sensitivity(r, p, eff.field, 1e-3 * abs(eff.scale), temp)
+
+
+def ke_regressor(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:
+    """d n_M2 / d Ke at p, RPM per V s/rad (central difference, step 1e-4 Ke)."""
+    return sensitivity(r, p, "ke_vs_per_rad", 1e-4 * p.ke_vs_per_rad, temp)
+
+
+# ---------------------------------------------------------------------------------------
+# Fitting
+
+
+@dataclasses.dataclass
+class FitSpec:
+    """Which parameters a fit moves, and how they map onto PhysicsParams."""
+
+    names: tuple          # effects switched on
+    free: list            # PhysicsParams fields fitted (ke first)
+    scales: list
+    bounds: dict          # field -> (lo, hi) for the bounded ones (shape parameters)
+    fixed: dict           # fields held at a value
+    thermal_state: bool   # th_r_K_per_W, th_tau_s fitted too (log-parametrised)
+    blind: bool = False   # some rows read no temperature: the node is the rise above ambient
+
+
+# Channel offsets read where the truth is known: at standstill with the supply off (duty 0,
+# the encoder reading 0 RPM) the true voltage and current are zero, so the readings are the
+# channels' offsets. Where a recording has REST_MIN_ROWS such rows in its training part, an
+# offset effect is held at their mean instead of fitted: the data at hand measure it, and a
+# fitted offset would take up whatever else is constant (a brush drop, a wrong voltage).
+REST_MIN_ROWS = 5
+REST_READ = {"current_offset": "i", "v_offset": "v"}  # effect -> the Rows channel its offset is read on
+
+
+def rest_mask(r: Rows) -> np.ndarray:
+    """Training rows at standstill with the supply off: duty 0 and 0 RPM read."""
+    idx = np.arange(len(r.duty))
+    return ((r.duty == 0.0) & (r.ref == 0.0) & (idx < r.rec.n_train) & np.isfinite(r.v) & np.isfinite(r.i))
+
+
+def rest_offsets(rows: list[Rows]) -> dict:
+    """{effect: (offset in SI, its standard error, rows)} of the offset effects that the
+    rows at rest measure ({} with fewer than REST_MIN_ROWS of them)."""
+    m = [rest_mask(r) for r in rows]
+    n = int(sum(int(x.sum()) for x in m))
+    if n < REST_MIN_ROWS:
+        return {}
+    out = {}
+    for name, ch in REST_READ.items():
+        x = np.concatenate([getattr(r, ch)[k] for r, k in zip(rows, m)])
+        out[name] = (float(np.mean(x)), float(np.std(x, ddof=1) / math.sqrt(n)), n)
+    return out
+
+
+def spec_for(rows: list[Rows], names, hold=None) -> FitSpec:
+    """hold: {effect: coefficient} held at a value instead of fitted. An offset effect is
+    held at its reading at rest where the rows have one (rest_offsets)."""
+    names = check_names(names)
+    hold = dict(hold or {})
+    if any(n in REST_READ and n not in hold for n in names):
+        for n, (value, _, _) in rest_offsets(rows).items():
+            if n in names:
+                hold.setdefault(n, value)
+    thermal = [n for n in names if LIBRARY[n].thermal]
+    # A thermal effect always brings the winding node: above the case reading it is the
+    # winding-to-case rise (the copper runs hotter than the sensor under load); where no
+    # temperature is read it is the whole rise above ambient, and then the temperature
+    # scale is unknown, so the coefficient is held at its material value.
+    state = bool(thermal)
+    blind = state and any(r.needs_state for r in rows)
+    free, scales, fixed = ["ke_vs_per_rad"], [0.3], {}
+    # A coefficient that is a material constant (schema: material) is held at it where the
+    # temperature scale is unknown (blind), unless a named effect that shares its work with
+    # it is held there instead; and with the effect it shares its work with named too (both
+    # thermal effects), only the material constant tells the two apart: it is held, the
+    # other fitted. Copper (thermal_ra) is held; the magnets at ferrite's only alone.
+    for n in names:
+        eff = LIBRARY[n]
+        partner_named = eff.shares_work_with in names
+        held_by_partner = any(LIBRARY[m].shares_work_with == n for m in names)
+        if n in hold:
+            fixed[eff.field] = hold[n]
+        elif eff.material is not None and (partner_named or (blind and not held_by_partner)):
+            fixed[eff.field] = eff.material
+        else:
+            free.append(eff.field)
+            scales.append(abs(eff.scale))
+    # The shape of a named effect's term moves within the forms physics allows (schema.Shape):
+    # the effect is named, not the form. Held effects keep theirs (the start's, else the base form).
+    bounds = {}
+    for n in names:
+        if n in hold:
+            continue
+        for sh in LIBRARY[n].shapes:
+            free.append(sh.field)
+            scales.append(sh.scale)
+            bounds[sh.field] = sh.bounds
+    return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state, blind=blind,
+                   bounds=bounds)
+
+
+def node_path(blind: bool) -> str:
+    """The heat path of the winding node: "ambient" where some rows read no temperature
+    (FitSpec.blind), else "case" (the rise above the case reading)."""
+    return "ambient" if blind else "case"
+
+
+def node_params(blind: bool) -> tuple:
+    """(th_r_K_per_W, th_tau_s) declarations (schema.NodeParam) of the node's heat path."""
+    path = node_path(blind)
+    return schema.node_param(path, "th_r_K_per_W"), schema.node_param(path, "th_tau_s")
+
+
+def node_plausibility(p: ph.PhysicsParams, blind: bool) -> list:
+    """Every fitted parameter of p's winding node against its declared ranges (schema.NODE):
+    [{"field", "path", "value", "shown", "plausible", "physical", "at_bound", "plausibility"}];
+    [] without a node."""
+    if not p.thermal_enabled():
+        return []
+    out = []
+    for n in node_params(blind):
+        v = float(getattr(p, n.field))
+        ok, text = n.plausibility(v)
+        out.append({"field": n.field, "path": n.path, "value": v, "shown": n.show(v), "plausible": ok,
+                    "physical": bool(n.physical[0] <= v <= n.physical[1]), "at_bound": n.at_bound(v),
+                    "plausibility": text, "basis": n.basis})
+    return out
+
+
+def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsParams:
+    kw = dict(zip(spec.free, (float(v) for v in x[: len(spec.free)])))
+    kw.update(spec.fixed)
+    if spec.thermal_state:
+        kw["th_r_K_per_W"] = float(math.exp(x[len(spec.free)]))
+        kw["th_tau_s"] = float(math.exp(x[len(spec.free) + 1]))
+    return dataclasses.replace(base, **kw)
+
+
+def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
+    kw = {ph.EFFECT_BITS[n][1]: 0.0 for n in ph.EFFECT_BITS}
+    kw.update((sh.field, sh.default) for sh in schema.SHAPES)
+    kw.update(effects=0, th_r_K_per_W=0.0, th_tau_s=0.0)
+    return dataclasses.replace(p, **kw)
+
+
+def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
+        start: ph.PhysicsParams | None = None, hold=None, ra_prior=None, ra_bounds=None) -> ph.PhysicsParams:
+    """Least squares of rpm_ref - n_M2 over the `mask` rows of `rows` (weights per row,
+    optional), moving Ke and the coefficients of `names` (but those in `hold`, {effect:
+    coefficient}, which stay at the value given); Ra, t_ref stay at base's.
+
+    ra_prior (the diagnosis only): (ra0, sd_ohm, sigma_rpm) moves Ra too, with a Gaussian
+    prior of mean ra0 and standard deviation sd_ohm (the multimeter reading and its
+    tolerance): one more residual sigma_rpm (ra - ra0) / sd_ohm, sigma_rpm the noise level
+    of the speed error, so that the sum of squares over sigma_rpm^2 is the negative log
+    posterior.
+
+    ra_bounds (the diagnosis only): (lo, hi) ohm moves Ra too, within those bounds and with no
+    prior: Ra as the data alone determine it (diagnosis.intervals)."""
+    spec = spec_for(rows, names, hold)
+    if ra_prior is not None or ra_bounds is not None:
+        spec.free.append("ra_ohm")
+        spec.scales.append(float(ra_prior[1]) if ra_prior is not None else 0.05 * base.ra_ohm)
+    p0 = _plain(base) if start is None else start
+    x0 = [getattr(p0, f) if (start is not None or f in ("ke_vs_per_rad", "ra_ohm") or f in spec.bounds) else 0.0
+          for f in spec.free]
+    scales = list(spec.scales)
+    node = node_params(spec.blind) if spec.thermal_state else ()
+    if spec.thermal_state:
+        r0 = p0.th_r_K_per_W if p0.th_r_K_per_W > 0 else node[0].start
+        tau0 = p0.th_tau_s if p0.th_tau_s > 0 else node[1].start
+        x0 += [math.log(r0), math.log(tau0)]
+        scales += [1.0, 1.0]
+    sel = [getattr(r, mask) for r in rows]
+    refs = [r.ref[m] for r, m in zip(rows, sel)]
+    if sum(int(m.sum()) for m in sel) < len(x0) + 5:
+        raise IdentificationError(f"too few labelled rows above {MIN_RPM} RPM to fit {', '.join(spec.free)}")
+    w = ([np.ones(int(m.sum())) for m in sel] if weights is None
+         else [np.asarray(wi, float)[m] for wi, m in zip(weights, sel)])
+    sw = [np.sqrt(wi) for wi in w]
+    fixed_temp = [None if (spec.thermal_state or r.needs_state) else r.temp for r in rows]
+
+    def resid(x):
+        p = _params(base, spec, x)
+        out = []
+        for r, m, ref, s, t in zip(rows, sel, refs, sw, fixed_temp):
+            tt = temperature(r, p) if t is None else t
+            n = ph.physics_rpm(p, r.v[m], r.i[m], r.di_dt[m], tt[m])
+            out.append(s * np.where(np.isfinite(n), ref - n, 1e4))
+        if ra_prior is not None:
+            out.append(np.array([ra_prior[2] * (p.ra_ohm - ra_prior[0]) / ra_prior[1]]))
+        return np.concatenate(out)
+
+    lo = [-np.inf] * len(x0)
+    hi = [np.inf] * len(x0)
+    lo[0] = min(1e-6, 0.1 * x0[0]) if x0[0] > 0 else 1e-6  # Ke > 0, whatever its scale
+    if ra_prior is not None or ra_bounds is not None:  # Ra within a factor 3 of the reading, or ra_bounds
+        k = spec.free.index("ra_ohm")
+        lo[k], hi[k] = ra_bounds if ra_bounds is not None else (ra_prior[0] / 3.0, ra_prior[0] * 3.0)
+        x0[k] = min(max(x0[k], lo[k] * 1.001), hi[k] * 0.999)
+    for k, f in enumerate(spec.free):  # a shape within the forms physics allows
+        if f in spec.bounds:
+            lo[k], hi[k] = spec.bounds[f]
+            x0[k] = min(max(x0[k], lo[k] + 1e-9), hi[k] - 1e-9)
+    if spec.thermal_state:  # the node within its physical range (schema.NODE)
+        for k, n in zip((-2, -1), node):
+            lo[k], hi[k] = math.log(n.physical[0]), math.log(n.physical[1])
+            x0[k] = min(max(x0[k], lo[k] + 1e-9), hi[k] - 1e-9)
+    res = least_squares(resid, np.asarray(x0, float), x_scale=np.asarray(scales, float), bounds=(lo, hi),
+                        method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=200)
+    p = _params(base, spec, res.x)
+    bits = 0
+    for n in spec.names:
+        bits |= LIBRARY[n].bit
+    return dataclasses.replace(p, effects=bits)
+
+
+FIT_DIGITS = 7  # significant digits kept of a fitted coefficient
+
+
+def settle_digits(p: ph.PhysicsParams) -> ph.PhysicsParams:
+    """p with every float parameter rounded to FIT_DIGITS significant digits. The fit's
+    linear algebra (LAPACK, BLAS) takes a path that differs between CPUs and kernels: the
+    coefficients the data determine well end about 1e-9 apart and round alike; a poorly
+    determined one (a fitted winding time constant: 1.5e-6 apart between the default and
+    the Prescott kernel on the bundled data) can still differ in its last digit. A fit in a
+    defined order of arithmetic throughout (as network.py trains) would remove that."""
+    kw = {f.name: float(f"{getattr(p, f.name):.{FIT_DIGITS}g}") for f in dataclasses.fields(p)
+          if isinstance(getattr(p, f.name), float)}
+    return dataclasses.replace(p, **kw)
+
+
+def identify(recs: list[Recording], m2_plain: ph.PhysicsParams, names) -> ph.PhysicsParams:
+    """M2 with effects: Ke and the named coefficients fitted on the training rows
+    (rpm_ref > 10), Ra held at its measured value; sets the effect bits."""
+    names = check_names(names)
+    rows = [rows_of(r) for r in recs]
+    p = settle_digits(fit(rows, m2_plain, names))
+    if not p.ke_vs_per_rad > 0:
+        raise IdentificationError(f"identified Ke = {p.ke_vs_per_rad:.4g} V s/rad is not positive")
+    return p
+
+
+def coefficients(p: ph.PhysicsParams) -> dict:
+    """{effect: coefficient} of the effects switched on in p."""
+    return {n: getattr(p, LIBRARY[n].field) for n in NAMES if p.effects & LIBRARY[n].bit}

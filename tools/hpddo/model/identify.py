@@ -1,0 +1,141 @@
+"""Identification of the physics models from the training rows.
+
+M1: the nameplate Ke (rated voltage over rated no-load speed), the measured Ra.
+M2: the measured Ra and Ke from steady-state rows (rpm_ref > 10), by the paper's eq. 20
+(the mean of the per-row ratio) or by least squares; plus the coefficients of any named
+effects (effects.py), fitted on the same rows.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import physics as ph
+from ..logs.dataset import Recording
+from ..logs.errors import InputError
+
+RAD_S_PER_RPM = 2.0 * np.pi / 60.0  # the paper's 0.10472
+MIN_RPM = 10.0  # eq. 20 uses rows above 10 RPM: below, stiction and encoder quantisation rule
+# Ke is identified on means over consecutive windows of this length (one row at the
+# paper's 2 Hz). V, I and speed are means over each sample period and the back-EMF
+# relation is linear in them, so window means obey it too, while an encoder that moves
+# in steps of 310 RPM at 1 kHz averages out to a fraction of an RPM.
+IDENT_WINDOW_S = 0.5
+
+
+class IdentificationError(InputError):
+    pass
+
+
+def ra_from_logs(recs: list[Recording], ra_option: float | None) -> tuple[float, str]:
+    """Ra from the option, else from the logs' ra_ohm metadata (all must agree)."""
+    if ra_option is not None:
+        if not (math.isfinite(ra_option) and ra_option > 0):
+            raise IdentificationError(f"--ra-ohm must be a positive resistance in ohm, got {ra_option}")
+        return float(ra_option), "option --ra-ohm"
+    values = {}
+    for r in recs:
+        if "ra_ohm" in r.meta:
+            try:
+                values[r.source.name] = float(r.meta["ra_ohm"])
+            except ValueError:
+                raise IdentificationError(f"{r.source}: metadata ra_ohm={r.meta['ra_ohm']!r} is not a number") from None
+            if not (math.isfinite(values[r.source.name]) and values[r.source.name] > 0):
+                raise IdentificationError(f"{r.source}: metadata ra_ohm={r.meta['ra_ohm']!r} is not a positive "
+                                          "resistance; correct it, or give --ra-ohm")
+    if not values:
+        raise IdentificationError("no Ra: give --ra-ohm (a multimeter reading) or ra_ohm= metadata in the logs")
+    distinct = set(values.values())
+    if len(distinct) > 1:
+        raise IdentificationError(f"the logs disagree on ra_ohm: {values}; give --ra-ohm")
+    ra = distinct.pop()
+    if not ra > 0:
+        raise IdentificationError(f"ra_ohm must be positive, got {ra}")
+    return ra, "log metadata ra_ohm"
+
+
+def reference_temp_C(recs: list[Recording]) -> float:
+    """Temperature at which Ra was measured: the first reading of the first recording
+    that has one (the motor cold, as on the bench), else 25 C."""
+    for r in recs:
+        if r.has_temp():
+            t = r.df["temp_C"].dropna()
+            return float(t.iloc[0])
+    return 25.0
+
+
+def ke_eq20(v_V, i_A, rpm_ref, ra_ohm) -> float:
+    """Paper eq. 20: mean over rows of (V - I Ra) / (rpm_ref * 2 pi / 60)."""
+    return float(np.mean((v_V - i_A * ra_ohm) / (rpm_ref * RAD_S_PER_RPM)))
+
+
+def ke_lsq(v_V, i_A, rpm_ref, ra_ohm) -> float:
+    """Least squares: minimises sum (V - I Ra - Ke w)^2 over rows."""
+    w = rpm_ref * RAD_S_PER_RPM
+    return float(np.sum((v_V - i_A * ra_ohm) * w) / np.sum(w * w))
+
+
+def steady_rows(recs: list[Recording]):
+    """(v, i, rpm_ref) of the training rows with rpm_ref > MIN_RPM, pooled."""
+    labelled = [r for r in recs if "rpm_ref" in r.df]
+    if not labelled:
+        raise IdentificationError(
+            f"no recording has an rpm_ref column (encoder speed): {', '.join(str(r.source) for r in recs)}; "
+            "identifying M2 and training M3 need at least one labelled recording")
+    parts = [window_means(r.part("train")) for r in labelled]
+    v = np.concatenate([p[0] for p in parts])
+    i = np.concatenate([p[1] for p in parts])
+    n = np.concatenate([p[2] for p in parts])
+    keep = np.isfinite(n) & (n > MIN_RPM)
+    if keep.sum() < 5:
+        raise IdentificationError(f"only {int(keep.sum())} training rows with rpm_ref > {MIN_RPM} RPM in "
+                                  f"{', '.join(str(r.source) for r in labelled)}: M2 needs a labelled recording "
+                                  "of the motor turning")
+    return v[keep], i[keep], n[keep]
+
+
+def window_means(part, window_s: float = IDENT_WINDOW_S):
+    """(v, i, rpm_ref) of a recording part as means over consecutive windows of about
+    window_s (rows with no rpm_ref left out); at 2 Hz and slower, the rows themselves."""
+    t = part["t_s"].to_numpy(float)
+    keep = np.isfinite(part["rpm_ref"].to_numpy(float))
+    cols = [part[c].to_numpy(float)[keep] for c in ("v_V", "i_A", "rpm_ref")]
+    dt = float(np.median(np.diff(t))) if len(t) > 1 else window_s
+    k = max(1, int(round(window_s / dt))) if dt > 0 else 1
+    if k == 1:
+        return cols
+    m = len(cols[0]) // k
+    return [c[: m * k].reshape(m, k).mean(axis=1) for c in cols]
+
+
+def check_ke(ke: float, v, i, ra_ohm: float, ra_source: str = "") -> None:
+    """Raises IdentificationError naming the likely cause when Ke is not positive."""
+    if ke > 0:
+        return
+    emf = v - i * ra_ohm
+    neg = float(np.mean(emf <= 0))
+    turning = i > 0.02
+    if neg > 0.5 and turning.any():
+        ra_max = float(np.percentile(v[turning] / i[turning], 5))
+        raise IdentificationError(
+            f"identified Ke = {ke:.4g} V s/rad is not positive: V - I*Ra is negative on {100 * neg:.0f} % of the "
+            f"turning rows, so Ra = {ra_ohm:.4g} ohm ({ra_source or 'given'}) is too large for these recordings "
+            f"(V/I on the turning rows is {ra_max:.3g} ohm or more at the 5th percentile; a running motor has "
+            "Ra well below V/I): check --ra-ohm or the logs' ra_ohm metadata")
+    raise IdentificationError(f"identified Ke = {ke:.4g} V s/rad is not positive: check the V and I channels "
+                              "(sign, gain) and the rpm_ref column")
+
+
+# How M2's Ke is identified (hpddo train and diagnose --ke-fit): the paper's eq. 20 (mean of the
+# per-window ratios (V - I Ra) / w) or least squares of V - I Ra on w.
+KE_FITS = ("eq20", "lsq")
+
+
+def m2_params(recs: list[Recording], ra_ohm: float, ke_fit: str = "eq20") -> ph.PhysicsParams:
+    """Plain M2: measured Ra, identified Ke, no effects."""
+    v, i, n = steady_rows(recs)
+    ke = ke_eq20(v, i, n, ra_ohm) if ke_fit == "eq20" else ke_lsq(v, i, n, ra_ohm)
+    check_ke(ke, v, i, ra_ohm)
+    t_ref = reference_temp_C(recs)
+    return ph.PhysicsParams(ra_ohm=ra_ohm, ke_vs_per_rad=ke, t_ref_C=t_ref, t_amb_C=t_ref)

@@ -1,0 +1,231 @@
+"""The physics models M1 and M2 in numpy, term for term as lib/hpddo_core/src/hpddo/physics.h.
+
+    v_true = ra(T) i_true + brush(i_true) + la di/dt + ke(T, i_true) w
+
+Vectorised over samples; `dtype` selects float32 (to mirror the boards exactly) or
+float64 (for identification). PhysicsParams and EFFECT_BITS come from schema.py, the one
+declaration of every parameter and effect (the C++ struct is generated from it).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .libm import exp
+# The parameters and effects are declared once, in schema.py: PhysicsParams (fields and
+# units as the C++ PhysicsParams, generated from the same declaration) and EFFECT_BITS
+# (effect name -> (C++ bit, the PhysicsParams field that carries its coefficient)).
+from ..schema import EFFECT_BITS, PhysicsParams  # noqa: F401
+
+RPM_PER_RAD_S = 60.0 / (2.0 * np.pi)
+BRUSH_KNEE_MIN_A = 0.001   # the smallest brush knee the term takes (hpddo::kBrushKneeMin_A)
+
+# Physical bounds (docs/core.md, "Bounds"), the same numbers as hpddo/limits.h.
+WINDING_MAX_C = 250.0      # hottest winding: the 250 C thermal class, the highest of IEC 60085
+PERIOD_MIN_S = 1e-5        # shorter periods are no sample-to-sample step (no di/dt; new segment)
+PERIOD_MAX_S = 10.0        # longer periods start a new segment too
+SPEED_LIMIT_FACTOR = 4.0   # speed range = factor * (v_max + i_max Ra) / Ke
+
+def nameplate_ke_vs_per_rad(rated_V: float, rated_rpm: float) -> float:
+    """M1's Ke: rated voltage over rated (no-load) speed, armature drop neglected."""
+    return rated_V / (rated_rpm / RPM_PER_RAD_S)
+
+
+def nameplate_params(ra_ohm: float, rated_V: float = 12.0, rated_rpm: float = 1000.0) -> PhysicsParams:
+    return PhysicsParams(ra_ohm=ra_ohm, ke_vs_per_rad=nameplate_ke_vs_per_rad(rated_V, rated_rpm))
+
+
+def _f(p: PhysicsParams, name: str, dtype):
+    return dtype(getattr(p, name))
+
+
+def true_current_A(p, i_A, dtype=np.float64):
+    return np.asarray(i_A, dtype) - _f(p, "i_offset_A", dtype)
+
+
+def _board(dtype) -> bool:
+    """float32 is the boards' arithmetic: the divisions by a parameter become multiplies by
+    its reciprocal, computed once per model (physics.h, PhysicsConst); float64 is the
+    algebra (identification, training) and divides. The two differ by a rounding."""
+    return np.dtype(dtype) == np.float32
+
+
+def true_voltage_V(p, v_V, dtype=np.float64):
+    v = np.asarray(v_V, dtype) - _f(p, "v_offset_V", dtype)
+    if _board(dtype):  # physics_const(): v_gain_inv = 1 / (1 + v_gain), none without a gain error
+        g = _f(p, "v_gain", dtype)
+        return v if g == 0 else v * dtype(dtype(1.0) / (dtype(1.0) + g))
+    return v / (dtype(1.0) + _f(p, "v_gain", dtype))
+
+
+def ra_at_ohm(p, temp_C, dtype=np.float64):
+    t = np.asarray(temp_C, dtype)
+    return _f(p, "ra_ohm", dtype) * (dtype(1.0) + _f(p, "ra_tc_per_K", dtype) * (t - _f(p, "t_ref_C", dtype)))
+
+
+def brush_drop_V(p, i_true_A, dtype=np.float64):
+    i = np.asarray(i_true_A, dtype)
+    knee = _f(p, "brush_knee_A", dtype)
+    knee = knee if knee > dtype(BRUSH_KNEE_MIN_A) else dtype(BRUSH_KNEE_MIN_A)  # NaN: the minimum, as the boards
+    return _f(p, "brush_V", dtype) * i / (np.abs(i) + knee)
+
+
+def ke_at_vs_per_rad(p, temp_C, i_true_A, dtype=np.float64):
+    t = np.asarray(temp_C, dtype)
+    i = np.asarray(i_true_A, dtype)
+    return (_f(p, "ke_vs_per_rad", dtype) * (dtype(1.0) + _f(p, "ke_tc_per_K", dtype) * (t - _f(p, "t_ref_C", dtype)))
+            * (dtype(1.0) - _f(p, "ke_sat_per_A", dtype) * saturation_shape(p, np.abs(i), dtype)))
+
+
+def saturation_shape(p, i_mag_A, dtype=np.float64):
+    """|i| (1 - q + q |i| / 1 A), q = ke_sat_quad: the armature reaction's growth with the
+    current, linear (q = 0) to quadratic (q = 1), in A."""
+    q = _f(p, "ke_sat_quad", dtype)
+    return i_mag_A * ((dtype(1.0) - q) + q * i_mag_A)
+
+
+@dataclasses.dataclass
+class Temps:
+    """The two temperatures of the physics model (C.f. hpddo::PhysicsInput): the copper
+    follows the winding, the magnets the case."""
+
+    winding_C: np.ndarray
+    magnet_C: np.ndarray
+
+    def __getitem__(self, rows):
+        return Temps(np.asarray(self.winding_C)[rows], np.asarray(self.magnet_C)[rows])
+
+
+def _split(temp_C):
+    """(winding, magnet) temperatures from a Temps or one temperature for both."""
+    return (temp_C.winding_C, temp_C.magnet_C) if isinstance(temp_C, Temps) else (temp_C, temp_C)
+
+
+def back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
+    i = true_current_A(p, i_A, dtype)
+    winding_C, _ = _split(temp_C)
+    return (true_voltage_V(p, v_V, dtype) - ra_at_ohm(p, winding_C, dtype) * i - brush_drop_V(p, i, dtype)
+            - _f(p, "la_H", dtype) * np.asarray(di_dt_A_per_s, dtype))
+
+
+def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
+    """Output-shaft RPM; NaN where the effective Ke is not positive. temp_C: a Temps
+    (winding for Ra, magnets for Ke) or one temperature for both."""
+    if _board(dtype) and p.ke_tc_per_K == 0 and p.ke_sat_per_A == 0:
+        # A constant Ke: the back-EMF times rpm_per_V = RPM_PER_RAD_S / Ke (physics_const()).
+        emf = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype)
+        ke0 = _f(p, "ke_vs_per_rad", dtype)
+        if not ke0 > 0:
+            return np.full(np.shape(emf), np.nan, dtype)
+        return (emf * dtype(dtype(RPM_PER_RAD_S) / ke0)).astype(dtype)
+    ke = ke_at_vs_per_rad(p, _split(temp_C)[1], true_current_A(p, i_A, dtype), dtype)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        n = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) / ke * dtype(RPM_PER_RAD_S)
+    return np.where(ke > 0, n, np.nan).astype(dtype)
+
+
+_BLOCK = 1024  # samples per block of the vectorised recursion
+
+
+def _rise_bounded(rise, ref):
+    """A rise held within [0, WINDING_MAX_C - ref]: the node only heats, and no winding
+    is hotter than its insulation class allows (NaN gives 0)."""
+    rise = min(rise, WINDING_MAX_C - ref)
+    return rise if rise >= 0.0 else 0.0
+
+
+def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
+    """The rise of thermal_trajectory in float64, vectorised. Each step is linear in the
+    previous rise, rise_k = alpha_k rise_(k-1) + beta_k, with (exp step d, loss at Ra(T_w))
+        alpha_k = d_k + (1 - d_k) r i_k^2 Ra a,   beta_k = (1 - d_k) r i_k^2 Ra (1 + a (ref_k - T_ref)),
+    so blocks of it are cumulative products and sums (equal to the step-by-step loop to
+    rounding). A block whose rise leaves [0, WINDING_MAX_C - ref] is redone step by step
+    with the bound applied after each step."""
+    r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
+    step = dt > 0
+    d = np.where(step, exp(-np.where(step, dt, 0.0) / tau), 1.0)
+    q = r * i * i * ra
+    alpha = np.where(step, d + (1.0 - d) * q * a, 1.0)
+    beta = np.where(step, (1.0 - d) * q * (1.0 + a * (ref - tref)), 0.0)
+    out = np.empty(len(i))
+    x = rise0
+    for s0 in range(0, len(i), _BLOCK):
+        al, be = alpha[s0:s0 + _BLOCK], beta[s0:s0 + _BLOCK]
+        rf = ref[s0:s0 + _BLOCK]
+        with np.errstate(over="ignore"):  # an overflow is caught below (isfinite) and redone step by step
+            prod = np.cumprod(al)
+        blk = None
+        if prod.min() > 1e-250 and np.isfinite(prod[-1]):
+            with np.errstate(over="ignore", invalid="ignore"):
+                blk = prod * (x + np.cumsum(be / prod))
+            if not np.all((blk >= 0.0) & (blk <= WINDING_MAX_C - rf)):
+                blk = None
+        if blk is None:  # out of float64's range or out of bounds: step by step
+            blk = np.empty(len(al))
+            for k, (ak, bk, sk) in enumerate(zip(al.tolist(), be.tolist(), step[s0:s0 + _BLOCK].tolist())):
+                if sk:
+                    x = _rise_bounded(ak * x + bk, float(rf[k]))
+                blk[k] = x
+        out[s0:s0 + _BLOCK] = blk
+        x = float(blk[-1])
+    return out
+
+
+def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_rise_K=0.0, final_rise=False):
+    """Winding temperature per sample, as hpddo::ThermalEstimator::step before each sample:
+    ref + rise, the rise a first-order node heated by i^2 Ra(T_w) above the reference
+    ref_C (per sample: the case reading where read, else t_amb; None: t_amb throughout),
+    held within [0, WINDING_MAX_C - ref] after each step.
+    With final_rise, also returns the rise after the last sample."""
+    i = np.asarray(i_true_A, dtype)
+    dt = np.asarray(dt_s, dtype)
+    n = len(i)
+    ref = np.full(n, p.t_amb_C, dtype) if ref_C is None else np.asarray(ref_C, dtype)
+    out = np.empty(n, dtype)
+    rise = dtype(start_rise_K)
+    if not p.thermal_enabled():
+        out[:] = ref + rise
+        return (out, rise) if final_rise else out
+    if np.dtype(dtype) == np.float64:
+        out[:] = ref + _rise_float64(p, i, dt, ref, float(rise))
+        return (out, float(out[-1] - ref[-1]) if n else float(rise)) if final_rise else out
+    r = dtype(p.th_r_K_per_W)
+    tau = dtype(p.th_tau_s)
+    hottest = dtype(WINDING_MAX_C)
+    for k in range(n):
+        if dt[k] > 0:
+            loss = i[k] * i[k] * ra_at_ohm(p, ref[k] + rise, dtype)
+            target = dtype(r * loss)
+            rise = dtype(target + (rise - target) * dtype(exp(-dt[k] / tau)))
+            rise = min(rise, dtype(hottest - ref[k]))
+            rise = rise if rise >= 0 else dtype(0)
+        out[k] = ref[k] + rise
+    return (out, rise) if final_rise else out
+
+
+def speed_limit_rpm(p, v_max_V, i_max_A, dtype=np.float64):
+    """Edge of the model's physical speed range, RPM: SPEED_LIMIT_FACTOR times the speed
+    at which the back-EMF balances the largest channel voltage plus the largest resistive
+    drop, (v_max + i_max Ra) / Ke; 0 when Ke is not positive. Beyond it n_M2 is no speed."""
+    ke = dtype(p.ke_vs_per_rad)
+    if not ke > 0:
+        return dtype(0)
+    emf = dtype(dtype(v_max_V) + dtype(dtype(i_max_A) * dtype(p.ra_ohm)))
+    return dtype(dtype(dtype(dtype(SPEED_LIMIT_FACTOR) * emf) / ke) * dtype(RPM_PER_RAD_S))
+
+
+def temperatures(p, i_A, dt_s, temp_read_C) -> Temps:
+    """What the observer feeds the thermal effects, per sample (observer.h): temp_read_C
+    is the case reading, NaN where none (or out of the sensor's range). With a thermal
+    network, the winding is the estimate above the reading (above t_amb where none); the
+    magnets follow the reading, else the winding estimate. Without a network, both are
+    the reading, else t_ref."""
+    t = np.asarray(temp_read_C, float)
+    read = np.isfinite(t)
+    if p.thermal_enabled():
+        winding = thermal_trajectory(p, true_current_A(p, i_A), dt_s, ref_C=np.where(read, t, p.t_amb_C))
+        return Temps(winding, np.where(read, t, winding))
+    both = np.where(read, t, p.t_ref_C)
+    return Temps(both, both)
