@@ -305,17 +305,28 @@ def test_esp_lines_join_rows_on_the_low_16_bits_of_seq_in_either_order():
 
 # ---------------------------------------------------------------- the figure of docs/firmware.md
 
-def measure(rate_hz: float, repeat: int, tmp_path: pathlib.Path) -> dict:
-    """Runs hpddo live on `repeat` sweeps at rate_hz; the rows recorded and how late the board's
-    writes fell behind their schedule (a pseudo-terminal blocks the writer when the reader lags)."""
+def measure(rate_hz: float, repeat: int, tmp_path: pathlib.Path, page: bool = True) -> dict:
+    """Runs hpddo live on `repeat` sweeps at rate_hz, with the page open in headless Chromium the
+    whole time (page); the rows recorded and how late the board's writes fell behind their
+    schedule (a pseudo-terminal blocks the writer when the reader lags; a UART would drop)."""
+    from hpddo.reports import browser
+
     lines = uno_stream(rate_hz, repeat=repeat)
     n_rows = len(lines) - sum(ln.startswith("#") for ln in lines) - 1
     uno = Board(lines, rate_hz)
     proc = start_live(tmp_path, uno, out_name=f"live_{rate_hz:g}.csv")
+    seen = {}
     try:
-        page_url(proc)
+        url = page_url(proc)
+        viewer = threading.Thread(target=lambda: seen.update(browser.live(
+            url, tmp_path / "page.png", 2.0 + n_rows / rate_hz, {"uno": "Bokeh.documents[0].get_model_by_name("
+                                                                 "'uno').get_length()"})), daemon=True)
+        if page:
+            viewer.start()
         while uno.elapsed_s is None and proc.poll() is None:
             time.sleep(0.05)
+        if page:
+            viewer.join(120)
         uno.release.set()
         stdout, stderr = proc.communicate(timeout=120)
     finally:
@@ -326,7 +337,8 @@ def measure(rate_hz: float, repeat: int, tmp_path: pathlib.Path) -> dict:
     m = re.search(r": (\d+) rows, (\d+) seq gaps, (\d+) samples lost", stdout)
     return {"rate_hz": rate_hz, "rows_sent": n_rows, "rows_recorded": int(m.group(1)) if m else None,
             "lost": int(m.group(3)) if m else None, "achieved_rows_per_s": round(n_rows / uno.elapsed_s, 1),
-            "max_late_s": round(uno.late_s, 3), "status": proc.returncode}
+            "max_late_s": round(uno.late_s, 3), "status": proc.returncode,
+            "page_points": seen.get("values", {}).get("uno"), "page_errors": seen.get("console_errors")}
 
 
 if __name__ == "__main__":
@@ -335,7 +347,8 @@ if __name__ == "__main__":
     ap = argparse.ArgumentParser(description="rows/s hpddo live records without loss over a pseudo-terminal")
     ap.add_argument("--measure", type=float, nargs="+", required=True, metavar="HZ")
     ap.add_argument("--repeat", type=int, default=2, help="sweeps of 660 rows each (default 2)")
+    ap.add_argument("--no-page", action="store_true", help="no browser on the page meanwhile")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         for hz in args.measure:
-            print(json.dumps(measure(hz, args.repeat, pathlib.Path(tmp))), flush=True)
+            print(json.dumps(measure(hz, args.repeat, pathlib.Path(tmp), page=not args.no_page)), flush=True)
