@@ -226,6 +226,26 @@ def test_the_page_listens_on_127_0_0_1_by_default_and_the_flag_warns():
     assert live.LOCAL == "127.0.0.1"
 
 
+
+def test_a_page_port_in_use_or_a_missing_esp_port_is_one_line_and_nothing_recorded(tmp_path, capsys):
+    import socket
+
+    from hpddo import cli
+
+    out = tmp_path / "l.csv"
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        code = cli.main(["live", "--port", str(tmp_path / "no-uno"), "--out", str(out), "--http-port",
+                         str(taken.getsockname()[1])])
+    err = capsys.readouterr().err
+    assert code == 1 and err.startswith("hpddo live: cannot serve the page on 127.0.0.1:") and err.count("\n") == 1, err
+    code = cli.main(["live", "--port", str(tmp_path / "no-uno"), "--esp-port", str(tmp_path / "no-esp"),
+                     "--out", str(out), "--http-port", "0"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.startswith("hpddo live: cannot open serial port ") and "no-esp" in err, err
+    assert err.count("\n") == 1 and list(tmp_path.iterdir()) == []
+
 @pytest.mark.slow
 @pytest.mark.parametrize("open_to_network", [False, True])
 def test_bind_address_and_warning(tmp_path, open_to_network):
