@@ -213,6 +213,56 @@ def test_live_records_what_capture_would_and_the_page_shows_the_points(tmp_path)
     assert not list(tmp_path.glob("*.partial"))
 
 
+
+@pytest.mark.slow
+def test_the_esp8266_logic_host_build_joins_the_page_on_seq(tmp_path):
+    """The ESP8266's side played by its own logic (host/esp_host: infer::App with the default
+    model and ArduinoJson 7) fed the frames of the same rows at 100 Hz, as the link delivers them."""
+    from test_upload import esp_host
+
+    from hpddo.reports import browser
+
+    if browser.chromium() is None:
+        pytest.skip("chromium is not installed (scripts/bootstrap.sh --with-browser)")
+    exe = esp_host()
+    lines = uno_stream(100.0)
+    log = tmp_path / "stream.csv"  # the UNO's rows, from which the link's frames are made
+    log.write_text("\n".join(lines) + "\n")
+    esp = subprocess.Popen([str(exe), "--store", str(tmp_path / "littlefs"), "--pty", "--frames", str(log),
+                            "--rate", "100"], stdout=subprocess.PIPE, text=True)
+    uno = Board(lines, 100.0)
+    proc = None
+    try:
+        first = esp.stdout.readline()
+        assert first.startswith("pty "), first
+        proc = start_live(tmp_path, uno, "--esp-port", first.split()[1])
+        url = page_url(proc)
+        while uno.sent < 300 and proc.poll() is None:
+            time.sleep(0.05)
+        js = "Bokeh.documents[0].get_model_by_name('{}')"
+        seen = browser.live(url, tmp_path / "page.png", 2.0, {
+            "esp": js.format("esp") + ".get_length()", "counts": js.format("counts") + ".text",
+            "esp_status": "(d => Array.from(d instanceof Map ? d.get('status') : d.status))(" + js.format("esp")
+                          + ".data)"})
+        while uno.elapsed_s is None and proc.poll() is None:
+            time.sleep(0.05)
+        uno.release.set()
+        stdout, stderr = proc.communicate(timeout=60)
+    finally:
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        uno.close()
+        esp.terminate()
+        esp.wait(10)
+    assert proc.returncode == 0, stderr
+    assert not seen["console_errors"], seen["console_errors"]
+    values = seen["values"]
+    assert values["esp"] >= 200, values
+    m = re.search(r"ESP8266: (\d+) lines, (\d+) joined on seq, 0 not telemetry", values["counts"])
+    assert m and int(m.group(2)) >= 200, values["counts"]
+    assert set(values["esp_status"]) <= {0, 1, 2, 3, 4}, values["esp_status"][:20]
+
 # ---------------------------------------------------------------- the address and the port
 
 def test_the_page_listens_on_127_0_0_1_by_default_and_the_flag_warns():

@@ -141,7 +141,8 @@ async def _drive(ws_url: str, url: str, png_path, wait_s: float, expressions: di
             res = await call("Runtime.evaluate", expression=expr, returnByValue=True)
             if "exceptionDetails" in res:
                 values[name] = None
-                errors.append(f"evaluating {name}: {res['exceptionDetails'].get('text')}")
+                d = res["exceptionDetails"]
+                errors.append(f"evaluating {name}: {d.get('exception', {}).get('description') or d.get('text')}")
             else:
                 values[name] = res["result"].get("value")
         shot = await call("Page.captureScreenshot", format="png")
