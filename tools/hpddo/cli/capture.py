@@ -4,7 +4,8 @@
     hpddo capture --port /dev/ttyACM0 --rec warmup --rows 600 --out warmup.csv
     (tools/capture.py is the same command; -o is short for --out)
 
-The board writes metadata, the header and one row per sample; lines that start
+The port is opened exclusively (no other program can open it meanwhile) and closed on
+every way out. The board writes metadata, the header and one row per sample; lines that start
 with "!" are its replies and are shown, not logged. Every line is checked as it
 arrives (metadata form, field count, numbers, t_s increasing, duty in 0..1); a
 garbled line is counted, reported with its stream line number and not written.

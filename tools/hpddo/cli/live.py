@@ -37,9 +37,9 @@ def parser(prog: str = "hpddo live") -> argparse.ArgumentParser:
     p.add_argument("--esp-port", metavar="PORT",
                    help="serial port of the ESP8266 (opened exclusively, DTR/RTS held off): its telemetry "
                         "joins the page on seq")
-    p.add_argument("--esp-baud", type=options.positive_int, default=ESP_BAUD,
+    p.add_argument("--esp-baud", type=options.positive_int, default=ESP_BAUD, metavar="BAUD",
                    help=f"baud rate of the ESP8266's port (default {ESP_BAUD})")
-    p.add_argument("--http-port", type=options.non_negative_int, default=5006,
+    p.add_argument("--http-port", type=options.non_negative_int, default=5006, metavar="N",
                    help="TCP port of the page (default 5006; 0: any free port, the URL printed says which)")
     p.add_argument("--open-to-network", action="store_true",
                    help="listen on every address, not only 127.0.0.1: anyone who reaches this machine sees "
