@@ -138,6 +138,11 @@ def page_url(proc) -> str:
     return m.group(0)
 
 
+#: true once the page has its document and its first points
+PAGE_READY = ("Bokeh.documents.length > 0 && Bokeh.documents[0].get_model_by_name('uno') !== null && "
+              "Bokeh.documents[0].get_model_by_name('uno').get_length() > 0")
+
+
 def what_capture_writes(lines: list[str], path: pathlib.Path) -> bytes:
     """The bench log hpddo capture writes from the same stream (its own code, a stand-in port)."""
     from hpddo.cli import capture
@@ -181,7 +186,8 @@ def test_live_records_what_capture_would_and_the_page_shows_the_points(tmp_path)
         shot = tmp_path / "page.png"
         js = "(() => {{ const s = Bokeh.documents[0].get_model_by_name('{}'); return s.get_length(); }})()"
         seen = browser.live(url, shot, 3.0, {"uno": js.format("uno"), "esp": js.format("esp"),
-                                             "counts": "Bokeh.documents[0].get_model_by_name('counts').text"})
+                                             "counts": "Bokeh.documents[0].get_model_by_name('counts').text"},
+                            ready=PAGE_READY)
         assert not seen["console_errors"], seen["console_errors"]
         points = seen["values"]
         # the page holds the rows that arrived while it was open, and the ESP8266's joined to them
@@ -238,15 +244,15 @@ def test_the_esp8266_logic_host_build_joins_the_page_on_seq(tmp_path):
         assert first.startswith("pty "), first
         proc = start_live(tmp_path, uno, "--esp-port", first.split()[1])
         url = page_url(proc)
-        while uno.sent < 300 and proc.poll() is None:
-            time.sleep(0.05)
-        js = "Bokeh.documents[0].get_model_by_name('{}')"
-        seen = browser.live(url, tmp_path / "page.png", 2.0, {
-            "esp": js.format("esp") + ".get_length()", "counts": js.format("counts") + ".text",
-            "esp_status": "(d => Array.from(d instanceof Map ? d.get('status') : d.status))(" + js.format("esp")
-                          + ".data)"})
+        # the page is looked at once every row is out (the recording not ended yet): the ESP8266's
+        # lines run ahead of the UNO's rows by the tool's start-up and are joined as the rows come
         while uno.elapsed_s is None and proc.poll() is None:
             time.sleep(0.05)
+        js = "Bokeh.documents[0].get_model_by_name('{}')"
+        seen = browser.live(url, tmp_path / "page.png", 1.0, {
+            "esp": js.format("esp") + ".get_length()", "counts": js.format("counts") + ".text",
+            "esp_status": "(d => Array.from(d instanceof Map ? d.get('status') : d.status))(" + js.format("esp")
+                          + ".data)"}, ready=PAGE_READY)
         uno.release.set()
         stdout, stderr = proc.communicate(timeout=60)
     finally:
@@ -391,7 +397,8 @@ def measure(rate_hz: float, repeat: int, tmp_path: pathlib.Path, page: bool = Tr
         url = page_url(proc)
         viewer = threading.Thread(target=lambda: seen.update(browser.live(
             url, tmp_path / "page.png", 2.0 + n_rows / rate_hz, {"uno": "Bokeh.documents[0].get_model_by_name("
-                                                                 "'uno').get_length()"})), daemon=True)
+                                                                 "'uno').get_length()"}, ready=PAGE_READY)),
+                                  daemon=True)
         if page:
             viewer.start()
         while uno.elapsed_s is None and proc.poll() is None:

@@ -45,9 +45,10 @@ def colour_pixels(png_path, colours: dict, tolerance: int = 24) -> dict:
 
 
 def live(url: str, png_path, wait_s: float, expressions: dict, width: int = 1280, height: int = 1200,
-         timeout: float = 120.0) -> dict:
+         timeout: float = 120.0, ready: str | None = None) -> dict:
     """Opens a live page (one that draws from a server after it loads, as hpddo live's) in headless
-    Chromium driven over its DevTools protocol: lets it run wait_s seconds of real time, then
+    Chromium driven over its DevTools protocol: waits until the JavaScript expression ready is
+    true (if given; polled, within timeout), lets it run wait_s seconds more of real time, then
     evaluates each JavaScript expression in the page and takes a screenshot. Returns
     {"values": {name: value}, "console_errors": [str]}: errors logged to the console, uncaught
     exceptions and failed loads while it ran."""
@@ -75,7 +76,7 @@ def live(url: str, png_path, wait_s: float, expressions: dict, width: int = 1280
             with urllib.request.urlopen(f"http://127.0.0.1:{port}/json/list", timeout=10) as r:
                 target = next(t for t in json.load(r) if t.get("type") == "page")
             return asyncio.run(asyncio.wait_for(
-                _drive(target["webSocketDebuggerUrl"], url, png_path, wait_s, expressions), timeout))
+                _drive(target["webSocketDebuggerUrl"], url, png_path, wait_s, expressions, ready), timeout))
         finally:
             proc.terminate()
             try:
@@ -85,7 +86,7 @@ def live(url: str, png_path, wait_s: float, expressions: dict, width: int = 1280
                 proc.wait()
 
 
-async def _drive(ws_url: str, url: str, png_path, wait_s: float, expressions: dict) -> dict:
+async def _drive(ws_url: str, url: str, png_path, wait_s: float, expressions: dict, ready: str | None) -> dict:
     import asyncio
     import base64
     import json
@@ -127,6 +128,12 @@ async def _drive(ws_url: str, url: str, png_path, wait_s: float, expressions: di
             await call(f"{domain}.enable")
         await call("Page.navigate", url=url)
         loop = asyncio.get_running_loop()
+        while ready is not None:  # (the caller's timeout bounds this)
+            res = await call("Runtime.evaluate", expression=f"(() => {{ try {{ return !!({ready}); }} "
+                                                            f"catch (e) {{ return false; }} }})()", returnByValue=True)
+            if res.get("result", {}).get("value") is True:
+                break
+            await asyncio.sleep(0.2)
         end = loop.time() + wait_s
         while (left := end - loop.time()) > 0:
             try:
