@@ -372,11 +372,15 @@ def test_esp_lines_join_rows_on_the_low_16_bits_of_seq_in_either_order():
     feed.add_row("0.070000,0.5,9,0.8,100.00,,0,65543,105.00,0", Cap)
     feed.add_row("0.080000,0.5,9,0.8,101.00,,0,65544,106.00,2", Cap)
     feed.add_esp(esp_line(65544, 101.0))  # after its row
+    invalid = json.loads(esp_line(65545, 0.0))
+    invalid.update(rpm=None, residual=None, status="invalid")  # a non-finite number is written null
+    feed.add_esp(json.dumps(invalid))
     assert not feed.add_esp('{"event":"ready","model":"compiled"}')
     assert not feed.add_esp("{garbled") and feed.esp_bad == 1
     uno, esp, counts = feed.take(0, 0)
     assert uno["t_s"] == [0.07, 0.08] and uno["est_status"] == [0.0, 2.0] and uno["error"] == [5.0, 5.0]
     assert esp["t_s"] == [0.07, 0.08] and esp["status"] == [0.0, 0.0] and counts["esp_joined"] == 2
+    assert counts["esp_lines"] == 3  # the null line is telemetry, waiting for its row
     assert feed.take(2, 2)[:2] == (None, None)
 
 

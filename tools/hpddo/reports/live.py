@@ -93,8 +93,9 @@ class Feed:
             return False
         try:
             s16 = int(obj["seq"]) & 0xFFFF
-            values = (float(obj["rpm"]), float(obj["rpm_m2"]), float(obj["residual"]), float(obj["confidence"]),
-                      float(STATUS_NUMBERS.get(obj["status"], math.nan)))
+            values = tuple(math.nan if obj[k] is None else float(obj[k])  # null: a non-finite number
+                           for k in ("rpm", "rpm_m2", "residual", "confidence"))
+            values += (float(STATUS_NUMBERS.get(obj["status"], math.nan)),)
         except (KeyError, TypeError, ValueError):
             with self._lock:
                 self.esp_bad += 1
