@@ -174,6 +174,12 @@ def test_live_records_what_capture_would_and_the_page_shows_the_points(tmp_path)
     uno = Board(lines, 100.0)
     esp = Board([], 100.0, end=None, wait_command=False)
     proc = start_live(tmp_path, uno, "--esp-port", esp.name)
+    # the same stream, at the same time, into hpddo capture
+    uno2 = Board(lines, 100.0)
+    cap = subprocess.Popen([sys.executable, "-m", "hpddo", "capture", "--port", uno2.name, "--rec", "live", "--out",
+                            str(tmp_path / "capture.csv"), "--quiet"], cwd=tmp_path, stdin=subprocess.DEVNULL,
+                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                           env=dict(os.environ, PYTHONPATH=str(ROOT / "tools")))
     try:
         url = page_url(proc)
         # the ESP8266's lines, a little after the UNO's rows (as the link and its observer delay them)
@@ -203,17 +209,24 @@ def test_live_records_what_capture_would_and_the_page_shows_the_points(tmp_path)
             time.sleep(0.05)
         uno.release.set()
         stdout, stderr = proc.communicate(timeout=60)
+        while uno2.elapsed_s is None and cap.poll() is None:
+            time.sleep(0.05)
+        uno2.release.set()
+        cap_out, cap_err = cap.communicate(timeout=60)
     finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-        uno.close()
-        esp.close()
+        for pr in (proc, cap):
+            if pr.poll() is None:
+                pr.kill()
+                pr.communicate()
+        for board in (uno, uno2, esp):
+            board.close()
     assert proc.returncode == 0, stderr
+    assert cap.returncode == 0, cap_err
     assert f"{n_rows} rows, 0 seq gaps, 0 samples lost" in stdout, stdout
     assert uno.late_s < 0.5, f"the tool did not keep up: a row went out {uno.late_s:.3f} s late"
     recorded = (tmp_path / "live.csv").read_bytes()
-    assert recorded == what_capture_writes(lines + [END], tmp_path / "capture.csv")
+    assert recorded == (tmp_path / "capture.csv").read_bytes()  # hpddo capture's, over its own pseudo-terminal
+    assert recorded == what_capture_writes(lines + [END], tmp_path / "capture_in_process.csv")
     body = [ln for ln in recorded.decode().splitlines() if ln and not ln.startswith("#")]
     assert len(body) == n_rows + 1 and recorded.startswith(b"# complete=true\n# garbled_rows=0\n")
     assert not list(tmp_path.glob("*.partial"))
