@@ -285,7 +285,7 @@ def test_the_esp8266_logic_host_build_joins_the_page_on_seq(tmp_path):
 
 # ---------------------------------------------------------------- the address and the port
 
-def test_the_page_listens_on_127_0_0_1_by_default_and_the_flag_warns():
+def test_the_options_default_to_127_0_0_1_port_5006_and_the_flag_opens_it():
     from hpddo import cli
     from hpddo.cli import live
 
