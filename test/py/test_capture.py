@@ -360,3 +360,17 @@ def test_a_flood_of_garbled_rows_is_counted_and_shown_only_in_part(tmp_path):
     assert len(cap.garbled) == 50 and cap.rows == 3
     assert len(warnings) == capture.MAX_GARBLED_SHOWN + 1 and "not shown" in warnings[-1]
     assert read_log(tmp_path / "f.csv").meta["garbled_rows"] == "50"
+
+
+def test_main_opens_the_port_exclusively_and_closes_it(tmp_path, monkeypatch):
+    fake = FakeSerial(HEAD + rows([0, 1, 2]) + ["! end done"])
+    opened = []
+
+    def open_port(*a, **k):
+        opened.append(k)
+        return fake
+
+    monkeypatch.setattr(serial, "Serial", open_port)
+    monkeypatch.setattr(capture.time, "sleep", lambda s: None)
+    assert capture.main(["--port", "/dev/ttyFAKE0", "--quiet", "--run", "sweep", "-o", str(tmp_path / "s.csv")]) == 0
+    assert opened == [{"timeout": 1.0, "exclusive": True}] and fake.closed

@@ -142,6 +142,7 @@ SHARED = {  # subcommand -> the shared options it takes
     "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter", "--epochs"},
     "twin": {"--out", "--quiet", "--seed", "--effects", "--rate-hz"},
     "capture": {"--out", "--quiet", "--rate-hz"},
+    "live": {"--out", "--quiet", "--rate-hz"},
     "demo": {"--out", "--quiet", "--seed", "--ra-ohm", "--no-glitch-filter"},
     "bench": set(),
     "fixtures": {"--out", "--quiet"},
@@ -193,7 +194,9 @@ def test_user_errors_are_one_line_named_after_the_subcommand_with_status_1(tmp_p
              "diagnose": [str(missing), "--out", str(tmp_path / "d"), "--quiet"],
              "demo": ["--data", str(empty), "--out", str(tmp_path / "o")],
              "bench": ["--data", str(empty)],
-             "capture": ["--port", str(tmp_path / "no-such-port"), "--out", str(tmp_path / "c.csv"), "--quiet"]}
+             "capture": ["--port", str(tmp_path / "no-such-port"), "--out", str(tmp_path / "c.csv"), "--quiet"],
+             "live": ["--port", str(tmp_path / "no-such-port"), "--out", str(tmp_path / "l.csv"), "--quiet",
+                      "--http-port", "0"]}
     for sub, argv in cases.items():
         assert cli.main([sub, *argv]) == 1, sub
         err = capsys.readouterr().err

@@ -32,6 +32,8 @@ SUBCOMMANDS = {
     "diagnose": ("diagnose", "name the physical effects the physics model misses (tools/diagnose.py)"),
     "twin": ("twin", "simulate the bench and write bench logs with ground truth (tools/twin.py)"),
     "capture": ("capture", "record the acquisition board's USB stream to a bench log (tools/capture.py)"),
+    "live": ("live", "show the estimate against the encoder in a browser page while recording the bench "
+                     "(hpddo capture's log)"),
     "upload": ("upload", "send a trained model to the running ESP8266 board, without reflashing"),
     "demo": ("demo", "the whole job on the bundled recordings: train, diagnose, add effects "
                      "(tools/demo.py)"),

@@ -4,7 +4,8 @@
     hpddo capture --port /dev/ttyACM0 --rec warmup --rows 600 --out warmup.csv
     (tools/capture.py is the same command; -o is short for --out)
 
-The board writes metadata, the header and one row per sample; lines that start
+The port is opened exclusively (no other program can open it meanwhile) and closed on
+every way out. The board writes metadata, the header and one row per sample; lines that start
 with "!" are its replies and are shown, not logged. Every line is checked as it
 arrives (metadata form, field count, numbers, t_s increasing, duty in 0..1); a
 garbled line is counted, reported with its stream line number and not written.
@@ -208,9 +209,11 @@ def write_final(partial: pathlib.Path, out: pathlib.Path, meta_lines: list[str])
 
 def capture(port, out: pathlib.Path, command: str | None = None, rows: int | None = None,
             seconds: float | None = None, progress: bool = True, log=print, warn=None,
-            port_name: str | None = None) -> Capture:
+            port_name: str | None = None, on_row=None) -> Capture:
     """Reads lines from an open serial port (anything with write() and readline()) into out;
-    raises CaptureError (PortError, OutputError) or KeyboardInterrupt with nothing under out."""
+    raises CaptureError (PortError, OutputError) or KeyboardInterrupt with nothing under out.
+    on_row(line, cap), when given, is called with every data row after it was written to
+    OUT.partial (hpddo live shows the rows with it); it must not block."""
     out = pathlib.Path(out)
     partial = out.with_name(out.name + ".partial")
     port_name = port_name or getattr(port, "port", None) or "the serial port"
@@ -256,6 +259,8 @@ def capture(port, out: pathlib.Path, command: str | None = None, rows: int | Non
                     raise CaptureError(f"{exc}; nothing written to {out}, what arrived is in {partial}") from None
                 if kept is not None:
                     f.write(kept + "\n")
+                    if cap.rows > n_rows and on_row is not None:
+                        on_row(kept, cap)
                     if cap.rows > n_rows and bar is not None:
                         bar.update(1)
                         if cap.gaps or cap.garbled:
@@ -308,10 +313,10 @@ def send_stop(port) -> None:
 
 
 
-def parser(prog: str = "hpddo capture") -> argparse.ArgumentParser:
-    """The command line options."""
-    p = options.new_parser(prog, __doc__)
-    p.add_argument("--port", required=True, help="serial port of the UNO, e.g. /dev/ttyACM0 or COM3")
+def recording_options(p: argparse.ArgumentParser) -> None:
+    """The options of a recording from the UNO: capture's, and hpddo live's, which records the same way."""
+    p.add_argument("--port", required=True, help="serial port of the UNO, e.g. /dev/ttyACM0 or COM3 "
+                                                 "(opened exclusively)")
     p.add_argument("--baud", type=options.positive_int, default=115200, help="baud rate of the port (default 115200)")
     options.out(p, "bench log to write (its rows arrive in OUT.partial first)", alias="-o")
     what = p.add_mutually_exclusive_group()
@@ -324,18 +329,39 @@ def parser(prog: str = "hpddo capture") -> argparse.ArgumentParser:
     p.add_argument("--seconds", type=options.positive_float,
                    help="stop after this many seconds (the log says complete=false, cut=--seconds S)")
     options.quiet(p)
+
+
+def parser(prog: str = "hpddo capture") -> argparse.ArgumentParser:
+    """The command line options."""
+    p = options.new_parser(prog, __doc__)
+    recording_options(p)
     return p
 
 
-def record(a: argparse.Namespace) -> int:
-    """Opens the port, sets the board up, captures, and reports; returns the exit status
-    (0, EXIT_GARBLED or EXIT_INTERRUPTED) or raises CaptureError (nothing written to --out)."""
+def open_port(name: str, baud: int, timeout: float = 1.0, hold_reset: bool = False):
+    """Opens a serial port exclusively (a second program, or a second hpddo, cannot open it
+    meanwhile); with hold_reset, DTR and RTS stay off (the NodeMCU then keeps running).
+    A port that cannot be opened is a CaptureError naming it."""
     if serial is None:  # pragma: no cover
         raise CaptureError("pyserial is not installed (pip install pyserial)")
     try:
-        port = serial.Serial(a.port, a.baud, timeout=1.0)
+        if not hold_reset:
+            return serial.Serial(name, baud, timeout=timeout, exclusive=True)
+        port = serial.Serial(None, baud, timeout=timeout, exclusive=True)
+        port.port = name
+        port.dtr = False
+        port.rts = False
+        port.open()
+        return port
     except PORT_ERRORS as exc:
-        raise CaptureError(f"cannot open serial port {a.port}: {exc}") from None
+        raise CaptureError(f"cannot open serial port {name}: {exc}") from None
+
+
+def record(a: argparse.Namespace, on_row=None, prog: str = "hpddo capture") -> int:
+    """Opens the port exclusively, sets the board up, captures, and reports; returns the exit
+    status (0, EXIT_GARBLED, or 130/143 when a signal stopped it) or raises CaptureError
+    (nothing written to --out). The port is closed on every way out. on_row: see capture()."""
+    port = open_port(a.port, a.baud)
     try:
         try:
             time.sleep(BOARD_RESET_S)
@@ -349,12 +375,14 @@ def record(a: argparse.Namespace) -> int:
                                f"nothing written to {a.out}") from None
         command = f"run {a.run}" if a.run else f"rec {a.rec}" if a.rec else None
         try:
-            cap = capture(port, a.out, command, a.rows, a.seconds, progress=not a.quiet, port_name=a.port)
-        except KeyboardInterrupt:
+            cap = capture(port, a.out, command, a.rows, a.seconds, progress=not a.quiet, port_name=a.port,
+                          on_row=on_row)
+        except KeyboardInterrupt as exc:  # Ctrl-C, or hpddo.interrupt.Interrupted (SIGINT, SIGTERM)
             send_stop(port)
-            print(f"hpddo capture: interrupted: nothing written to {a.out}; rows so far kept in "
+            what = f"stopped by {exc.args[0]}" if getattr(exc, "status", None) else "interrupted"
+            print(f"{prog}: {what}: nothing written to {a.out}; rows so far kept in "
                   f"{a.out}.partial (not a complete log)", file=sys.stderr)
-            return EXIT_INTERRUPTED
+            return getattr(exc, "status", EXIT_INTERRUPTED)
         except CaptureError:
             send_stop(port)
             raise
@@ -375,7 +403,7 @@ def record(a: argparse.Namespace) -> int:
            f"{len(cap.garbled)} garbled row{'s' if len(cap.garbled) != 1 else ''} not written "
            f"(stream lines {', '.join(str(n) for n, _, _ in cap.garbled[:10])}"
            f"{', ...' if len(cap.garbled) > 10 else ''})" if cap.garbled else None]
-    print(f"{'hpddo capture: WARNING: ' if cap.garbled else ''}{a.out}: complete=false, "
+    print(f"{prog + ': WARNING: ' if cap.garbled else ''}{a.out}: complete=false, "
           f"{'; '.join(w for w in why if w)}", file=sys.stderr)
     return EXIT_GARBLED if cap.garbled else EXIT_OK
 
@@ -385,10 +413,10 @@ def run(a: argparse.Namespace) -> int:
     reaches the caller, hpddo.cli.run, which prints its one line)."""
     try:
         return record(a)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         print(f"hpddo capture: interrupted before recording started on {a.port}: nothing written to {a.out}",
               file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return getattr(exc, "status", EXIT_INTERRUPTED)
 
 
 def main(argv=None) -> int:

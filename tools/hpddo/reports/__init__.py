@@ -8,6 +8,8 @@ as an embedded PNG data URI, the figure closed after use). Every page is self-co
 
 The submodules are imported on use, so importing this package does not load the
 diagnosis. `browser` opens a page in headless Chromium, as a person would (the tests).
+`live` is the one page that is not a file: hpddo live's Bokeh server application, which
+draws the bench's rows as they arrive.
 
 May import: the foundations, hpddo.logs, hpddo.model, hpddo.evaluation and hpddo.diagnosis
 (the diagnosis page shows its stages).

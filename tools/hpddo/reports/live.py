@@ -1,0 +1,255 @@
+"""The live view's page: a Bokeh server application (hpddo live, docs/firmware.md "Live view").
+
+`Feed` holds what the page shows, filled from two threads: the UNO's bench log rows
+(`add_row`, the recording's reader: t_s, the encoder's rpm_ref, the UNO's own estimate
+rpm_est and est_status) and, optionally, the ESP8266's telemetry lines (`add_esp`), joined
+to the rows on the low 16 bits of seq (the link frame's seq). `serve` runs the Bokeh server
+in a thread of its own; each browser session polls the feed and streams the new points into
+its plots. Nothing here writes a file: the recording is hpddo.cli.capture's.
+"""
+from __future__ import annotations
+
+import collections
+import html
+import json
+import math
+import socket
+import threading
+
+#: points kept per series (and shown): 60 s at 100 samples/s
+KEEP = 6000
+#: how often a page takes the new points (ms)
+POLL_MS = 200
+#: the observer's status numbers (hpddo/observer.h Status) and the telemetry's names of them
+STATUS_NAMES = {0: "ok", 1: "clamped", 2: "fallback", 3: "invalid", 4: "gated"}
+STATUS_NUMBERS = {v: k for k, v in STATUS_NAMES.items()}
+#: ESP8266 lines waiting for their UNO row, and UNO rows' seq remembered for late ESP lines
+JOIN_WINDOW = 4096
+
+UNO_COLUMNS = ("n", "t_s", "rpm_ref", "rpm_est", "error", "est_status")
+ESP_COLUMNS = ("n", "t_s", "rpm", "rpm_m2", "residual", "confidence", "status")
+
+
+def _number(text: str | None) -> float:
+    """A CSV cell as a float; an empty or absent cell is NaN (a gap in the plot)."""
+    if text is None or text.strip() == "":
+        return math.nan
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
+class Feed:
+    """The points to show, appended by the readers and taken by the pages; thread-safe."""
+
+    def __init__(self, keep: int = KEEP):
+        self._lock = threading.Lock()
+        self._uno = collections.deque(maxlen=keep)
+        self._esp = collections.deque(maxlen=keep)
+        self.n_uno = 0  # points ever appended (a page's cursor counts in these)
+        self.n_esp = 0
+        self._t_of_seq16 = collections.OrderedDict()  # seq & 0xFFFF -> t_s of a recent UNO row
+        self._esp_waiting = collections.OrderedDict()  # seq16 -> telemetry that came before its row
+        self.esp_lines = 0  # telemetry lines read
+        self.esp_joined = 0
+        self.esp_bad = 0  # lines that are not telemetry JSON (events excluded)
+        self.rows = 0
+        self.lost = 0
+        self.garbled = 0
+        self.columns: list[str] = []
+
+    # ------------------------------------------------------------------ the readers
+    def add_row(self, line: str, cap) -> None:
+        """One data row of the recording as capture wrote it (capture's on_row hook)."""
+        cells = dict(zip(cap.columns, line.split(",")))
+        t = _number(cells.get("t_s"))
+        ref, est = _number(cells.get("rpm_ref")), _number(cells.get("rpm_est"))
+        point = (t, ref, est, est - ref, _number(cells.get("est_status")))
+        seq = cells.get("seq")
+        with self._lock:
+            self.rows, self.lost, self.garbled, self.columns = cap.rows, cap.lost, len(cap.garbled), cap.columns
+            self._uno.append((self.n_uno, *point))
+            self.n_uno += 1
+            if seq is not None and seq.strip().isdigit():
+                s16 = int(seq) & 0xFFFF
+                self._t_of_seq16[s16] = t
+                self._t_of_seq16.move_to_end(s16)
+                if len(self._t_of_seq16) > JOIN_WINDOW:
+                    self._t_of_seq16.popitem(last=False)
+                early = self._esp_waiting.pop(s16, None)
+                if early is not None:
+                    self._join(t, early)
+
+    def add_esp(self, line: str) -> bool:
+        """One line from the ESP8266; True when it was a telemetry line (an event or a reply is skipped)."""
+        try:
+            obj = json.loads(line)
+        except ValueError:
+            with self._lock:
+                self.esp_bad += 1
+            return False
+        if not isinstance(obj, dict) or "event" in obj:
+            return False
+        try:
+            s16 = int(obj["seq"]) & 0xFFFF
+            values = tuple(math.nan if obj[k] is None else float(obj[k])  # null: a non-finite number
+                           for k in ("rpm", "rpm_m2", "residual", "confidence"))
+            values += (float(STATUS_NUMBERS.get(obj["status"], math.nan)),)
+        except (KeyError, TypeError, ValueError):
+            with self._lock:
+                self.esp_bad += 1
+            return False
+        with self._lock:
+            self.esp_lines += 1
+            t = self._t_of_seq16.get(s16)
+            if t is None:  # its row has not arrived yet
+                self._esp_waiting[s16] = values
+                if len(self._esp_waiting) > JOIN_WINDOW:
+                    self._esp_waiting.popitem(last=False)
+            else:
+                self._join(t, values)
+        return True
+
+    def _join(self, t: float, values: tuple) -> None:
+        self._esp.append((self.n_esp, t, *values))
+        self.n_esp += 1
+        self.esp_joined += 1
+
+    # ------------------------------------------------------------------ the pages
+    def take(self, uno_from: int, esp_from: int):
+        """The points appended since the cursors (older ones that rolled out are skipped), as
+        column dicts, with the counters for the page's status line."""
+        with self._lock:
+            uno = [p for p in self._uno if p[0] >= uno_from]
+            esp = [p for p in self._esp if p[0] >= esp_from]
+            counts = dict(rows=self.rows, lost=self.lost, garbled=self.garbled, esp_lines=self.esp_lines,
+                          esp_joined=self.esp_joined, esp_bad=self.esp_bad, n_uno=self.n_uno, n_esp=self.n_esp)
+        return (dict(zip(UNO_COLUMNS, map(list, zip(*uno)))) if uno else None,
+                dict(zip(ESP_COLUMNS, map(list, zip(*esp)))) if esp else None, counts)
+
+
+def make_document(feed: Feed, title: str, with_esp: bool):
+    """Returns the function that builds one browser session's document."""
+    def build(doc):
+        import numpy as np
+        from bokeh.layouts import column
+        from bokeh.models import ColumnDataSource, Div, FixedTicker, Legend
+        from bokeh.plotting import figure
+
+        uno = ColumnDataSource({c: [] for c in UNO_COLUMNS}, name="uno")
+        esp = ColumnDataSource({c: [] for c in ESP_COLUMNS}, name="esp")
+        shown = html.escape(title)  # a Div's text is HTML: the ports' and the file's names escaped
+        head = Div(text=f"<b>{shown}</b>: waiting for the first row", name="counts")
+
+        def fig(name, y_label, height=260, **kw):
+            f = figure(name=name, height=height, sizing_mode="stretch_width", x_axis_label="t_s (s)",
+                       y_axis_label=y_label, tools="pan,xwheel_zoom,box_zoom,reset,save", **kw)
+            f.add_layout(Legend(), "right")
+            return f
+
+        speed = fig("speed", "speed (RPM)")
+        speed.line("t_s", "rpm_ref", source=uno, color="#000000", line_width=2, legend_label="encoder (rpm_ref)")
+        speed.line("t_s", "rpm_est", source=uno, color="#1f77b4", line_width=2, legend_label="UNO estimate (rpm_est)")
+        error = fig("error", "RPM", x_range=speed.x_range)
+        error.line("t_s", "error", source=uno, color="#1f77b4", legend_label="UNO estimate - encoder")
+        status = fig("status", "status", height=180, x_range=speed.x_range, y_range=(-0.5, 4.5))
+        status.scatter("t_s", "est_status", source=uno, color="#1f77b4", size=4, legend_label="UNO est_status")
+        status.yaxis.ticker = FixedTicker(ticks=list(STATUS_NAMES))
+        status.yaxis.major_label_overrides = {k: v for k, v in STATUS_NAMES.items()}
+        if with_esp:
+            confidence = fig("confidence", "confidence", height=180, x_range=speed.x_range, y_range=(-0.05, 1.05))
+            speed.line("t_s", "rpm", source=esp, color="#ff7f0e", line_width=2, legend_label="ESP8266 estimate (rpm)")
+            speed.line("t_s", "rpm_m2", source=esp, color="#2ca02c", legend_label="ESP8266 physics (rpm_m2)")
+            error.line("t_s", "residual", source=esp, color="#ff7f0e", legend_label="ESP8266 residual (network)")
+            status.scatter("t_s", "status", source=esp, color="#ff7f0e", size=4, marker="x",
+                           legend_label="ESP8266 status")
+            confidence.line("t_s", "confidence", source=esp, color="#ff7f0e", legend_label="ESP8266 confidence")
+        else:
+            confidence = Div(text="The ESP8266's estimate, residual, status and confidence: hpddo live --esp-port PORT")
+        cursor = {"uno": 0, "esp": 0}
+
+        def poll():
+            new_uno, new_esp, c = feed.take(cursor["uno"], cursor["esp"])
+            if new_uno:
+                cursor["uno"] = new_uno["n"][-1] + 1
+                uno.stream({k: np.asarray(v, dtype=float) for k, v in new_uno.items()}, rollover=KEEP)
+            if new_esp:
+                cursor["esp"] = new_esp["n"][-1] + 1
+                esp.stream({k: np.asarray(v, dtype=float) for k, v in new_esp.items()}, rollover=KEEP)
+            esp_text = (f"; ESP8266: {c['esp_lines']} lines, {c['esp_joined']} joined on seq, "
+                        f"{c['esp_bad']} not telemetry") if with_esp else ""
+            head.text = (f"<b>{shown}</b>: {c['rows']} rows recorded, {c['lost']} samples lost, "
+                         f"{c['garbled']} garbled{esp_text}")
+
+        doc.title = title
+        doc.add_root(column(head, speed, error, status, confidence, sizing_mode="stretch_width"))
+        doc.add_periodic_callback(poll, POLL_MS)
+    return build
+
+
+class Server:
+    """The Bokeh server of the page in a thread of its own; stop() ends it."""
+
+    def __init__(self, feed: Feed, address: str, port: int, title: str, with_esp: bool):
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._args = (feed, address, port, title, with_esp)
+        self.server = None
+        self.port = None
+        self._thread = threading.Thread(target=self._run, name="hpddo-live-page", daemon=True)
+
+    def _run(self):
+        import asyncio
+        import logging
+
+        from bokeh.application import Application
+        from bokeh.application.handlers.function import FunctionHandler
+        from bokeh.server.server import Server as BokehServer
+        from tornado.ioloop import IOLoop
+
+        feed, address, port, title, with_esp = self._args
+        for name in ("bokeh", "tornado"):  # a browser closing its page is no news: the tool's own lines only
+            logging.getLogger(name).setLevel(logging.ERROR)
+        asyncio.set_event_loop(asyncio.new_event_loop())
+        try:
+            if port == 0:  # a free port, known before the server starts (its websocket origins name it)
+                with socket.socket() as s:
+                    s.bind((address, 0))
+                    port = s.getsockname()[1]
+            app = Application(FunctionHandler(make_document(feed, title, with_esp)))
+            # a page open to the network is reached by any host name; on 127.0.0.1 only by the local ones
+            origins = ["*"] if address != "127.0.0.1" else [f"127.0.0.1:{port}", f"localhost:{port}"]
+            self.server = BokehServer({"/": app}, io_loop=IOLoop.current(), address=address, port=port,
+                                      allow_websocket_origin=origins)
+            self.server.start()
+            self.port = self.server.port
+        except BaseException as exc:  # the port is taken, an address that is not ours
+            self._error = exc
+            self._ready.set()
+            return
+        self._ready.set()
+        self.server.io_loop.start()
+        self.server.stop()
+
+    def start(self, timeout: float = 30.0) -> int:
+        """Starts the server; returns its port, or raises OSError when it cannot listen."""
+        self._thread.start()
+        self._ready.wait(timeout)
+        if self._error is not None:
+            raise OSError(str(self._error)) from None
+        if self.port is None:
+            raise OSError("the page's server did not start")
+        return self.port
+
+    def stop(self) -> None:
+        if self.server is not None and self._thread.is_alive():
+            loop = self.server.io_loop
+            loop.add_callback(loop.stop)
+            self._thread.join(5.0)
+
+    def sessions(self) -> list:
+        """The documents of the browser sessions open now (the tests look into them)."""
+        if self.server is None:
+            return []
+        return [s.document for s in self.server.get_sessions("/")]
