@@ -97,12 +97,13 @@ def _window(bursts, k, fs):
 
 
 def estimate_window(bursts, k, duty, rpm_prior, opts: Options):
-    """One window: dict with rpm (count), rpm_fft (one FFT peak), f_Hz, cycles, snr, spread,
+    """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
+    frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
     confidence (0..1), reason ('' when confident), key (REASONS key or '')."""
     from scipy import signal
 
     fs = bursts.sample_hz
-    out = dict(rpm=math.nan, rpm_fft=math.nan, f_Hz=math.nan, cycles=math.nan, snr=math.nan,
+    out = dict(rpm=math.nan, rpm_fft=math.nan, f_Hz=math.nan, f_strongest_Hz=math.nan, cycles=math.nan, snr=math.nan,
                spread=math.nan, i_mean_A=math.nan, confidence=0.0, reason="", key="")
     x0 = bursts.current_A(k)
     n = len(x0)
@@ -138,6 +139,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options):
             e = e + FAMILY_WEIGHT * np.where(gd >= 1.5 * res, _line(f, p_max, gd), 0.0)
         return e
 
+    band_all = (f >= f_lo) & (f <= f_hi)
+    out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
     ev = evidence(grid)
     if np.isfinite(f_prior) and f_prior > 0:
         like = np.exp(-0.5 * (np.log(grid / f_prior) / opts.prior_rel_sd) ** 2)

@@ -14,7 +14,8 @@ What the burst carries, per sample at time t (the middle of the on-time of its P
   fraction (no current, no ripple: coasting with the drive off shows none);
 * brush bounce (white, % of the current), an interference line at a fixed frequency, the
   sample timing jitter times the on-time slope (Vs - E - R i) / La, the ADC's noise and
-  its quantisation (codes clipped to 0..full scale: the shunt channel is single ended).
+  its quantisation (codes clipped to 0..full scale: the shunt channel is single ended),
+  after the channel's offset (`current_offset`, as on the log's current).
 
 The speed inside a window: the plant gives the shaft angle and speed at the window's
 boundaries (w0, w1) and the angle travelled; the profile is w1 + (w0 - w1) exp(-t/tau)
@@ -31,7 +32,7 @@ import math
 
 import numpy as np
 
-from .params import Bench
+from .params import Bench, warmup_share
 
 SEED_TAG = 23  # the burst stream's seed: SeedSequence([seed, protocol offset, 23])
 
@@ -96,6 +97,8 @@ def synthesise(bench: Bench, res, duty, params: dict, rng):
             if a:
                 sig = sig + a * e_over_r * np.cos(N * theta_m / div + ph[1 + j])
         t_abs = k * T + tau
+        # the current channel's offset, as on the log's current (sensors.measure)
+        sig = sig + bench.effect_si("current_offset") * warmup_share(bench.form("current_offset"), t_abs)
         if a_int:
             sig = sig + a_int * np.sin(2 * math.pi * f_int * t_abs + ph[4])
         if bench.noise:
