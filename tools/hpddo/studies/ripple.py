@@ -25,6 +25,7 @@ from ..twin import generate, params
 
 RA_OHM = 4.50  # the logs' ra_ohm metadata (the multimeter value)
 WINDOW_S = 0.5  # 2 Hz windows, the paper's rate
+WRONG_GEAR = 4.4 * 98.777 / 99.0  # the bench's true ratio in the wrong_gear scenario
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,8 +55,8 @@ SCENARIOS = (
              ripple={"interference_hz": 60.0, "interference_mA": 40.0}),
     Scenario("low_current", "a light motor (friction a tenth): mean current under the floor, said so", ("sweep",),
              bench={"tc_motor_nm": 0.0055, "tc_gen_nm": 0.004, "b_motor_nms": 2.5e-4, "b_gen_nms": 1.5e-4}),
-    Scenario("wrong_gear", "the gear is 4.35:1 where the user says 4.4:1: said when the encoder is there",
-             ("load",), bench={"gear_ratio": 4.35}, gear_ratio_user=4.4),
+    Scenario("wrong_gear", "the gear is 4.3901:1 where the user says 4.4:1 (the -0.225 % of 98.777:1 sold as "
+             "99:1): said when the encoder is there", ("load",), bench={"gear_ratio": WRONG_GEAR}, gear_ratio_user=4.4),
 )
 
 

@@ -391,3 +391,12 @@ def ripple_burst(**values) -> dict:
     if not out["sample_hz"] > 0:
         raise ValueError("sample_hz must be > 0")
     return out
+
+
+def ripple_burst_md() -> str:
+    """The ripple mode's parameters table of docs/ripple.md, from RIPPLE_BURST."""
+    rows = ["| name | unit | default | typical | physics |", "|---|---|---|---|---|"]
+    for p in RIPPLE_BURST.values():
+        lo, hi = p.typical
+        rows.append(f"| `{p.name}` | {p.unit} | {p.default:g} | {lo:g}..{hi:g} | {schema.md_cell(p.physics)} |")
+    return "\n".join(rows) + "\n"
