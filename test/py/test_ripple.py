@@ -118,3 +118,32 @@ def test_ratio_check_names_the_ripples_per_revolution_when_off_by_a_family_facto
     df = pd.DataFrame({"confident": [True] * 4, "f_Hz": [2 * 26.4 * 100 / 60.0] * 4})  # twice 6 x 4.4 per rev
     chk = rp.check_ratio(df, np.full(4, 100.0), 0.5, rp.Options(6, 4.4))
     assert "ripples per motor revolution" in chk["statement"]
+
+
+def test_hpddo_ripple_on_twin_logs_scores_and_checks_the_ratio(tmp_path, capsys):
+    from hpddo import cli
+
+    logs = tmp_path / "logs"
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=logs, time_scale=0.3,
+                      ripple=params.ripple_burst())
+    out = tmp_path / "out"
+    # the sidecars given with the log (as a shell glob gives them) are left out with a note
+    argv = [str(p) for p in sorted(logs.glob("*.csv"))] + ["--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                                                          "--out", str(out), "--quiet"]
+    assert cli.main(["ripple"] + argv) == 0
+    printed = capsys.readouterr()
+    assert "left out" in printed.err and "the current bursts beside its log" in printed.err
+    assert "the gear ratio 4.4:1 agrees with the data" in printed.out
+    import json
+    s = json.loads((out / "summary.json").read_text())["load"]
+    assert s["rms_vs_encoder_pct"] < 1.0 and s["max_vs_encoder_pct"] < 5.0  # the log's encoder glitch left out
+    assert (out / "load.ripple_speed.csv").read_text().startswith("seq,t_s,rpm_ripple,confidence,confident,reason")
+
+
+def test_hpddo_ripple_without_bursts_is_a_user_error(tmp_path, capsys):
+    from hpddo import cli
+
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=tmp_path, time_scale=0.05)
+    status = cli.main(["ripple", str(tmp_path / "load.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                       "--out", str(tmp_path / "o")])
+    assert status == 1 and "no current bursts beside it" in capsys.readouterr().err

@@ -46,6 +46,7 @@ ALTERNATIVES = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
 # the weight of each sub-harmonic's power in a candidate's evidence: small enough that the main
 # line's own second harmonic (2 f, whose f/2 is the main line) does not rival the main line
 FAMILY_WEIGHT = 0.25
+TRIM = 0.05  # check_ratio: a window's own ripples per encoder revolution this far from the median is left out
 
 
 @dataclasses.dataclass(frozen=True)
@@ -238,19 +239,27 @@ def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
 
 
 def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001):
-    """With an encoder: the ripples per output revolution measured over the confident windows
-    (the sum of counted cycles over the sum of encoder revolutions), the gear ratio it
-    implies for the user's ripples per motor revolution, and a statement."""
+    """With an encoder on the output shaft: the ripples per output revolution measured over the
+    confident windows (the sum of counted cycles over the sum of encoder revolutions; windows
+    whose own ratio departs from the median by more than TRIM left out and counted), the gear
+    ratio it implies for the user's ripples per motor revolution, and a statement."""
     ref = np.asarray(rpm_ref, float)
     ok = df["confident"].to_numpy() & np.isfinite(ref) & (ref > 0)
     if ok.sum() == 0:
         return {"windows": 0, "statement": "no confident window with an encoder speed: the ratio is not checked"}
-    cycles = float(np.sum(df["f_Hz"].to_numpy()[ok]) * window_s)
+    f_hz = df["f_Hz"].to_numpy()
+    # a window whose own ratio departs from the median by more than TRIM is an encoder glitch
+    # (extra counts) or a count gone wrong, not the gear: left out, and counted
+    per = np.where(ok, f_hz / np.where(ok, ref, 1.0) * 60.0, np.nan)
+    med = np.nanmedian(per)
+    trimmed = ok & (np.abs(per / med - 1.0) > TRIM)
+    ok = ok & ~trimmed
+    cycles = float(np.sum(f_hz[ok]) * window_s)
     revs = float(np.sum(ref[ok]) / 60.0 * window_s)
     per_rev = cycles / revs
     ratio = per_rev / opts.ripples_per_rev
     rel = ratio / opts.gear_ratio - 1.0
-    out = {"windows": int(ok.sum()), "ripples_per_output_rev": per_rev, "gear_ratio_measured": ratio,
+    out = {"windows": int(ok.sum()), "left_out": int(trimmed.sum()), "ripples_per_output_rev": per_rev, "gear_ratio_measured": ratio,
            "gear_ratio_given": opts.gear_ratio, "relative": rel}
     family = [m for m in (2.0, 3.0, 0.5, 1 / 3, 6.0, 1 / 6) if abs(rel + 1 - m) < 0.02 * m]
     if family:
