@@ -147,3 +147,12 @@ def test_hpddo_ripple_without_bursts_is_a_user_error(tmp_path, capsys):
     status = cli.main(["ripple", str(tmp_path / "load.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
                        "--out", str(tmp_path / "o")])
     assert status == 1 and "no current bursts beside it" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_spinup_windows_are_not_confident_and_the_count_beats_one_fft_peak():
+    r = _scenario("spinup")
+    assert r["reasons"]["changing"] > 0  # the speed changing inside a window is said
+    assert r["max_vs_truth_pct"] < 5.0
+    assert r["changing_count_median_abs_err_pct"] < r["changing_fft_median_abs_err_pct"]
+    assert r["spinup_fft_mean_err_pct"] > 3.0  # one FFT peak reads the speed the shaft reaches: high

@@ -18,7 +18,9 @@ The steps, per window:
    speed over the window, as the encoder counts it, where one FFT peak would give the
    dominant (final) frequency of a window in which the shaft spins up;
 4. the speed's spread over the window's quarters says whether the speed changed inside it
-   (inrush, spin-up, a load step): then the count is given but not confident.
+   (inrush, spin-up, a load step); then the line has left the fixed band, and the count
+   follows it instead (`_tracked_phase`: the line tracked through 50 ms spectra, the current
+   demodulated along the track), and is given but not confident.
 
 Gear ratio and ripples per motor revolution come from the user (`Options`); where an
 encoder is there, `check_ratio` measures the ripples per output revolution and says when
@@ -97,10 +99,44 @@ def _window(bursts, k, fs):
     return np.concatenate(parts), start, n
 
 
-def estimate_window(bursts, k, duty, rpm_prior, opts: Options):
+def _tracked_phase(x, fs, f_end, i_end, frame_s=0.05):
+    """The ripple's phase (rad) over x, following its line as the speed changes: the line's
+    frequency tracked backwards from f_end at sample i_end through short spectra (each frame's
+    peak within 20 % of the next frame's), integrated to a phase, and refined by demodulating
+    x with it (the residual phase of the heterodyned, low-passed signal). None where the frames
+    are too short for the line."""
+    from scipy import signal
+
+    seg = int(round(frame_s * fs))
+    if seg < 16 or f_end * frame_s < 2 or len(x) < 2 * seg:
+        return None
+    hop = seg // 4
+    f, t, Z = signal.stft(x - x.mean(), fs=fs, nperseg=seg, noverlap=seg - hop, boundary=None, padded=False,
+                          nfft=8 * seg)
+    P = np.abs(Z) ** 2
+    j_end = int(np.clip(np.searchsorted(t, i_end / fs) - 1, 0, len(t) - 1))
+    track = np.full(len(t), np.nan)
+    prev = f_end
+    for j in list(range(j_end, -1, -1)) + list(range(j_end + 1, len(t))):
+        if j == j_end + 1:
+            prev = track[j_end]
+        sel = (f >= prev / 1.2) & (f <= prev * 1.2) & (f >= 1.0 / frame_s)
+        if sel.any():
+            prev = float(f[sel][np.argmax(P[sel, j])])
+        track[j] = prev
+    f_t = np.interp(np.arange(len(x)) / fs, t, track)
+    phi = 2 * math.pi * np.cumsum(f_t) / fs
+    z = x * np.exp(-1j * phi)
+    sos = signal.butter(3, 0.2 * max(f_end, 1.0 / frame_s), btype="lowpass", fs=fs, output="sos")
+    zl = signal.sosfiltfilt(sos, z.real) + 1j * signal.sosfiltfilt(sos, z.imag)
+    return phi + np.unwrap(np.angle(zl))
+
+
+def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None):
     """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
     frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
-    confidence (0..1), reason ('' when confident), key (REASONS key or '')."""
+    confidence (0..1), reason ('' when confident), key (REASONS key or ''). prior_before: the
+    previous window's prior (RPM), the speed where this window starts, bounding a tracked count."""
     from scipy import signal
 
     fs = bursts.sample_hz
@@ -188,6 +224,20 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options):
     q = np.linspace(b, e, 5).astype(int)
     fq = np.diff(phase[q]) / (2 * math.pi) / (np.diff(q) / fs)
     spread = float((fq.max() - fq.min()) / max(abs(f_count), 1e-12))
+    if spread > opts.max_spread:  # the speed moved out of the fixed band: follow the line instead
+        tracked = _tracked_phase(xx, fs, f_star, e)
+        if tracked is not None:
+            f_tr = (tracked[e] - tracked[b]) / (2 * math.pi) / ((e - b) / fs)
+            # the mean of a transition lies between its ends: the speed before the window (the
+            # previous window's prior) and the line at its end; a track outside has jumped lines
+            f_a = (prior_before * per_rev_out / 60.0 if prior_before is not None and np.isfinite(prior_before)
+                   else math.nan)
+            if not np.isfinite(f_a) or min(f_a, f_star) / 1.1 <= f_tr <= max(f_a, f_star) * 1.1:
+                phase = tracked
+                cycles = (phase[e] - phase[b]) / (2 * math.pi)
+                f_count = f_tr
+                fq = np.diff(phase[q]) / (2 * math.pi) / (np.diff(q) / fs)
+                spread = float((fq.max() - fq.min()) / max(abs(f_count), 1e-12))
     k_fft = (f >= lo) & (f <= hi)
     f_fft = float(f[k_fft][np.argmax(p[k_fft])]) if k_fft.any() else math.nan
     out.update(rpm=f_count * 60.0 / per_rev_out, rpm_fft=f_fft * 60.0 / per_rev_out, f_Hz=f_count,
@@ -218,7 +268,8 @@ def estimate(bursts, duty, rpm_prior, opts: Options):
     for k in range(len(bursts)):
         d = None if duty is None else float(duty[k])
         pr = None if rpm_prior is None else float(rpm_prior[k])
-        rows.append(estimate_window(bursts, k, d, pr, opts))
+        before = None if rpm_prior is None or k == 0 else float(rpm_prior[k - 1])
+        rows.append(estimate_window(bursts, k, d, pr, opts, before))
     df = pd.DataFrame(rows)
     df.insert(0, "seq", bursts.seq)
     df["confident"] = df["key"] == ""
