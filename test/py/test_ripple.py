@@ -156,3 +156,26 @@ def test_spinup_windows_are_not_confident_and_the_count_beats_one_fft_peak():
     assert r["max_vs_truth_pct"] < 5.0
     assert r["changing_count_median_abs_err_pct"] < r["changing_fft_median_abs_err_pct"]
     assert r["spinup_fft_mean_err_pct"] > 3.0  # one FFT peak reads the speed the shaft reaches: high
+
+
+def _line_power(x, fs, f):
+    spec = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(len(x)))) ** 2
+    freqs = np.fft.rfftfreq(len(x), 1 / fs)
+    sel = np.abs(freqs - f) <= 2 * fs / len(x)
+    return spec[sel].max()
+
+
+def test_burst_lines_sit_where_the_shaft_puts_them():
+    """The main line at N G n / 60, the f/2 family line overtaking it when the asymmetry is large."""
+    bench = params.preset("default")
+    for sub2, main_wins in ((1.0, True), (12.0, False)):
+        g = generate.generate(bench, "sweep", 2.0, 1, time_scale=0.2, ripple=params.ripple_burst(sub2_pct=sub2))
+        t0, codes, meta = g["bursts"]
+        k = int(np.flatnonzero(g["log"]["duty"].to_numpy() == 1.0)[-1])  # a steady window at full duty
+        x = codes[k] * float(meta["a_per_code"])
+        f = bench.ripple_per_rev * bench.gear_ratio * g["truth"]["rpm_true"][k] / 60.0
+        fs = float(meta["sample_hz"])
+        spec = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(len(x)))) ** 2
+        top = np.fft.rfftfreq(len(x), 1 / fs)[int(np.argmax(spec))]
+        assert (abs(top / f - 1) < 0.01) == main_wins, (sub2, top, f)
+        assert (_line_power(x, fs, f) > _line_power(x, fs, f / 2)) == main_wins
