@@ -88,6 +88,7 @@ def run_scenario(sc: Scenario, seed: int = 1, quiet: bool = True) -> dict:
         else:
             ke, n_ke, prior = math.nan, 0, None
         df = rp.estimate(b, duty, prior, opts)
+        df["rpm_prior"] = np.nan if prior is None else prior
         df["protocol"] = prot
         df["rpm_ref"] = log["rpm_ref"].to_numpy()
         df["rpm_true"] = truth["rpm_true"].to_numpy()
@@ -146,6 +147,15 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
             out["spinup_windows"] = int(up.sum())
             out["spinup_count_mean_err_pct"] = float(np.mean(100 * (rpm[up] / true[up] - 1)))
             out["spinup_fft_mean_err_pct"] = float(np.mean(100 * (df["rpm_fft"].to_numpy()[up] / true[up] - 1)))
+    # beside M2 (the prior, whose Ke came from the ripple): every row with an encoder reading, the
+    # ripple where it is confident and M2 elsewhere (fused), against M2 alone
+    prior = df["rpm_prior"].to_numpy()
+    rows = ~df["encoder_glitch"].to_numpy() & np.isfinite(ref) & np.isfinite(prior)
+    if rows.any():
+        fused = np.where(conf, rpm, prior)
+        out["m2_rmse_rpm"] = float(np.sqrt(np.mean((prior[rows] - ref[rows]) ** 2)))
+        out["fused_rmse_rpm"] = float(np.sqrt(np.mean((fused[rows] - ref[rows]) ** 2)))
+        out["fused_rows"] = int(rows.sum())
     ok = ~df["encoder_glitch"].to_numpy()
     chk = rp.check_ratio(df[ok], ref[ok], WINDOW_S, opts)
     out["ratio_check"] = chk
@@ -180,6 +190,10 @@ def main(argv=None) -> int:
     print(table(res), flush=True)
     for r in res:
         print(f"{r['scenario']}: {r['ratio_check']['statement']}", flush=True)
+        if "fused_rmse_rpm" in r:
+            print(f"{r['scenario']}: RMSE against the encoder over {r['fused_rows']} rows: M2 (Ke from the ripple or "
+                  f"the user) {r['m2_rmse_rpm']:.2f} RPM, the ripple where confident and M2 elsewhere "
+                  f"{r['fused_rmse_rpm']:.2f} RPM")
         if r["confident_where_strongest_line_not_main"]:
             print(f"{r['scenario']}: {r['confident_where_strongest_line_not_main']} confident windows whose strongest "
                   "line is not the main line (a sub-harmonic or the interference)")
