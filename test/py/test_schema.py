@@ -21,7 +21,7 @@ from hpddo.twin import params as twin
 
 def test_generated_files_regenerate_identically():
     files = regenerate.generated()
-    assert {"lib/hpddo_core/src/hpddo/params_gen.h", "docs/core.md", "docs/twin.md"} <= set(files)
+    assert {"lib/hpddo_core/src/hpddo/params_gen.h", "docs/core.md", "docs/twin.md", "docs/ripple.md"} <= set(files)
     for rel, text in files.items():
         assert (ROOT / rel).read_bytes() == text.encode(), f"{rel} differs: run {regenerate.COMMAND}"
 
@@ -38,6 +38,7 @@ def test_check_mode_reports_a_stale_file(tmp_path, capsys):
     (tmp_path / regenerate.EFFECTS_DOC).write_text("# prose\n" + begin + "\n| stale |\n" + end + "\nmore prose\n")
     twin = (ROOT / regenerate.TWIN_DOC).read_text()  # the twin's block: as committed (up to date)
     (tmp_path / regenerate.TWIN_DOC).write_text(twin)
+    (tmp_path / regenerate.RIPPLE_DOC).write_text((ROOT / regenerate.RIPPLE_DOC).read_text())  # as committed
     assert regenerate.main(["--check", "--root", str(tmp_path)]) == 1
     assert regenerate.main(["--write", "--root", str(tmp_path)]) == 0
     assert regenerate.main(["--check", "--root", str(tmp_path)]) == 0

@@ -37,6 +37,7 @@ DOC_BEGIN = "<!-- BEGIN GENERATED: {what}, from {source} ({command}); do not edi
 DOC_END = "<!-- END GENERATED: {what} -->"
 EFFECTS_DOC = "docs/core.md"
 TWIN_DOC = "docs/twin.md"
+RIPPLE_DOC = "docs/ripple.md"
 
 
 def with_generated_block(text: str, block: str, path: str, what: str, source: str) -> str:
@@ -51,7 +52,8 @@ def with_generated_block(text: str, block: str, path: str, what: str, source: st
 def doc_blocks() -> list:
     """(document, what, source, block text) of every generated block in the documents."""
     return [(EFFECTS_DOC, "the effects table", "tools/hpddo/schema.py", schema._effects_md()),
-            (TWIN_DOC, "the twin's effects table", "tools/hpddo/twin/params.py", twin_params.effects_md())]
+            (TWIN_DOC, "the twin's effects table", "tools/hpddo/twin/params.py", twin_params.effects_md()),
+            (RIPPLE_DOC, "the ripple mode's parameters", "tools/hpddo/twin/params.py", twin_params.ripple_burst_md())]
 
 
 def generated(root: pathlib.Path = ROOT) -> dict:

@@ -30,6 +30,8 @@ SUBCOMMANDS = {
     "compare": ("compare", "the paper's comparison: EKF, sliding-mode observer, pure network, M1-M3, lookup; "
                            "Tables 7-10 and the out-of-distribution test"),
     "diagnose": ("diagnose", "name the physical effects the physics model misses (tools/diagnose.py)"),
+    "ripple": ("ripple", "speed from the commutation ripple of the current bursts beside each log, with a "
+                         "confidence and a reason; checks the gear ratio against an encoder (docs/ripple.md)"),
     "twin": ("twin", "simulate the bench and write bench logs with ground truth (tools/twin.py)"),
     "capture": ("capture", "record the acquisition board's USB stream to a bench log (tools/capture.py)"),
     "live": ("live", "show the estimate against the encoder in a browser page while recording the bench "

@@ -73,20 +73,24 @@ def effects(p, what: str) -> None:
 
 
 class _Logs(argparse.Action):
-    """Bench logs, less the twin's ground-truth sidecars given beside their own logs (as
-    `hpddo train out/*.csv` gives them after `hpddo twin --out out`), each left out with a
-    note on stderr."""
+    """Bench logs, less the sidecars given beside their own logs (as `hpddo train out/*.csv`
+    gives them after `hpddo twin --out out`): the twin's ground truth and the ripple bursts
+    (docs/bench-log.md, Ripple bursts), each left out with a note on stderr."""
 
     def __call__(self, parser, namespace, values, option_string=None):
         import sys
+        from ..logs.ripple import SUFFIX as RIPPLE_CSV
         from ..twin.generate import TRUTH_CSV
 
         names = {str(v) for v in values}
-        sidecar = [v for v in values if v.name.endswith(TRUTH_CSV)
-                   and str(v.with_name(v.name[:-len(TRUTH_CSV)] + ".csv")) in names]
-        for v in sidecar:
-            print(f"{parser.prog}: note: left out {v}: the twin's ground truth beside its log, not a bench log",
-                  file=sys.stderr)
+        what = {TRUTH_CSV: "the twin's ground truth", RIPPLE_CSV: "the current bursts"}
+        sidecar = []
+        for v in values:
+            for suffix, text in what.items():
+                if v.name.endswith(suffix) and str(v.with_name(v.name[:-len(suffix)] + ".csv")) in names:
+                    sidecar.append(v)
+                    print(f"{parser.prog}: note: left out {v}: {text} beside its log, not a bench log",
+                          file=sys.stderr)
         setattr(namespace, self.dest, [v for v in values if v not in sidecar])
 
 

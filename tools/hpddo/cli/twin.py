@@ -7,6 +7,7 @@ examples:
   hpddo twin --protocol validation --preset default --seed 1 --out data/validation
   hpddo twin --protocol sweep --preset ideal --effects thermal_ra,brush_drop=0.8 --out out/twin
   hpddo twin --protocol load --rate-hz 1000 --time-scale 0.05 --out out/fast
+  hpddo twin --protocol load --ripple-hz 10000 --out out/ripple   # with the current bursts (docs/ripple.md)
   hpddo twin --list-effects
 """
 from __future__ import annotations
@@ -89,6 +90,10 @@ def parser(prog: str = "hpddo twin") -> argparse.ArgumentParser:
     p.add_argument("--no-noise", action="store_true", help="no ADC noise, PWM aliasing or sensor noise")
     p.add_argument("--pwm-hz", type=options.positive_float, default=None, metavar="HZ",
                    help="PWM frequency (default 490.196)")
+    p.add_argument("--ripple-hz", type=options.positive_float, default=None, metavar="HZ",
+                   help="the ripple mode (docs/ripple.md): the PWM runs at HZ and the current is sampled once "
+                   "per PWM period (8000-20000 typical), one burst per window into <condition>.ripple.csv "
+                   "(docs/bench-log.md, Ripple bursts); off by default")
     p.add_argument("--time-scale", type=options.positive_float, default=1.0, metavar="FACTOR",
                    help="scale every protocol segment duration (e.g. 0.05 for a short test run; default 1)")
     options.seed(p, "the simulation")
@@ -124,6 +129,9 @@ def build_bench(args):
     if args.no_noise:
         changes["noise"] = False
     if args.pwm_hz is not None:
+        if args.ripple_hz is not None and args.pwm_hz != args.ripple_hz:
+            from ..logs.errors import InputError
+            raise InputError("--pwm-hz and --ripple-hz differ: in the ripple mode the PWM runs at the sample rate")
         changes["pwm_hz"] = args.pwm_hz
     return dataclasses.replace(bench, **changes) if changes else bench
 
@@ -142,8 +150,10 @@ def simulate(bench, prot: str, args, stage: pathlib.Path) -> None:
                    file=sys.stderr, mininterval=0.5, leave=False, disable=None,  # None: no bar off a terminal
                    bar_format="{l_bar}{bar}| {n:.0f}/{total:.0f} s [{elapsed}<{remaining}]")
         cb = bar.update
+    from ..twin.params import ripple_burst
+    ripple = None if args.ripple_hz is None else ripple_burst(sample_hz=args.ripple_hz)
     g = generate.generate(bench, prot, args.rate_hz, args.seed, out_dir=stage,
-                          preset_name=args.preset, time_scale=args.time_scale, progress=cb)
+                          preset_name=args.preset, time_scale=args.time_scale, progress=cb, ripple=ripple)
     if bar is not None:
         bar.close()
     if not args.quiet:

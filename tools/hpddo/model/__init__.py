@@ -2,7 +2,8 @@
 its float32 libm), the effect library (effects) and its identification (identify), the
 residual network (network) and its training (train), the novelty gate (gate), fixed
 point (quant), the float and integer references of the board observer (observer_ref),
-the model headers and golden vectors (export), and the core's test models (fixtures).
+the model headers and golden vectors (export), the core's test models (fixtures), and the speed counted from the commutation ripple
+(ripple, docs/ripple.md).
 
 May import: the foundations (hpddo.schema, hpddo.bench, hpddo.interrupt) and hpddo.logs.
 """

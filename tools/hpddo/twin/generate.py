@@ -24,7 +24,9 @@ import numpy as np
 import pandas as pd
 
 from ..logs import benchlog
+from ..logs import ripple as ripple_file
 from . import plant, protocols, sensors
+from . import ripple as ripple_mode
 from .params import EFFECT_NAMES, EFFECTS, GENERATOR_VERSION, Bench
 
 TRUTH_CSV = ".truth.csv"  # the per-sample ground truth beside each log: <condition>.truth.csv
@@ -50,8 +52,14 @@ def _r(x, nd=6):
 
 
 def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, out_dir=None,
-             preset_name: str = "custom", time_scale: float = 1.0, progress=None, condition=None):
+             preset_name: str = "custom", time_scale: float = 1.0, progress=None, condition=None,
+             ripple=None):
     """Simulate ``protocol`` and (if ``out_dir``) write the three files.
+
+    ``ripple``: None (the default: no ripple mode, nothing changes), or the ripple mode's
+    parameters (``params.ripple_burst()``): the PWM then runs at its sample rate, and a
+    fourth file ``<condition>.ripple.csv`` holds one current burst per window
+    (twin/ripple.py, docs/bench-log.md).
 
     Returns a dict with ``log`` (DataFrame as written), ``meta``, ``truth`` (DataFrame),
     ``info`` (the JSON content) and ``paths``.
@@ -62,11 +70,19 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
         raise ValueError("rate_hz must be > 0")
     condition = condition or protocol
     bench = protocols.bench_for(protocol, bench)  # the protocol's ambient, if it declares one
+    if ripple is not None:  # the ripple mode: one current sample per PWM period
+        import dataclasses
+        bench = dataclasses.replace(bench, pwm_hz=float(ripple["sample_hz"]))
     segs = protocols.schedule(protocol, time_scale)
     duty, load = protocols.per_sample(segs, rate_hz)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), PROTOCOL_SEED_OFFSET[protocol]]))
     res = plant.simulate(bench, duty, load, rate_hz, progress=progress)
     cols, glitches = sensors.measure(bench, res, duty, load, rng)
+    bursts = None
+    if ripple is not None:  # its own random stream: the log's draws are those of a run without it
+        rrng = np.random.default_rng(np.random.SeedSequence(
+            [int(seed), PROTOCOL_SEED_OFFSET[protocol], ripple_mode.SEED_TAG]))
+        bursts = ripple_mode.synthesise(bench, res, duty, ripple, rrng)
     log = pd.DataFrame(cols)
 
     rate_txt = f"{rate_hz:g}"
@@ -130,6 +146,10 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
         "glitches": glitches,
         "energy_J": {k: _r(v, 4) for k, v in res.energy.items()},
     }
+    if ripple is not None:
+        info["ripple"] = {k: _r(v, 9) for k, v in ripple.items()}
+        info["ripple"]["ripples_per_rev"] = int(bench.ripple_per_rev)
+        info["ripple"]["gear_ratio"] = _r(bench.gear_ratio, 9)
     paths = {}
     if out_dir is not None:
         out = pathlib.Path(out_dir)
@@ -144,4 +164,9 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
         benchlog.write_text_atomic(paths["truth_csv"], "\n".join(lines) + "\n")
         paths["truth_json"] = out / f"{condition}.truth.json"
         benchlog.write_text_atomic(paths["truth_json"], json.dumps(info, indent=1, sort_keys=True) + "\n")
-    return {"log": log, "meta": meta, "truth": truth, "info": info, "paths": paths, "result": res}
+        if bursts is not None:
+            t0, codes, rmeta = bursts
+            paths["ripple"] = ripple_file.write(out / f"{condition}{ripple_file.SUFFIX}",
+                                                {"condition": condition, **rmeta}, log["seq"], t0, codes)
+    return {"log": log, "meta": meta, "truth": truth, "info": info, "paths": paths, "result": res,
+            "bursts": bursts}

@@ -330,3 +330,73 @@ def with_effects(bench: Bench, **magnitudes) -> Bench:
             raise ValueError(f"unknown effect {k!r} (known: {', '.join(EFFECT_NAMES)})")
         eff[k] = float(v)
     return dataclasses.replace(bench, effects=eff)
+
+
+# ---------------------------------------------------------------------------------------
+# The ripple acquisition mode (issue 23): a high-rate current burst per window, off by
+# default (hpddo twin --ripple-hz, generate(..., ripple=...)); twin/ripple.py synthesises it,
+# docs/bench-log.md ("Ripple bursts") gives its file, docs/ripple.md the estimator.
+
+@dataclasses.dataclass(frozen=True)
+class BurstParam:
+    """One parameter of the ripple mode: its name, unit, default, typical range and physics."""
+
+    name: str
+    unit: str
+    default: float
+    typical: tuple
+    physics: str
+
+
+RIPPLE_BURST = {
+    p.name: p
+    for p in [
+        BurstParam("sample_hz", "Hz", 10000.0, (8000.0, 20000.0),
+                   "current samples per second in the ripple mode: one per PWM period at a fixed phase "
+                   "(the middle of the on-time), so the PWM runs at this frequency in the mode"),
+        BurstParam("coil_emf_pct", "%", 3.0, (1.0, 8.0),
+                   "the winding's part of the main line: the share of the back-EMF lost while a brush "
+                   "shorts a coil, over the loop resistance (the brushes' part is the effect `ripple`, "
+                   "in % of the mean current)"),
+        BurstParam("sub2_pct", "%", 1.0, (0.0, 10.0),
+                   "rotor asymmetry: the line at f/2, in % of the back-EMF over the loop resistance "
+                   "(unequal coil EMFs), so it grows with speed where the brushes' part grows with current"),
+        BurstParam("sub3_pct", "%", 0.6, (0.0, 10.0), "rotor asymmetry: the line at f/3, as sub2_pct"),
+        BurstParam("sub6_pct", "%", 1.2, (0.0, 10.0),
+                   "rotor asymmetry: the line at f/6 (once per motor revolution for 6 ripples per "
+                   "revolution), as sub2_pct"),
+        BurstParam("harmonic2_pct", "%", 30.0, (10.0, 50.0),
+                   "second harmonic of the main line, in % of its amplitude (a commutation dip is not a sine)"),
+        BurstParam("bounce_pct", "%", 2.0, (0.5, 5.0),
+                   "brush bounce: broadband noise on the current, rms in % of the mean current"),
+        BurstParam("interference_hz", "Hz", 50.0, (10.0, 5000.0),
+                   "an interference line at a fixed frequency (mains, a digital bus aliased into the band)"),
+        BurstParam("interference_mA", "mA", 5.0, (0.0, 20.0), "the interference line's amplitude"),
+        BurstParam("jitter_us", "us", 0.2, (0.05, 1.0),
+                   "rms timing jitter of the sample within the PWM period: the error is the on-time "
+                   "current slope (Vs - E - R i) / La times it"),
+        BurstParam("burst_s", "s", 0.0, (0.0, 2.0),
+                   "burst length per window from the window's start; 0 = the whole window"),
+    ]
+}
+
+
+def ripple_burst(**values) -> dict:
+    """The ripple mode's parameters (RIPPLE_BURST defaults, names checked) as {name: value}."""
+    unknown = sorted(set(values) - set(RIPPLE_BURST))
+    if unknown:
+        raise ValueError(f"unknown ripple-mode parameter(s) {', '.join(unknown)} (known: {', '.join(RIPPLE_BURST)})")
+    out = {n: p.default for n, p in RIPPLE_BURST.items()}
+    out.update({k: float(v) for k, v in values.items()})
+    if not out["sample_hz"] > 0:
+        raise ValueError("sample_hz must be > 0")
+    return out
+
+
+def ripple_burst_md() -> str:
+    """The ripple mode's parameters table of docs/ripple.md, from RIPPLE_BURST."""
+    rows = ["| name | unit | default | typical | physics |", "|---|---|---|---|---|"]
+    for p in RIPPLE_BURST.values():
+        lo, hi = p.typical
+        rows.append(f"| `{p.name}` | {p.unit} | {p.default:g} | {lo:g}..{hi:g} | {schema.md_cell(p.physics)} |")
+    return "\n".join(rows) + "\n"

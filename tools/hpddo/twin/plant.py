@@ -134,7 +134,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
     (output shaft, rad/s), ``v_var, i_var`` (PWM ripple variance), ``cond`` (conduction
     fraction), ``ra, ke`` (true values, sample means), ``tw, tc`` (winding/case
     temperature at the sample end), ``theta`` (output shaft angle at the n+1 sample
-    boundaries, rad) and ``energy`` (dict of joules over the run).
+    boundaries, rad), ``w_bound`` (output shaft speed there, rad/s) and ``energy`` (dict of joules over the run).
     """
     duty = np.asarray(duty, dtype=float)
     load = np.asarray(load)
@@ -178,6 +178,8 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
                                      "ra", "ke", "tw", "tc", "i2_mean")}
     thetas = np.empty(n + 1)
     thetas[0] = 0.0
+    w_bound = np.empty(n + 1)  # output-shaft speed at the sample boundaries (the ripple bursts' shape)
+    w_bound[0] = w
     en = dict(supply=0.0, terminal=0.0, copper=0.0, brush=0.0, drive=0.0, conversion=0.0,
               friction_motor=0.0, friction_gen=0.0, generator=0.0, heat_to_ambient=0.0)
     ke_start = 0.5 * J * w * w
@@ -302,6 +304,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
         out["tw"][k] = Tw
         out["tc"][k] = Tc
         thetas[k + 1] = theta
+        w_bound[k + 1] = w
         if progress is not None and (k % prog_every == prog_every - 1 or k == n - 1):
             progress(Ts * (k + 1 - prog_done))
             prog_done = k + 1
@@ -309,4 +312,4 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
     en["kinetic_change"] = 0.5 * J * w * w - ke_start
     en["magnetic_change"] = 0.5 * la * ib * ib - wmag_start
     en["thermal_change"] = Cw * Tw + Cc * Tc - u_start
-    return Result(theta=thetas, energy=en, rate_hz=rate_hz, **out)
+    return Result(theta=thetas, w_bound=w_bound, energy=en, rate_hz=rate_hz, **out)

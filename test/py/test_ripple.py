@@ -1,0 +1,181 @@
+"""Issue 23: the twin's ripple mode (off by default, the same bytes) and the host's speed from
+the commutation ripple, each twin recording with the statement the estimator must make
+(docs/ripple.md). The figures themselves come from `python -m hpddo.studies.ripple`."""
+import dataclasses
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from hpddo.logs import ripple as rf
+from hpddo.logs.errors import USER_ERRORS
+from hpddo.model import ripple as rp
+from hpddo.studies import ripple as study
+from hpddo.twin import generate, params
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+SCENARIOS = {s.name: s for s in study.SCENARIOS}
+
+
+def _scenario(name, **changes):
+    return study.run_scenario(dataclasses.replace(SCENARIOS[name], **changes))
+
+
+def test_ripple_mode_is_off_by_default_and_leaves_the_bundled_bytes(tmp_path):
+    g = generate.generate(params.preset("default"), "sweep", 2.0, 1, out_dir=tmp_path, preset_name="default")
+    assert g["bursts"] is None and "ripple" not in g["paths"] and "ripple" not in g["info"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.csv", "sweep.truth.csv", "sweep.truth.json"]
+    for name in ("sweep.csv", "sweep.truth.csv", "sweep.truth.json"):
+        assert (tmp_path / name).read_bytes() == (ROOT / "data" / "default" / name).read_bytes(), name
+
+
+def test_burst_file_is_written_read_back_and_deterministic(tmp_path):
+    rparams = params.ripple_burst(sample_hz=8000.0)
+    a = generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=tmp_path / "a", time_scale=0.05,
+                          ripple=rparams)
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=tmp_path / "b", time_scale=0.05,
+                      ripple=rparams)
+    pa, pb = tmp_path / "a" / "load.ripple.csv", tmp_path / "b" / "load.ripple.csv"
+    assert pa.read_bytes() == pb.read_bytes()
+    b = rf.read(pa)
+    assert b.sample_hz == 8000.0 and len(b) == len(a["log"])
+    assert all(len(c) == 4000 for c in b.codes)  # one sample per PWM period over each 0.5 s window
+    assert np.array_equal(b.seq, a["log"]["seq"].to_numpy())
+    assert a["info"]["ripple"]["sample_hz"] == 8000.0
+    assert a["info"]["bench"]["pwm_hz"] == 8000.0  # the PWM runs at the sample rate in the ripple mode
+    i_mean = np.array([b.current_A(k).mean() for k in range(len(b))])
+    clean = np.ones(len(b), bool)
+    clean[[gl["row"] for gl in a["info"]["glitches"]]] = False  # the log's glitches are not in the bursts
+    assert np.all(np.abs(i_mean - a["log"]["i_A"].to_numpy())[clean] < 0.01)  # the bursts carry the log's current
+
+
+def test_a_bad_burst_file_is_a_user_error_with_its_line(tmp_path):
+    p = tmp_path / "x.ripple.csv"
+    p.write_text("# format=hpddo-ripple 1\n# sample_hz=10000\n# a_per_code=0.01\nseq,t_s,n,codes\n0,0.0,3,1 2\n")
+    with pytest.raises(USER_ERRORS) as exc:
+        rf.read(p)
+    assert ":5:" in str(exc.value)
+
+
+def test_twin_cli_ripple_hz_writes_the_bursts(tmp_path):
+    out = tmp_path / "r"
+    subprocess.run([sys.executable, "-m", "hpddo", "twin", "--protocol", "sweep", "--time-scale", "0.02",
+                    "--ripple-hz", "10000", "--out", str(out), "--quiet"], check=True,
+                   env={"PYTHONPATH": str(ROOT / "tools"), "PATH": "/usr/bin:/bin"})
+    assert rf.read(out / "sweep.ripple.csv").sample_hz == 10000.0
+
+
+@pytest.mark.slow
+def test_default_bench_confident_speeds_within_one_percent_and_coasting_said():
+    r = _scenario("default", protocols=("sweep", "load"), time_scale=0.3)
+    assert r["rms_vs_truth_pct"] < 1.0 and r["max_vs_truth_pct"] < 5.0
+    assert r["max_vs_encoder_pct"] < 5.0
+    assert r["confident_share_above_both_floors"] >= 0.9
+    assert r["reasons"]["coasting"] > 0  # duty 0 rows: the drive off, said so
+    assert "agrees with the data" in r["ratio_check"]["statement"]
+
+
+@pytest.mark.slow
+def test_subharmonics_overtaking_the_main_line_with_the_prior():
+    r = _scenario("subharmonics", time_scale=0.3)
+    assert r["confident_where_strongest_line_not_main"] > 0  # the f/2 line is the strongest there
+    assert r["confident"] > 0 and r["max_vs_truth_pct"] < 5.0  # and the count stays on the main line
+
+
+@pytest.mark.slow
+def test_subharmonics_without_a_prior_is_said_ambiguous_not_guessed():
+    r = _scenario("subharmonics_no_prior", time_scale=0.3)
+    assert r["reasons"].get("ambiguous", 0) > 0
+    assert r["confident"] == 0 or r["max_vs_truth_pct"] < 5.0
+
+
+@pytest.mark.slow
+def test_low_current_is_said_under_the_floor():
+    r = _scenario("low_current", time_scale=0.3)
+    assert r["confident"] == 0
+    assert r["reasons"]["floor"] == r["windows"] - r["reasons"]["coasting"]
+
+
+@pytest.mark.slow
+def test_interference_line_is_not_taken_for_the_ripple():
+    r = _scenario("interference", time_scale=0.3)
+    assert r["confident_share_above_floor"] >= 0.9 and r["max_vs_truth_pct"] < 5.0
+
+
+@pytest.mark.slow
+def test_wrong_gear_ratio_is_said_with_the_measured_one():
+    r = _scenario("wrong_gear", time_scale=0.3)
+    chk = r["ratio_check"]
+    assert "not the nameplate's 4.4:1" in chk["statement"]
+    assert abs(chk["gear_ratio_measured"] / study.WRONG_GEAR - 1) < 0.0005  # 98.777:1 told from 99:1
+
+
+def test_ratio_check_names_the_ripples_per_revolution_when_off_by_a_family_factor():
+    import pandas as pd
+
+    df = pd.DataFrame({"confident": [True] * 4, "f_Hz": [2 * 26.4 * 100 / 60.0] * 4})  # twice 6 x 4.4 per rev
+    chk = rp.check_ratio(df, np.full(4, 100.0), 0.5, rp.Options(6, 4.4))
+    assert "ripples per motor revolution" in chk["statement"]
+
+
+def test_hpddo_ripple_on_twin_logs_scores_and_checks_the_ratio(tmp_path, capsys):
+    from hpddo import cli
+
+    logs = tmp_path / "logs"
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=logs, time_scale=0.3,
+                      ripple=params.ripple_burst())
+    out = tmp_path / "out"
+    # the sidecars given with the log (as a shell glob gives them) are left out with a note
+    argv = [str(p) for p in sorted(logs.glob("*.csv"))] + ["--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                                                          "--out", str(out), "--quiet"]
+    assert cli.main(["ripple"] + argv) == 0
+    printed = capsys.readouterr()
+    assert "left out" in printed.err and "the current bursts beside its log" in printed.err
+    assert "the gear ratio 4.4:1 agrees with the data" in printed.out
+    import json
+    s = json.loads((out / "summary.json").read_text())["load"]
+    assert s["rms_vs_encoder_pct"] < 1.0 and s["max_vs_encoder_pct"] < 5.0  # the log's encoder glitch left out
+    assert (out / "load.ripple_speed.csv").read_text().startswith("seq,t_s,rpm_ripple,confidence,confident,reason")
+
+
+def test_hpddo_ripple_without_bursts_is_a_user_error(tmp_path, capsys):
+    from hpddo import cli
+
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=tmp_path, time_scale=0.05)
+    status = cli.main(["ripple", str(tmp_path / "load.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                       "--out", str(tmp_path / "o")])
+    assert status == 1 and "no current bursts beside it" in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_spinup_windows_are_not_confident_and_the_count_beats_one_fft_peak():
+    r = _scenario("spinup")
+    assert r["reasons"]["changing"] > 0  # the speed changing inside a window is said
+    assert r["max_vs_truth_pct"] < 5.0
+    assert r["changing_count_median_abs_err_pct"] < r["changing_fft_median_abs_err_pct"]
+    assert r["spinup_fft_mean_err_pct"] > 3.0  # one FFT peak reads the speed the shaft reaches: high
+
+
+def _line_power(x, fs, f):
+    spec = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(len(x)))) ** 2
+    freqs = np.fft.rfftfreq(len(x), 1 / fs)
+    sel = np.abs(freqs - f) <= 2 * fs / len(x)
+    return spec[sel].max()
+
+
+def test_burst_lines_sit_where_the_shaft_puts_them():
+    """The main line at N G n / 60, the f/2 family line overtaking it when the asymmetry is large."""
+    bench = params.preset("default")
+    for sub2, main_wins in ((1.0, True), (12.0, False)):
+        g = generate.generate(bench, "sweep", 2.0, 1, time_scale=0.2, ripple=params.ripple_burst(sub2_pct=sub2))
+        t0, codes, meta = g["bursts"]
+        k = int(np.flatnonzero(g["log"]["duty"].to_numpy() == 1.0)[-1])  # a steady window at full duty
+        x = codes[k] * float(meta["a_per_code"])
+        f = bench.ripple_per_rev * bench.gear_ratio * g["truth"]["rpm_true"][k] / 60.0
+        fs = float(meta["sample_hz"])
+        spec = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(len(x)))) ** 2
+        top = np.fft.rfftfreq(len(x), 1 / fs)[int(np.argmax(spec))]
+        assert (abs(top / f - 1) < 0.01) == main_wins, (sub2, top, f)
+        assert (_line_power(x, fs, f) > _line_power(x, fs, f / 2)) == main_wins

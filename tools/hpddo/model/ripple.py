@@ -1,0 +1,327 @@
+"""Speed from the commutation ripple (issue 23, docs/ripple.md): per window of a bench log,
+the output-shaft speed counted from the ripple of the armature current in its burst
+(hpddo.logs.ripple), with a confidence, and a reason where there is no confident speed.
+
+The steps, per window:
+
+1. no estimate while the drive is off (duty 0: coasting, no current to ripple) or while the
+   mean current is under its floor (the ripple drowns in the ADC's steps);
+2. the line: a comb search over the spectrum of the window, each candidate ripple frequency f
+   scored by the power at f and at its sub-harmonic family f/2, f/3, f/6 (rotor asymmetry),
+   weighted by the back-EMF (M2) prior, a log-normal around N G n_M2 / 60;
+   the data's own best candidates among f x {2, 3, 3/2, 1/2, 1/3, 2/3} are checked: where
+   one of them fits the data as well and the prior cannot tell them apart, the ambiguity is
+   unresolved and said so;
+3. counting: the current band-passed around f (scipy.signal, Butterworth, zero phase; with
+   the neighbouring bursts as margins where they are contiguous), its analytic signal's
+   phase unwrapped, the cycles counted over the window (phase advance / 2 pi): the mean
+   speed over the window, as the encoder counts it, where one FFT peak would give the
+   dominant (final) frequency of a window in which the shaft spins up;
+4. the speed's spread over the window's quarters says whether the speed changed inside it
+   (inrush, spin-up, a load step); then the line has left the fixed band, and the count
+   follows it instead (`_tracked_phase`: the line tracked through 50 ms spectra, the current
+   demodulated along the track), and is given but not confident.
+
+Gear ratio and ripples per motor revolution come from the user (`Options`); where an
+encoder is there, `check_ratio` measures the ripples per output revolution and says when
+the ratio is not the nameplate's.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+#: the reasons for no confident speed, by key (the texts of `Estimate.reason`)
+REASONS = {
+    "coasting": "coasting: the drive is off (duty 0), no armature current to ripple",
+    "floor": "mean current under the floor",
+    "few_cycles": "too few ripple cycles in the window for a count",
+    "not_found": "the ripple line not found (no line above the noise near the back-EMF prior)",
+    "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
+                 "and the back-EMF prior cannot tell them apart",
+    "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
+}
+FAMILY = (2, 3, 6)  # the sub-harmonics f/2, f/3, f/6 of rotor asymmetry
+ALTERNATIVES = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
+# the weight of each sub-harmonic's power in a candidate's evidence: small enough that the main
+# line's own second harmonic (2 f, whose f/2 is the main line) does not rival the main line
+FAMILY_WEIGHT = 0.25
+TRIM = 0.05  # check_ratio: a window's own ripples per encoder revolution this far from the median is left out
+
+
+@dataclasses.dataclass(frozen=True)
+class Options:
+    ripples_per_rev: int          # commutation ripples per motor revolution (2 x segments for 2 brushes)
+    gear_ratio: float             # motor revolutions per output revolution (the user's figure)
+    floor_A: float = 0.10         # no estimate under this mean current
+    prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty (log-normal sd)
+    min_snr: float = 10.0         # the line's power over the local noise floor
+    min_cycles: float = 5.0       # ripple cycles a window must hold
+    max_spread: float = 0.03      # relative spread of the quarter-window speeds still counted as steady
+    band: float = 1.2             # the band-pass: f / band .. f * band
+    ambiguity: float = 0.5        # an alternative with this share of the best's evidence (prior-weighted) is a rival
+
+
+def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
+    """The back-EMF estimate of the output speed, RPM: (V - I Ra) / Ke (M2 without effects)."""
+    return (np.asarray(v_V, float) - np.asarray(i_A, float) * ra_ohm) / ke_vs_per_rad * 60.0 / (2 * math.pi)
+
+
+def _spectrum(x, fs, pad=8):
+    n = len(x)
+    t = np.arange(n)
+    xd = x - np.polyval(np.polyfit(t, x, 1), t)
+    nfft = 1 << int(math.ceil(math.log2(n * pad)))
+    a = np.abs(np.fft.rfft(xd * np.hanning(n), nfft)) ** 2
+    f = np.fft.rfftfreq(nfft, 1.0 / fs)
+    return f, a
+
+
+def _line(f_grid, p_max, f):
+    """Power of the strongest bin within half a resolution of f (p_max: the max-filtered spectrum)."""
+    return np.interp(f, f_grid, p_max, left=0.0, right=0.0)
+
+
+def _window(bursts, k, fs):
+    """The burst of window k with its contiguous neighbours as margins (half a window each side):
+    (current A, index of the window's first sample, its number of samples)."""
+    x = bursts.current_A(k)
+    n = len(x)
+    parts, start = [x], 0
+    if k > 0 and abs(bursts.t_s[k - 1] + len(bursts.codes[k - 1]) / fs - bursts.t_s[k]) < 1.5 / fs:
+        prev = bursts.current_A(k - 1)[-(n // 2):]
+        parts.insert(0, prev)
+        start = len(prev)
+    if k + 1 < len(bursts) and abs(bursts.t_s[k] + n / fs - bursts.t_s[k + 1]) < 1.5 / fs:
+        parts.append(bursts.current_A(k + 1)[: n // 2])
+    return np.concatenate(parts), start, n
+
+
+def _tracked_phase(x, fs, f_end, i_end, frame_s=0.05):
+    """The ripple's phase (rad) over x, following its line as the speed changes: the line's
+    frequency tracked backwards from f_end at sample i_end through short spectra (each frame's
+    peak within 20 % of the next frame's), integrated to a phase, and refined by demodulating
+    x with it (the residual phase of the heterodyned, low-passed signal). None where the frames
+    are too short for the line."""
+    from scipy import signal
+
+    seg = int(round(frame_s * fs))
+    if seg < 16 or f_end * frame_s < 2 or len(x) < 2 * seg:
+        return None
+    hop = seg // 4
+    f, t, Z = signal.stft(x - x.mean(), fs=fs, nperseg=seg, noverlap=seg - hop, boundary=None, padded=False,
+                          nfft=8 * seg)
+    P = np.abs(Z) ** 2
+    j_end = int(np.clip(np.searchsorted(t, i_end / fs) - 1, 0, len(t) - 1))
+    track = np.full(len(t), np.nan)
+    prev = f_end
+    for j in list(range(j_end, -1, -1)) + list(range(j_end + 1, len(t))):
+        if j == j_end + 1:
+            prev = track[j_end]
+        sel = (f >= prev / 1.2) & (f <= prev * 1.2) & (f >= 1.0 / frame_s)
+        if sel.any():
+            prev = float(f[sel][np.argmax(P[sel, j])])
+        track[j] = prev
+    f_t = np.interp(np.arange(len(x)) / fs, t, track)
+    phi = 2 * math.pi * np.cumsum(f_t) / fs
+    z = x * np.exp(-1j * phi)
+    sos = signal.butter(3, 0.2 * max(f_end, 1.0 / frame_s), btype="lowpass", fs=fs, output="sos")
+    zl = signal.sosfiltfilt(sos, z.real) + 1j * signal.sosfiltfilt(sos, z.imag)
+    return phi + np.unwrap(np.angle(zl))
+
+
+def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None):
+    """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
+    frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
+    confidence (0..1), reason ('' when confident), key (REASONS key or ''). prior_before: the
+    previous window's prior (RPM), the speed where this window starts, bounding a tracked count."""
+    from scipy import signal
+
+    fs = bursts.sample_hz
+    out = dict(rpm=math.nan, rpm_fft=math.nan, f_Hz=math.nan, f_strongest_Hz=math.nan, cycles=math.nan, snr=math.nan,
+               spread=math.nan, i_mean_A=math.nan, confidence=0.0, reason="", key="")
+    x0 = bursts.current_A(k)
+    n = len(x0)
+    if n < 16:
+        out.update(key="few_cycles", reason=REASONS["few_cycles"])
+        return out
+    i_mean = float(x0.mean())
+    out["i_mean_A"] = i_mean
+    if duty is not None and duty == 0.0:
+        out.update(key="coasting", reason=REASONS["coasting"])
+        return out
+    if i_mean < opts.floor_A:
+        out.update(key="floor", reason=f"{REASONS['floor']} ({i_mean * 1000:.0f} mA < {opts.floor_A * 1000:.0f} mA)")
+        return out
+    T = n / fs
+    per_rev_out = opts.ripples_per_rev * opts.gear_ratio  # ripples per output revolution
+    f_prior = rpm_prior * per_rev_out / 60.0 if rpm_prior is not None and np.isfinite(rpm_prior) else math.nan
+
+    # 2. the line: comb evidence weighted by the prior
+    f, p = _spectrum(x0, fs)
+    res = 1.0 / T
+    from scipy.ndimage import maximum_filter1d
+    step = f[1] - f[0]
+    p_max = maximum_filter1d(p, size=max(1, int(round(res / step))) | 1)
+    f_lo = max(2.0 * res, 0.5)
+    f_hi = fs / 2.0 / 2.2
+    grid = np.geomspace(f_lo, f_hi, 4000)
+
+    def evidence(g):
+        e = _line(f, p_max, g)
+        for d in FAMILY:
+            gd = g / d
+            e = e + FAMILY_WEIGHT * np.where(gd >= 1.5 * res, _line(f, p_max, gd), 0.0)
+        return e
+
+    band_all = (f >= f_lo) & (f <= f_hi)
+    out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
+    ev = evidence(grid)
+    if np.isfinite(f_prior) and f_prior > 0:
+        like = np.exp(-0.5 * (np.log(grid / f_prior) / opts.prior_rel_sd) ** 2)
+    else:
+        like = np.ones_like(grid)
+    post = ev * like
+    j = int(np.argmax(post))
+    f_star = float(grid[j])
+    # the local noise floor: the median power from f*/2 to 2 f*, lines excluded by the median
+    sel = (f > f_star / 2) & (f < 2 * f_star)
+    floor = float(np.median(p[sel])) if sel.sum() > 8 else float(np.median(p))
+    snr = _line(f, p_max, f_star) / max(floor, 1e-30)
+    out["snr"] = float(snr)
+    if snr < opts.min_snr or post[j] <= 0:
+        out.update(key="not_found", reason=REASONS["not_found"], f_Hz=f_star)
+        return out
+    # rivals in the family: the data's own evidence at f* x r, weighted by the prior
+    alt = ALTERNATIVES
+    alt_f = np.array([f_star * r for r in alt])
+    ok = (alt_f > f_lo) & (alt_f < f_hi)
+    if ok.any():
+        alt_ev = evidence(alt_f[ok])
+        alt_like = (np.exp(-0.5 * (np.log(alt_f[ok] / f_prior) / opts.prior_rel_sd) ** 2)
+                    if np.isfinite(f_prior) and f_prior > 0 else np.ones(ok.sum()))
+        rival = float(np.max(alt_ev * alt_like / max(like[j], 1e-300)))
+        if rival >= opts.ambiguity * float(ev[j]):
+            r = alt_f[ok][int(np.argmax(alt_ev * alt_like))]
+            out.update(key="ambiguous", f_Hz=f_star,
+                       reason=f"{REASONS['ambiguous']} ({f_star:.1f} Hz or {r:.1f} Hz)")
+            return out
+
+    # 3. counting demodulated cycles
+    xx, s0, nw = _window(bursts, k, fs)
+    lo, hi = f_star / opts.band, min(f_star * opts.band, 0.45 * fs)
+    sos = signal.butter(3, [lo, hi], btype="bandpass", fs=fs, output="sos")
+    y = signal.sosfiltfilt(sos, xx - xx.mean())
+    phase = np.unwrap(np.angle(signal.hilbert(y)))
+    if s0 == 0 and len(xx) == nw:  # no margins: leave the filter's edges out
+        b, e = int(0.1 * nw), int(0.9 * nw)
+    else:
+        b, e = s0, s0 + nw - 1
+    cycles = (phase[e] - phase[b]) / (2 * math.pi)
+    f_count = cycles / ((e - b) / fs)
+    q = np.linspace(b, e, 5).astype(int)
+    fq = np.diff(phase[q]) / (2 * math.pi) / (np.diff(q) / fs)
+    spread = float((fq.max() - fq.min()) / max(abs(f_count), 1e-12))
+    if spread > opts.max_spread:  # the speed moved out of the fixed band: follow the line instead
+        tracked = _tracked_phase(xx, fs, f_star, e)
+        if tracked is not None:
+            f_tr = (tracked[e] - tracked[b]) / (2 * math.pi) / ((e - b) / fs)
+            # the mean of a transition lies between its ends: the speed before the window (the
+            # previous window's prior) and the line at its end; a track outside has jumped lines
+            f_a = (prior_before * per_rev_out / 60.0 if prior_before is not None and np.isfinite(prior_before)
+                   else math.nan)
+            if not np.isfinite(f_a) or min(f_a, f_star) / 1.1 <= f_tr <= max(f_a, f_star) * 1.1:
+                phase = tracked
+                cycles = (phase[e] - phase[b]) / (2 * math.pi)
+                f_count = f_tr
+                fq = np.diff(phase[q]) / (2 * math.pi) / (np.diff(q) / fs)
+                spread = float((fq.max() - fq.min()) / max(abs(f_count), 1e-12))
+    k_fft = (f >= lo) & (f <= hi)
+    f_fft = float(f[k_fft][np.argmax(p[k_fft])]) if k_fft.any() else math.nan
+    out.update(rpm=f_count * 60.0 / per_rev_out, rpm_fft=f_fft * 60.0 / per_rev_out, f_Hz=f_count,
+               cycles=f_count * T, spread=spread)
+    if f_count * T < opts.min_cycles:
+        out.update(key="few_cycles", reason=f"{REASONS['few_cycles']} ({f_count * T:.1f} < {opts.min_cycles:g})")
+        return out
+    if spread > opts.max_spread:
+        out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%})")
+        return out
+    out["confidence"] = float(min(1.0, (1 - math.exp(-snr / (4 * opts.min_snr)))
+                                  * (1 - spread / opts.max_spread / 2)))
+    return out
+
+
+def estimate(bursts, duty, rpm_prior, opts: Options):
+    """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
+    duty, rpm_prior: per window (None or NaN where unknown); the prior passes a running median
+    of three windows first, so that a glitch of one sample of V or I cannot steer the line."""
+    import pandas as pd
+
+    if rpm_prior is not None:  # a one-window glitch of V or I must not move the prior: median of three
+        pr = np.asarray(rpm_prior, float)
+        if len(pr) >= 3:
+            pr = np.concatenate([pr[:1], np.median(np.stack([pr[:-2], pr[1:-1], pr[2:]]), axis=0), pr[-1:]])
+        rpm_prior = pr
+    rows = []
+    for k in range(len(bursts)):
+        d = None if duty is None else float(duty[k])
+        pr = None if rpm_prior is None else float(rpm_prior[k])
+        before = None if rpm_prior is None or k == 0 else float(rpm_prior[k - 1])
+        rows.append(estimate_window(bursts, k, d, pr, opts, before))
+    df = pd.DataFrame(rows)
+    df.insert(0, "seq", bursts.seq)
+    df["confident"] = df["key"] == ""
+    return df
+
+
+def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
+    """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder: the ripple speed
+    of the windows where the comb alone (no prior) gives a confident count, against
+    V - I Ra; the median. Returns (ke, windows used)."""
+    df = estimate(bursts, duty, None, opts)
+    ok = df["confident"].to_numpy() & (df["rpm"].to_numpy() > 0)
+    if ok.sum() == 0:
+        return math.nan, 0
+    w = df["rpm"].to_numpy()[ok] * 2 * math.pi / 60.0
+    e = np.asarray(v_V, float)[ok] - np.asarray(i_A, float)[ok] * ra_ohm
+    return float(np.median(e / w)), int(ok.sum())
+
+
+def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001):
+    """With an encoder on the output shaft: the ripples per output revolution measured over the
+    confident windows (the sum of counted cycles over the sum of encoder revolutions; windows
+    whose own ratio departs from the median by more than TRIM left out and counted), the gear
+    ratio it implies for the user's ripples per motor revolution, and a statement."""
+    ref = np.asarray(rpm_ref, float)
+    ok = df["confident"].to_numpy() & np.isfinite(ref) & (ref > 0)
+    if ok.sum() == 0:
+        return {"windows": 0, "statement": "no confident window with an encoder speed: the ratio is not checked"}
+    f_hz = df["f_Hz"].to_numpy()
+    # a window whose own ratio departs from the median by more than TRIM is an encoder glitch
+    # (extra counts) or a count gone wrong, not the gear: left out, and counted
+    per = np.where(ok, f_hz / np.where(ok, ref, 1.0) * 60.0, np.nan)
+    med = np.nanmedian(per)
+    trimmed = ok & (np.abs(per / med - 1.0) > TRIM)
+    ok = ok & ~trimmed
+    cycles = float(np.sum(f_hz[ok]) * window_s)
+    revs = float(np.sum(ref[ok]) / 60.0 * window_s)
+    per_rev = cycles / revs
+    ratio = per_rev / opts.ripples_per_rev
+    rel = ratio / opts.gear_ratio - 1.0
+    out = {"windows": int(ok.sum()), "left_out": int(trimmed.sum()), "ripples_per_output_rev": per_rev, "gear_ratio_measured": ratio,
+           "gear_ratio_given": opts.gear_ratio, "relative": rel}
+    family = [m for m in (2.0, 3.0, 0.5, 1 / 3, 6.0, 1 / 6) if abs(rel + 1 - m) < 0.02 * m]
+    if family:
+        out["statement"] = (f"the data give {per_rev:.2f} ripples per output revolution, {rel + 1:.3g}x the "
+                            f"{opts.ripples_per_rev} x {opts.gear_ratio:g} given: the ripples per motor revolution "
+                            "(2 x segments for 2 brushes) are likely wrong, not the gear ratio")
+    elif abs(rel) > tol:
+        out["statement"] = (f"the gear ratio is {ratio:.3f}:1, not the nameplate's {opts.gear_ratio:g}:1 "
+                            f"({rel:+.2%}; {per_rev:.2f} ripples per output revolution over {ok.sum()} windows, "
+                            f"{opts.ripples_per_rev} per motor revolution)")
+    else:
+        out["statement"] = (f"the gear ratio {opts.gear_ratio:g}:1 agrees with the data ({ratio:.3f}:1, "
+                            f"{rel:+.2%}, within {tol:.1%})")
+    return out
