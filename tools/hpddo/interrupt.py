@@ -17,6 +17,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import time
 
 #: exit status of a tool stopped by each signal (128 + the signal's number, as a shell reports it)
 STATUS = {signal.SIGINT: 128 + signal.SIGINT, signal.SIGTERM: 128 + signal.SIGTERM}
@@ -34,21 +35,33 @@ class Interrupted(KeyboardInterrupt):
 
 
 def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
-    """Ends every process this one started, and theirs; returns how many there were."""
+    """Ends every process this one started, and theirs (SIGTERM, then SIGKILL after
+    grace_s); returns how many there were. It waits for them without reaping them: the
+    zombie of a child is left for its owner (multiprocessing, subprocess) to collect, which
+    would otherwise take a reaped worker for alive and wait for it forever."""
     import psutil
 
     try:
         kids = psutil.Process().children(recursive=True)
     except psutil.Error:
         return 0
-    for p in kids:
-        with contextlib.suppress(psutil.Error):
-            p.terminate()
-    _, alive = psutil.wait_procs(kids, timeout=grace_s)
-    for p in alive:
-        with contextlib.suppress(psutil.Error):
-            p.kill()
-    psutil.wait_procs(alive, timeout=grace_s)
+
+    def gone(p) -> bool:
+        try:
+            return not p.is_running() or p.status() == psutil.STATUS_ZOMBIE
+        except psutil.Error:
+            return True
+
+    for sig in ("terminate", "kill"):
+        for p in kids:
+            if not gone(p):
+                with contextlib.suppress(psutil.Error):
+                    getattr(p, sig)()
+        deadline = time.monotonic() + grace_s
+        while not all(gone(p) for p in kids) and time.monotonic() < deadline:
+            time.sleep(0.02)
+        if all(gone(p) for p in kids):
+            break
     return len(kids)
 
 
