@@ -66,13 +66,14 @@ def esp_line(seq: int, rpm_ref: float) -> str:
 class Board:
     """A board on a pseudo-terminal pair: the tool opens `name`; the board waits for a
     recording command (with wait_command), then writes `lines` at rate_hz on a fixed
-    schedule, then waits for `release` before writing `end` (if any)."""
+    schedule, then waits for `release` before writing `end` (if any); on_start() is called
+    just before the first line goes out (the UNO starting its recording)."""
 
-    def __init__(self, lines, rate_hz: float, end: str | None = END, wait_command: bool = True):
+    def __init__(self, lines, rate_hz: float, end: str | None = END, wait_command: bool = True, on_start=None):
         self.master, self.slave = os.openpty()
         self.name = os.ttyname(self.slave)
         self.lines = [(ln + "\n").encode() for ln in lines]
-        self.rate_hz, self.end, self.wait_command = rate_hz, end, wait_command
+        self.rate_hz, self.end, self.wait_command, self.on_start = rate_hz, end, wait_command, on_start
         self.release = threading.Event()
         self.stopped = threading.Event()
         self.sent = 0
@@ -94,6 +95,8 @@ class Board:
             if self.stopped.is_set():
                 return
             self._read(0.1)
+        if self.on_start is not None:
+            self.on_start()
         t0 = time.monotonic()
         for k, line in enumerate(self.lines):
             if self.stopped.is_set():
