@@ -4,7 +4,7 @@
 // this does with a pseudo-terminal (or stdin/stdout), a bench log and a folder, so the
 // host tools (`hpddo upload`) can be tested against it without a board.
 //
-//   esp_host --store DIR [--pty] [--baud N] [--frames LOG.csv [--rate HZ]] [--golden-csv FILE]
+//   esp_host --store DIR [--pty] [--baud N] [--frames LOG.csv [--rate HZ] [--on-signal]] [--golden-csv FILE]
 //
 //   --store DIR       the board's files (model.json, model.new); created if missing
 //   --pty             serve the host side on a new pseudo-terminal: prints "pty PATH" on
@@ -15,6 +15,9 @@
 //   --frames LOG.csv  the UNO's frames made from the rows of a bench log (t_s, v_V, i_A,
 //                     and temp_C, rpm_ref, seq where present), one every 1/HZ s (default
 //                     the log's own spacing), as the link would deliver them
+//   --on-signal       the frames wait for SIGUSR1 (the UNO starting a recording) and each
+//                     SIGUSR1 plays them again from the first, the board running on (its
+//                     model in force, uploaded or not, kept): a bench run played twice
 //   --golden-csv F    after start-up (the stored model in force, if any), steps the model
 //                     in force over the rows of a golden CSV (hpddo.model.export.golden_csv) and
 //                     compares: rpm, rpm_m2, residual_rpm, confidence and status bit for
@@ -120,6 +123,8 @@ class FdSink final : public infer::LineSink {
 
 volatile sig_atomic_t g_stop = 0;
 void on_signal(int) { g_stop = 1; }
+volatile sig_atomic_t g_play = 0;  // SIGUSR1s received (--on-signal)
+void on_play(int) { g_play = g_play + 1; }
 
 uint32_t millis_now() {
   using namespace std::chrono;
@@ -223,7 +228,7 @@ int golden_check(App& app, const std::string& path) {
 
 int main(int argc, char** argv) {
   std::string store_dir, frames_path, golden_path;
-  bool use_pty = false;
+  bool use_pty = false, on_play_signal = false;
   double rate_hz = 0;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
@@ -237,11 +242,14 @@ int main(int argc, char** argv) {
       g_baud = std::atof(argv[++k]);
     } else if (a == "--rate" && k + 1 < argc) {
       rate_hz = std::atof(argv[++k]);
+    } else if (a == "--on-signal") {
+      on_play_signal = true;
     } else if (a == "--golden-csv" && k + 1 < argc) {
       golden_path = argv[++k];
     } else {
       std::fprintf(stderr,
-                   "usage: esp_host --store DIR [--pty] [--baud N] [--frames LOG.csv [--rate HZ]] [--golden-csv FILE]\n");
+                   "usage: esp_host --store DIR [--pty] [--baud N] [--frames LOG.csv [--rate HZ] [--on-signal]] "
+                   "[--golden-csv FILE]\n");
       return 2;
     }
   }
@@ -290,12 +298,19 @@ int main(int argc, char** argv) {
   }
   signal(SIGTERM, on_signal);
   signal(SIGINT, on_signal);
+  signal(SIGUSR1, on_play);
   FdSink out(out_fd);
   app.begin(out);
-  const uint32_t start_ms = millis_now();
-  size_t next_frame = 0;
+  uint32_t start_ms = millis_now();
+  size_t next_frame = on_play_signal ? frames.size() : 0;  // with --on-signal: none until SIGUSR1
+  sig_atomic_t played = 0;
   uint8_t buf[512];
   while (!g_stop) {
+    if (on_play_signal && g_play != played) {  // (again) from the first frame, from now
+      played = g_play;
+      start_ms = millis_now();
+      next_frame = 0;
+    }
     // Frames due by now, as the link delivers them.
     const double now_s = (millis_now() - start_ms) / 1000.0;
     while (next_frame < frames.size() && frames[next_frame].t_s <= now_s) {

@@ -66,13 +66,14 @@ def esp_line(seq: int, rpm_ref: float) -> str:
 class Board:
     """A board on a pseudo-terminal pair: the tool opens `name`; the board waits for a
     recording command (with wait_command), then writes `lines` at rate_hz on a fixed
-    schedule, then waits for `release` before writing `end` (if any)."""
+    schedule, then waits for `release` before writing `end` (if any); on_start() is called
+    just before the first line goes out (the UNO starting its recording)."""
 
-    def __init__(self, lines, rate_hz: float, end: str | None = END, wait_command: bool = True):
+    def __init__(self, lines, rate_hz: float, end: str | None = END, wait_command: bool = True, on_start=None):
         self.master, self.slave = os.openpty()
         self.name = os.ttyname(self.slave)
         self.lines = [(ln + "\n").encode() for ln in lines]
-        self.rate_hz, self.end, self.wait_command = rate_hz, end, wait_command
+        self.rate_hz, self.end, self.wait_command, self.on_start = rate_hz, end, wait_command, on_start
         self.release = threading.Event()
         self.stopped = threading.Event()
         self.sent = 0
@@ -94,6 +95,8 @@ class Board:
             if self.stopped.is_set():
                 return
             self._read(0.1)
+        if self.on_start is not None:
+            self.on_start()
         t0 = time.monotonic()
         for k, line in enumerate(self.lines):
             if self.stopped.is_set():
@@ -447,3 +450,34 @@ if __name__ == "__main__":
     with tempfile.TemporaryDirectory() as tmp:
         for hz in args.measure:
             print(json.dumps(measure(hz, args.repeat, pathlib.Path(tmp), page=not args.no_page)), flush=True)
+
+
+def test_the_browsers_profile_is_removed_while_its_helpers_still_write_into_it(tmp_path):
+    """browser.live's Chromium profile: its helper processes can write into it after the browser
+    has exited (tempfile's one-shot removal then raised "Directory not empty" out of
+    browser.live, failing a test whose page was fine; seen once under load): remove_profile
+    never raises, and tries again until the folder is gone."""
+    from hpddo.reports import browser
+
+    profile = tmp_path / "profile"
+    (profile / "Default").mkdir(parents=True)
+    stop = threading.Event()
+
+    def helper():  # a late writer: new files in Default for 0.5 s
+        k = 0
+        end = time.monotonic() + 0.5
+        while time.monotonic() < end:
+            try:
+                (profile / "Default").mkdir(parents=True, exist_ok=True)
+                (profile / "Default" / f"f{k}").write_bytes(b"x" * 4096)
+            except OSError:
+                pass
+            k += 1
+        stop.set()
+
+    writer = threading.Thread(target=helper)
+    writer.start()
+    browser.remove_profile(profile)
+    writer.join()
+    browser.remove_profile(profile)  # once the writer has stopped: gone at the first try
+    assert stop.is_set() and not profile.exists()

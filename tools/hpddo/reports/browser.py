@@ -61,7 +61,8 @@ def live(url: str, png_path, wait_s: float, expressions: dict, width: int = 1280
     exe = chromium()
     if exe is None:
         raise RuntimeError("chromium is not installed: on Debian/Ubuntu, sudo apt-get install chromium (in a clone, scripts/bootstrap.sh --tests does)")
-    with tempfile.TemporaryDirectory() as profile:
+    profile = tempfile.mkdtemp(prefix="hpddo-chromium-")
+    try:
         proc = subprocess.Popen([exe, *FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}",
                                  "--remote-debugging-port=0", "about:blank"],
                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
@@ -84,6 +85,23 @@ def live(url: str, png_path, wait_s: float, expressions: dict, width: int = 1280
             except subprocess.TimeoutExpired:
                 os.kill(proc.pid, 9)
                 proc.wait()
+    finally:
+        remove_profile(profile)
+
+
+def remove_profile(path, timeout: float = 10.0) -> None:
+    """Removes a Chromium profile folder. Chromium's helper processes can still be writing into
+    it for a moment after the browser has exited (a file appears while the tree is removed:
+    "Directory not empty"), so the removal is tried again until the folder is gone or timeout
+    seconds have passed; what is then left is left (a test's result is not a profile's)."""
+    import time
+
+    deadline = time.monotonic() + timeout
+    while True:
+        shutil.rmtree(path, ignore_errors=True)
+        if not pathlib.Path(path).exists() or time.monotonic() > deadline:
+            return
+        time.sleep(0.1)
 
 
 async def _drive(ws_url: str, url: str, png_path, wait_s: float, expressions: dict, ready: str | None) -> dict:
