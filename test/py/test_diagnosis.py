@@ -40,8 +40,7 @@ def root(tmp_path_factory):
     return tmp_path_factory.mktemp("twin")
 
 
-def run(paths):
-    return core.diagnose(paths, core.Options(bootstrap=0, hybrid=False)).to_json()
+run = twin_benches.diagnosed
 
 
 @pytest.mark.parametrize("seed", SEEDS)

@@ -52,3 +52,9 @@ def dyno_table(path, rows: int, seed: int = 3, brush_V: float = 0.0, i_A=None, m
                      f"{rpm + rng.normal(0, 2.0):.2f}")
     path.write_text("\n".join(lines) + "\n")
     return path
+
+
+def diagnosed(paths) -> dict:
+    """The diagnosis of paths as its JSON, without bootstrap or hybrid (the tests' quick form)."""
+    from hpddo.diagnosis import core
+    return core.diagnose(paths, core.Options(bootstrap=0, hybrid=False)).to_json()

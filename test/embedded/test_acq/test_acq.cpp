@@ -51,13 +51,4 @@ static int run() {
   return UNITY_END();
 }
 
-#ifdef ARDUINO
-#include <Arduino.h>
-void setup() {
-  delay(2000);
-  run();
-}
-void loop() {}
-#else
-int main() { return run(); }
-#endif
+#include "../unity_main.h"

@@ -14,445 +14,40 @@ diagnose() strings the stages together, each a function of typed values:
   verdict         the verdict text                                           -> str
   hybrid          the hybrid's RMSE before and after (optional)              -> Hybrid | None
 
-The result is a Diagnosis; Diagnosis.to_json() is diagnosis.json.
+The result is a Diagnosis; Diagnosis.to_json() is diagnosis.json. The typed values of the
+stages and the Diagnosis are in result.py, the verdict's sentences in verdict.py; the
+statistics each stage calls on in ranking (selection, scoring), analysis (the residual),
+intervals, noise (the floor) and channels (the channels' health).
 """
 from __future__ import annotations
 
 import dataclasses
 import math
 import time
-
 import numpy as np
 from scipy import stats
-
 from ..logs import dataset
 from ..model import identify
-from .. import schema
 from ..logs.errors import InputError
 from ..model import effects as fx
 from ..model import physics as ph
 from ..model.train import TrainConfig, TrainingError, hybrid_rpm, train_residual
 from . import analysis, channels, intervals, noise, ranking
+# The stages' values and the verdict's text live in result.py and verdict.py; core.X names
+# them too, for the callers that take them from the diagnosis as a whole.
+from .result import (  # noqa: F401 (HYBRID_ITER, as core.HYBRID_ITER)
+    HYBRID_ITER, ConfoundedPair, Confounding, Diagnosis, EffectResult, Hybrid, Identifiability, Inputs,
+    MaterialCheck, ModelFit, Options, RaFit, RankingStep, ResidualAnalysis, Residuals, Selection,
+    _described, _score)
+from .verdict import (  # noqa: F401 (DYNAMICS_R and NOTHING, as core.X)
+    DYNAMICS_R, ENCODER_NEEDS, NOTHING, RATES, verdict)
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
-HYBRID_ITER = 150  # training epochs of the hybrid in the diagnosis (hpddo train: 2000)
+
+
 # The material reading (e.g. copper plus magnets) is taken when its held-out mean squared
 # error is at most this many noise variances above the freely fitted one's.
 MATERIAL_SLACK = 0.5
-
-
-@dataclasses.dataclass
-class Options:
-    effects: tuple = ()          # effects already in the model under test
-    ra_ohm: float | None = None
-    bootstrap: int = ranking.BOOTSTRAP
-    hybrid: bool = True
-    hybrid_iter: int = HYBRID_ITER
-    seed: int = 1
-    glitch_filter: bool = True
-    leave_one_out: bool = False  # also score the physics before/after on each recording, fitted on the others
-    ke_fit: str = "eq20"         # Ke of M2: "eq20" (the paper's mean ratio) or "lsq" (least squares)
-    consistency: bool = True     # check each recording (a table's operating groups) against the others
-
-
-# ---------------------------------------------------------------------------------------
-# Typed parts of the result
-
-
-@dataclasses.dataclass
-class EffectResult:
-    """One row of the ranking table. kind: "named" (missing, named by the selection or the
-    material check), "candidate" (identifiable, not named) or "unseen" (not identifiable)."""
-
-    effect: str
-    kind: str
-    score: float
-    params: dict
-    inclusion: float | None = None
-    shown: str = ""
-    unit: str = ""
-    plausible: bool = False
-    plausibility: str = ""
-    meaning: str = ""
-    gain_rpm2: float | None = None
-    z: float | None = None
-    physical: bool | None = None          # candidate: its fitted coefficient is physical
-    alone_gain_rpm2: float | None = None  # candidate: its gain on the base model alone
-    note: str | None = None               # named by the material check
-    se: float | None = None               # unseen: standard error of its coefficient
-    needs: str = ""                       # unseen: the recording that would show it
-    node: list = dataclasses.field(default_factory=list)  # thermal: its winding node's plausibility
-    intervals: list = dataclasses.field(default_factory=list)  # named: its coefficient's and shapes' Interval
-
-    @property
-    def named(self) -> bool:
-        return self.kind == "named"
-
-    @property
-    def identifiable(self) -> bool:
-        return self.kind != "unseen"
-
-    def at(self, p: ph.PhysicsParams, blind: bool = False) -> "EffectResult":
-        """This row with its coefficient (and what is derived from it) read from p."""
-        return dataclasses.replace(self, **_described(self.effect, p, blind))
-
-    def to_json(self) -> dict:
-        if not self.identifiable:
-            return {"effect": self.effect, "score": self.score, "params": self.params, "named": False,
-                    "identifiable": False, "inclusion": self.inclusion, "se": self.se, "meaning": self.meaning,
-                    "plausibility": self.plausibility, "needs": self.needs}
-        out = {"effect": self.effect, "params": self.params, "shown": self.shown, "unit": self.unit,
-               "plausible": self.plausible, "plausibility": self.plausibility, "meaning": self.meaning,
-               "score": self.score, "gain_rpm2": self.gain_rpm2, "z": self.z, "named": self.named,
-               "inclusion": self.inclusion, "identifiable": True}
-        if self.kind == "candidate":
-            out.update(physical=self.physical, alone_gain_rpm2=self.alone_gain_rpm2)
-        if self.node:
-            out["thermal_node"] = self.node
-        if self.intervals:
-            out["intervals"] = [iv.to_json() for iv in self.intervals]
-        if self.note is not None:
-            out["note"] = self.note
-        return out
-
-
-def _described(name: str, p: ph.PhysicsParams, blind: bool = False) -> dict:
-    """The fields of an EffectResult that follow from the parameters p (blind: some rows
-    read no temperature, the winding node runs above ambient)."""
-    eff = fx.LIBRARY[name]
-    val = getattr(p, eff.field)
-    ok, text = eff.plausibility(val)
-    params = {eff.field: val}
-    params.update((sh.field, float(getattr(p, sh.field))) for sh in eff.shapes)  # the form fitted
-    for sh in eff.shapes:  # a form at the edge of those allowed (but the base form): not fixed by the data
-        v, (lo, hi) = float(getattr(p, sh.field)), sh.bounds
-        edge = lo if abs(v - lo) <= 1e-6 * (hi - lo) else hi if abs(v - hi) <= 1e-6 * (hi - lo) else None
-        if edge is not None and edge != sh.default:
-            text += (f"; its form ({sh.field} = {schema.quantity(v, sh.unit)}) is at the edge of those allowed "
-                     f"({lo:g}..{schema.quantity(hi, sh.unit)}): these recordings do not fix it")
-    node = []
-    if eff.thermal and p.thermal_enabled():
-        params.update(th_r_K_per_W=p.th_r_K_per_W, th_tau_s=p.th_tau_s)
-        node = fx.node_plausibility(p, blind)
-    return {"params": params, "shown": eff.show(val), "unit": eff.unit, "plausible": ok, "plausibility": text,
-            "meaning": eff.meaning, "node": node}
-
-
-def _score(gain: float, mse_base: float) -> float:
-    return max(0.0, min(1.0, gain / mse_base))
-
-
-@dataclasses.dataclass
-class Trial:
-    """One candidate tried at a step of the forward selection."""
-
-    effect: str
-    gain_rpm2: float
-    z: float
-    physical: bool
-
-    def to_json(self) -> dict:
-        return {"effect": self.effect, "gain_rpm2": self.gain_rpm2, "z": self.z, "physical": bool(self.physical)}
-
-
-@dataclasses.dataclass
-class RankingStep:
-    """One step of the forward selection; effect None: the step that named nothing."""
-
-    effect: str | None
-    gain_rpm2: float
-    z: float
-    mse_before: float
-    mse_after: float
-    tried: list  # [Trial]
-
-    @classmethod
-    def of(cls, s: ranking.Step) -> "RankingStep":
-        return cls(s.name or None, s.gain, s.z, s.mse_before, s.mse_after,
-                   [Trial(a, g, z, phy) for a, g, z, phy in s.alternatives])
-
-    def to_json(self) -> dict:
-        return {"effect": self.effect, "gain_rpm2": self.gain_rpm2, "z": self.z, "mse_before": self.mse_before,
-                "mse_after": self.mse_after, "tried": [t.to_json() for t in self.tried]}
-
-
-@dataclasses.dataclass
-class MaterialCheck:
-    """The material check of `effect` (whose coefficient is a material constant) against
-    `other` (the effect that shares its work)."""
-
-    effect: str
-    other: str
-    fitted: float              # the freely fitted coefficient of `effect`
-    held_out_mse_fitted: float
-    held_out_mse_material: float  # with the material's value and `other`
-
-    def to_json(self) -> dict:
-        e, o = fx.LIBRARY[self.effect], fx.LIBRARY[self.other]
-        return {f"{self.effect}_fitted_{e.unit.replace('1/', 'per_')}": self.fitted,
-                "held_out_mse_fitted": self.held_out_mse_fitted,
-                f"held_out_mse_{e.material_name}_plus_{o.material_name}": self.held_out_mse_material}
-
-
-@dataclasses.dataclass
-class ConfoundedPair:
-    """Two effects the recordings cannot tell apart, and the recording that would."""
-
-    effects: list
-    recording: str
-    corr: float
-    material_check: MaterialCheck | None = None
-    # z of the named effect's held-out gain over the other (ranking.Step.told_apart), and how
-    # many times the data at hand would tell them apart (ranking.more_data_needed; None:
-    # nothing in these recordings separates them, the separating recording is needed)
-    z_apart: float | None = None
-    more_data_x: float | None = None
-
-    def to_json(self) -> dict:
-        out = {"effects": self.effects, "recording": self.recording, "corr": self.corr,
-               "z_apart": self.z_apart, "more_data_x": self.more_data_x}
-        if self.material_check is not None:
-            out["material_check"] = self.material_check.to_json()
-        return out
-
-
-@dataclasses.dataclass
-class Identifiability:
-    se: float
-    identifiable: bool
-    absorbed: float = 0.0  # the share of its speed error that Ke (and the effects under test) take up
-
-
-@dataclasses.dataclass
-class ResidualAnalysis:
-    mse: float
-    noise_var: float
-    excess: float
-    whiteness: dict    # analysis.whiteness
-    correlates: list   # analysis.correlates
-
-    def to_json(self) -> dict:
-        return {"mse": self.mse, "noise_var": self.noise_var, "excess": self.excess, "whiteness": self.whiteness,
-                "correlates": self.correlates}
-
-
-@dataclasses.dataclass
-class Hybrid:
-    """The hybrid (M3 on the physics) before and after adding the missing effects."""
-
-    rmse_before: dict
-    rmse_after: dict
-    iterations: int
-    est_before: list   # estimates per recording
-    est_after: list
-
-    def to_json(self) -> dict:
-        return {"before": self.rmse_before, "after": self.rmse_after, "iterations": self.iterations}
-
-
-# ---------------------------------------------------------------------------------------
-# Stage values
-
-
-@dataclasses.dataclass
-class Inputs:
-    recs: list
-    rows: list         # effects.Rows per recording
-    data: ranking.Data
-    ra: float
-    ra_source: str
-    m2: ph.PhysicsParams
-    given: list        # effects already in the model under test
-
-    @property
-    def blind(self) -> bool:
-        """Some rows read no temperature: a winding node runs above ambient (effects.node_path)."""
-        return any(r.needs_state for r in self.rows)
-
-
-@dataclasses.dataclass
-class ModelFit:
-    model: ph.PhysicsParams   # the model under test, as gen_weights builds it
-    base: ph.PhysicsParams    # the same with Ke by least squares: the ranking's reference
-    res_model: list
-    res_base: list
-    sigma2: float             # noise variance (noise.var_rpm2)
-    mse_base: float
-    noise: noise.NoiseFloor | None = None  # the floor and its parts
-    ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check(): eq. 20 against least squares
-    channels: list = dataclasses.field(default_factory=list)  # channels.ChannelFault
-
-
-@dataclasses.dataclass
-class RaFit:
-    """Ra as a nuisance parameter (ranking.RA_MISMATCH): the reading, the value the data
-    support (fitted with the selection's model, prior around the reading), the prior's
-    relative tolerance, how many tolerances apart, whether the selection named the mismatch,
-    its bootstrap inclusion, and the effects it cannot be told apart from."""
-
-    given_ohm: float
-    supported_ohm: float
-    tolerance: float
-    sigmas: float
-    mismatch: bool
-    inclusion: float | None = None
-    confounded_with: list = dataclasses.field(default_factory=list)
-    # Ra as the data alone determine it (no prior; ranking.fit_ra_free): its value and 95 %
-    # interval, or that these recordings do not determine it (intervals.Interval)
-    data: intervals.Interval | None = None
-    alongside: list = dataclasses.field(default_factory=list)  # effects fitted with it beyond the named ones
-
-    @property
-    def determined(self) -> bool:
-        return self.data is None or self.data.determined
-
-    @property
-    def reading_inside(self) -> bool:
-        """The data-alone interval meets the reading's own band (RA_MISMATCH_SIGMAS tolerances
-        around it): a shift within the reading's uncertainty is no contradiction."""
-        if self.data is None or not self.data.determined:
-            return True
-        band = ranking.RA_MISMATCH_SIGMAS * self.tolerance * self.given_ohm
-        return self.data.lo <= self.given_ohm + band and self.data.hi >= self.given_ohm - band
-
-    def to_json(self) -> dict:
-        return {"given_ohm": self.given_ohm, "supported_ohm": self.supported_ohm, "tolerance": self.tolerance,
-                "sigmas": self.sigmas, "mismatch": bool(self.mismatch), "inclusion": self.inclusion,
-                "confounded_with": list(self.confounded_with), "determined": bool(self.determined),
-                # the fit with the prior stopped at its range (a third or three times the reading):
-                # supported_ohm is then that edge, not a value the data support
-                "supported_at_bound": bool(min(abs(self.supported_ohm - self.given_ohm / 3.0),
-                                               abs(self.supported_ohm - 3.0 * self.given_ohm)) <= 1e-6 * self.given_ohm),
-                "data_alone": self.data.to_json() if self.data is not None else None,
-                "statement": ra_statement(self)}
-
-
-@dataclasses.dataclass
-class Selection:
-    steps: list        # ranking.Step
-    final: ph.PhysicsParams
-    steps_final: ph.PhysicsParams  # the selection's final model (before the material check)
-    missing: list      # effects named, in order
-    ranking: list      # EffectResult
-    ra_fit: RaFit | None = None
-    intervals: list = dataclasses.field(default_factory=list)  # intervals.Interval of the final model's fields
-
-
-@dataclasses.dataclass
-class Confounding:
-    groups: list       # [[effect, ...]]
-    pairs: list        # ConfoundedPair
-    # [{"effects": [named, other], "z": z}]: explained nearly as much as the named one alone,
-    # but the recordings at hand tell the two apart (z >= Z_MIN)
-    told_apart: list = dataclasses.field(default_factory=list)
-
-
-@dataclasses.dataclass
-class Residuals:
-    after_model: ph.PhysicsParams
-    res_after: list
-    before: ResidualAnalysis
-    after: ResidualAnalysis
-    dt_s: float = 0.0  # the median sample period of the rows (a lag in rows, in seconds)
-
-
-@dataclasses.dataclass
-class Diagnosis:
-    """The result of diagnose(); to_json() is diagnosis.json."""
-
-    recordings: list     # dicts: name, file, rows, train_rows, glitches_removed, has_temp
-    warnings: list
-    ra_ohm: float
-    ra_source: str
-    model_effects: list
-    model: ph.PhysicsParams
-    missing_effects: list
-    confounded: list
-    separating_recordings: list  # ConfoundedPair
-    not_identifiable: list       # dicts: effect, needs, se
-    ranking: list                # EffectResult
-    verdict: str
-    noise_rpm: float
-    rmse_before: dict
-    rmse_after: dict
-    after_model: ph.PhysicsParams
-    residual_before: ResidualAnalysis
-    residual_after: ResidualAnalysis
-    steps: list                  # RankingStep
-    thresholds: dict
-    hybrid: Hybrid | None
-    runtime_s: float
-    leave_one_out: dict | None = None  # see leave_one_out()
-    # the winding node of the model under test and of it with the missing effects, each
-    # field against its declared ranges (effects.node_plausibility; schema.NODE); in the
-    # JSON at the top level and under each thermal ranking row
-    thermal_node: dict = dataclasses.field(default_factory=dict)
-    ra_fit: RaFit | None = None  # Ra as a nuisance parameter (ranking.RA_MISMATCH)
-    told_apart: list = dataclasses.field(default_factory=list)  # Confounding.told_apart
-    # the channel offsets read at rest (effects.rest_offsets): {effect: {value, se, rows}}
-    rest_offsets: dict = dataclasses.field(default_factory=dict)
-    # every quantity the model with the missing effects fitted (Ke, coefficients, shapes, the
-    # winding node), with its interval from the data or "not determined" (intervals.Interval)
-    intervals: list = dataclasses.field(default_factory=list)
-    noise_floor: dict = dataclasses.field(default_factory=dict)  # noise.NoiseFloor.to_json()
-    # each recording (a table's operating groups) against the model identified without it
-    # (consistency(): {"units": [Unit.to_json()], "without": the verdict without the odd one})
-    consistency: dict = dataclasses.field(default_factory=dict)
-    ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check()
-    channels: list = dataclasses.field(default_factory=list)  # channels.ChannelFault.to_json()
-    # for the report's figures (not in the JSON)
-    rows: list = dataclasses.field(repr=False, default_factory=list)
-    est_before: list = dataclasses.field(repr=False, default_factory=list)
-    est_after: list = dataclasses.field(repr=False, default_factory=list)
-    res_before: list = dataclasses.field(repr=False, default_factory=list)
-    res_after: list = dataclasses.field(repr=False, default_factory=list)
-
-    def to_json(self) -> dict:
-        out = {
-            "recordings": self.recordings,
-            "warnings": self.warnings,
-            "ra_ohm": self.ra_ohm, "ra_source": self.ra_source,
-            "ra_fit": self.ra_fit.to_json() if self.ra_fit is not None else None,
-            "model_effects": self.model_effects,
-            "model": dataclasses.asdict(self.model),
-            "missing_effects": self.missing_effects,
-            "confounded": self.confounded,
-            "separating_recordings": [s.to_json() for s in self.separating_recordings],
-            "told_apart": self.told_apart,
-            "rest_offsets": self.rest_offsets,
-            "intervals": [iv.to_json() for iv in self.intervals],
-            "not_identifiable": self.not_identifiable,
-            "ranking": [e.to_json() for e in self.ranking],
-            "verdict": self.verdict,
-            "noise_rpm": self.noise_rpm,
-            "noise_floor": self.noise_floor,
-            "consistency": self.consistency,
-            "ke_check": self.ke_check,
-            "channels": self.channels,
-            "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after},
-            "after_model": dataclasses.asdict(self.after_model),
-            "thermal_node": self.thermal_node,
-            "residual_before": self.residual_before.to_json(),
-            "residual_after": self.residual_after.to_json(),
-            "steps": [s.to_json() for s in self.steps],
-            "thresholds": self.thresholds,
-        }
-        if self.hybrid is not None:
-            out["rmse_rpm_hybrid"] = self.hybrid.to_json()
-        if self.leave_one_out is not None:
-            out["leave_one_out"] = self.leave_one_out
-        out["runtime_s"] = self.runtime_s
-        return out
-
-    def plot(self) -> dict:
-        """What the report's figures need besides the JSON."""
-        hyb = {} if self.hybrid is None else {"before": self.hybrid.est_before, "after": self.hybrid.est_after}
-        return {"rows": self.rows, "est_before": self.est_before, "est_after": self.est_after, "hybrid": hyb,
-                "res_before": self.res_before, "res_after": self.res_after}
-
-
-# ---------------------------------------------------------------------------------------
-# Stages
 
 
 def load(paths, opt: Options) -> Inputs:
@@ -481,8 +76,14 @@ def inputs_of(recs, opt: Options) -> Inputs:
 # (CONSIST_Z standard errors of its mean squared error under noise alone); at least
 # CONSIST_MIN_UNITS units and CONSIST_MIN_ROWS labelled rows in the unit.
 CONSIST_X = 2.0
+
+
 CONSIST_Z = 3.0
+
+
 CONSIST_MIN_UNITS = 3
+
+
 CONSIST_MIN_ROWS = 3
 
 
@@ -846,17 +447,6 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
 # the inputs the residual is cross-correlated with: (name, Rows attribute)
 RESIDUAL_INPUTS = (("V", "v"), ("I", "i"), ("duty", "duty"), ("temp_C", "temp"), ("speed", "ref"),
                    ("dI/dt", "di_dt"), ("dV/dt", "dv_dt"))
-RATES = ("dI/dt", "dV/dt")  # the inputs no steady-state table has
-# A residual correlated with a rate of change by |r| >= DYNAMICS_R follows the motor's dynamics:
-# the speed lags the voltage through inertia and friction, the current through the winding's
-# inductance. Measured on the twin's ideal bench (seed 3): at 50 Hz the sweep's residual follows
-# dI/dt at r = -0.52 (sweep and load: -0.46); the bundled recordings at 2 Hz, whose residual is
-# the thermal effects', follow dV/dt at -0.36 (the rows of a duty step).
-DYNAMICS_R = 0.45
-# ... on rows DYNAMICS_MAX_DT_S apart or closer (20 Hz and up): at 2 Hz the motor's time constants
-# (tens of ms) are over within a row, and a residual following dI/dt (r = -0.50 on the ideal twin's
-# sweep and long) is the few rows of a duty step, at the noise floor.
-DYNAMICS_MAX_DT_S = 0.05
 
 
 def analyse(inp: Inputs, res, sigma2: float) -> ResidualAnalysis:
@@ -896,177 +486,6 @@ def residuals(inp: Inputs, mf: ModelFit, sel: Selection) -> Residuals:
                      dt_s=float(np.median(np.concatenate([r.dt for r in inp.rows]))))
 
 
-def _alone(ra: RaFit) -> str:
-    """Ra from the data alone, in words ("" without it)."""
-    d = ra.data
-    if d is None:
-        return ""
-    with_ = "Ke, the named effects and " + " and ".join(ra.alongside) if ra.alongside else "Ke and the named effects"
-    return f"with {with_} fitted alongside, the data alone put Ra at {d.value:.3g} ohm ({100 * intervals.LEVEL:.0f} % interval {d.lo:.3g}..{d.hi:.3g})"
-
-
-def _with(ra: RaFit) -> str:
-    return f" with {' and '.join(ra.alongside)} fitted alongside" if ra.alongside else ""
-
-
-def ra_statement(ra: RaFit | None) -> str:
-    """What the recordings say of Ra, one clause for the summary: never a value they do not
-    determine."""
-    if ra is None:
-        return ""
-    if not ra.determined:
-        return (f"{ra.given_ohm:.3g} ohm given; Ra is not determined by these recordings{_with(ra)} ({ra.data.why}), so "
-                f"whether the reading is right cannot be told; what would determine it: {ra.data.needs}")
-    head = f"{ra.given_ohm:.3g} ohm given; " + (_alone(ra) + "; " if ra.data is not None else "")
-    if ra.mismatch:
-        return head + (f"with the reading's {100 * ra.tolerance:.0f} % tolerance as a prior {ra.supported_ohm:.3g} "
-                       f"ohm ({ra.sigmas:+.1f} x the tolerance): a mismatch")
-    if ra.confounded_with:
-        return head + "not told apart from " + " or ".join(ra.confounded_with)
-    if ra.reading_inside:
-        return head + f"consistent with the reading and its {100 * ra.tolerance:.0f} % tolerance"
-    return head + "the reading lies outside it, but moving Ra does not lower the held-out error enough to name a mismatch"
-
-
-def ra_verdict(ra: RaFit | None) -> str:
-    """The verdict's sentence on Ra; "" when the reading fits (or the data cannot tell)."""
-    if ra is None:
-        return ""
-    if not ra.determined:
-        if not ra.confounded_with:
-            return ""
-        return (f"An error proportional to the current remains that a wrong Ra explains as well as "
-                f"{' or '.join(ra.confounded_with)}, so none of them is named; whether the Ra you gave "
-                f"({ra.given_ohm:.3g} ohm) is right cannot be told: Ra is not determined "
-                f"by these recordings{_with(ra)} ({ra.data.why}); the effects were looked for with the reading. What would "
-                f"determine Ra: {ra.data.needs}; to separate them: {ranking.RA_SEPARATOR}.")
-    if not ra.mismatch and not ra.confounded_with:
-        d = ra.data
-        band = ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance * ra.given_ohm  # the whole interval beyond it
-        if ra.reading_inside or not (d.lo > ra.given_ohm + band or d.hi < ra.given_ohm - band):
-            return ""  # within what a reading's error and the held-out test leave open: the summary says it
-        return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}, "
-                f"{d.value / ra.given_ohm:.3g} times the reading, beyond what the error of a reading explains "
-                f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); the effects were looked for with the "
-                "reading and may be wrong: check the reading (its unit, the leads' resistance), or pass "
-                f"--ra-ohm {d.value:.3g} if you trust these recordings.")
-    rel = ra.supported_ohm / ra.given_ohm - 1.0
-    alone = f" ({_alone(ra)})" if ra.data is not None else ""
-    if not ra.mismatch:
-        return (f"An error proportional to the current remains that a wrong Ra{alone} explains as well as "
-                f"{' or '.join(ra.confounded_with)}, so neither is named; to separate them: {ranking.RA_SEPARATOR}.")
-    text = (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings{alone}: with the reading's "
-            f"{ra.tolerance:.0%} tolerance as a prior they support "
-            f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error "
-            "proportional to the current; the effects were looked for with Ra at that value.")
-    if ra.confounded_with:
-        text += (f" These recordings cannot tell a wrong Ra from {' or '.join(ra.confounded_with)}, so "
-                 f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect; "
-                 f"to separate them: {ranking.RA_SEPARATOR}.")
-    text += (f" hpddo train still uses the Ra given: re-measure Ra, or pass --ra-ohm "
-             f"{ra.supported_ohm:.3g} if you trust these recordings.")
-    return text
-
-
-def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
-            floor: noise.NoiseFloor | None = None) -> str:
-    ra = ra_verdict(sel.ra_fit)
-    text = _verdict(sel, conf, resid, sigma2, floor)
-    dyn = dynamics(resid.before, resid.dt_s)
-    if dyn:
-        if text.startswith(NOTHING):  # the floor from row-to-row differences holds the dynamics' fast error
-            text = ("No library effect is named; the residual is within the floor measured from row-to-row "
-                    "differences, which on this recording holds the dynamics' own fast error." + text[len(NOTHING):])
-        text = f"{dyn} {text}"
-    if floor is not None and floor.limited_by_sensors:
-        text += (" The sensors set the noise floor (" + ", ".join(f"{k} {math.sqrt(v):.3g} RPM" for k, v in
-                                                           floor.sensors.items())
-                 + f"; measured on the residual {math.sqrt(floor.measured_rpm2):.3g} RPM): an effect smaller than "
-                 f"{math.sqrt(floor.var_rpm2):.3g} RPM cannot be seen on these rows.")
-    if floor is not None and floor.truncated:
-        text += f" Ke and Ra are not determined: {floor.truncated}; what would: {ENCODER_NEEDS}."
-    return f"{ra} {text}" if ra else text
-
-
-NOTHING = "Nothing missing: the residual is consistent with measurement noise."
-
-
-def dynamics(before: ResidualAnalysis, dt_s: float) -> str:
-    """The verdict's sentence on dynamics: when the model under test's residual is correlated
-    with a rate of change (RATES) beyond its band by |r| >= DYNAMICS_R, the strongest one's r
-    and lag; "" otherwise."""
-    top = max((c for c in before.correlates if c["significant"] and c["input"] in RATES),
-              key=lambda c: abs(c["peak"]), default=None)
-    if top is None or abs(top["peak"]) < DYNAMICS_R or not dt_s <= DYNAMICS_MAX_DT_S:
-        return ""
-    lag = top["peak_lag"]
-    return (f"The residual follows {top['input']} (r = {top['peak']:+.2f} at a lag of {lag} rows, "
-            f"{lag * dt_s * 1e3:+.0f} ms): the speed lags the voltage through the motor's dynamics (inertia and "
-            "friction, and the winding's inductance), which the library does not model at this rate; effects "
-            "named on this recording may stand in for them: confirm them on settled rows (a 2 Hz recording).")
-
-
-def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
-             floor: noise.NoiseFloor | None = None) -> str:
-    after = resid.after
-    above = after.excess > 0.5 * sigma2
-    structured_left = above and after.whiteness["white"] is False
-    if not sel.missing:
-        if floor is not None and floor.from_model:
-            return ("No library effect is named. Whether anything is missing below "
-                    f"{math.sqrt(floor.measured_rpm2):.3g} RPM cannot be told: this table repeats no operating "
-                    "point, so its noise floor is what the model leaves out of fold; repeat a few operating "
-                    "points to measure the noise.")
-        if above and after.whiteness["white"] is None:
-            return ("No library effect explains the residual, which is "
-                    f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor; whether "
-                    f"it is structured cannot be tested ({after.whiteness.get('not_computed', 'no whiteness test')}).")
-        if structured_left:
-            return ("No library effect explains the residual, but it is not noise: it is "
-                    f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor "
-                    "and not white. Its strongest correlates: " +
-                    ", ".join(f"{c['input']} (r = {c['peak']:+.2f} at lag {c['peak_lag']})"
-                              for c in after.correlates[:3] if c["significant"]) + ".")
-        if sel.ra_fit is not None and sel.ra_fit.mismatch:
-            return "No effect missing once Ra is corrected: the residual is then consistent with measurement noise."
-        return NOTHING
-    text = "Missing: " + ", ".join(f"{e.effect} ({_size(e)})" for e in sel.ranking if e.named) + "."
-    if conf.groups:
-        text += " " + " ".join(_pair_sentence(s) for s in conf.pairs if ranking.RA_MISMATCH not in s.effects)
-    if conf.told_apart:
-        text += " " + " ".join(
-            f"{a['effects'][1]} explains much of what {a['effects'][0]} does, but these recordings tell "
-            f"the two apart (z = {a['z']:.1f})." for a in conf.told_apart)
-    if structured_left:
-        text += (" A structured residual remains that no library effect explains "
-                 f"({after.excess / max(sigma2, 1e-12):.1f}x the noise variance); strongest correlates: " +
-                 ", ".join(f"{c['input']} (r = {c['peak']:+.2f})" for c in after.correlates[:3]
-                           if c["significant"]) + ".")
-    return text
-
-
-def _size(e: EffectResult) -> str:
-    """A named effect's size in words: its value and interval, or that the recordings do not
-    determine it (its coefficient's interval, intervals.Interval)."""
-    iv = next((iv for iv in e.intervals if iv.field == fx.LIBRARY[e.effect].field), None)
-    if iv is None:
-        return e.shown
-    if not iv.determined:
-        rng = (f": {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g} "
-               f"{iv.show_unit}" if iv.lo is not None else "")
-        return f"fitted {e.shown}, but its size is not determined by these recordings{rng}"
-    return f"{e.shown}, {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g}"
-
-
-def _pair_sentence(s: ConfoundedPair) -> str:
-    text = (f"{' and '.join(s.effects)} cannot be told apart on these recordings; "
-            f"a recording that would separate them: {s.recording}.")
-    if s.more_data_x is not None and s.more_data_x > 1.0:
-        text += (f" These recordings hold a little of it (z = {s.z_apart:.1f}): about {s.more_data_x:.0f} times "
-                 "as much of it would tell them apart.")
-    return text
-
-
 def _rmse_by_condition(rows, res) -> dict:
     """RMSE on the test parts per condition (all test rows with an encoder reading, as the
     native replay counts them) and their average over conditions."""
@@ -1100,9 +519,6 @@ def hybrid(inp: Inputs, model: ph.PhysicsParams, after_model: ph.PhysicsParams, 
     return Hybrid(rmse_before=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, hb)]),
                   rmse_after=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, ha)]),
                   iterations=opt.hybrid_iter, est_before=hb, est_after=ha), []
-
-
-# ---------------------------------------------------------------------------------------
 
 
 def leave_one_out(inp: Inputs, missing: list) -> dict:
@@ -1160,6 +576,8 @@ def diagnose(paths, opt: Options) -> Diagnosis:
 # A residual correlated with the measured speed at lag 0 by at least KE_BIAS_R (and beyond its
 # band) is the mark of a biased Ke: n (Ke_true / Ke - 1) grows with the speed.
 KE_BIAS_R = 0.3
+
+
 # With nothing named, the effects whose speed error Ke takes up this much (Identifiability.absorbed)
 # are said with the size below which Ke absorbs them: a brush drop or a saturation of the wrong
 # sign at the noise floor is Ke's, unseen.
@@ -1178,11 +596,20 @@ def absorbed_by_ke(ident: dict) -> list:
         if i.identifiable and i.absorbed >= KE_ABSORBS and limit > abs(eff.scale):
             out.append(f"{c} up to {limit * eff.show_scale:.2g} {eff.show_unit}")
     return out
+
+
 KE_BIAS_P = 0.001
+
+
 KE_BIAS_DROP = 0.2    # ... and Ke by least squares takes this much of the correlation away
+
+
 KE_DISAGREE_REL = 0.15  # eq. 20 and least squares disagree: least squares' held-out RMSE this much lower,
+
+
 KE_APART_REL = 0.02     # or their intervals apart and the two this far apart (over thousands of rows
-                        # 0.2 % is beyond the intervals and changes nothing)
+
+
 KE_TRUST = ("least squares (--ke-fit lsq): it minimises the speed error the model is judged by, where eq. 20's "
             "mean of ratios weighs the slow rows most, on which noise and quantisation divide by a small speed")
 
@@ -1301,10 +728,6 @@ def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None =
                                                   if f in by_field])
         table.append(e)
     return dataclasses.replace(sel, ranking=table, intervals=ivs)
-
-
-ENCODER_NEEDS = ("speed from encoder periods (the time between counts) or counts over longer windows, or an encoder "
-                 "with more counts per revolution")
 
 
 def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) -> Diagnosis:

@@ -1,0 +1,168 @@
+"""The verdict's text: what the stages found, said in sentences (the named effects with their sizes, Ra,
+the confounded pairs and what separates them, the dynamics, what the data cannot tell).
+"""
+from __future__ import annotations
+
+import math
+
+from ..model import effects as fx
+from . import intervals, noise, ranking
+from .result import (ConfoundedPair, Confounding, EffectResult, RaFit, ResidualAnalysis, Residuals, Selection,
+                     _alone, _with)
+
+
+RATES = ("dI/dt", "dV/dt")  # the inputs no steady-state table has
+
+# A residual correlated with a rate of change by |r| >= DYNAMICS_R follows the motor's dynamics:
+# the speed lags the voltage through inertia and friction, the current through the winding's
+# inductance. Measured on the twin's ideal bench (seed 3): at 50 Hz the sweep's residual follows
+# dI/dt at r = -0.52 (sweep and load: -0.46); the bundled recordings at 2 Hz, whose residual is
+# the thermal effects', follow dV/dt at -0.36 (the rows of a duty step).
+DYNAMICS_R = 0.45
+
+# ... on rows DYNAMICS_MAX_DT_S apart or closer (20 Hz and up): at 2 Hz the motor's time constants
+# (tens of ms) are over within a row, and a residual following dI/dt (r = -0.50 on the ideal twin's
+# sweep and long) is the few rows of a duty step, at the noise floor.
+DYNAMICS_MAX_DT_S = 0.05
+
+ENCODER_NEEDS = ("speed from encoder periods (the time between counts) or counts over longer windows, or an encoder "
+                 "with more counts per revolution")
+
+
+def ra_verdict(ra: RaFit | None) -> str:
+    """The verdict's sentence on Ra; "" when the reading fits (or the data cannot tell)."""
+    if ra is None:
+        return ""
+    if not ra.determined:
+        if not ra.confounded_with:
+            return ""
+        return (f"An error proportional to the current remains that a wrong Ra explains as well as "
+                f"{' or '.join(ra.confounded_with)}, so none of them is named; whether the Ra you gave "
+                f"({ra.given_ohm:.3g} ohm) is right cannot be told: Ra is not determined "
+                f"by these recordings{_with(ra)} ({ra.data.why}); the effects were looked for with the reading. What would "
+                f"determine Ra: {ra.data.needs}; to separate them: {ranking.RA_SEPARATOR}.")
+    if not ra.mismatch and not ra.confounded_with:
+        d = ra.data
+        band = ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance * ra.given_ohm  # the whole interval beyond it
+        if ra.reading_inside or not (d.lo > ra.given_ohm + band or d.hi < ra.given_ohm - band):
+            return ""  # within what a reading's error and the held-out test leave open: the summary says it
+        return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}, "
+                f"{d.value / ra.given_ohm:.3g} times the reading, beyond what the error of a reading explains "
+                f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); the effects were looked for with the "
+                "reading and may be wrong: check the reading (its unit, the leads' resistance), or pass "
+                f"--ra-ohm {d.value:.3g} if you trust these recordings.")
+    rel = ra.supported_ohm / ra.given_ohm - 1.0
+    alone = f" ({_alone(ra)})" if ra.data is not None else ""
+    if not ra.mismatch:
+        return (f"An error proportional to the current remains that a wrong Ra{alone} explains as well as "
+                f"{' or '.join(ra.confounded_with)}, so neither is named; to separate them: {ranking.RA_SEPARATOR}.")
+    text = (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings{alone}: with the reading's "
+            f"{ra.tolerance:.0%} tolerance as a prior they support "
+            f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error "
+            "proportional to the current; the effects were looked for with Ra at that value.")
+    if ra.confounded_with:
+        text += (f" These recordings cannot tell a wrong Ra from {' or '.join(ra.confounded_with)}, so "
+                 f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect; "
+                 f"to separate them: {ranking.RA_SEPARATOR}.")
+    text += (f" hpddo train still uses the Ra given: re-measure Ra, or pass --ra-ohm "
+             f"{ra.supported_ohm:.3g} if you trust these recordings.")
+    return text
+
+
+def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
+            floor: noise.NoiseFloor | None = None) -> str:
+    ra = ra_verdict(sel.ra_fit)
+    text = _verdict(sel, conf, resid, sigma2, floor)
+    dyn = dynamics(resid.before, resid.dt_s)
+    if dyn:
+        if text.startswith(NOTHING):  # the floor from row-to-row differences holds the dynamics' fast error
+            text = ("No library effect is named; the residual is within the floor measured from row-to-row "
+                    "differences, which on this recording holds the dynamics' own fast error." + text[len(NOTHING):])
+        text = f"{dyn} {text}"
+    if floor is not None and floor.limited_by_sensors:
+        text += (" The sensors set the noise floor (" + ", ".join(f"{k} {math.sqrt(v):.3g} RPM" for k, v in
+                                                           floor.sensors.items())
+                 + f"; measured on the residual {math.sqrt(floor.measured_rpm2):.3g} RPM): an effect smaller than "
+                 f"{math.sqrt(floor.var_rpm2):.3g} RPM cannot be seen on these rows.")
+    if floor is not None and floor.truncated:
+        text += f" Ke and Ra are not determined: {floor.truncated}; what would: {ENCODER_NEEDS}."
+    return f"{ra} {text}" if ra else text
+
+
+NOTHING = "Nothing missing: the residual is consistent with measurement noise."
+
+
+def dynamics(before: ResidualAnalysis, dt_s: float) -> str:
+    """The verdict's sentence on dynamics: when the model under test's residual is correlated
+    with a rate of change (RATES) beyond its band by |r| >= DYNAMICS_R, the strongest one's r
+    and lag; "" otherwise."""
+    top = max((c for c in before.correlates if c["significant"] and c["input"] in RATES),
+              key=lambda c: abs(c["peak"]), default=None)
+    if top is None or abs(top["peak"]) < DYNAMICS_R or not dt_s <= DYNAMICS_MAX_DT_S:
+        return ""
+    lag = top["peak_lag"]
+    return (f"The residual follows {top['input']} (r = {top['peak']:+.2f} at a lag of {lag} rows, "
+            f"{lag * dt_s * 1e3:+.0f} ms): the speed lags the voltage through the motor's dynamics (inertia and "
+            "friction, and the winding's inductance), which the library does not model at this rate; effects "
+            "named on this recording may stand in for them: confirm them on settled rows (a 2 Hz recording).")
+
+
+def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
+             floor: noise.NoiseFloor | None = None) -> str:
+    after = resid.after
+    above = after.excess > 0.5 * sigma2
+    structured_left = above and after.whiteness["white"] is False
+    if not sel.missing:
+        if floor is not None and floor.from_model:
+            return ("No library effect is named. Whether anything is missing below "
+                    f"{math.sqrt(floor.measured_rpm2):.3g} RPM cannot be told: this table repeats no operating "
+                    "point, so its noise floor is what the model leaves out of fold; repeat a few operating "
+                    "points to measure the noise.")
+        if above and after.whiteness["white"] is None:
+            return ("No library effect explains the residual, which is "
+                    f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor; whether "
+                    f"it is structured cannot be tested ({after.whiteness.get('not_computed', 'no whiteness test')}).")
+        if structured_left:
+            return ("No library effect explains the residual, but it is not noise: it is "
+                    f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor "
+                    "and not white. Its strongest correlates: " +
+                    ", ".join(f"{c['input']} (r = {c['peak']:+.2f} at lag {c['peak_lag']})"
+                              for c in after.correlates[:3] if c["significant"]) + ".")
+        if sel.ra_fit is not None and sel.ra_fit.mismatch:
+            return "No effect missing once Ra is corrected: the residual is then consistent with measurement noise."
+        return NOTHING
+    text = "Missing: " + ", ".join(f"{e.effect} ({_size(e)})" for e in sel.ranking if e.named) + "."
+    if conf.groups:
+        text += " " + " ".join(_pair_sentence(s) for s in conf.pairs if ranking.RA_MISMATCH not in s.effects)
+    if conf.told_apart:
+        text += " " + " ".join(
+            f"{a['effects'][1]} explains much of what {a['effects'][0]} does, but these recordings tell "
+            f"the two apart (z = {a['z']:.1f})." for a in conf.told_apart)
+    if structured_left:
+        text += (" A structured residual remains that no library effect explains "
+                 f"({after.excess / max(sigma2, 1e-12):.1f}x the noise variance); strongest correlates: " +
+                 ", ".join(f"{c['input']} (r = {c['peak']:+.2f})" for c in after.correlates[:3]
+                           if c["significant"]) + ".")
+    return text
+
+
+def _size(e: EffectResult) -> str:
+    """A named effect's size in words: its value and interval, or that the recordings do not
+    determine it (its coefficient's interval, intervals.Interval)."""
+    iv = next((iv for iv in e.intervals if iv.field == fx.LIBRARY[e.effect].field), None)
+    if iv is None:
+        return e.shown
+    if not iv.determined:
+        rng = (f": {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g} "
+               f"{iv.show_unit}" if iv.lo is not None else "")
+        return f"fitted {e.shown}, but its size is not determined by these recordings{rng}"
+    return f"{e.shown}, {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g}"
+
+
+def _pair_sentence(s: ConfoundedPair) -> str:
+    text = (f"{' and '.join(s.effects)} cannot be told apart on these recordings; "
+            f"a recording that would separate them: {s.recording}.")
+    if s.more_data_x is not None and s.more_data_x > 1.0:
+        text += (f" These recordings hold a little of it (z = {s.z_apart:.1f}): about {s.more_data_x:.0f} times "
+                 "as much of it would tell them apart.")
+    return text
