@@ -25,11 +25,14 @@ def render(html_path, png_path, width: int = 1280, height: int = 2400, timeout: 
     if exe is None:
         raise RuntimeError("chromium is not installed: on Debian/Ubuntu, sudo apt-get install chromium (in a clone, scripts/bootstrap.sh --tests does)")
     url = pathlib.Path(html_path).resolve().as_uri()
-    with tempfile.TemporaryDirectory() as profile:
+    profile = tempfile.mkdtemp(prefix="hpddo-chromium-")
+    try:
         base = [exe, *FLAGS, f"--user-data-dir={profile}", f"--window-size={width},{height}"]
         shot = subprocess.run([*base, "--enable-logging=stderr", "--v=0", f"--screenshot={png_path}", url],
                               capture_output=True, text=True, timeout=timeout)
         dom = subprocess.run([*base, "--dump-dom", url], capture_output=True, text=True, timeout=timeout)
+    finally:
+        remove_profile(profile)  # as live(): its helpers may still write into it
     errors = [ln for ln in shot.stderr.splitlines()
               if re.search(r"CONSOLE\(\d+\)|Uncaught|ERR_FILE_NOT_FOUND|Failed to load resource", ln)]
     return {"dom": dom.stdout, "console_errors": errors, "returncode": shot.returncode}
