@@ -53,6 +53,7 @@ class Options:
     leave_one_out: bool = False  # also score the physics before/after on each recording, fitted on the others
     ke_fit: str = "eq20"         # Ke of M2: "eq20" (the paper's mean ratio) or "lsq" (least squares)
     consistency: bool = True     # check each recording (a table's operating groups) against the others
+    reference: object | None = None  # the speed taken as rpm_ref (hpddo.model.reference.Ripple); None: the encoder
 
 
 # ---------------------------------------------------------------------------------------
@@ -410,6 +411,7 @@ class Diagnosis:
     def to_json(self) -> dict:
         out = {
             "recordings": self.recordings,
+            **reference_json(self.recordings),
             "warnings": self.warnings,
             "ra_ohm": self.ra_ohm, "ra_source": self.ra_source,
             "ra_fit": self.ra_fit.to_json() if self.ra_fit is not None else None,
@@ -451,13 +453,20 @@ class Diagnosis:
                 "res_before": self.res_before, "res_after": self.res_after}
 
 
+def reference_json(recordings: list) -> dict:
+    """{"reference": the pooled record} where rpm_ref came from the ripple (hpddo.model.reference)."""
+    from ..model import reference
+    pooled = reference.pooled({r["name"]: r.get("reference") for r in recordings})
+    return {} if pooled is None else {"reference": pooled}
+
+
 # ---------------------------------------------------------------------------------------
 # Stages
 
 
 def load(paths, opt: Options) -> Inputs:
     """The recordings, their rows, Ra and M2; refuses recordings with too few held-out rows."""
-    return inputs_of(dataset.load_recordings(paths, glitch_filter=opt.glitch_filter), opt)
+    return inputs_of(dataset.load_recordings(paths, glitch_filter=opt.glitch_filter, reference=opt.reference), opt)
 
 
 def inputs_of(recs, opt: Options) -> Inputs:
@@ -1313,7 +1322,8 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
     return Diagnosis(
         recordings=[{"name": r.name, "file": str(r.source), "rows": r.n, "train_rows": r.n_train,
                      "glitches_removed": len(r.removed), "has_temp": r.has_temp(),
-                     "kind": dataset.kind(r)[0], "kind_source": dataset.kind(r)[1]} for r in inp.recs],
+                     "kind": dataset.kind(r)[0], "kind_source": dataset.kind(r)[1],
+                     **({"reference": r.reference} if r.reference is not None else {})} for r in inp.recs],
         warnings=[w for r in inp.recs for w in r.warnings] + hyb_warnings,
         ra_ohm=inp.ra, ra_source=inp.ra_source, ra_fit=sel.ra_fit, model_effects=inp.given, model=mf.model,
         missing_effects=sel.missing, confounded=conf.groups, separating_recordings=conf.pairs,
