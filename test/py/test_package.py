@@ -135,10 +135,14 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
 
 # In process, against the tree: one set of flag names and one error convention.
 
+REFERENCE = {"--reference", "--ripples-per-rev", "--gear-ratio", "--ke-vs-per-rad", "--floor-a"}  # options.reference
 SHARED = {  # subcommand -> the shared options it takes
-    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter", "--epochs"},
-    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter", "--epochs"},
-    "evaluate": {"--out", "--no-glitch-filter", "--quiet"},
+    "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter", "--epochs"}
+    | REFERENCE,
+    "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter", "--epochs"}
+    | REFERENCE,
+    "evaluate": {"--out", "--no-glitch-filter", "--quiet"} | REFERENCE,
+    "ripple": {"--out", "--quiet", "--ra-ohm"} | REFERENCE - {"--reference"},
     "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter", "--epochs"},
     "twin": {"--out", "--quiet", "--seed", "--effects", "--rate-hz"},
     "capture": {"--out", "--quiet", "--rate-hz"},

@@ -179,3 +179,103 @@ def test_burst_lines_sit_where_the_shaft_puts_them():
         top = np.fft.rfftfreq(len(x), 1 / fs)[int(np.argmax(spec))]
         assert (abs(top / f - 1) < 0.01) == main_wins, (sub2, top, f)
         assert (_line_power(x, fs, f) > _line_power(x, fs, f / 2)) == main_wins
+
+
+# --- item 4: the ripple as the reference of train, diagnose and evaluate (hpddo.model.reference)
+
+def _twin_logs(out, protocols=("sweep", "load"), time_scale=0.2, seed=1):
+    for prot in protocols:
+        generate.generate(params.preset("default"), prot, 2.0, seed, out_dir=out, time_scale=time_scale,
+                          ripple=params.ripple_burst())
+    return [out / f"{p}.csv" for p in protocols]
+
+
+@pytest.mark.slow
+def test_reference_swap_puts_the_confident_ripple_speed_in_rpm_ref_and_counts_the_rest(tmp_path):
+    from hpddo.logs import benchlog, dataset
+    from hpddo.model import reference
+
+    (path,) = _twin_logs(tmp_path, ("sweep",))
+    log = benchlog.read_log(path)
+    ref = reference.Ripple(6, 4.4)
+    df, meta, weight, rec = ref(path, log.df, {**log.meta, "encoder_counts_per_rev": "48.4"})
+    assert "encoder_counts_per_rev" not in meta and meta["ra_ohm"] == log.meta["ra_ohm"]  # rpm_ref is no encoder
+    est, _, _ = rp.speed_of_log(path, log.df, log.meta, ref.options())
+    conf = est["confident"].to_numpy()
+    rows = est["row"].to_numpy()
+    got = df["rpm_ref"].to_numpy()
+    assert np.array_equal(got[rows[conf]], est["rpm"].to_numpy()[conf])  # the ripple speed where confident
+    assert np.isnan(got[rows[~conf]]).all()                              # and NaN elsewhere
+    assert np.array_equal(weight[rows[conf]], est["confidence"].to_numpy()[conf]) and (weight[rows[~conf]] == 0).all()
+    enc = log.df["rpm_ref"].to_numpy()
+    assert np.nanmax(np.abs(got - enc)) > 0  # the encoder's column is set aside, not kept
+    # the counts: every row kept or left out by its reason; the sweep's duty-0 rows are coasting
+    assert rec["kept"] == int(conf.sum()) and rec["kept"] + rec["left_out"] == len(log.df)
+    assert sum(rec["left_out_by_reason"].values()) == rec["left_out"]
+    assert rec["left_out_by_reason"]["coasting"] == int((log.df["duty"] == 0).sum()) > 0
+    assert rec["encoder_set_aside"] and rec["ke_from"].startswith("ripple")
+    # through the loader: the glitch filter after the swap, the weight following the rows it keeps
+    r = dataset.load_recording(path, reference=ref)
+    assert r.reference == rec and len(r.weight) == r.n
+    assert r.n == len(log.df) - len(r.removed)
+    kept = np.isfinite(r.df["rpm_ref"].to_numpy())
+    assert (r.weight[kept] > 0).all() and (r.weight[~kept] == 0).all()
+    pooled = reference.pooled({r.name: r.reference})
+    assert pooled["left_out"] == rec["left_out"] and pooled["weights"] == reference.WEIGHTS_NOTE
+
+
+def test_reference_options_are_checked_before_any_work(tmp_path, capsys):
+    from hpddo import cli
+
+    log = str(tmp_path / "x.csv")
+    for sub, argv, said in (
+            ("train", [log, "--out", str(tmp_path / "t"), "--reference", "ripple"], "needs --ripples-per-rev"),
+            ("diagnose", [log, "--out", str(tmp_path / "d"), "--gear-ratio", "4.4"], "apply to --reference ripple"),
+            ("evaluate", ["--model", str(tmp_path), log, "--out", str(tmp_path / "e"), "--reference", "ripple",
+                          "--gear-ratio", "4.4"], "needs --ripples-per-rev")):
+        assert cli.main([sub] + argv) == 1, sub
+        assert said in capsys.readouterr().err, sub
+
+
+def test_reference_ripple_without_bursts_is_a_user_error(tmp_path, capsys):
+    from hpddo import cli
+
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=tmp_path, time_scale=0.05)
+    status = cli.main(["train", str(tmp_path / "load.csv"), "--out", str(tmp_path / "m"), "--reference", "ripple",
+                       "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--quiet"])
+    assert status == 1 and "no current bursts beside it" in capsys.readouterr().err
+    assert not (tmp_path / "m").exists()
+
+
+@pytest.mark.slow
+def test_train_from_the_ripple_alone_scores_against_the_encoder_like_a_model_from_the_encoder(tmp_path, capsys):
+    """M2 and M3 trained with --reference ripple, evaluated against the encoder on a recording
+    neither saw: within 10 % of the same models trained from the encoder (the issue's target;
+    the figures on the full benches are in docs/ripple.md)."""
+    import json
+
+    from hpddo import cli
+
+    logs = _twin_logs(tmp_path / "bench", time_scale=0.3)
+    (new,) = _twin_logs(tmp_path / "new", ("load",), time_scale=0.3, seed=2)
+    rip = ["--reference", "ripple", "--ripples-per-rev", "6", "--gear-ratio", "4.4"]
+    rmse = {}
+    for which, extra in (("encoder", []), ("ripple", rip)):
+        m = tmp_path / f"m_{which}"
+        assert cli.main(["train", *map(str, logs), "--out", str(m), "--epochs", "300", "--quiet", *extra]) == 0
+        metrics = json.loads((m / "metrics.json").read_text())
+        ev = tmp_path / f"e_{which}"
+        assert cli.main(["evaluate", "--model", str(m), str(new), "--out", str(ev), "--quiet"]) == 0
+        rmse[which] = json.loads((ev / "metrics.json").read_text())["rmse_rpm"]
+        if which == "ripple":
+            r = metrics["reference"]
+            assert r["reference"] == "ripple" and r["kept"] + r["left_out"] == r["rows"]
+            assert r["left_out_by_reason"]["coasting"] > 0 and set(r["recordings"]) == {"sweep", "load"}
+            assert "reference" not in json.loads((ev / "metrics.json").read_text())  # scored against the encoder
+        else:
+            assert "reference" not in metrics
+    printed = capsys.readouterr().out
+    assert "reference ripple" in printed and "rows kept" in printed and "left out (" in printed
+    for model in ("M2", "M3"):
+        enc, rip_ = rmse["encoder"][model]["average"], rmse["ripple"][model]["average"]
+        assert rip_ <= 1.10 * enc, (model, rip_, enc)

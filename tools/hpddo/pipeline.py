@@ -44,6 +44,8 @@ class PipelineConfig:
     train_fraction: float = dataset.TRAIN_FRACTION
     glitch_filter: bool = True
     leave_one_out: bool = False  # also train on all recordings but one and score it, for each
+    # the speed taken as rpm_ref (hpddo.model.reference.Ripple); None: the encoder, the log's column
+    reference: object | None = None
     command: str = "tools/gen_weights.py"
     report: bool = False  # also write report/index.html (estimate against encoder, the RMSE table)
 
@@ -110,7 +112,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     outdir.check(out_dir, "gen_weights")  # before the work: a refused folder costs nothing
     if cfg.leave_one_out:
         _check_leave_one_out(log_paths)  # before the work
-    recs = dataset.load_recordings(log_paths, cfg.train_fraction, cfg.glitch_filter)
+    recs = dataset.load_recordings(log_paths, cfg.train_fraction, cfg.glitch_filter, cfg.reference)
     ra, ra_source = identify.ra_from_logs(recs, cfg.ra_ohm)
     m1 = ph.nameplate_params(ra, cfg.rated_V, cfg.rated_rpm)
     if cfg.physics is not None:
@@ -196,7 +198,8 @@ def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
         others = paths[:k] + paths[k + 1:]
         stem = held.stem
         res = run(others, out / stem / "model", dataclasses.replace(cfg, command=f"{cfg.command} (leave out {held.name})"))
-        ev = evaluate(res.out, [held], out / stem / "evaluation", glitch_filter=cfg.glitch_filter)
+        ev = evaluate(res.out, [held], out / stem / "evaluation", glitch_filter=cfg.glitch_filter,
+                      reference=cfg.reference)
         name = ev.recordings[0].name
         scores[name] = {m: v[name] for m, v in ev.metrics["rmse_rpm"].items()}
     models = list(next(iter(scores.values())))

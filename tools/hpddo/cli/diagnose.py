@@ -40,6 +40,7 @@ def parser(prog: str = "hpddo diagnose") -> argparse.ArgumentParser:
     options.seed(p, "the bootstrap and the network")
     options.glitch_filter(p)
     options.leave_one_out(p)
+    options.reference(p)
     options.quiet(p)
     return p
 
@@ -50,7 +51,7 @@ def options_of(args):
     return core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
                         hybrid=not args.no_hybrid, hybrid_iter=args.epochs, seed=args.seed,
                         glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
-                        ke_fit=args.ke_fit)
+                        ke_fit=args.ke_fit, reference=options.reference_of(args))
 
 
 def diagnose_into(logs, opt, out: pathlib.Path):
@@ -71,8 +72,13 @@ def summary(d) -> str:
     """The verdict, the named effects and the RMSE table, as the command prints them."""
     from ..diagnosis.ranking import FEW_BLOCKS
 
+    from ..model import reference
+
     res = d.to_json()
-    lines = [res["verdict"]]
+    lines = [reference.line(r["name"], r["reference"]) for r in res["recordings"] if "reference" in r]
+    if "reference" in res:
+        lines.append(f"note: {reference.WEIGHTS_NOTE}")
+    lines.append(res["verdict"])
     for e in res["ranking"]:
         if e["named"]:
             incl = "" if e["inclusion"] is None else f", inclusion {100 * e['inclusion']:.0f} %"
@@ -151,10 +157,13 @@ def next_steps(d, args) -> str:
         words += ["--ra-ohm", repr(args.ra_ohm)]
     if args.no_glitch_filter:
         words.append("--no-glitch-filter")
+    words += options.reference_words(args)
     what = ("add what the diagnosis named" if effects != list(args.effects) or ra.get("mismatch")
             else "nothing to add: train the model as it is")
     lines.append(f"next ({what}):\n  {shlex.join(words)}")
-    lines.append("then score it on a recording it never saw:\n  hpddo evaluate --model MODEL NEW_RUN.csv --out EVAL")
+    lines.append("then score it on a recording it never saw:\n  "
+                 + shlex.join(["hpddo", "evaluate", "--model", "MODEL", "NEW_RUN.csv", "--out", "EVAL",
+                               *options.reference_words(args)]))
     return "\n".join(lines)
 
 

@@ -31,6 +31,7 @@ def parser(prog: str = "hpddo evaluate") -> argparse.ArgumentParser:
     options.logs(p)
     options.out(p, "output folder: new, empty, or a previous output of hpddo evaluate")
     options.glitch_filter(p)
+    options.reference(p)
     options.quiet(p)
     return p
 
@@ -38,13 +39,15 @@ def parser(prog: str = "hpddo evaluate") -> argparse.ArgumentParser:
 def run(args) -> int:
     from ..logs import outdir
     from ..evaluation.evaluate import evaluate, model_header
+    from ..model import reference
     from ..reports.training import write_evaluation as write
 
     t0 = time.perf_counter()
+    ref = options.reference_of(args)
     model_header(args.model, args.name)  # a missing model is refused before any work
     outdir.check(args.out, TOOL)
     with outdir.staged(args.out, TOOL) as stage:
-        ev = evaluate(args.model, args.logs, stage / "work", args.name, not args.no_glitch_filter)
+        ev = evaluate(args.model, args.logs, stage / "work", args.name, not args.no_glitch_filter, ref)
         write(ev, stage, f"hpddo evaluate: {args.model}",
               [f"Model {args.model} (effects in its physics model: {', '.join(ev.metrics['model']['effects']) or 'none'}), "
                "replayed natively through the board observer on every row of recordings it was not trained on "
@@ -52,6 +55,9 @@ def run(args) -> int:
                "operating point."])
     for w in ev.metrics["warnings"]:
         print(f"hpddo evaluate: WARNING: {w}", file=sys.stderr)
+    for r in ev.recordings:
+        if r.reference is not None:
+            print(reference.line(r.name, r.reference))
     for r in ev.recordings:
         if "rpm_ref" not in r.df or not r.df["rpm_ref"].notna().any():
             print(f"hpddo evaluate: {r.source}: no encoder readings (rpm_ref): its estimates are written "

@@ -72,6 +72,63 @@ def effects(p, what: str) -> None:
                    help=f"{what}, comma separated: {', '.join(fx.NAMES)}")
 
 
+def ripple(p, required: bool) -> None:
+    """--ripples-per-rev N --gear-ratio G [--ke-vs-per-rad KE] [--floor-a A]: the speed from the
+    commutation ripple (docs/ripple.md); required by hpddo ripple, by --reference ripple elsewhere."""
+    need = "" if required else " (with --reference ripple)"
+    p.add_argument("--ripples-per-rev", type=positive_int, required=required, default=None, metavar="N",
+                   help=f"commutation ripples per motor revolution (2 x segments for two brushes){need}")
+    p.add_argument("--gear-ratio", type=positive_float, required=required, default=None, metavar="G",
+                   help="motor revolutions per output revolution (the nameplate's; checked where there is an "
+                        f"encoder){need}")
+    p.add_argument("--ke-vs-per-rad", type=positive_float, default=None, metavar="KE",
+                   help="Ke of the ripple's back-EMF prior, V s/rad at the output shaft (default: calibrated from "
+                        "the ripple)")
+    p.add_argument("--floor-a", type=positive_float, default=None, metavar="A",
+                   help="no ripple speed under this mean current (default 0.10 A)")
+
+
+def reference(p) -> None:
+    """--reference {encoder,ripple} and the ripple's options: the speed the models are fitted to
+    and scored against (hpddo.model.reference)."""
+    from ..model.reference import REFERENCES
+    p.add_argument("--reference", choices=list(REFERENCES), default=REFERENCES[0],
+                   help="the measured speed: encoder (the logs' rpm_ref, the default) or ripple (counted from the "
+                        "current bursts beside each log, <condition>.ripple.csv; rows without a confident ripple "
+                        "speed left out and counted; docs/ripple.md)")
+    ripple(p, required=False)
+
+
+def reference_of(args):
+    """The reference a command line gives: None for the encoder, else a
+    hpddo.model.reference.Ripple; an InputError where the ripple's options do not fit."""
+    from ..logs.errors import InputError
+    from ..model.reference import Ripple
+    given = [f for f, v in (("--ripples-per-rev", args.ripples_per_rev), ("--gear-ratio", args.gear_ratio),
+                            ("--ke-vs-per-rad", args.ke_vs_per_rad), ("--floor-a", args.floor_a)) if v is not None]
+    if args.reference != "ripple":
+        if given:
+            raise InputError(f"{', '.join(given)} apply to --reference ripple only (the reference is the encoder)")
+        return None
+    if args.ripples_per_rev is None or args.gear_ratio is None:
+        raise InputError("--reference ripple needs --ripples-per-rev N and --gear-ratio G (docs/ripple.md)")
+    return Ripple(args.ripples_per_rev, args.gear_ratio, args.ke_vs_per_rad, args.floor_a,
+                  getattr(args, "ra_ohm", None))
+
+
+def reference_words(args) -> list:
+    """The reference's options as a command line repeats them (a next step, a provenance):
+    [] for the encoder."""
+    if args.reference != "ripple":
+        return []
+    words = ["--reference", "ripple", "--ripples-per-rev", str(args.ripples_per_rev), "--gear-ratio",
+             repr(args.gear_ratio)]
+    for flag, v in (("--ke-vs-per-rad", args.ke_vs_per_rad), ("--floor-a", args.floor_a)):
+        if v is not None:
+            words += [flag, repr(v)]
+    return words
+
+
 class _Logs(argparse.Action):
     """Bench logs, less the sidecars given beside their own logs (as `hpddo train out/*.csv`
     gives them after `hpddo twin --out out`): the twin's ground truth and the ripple bursts

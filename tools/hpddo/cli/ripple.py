@@ -25,14 +25,7 @@ TOOL = "ripple"
 def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     p = options.new_parser(prog, __doc__)
     options.logs(p, help="bench logs (CSV, docs/bench-log.md), each with its <condition>.ripple.csv beside it")
-    p.add_argument("--ripples-per-rev", type=options.positive_int, required=True, metavar="N",
-                   help="commutation ripples per motor revolution (2 x segments for two brushes)")
-    p.add_argument("--gear-ratio", type=options.positive_float, required=True, metavar="G",
-                   help="motor revolutions per output revolution (the nameplate's; checked where there is an encoder)")
-    p.add_argument("--ke-vs-per-rad", type=options.positive_float, default=None, metavar="KE",
-                   help="Ke of the back-EMF prior, V s/rad at the output shaft (default: calibrated from the ripple)")
-    p.add_argument("--floor-a", type=options.positive_float, default=None, metavar="A",
-                   help="no speed under this mean current (default 0.10 A)")
+    options.ripple(p, required=True)
     options.ra_ohm(p)
     options.out(p, "output folder: new, empty, or a previous output of hpddo ripple")
     options.quiet(p)
@@ -45,8 +38,6 @@ def run(args) -> int:
     import numpy as np
 
     from ..logs import benchlog, dataset, outdir
-    from ..logs import ripple as rf
-    from ..logs.errors import InputError
     from ..model import ripple as rp
 
     opts = rp.Options(args.ripples_per_rev, args.gear_ratio)
@@ -57,28 +48,9 @@ def run(args) -> int:
         for path in args.logs:
             log = benchlog.read_log(path)
             df = log.df
-            bpath = rf.path_for(path)
-            if not bpath.exists():
-                raise InputError(f"{path}: no current bursts beside it ({bpath.name}); record them in the ripple "
-                                 "mode (hpddo twin --ripple-hz, docs/ripple.md)")
-            b = rf.read(bpath)
-            seq = df["seq"].to_numpy() if "seq" in df else np.arange(len(df))
-            pos = {int(s): k for k, s in enumerate(seq)}
-            rows = [pos.get(int(s)) for s in b.seq]
-            if any(r is None for r in rows):
-                raise InputError(f"{bpath}: a burst's seq is not in {path.name}")
-            ra = args.ra_ohm if args.ra_ohm is not None else float(log.meta.get("ra_ohm", "nan"))
-            if not math.isfinite(ra):
-                raise InputError(f"{path}: no ra_ohm metadata; give --ra-ohm")
-            duty, v, i = (df[c].to_numpy()[rows] for c in ("duty", "v_V", "i_A"))
-            if args.ke_vs_per_rad:
-                ke, n_ke = args.ke_vs_per_rad, 0
-            else:
-                ke, n_ke = rp.calibrate_ke(b, duty, v, i, ra, opts)
-            prior = rp.m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
-            est = rp.estimate(b, duty, prior, opts)
+            est, ke, ke_from = rp.speed_of_log(path, df, log.meta, opts, args.ra_ohm, args.ke_vs_per_rad)
+            rows = est["row"].to_numpy()
             est.insert(1, "t_s", df["t_s"].to_numpy()[rows])
-            est["rpm_prior"] = np.nan if prior is None else prior
             name = log.condition
             cols = ["seq", "t_s", "rpm", "confidence", "confident", "reason", "f_Hz", "cycles", "i_mean_A",
                     "rpm_prior", "rpm_fft"]
@@ -87,7 +59,7 @@ def run(args) -> int:
             conf = est["confident"].to_numpy()
             above = est["i_mean_A"].to_numpy() >= opts.floor_A
             s = {"windows": len(est), "confident": int(conf.sum()), "above_floor": int(above.sum()),
-                 "ke_prior_vs_per_rad": ke, "ke_from": "user" if args.ke_vs_per_rad else f"ripple ({n_ke} windows)",
+                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from,
                  "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
             if "rpm_ref" in df and np.isfinite(df["rpm_ref"].to_numpy()[rows]).any():
                 glitch, _ = dataset.glitch_mask(df)  # the glitch filter of the pipeline (docs/pipeline.md)

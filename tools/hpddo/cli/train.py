@@ -70,6 +70,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
                    help="training fraction of each recording, 0.1..0.95 (default 0.8)")
     options.glitch_filter(p)
     options.leave_one_out(p)
+    options.reference(p)
     options.quiet(p)
     return p
 
@@ -96,6 +97,7 @@ def provenance(args) -> str:
                             ("--epochs", "epochs", str), ("--split", "split", str)):
         if getattr(args, key) != getattr(defaults, key):
             words += [flag, show(getattr(args, key))]
+    words += options.reference_words(args)
     words += ["--seed", str(args.seed)]
     if args.no_glitch_filter:
         words.append("--no-glitch-filter")
@@ -111,6 +113,9 @@ def run(args) -> int:
     from ..pipeline import DEFAULT_RATED_RPM, DEFAULT_RATED_V, PipelineConfig, run as run_pipeline
     from ..model.train import TrainConfig
 
+    from ..model import reference
+
+    ref = options.reference_of(args)
     given = (args.rated_v is not None) + (args.rated_rpm is not None)
     cfg = PipelineConfig(name=args.name, ra_ohm=args.ra_ohm,
                          rated_V=DEFAULT_RATED_V if args.rated_v is None else args.rated_v,
@@ -120,12 +125,16 @@ def run(args) -> int:
                          glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
                          train=TrainConfig(hidden=args.hidden, max_iter=args.epochs, seed=args.seed,
                                            gate=not args.no_gate, progress=not args.quiet),
-                         command=provenance(args), report=True)
+                         command=provenance(args), report=True, reference=ref)
     t0 = time.perf_counter()
     res = run_pipeline(args.logs, args.out, cfg)
     for r in res.recordings:
         print(f"{r.source}: {r.n} rows ({r.n_train} train, {r.n - r.n_train} test), "
               f"{len(r.removed)} of {r.rows_in_file} rows removed as glitches")
+        if r.reference is not None:
+            print(reference.line(r.name, r.reference))
+    if ref is not None:
+        print(f"note: {reference.WEIGHTS_NOTE}")
     for w in res.metrics["warnings"]:
         print(f"hpddo train: WARNING: {w}", file=sys.stderr)
     ident = res.metrics["identification"]

@@ -52,7 +52,7 @@ MATERIAL_SLACK = 0.5
 
 def load(paths, opt: Options) -> Inputs:
     """The recordings, their rows, Ra and M2; refuses recordings with too few held-out rows."""
-    return inputs_of(dataset.load_recordings(paths, glitch_filter=opt.glitch_filter), opt)
+    return inputs_of(dataset.load_recordings(paths, glitch_filter=opt.glitch_filter, reference=opt.reference), opt)
 
 
 def inputs_of(recs, opt: Options) -> Inputs:
@@ -736,7 +736,8 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
     return Diagnosis(
         recordings=[{"name": r.name, "file": str(r.source), "rows": r.n, "train_rows": r.n_train,
                      "glitches_removed": len(r.removed), "has_temp": r.has_temp(),
-                     "kind": dataset.kind(r)[0], "kind_source": dataset.kind(r)[1]} for r in inp.recs],
+                     "kind": dataset.kind(r)[0], "kind_source": dataset.kind(r)[1],
+                     **({"reference": r.reference} if r.reference is not None else {})} for r in inp.recs],
         warnings=[w for r in inp.recs for w in r.warnings] + hyb_warnings,
         ra_ohm=inp.ra, ra_source=inp.ra_source, ra_fit=sel.ra_fit, model_effects=inp.given, model=mf.model,
         missing_effects=sel.missing, confounded=conf.groups, separating_recordings=conf.pairs,

@@ -26,6 +26,7 @@ class Options:
     leave_one_out: bool = False  # also score the physics before/after on each recording, fitted on the others
     ke_fit: str = "eq20"         # Ke of M2: "eq20" (the paper's mean ratio) or "lsq" (least squares)
     consistency: bool = True     # check each recording (a table's operating groups) against the others
+    reference: object | None = None  # the speed taken as rpm_ref (hpddo.model.reference.Ripple); None: the encoder
 
 
 @dataclasses.dataclass
@@ -375,6 +376,7 @@ class Diagnosis:
     def to_json(self) -> dict:
         out = {
             "recordings": self.recordings,
+            **reference_json(self.recordings),
             "warnings": self.warnings,
             "ra_ohm": self.ra_ohm, "ra_source": self.ra_source,
             "ra_fit": self.ra_fit.to_json() if self.ra_fit is not None else None,
@@ -446,3 +448,10 @@ def ra_statement(ra: RaFit | None) -> str:
     if ra.reading_inside:
         return head + f"consistent with the reading and its {100 * ra.tolerance:.0f} % tolerance"
     return head + "the reading lies outside it, but moving Ra does not lower the held-out error enough to name a mismatch"
+
+
+def reference_json(recordings: list) -> dict:
+    """{"reference": the pooled record} where rpm_ref came from the ripple (hpddo.model.reference)."""
+    from ..model import reference
+    pooled = reference.pooled({r["name"]: r.get("reference") for r in recordings})
+    return {} if pooled is None else {"reference": pooled}

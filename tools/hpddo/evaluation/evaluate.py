@@ -48,7 +48,15 @@ def recordings_record(recs) -> dict:
                                           "removed": [{"line": ln, "reason": why} for ln, why in r.removed]}
                                  for r in recs},
             "warnings": [w for r in recs for w in r.warnings],
-            "recordings": [r.name for r in recs]}
+            "recordings": [r.name for r in recs], **reference_record(recs)}
+
+
+def reference_record(recs) -> dict:
+    """{"reference": ...} where rpm_ref came from the ripple (hpddo.model.reference): each
+    recording's record and the rows kept and left out, by reason, over all; {} for the encoder."""
+    from ..model import reference
+    pooled = reference.pooled({r.name: r.reference for r in recs})
+    return {} if pooled is None else {"reference": pooled}
 
 
 def replay_natively(recs, model_dir: pathlib.Path, name: str, work: pathlib.Path, split: float | None = None) -> list:
@@ -95,14 +103,15 @@ def model_header(model_dir: pathlib.Path, name: str | None = None) -> tuple[str,
 
 
 def evaluate(model_dir, log_paths, work_dir: pathlib.Path | None = None, name: str | None = None,
-             glitch_filter: bool = True) -> Evaluation:
+             glitch_filter: bool = True, reference=None) -> Evaluation:
     """Scores the model in model_dir (its header model_<name>.h and lookup.json) on every
     row of log_paths. work_dir receives the cleaned logs, the replay built for the model
-    and its estimates (work_dir/estimates/*.estimates.csv); None: a temporary folder."""
+    and its estimates (work_dir/estimates/*.estimates.csv); None: a temporary folder.
+    reference: the speed scored against (hpddo.model.reference; None: the encoder)."""
     model_name, checksum = model_header(model_dir, name)
     lookup_path = pathlib.Path(model_dir) / baseline.FILE
     lookup = baseline.Lookup.read(lookup_path) if lookup_path.is_file() else None
-    recs = dataset.load_recordings(log_paths, 0.0, glitch_filter)
+    recs = dataset.load_recordings(log_paths, 0.0, glitch_filter, reference)
     if work_dir is None:
         with tempfile.TemporaryDirectory(prefix="hpddo-evaluate-") as tmp:
             return _replay_and_score(model_dir, model_name, checksum, lookup, recs, pathlib.Path(tmp))

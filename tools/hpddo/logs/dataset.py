@@ -55,6 +55,10 @@ class Recording:
     n_train: int          # rows [0, n_train) train, [n_train, n) test
     rows_in_file: int = 0  # data rows of the log before the glitch filter
     warnings: list = dataclasses.field(default_factory=list)  # what a user must be told loudly
+    # where rpm_ref came from when it is not the log's own column (hpddo.model.reference): the
+    # record of the swap (rows kept, left out by reason), and each row's weight (its confidence)
+    reference: dict | None = None
+    weight: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -122,10 +126,17 @@ def outside_limits(df: pd.DataFrame) -> dict:
     return dict(sorted(out.items()))
 
 
-def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True) -> Recording:
-    """Reads, cleans and splits one bench log (raises benchlog.BenchLogError on format faults)."""
+def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True,
+                   reference=None) -> Recording:
+    """Reads, cleans and splits one bench log (raises benchlog.BenchLogError on format faults).
+    reference: None (rpm_ref is the log's column), or a callable (path, df, meta) -> (df with
+    rpm_ref replaced, meta, per-row weight, record) applied before the glitch filter
+    (hpddo.model.reference.Ripple)."""
     log = benchlog.read_log(path)
-    df = log.df.copy()
+    df, meta = log.df.copy(), dict(log.meta)
+    weight, ref_record = None, None
+    if reference is not None:
+        df, meta, weight, ref_record = reference(path, df, meta)
     lines = np.asarray(log.lines, np.int64)
     if "seq" not in df:
         df["seq"] = np.arange(len(df), dtype=np.int64)
@@ -142,6 +153,8 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
             bad[k], reasons[k] = True, why
         removed = [(int(lines[k]), reasons[k]) for k in np.flatnonzero(bad)]
         df = df.loc[~bad].reset_index(drop=True)
+        if weight is not None:
+            weight = weight[~bad]
         share = len(removed) / max(len(log.df), 1)
         if share > GLITCH_WARN_SHARE:
             warnings.append(f"{path}: the glitch filter removed {len(removed)} of {len(log.df)} rows "
@@ -158,14 +171,16 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
                                      + (f" after removing {len(removed)} glitch rows" if removed else "")
                                      + f": at least {MIN_ROWS} are needed to split train/test")
     n_train = int(np.floor(train_fraction * len(df)))
-    return Recording(name=log.condition, source=pathlib.Path(path), meta=dict(log.meta), df=df,
-                     removed=removed, n_train=n_train, rows_in_file=len(log.df), warnings=warnings)
+    return Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df,
+                     removed=removed, n_train=n_train, rows_in_file=len(log.df), warnings=warnings,
+                     reference=ref_record, weight=weight)
 
 
-def load_recordings(paths, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True) -> list[Recording]:
+def load_recordings(paths, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True,
+                    reference=None) -> list[Recording]:
     """load_recording for each path; refuses two recordings with the same name (condition
     metadata, else file name), which would be counted as one."""
-    recs = [load_recording(p, train_fraction, glitch_filter) for p in paths]
+    recs = [load_recording(p, train_fraction, glitch_filter, reference) for p in paths]
     seen = {}
     for r in recs:
         key = r.file_stem.lower()

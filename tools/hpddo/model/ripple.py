@@ -30,6 +30,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import pathlib
 
 import numpy as np
 
@@ -325,3 +326,40 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001)
         out["statement"] = (f"the gear ratio {opts.gear_ratio:g}:1 agrees with the data ({ratio:.3f}:1, "
                             f"{rel:+.2%}, within {tol:.1%})")
     return out
+
+
+def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = None,
+                 ke_vs_per_rad: float | None = None):
+    """The ripple speed of every window of one bench log (its rows df, metadata meta) from the
+    bursts beside it (`<condition>.ripple.csv`): (estimate DataFrame, one row per burst, with
+    `row`, the index of its window in df, and `rpm_prior`; Ke of the prior, where it came
+    from). The prior is M2 without effects, (V - I Ra) / Ke: Ke the user's, else calibrated
+    from the ripple (calibrate_ke); Ra the user's, else the log's ra_ohm metadata.
+    InputError where the bursts are missing, do not match the log, or Ra is unknown."""
+    from ..logs import ripple as rf
+    from ..logs.errors import InputError
+
+    bpath = rf.path_for(path)
+    if not bpath.exists():
+        raise InputError(f"{path}: no current bursts beside it ({bpath.name}); record them in the ripple "
+                         "mode (hpddo twin --ripple-hz, docs/ripple.md)")
+    b = rf.read(bpath)
+    seq = df["seq"].to_numpy() if "seq" in df else np.arange(len(df))
+    pos = {int(s): k for k, s in enumerate(seq)}
+    rows = [pos.get(int(s)) for s in b.seq]
+    if any(r is None for r in rows):
+        raise InputError(f"{bpath}: a burst's seq is not in {pathlib.Path(path).name}")
+    ra = ra_ohm if ra_ohm is not None else float(meta.get("ra_ohm", "nan"))
+    if not math.isfinite(ra):
+        raise InputError(f"{path}: no ra_ohm metadata; give --ra-ohm")
+    duty, v, i = (df[c].to_numpy()[rows] for c in ("duty", "v_V", "i_A"))
+    if ke_vs_per_rad:
+        ke, ke_from = float(ke_vs_per_rad), "user"
+    else:
+        ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
+        ke_from = f"ripple ({n_ke} windows)"
+    prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
+    est = estimate(b, duty, prior, opts)
+    est.insert(1, "row", np.asarray(rows, np.int64))
+    est["rpm_prior"] = np.nan if prior is None else prior
+    return est, ke, ke_from

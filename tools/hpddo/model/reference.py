@@ -1,0 +1,114 @@
+"""The speed measurement that identification, training, diagnosis and scoring take as
+`rpm_ref` (issue 23 item 4, docs/ripple.md), chosen in this one place.
+
+* "encoder" (the default): the log's own rpm_ref column, as it is.
+* "ripple": the speed counted from the commutation ripple in the current bursts beside each
+  log (`<condition>.ripple.csv`; hpddo.model.ripple), the encoder's column set aside. A row
+  takes the ripple speed where the count is confident; elsewhere its rpm_ref is NaN, so the
+  row drives the replay (the observer's lags run through it) but no fit or score uses it,
+  and it is counted by its reason (coasting, floor, few_cycles, not_found, ambiguous,
+  changing; no_burst: a row with no burst). Every step downstream already leaves NaN
+  references out (identify, effects, the residual network, the lookup baseline, the
+  metrics).
+
+The confidence of each kept row is returned as its weight (Recording.weight), but nothing
+downstream weights rows yet: M2's Ke (eq. 20 or least squares), the effect fits and M3 count
+every kept row once. The rows without a confident speed are left out instead; the record
+says so (WEIGHTS_NOTE).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ..logs.ripple import path_for
+from . import ripple as rp
+
+REFERENCES = ("encoder", "ripple")
+NO_BURST = "no_burst"
+ENCODER_META = ("encoder_counts_per_rev", "encoder_window_s")  # docs/bench-log.md: the encoder's resolution
+WEIGHTS_NOTE = ("the ripple's confidence is recorded as each kept row's weight but not applied: Ke, the effect "
+                "fits and M3 count every kept row once; rows without a confident ripple speed are left out")
+
+
+@dataclasses.dataclass(frozen=True)
+class Ripple:
+    """The ripple as the reference: the user's ripples per motor revolution and gear ratio,
+    and optionally the prior's Ke (else calibrated from the ripple), the current floor and Ra
+    (else the log's ra_ohm metadata)."""
+
+    ripples_per_rev: int
+    gear_ratio: float
+    ke_vs_per_rad: float | None = None
+    floor_A: float | None = None
+    ra_ohm: float | None = None
+
+    def options(self) -> rp.Options:
+        o = rp.Options(self.ripples_per_rev, self.gear_ratio)
+        return o if self.floor_A is None else dataclasses.replace(o, floor_A=self.floor_A)
+
+    def __call__(self, path, df, meta):
+        """The swap for one log (hpddo.logs.dataset.load_recording calls it before the glitch
+        filter): (df with rpm_ref the confident ripple speed and NaN elsewhere, meta without
+        the encoder's resolution (ENCODER_META: it no longer describes rpm_ref), per-row weight
+        (the confidence; 0 where left out), record for metrics.json / diagnosis.json)."""
+        return swap(path, df, meta, self)
+
+    def to_json(self) -> dict:
+        return {"reference": "ripple", "ripples_per_rev": self.ripples_per_rev, "gear_ratio": self.gear_ratio,
+                "ke_vs_per_rad": self.ke_vs_per_rad, "floor_A": self.options().floor_A}
+
+
+def swap(path, df, meta: dict, ref: Ripple):
+    """See Ripple.__call__."""
+    est, ke, ke_from = rp.speed_of_log(path, df, meta, ref.options(), ref.ra_ohm, ref.ke_vs_per_rad)
+    n = len(df)
+    rpm = np.full(n, np.nan)
+    weight = np.zeros(n)
+    key = np.full(n, NO_BURST, dtype=object)
+    rows = est["row"].to_numpy()
+    conf = est["confident"].to_numpy()
+    rpm[rows[conf]] = est["rpm"].to_numpy()[conf]
+    weight[rows[conf]] = est["confidence"].to_numpy()[conf]
+    key[rows] = est["key"].to_numpy()
+    kept = np.isfinite(rpm)
+    out = df.copy()
+    had_encoder = "rpm_ref" in out and bool(np.isfinite(out["rpm_ref"].to_numpy(float)).any())
+    out["rpm_ref"] = rpm
+    left = {k: int(c) for k, c in zip(*np.unique(key[~kept].astype(str), return_counts=True))}
+    w = weight[kept]
+    record = {**ref.to_json(), "bursts": path_for(path).name,
+              "ke_prior_vs_per_rad": ke, "ke_from": ke_from, "rows": n, "kept": int(kept.sum()),
+              "left_out": int((~kept).sum()), "left_out_by_reason": left,
+              "confidence_kept": {"min": float(w.min()), "median": float(np.median(w))} if w.size else None,
+              "encoder_set_aside": had_encoder}
+    meta = {k: v for k, v in meta.items() if k not in ENCODER_META}
+    return out, meta, weight, record
+
+
+def pooled(records: dict) -> dict | None:
+    """{recording name: record} of a run pooled, as metrics.json and diagnosis.json carry it
+    under "reference": the settings, the rows kept and left out (by reason) over all, the note
+    on weights, and each recording's record; None where no recording has one (the encoder)."""
+    records = {k: v for k, v in records.items() if v is not None}
+    if not records:
+        return None
+    left: dict = {}
+    for r in records.values():
+        for k, c in r["left_out_by_reason"].items():
+            left[k] = left.get(k, 0) + c
+    first = next(iter(records.values()))
+    return {**{k: first[k] for k in ("reference", "ripples_per_rev", "gear_ratio", "ke_vs_per_rad", "floor_A")},
+            "rows": sum(r["rows"] for r in records.values()), "kept": sum(r["kept"] for r in records.values()),
+            "left_out": sum(r["left_out"] for r in records.values()), "left_out_by_reason": dict(sorted(left.items())),
+            "weights": WEIGHTS_NOTE, "recordings": records}
+
+
+def line(name: str, record: dict) -> str:
+    """One printed line: where the reference came from and the rows left out, by reason."""
+    why = ", ".join(f"{k} {c}" for k, c in sorted(record["left_out_by_reason"].items()))
+    return (f"{name}: reference ripple ({record['ripples_per_rev']} x {record['gear_ratio']:g} per output "
+            f"revolution, prior Ke {record['ke_prior_vs_per_rad']:.4f} V s/rad from {record['ke_from']}): "
+            f"{record['kept']} of {record['rows']} rows kept, {record['left_out']} left out"
+            + (f" ({why})" if why else ""))
