@@ -75,7 +75,7 @@ def summary(d) -> str:
     from ..model import reference
 
     res = d.to_json()
-    lines = [reference.line(r["name"], r["reference"]) for r in res["recordings"] if "reference" in r]
+    lines = [reference.line(r["name"], r["reference"]) for r in res.get("recordings", ()) if "reference" in r]
     if "reference" in res:
         lines.append(f"note: {reference.WEIGHTS_NOTE}")
     lines.append(res["verdict"])
