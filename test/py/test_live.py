@@ -8,6 +8,7 @@ recording command; a second pair plays the ESP8266's telemetry.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import os
 import pathlib
@@ -133,6 +134,25 @@ def start_live(tmp_path, board: Board, *args, out_name="live.csv"):
     return subprocess.Popen(cmd, cwd=tmp_path, env=env, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True, start_new_session=True)
 
+
+
+@contextlib.contextmanager
+def session(proc, board):
+    """Around a run of the tool on board: on any exit, the tool killed if it still runs and
+    the board closed."""
+    try:
+        yield
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.communicate()
+        board.close()
+
+
+def finish(proc, board, timeout: float = 60) -> tuple[str, str]:
+    """Lets the board end its recording and waits for the tool; its (stdout, stderr)."""
+    board.release.set()
+    return proc.communicate(timeout=timeout)
 
 def page_url(proc) -> str:
     line = proc.stdout.readline()
@@ -326,17 +346,11 @@ def test_bind_address_and_warning(tmp_path, open_to_network):
 
     uno = Board(uno_stream(100.0)[:50], 100.0)
     proc = start_live(tmp_path, uno, *(["--open-to-network"] if open_to_network else []))
-    try:
+    with session(proc, uno):
         page_url(proc)
         listening = {c.laddr.ip for c in psutil.Process(proc.pid).net_connections(kind="tcp")
                      if c.status == psutil.CONN_LISTEN}
-        uno.release.set()
-        stdout, stderr = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-        uno.close()
+        stdout, stderr = finish(proc, uno)
     assert proc.returncode == 0, stderr
     if open_to_network:
         assert listening == {"0.0.0.0"}, listening
@@ -413,7 +427,7 @@ def measure(rate_hz: float, repeat: int, tmp_path: pathlib.Path, page: bool = Tr
     uno = Board(lines, rate_hz)
     proc = start_live(tmp_path, uno, out_name=f"live_{rate_hz:g}.csv")
     seen = {}
-    try:
+    with session(proc, uno):
         url = page_url(proc)
         viewer = threading.Thread(target=lambda: seen.update(browser.live(
             url, tmp_path / "page.png", 2.0 + n_rows / rate_hz, {"uno": "Bokeh.documents[0].get_model_by_name("
@@ -425,13 +439,7 @@ def measure(rate_hz: float, repeat: int, tmp_path: pathlib.Path, page: bool = Tr
             time.sleep(0.05)
         if page:
             viewer.join(120)
-        uno.release.set()
-        stdout, stderr = proc.communicate(timeout=120)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-        uno.close()
+        stdout, stderr = finish(proc, uno, timeout=120)
     m = re.search(r": (\d+) rows, (\d+) seq gaps, (\d+) samples lost", stdout)
     return {"rate_hz": rate_hz, "rows_sent": n_rows, "rows_recorded": int(m.group(1)) if m else None,
             "lost": int(m.group(3)) if m else None, "achieved_rows_per_s": round(n_rows / uno.elapsed_s, 1),

@@ -38,7 +38,7 @@ import time
 import pytest
 
 from conftest import ROOT
-from test_live import PAGE_READY, Board, page_url, start_live, uno_stream
+from test_live import PAGE_READY, Board, finish, page_url, session, start_live, uno_stream
 
 HOT = ROOT / "data" / "validation" / "hot.csv"
 EFFECTS = "thermal_ra,brush_drop,magnet_thermal"
@@ -76,7 +76,7 @@ def live_run(tmp_path, name: str, lines: list[str], n_rows: int, esp, esp_port: 
 
     uno = Board(lines, 100.0, on_start=lambda: esp.send_signal(signal.SIGUSR1))
     proc = start_live(tmp_path, uno, "--esp-port", esp_port, out_name=f"{name}.csv")
-    try:
+    with session(proc, uno):
         url = page_url(proc)
         while uno.elapsed_s is None and proc.poll() is None:
             time.sleep(0.05)
@@ -85,13 +85,7 @@ def live_run(tmp_path, name: str, lines: list[str], n_rows: int, esp, esp_port: 
         seen = browser.live(url, tmp_path / f"{name}.png", 1.0,
                             {"data": PAGE_DATA, "counts": "Bokeh.documents[0].get_model_by_name('counts').text"},
                             ready=ready)
-        uno.release.set()
-        stdout, stderr = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.communicate()
-        uno.close()
+        stdout, stderr = finish(proc, uno)
     assert proc.returncode == 0, stderr
     assert not seen["console_errors"], seen["console_errors"]
     assert uno.late_s < 0.5, f"the tool did not keep up: a row went out {uno.late_s:.3f} s late"
