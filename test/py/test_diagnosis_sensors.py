@@ -101,7 +101,9 @@ def test_a_fast_recording_whose_residual_follows_the_dynamics_says_so(tmp_path):
     rates = [c for c in res["residual_before"]["correlates"] if c["input"] in ("dI/dt", "dV/dt")]
     assert max(abs(c["peak"]) for c in rates) >= core.DYNAMICS_R, rates
     assert res["verdict"].startswith("The residual follows d"), res["verdict"]
-    assert "ms): the speed lags the voltage through the motor's dynamics" in res["verdict"]
-    assert core.NOTHING not in res["verdict"]
+    # at 50 Hz the dynamic family is identified (test_diagnosis_dynamics.py) and named
+    assert "ms). Named: dynamics (inertia and friction, the winding's inductance)" in res["verdict"]
+    assert "The speed lags the duty steps by" in res["verdict"]
+    assert core.NOTHING not in res["verdict"] and "No library effect explains" not in res["verdict"]
     bundled = run([ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]).to_json()
     assert "motor's dynamics" not in bundled["verdict"]

@@ -477,7 +477,7 @@ class DynParam:
 
 
 DYNAMICS = (
-    DynParam("j_kgm2", "kg m^2", 1e6, "g cm^2",
+    DynParam("j_kgm2", "kg m^2", 1e7, "g cm^2",
              "inertia of the shaft and all it drives, at the output shaft (0: the family is off)",
              (1e-5, 5e-3), (5e-6, 1e-2),
              "a small gear motor's rotor (1e-6 kg m^2) times the gear ratio squared, up to a coupled load "

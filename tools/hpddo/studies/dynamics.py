@@ -98,6 +98,25 @@ def parts(rate_hz: float = RATE_HZ) -> dict:
     return out
 
 
+def identified(seeds=range(1, 13), rate_hz: float = RATE_HZ) -> list:
+    """The dynamic family as the diagnosis identifies it (diagnosis/dynamics.py, all rows, the true Ra and
+    Ke) on the twin's sweep at rate_hz for each seed: [(seed, J, its interval, B, Tc)]."""
+    import tempfile
+    import pathlib
+    from ..diagnosis import dynamics
+    from ..logs import dataset
+    b = params.with_effects(params.preset("ideal"), inductance=2.5)
+    out = []
+    for seed in seeds:
+        with tempfile.TemporaryDirectory() as tmp:
+            generate.generate(b, "sweep", rate_hz=rate_hz, seed=seed, time_scale=TIME_SCALE, out_dir=tmp)
+            rec = dataset.load_recording(pathlib.Path(tmp) / "sweep.csv")
+        d = dynamics.identify([rec], b.ra_ohm, b.ke_vs_per_rad)
+        j, bb, tc = (d.by_field(f) for f in ("j_kgm2", "b_nms_per_rad", "tc_nm"))
+        out.append((seed, j.value, (j.lo, j.hi), bb.value, tc.value))
+    return out
+
+
 def main() -> int:
     p = parts()
     print(f"twin sweep at {p['rate_hz']:g} Hz, ideal bench, seed {SEED}, time scale {TIME_SCALE}")
@@ -110,6 +129,18 @@ def main() -> int:
     taus = np.array(p["speed_lag_63_s"]) * 1e3
     print(f"  the speed's lag behind a duty step (63 %, true speed): median {np.median(taus):.1f} ms, "
           f"{taus.min():.1f}..{taus.max():.1f} ms over {len(taus)} steps")
+    b = params.preset("ideal")
+    j_true, b_true, tc_true = b.j_kgm2, b.b_motor_nms + b.b_gen_nms, b.tc_motor_nm + b.tc_gen_nm
+    rows = identified()
+    err = np.array([j / j_true - 1 for _, j, _, _, _ in rows])
+    held = sum(lo <= j_true <= hi for _, _, (lo, hi), _, _ in rows)
+    print(f"  identified J on seeds 1..{len(rows)} (truth {j_true * 1e7:.0f} g cm^2): "
+          + " ".join(f"{j * 1e7:.0f}" for _, j, _, _, _ in rows))
+    print(f"    error mean {100 * err.mean():+.0f} %, sd {100 * err.std():.0f} %, within 20 % in "
+          f"{int((abs(err) <= 0.2).sum())} of {len(rows)}; the 95 % interval holds the truth in {held} of {len(rows)}")
+    eb = np.array([bb / b_true - 1 for _, _, _, bb, _ in rows])
+    et = np.array([tc / tc_true - 1 for _, _, _, _, tc in rows])
+    print(f"    B error {100 * np.abs(eb).max():.1f} % at most, Tc {100 * np.abs(et).max():.1f} % at most")
     return 0
 
 
