@@ -96,8 +96,8 @@ class Dynamics:
                 "steps": self.steps, "segments": self.segments,
                 "quantities": [q.to_json() for q in self.quantities],
                 "lag_s": self.lag_s, "lag_range_s": list(self.lag_range_s) if self.lag_range_s else None,
-                "tau_obs_s": self.tau_obs_s, "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after,
-                                                          "against": self.reference},
+                "tau_obs_s": self.tau_obs_s, "rmse_rpm": {"before": _finite(self.rmse_before),
+                                                          "after": _finite(self.rmse_after), "against": self.reference},
                 "rate_correlation": self.rate_corr, "text": self.text()}
 
     def text(self) -> str:
@@ -112,11 +112,16 @@ class Dynamics:
         if self.lag_s is not None:
             head += (f" The speed lags the duty steps by {1e3 * self.lag_s:.0f} ms (63 % of each step, median; "
                      f"{1e3 * self.lag_range_s[0]:.0f}..{1e3 * self.lag_range_s[1]:.0f} ms).")
-        if self.rmse_after is not None:
+        if _finite(self.rmse_after) is not None and _finite(self.rmse_before) is not None:
             head += (f" With the family (the boards' observer, tau {1e3 * self.tau_obs_s:.0f} ms, fitted on the "
                      f"training rows) the held-out RMSE against the {self.reference} goes from "
                      f"{self.rmse_before:.3g} to {self.rmse_after:.3g} RPM.")
         return head
+
+
+def _finite(x):
+    """x, or None where it is no finite number (the JSON carries no NaN)."""
+    return float(x) if x is not None and math.isfinite(x) else None
 
 
 def _segments(rec: dataset.Recording) -> np.ndarray:
@@ -290,7 +295,7 @@ def _interval(field: str, value: float, boot: np.ndarray, why_not: str = "", clu
         name, unit, scale, show_unit, phys, needs = "La", e.unit, e.show_scale, e.show_unit, e.physical, LA_NEEDS
     boot = boot[np.isfinite(boot)]
     if why_not or not np.isfinite(value) or len(boot) < BOOT // 2:
-        return Interval(name, field, unit, float(value) if np.isfinite(value) else float("nan"), None, None, False,
+        return Interval(name, field, unit, float(value) if np.isfinite(value) else None, None, None, False,
                         why=why_not or "too few steps or segments hold it", needs=needs, method="bootstrap",
                         show_scale=scale, show_unit=show_unit)
     # the bootstrap's standard error with Student's t on (clusters - 1) degrees of freedom: with a handful of
