@@ -63,7 +63,8 @@ class DynamicsObserver {
     }
     const float g = dt_s / d.j_kgm2;
     const float a = 1.0f - g * d.b_nms_per_rad;
-    const float p = d.tau_obs_s > 0.0f ? expf(-dt_s / d.tau_obs_s) : 0.0f;
+    float p = 0.0f;  // the poles: tau_obs 0 puts them at the origin (the estimate is the measurement)
+    if (d.tau_obs_s > 0.0f) p = expf(-dt_s / d.tau_obs_s);
     const float lw = 1.0f - (p * p) / a;
     const float lt = -((1.0f - p) * (1.0f - p)) / g;
     const float torque = (ke_vs_per_rad * i_A - d.tc_nm * sign(w_rad_s_)) - load_nm_;
