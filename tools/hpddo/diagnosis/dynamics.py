@@ -104,10 +104,10 @@ class Dynamics:
         """The dynamics in words: the identified family with its intervals, or why not."""
         if not self.fast:
             return (f"Dynamics (inertia, friction, inductance) not determined by these recordings: the fastest is "
-                    f"at {self.rate_hz:.3g} Hz, where a row averages over the motor's transients (tens of ms); "
+                    f"at {self.rate_hz:.4g} Hz, where a row averages over the motor's transients (tens of ms); "
                     f"what would determine them: {NEEDS}.")
         parts = "; ".join(q.text() for q in self.quantities)
-        head = (f"Dynamics from {', '.join(self.fast)} at {self.rate_hz:.3g} Hz ({self.steps} duty steps, "
+        head = (f"Dynamics from {', '.join(self.fast)} at {self.rate_hz:.4g} Hz ({self.steps} duty steps, "
                 f"{self.segments} settled segments, speed from the {self.speed_from}): {parts}.")
         if self.lag_s is not None:
             head += (f" The speed lags the duty steps by {1e3 * self.lag_s:.0f} ms (63 % of each step, median; "
@@ -353,7 +353,7 @@ def identify(recs, ra_ohm: float, ke_vs_per_rad: float, est_rpm=None, la_given_H
          _interval("b_nms_per_rad", fr.get(0, (np.nan, np.nan))[0], bb, no_free, free),
          _interval("tc_nm", fr.get(0, (np.nan, np.nan))[1], btc, no_free, free),
          _interval("la_H", la, bla, ("" if top >= LA_MIN_RATE_HZ else
-                   f"at {top:.3g} Hz the current's rise after a step (La / R, about a ms) is over within a row, "
+                   f"at {top:.4g} Hz the current's rise after a step (La / R, about a ms) is over within a row, "
                    "so the row means hold La di/dt only as the step row's mean, not as the rows' rate of change"), len(la_sums))]
     lags = _lag(recs_f, ws)
     out = Dynamics(rate_hz=top, fast=[r.name for r in recs_f], speed_from=speed_from, steps=used,

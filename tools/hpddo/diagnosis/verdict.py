@@ -123,7 +123,8 @@ def dynamics(before: ResidualAnalysis, dt_s: float, family=None) -> str:
             text += (f" At a lag of {lag} rows the rate's difference holds the row's own reading (dX/dt of row k + 1 "
                      "is (X(k+1) - X(k)) / T), so the channel's noise, in the residual and in the rate, correlates "
                      "there by itself (docs/diagnosis.md, Fast logs and dynamics).")
-        return text
+        return text + (" Effects named on this recording may stand in for the dynamics: confirm them on settled "
+                       "rows (a 2 Hz recording).")
     return (f"The residual follows {top['input']} (r = {top['peak']:+.2f} at a lag of {lag} rows, "
             f"{lag * dt_s * 1e3:+.0f} ms): the speed lags the voltage through the motor's dynamics (inertia and "
             "friction, and the winding's inductance), which the library does not model at this rate; effects "
