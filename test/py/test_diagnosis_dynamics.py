@@ -71,3 +71,13 @@ def test_a_bad_encoder_period_is_refused_with_its_line(tmp_path):
     with pytest.raises(benchlog.BenchLogError) as exc:
         dataset.enc_period_s(rec)
     assert exc.value.line == len(g["meta"]) + 2 + 7 and "enc_period_s" in str(exc.value)
+
+
+def test_the_report_page_shows_the_dynamics_and_their_table(fast):
+    from hpddo.reports import diagnosis as diagnosis_report
+    res = fast.to_json()
+    html = diagnosis_report.page(res, diagnosis_report.figures(res, fast.plot()))
+    assert "<h2>Dynamics (fast logs)</h2>" in html
+    for q in res["dynamics"]["quantities"]:
+        assert f'<td class="l">{q["quantity"]}</td>' in html
+    assert "not determined by these recordings" in html   # La at 100 Hz
