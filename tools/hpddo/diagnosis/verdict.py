@@ -80,7 +80,7 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
     text = _verdict(sel, conf, resid, sigma2, floor)
     dyn = dynamics(resid.before, resid.dt_s, family)
     if dyn and family is not None and family.fast:  # the dynamics are named: no "no library effect explains it"
-        for said, say in ((f"No library effect explains the residual", "Apart from the dynamics (above), no library "
+        for said, say in (("No library effect explains the residual", "Apart from the dynamics (above), no library "
                                                                         "effect is named for the residual"),
                           ("A structured residual remains that no library effect explains",
                            "A structured residual remains beyond the named effects and the dynamics (above)")):
