@@ -3,7 +3,7 @@
 // source: tools/hpddo/schema.py
 // generator: hpddo.schema 1
 // layout: crc32 0x71a0bead (kParamsSchema)
-// checksum: crc32 0x593480c6 of the text below this banner
+// checksum: crc32 0xe67381f6 of the text below this banner
 #ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -80,6 +80,20 @@ inline void for_each_param(Params& p, F& f) {
   f(p.t_amb_C);
   f(p.effects);
 }
+
+/// The dynamic family (inertia and friction at the output shaft, with the inductance effect
+/// la_H of PhysicsParams): Kt i = J dw/dt + B w + Tc sgn(w) + T_load, Kt = Ke. Computed on the
+/// boards when named (j_kgm2 > 0; dynamics.h), its own struct so that PhysicsParams and
+/// kParamsSchema do not change. Constructor-free, initialised in field order.
+struct DynamicsParams {
+  float j_kgm2;         ///< inertia of the shaft and all it drives, at the output shaft (0: the family is off), kg m^2
+  float b_nms_per_rad;  ///< viscous friction at the output shaft (bearings, gearbox oil, a coupled machine's), N m s/rad
+  float tc_nm;          ///< Coulomb friction at the output shaft (brushes, gear mesh, seals): a torque against the motion, N m
+  float tau_obs_s;      ///< the observer's time constant: how fast the back-EMF speed pulls the mechanical model back (a filter's setting, not the motor's), s
+};
+
+/// Number of DynamicsParams fields.
+static const uint8_t kDynamicsParamCount = 4;
 
 }  // namespace hpddo
 
