@@ -1,0 +1,138 @@
+// Host tests of the ripple mode's pure logic (uno_acq/acq_ripple.h, issue 23): timing, the
+// trigger at the middle of the on-time, the burst length against the window and the line,
+// the chunk encoding and its base64 line. The board side is proven in simavr
+// (check_uno_ripple.py, firmware.uno.sim_ripple*), whose bursts the host decodes with
+// tools/hpddo/logs/ripple_link.py.
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "acq_ripple.h"
+#include "hpddo/crc.h"
+
+namespace {
+
+TEST(AcqRipple, TimingAtTheSampleRates) {
+  acq::RippleTiming rt;
+  ASSERT_TRUE(acq::ripple_timing(10000, &rt));
+  EXPECT_EQ(rt.pwm.prescale, 1);
+  EXPECT_EQ(rt.pwm.top, 1599);
+  EXPECT_EQ(rt.adps, 5);          // 500 kHz ADC clock: 432 cycles, 27 % of the period
+  EXPECT_EQ(rt.conv_cycles, 432);
+  EXPECT_EQ(rt.sh_cycles, 67);    // 2 ADC clocks + 3 cycles
+  EXPECT_EQ(rt.stop_periods, 3);  // a free-running conversion (1664 cycles) ends within 2 periods
+  ASSERT_TRUE(acq::ripple_timing(8000, &rt));
+  EXPECT_EQ(rt.adps, 5);
+  ASSERT_TRUE(acq::ripple_timing(20000, &rt));
+  EXPECT_EQ(rt.pwm.top, 799);
+  EXPECT_EQ(rt.adps, 4);  // 1 MHz: 216 cycles of 800
+  EXPECT_LE(rt.conv_cycles * 10u, 800u * 3u);
+  EXPECT_FALSE(acq::ripple_timing(7999, &rt));
+  EXPECT_FALSE(acq::ripple_timing(20001, &rt));
+}
+
+TEST(AcqRipple, TriggerAtTheMiddleOfTheOnTime) {
+  acq::RippleTiming rt;
+  ASSERT_TRUE(acq::ripple_timing(10000, &rt));
+  for (uint16_t duty_q = 1000; duty_q < 10000; duty_q = static_cast<uint16_t>(duty_q + 500)) {
+    const uint16_t ocr1a = acq::pwm_compare(rt.pwm, duty_q);
+    const uint16_t ocr1b = acq::ripple_trigger(rt.pwm, ocr1a, duty_q, rt.sh_cycles);
+    // the compare match comes OCR1B + 1 ticks after the period's start, the sample-and-hold
+    // sh_cycles later: the middle of the ocr1a + 1 ticks of on-time within a cycle
+    const double sh_at = ocr1b + 1.0 + rt.sh_cycles;
+    EXPECT_NEAR(sh_at, (ocr1a + 1) / 2.0, 1.0) << duty_q;
+    // the conversion and its interrupt end within the period
+    EXPECT_LT(ocr1b + 1u + rt.conv_cycles, 1600u * 8u / 10u) << duty_q;
+  }
+  EXPECT_EQ(acq::ripple_trigger(rt.pwm, 1280, 8000, rt.sh_cycles), 573);
+  EXPECT_EQ(acq::ripple_trigger(rt.pwm, 0, 0, rt.sh_cycles), 733);        // off: the period's middle
+  EXPECT_EQ(acq::ripple_trigger(rt.pwm, 1600, 10000, rt.sh_cycles), 733);  // always on
+  EXPECT_EQ(acq::ripple_trigger(rt.pwm, 80, 500, rt.sh_cycles), 0);        // 5 %: as early as it goes
+}
+
+TEST(AcqRipple, BurstFitsTheWindowAndTheLine) {
+  acq::RippleTiming rt;
+  ASSERT_TRUE(acq::ripple_timing(10000, &rt));
+  EXPECT_EQ(acq::ripple_burst_samples(rt, 5000, 500000), 3968);  // 2 Hz: 0.397 s of the 0.5 s
+  EXPECT_EQ(acq::ripple_burst_samples(rt, 1000, 500000), 768);   // 10 Hz
+  EXPECT_EQ(acq::ripple_burst_samples(rt, 100, 500000), 64);     // 100 Hz: 2 chunks
+  EXPECT_EQ(acq::ripple_burst_samples(rt, 30, 500000), 0);       // not one chunk
+  // at 115200 baud a 10 kHz burst needs 25625 characters/s of 11520: none
+  EXPECT_EQ(acq::ripple_burst_samples(rt, 5000, 115200), 0);
+  ASSERT_TRUE(acq::ripple_timing(16000, &rt));  // 41000 characters/s > 80 % of 50000
+  EXPECT_EQ(acq::ripple_burst_samples(rt, 8000, 500000), 0);
+  ASSERT_TRUE(acq::ripple_timing(12000, &rt));
+  EXPECT_GT(acq::ripple_burst_samples(rt, 6000, 500000), 0);
+  EXPECT_EQ(acq::ripple_burst_chars(32), acq::kRippleLineMax);
+  EXPECT_EQ(acq::kRippleLineMax, 82);
+}
+
+TEST(AcqRipple, ChunkLayoutPackingAndCrc) {
+  std::vector<uint16_t> codes;
+  for (int k = 0; k < 32; ++k) codes.push_back(static_cast<uint16_t>((k * 97 + 5) & 0x3FF));
+  codes[3] = 1023;
+  codes[4] = 0;
+  acq::RippleChunk c;
+  c.seq = 0x12345678u;
+  c.first = 64;
+  c.total = 3968;
+  c.start_period = 1032;
+  c.phase_cycles = 641;
+  c.n = 32;
+  c.codes = codes.data();
+  uint8_t out[acq::kRippleChunkMax];
+  const uint8_t len = acq::encode_ripple_chunk(c, out);
+  ASSERT_EQ(len, acq::kRippleChunkMax);
+  EXPECT_EQ(out[0], 0xA5);
+  EXPECT_EQ(out[1], 0x5B);
+  EXPECT_EQ(out[2], len - 5);
+  EXPECT_EQ(out[3] | out[4] << 8 | out[5] << 16 | static_cast<uint32_t>(out[6]) << 24, 0x12345678u);
+  EXPECT_EQ(out[7] | out[8] << 8, 64);
+  EXPECT_EQ(out[9] | out[10] << 8, 3968);
+  EXPECT_EQ(out[11] | out[12] << 8, 1032);
+  EXPECT_EQ(out[13] | out[14] << 8, 641);
+  EXPECT_EQ(out[15], 32);
+  for (int k = 0; k < 32; ++k) {  // unpack LSB first
+    uint32_t v = 0;
+    for (int b = 0; b < 10; ++b) {
+      const int bit = 10 * k + b;
+      v |= static_cast<uint32_t>((out[acq::kRippleHead + bit / 8] >> (bit % 8)) & 1u) << b;
+    }
+    EXPECT_EQ(v, codes[k]) << k;
+  }
+  EXPECT_EQ(out[len - 2] | out[len - 1] << 8, hpddo::crc16(out + 2, len - 4u));
+  // a short last chunk
+  c.n = 5;
+  EXPECT_EQ(acq::encode_ripple_chunk(c, out), acq::kRippleHead + 7 + 2);
+  EXPECT_EQ(out[2], acq::kRippleHead - 3 + 7);
+}
+
+TEST(AcqRipple, Base64LineAsRfc4648) {
+  char line[acq::kRippleLineMax];
+  const uint8_t man[] = {'M', 'a', 'n', 'M', 'a'};
+  const uint8_t n = acq::ripple_line(man, 5, line);
+  EXPECT_EQ(std::string(line, n), "~TWFuTWE=\n");
+  EXPECT_EQ(std::string(line, acq::ripple_line(man, 1, line)), "~TQ==\n");
+  uint8_t frame[acq::kRippleChunkMax] = {};
+  EXPECT_EQ(acq::ripple_line(frame, acq::kRippleChunkMax, line), acq::kRippleLineMax);
+}
+
+TEST(AcqRipple, RingKeepsOrderAndRefusesWhenFull) {
+  acq::SampleRing<8> r;
+  for (uint16_t k = 0; k < 8; ++k) EXPECT_TRUE(r.push(k));
+  EXPECT_FALSE(r.push(99));
+  EXPECT_EQ(r.peak(), 8);
+  uint16_t out[8];
+  r.pop(out, 5);
+  for (uint16_t k = 0; k < 5; ++k) EXPECT_EQ(out[k], k);
+  for (uint16_t k = 0; k < 5; ++k) EXPECT_TRUE(r.push(static_cast<uint16_t>(100 + k)));
+  EXPECT_EQ(r.size(), 8);
+  r.pop(out, 8);
+  EXPECT_EQ(out[0], 5);
+  EXPECT_EQ(out[3], 100);
+  EXPECT_EQ(out[7], 104);
+}
+
+}  // namespace

@@ -1,0 +1,210 @@
+// The ripple mode on the ATmega328P (registers, interrupt hooks, the main loop's sender);
+// built only with -DACQ_RIPPLE_HZ=<Hz> (8000..20000), included by uno_acq.cpp. The timing,
+// the burst length and the chunk format are in acq_ripple.h (host-tested); docs/ripple.md,
+// "The UNO's ripple mode".
+//
+// Per window: the free-running V/I conversions of the normal mode (the window's V and I
+// means) until stop_periods before the burst, when the overflow interrupt asks the ADC to
+// wait for the trigger (arm): the free-running conversion in flight ends, is counted, and the
+// ADC then converts only on the trigger. At the burst's first period (the window's last
+// burst_n periods) the overflow interrupt opens the burst; each Timer1 compare B match
+// (OCR1B: the sample-and-hold at the middle of the on-time) starts a conversion of the current
+// in hardware (auto trigger, ADTS = 101); the ADC interrupt clears OCF1B (the trigger is its
+// rising edge), puts the code into the ring and, after the burst's last one, hands the ADC
+// back to the free-running conversions, which then count for the next window. The main loop
+// takes the codes from the ring in chunks of 32 and writes each as a "~<base64>" line.
+#ifndef HPDDO_ACQ_RIPPLE_BOARD_H
+#define HPDDO_ACQ_RIPPLE_BOARD_H
+
+#include <avr/interrupt.h>
+#include <avr/io.h>
+
+#include "acq_ripple.h"
+
+namespace acq {
+namespace ripple {
+
+static const uint8_t kRing = 64;  ///< codes in flight between the ADC interrupt and the sender (peak 33 in simavr)
+static const uint8_t kSlots = 4;   ///< bursts in flight (a power of two)
+static const uint8_t kAdcsraTriggered =
+    static_cast<uint8_t>(_BV(ADEN) | _BV(ADIE) | _BV(ADATE));  // | ADPS of the timing
+
+struct Slot {
+  uint32_t seq;
+  uint16_t total;
+  uint16_t start_period;  ///< the window's period of sample 0
+  uint16_t phase_cycles;  ///< a period's start to its sample-and-hold
+  volatile uint16_t pushed;
+  volatile bool open;
+};
+
+struct State {
+  RippleTiming rt;
+  uint16_t burst_n;             ///< samples a burst, for the window length in force
+  uint16_t burst_period;        ///< the window's period at whose start the burst opens
+  uint16_t arm_period;          ///< the period at whose start the ADC is armed
+  volatile uint16_t left;       ///< samples still to take in the open burst (ADC interrupt)
+  volatile bool arm;            ///< the next free-running completion arms the trigger
+  volatile bool triggered;      ///< the ADC waits for compare B
+  volatile uint8_t slot_w;      ///< bursts opened (window close)
+  uint8_t slot_r;               ///< bursts done by the sender
+  uint16_t sent;                ///< samples of slot_r taken from the ring
+  Slot slot[kSlots];
+  volatile uint16_t not_started;  ///< windows whose burst could not start (the ADC was not armed)
+  volatile uint16_t overflows;    ///< bursts cut short by a full ring
+  uint32_t chunks;                ///< chunks sent
+  uint16_t ocr1b_next;            ///< OCR1B for the next setpoint (main loop)
+};
+
+State g;
+SampleRing<kRing> g_ring;
+
+/// ADC back to the free-running V/I conversions of the normal mode.
+__attribute__((always_inline)) inline void free_running() {
+  g.triggered = false;
+  ADCSRA = 0;
+  ADMUX = static_cast<uint8_t>(_BV(REFS0) | kAdcChannelV);
+  ADCSRA = static_cast<uint8_t>(_BV(ADEN) | _BV(ADIE) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0) | _BV(ADSC));
+}
+
+/// Sets the timing for hz and the burst length for a window of window_periods; interrupts off.
+inline bool configure(uint32_t hz, uint16_t window_periods, uint32_t baud) {
+  RippleTiming rt;
+  if (!ripple_timing(hz, &rt)) return false;
+  g.rt = rt;
+  g.burst_n = ripple_burst_samples(rt, window_periods, baud);
+  g.burst_period = static_cast<uint16_t>(window_periods - g.burst_n);
+  g.arm_period = static_cast<uint16_t>(g.burst_period - rt.stop_periods);
+  g.left = 0;
+  g.arm = false;
+  g.triggered = false;
+  g.slot_w = g.slot_r = 0;
+  g.sent = 0;
+  g_ring.clear();
+  ADCSRB = 0;
+  free_running();  // it may have waited for a trigger
+  return true;
+}
+
+/// Start of period p of the open window seq (TIMER1_OVF, interrupts off; p 0 right after a
+/// close): arms the trigger, opens the burst. A burst still open at a close (a window made
+/// shorter by `rate`) ends there, incomplete; an ADC still waiting for the trigger then goes
+/// back to the free-running conversions.
+__attribute__((always_inline)) inline void on_period(uint16_t p, uint32_t seq) {
+  if (p == 0 && (g.left || g.triggered)) {
+    if (g.left) {
+      g.slot[static_cast<uint8_t>(g.slot_w - 1u) & (kSlots - 1)].open = false;
+      g.left = 0;
+      ++g.not_started;
+    }
+    free_running();
+  }
+  if (!g.burst_n) return;
+  if (p == g.arm_period) g.arm = true;
+  if (p != g.burst_period) return;
+  if (!g.triggered) {
+    ++g.not_started;
+    return;
+  }
+  Slot& s = g.slot[g.slot_w & (kSlots - 1)];
+  s.seq = seq;
+  s.total = g.burst_n;
+  s.start_period = p;
+  s.phase_cycles = static_cast<uint16_t>(OCR1B + 1u + g.rt.sh_cycles);  // compare match at OCR1B + 1 ticks
+  s.pushed = 0;
+  s.open = true;
+  g.slot_w = static_cast<uint8_t>(g.slot_w + 1);
+  g.left = g.burst_n;
+}
+
+/// OCR1B of a setpoint: the middle of its on-time (main loop; preload copies it).
+inline uint16_t trigger_for(const PwmTiming& t, uint16_t ocr1a, uint16_t duty_q) {
+  return ripple_trigger(t, ocr1a, duty_q, g.rt.sh_cycles);
+}
+
+/// ADC interrupt, after the atomic read of code and the window's sums: true when the
+/// conversion was the ripple mode's (a triggered one, or the last free-running one before
+/// the trigger is armed, added to acc here); false: the normal path goes on.
+template <class AccT>
+__attribute__((always_inline)) inline bool on_adc(uint16_t code, AccT* acc) {
+  if (ADCSRA & _BV(ADATE)) {
+    TIFR1 = _BV(OCF1B);  // the trigger is the flag's rising edge: clear it for the next one
+    cli();
+    const uint16_t left = g.left;
+    const uint8_t w = g.slot_w;
+    if (left) g.left = static_cast<uint16_t>(left - 1u);
+    sei();
+    if (!left) return true;  // a trigger between the arm and the burst: not a sample
+    Slot& s = g.slot[static_cast<uint8_t>(w - 1u) & (kSlots - 1)];
+    if (g_ring.push(code)) {
+      s.pushed = static_cast<uint16_t>(s.pushed + 1u);
+    } else {
+      ++g.overflows;  // the burst ends here; the host sees it incomplete and leaves it out
+      cli();
+      g.left = 0;
+      sei();
+    }
+    if (left == 1u || !g.left) {
+      s.open = false;
+      free_running();  // the V/I conversions of the next window
+    }
+    return true;
+  }
+  if (!g.arm) return false;
+  const uint8_t mux = ADMUX;
+  AccT* const a = (mux & 1u) ? acc + 1 : acc;
+  a->sum += code;
+  ++a->n;
+  g.arm = false;
+  ADMUX = static_cast<uint8_t>(_BV(REFS0) | kAdcChannelI);
+  ADCSRB = static_cast<uint8_t>(_BV(ADTS2) | _BV(ADTS0));  // Timer/Counter1 compare match B
+  TIFR1 = _BV(OCF1B);
+  ADCSRA = static_cast<uint8_t>(kAdcsraTriggered | g.rt.adps);
+  g.triggered = true;
+  return true;
+}
+
+/// Main loop: sends at most one chunk of the oldest burst (when 32 codes are there, or the
+/// burst's last ones); bursts of windows outside a recording are taken and dropped.
+/// write(buf, n) writes n characters to the host. Not inlined: its 200 bytes of buffers are
+/// on the stack only while it runs, not beside the observer's in loop()'s frame.
+template <class Write>
+__attribute__((noinline)) void drain(bool recording, uint32_t rec_start, Write write) {
+  if (g.slot_r == g.slot_w) return;
+  Slot& s = g.slot[g.slot_r & (kSlots - 1)];
+  cli();
+  const uint16_t pushed = s.pushed;
+  const bool open = s.open;
+  sei();
+  const uint16_t avail = static_cast<uint16_t>(pushed - g.sent);
+  if (avail >= kRippleChunkSamples || (!open && avail)) {
+    const uint8_t n = static_cast<uint8_t>(avail < kRippleChunkSamples ? avail : kRippleChunkSamples);
+    uint16_t codes[kRippleChunkSamples];
+    g_ring.pop(codes, n);
+    if (recording && static_cast<int32_t>(s.seq - rec_start) >= 0) {
+      RippleChunk c;
+      c.seq = s.seq;
+      c.first = g.sent;
+      c.total = s.total;
+      c.start_period = s.start_period;
+      c.phase_cycles = s.phase_cycles;
+      c.n = n;
+      c.codes = codes;
+      uint8_t frame[kRippleChunkMax];
+      const uint8_t len = encode_ripple_chunk(c, frame);
+      char line[kRippleLineMax];
+      write(line, ripple_line(frame, len, line));
+      ++g.chunks;
+    }
+    g.sent = static_cast<uint16_t>(g.sent + n);
+  }
+  if (!open && g.sent == pushed) {
+    g.slot_r = static_cast<uint8_t>(g.slot_r + 1);
+    g.sent = 0;
+  }
+}
+
+}  // namespace ripple
+}  // namespace acq
+
+#endif  // HPDDO_ACQ_RIPPLE_BOARD_H
