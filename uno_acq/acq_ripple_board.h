@@ -158,8 +158,11 @@ __attribute__((always_inline)) inline bool on_adc(uint16_t code, AccT* acc) {
   g.arm = false;
   ADMUX = static_cast<uint8_t>(_BV(REFS0) | kAdcChannelI);
   ADCSRB = static_cast<uint8_t>(_BV(ADTS2) | _BV(ADTS0));  // Timer/Counter1 compare match B
-  TIFR1 = _BV(OCF1B);
   ADCSRA = static_cast<uint8_t>(kAdcsraTriggered | g.rt.adps);
+  // Cleared after ADATE is on: a match between the two would otherwise raise the flag while
+  // no trigger is enabled, and the next matches would find it set (no rising edge, no
+  // conversion: the whole burst lost; seen in simavr once in 50 windows).
+  TIFR1 = _BV(OCF1B);
   g.triggered = true;
   return true;
 }

@@ -22,6 +22,11 @@ period's start, whether the ADC started, and every ADC interrupt. Then:
 * the bursts written as <condition>.ripple.csv (ripple_link.bursts_file) read back with
   hpddo.logs.ripple.read;
 * the stack's low-water mark stays above the static RAM (printed).
+
+With --twin LOG (a twin bench log with its <condition>.ripple.csv, `hpddo twin --ripple-hz
+10000`), the board is driven with the twin's V, I and speed and fed the twin's current codes,
+and the speed from the board's bursts (hpddo.model.ripple, as `hpddo ripple`) is compared with
+the twin's encoder and with the speed from the twin's own whole-window bursts.
 """
 import argparse
 import math
@@ -71,6 +76,38 @@ def expected_ocr1b(top, duty):
     return (mid - sh if mid > sh else 0), sh, adps
 
 
+def compare_with_twin(a, twin, path, df, windows):
+    """The ripple speed from the board's bursts against the twin's encoder and against the
+    speed from the twin's own whole-window bursts (the same estimator, hpddo.model.ripple)."""
+    import numpy as np
+    from hpddo.model import ripple as rp
+    opts = rp.Options(ripples_per_rev=6, gear_ratio=4.4)
+    ra = float(twin.meta["ra_ohm"])
+    board, _, _ = rp.speed_of_log(path.with_name("ripple.csv"), df, {"ra_ohm": ra}, opts)
+    own, _, _ = rp.speed_of_log(a.twin, twin.df, twin.meta, opts)
+    idx = [windows[int(s)]["index"] % len(twin.df) for s in df["seq"]]
+    enc = twin.df["rpm_ref"].to_numpy()[idx]
+    own_rpm = own.set_index("row")["rpm"].reindex(idx).to_numpy()
+    own_conf = own.set_index("row")["confident"].reindex(idx).to_numpy()
+    b = board.set_index("row")
+    rpm = b["rpm"].reindex(range(len(df))).to_numpy()
+    conf = b["confident"].reindex(range(len(df))).fillna(False).to_numpy(bool)
+    ok = conf & (enc > 0)
+    e_enc = (rpm[ok] - enc[ok]) / enc[ok]
+    both = ok & own_conf.astype(bool)
+    e_own = (rpm[both] - own_rpm[both]) / own_rpm[both]
+    e_twin_enc = (own_rpm[both] - enc[both]) / enc[both]
+    rms = lambda e: 100 * np.sqrt(np.mean(e ** 2))  # noqa: E731
+    med = lambda e: 100 * np.median(np.abs(e))  # noqa: E731
+    print(f"twin {a.twin.name}: {len(df)} windows through the board, {int(conf.sum())} confident ripple speeds "
+          f"(from the twin's own whole-window bursts: {int(np.nansum(own_conf.astype(float)))})")
+    print(f"  against the encoder: the board's bursts RMS {rms(e_enc):.3f} %, median |error| {med(e_enc):.3f} %, "
+          f"max {100 * np.max(np.abs(e_enc)):.2f} %; the twin's own bursts RMS {rms(e_twin_enc):.3f} %, median "
+          f"{med(e_twin_enc):.3f} %, max {100 * np.max(np.abs(e_twin_enc)):.2f} % (encoder glitches included)")
+    print(f"  the board's against the twin's own: RMS {rms(e_own):.3f} %, max {100 * np.max(np.abs(e_own)):.2f} % "
+          f"({int(both.sum())} windows)")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--harness", required=True)
@@ -80,7 +117,18 @@ def main():
     ap.add_argument("--rate", type=float, default=10.0, help="windows per second")
     ap.add_argument("--rows", type=int, default=8)
     ap.add_argument("--duty", type=float, default=0.8)
+    ap.add_argument("--twin", type=pathlib.Path, default=None,
+                    help="drive and feed from this twin log and its bursts (2 Hz, ripple at --hz); --rate "
+                         "and --duty then come from it")
     a = ap.parse_args()
+    twin = None
+    if a.twin is not None:
+        twin = read_log(a.twin)
+        tb = ripple_file.read(ripple_file.path_for(a.twin))
+        a.rate = twin.sample_rate_hz
+        a.duty = float(twin.df["duty"].iloc[0])
+        if (twin.df["duty"] != a.duty).any() or tb.sample_hz != a.hz:
+            fail(f"{a.twin}: the check needs one duty and bursts at {a.hz} Hz")
 
     work = pathlib.Path(a.workdir)
     work.mkdir(parents=True, exist_ok=True)
@@ -90,11 +138,16 @@ def main():
     win_periods = round(a.hz / a.rate)
     n_feed_windows = 11
     feed_codes = [[rng.randint(8, 400) for _ in range(win_periods)] for _ in range(n_feed_windows)]
+    if twin is not None:
+        feed_codes = [c.tolist() for c in tb.codes]
+        n_feed_windows = len(feed_codes)
     (work / "feed.txt").write_text("".join(" ".join(str(mv_for_code(c)) for c in row) + "\n" for row in feed_codes))
     # V, I, speed of the test part of data/default/long.csv (duty 0.8): points the default
     # model was trained around, so that the observer's network runs (its deepest stack)
     long = read_log(ROOT / "data" / "default" / "long.csv").df
     part = long.iloc[int(0.8 * len(long)):].iloc[:13]
+    if twin is not None:
+        part = twin.df
     drive = [(round(v, 4), round(i, 4), round(r, 3)) for v, i, r in zip(part["v_V"], part["i_A"], part["rpm_ref"])]
     (work / "drive.csv").write_text("".join(f"{v},{i},{r}\n" for v, i, r in drive))
 
@@ -155,10 +208,13 @@ def main():
     for l in (work / "ripple_triggers.csv").read_text().splitlines()[1:]:
         k, t, ps, started, mv, code, o1a, o1b = (int(x) for x in l.split(","))
         trig.append(dict(t=t, ps=ps, started=started, mv=mv, code=code, ocr1a=o1a, ocr1b=o1b))
-    if no_edge:
-        fail(f"{no_edge} compare matches with the trigger armed found OCF1B still set (no edge, no sample)")
-    if not all(t["started"] for t in trig):
-        fail(f"{sum(1 for t in trig if not t['started'])} triggers met a running conversion: samples lost")
+    # A match with the trigger enabled that started no conversion (the flag still set: no edge;
+    # or the ADC busy) loses a sample when it falls in a burst; the bursts' checks below
+    # (every period of each burst, each code) catch that. Those before a burst, between the
+    # arm and its first period, are counted here.
+    not_started = sum(1 for t in trig if t["started"] != 1)
+    if no_edge != sum(1 for t in trig if t["started"] == -1):
+        fail("the harness's count of matches without an edge disagrees with its trigger file")
 
     # ---- every recorded window has its whole burst, equal to the codes fed
     lost = 0
@@ -174,6 +230,8 @@ def main():
         # the burst: the window's last n_burst periods (the triggers before them, after the
         # arm, are converted and dropped by the firmware)
         in_win = [t for t in trig if w_open <= t["t"] < w_close][-n_burst:]
+        if any(t["started"] != 1 for t in in_win):
+            fail(f"seq {s}: {sum(1 for t in in_win if t['started'] != 1)} matches in the burst started no conversion")
         if len(in_win) < n_burst:
             fail(f"seq {s}: {len(in_win)} triggers in the window, fewer than the burst's {n_burst}")
         if b.start_period != win_periods - n_burst:
@@ -182,8 +240,7 @@ def main():
         if first_period != b.start_period:
             fail(f"seq {s}: the burst's first trigger is in period {first_period}, the chunks say {b.start_period}")
         want = [t["code"] for t in in_win]
-        n_before = len([t for t in trig if w_open <= t["t"] < w_close]) - n_burst
-        feed_row = feed_codes[windows[s]["index"] % n_feed_windows][n_before:n_before + n_burst]
+        feed_row = feed_codes[windows[s]["index"] % n_feed_windows][b.start_period:b.start_period + n_burst]
         if want != feed_row:
             fail(f"seq {s}: the harness fed other codes than the feed file's row (harness bookkeeping)")
         got = b.codes.tolist()
@@ -197,8 +254,9 @@ def main():
             fail(f"seq {s}: chunk phase {b.phase_cycles} != OCR1B {in_win[0]['ocr1b']} + sample-and-hold")
     if lost:
         fail(f"{lost} recorded windows without a whole burst")
-    print(f"bursts: {len(seqs)} windows, each burst's {n_burst} codes equal the first {n_burst} fed in its window "
-          f"(no sample lost, duplicated or out of order)")
+    print(f"bursts: {len(seqs)} windows, each burst's {n_burst} codes equal those fed in its last {n_burst} periods "
+          f"(no sample lost, duplicated or out of order); {not_started} matches before a burst (after the arm) "
+          f"started no conversion")
 
     # ---- rate and phase
     in_bursts = [t for s in seqs for t in [t for t in trig if windows[s - 1]["close"] <= t["t"] < windows[s]["close"]][-n_burst:]]
@@ -287,6 +345,9 @@ def main():
         fail(f"a_per_code {a_code}")
     print(f"{path.name}: {kept} bursts, sample_hz {back.sample_hz:g}, a_per_code {back.a_per_code:g}, first t_s "
           f"{back.t_s[0]:.6f}")
+
+    if twin is not None:
+        compare_with_twin(a, twin, path, df, windows)
 
     # ---- stack
     print(f"ring: at most {ring_peak} of {ring_n} codes waiting for the sender")

@@ -2,8 +2,9 @@
  * The ripple mode in the harness (issue 23; uno_acq built with -DACQ_RIPPLE_HZ), included by
  * uno_sim.c. On when the environment variable UNO_SIM_RIPPLE names a feed file: one line
  * per window (window k uses line k mod the number of lines, as the drive table), the
- * current channel's pin voltage in mV at the window's triggered conversions, space
- * separated, in order (the last value repeats when a window has more triggers).
+ * current channel's pin voltage in mV in each PWM period of the window, space separated
+ * (value j for a conversion triggered in the window's period j; the last value repeats for
+ * later periods).
  *
  * simavr 1.6 does not implement the ADC's auto trigger from a timer (its avr_adc.c logs
  * "unimplemented auto trigger mode" and ignores ADTS). The harness does what the chip does:
@@ -16,7 +17,8 @@
  * conversion's own interrupt); a free-running conversion of A1 gets the window's current.
  *
  * Writes <out>/ripple_triggers.csv: per triggered conversion its index, the cycle of the
- * compare match, the cycle of the period's start (the last TOV1), whether the ADC started,
+ * compare match, the cycle of the period's start (the last TOV1), whether the ADC started
+ * (1; 0 when it was converting; -1 when the flag was still set, no edge),
  * the fed mV and code; and <out>/ripple_isr.csv: per ADC interrupt its entry cycle and
  * cycles until reti (nested interrupts included), and whether ADATE was set at entry.
  */
@@ -47,8 +49,7 @@ static int rip_on;
 static unsigned** rip_feed; /* per window line */
 static long* rip_feed_len;
 static long rip_n_feed;
-static long rip_win_trig;   /* triggers since the open window opened */
-static long rip_win_seen = -1;
+
 static rip_trig_t* rip_trig;
 static long rip_n_trig;
 static rip_isr_t* rip_isr;
@@ -80,22 +81,18 @@ static void rip_compb(struct avr_irq_t* irq, uint32_t value, void* param) {
   const int adate = (avr->data[RIP_ADCSRA] >> RIP_ADATE) & 1;
   const int adts = avr->data[RIP_ADCSRB] & 7;
   if (!adate || adts != 5) return;
-  if (!rising) {
-    rip_no_edge++;
-    return;
-  }
   if (rip_n_trig >= RIP_MAX) return;
-  if (rip_win_seen != n_windows) { /* a window closed since the last trigger */
-    rip_win_seen = n_windows;
-    rip_win_trig = 0;
-  }
   rip_trig_t* t = &rip_trig[rip_n_trig++];
   t->trig = avr->cycle;
   t->period_start = rip_period_start;
   t->mv = 0;
-  t->started = 0;
+  t->started = rising ? 0 : -1; /* -1: the flag was still set, no edge: no conversion */
   t->ocr1a = avr->data[0x88] | (avr->data[0x89] << 8);
   t->ocr1b = avr->data[0x8A] | (avr->data[0x8B] << 8);
+  if (!rising) {
+    rip_no_edge++;
+    return;
+  }
   rip_arming = 1;
   avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_IN_TRIGGER), 1);
   avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_IN_TRIGGER), 0);
@@ -120,10 +117,13 @@ static void rip_adc_start(struct avr_irq_t* irq, uint32_t value, void* param) {
   if (rip_arming && rip_n_trig > 0) {
     rip_trig_t* t = &rip_trig[rip_n_trig - 1];
     t->started = 1;
-    const long w = rip_win_seen % rip_n_feed;
-    const long j = rip_win_trig < rip_feed_len[w] ? rip_win_trig : rip_feed_len[w] - 1;
+    /* the open window (uno_sim.c: window n_windows, opened at the last close) and its period */
+    const avr_cycle_count_t open = n_windows ? windows[n_windows - 1].close : 0;
+    const unsigned period = (avr->data[0x86] | (avr->data[0x87] << 8)) + 1u; /* ICR1 + 1 */
+    const long w = n_windows % rip_n_feed;
+    long j = (long)((t->trig - open) / period);
+    if (j >= rip_feed_len[w]) j = rip_feed_len[w] - 1;
     t->mv = rip_feed[w][j];
-    rip_win_trig++;
     avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC1), t->mv);
   } else if (e.mux.src == 1) {
     avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC1), rip_cur_i_mV);
