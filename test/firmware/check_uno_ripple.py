@@ -307,6 +307,13 @@ def main():
     print(f"CPU share of the ADC interrupt over {len(seqs)} windows: {100 * share:.1f} % "
           f"({busy_all} of {t1 - t0} cycles)")
 
+    # ---- the main loop's work on each closed window (GPIOR1 markers), beside the sender
+    busy = (work / "busy.csv").read_text().splitlines()[1:]
+    for kind in ("window", "observer"):
+        c = sorted(int(l.split(",")[2]) for l in busy if l.startswith(kind + ","))
+        if c:
+            print(f"main loop, {kind}: median {c[len(c) // 2]} max {c[-1]} cycles ({len(c)} windows)")
+
     # ---- bytes/s on the USB line
     sim_s = (t1 - t0) / F_CPU
     chunk_chars = sum(len(l) + 1 for _, l in chunk_lines if True)
