@@ -19,7 +19,21 @@
 #include <avr/interrupt.h>
 #include <avr/io.h>
 
+#include "acq_format.h"
 #include "acq_ripple.h"
+#include "acq_ripple_count.h"
+
+// What the build does with the bursts: send them to the host (ACQ_RIPPLE_STREAM, item 2) or
+// count them on the board (ACQ_RIPPLE_COUNT, item 5), by default the first. Both at once do
+// not fit the CPU at 10 kHz: the counter in the ADC interrupt (about 340 cycles a sample with
+// the registers it saves) and the sender (25 625 characters/s) together starve the main loop,
+// the ring overflows (seen in simavr: bursts cut at 259 of 768 samples).
+#ifndef ACQ_RIPPLE_COUNT
+#define ACQ_RIPPLE_COUNT 0
+#endif
+#ifndef ACQ_RIPPLE_STREAM
+#define ACQ_RIPPLE_STREAM (!ACQ_RIPPLE_COUNT)
+#endif
 
 namespace acq {
 namespace ripple {
@@ -53,11 +67,22 @@ struct State {
   volatile uint16_t not_started;  ///< windows whose burst could not start (the ADC was not armed)
   volatile uint16_t overflows;    ///< bursts cut short by a full ring
   uint32_t chunks;                ///< chunks sent
-  uint16_t ocr1b_next;            ///< OCR1B for the next setpoint (main loop)
+  // the ripple counter (acq_ripple_count.h): the ADC interrupt counts, the main loop reads
+  volatile uint8_t next_k;        ///< low-pass shift for the next burst (main loop, from the prior)
+  volatile bool counted_burst;    ///< a burst has been counted since configure()
+  volatile uint32_t reset_seq;    ///< the counter starts afresh at this window's burst
+  volatile bool reset_pending;
+  struct Count {
+    uint32_t seq;
+    uint16_t rises, first, last;
+    uint8_t k;
+    bool valid;
+  } count;                        ///< the last whole burst's count (set at its last sample)
 };
 
 State g;
 SampleRing<kRing> g_ring;
+RippleCounter g_counter;
 
 /// ADC back to the free-running V/I conversions of the normal mode.
 __attribute__((always_inline)) inline void free_running() {
@@ -81,6 +106,10 @@ inline bool configure(uint32_t hz, uint16_t window_periods, uint32_t baud) {
   g.slot_w = g.slot_r = 0;
   g.sent = 0;
   g_ring.clear();
+  ripple_counter_reset(&g_counter);
+  g.next_k = g_counter.k;
+  g.counted_burst = false;
+  g.count.valid = false;
   ADCSRB = 0;
   free_running();  // it may have waited for a trigger
   return true;
@@ -115,6 +144,16 @@ __attribute__((always_inline)) inline void on_period(uint16_t p, uint32_t seq) {
   s.open = true;
   g.slot_w = static_cast<uint8_t>(g.slot_w + 1);
   g.left = g.burst_n;
+#if ACQ_RIPPLE_COUNT
+  if (g.reset_pending && seq == g.reset_seq) {  // a recording's first window: from a cold start
+    g.reset_pending = false;
+    ripple_counter_reset(&g_counter);
+    g.next_k = g_counter.k;
+    g.counted_burst = false;
+  }
+  ripple_counter_begin(&g_counter, g.next_k, !g.counted_burst);
+  g.count.valid = false;
+#endif
 }
 
 /// OCR1B of a setpoint: the middle of its on-time (main loop; preload copies it).
@@ -136,6 +175,19 @@ __attribute__((always_inline)) inline bool on_adc(uint16_t code, AccT* acc) {
     sei();
     if (!left) return true;  // a trigger between the arm and the burst: not a sample
     Slot& s = g.slot[static_cast<uint8_t>(w - 1u) & (kSlots - 1)];
+#if ACQ_RIPPLE_COUNT
+    ripple_counter_sample(&g_counter, code);
+    if (left == 1u) {  // the burst's last sample: its count, for the main loop's window
+      g.count.seq = s.seq;
+      g.count.rises = g_counter.rises;
+      g.count.first = g_counter.first;
+      g.count.last = g_counter.last;
+      g.count.k = g_counter.k;
+      g.count.valid = true;
+      g.counted_burst = true;
+    }
+#endif
+#if ACQ_RIPPLE_STREAM
     if (g_ring.push(code)) {
       s.pushed = static_cast<uint16_t>(s.pushed + 1u);
     } else {
@@ -144,6 +196,9 @@ __attribute__((always_inline)) inline bool on_adc(uint16_t code, AccT* acc) {
       g.left = 0;
       sei();
     }
+#else
+    s.pushed = static_cast<uint16_t>(s.pushed + 1u);
+#endif
     if (left == 1u || !g.left) {
       s.open = false;
       free_running();  // the V/I conversions of the next window
@@ -167,12 +222,81 @@ __attribute__((always_inline)) inline bool on_adc(uint16_t code, AccT* acc) {
   return true;
 }
 
+/// What the counter gives for a closed window.
+struct WindowRipple {
+  float rpm;       ///< the ripple speed, RPM (NaN: no count)
+  bool confident;  ///< within kRippleCountPriorTol of the prior it was counted with
+  bool have_ra;    ///< ra and tw hold values
+  float ra_ohm;
+  float tw_C;
+};
+
+RippleRa g_ra;
+
+/// A recording starts with window first_seq (main loop): the counter starts afresh at that
+/// window's burst (its band from the reset, k = 5), and Ke is calibrated again from there: the
+/// motor is taken to be cold, at the model's t_ref_C.
+inline void on_recording(uint32_t first_seq) {
+  cli();
+  g.reset_seq = first_seq;
+  g.reset_pending = true;
+  sei();
+  ripple_ra_reset(&g_ra);
+}
+
+/// Main loop, after the observer's step on window seq (v_V, i_A its means, dt_s its length,
+/// rpm_prior the observer's estimate, the back-EMF prior): the window's ripple speed, whether
+/// it is the prior's line, Ra and the winding temperature; sets the next burst's band.
+inline WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float v_V, float i_A, float dt_s,
+                              float rpm_prior) {
+  WindowRipple out;
+  out.rpm = hpddo::absent();
+  out.confident = false;
+  const float fs = static_cast<float>(kCpuHz) / static_cast<float>(pwm_period_cycles(g.rt.pwm));
+  const float per_rev = static_cast<float>(ACQ_RIPPLES_PER_REV) * HPDDO_BENCH_GEAR_RATIO;  // ripples per output rev
+  cli();
+  const State::Count c = g.count;
+  sei();
+  float f = 0.0f;
+  if (c.valid && c.seq == seq && ripple_counter_hz(c.rises, c.first, c.last, fs, &f)) {
+    out.rpm = f * 60.0f / per_rev;
+  }
+  const float f_prior = rpm_prior > 0.0f ? rpm_prior * per_rev / 60.0f : 0.0f;
+  if (c.valid && c.seq == seq && f > 0.0f) out.confident = ripple_count_confident(f, f_prior);
+  out.have_ra = out.confident ? ripple_ra_step(p, v_V, i_A, out.rpm, dt_s, &g_ra) : g_ra.have;
+  out.ra_ohm = g_ra.ra_ohm;
+  out.tw_C = g_ra.tw_C;
+  // The next window's burst (its last periods: it has not begun) is counted in the band of
+  // this window's prior.
+  g.next_k = ripple_lp_shift(f_prior, fs);
+  return out;
+}
+
+/// Columns the ripple build appends to a row (after rpm_est,est_status): the ripple speed
+/// where the count is the prior's line, the tracked Ra and winding temperature once Ke is
+/// calibrated; empty cells otherwise.
+HPDDO_FLASH static const char kLogHeaderRipple[] = ",rpm_rip,ra_ohm,tw_C";
+
+inline void format_window(LineWriter& lw, const WindowRipple& r) {
+  lw.put(',');
+  if (r.confident) lw.real(r.rpm, 2);
+  lw.put(',');
+  if (r.have_ra) lw.real(r.ra_ohm, 4);
+  lw.put(',');
+  if (r.have_ra) lw.real(r.tw_C, 2);
+}
+
 /// Main loop: sends at most one chunk of the oldest burst (when 32 codes are there, or the
 /// burst's last ones); bursts of windows outside a recording are taken and dropped.
 /// write(buf, n) writes n characters to the host. Not inlined: its 200 bytes of buffers are
 /// on the stack only while it runs, not beside the observer's in loop()'s frame.
 template <class Write>
 __attribute__((noinline)) void drain(bool recording, uint32_t rec_start, Write write) {
+#if !ACQ_RIPPLE_STREAM
+  g.slot_r = g.slot_w;  // nothing is sent: the bursts are counted (on_window)
+  (void)recording, (void)rec_start, (void)write;
+  return;
+#endif
   if (g.slot_r == g.slot_w) return;
   Slot& s = g.slot[g.slot_r & (kSlots - 1)];
   cli();

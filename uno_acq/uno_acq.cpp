@@ -23,7 +23,11 @@
 #include "hpddo/frame.h"
 #if defined(ACQ_RIPPLE_HZ)
 // The ripple mode (issue 23): the current once per PWM period at the middle of the on-time,
-// sent in chunks beside each window's V and I; acq_ripple_board.h, docs/ripple.md.
+// sent in chunks beside each window's V and I, and counted on the board (Ra, winding
+// temperature); acq_ripple_board.h, docs/ripple.md.
+#if defined(ACQ_NO_OBSERVER)
+#error "the ripple build counts with the observer's estimate as the prior: build it with the observer"
+#endif
 #include "acq_ripple_board.h"
 #endif
 #if !defined(ACQ_NO_OBSERVER)
@@ -579,11 +583,17 @@ void begin_recording(const char* condition, uint32_t first_seq) {
   Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeader));
 #if !defined(ACQ_NO_OBSERVER)
   Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeaderEstimate));
+#if defined(ACQ_RIPPLE_HZ) && ACQ_RIPPLE_COUNT
+  Serial.print(reinterpret_cast<const __FlashStringHelper*>(ripple::kLogHeaderRipple));
+#endif
   g_obs.reset();
 #endif
   Serial.write('\n');
   g_rec_start = first_seq;
   g_recording = true;
+#if defined(ACQ_RIPPLE_HZ) && ACQ_RIPPLE_COUNT
+  ripple::on_recording(first_seq);
+#endif
 }
 
 uint32_t open_seq() {
@@ -691,6 +701,11 @@ void process(const WindowSums& w) {
   GPIOR1 = 3;  // observer marker (timed in simulation)
   const hpddo::Estimate est = g_obs.step(s);
   GPIOR1 = 4;
+#if defined(ACQ_RIPPLE_HZ) && ACQ_RIPPLE_COUNT
+  GPIOR1 = 5;  // ripple counter's window marker (timed in simulation)
+  const ripple::WindowRipple rip = ripple::on_window(model::kModel.physics, w.seq, m.v_V, m.i_A, s.dt_s, est.rpm);
+  GPIOR1 = 6;
+#endif
 #endif
 
   if (g_plan.protocol() != kProtoNone) {
@@ -721,6 +736,9 @@ void process(const WindowSums& w) {
     format_row(lw, r);
 #if !defined(ACQ_NO_OBSERVER)
     format_estimate(lw, est.rpm, static_cast<uint8_t>(est.status));
+#if defined(ACQ_RIPPLE_HZ) && ACQ_RIPPLE_COUNT
+    ripple::format_window(lw, rip);
+#endif
 #endif
     lw.put('\n');
     Serial.write(lw.c_str(), lw.length());

@@ -23,6 +23,12 @@ period's start, whether the ADC started, and every ADC interrupt. Then:
   hpddo.logs.ripple.read;
 * the stack's low-water mark stays above the static RAM (printed).
 
+With --count (uno_acq built with -DACQ_RIPPLE_COUNT=1, item 5: the bursts counted on the
+board, not sent), every row's rpm_rip, ra_ohm and tw_C must equal the host's reference
+(hpddo.model.ripple_count.track: the same integer counter, the same Ra tracker) run on the
+codes fed and the window's V and I, and the count, Ra and winding temperature are compared
+with the twin's truth. Without --twin it makes one (`hpddo twin --protocol load`).
+
 With --twin LOG (a twin bench log with its <condition>.ripple.csv, `hpddo twin --ripple-hz
 10000`), the board is driven with the twin's V, I and speed and fed the twin's current codes,
 and the speed from the board's bursts (hpddo.model.ripple, as `hpddo ripple`) is compared with
@@ -108,6 +114,58 @@ def compare_with_twin(a, twin, path, df, windows):
           f"({int(both.sum())} windows)")
 
 
+def check_count(a, twin, df, windows, feed_codes, n_feed_windows, win_periods, n_burst, lsb_v, lsb_i):
+    """The board's rpm_rip, ra_ohm, tw_C against the host's reference on the same codes and
+    means, then against the twin's truth."""
+    import numpy as np
+    from hpddo.model import export
+    from hpddo.model import ripple_count as rc
+    for col in ("rpm_rip", "ra_ohm", "tw_C"):
+        if col not in df:
+            fail(f"no {col} column: not the counting build")
+    model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
+    start = win_periods - n_burst
+    bursts, v, i = [], [], []
+    for s in df["seq"]:
+        w = windows[int(s)]
+        bursts.append(feed_codes[w["index"] % n_feed_windows][start:start + n_burst])
+        v.append((w["v_mV"] * 1023 // 5000 + 0.5) * lsb_v)
+        i.append((w["i_mV"] * 1023 // 5000 + 0.5) * lsb_i)
+    per_rev = 6 * HW.gear_ratio
+    ref = rc.track(bursts, v, i, df["rpm_est"].to_numpy(), 1.0 / a.rate, model.physics, float(a.hz), per_rev)
+    worst = [0.0, 0.0, 0.0]
+    for row, r in zip(df.itertuples(), ref):
+        got_conf = np.isfinite(row.rpm_rip)
+        if got_conf != r["confident"]:
+            fail(f"seq {row.seq}: board confident={got_conf} ({row.rpm_rip}), reference {r['confident']} "
+                 f"({r['rpm']:.3f} RPM, {r['rises']} rises, k {r['k']})")
+        if got_conf:
+            worst[0] = max(worst[0], abs(row.rpm_rip - r["rpm"]))
+        if np.isfinite(row.ra_ohm) != r["have_ra"]:
+            fail(f"seq {row.seq}: board has Ra {row.ra_ohm}, reference {r['have_ra']}")
+        if r["have_ra"]:
+            worst[1] = max(worst[1], abs(row.ra_ohm - r["ra_ohm"]))
+            worst[2] = max(worst[2], abs(row.tw_C - r["tw_C"]))
+    print(f"counter: {len(df)} windows, {int(np.isfinite(df['rpm_rip']).sum())} confident; the board equals the "
+          f"reference: rpm_rip within {worst[0]:.4f} RPM (printed with 2 decimals), Ra within {worst[1]:.5f} ohm, "
+          f"T within {worst[2]:.3f} K")
+    if worst[0] > 0.006 or worst[1] > 2e-3 or worst[2] > 0.15:
+        fail("the board's counter or Ra tracker differs from the reference")
+    # against the twin's truth
+    truth = read_log(a.twin).df  # noqa: F841 (the encoder)
+    tcsv = np.genfromtxt(str(a.twin).replace(".csv", ".truth.csv"), delimiter=",", names=True)
+    idx = np.array([windows[int(s)]["index"] % n_feed_windows for s in df["seq"]])
+    rpm_true = tcsv["rpm_true"][idx]
+    ok = np.isfinite(df["rpm_rip"].to_numpy())
+    e = (df["rpm_rip"].to_numpy()[ok] - rpm_true[ok]) / rpm_true[ok]
+    ra_ok = np.isfinite(df["ra_ohm"].to_numpy())
+    era = (df["ra_ohm"].to_numpy()[ra_ok] - tcsv["ra_ohm"][idx][ra_ok]) / tcsv["ra_ohm"][idx][ra_ok]
+    etw = df["tw_C"].to_numpy()[ra_ok] - tcsv["winding_C"][idx][ra_ok]
+    print(f"against the twin's truth: ripple speed RMS {100 * np.sqrt(np.mean(e ** 2)):.3f} %, max "
+          f"{100 * np.max(np.abs(e)):.2f} % ({ok.sum()} windows); Ra max |error| {100 * np.max(np.abs(era)):.2f} %, "
+          f"winding temperature max |error| {np.max(np.abs(etw)):.2f} K ({ra_ok.sum()} windows with Ra)")
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--harness", required=True)
@@ -120,8 +178,14 @@ def main():
     ap.add_argument("--twin", type=pathlib.Path, default=None,
                     help="drive and feed from this twin log and its bursts (2 Hz, ripple at --hz); --rate "
                          "and --duty then come from it")
+    ap.add_argument("--count", action="store_true", help="the counting build (-DACQ_RIPPLE_COUNT=1)")
     a = ap.parse_args()
     twin = None
+    if a.count and a.twin is None:
+        a.twin = pathlib.Path(a.workdir) / "twin" / "load.csv"
+        subprocess.run([sys.executable, "-m", "hpddo", "twin", "--protocol", "load", "--ripple-hz", str(a.hz),
+                        "--time-scale", "0.1", "--out", str(a.twin.parent)], check=True, capture_output=True,
+                       env={"PYTHONPATH": str(ROOT / "tools"), "PATH": "/usr/bin:/bin"})
     if a.twin is not None:
         twin = read_log(a.twin)
         tb = ripple_file.read(ripple_file.path_for(a.twin))
@@ -160,18 +224,19 @@ def main():
     # from the simulated RAM at the end: how close the ring came to losing samples.
     ring = [l.split() for l in subprocess.run(["avr-nm", "-S", a.elf], capture_output=True, text=True,
                                                check=True).stdout.splitlines() if l.endswith("_ZN3acq6ripple6g_ringE")]
-    ring_addr, ring_size = int(ring[0][0], 16) & 0xFFFF, int(ring[0][1], 16)
-    ring_n = (ring_size - 3) // 2
-    res = subprocess.run(cmd, capture_output=True, text=True, timeout=600,
-                         env={"UNO_SIM_RIPPLE": str(work / "feed.txt"), "PATH": "/usr/bin:/bin",
-                              "UNO_SIM_PEEK": hex(ring_addr + 2 * ring_n + 2)})
+    env = {"UNO_SIM_RIPPLE": str(work / "feed.txt"), "PATH": "/usr/bin:/bin"}
+    if ring:  # the sending build's ring (the counting build has none)
+        ring_addr, ring_size = int(ring[0][0], 16) & 0xFFFF, int(ring[0][1], 16)
+        ring_n = (ring_size - 3) // 2
+        env["UNO_SIM_PEEK"] = hex(ring_addr + 2 * ring_n + 2)
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
     print(res.stdout.strip())
     if res.returncode != 0:
         fail(f"harness exit {res.returncode}: {res.stderr.strip()}")
     summary = [l for l in res.stdout.splitlines() if l.startswith("uno_sim ripple:") and " triggers, " in l][0]
     no_edge = int(summary.split(" triggers, ")[1].split()[0])
     sp_room = int(summary.split("(")[1].split()[0])
-    ring_peak = int([l for l in res.stdout.splitlines() if "peek" in l][0].split("= ")[1])
+    ring_peak = int([l for l in res.stdout.splitlines() if "peek" in l][0].split("= ")[1]) if ring else None
 
     # ---- the host stream: the log without the '!' and '~' lines, the chunks
     host = (work / "host.txt").read_text()
@@ -218,7 +283,7 @@ def main():
 
     # ---- every recorded window has its whole burst, equal to the codes fed
     lost = 0
-    for s in seqs:
+    for s in ([] if a.count else seqs):
         b = by_seq.get(s)
         if b is None:
             lost += 1
@@ -254,9 +319,16 @@ def main():
             fail(f"seq {s}: chunk phase {b.phase_cycles} != OCR1B {in_win[0]['ocr1b']} + sample-and-hold")
     if lost:
         fail(f"{lost} recorded windows without a whole burst")
-    print(f"bursts: {len(seqs)} windows, each burst's {n_burst} codes equal those fed in its last {n_burst} periods "
-          f"(no sample lost, duplicated or out of order); {not_started} matches before a burst (after the arm) "
-          f"started no conversion")
+    for s in seqs:  # every period of each burst triggered a conversion
+        w_open, w_close = windows[s - 1]["close"], windows[s]["close"]
+        in_win = [t for t in trig if w_open <= t["t"] < w_close][-n_burst:]
+        if len(in_win) < n_burst or any(t["started"] != 1 for t in in_win):
+            fail(f"seq {s}: the burst's {n_burst} periods did not each start a conversion")
+    if not a.count:
+        print(f"bursts: {len(seqs)} windows, each burst's {n_burst} codes equal those fed in its last {n_burst} "
+              f"periods (no sample lost, duplicated or out of order)")
+    print(f"triggers: every one of the {n_burst} periods of each of the {len(seqs)} bursts started a conversion; "
+          f"{not_started} matches before a burst (after the arm) started none")
 
     # ---- rate and phase
     in_bursts = [t for s in seqs for t in [t for t in trig if windows[s - 1]["close"] <= t["t"] < windows[s]["close"]][-n_burst:]]
@@ -318,13 +390,14 @@ def main():
     sim_s = (t1 - t0) / F_CPU
     chunk_chars = sum(len(l) + 1 for _, l in chunk_lines if True)
     all_chars = sum(len(l) + 1 for l in lines[start:])
-    per_s = chunk_chars / (len(chunk_lines) and sim_s)
+    per_s = chunk_chars / sim_s
     n_chunks_rec = sum(1 for _, l in chunk_lines)
-    print(f"line: the bursts take {chunk_chars / len(seqs):.0f} characters a window "
-          f"({chunk_chars / len(seqs) * a.rate:.0f}/s average, {82 * a.hz / 32:.0f}/s while a burst runs) of "
-          f"{BAUD // 10} characters/s at {BAUD} baud; all lines {all_chars / len(seqs) * a.rate:.0f}/s "
-          f"({100 * all_chars / len(seqs) * a.rate / (BAUD / 10):.0f} %); at 115200 baud the bursts alone would need "
-          f"{100 * 82 * a.hz / 32 / 11520:.0f} % of the line while they run")
+    if chunk_lines:
+        print(f"line: the bursts take {chunk_chars / len(seqs):.0f} characters a window "
+              f"({chunk_chars / len(seqs) * a.rate:.0f}/s average, {82 * a.hz / 32:.0f}/s while a burst runs) of "
+              f"{BAUD // 10} characters/s at {BAUD} baud; all lines {all_chars / len(seqs) * a.rate:.0f}/s "
+              f"({100 * all_chars / len(seqs) * a.rate / (BAUD / 10):.0f} %); at 115200 baud the bursts alone would "
+              f"need {100 * 82 * a.hz / 32 / 11520:.0f} % of the line while they run")
     del per_s, n_chunks_rec
 
     # ---- V and I means of the free-running part
@@ -337,6 +410,14 @@ def main():
             if abs(got - exact) > 6e-5:
                 fail(f"seq {row.seq}: {name} {got} is not the mean of the codes driven ({exact:.6f})")
     print(f"V and I: every row the mean of the free-running conversions driven")
+
+    if a.count:
+        check_count(a, twin, df, windows, feed_codes, n_feed_windows, win_periods, n_burst, lsb_v, lsb_i)
+        print(f"stack: low-water mark {sp_room} bytes above the static RAM")
+        if sp_room < 64:
+            fail("the stack came within 64 bytes of the static RAM")
+        print("PASS")
+        return
 
     # ---- the burst file hpddo ripple reads
     t_start = {int(r.seq): float(r.t_s) for r in df.itertuples()}

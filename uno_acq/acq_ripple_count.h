@@ -1,0 +1,194 @@
+// The ripple counter on the board (issue 23, item 5): in the ADC interrupt, on each current
+// sample of a burst (acq_ripple_board.h), integer filters and a zero-crossing count; in the
+// main loop, per window, the ripple frequency, the output speed, and where the count is
+// confident the armature resistance Ra = (V - brush drop - Ke w) / I and the winding
+// temperature from copper's coefficient (RippleRa). Host reference, the same integer
+// arithmetic: tools/hpddo/model/ripple_count.py; simavr proves the two equal
+// (check_uno_ripple.py --count). docs/ripple.md, "The ripple counter on the board".
+//
+// Per sample x (10-bit code), all integers, shifts arithmetic; the band in 16 bits (Q4, a
+// sixteenth of a code: the AVR shifts 16 bits by a variable count at half the cost of 32,
+// and 32-bit shifts other than by 8 cost a loop):
+//   h   = x << 4                           Q4, h < 2^14
+//   l1 += (h - l1) >> k;  l2 += (l1 - l2) >> k     two low-pass poles at fs / (2 pi 2^k)
+//   b  += (l2 - b) >> (k + 2);  y = l2 - b          a high-pass pole at a quarter of that, which
+//                                                   also takes out the mean current: a band
+//   a  += |y| - (a >> 8)                   32 bits: 256 x the mean |y| (0.64 of a sine's amplitude)
+//   rising crossing: y << 9 > a after y << 9 < -a (y beyond half the mean |y|: hysteresis),
+//   counted after the settling
+// k is set per window from the back-EMF prior so that the band's upper corner is near twice
+// the expected ripple frequency: the sub-harmonics of rotor asymmetry (f/2, f/3, f/6) fall
+// below its lower corner (f/2), the noise above. The count's frequency must then lie within
+// kRippleCountPriorTol of the prior, else the window is not confident (an octave or a
+// sub-harmonic counted) and Ra is left alone.
+#ifndef HPDDO_ACQ_RIPPLE_COUNT_H
+#define HPDDO_ACQ_RIPPLE_COUNT_H
+
+#include <math.h>
+#include <stdint.h>
+
+#include "hpddo/params_gen.h"
+#include "hpddo/physics.h"
+
+/// Ripples per motor revolution (2 x commutator segments for two brushes), the user's figure
+/// as `hpddo ripple --ripples-per-rev`; the gear ratio is the bench's (bench_gen.h).
+#ifndef ACQ_RIPPLES_PER_REV
+#define ACQ_RIPPLES_PER_REV 6
+#endif
+
+namespace acq {
+
+static const uint8_t kRippleAmpShift = 8;
+static const uint8_t kRippleLpMin = 2;   ///< k range: band corners at fs/(2 pi 4) .. fs/(2 pi 1024)
+static const uint8_t kRippleLpMax = 10;
+static const float kRippleCountPriorTol = 0.25f;  ///< |f / f_prior - 1| at most for a confident count
+
+/// The counter's state; the ADC interrupt calls sample() on each burst code.
+struct RippleCounter {
+  int32_t amp;
+  int16_t l1, l2, b;
+  uint8_t k;        ///< low-pass shift of this burst
+  uint8_t high;     ///< 1 after y rose above +a/2, 0 after it fell below -a/2
+  uint16_t n;       ///< samples of this burst so far
+  uint16_t settle;  ///< crossings before this sample are not counted
+  uint16_t rises;   ///< rising crossings counted
+  uint16_t first;   ///< sample index of the first counted rising crossing
+  uint16_t last;    ///< and of the last
+};
+
+inline void ripple_counter_reset(RippleCounter* c) {
+  c->l1 = c->l2 = c->b = 0;
+  c->amp = 0;
+  c->k = 5;
+  c->high = 0;
+  c->n = c->settle = c->rises = c->first = c->last = 0;
+}
+
+/// A new burst with low-pass shift k; the filter states carry over from the last burst (the
+/// mean current changes little between bursts), the first 4 x 2^(k+2) samples settle them
+/// (8 x for the first burst, from zero).
+inline void ripple_counter_begin(RippleCounter* c, uint8_t k, bool first_burst) {
+  c->k = k;
+  c->n = 0;
+  c->rises = c->first = c->last = 0;
+  const uint32_t settle = static_cast<uint32_t>(first_burst ? 8u : 4u) << (k + 2u);
+  c->settle = static_cast<uint16_t>(settle > 60000u ? 60000u : settle);
+}
+
+/// One current code (the ADC interrupt; docs/ripple.md has its cycles on the AVR).
+// Not inlined: the ADC interrupt then saves only the registers of its own paths (the
+// free-running conversions keep their 143 cycles), and this body its own.
+__attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, uint16_t x) {
+  const int16_t h = static_cast<int16_t>(x << 4);
+  const uint8_t k = c->k;
+  c->l1 = static_cast<int16_t>(c->l1 + (static_cast<int16_t>(h - c->l1) >> k));
+  c->l2 = static_cast<int16_t>(c->l2 + (static_cast<int16_t>(c->l1 - c->l2) >> k));
+  c->b = static_cast<int16_t>(c->b + (static_cast<int16_t>(c->l2 - c->b) >> (k + 2u)));
+  const int16_t y = static_cast<int16_t>(c->l2 - c->b);
+  c->amp += static_cast<int32_t>(y < 0 ? -y : y) - (c->amp >> kRippleAmpShift);
+  const int32_t y9 = static_cast<int32_t>(y) << 9;
+  if (!c->high) {
+    if (y9 > c->amp) {
+      c->high = 1;
+      if (c->n >= c->settle) {
+        if (!c->rises) c->first = c->n;
+        c->last = c->n;
+        ++c->rises;
+      }
+    }
+  } else if (y9 < -c->amp) {
+    c->high = 0;
+  }
+  ++c->n;
+}
+
+/// The low-pass shift for an expected ripple frequency f_hz at fs_hz: two-pole corner near 2 f.
+inline uint8_t ripple_lp_shift(float f_hz, float fs_hz) {
+  if (!(f_hz > 0.0f)) return 5;
+  const float ratio = fs_hz / (6.2831853f * 2.0f * f_hz);  // 2^k
+  uint8_t k = kRippleLpMin;
+  while (k < kRippleLpMax && static_cast<float>(1u << (k + 1u)) <= ratio * 1.41421356f) ++k;
+  return k;
+}
+
+/// What a burst's count gives: the ripple frequency over the counted cycles (rises - 1
+/// cycles from the first to the last rising crossing), false with fewer than 2 rises.
+inline bool ripple_counter_hz(uint16_t rises, uint16_t first, uint16_t last, float fs_hz, float* f_hz) {
+  if (rises < 2 || last <= first) return false;
+  *f_hz = static_cast<float>(rises - 1u) * fs_hz / static_cast<float>(last - first);
+  return true;
+}
+
+static const float kRippleFloorA = 0.10f;        ///< no Ra below this mean current (the host's floor)
+static const uint8_t kRippleKeCalWindows = 8;    ///< confident windows that calibrate Ke, cold
+static const float kRippleRaTauS = 10.0f;        ///< time constant of the Ra filter, s
+static const float kRippleMinDen = 1.0e-3f;      ///< V/K: below, the temperature is not observable
+
+/// Ra and the winding temperature from the ripple speed. The first kRippleKeCalWindows
+/// confident windows calibrate Ke with Ra at the model's reference (the motor is cold, at
+/// t_ref_C, when the board starts): Ke = (V - brush drop - I Ra) / w. After that each
+/// confident window gives Ra = (V - brush drop - Ke w) / I, filtered with kRippleRaTauS, and
+/// the winding temperature T = t_ref + (Ra / Ra0 - 1) / copper's coefficient
+/// (hpddo::kMaterialThermalRa, generated from tools/hpddo/schema.py). Where the model has
+/// magnet_thermal, Ke falls with the magnets' temperature, taken as the winding's: the two
+/// are solved together, T - t_ref = (V - Vb - Ke w - I Ra0) / (I Ra0 a + Ke w b).
+struct RippleRa {
+  float ke_sum;    ///< sum of the calibration windows' Ke, V s/rad
+  float ke_cal;    ///< calibrated Ke at t_ref_C and zero current, V s/rad
+  float ra_ohm;    ///< filtered Ra, ohm
+  float tw_C;      ///< winding temperature, C
+  uint8_t n_cal;   ///< calibration windows so far
+  bool have;       ///< ra_ohm and tw_C hold values
+};
+
+inline void ripple_ra_reset(RippleRa* r) {
+  r->ke_sum = r->ke_cal = r->ra_ohm = r->tw_C = 0.0f;
+  r->n_cal = 0;
+  r->have = false;
+}
+
+/// One window with a confident ripple speed rpm (output shaft) and the window's measured V,
+/// I and length dt_s; true when r holds Ra and the winding temperature.
+inline bool ripple_ra_step(const hpddo::PhysicsParams& p, float v_V, float i_A, float rpm, float dt_s,
+                           RippleRa* r) {
+  const float v = hpddo::true_voltage_V(p, v_V);
+  const float i = hpddo::true_current_A(p, i_A);
+  if (!(i >= kRippleFloorA) || !(rpm > 0.0f)) return r->have;
+  const float w = rpm / hpddo::kRpmPerRadS;
+  const float vb = hpddo::brush_drop_V(p, i);
+  const float sat = hpddo::ke_at_vs_per_rad(p, p.t_ref_C, i) / p.ke_vs_per_rad;  // armature reaction at i
+  if (r->n_cal < kRippleKeCalWindows) {
+    r->ke_sum += (v - vb - i * p.ra_ohm) / (w * sat);
+    if (++r->n_cal == kRippleKeCalWindows) {
+      r->ke_cal = r->ke_sum / static_cast<float>(kRippleKeCalWindows);
+      r->ra_ohm = p.ra_ohm;
+      r->tw_C = p.t_ref_C;
+      r->have = true;
+    }
+    return r->have;
+  }
+  const float a = hpddo::kMaterialThermalRa;
+  const float ke = r->ke_cal * sat;
+  float ra;
+  if (p.ke_tc_per_K != 0.0f) {
+    const float den = i * p.ra_ohm * a + ke * w * p.ke_tc_per_K;
+    if (!(den > kRippleMinDen || den < -kRippleMinDen)) return r->have;
+    ra = p.ra_ohm * (1.0f + a * ((v - vb - ke * w - i * p.ra_ohm) / den));
+  } else {
+    ra = (v - vb - ke * w) / i;
+  }
+  r->ra_ohm += (ra - r->ra_ohm) * (dt_s / (kRippleRaTauS + dt_s));
+  r->tw_C = p.t_ref_C + (r->ra_ohm / p.ra_ohm - 1.0f) / a;
+  return true;
+}
+
+/// Whether a counted frequency is the prior's line: within kRippleCountPriorTol of it.
+inline bool ripple_count_confident(float f_hz, float f_prior_hz) {
+  if (!(f_prior_hz > 0.0f)) return false;
+  const float q = f_hz / f_prior_hz - 1.0f;
+  return q <= kRippleCountPriorTol && q >= -kRippleCountPriorTol;
+}
+
+}  // namespace acq
+
+#endif  // HPDDO_ACQ_RIPPLE_COUNT_H
