@@ -120,14 +120,16 @@ inline bool ripple_counter_hz(uint16_t rises, uint16_t first, uint16_t last, flo
 }
 
 static const float kRippleFloorA = 0.10f;        ///< no Ra below this mean current (the host's floor)
-static const uint8_t kRippleKeCalWindows = 8;    ///< confident windows that calibrate Ke, cold
+static const float kRippleKeCalS = 1.0f;         ///< confident windows over this long calibrate Ke, cold, s
+static const float kRippleRaGate = 0.08f;        ///< an Ra this far from the filtered one is a V or I glitch
 static const float kRippleRaTauS = 10.0f;        ///< time constant of the Ra filter, s
 static const float kRippleMinDen = 1.0e-3f;      ///< V/K: below, the temperature is not observable
 
-/// Ra and the winding temperature from the ripple speed. The first kRippleKeCalWindows
+/// Ra and the winding temperature from the ripple speed. The first kRippleKeCalS of
 /// confident windows calibrate Ke with Ra at the model's reference (the motor is cold, at
 /// t_ref_C, when the board starts): Ke = (V - brush drop - I Ra) / w. After that each
-/// confident window gives Ra = (V - brush drop - Ke w) / I, filtered with kRippleRaTauS, and
+/// confident window gives Ra = (V - brush drop - Ke w) / I (one more than kRippleRaGate from
+/// the filtered Ra is left out: a glitch of V or I), filtered with kRippleRaTauS, and
 /// the winding temperature T = t_ref + (Ra / Ra0 - 1) / copper's coefficient
 /// (hpddo::kMaterialThermalRa, generated from tools/hpddo/schema.py). Where the model has
 /// magnet_thermal, Ke falls with the magnets' temperature, taken as the winding's: the two
@@ -157,10 +159,12 @@ inline bool ripple_ra_step(const hpddo::PhysicsParams& p, float v_V, float i_A, 
   const float w = rpm / hpddo::kRpmPerRadS;
   const float vb = hpddo::brush_drop_V(p, i);
   const float sat = hpddo::ke_at_vs_per_rad(p, p.t_ref_C, i) / p.ke_vs_per_rad;  // armature reaction at i
-  if (r->n_cal < kRippleKeCalWindows) {
+  const float cal_windows = kRippleKeCalS / dt_s;
+  const uint8_t n_cal = static_cast<uint8_t>(cal_windows < 1.5f ? 1.0f : (cal_windows > 100.0f ? 100.0f : cal_windows + 0.5f));
+  if (r->n_cal < n_cal) {
     r->ke_sum += (v - vb - i * p.ra_ohm) / (w * sat);
-    if (++r->n_cal == kRippleKeCalWindows) {
-      r->ke_cal = r->ke_sum / static_cast<float>(kRippleKeCalWindows);
+    if (++r->n_cal == n_cal) {
+      r->ke_cal = r->ke_sum / static_cast<float>(n_cal);
       r->ra_ohm = p.ra_ohm;
       r->tw_C = p.t_ref_C;
       r->have = true;
@@ -177,7 +181,9 @@ inline bool ripple_ra_step(const hpddo::PhysicsParams& p, float v_V, float i_A, 
   } else {
     ra = (v - vb - ke * w) / i;
   }
-  r->ra_ohm += (ra - r->ra_ohm) * (dt_s / (kRippleRaTauS + dt_s));
+  const float dev = ra - r->ra_ohm;
+  if (dev > kRippleRaGate * r->ra_ohm || dev < -kRippleRaGate * r->ra_ohm) return true;
+  r->ra_ohm += dev * (dt_s / (kRippleRaTauS + dt_s));
   r->tw_C = p.t_ref_C + (r->ra_ohm / p.ra_ohm - 1.0f) / a;
   return true;
 }

@@ -92,9 +92,10 @@ def burst_hz(rises: int, first: int, last: int, fs_hz: float) -> float:
 
 
 FLOOR_A = 0.10          # acq_ripple_count.h kRippleFloorA
-KE_CAL_WINDOWS = 8      # kRippleKeCalWindows
+KE_CAL_S = 1.0          # kRippleKeCalS
 RA_TAU_S = 10.0         # kRippleRaTauS
 MIN_DEN = 1.0e-3        # kRippleMinDen
+RA_GATE = 0.08          # kRippleRaGate
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
 
@@ -121,11 +122,13 @@ class RaTracker:
         w = rpm / RPM_PER_RAD_S
         vb = float(ph.brush_drop_V(p, i))
         sat = float(ph.ke_at_vs_per_rad(p, p.t_ref_C, i)) / p.ke_vs_per_rad
-        if self.n_cal < KE_CAL_WINDOWS:
+        cal = KE_CAL_S / dt_s
+        n_cal = 1 if cal < 1.5 else (100 if cal > 100 else int(cal + 0.5))
+        if self.n_cal < n_cal:
             self.ke_sum += (v - vb - i * p.ra_ohm) / (w * sat)
             self.n_cal += 1
-            if self.n_cal == KE_CAL_WINDOWS:
-                self.ke_cal = self.ke_sum / KE_CAL_WINDOWS
+            if self.n_cal == n_cal:
+                self.ke_cal = self.ke_sum / n_cal
                 self.ra_ohm, self.tw_C, self.have = p.ra_ohm, p.t_ref_C, True
             return self.have
         ke = self.ke_cal * sat
@@ -136,6 +139,8 @@ class RaTracker:
             ra = p.ra_ohm * (1.0 + ALPHA_CU * ((v - vb - ke * w - i * p.ra_ohm) / den))
         else:
             ra = (v - vb - ke * w) / i
+        if abs(ra - self.ra_ohm) > RA_GATE * self.ra_ohm:  # a glitch of V or I, not the copper
+            return True
         self.ra_ohm += (ra - self.ra_ohm) * (dt_s / (RA_TAU_S + dt_s))
         self.tw_C = p.t_ref_C + (self.ra_ohm / p.ra_ohm - 1.0) / ALPHA_CU
         return True
