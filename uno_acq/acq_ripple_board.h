@@ -65,7 +65,11 @@ struct State {
   uint16_t sent;                ///< samples of slot_r taken from the ring
   Slot slot[kSlots];
   volatile uint16_t not_started;  ///< windows whose burst could not start (the ADC was not armed)
-  volatile uint16_t overflows;    ///< bursts cut short by a full ring
+  volatile uint16_t overflows;    ///< bursts cut short by a full ring; codes lost to nesting
+  volatile bool busy;             ///< the ADC interrupt is taking a triggered code
+  volatile bool has_pend;         ///< a nested interrupt left its code in pend
+  volatile uint16_t pend;
+  volatile uint16_t deferred;     ///< codes taken from a nested interrupt
   uint32_t chunks;                ///< chunks sent
   // the ripple counter (acq_ripple_count.h): the ADC interrupt counts, the main loop reads
   volatile uint8_t next_k;        ///< low-pass shift for the next burst (main loop, from the prior)
@@ -161,6 +165,45 @@ inline uint16_t trigger_for(const PwmTiming& t, uint16_t ocr1a, uint16_t duty_q)
   return ripple_trigger(t, ocr1a, duty_q, g.rt.sh_cycles);
 }
 
+/// One triggered conversion's code (on_adc, not nested).
+__attribute__((always_inline)) inline void triggered_sample(uint16_t code) {
+  cli();
+  const uint16_t left = g.left;
+  const uint8_t w = g.slot_w;
+  if (left) g.left = static_cast<uint16_t>(left - 1u);
+  sei();
+  if (!left) return;  // a trigger between the arm and the burst: not a sample
+  Slot& s = g.slot[static_cast<uint8_t>(w - 1u) & (kSlots - 1)];
+#if ACQ_RIPPLE_COUNT
+  ripple_counter_sample(&g_counter, code);
+  if (left == 1u) {  // the burst's last sample: its count, for the main loop's window
+    g.count.seq = s.seq;
+    g.count.rises = g_counter.rises;
+    g.count.first = g_counter.first;
+    g.count.last = g_counter.last;
+    g.count.k = g_counter.k;
+    g.count.valid = true;
+    g.counted_burst = true;
+  }
+#endif
+#if ACQ_RIPPLE_STREAM
+  if (g_ring.push(code)) {
+    s.pushed = static_cast<uint16_t>(s.pushed + 1u);
+  } else {
+    ++g.overflows;  // the burst ends here; the host sees it incomplete and leaves it out
+    cli();
+    g.left = 0;
+    sei();
+  }
+#else
+  s.pushed = static_cast<uint16_t>(s.pushed + 1u);
+#endif
+  if (left == 1u || !g.left) {
+    s.open = false;
+    free_running();  // the V/I conversions of the next window
+  }
+}
+
 /// ADC interrupt, after the atomic read of code and the window's sums: true when the
 /// conversion was the ripple mode's (a triggered one, or the last free-running one before
 /// the trigger is armed, added to acc here); false: the normal path goes on.
@@ -168,41 +211,30 @@ template <class AccT>
 __attribute__((always_inline)) inline bool on_adc(uint16_t code, AccT* acc) {
   if (ADCSRA & _BV(ADATE)) {
     TIFR1 = _BV(OCF1B);  // the trigger is the flag's rising edge: clear it for the next one
+    // The interrupt runs with interrupts on, so others (the window close, the USART) can
+    // hold it past the next conversion, whose interrupt would then nest: that one hands its
+    // code to this one, which takes it in order when done (two held at once: one lost, counted).
     cli();
-    const uint16_t left = g.left;
-    const uint8_t w = g.slot_w;
-    if (left) g.left = static_cast<uint16_t>(left - 1u);
-    sei();
-    if (!left) return true;  // a trigger between the arm and the burst: not a sample
-    Slot& s = g.slot[static_cast<uint8_t>(w - 1u) & (kSlots - 1)];
-#if ACQ_RIPPLE_COUNT
-    ripple_counter_sample(&g_counter, code);
-    if (left == 1u) {  // the burst's last sample: its count, for the main loop's window
-      g.count.seq = s.seq;
-      g.count.rises = g_counter.rises;
-      g.count.first = g_counter.first;
-      g.count.last = g_counter.last;
-      g.count.k = g_counter.k;
-      g.count.valid = true;
-      g.counted_burst = true;
+    if (g.busy) {
+      if (g.has_pend) ++g.overflows;
+      g.pend = code;
+      g.has_pend = true;
+      sei();
+      return true;
     }
-#endif
-#if ACQ_RIPPLE_STREAM
-    if (g_ring.push(code)) {
-      s.pushed = static_cast<uint16_t>(s.pushed + 1u);
-    } else {
-      ++g.overflows;  // the burst ends here; the host sees it incomplete and leaves it out
+    g.busy = true;
+    sei();
+    for (;;) {
+      triggered_sample(code);
       cli();
-      g.left = 0;
+      if (!g.has_pend) break;
+      code = g.pend;
+      g.has_pend = false;
+      ++g.deferred;
       sei();
     }
-#else
-    s.pushed = static_cast<uint16_t>(s.pushed + 1u);
-#endif
-    if (left == 1u || !g.left) {
-      s.open = false;
-      free_running();  // the V/I conversions of the next window
-    }
+    g.busy = false;
+    sei();
     return true;
   }
   if (!g.arm) return false;
@@ -232,6 +264,7 @@ struct WindowRipple {
 };
 
 RippleRa g_ra;
+uint32_t g_ra_from_seq;  ///< Ra is tracked from this window on (a recording's first)
 
 /// A recording starts with window first_seq (main loop): the counter starts afresh at that
 /// window's burst (its band from the reset, k = 5), and Ke is calibrated again from there: the
@@ -242,6 +275,7 @@ inline void on_recording(uint32_t first_seq) {
   g.reset_pending = true;
   sei();
   ripple_ra_reset(&g_ra);
+  g_ra_from_seq = first_seq;
 }
 
 /// Main loop, after the observer's step on window seq (v_V, i_A its means, dt_s its length,
@@ -263,7 +297,8 @@ inline WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float
   }
   const float f_prior = rpm_prior > 0.0f ? rpm_prior * per_rev / 60.0f : 0.0f;
   if (c.valid && c.seq == seq && f > 0.0f) out.confident = ripple_count_confident(f, f_prior);
-  out.have_ra = out.confident ? ripple_ra_step(p, v_V, i_A, out.rpm, dt_s, &g_ra) : g_ra.have;
+  const bool track = out.confident && static_cast<int32_t>(seq - g_ra_from_seq) >= 0;
+  out.have_ra = track ? ripple_ra_step(p, v_V, i_A, out.rpm, dt_s, &g_ra) : g_ra.have;
   out.ra_ohm = g_ra.ra_ohm;
   out.tw_C = g_ra.tw_C;
   // The next window's burst (its last periods: it has not begun) is counted in the band of

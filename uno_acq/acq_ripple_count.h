@@ -6,15 +6,15 @@
 // arithmetic: tools/hpddo/model/ripple_count.py; simavr proves the two equal
 // (check_uno_ripple.py --count). docs/ripple.md, "The ripple counter on the board".
 //
-// Per sample x (10-bit code), all integers, shifts arithmetic; the band in 16 bits (Q4, a
-// sixteenth of a code: the AVR shifts 16 bits by a variable count at half the cost of 32,
-// and 32-bit shifts other than by 8 cost a loop):
-//   h   = x << 4                           Q4, h < 2^14
+// Per sample x (10-bit code), all integers, shifts arithmetic, 32 bits (Q8: a shift by 8 is
+// a byte move on the AVR; a pole shifted by s does not move for a difference under 2^s
+// units, so 16-bit Q4 states stuck up to 8 codes off the mean at s = 7, which a test showed):
+//   h   = x << 8                           Q8, h < 2^18
 //   l1 += (h - l1) >> k;  l2 += (l1 - l2) >> k     two low-pass poles at fs / (2 pi 2^k)
 //   b  += (l2 - b) >> (k + 2);  y = l2 - b          a high-pass pole at a quarter of that, which
 //                                                   also takes out the mean current: a band
 //   a  += |y| - (a >> 8)                   32 bits: 256 x the mean |y| (0.64 of a sine's amplitude)
-//   rising crossing: y << 9 > a after y << 9 < -a (y beyond half the mean |y|: hysteresis),
+//   rising crossing: 512 y > a after 512 y < -a (y beyond half the mean |y|: hysteresis),
 //   counted after the settling
 // k is set per window from the back-EMF prior so that the band's upper corner is near twice
 // the expected ripple frequency: the sub-harmonics of rotor asymmetry (f/2, f/3, f/6) fall
@@ -45,8 +45,7 @@ static const float kRippleCountPriorTol = 0.25f;  ///< |f / f_prior - 1| at most
 
 /// The counter's state; the ADC interrupt calls sample() on each burst code.
 struct RippleCounter {
-  int32_t amp;
-  int16_t l1, l2, b;
+  int32_t l1, l2, b, amp;
   uint8_t k;        ///< low-pass shift of this burst
   uint8_t high;     ///< 1 after y rose above +a/2, 0 after it fell below -a/2
   uint16_t n;       ///< samples of this burst so far
@@ -57,8 +56,7 @@ struct RippleCounter {
 };
 
 inline void ripple_counter_reset(RippleCounter* c) {
-  c->l1 = c->l2 = c->b = 0;
-  c->amp = 0;
+  c->l1 = c->l2 = c->b = c->amp = 0;
   c->k = 5;
   c->high = 0;
   c->n = c->settle = c->rises = c->first = c->last = 0;
@@ -79,14 +77,14 @@ inline void ripple_counter_begin(RippleCounter* c, uint8_t k, bool first_burst) 
 // Not inlined: the ADC interrupt then saves only the registers of its own paths (the
 // free-running conversions keep their 143 cycles), and this body its own.
 __attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, uint16_t x) {
-  const int16_t h = static_cast<int16_t>(x << 4);
+  const int32_t h = static_cast<int32_t>(x) << 8;
   const uint8_t k = c->k;
-  c->l1 = static_cast<int16_t>(c->l1 + (static_cast<int16_t>(h - c->l1) >> k));
-  c->l2 = static_cast<int16_t>(c->l2 + (static_cast<int16_t>(c->l1 - c->l2) >> k));
-  c->b = static_cast<int16_t>(c->b + (static_cast<int16_t>(c->l2 - c->b) >> (k + 2u)));
-  const int16_t y = static_cast<int16_t>(c->l2 - c->b);
-  c->amp += static_cast<int32_t>(y < 0 ? -y : y) - (c->amp >> kRippleAmpShift);
-  const int32_t y9 = static_cast<int32_t>(y) << 9;
+  c->l1 += (h - c->l1) >> k;
+  c->l2 += (c->l1 - c->l2) >> k;
+  c->b += (c->l2 - c->b) >> (k + 2u);
+  const int32_t y = c->l2 - c->b;
+  c->amp += (y < 0 ? -y : y) - (c->amp >> kRippleAmpShift);
+  const int32_t y9 = y * 512;  // not y << 9: a negative y would be undefined
   if (!c->high) {
     if (y9 > c->amp) {
       c->high = 1;

@@ -9,7 +9,10 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "acq_ripple.h"
+#include "acq_ripple_count.h"
 #include "hpddo/crc.h"
 
 namespace {
@@ -133,6 +136,54 @@ TEST(AcqRipple, RingKeepsOrderAndRefusesWhenFull) {
   EXPECT_EQ(out[0], 5);
   EXPECT_EQ(out[3], 100);
   EXPECT_EQ(out[7], 104);
+}
+
+// The counter on a sampled sine of known frequency (plus a mean and a sub-harmonic at f/2)
+// counts it: rises - 1 cycles between the first and the last rise.
+TEST(AcqRippleCount, CountsTheLineOfAKnownFrequency) {
+  const float fs = 10000.0f;
+  for (float f : {30.0f, 79.0f, 110.0f}) {
+    acq::RippleCounter c;
+    acq::ripple_counter_reset(&c);
+    const uint8_t k = acq::ripple_lp_shift(f, fs);
+    acq::ripple_counter_begin(&c, k, true);
+    for (int n = 0; n < 20000; ++n) {
+      const double t = n / static_cast<double>(fs);
+      const double fd = static_cast<double>(f);
+      const double x = 100.0 + 6.0 * std::sin(2 * M_PI * fd * t) + 1.5 * std::sin(M_PI * fd * t + 0.3);
+      acq::ripple_counter_sample(&c, static_cast<uint16_t>(x + 0.5));
+    }
+    float got = 0.0f;
+    ASSERT_TRUE(acq::ripple_counter_hz(c.rises, c.first, c.last, fs, &got)) << f;
+    EXPECT_NEAR(got, f, 0.002f * f) << "k " << int(k);
+    EXPECT_TRUE(acq::ripple_count_confident(got, f * 1.1f));
+    EXPECT_FALSE(acq::ripple_count_confident(got / 2.0f, f));  // the octave below is refused
+  }
+  EXPECT_EQ(acq::ripple_lp_shift(79.0f, 10000.0f), 3);   // 2^3: a corner near 2 f
+  EXPECT_EQ(acq::ripple_lp_shift(30.0f, 10000.0f), 5);
+  EXPECT_EQ(acq::ripple_lp_shift(0.0f, 10000.0f), 5);
+}
+
+// Ra from exact inputs: the calibrated Ke, then the copper's rise through Ra(T).
+TEST(AcqRippleCount, RaAndTemperatureFromExactInputs) {
+  hpddo::PhysicsParams p = {};
+  p.ra_ohm = 4.5f;
+  p.ke_vs_per_rad = 0.4f;
+  p.t_ref_C = 30.0f;
+  acq::RippleRa r;
+  acq::ripple_ra_reset(&r);
+  const float ke = 0.4f, w = 12.0f, i = 0.9f, dt = 0.5f;
+  for (int n = 0; n < 2; ++n)  // one second of cold windows calibrates Ke
+    EXPECT_EQ(acq::ripple_ra_step(p, ke * w + i * 4.5f, i, w * hpddo::kRpmPerRadS, dt, &r), n == 1);
+  EXPECT_NEAR(r.ke_cal, ke, 1e-5f);
+  const float ra_hot = 4.5f * (1.0f + hpddo::kMaterialThermalRa * 10.0f);  // 10 K warmer
+  for (int n = 0; n < 400; ++n) acq::ripple_ra_step(p, ke * w + i * ra_hot, i, w * hpddo::kRpmPerRadS, dt, &r);
+  EXPECT_NEAR(r.ra_ohm, ra_hot, 1e-3f);
+  EXPECT_NEAR(r.tw_C, 40.0f, 0.05f);
+  const float before = r.ra_ohm;  // a glitch of V is left out
+  acq::ripple_ra_step(p, ke * w + i * ra_hot + 2.0f, i, w * hpddo::kRpmPerRadS, dt, &r);
+  EXPECT_EQ(r.ra_ohm, before);
+  EXPECT_FLOAT_EQ(hpddo::kMaterialThermalRa, 0.00393f);  // copper's, generated from the schema
 }
 
 }  // namespace

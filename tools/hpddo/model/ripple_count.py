@@ -49,8 +49,8 @@ class Counter:
         """ripple_counter_sample on each code, in order."""
         l1, l2, b, amp, k, high = self.l1, self.l2, self.b, self.amp, self.k, self.high
         n, settle, rises, first, last = self.n, self.settle, self.rises, self.first, self.last
-        for x in codes:  # the widths of the C++ (16-bit band, 32-bit dc and amp) never overflow
-            h = int(x) << 4
+        for x in codes:  # the C++'s 32-bit states never overflow (h < 2^18, amp < 2^27)
+            h = int(x) << 8
             l1 += (h - l1) >> k
             l2 += (l1 - l2) >> k
             b += (l2 - b) >> (k + 2)
