@@ -73,12 +73,13 @@ struct State {
   uint32_t chunks;                ///< chunks sent
   // the ripple counter (acq_ripple_count.h): the ADC interrupt counts, the main loop reads
   volatile uint8_t next_k;        ///< low-pass shift for the next burst (main loop, from the prior)
+  volatile uint16_t next_t_exp;   ///< expected ripple period for the next burst, PWM periods (0: none)
   volatile bool counted_burst;    ///< a burst has been counted since configure()
   volatile uint32_t reset_seq;    ///< the counter starts afresh at this window's burst
   volatile bool reset_pending;
   struct Count {
     uint32_t seq;
-    uint16_t rises, first, last;
+    uint16_t cyc, span;
     uint8_t k;
     bool valid;
   } count;                        ///< the last whole burst's count (set at its last sample)
@@ -112,6 +113,7 @@ inline bool configure(uint32_t hz, uint16_t window_periods, uint32_t baud) {
   g_ring.clear();
   ripple_counter_reset(&g_counter);
   g.next_k = g_counter.k;
+  g.next_t_exp = 0;
   g.counted_burst = false;
   g.count.valid = false;
   ADCSRB = 0;
@@ -153,9 +155,10 @@ __attribute__((always_inline)) inline void on_period(uint16_t p, uint32_t seq) {
     g.reset_pending = false;
     ripple_counter_reset(&g_counter);
     g.next_k = g_counter.k;
+    g.next_t_exp = 0;
     g.counted_burst = false;
   }
-  ripple_counter_begin(&g_counter, g.next_k, !g.counted_burst);
+  ripple_counter_begin(&g_counter, g.next_k, g.next_t_exp, g.burst_period, !g.counted_burst);
   g.count.valid = false;
 #endif
 }
@@ -178,10 +181,10 @@ __attribute__((always_inline)) inline void triggered_sample(uint16_t code) {
   ripple_counter_sample(&g_counter, code);
   if (left == 1u) {  // the burst's last sample: its count, for the main loop's window
     g.count.seq = s.seq;
-    g.count.rises = g_counter.rises;
-    g.count.first = g_counter.first;
-    g.count.last = g_counter.last;
+    g.count.cyc = g_counter.cyc;
+    g.count.span = g_counter.span;
     g.count.k = g_counter.k;
+    g_counter.cyc = g_counter.span = 0;
     g.count.valid = true;
     g.counted_burst = true;
   }
@@ -265,6 +268,7 @@ struct WindowRipple {
 
 RippleRa g_ra;
 uint32_t g_ra_from_seq;  ///< Ra is tracked from this window on (a recording's first)
+float g_cnt_cyc, g_cnt_span;  ///< the recent bursts' cycles and PWM periods (kRippleCountTauS)
 
 /// A recording starts with window first_seq (main loop): the counter starts afresh at that
 /// window's burst (its band from the reset, k = 5), and Ke is calibrated again from there: the
@@ -276,6 +280,7 @@ inline void on_recording(uint32_t first_seq) {
   sei();
   ripple_ra_reset(&g_ra);
   g_ra_from_seq = first_seq;
+  g_cnt_cyc = g_cnt_span = 0.0f;
 }
 
 /// Main loop, after the observer's step on window seq (v_V, i_A its means, dt_s its length,
@@ -291,19 +296,24 @@ inline WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float
   cli();
   const State::Count c = g.count;
   sei();
-  float f = 0.0f;
-  if (c.valid && c.seq == seq && ripple_counter_hz(c.rises, c.first, c.last, fs, &f)) {
-    out.rpm = f * 60.0f / per_rev;
+  if (c.valid && c.seq == seq && static_cast<int32_t>(seq - g_ra_from_seq) >= 0) {
+    const float keep = dt_s < kRippleCountTauS ? 1.0f - dt_s / kRippleCountTauS : 0.0f;
+    g_cnt_cyc = g_cnt_cyc * keep + static_cast<float>(c.cyc);
+    g_cnt_span = g_cnt_span * keep + static_cast<float>(c.span);
   }
+  float f = 0.0f;
+  if (ripple_counter_hz(g_cnt_cyc, g_cnt_span, fs, &f)) out.rpm = f * 60.0f / per_rev;
   const float f_prior = rpm_prior > 0.0f ? rpm_prior * per_rev / 60.0f : 0.0f;
-  if (c.valid && c.seq == seq && f > 0.0f) out.confident = ripple_count_confident(f, f_prior);
+  if (f > 0.0f && g_cnt_cyc >= kRippleMinCycles) out.confident = ripple_count_confident(f, f_prior);
   const bool track = out.confident && static_cast<int32_t>(seq - g_ra_from_seq) >= 0;
   out.have_ra = track ? ripple_ra_step(p, v_V, i_A, out.rpm, dt_s, &g_ra) : g_ra.have;
   out.ra_ohm = g_ra.ra_ohm;
   out.tw_C = g_ra.tw_C;
   // The next window's burst (its last periods: it has not begun) is counted in the band of
-  // this window's prior.
-  g.next_k = ripple_lp_shift(f_prior, fs);
+  // this window's prior, at the decimated rate, and across its gap with this expected period.
+  g.next_k = ripple_lp_shift(f_prior, 0.5f * fs);
+  const float t_exp = f_prior > 0.0f ? fs / f_prior + 0.5f : 0.0f;
+  g.next_t_exp = static_cast<uint16_t>(t_exp > 65535.0f ? 65535.0f : t_exp);
   return out;
 }
 

@@ -6,7 +6,7 @@
 // arithmetic: tools/hpddo/model/ripple_count.py; simavr proves the two equal
 // (check_uno_ripple.py --count). docs/ripple.md, "The ripple counter on the board".
 //
-// Per sample x (10-bit code), all integers, shifts arithmetic, 32 bits (Q8: a shift by 8 is
+// Per filtered code x (every other one, 10-bit), all integers, shifts arithmetic, 32 bits (Q8: a shift by 8 is
 // a byte move on the AVR; a pole shifted by s does not move for a difference under 2^s
 // units, so 16-bit Q4 states stuck up to 8 codes off the mean at s = 7, which a test showed):
 //   h   = x << 8                           Q8, h < 2^18
@@ -15,7 +15,8 @@
 //                                                   also takes out the mean current: a band
 //   a  += |y| - (a >> 8)                   32 bits: 256 x the mean |y| (0.64 of a sine's amplitude)
 //   rising crossing: 512 y > a after 512 y < -a (y beyond half the mean |y|: hysteresis),
-//   counted after the settling
+//   counted after the settling: cycles and their PWM periods from one rise to the next, across
+//   the gaps between bursts where the expected period (the prior) says how many
 // k is set per window from the back-EMF prior so that the band's upper corner is near twice
 // the expected ripple frequency: the sub-harmonics of rotor asymmetry (f/2, f/3, f/6) fall
 // below its lower corner (f/2), the noise above. The count's frequency must then lie within
@@ -46,37 +47,56 @@ static const float kRippleCountPriorTol = 0.25f;  ///< |f / f_prior - 1| at most
 /// The counter's state; the ADC interrupt calls sample() on each burst code.
 struct RippleCounter {
   int32_t l1, l2, b, amp;
-  uint8_t k;        ///< low-pass shift of this burst
-  uint8_t high;     ///< 1 after y rose above +a/2, 0 after it fell below -a/2
-  uint16_t n;       ///< samples of this burst so far
-  uint16_t settle;  ///< crossings before this sample are not counted
-  uint16_t rises;   ///< rising crossings counted
-  uint16_t first;   ///< sample index of the first counted rising crossing
-  uint16_t last;    ///< and of the last
+  uint8_t k;         ///< low-pass shift of this burst (at the decimated rate)
+  uint8_t high;      ///< 1 after y rose above +a/2, 0 after it fell below -a/2
+  uint8_t odd;       ///< decimation: every other code is filtered
+  uint8_t have_last; ///< last_t holds a counted rise
+  uint16_t settle;   ///< filtered codes still to settle before a crossing counts
+  uint16_t t;        ///< PWM period clock across bursts (wraps)
+  uint16_t last_t;   ///< period of the last rise
+  uint16_t t15, t25; ///< 1.5 and 2.5 expected ripple periods, in PWM periods (from the prior)
+  uint16_t cyc;      ///< ripple cycles counted since the last latch
+  uint16_t span;     ///< PWM periods they took
 };
 
 inline void ripple_counter_reset(RippleCounter* c) {
   c->l1 = c->l2 = c->b = c->amp = 0;
   c->k = 5;
-  c->high = 0;
-  c->n = c->settle = c->rises = c->first = c->last = 0;
+  c->high = c->odd = c->have_last = 0;
+  c->settle = c->t = c->last_t = c->t15 = c->t25 = c->cyc = c->span = 0;
 }
 
-/// A new burst with low-pass shift k; the filter states carry over from the last burst (the
-/// mean current changes little between bursts), the first 4 x 2^(k+2) samples settle them
-/// (8 x for the first burst, from zero).
-inline void ripple_counter_begin(RippleCounter* c, uint8_t k, bool first_burst) {
+/// A new burst, gap PWM periods after the last one's end, with low-pass shift k and the
+/// expected ripple period t_exp (PWM periods; 0: no prior, nothing counted). The filter states
+/// carry over (the mean current changes little between bursts); after a reset the first
+/// 8 x 2^(k+2) filtered codes settle them, across bursts, and after a gap longer than the count
+/// bridges (2.5 expected periods: the 2 Hz windows' 103 ms) the first 4 x 2^(k+2).
+__attribute__((noinline)) inline void ripple_counter_begin(RippleCounter* c, uint8_t k, uint16_t t_exp, uint16_t gap,
+                                                            bool first_burst) {
   c->k = k;
-  c->n = 0;
-  c->rises = c->first = c->last = 0;
-  const uint32_t settle = static_cast<uint32_t>(first_burst ? 8u : 4u) << (k + 2u);
-  c->settle = static_cast<uint16_t>(settle > 60000u ? 60000u : settle);
+  c->odd = 0;
+  c->t = static_cast<uint16_t>(c->t + gap);
+  const uint32_t t15 = (3u * static_cast<uint32_t>(t_exp)) / 2u, t25 = (5u * static_cast<uint32_t>(t_exp)) / 2u;
+  c->t15 = static_cast<uint16_t>(t15 > 65535u ? 65535u : t15);
+  c->t25 = static_cast<uint16_t>(t25 > 65535u ? 65535u : t25);
+  if (first_burst || gap > c->t25) {  // from zero, or after a gap longer than the count bridges
+    const uint32_t settle = static_cast<uint32_t>(first_burst ? 8u : 4u) << (k + 2u);
+    c->settle = static_cast<uint16_t>(settle > 60000u ? 60000u : settle);
+  }
 }
 
-/// One current code (the ADC interrupt; docs/ripple.md has its cycles on the AVR).
-// Not inlined: the ADC interrupt then saves only the registers of its own paths (the
-// free-running conversions keep their 143 cycles), and this body its own.
+/// One current code (the ADC interrupt; docs/ripple.md has its cycles on the AVR). Every
+/// other code is filtered (5 kHz at 10 kHz: 45 codes a cycle at the fastest ripple, 110 Hz),
+/// which halves the cost. A rise 1 to 1.5 expected periods after the last counts one cycle,
+/// 1.5 to 2.5 two (one fell in a gap between bursts, or its crossing was lost), a longer one
+/// none (the gap of a long window): so the count runs across bursts whose gaps are shorter
+/// than a ripple period, as at 100 Hz windows.
+// Not inlined: the ADC interrupt then saves only the registers of its own paths, and this
+// body its own.
 __attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, uint16_t x) {
+  c->t = static_cast<uint16_t>(c->t + 1u);
+  c->odd ^= 1u;
+  if (!c->odd) return;
   const int32_t h = static_cast<int32_t>(x) << 8;
   const uint8_t k = c->k;
   c->l1 += (h - c->l1) >> k;
@@ -88,16 +108,25 @@ __attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, ui
   if (!c->high) {
     if (y9 > c->amp) {
       c->high = 1;
-      if (c->n >= c->settle) {
-        if (!c->rises) c->first = c->n;
-        c->last = c->n;
-        ++c->rises;
+      if (!c->settle) {
+        if (c->have_last) {
+          const uint16_t iv = static_cast<uint16_t>(c->t - c->last_t);
+          if (iv <= c->t15) {
+            ++c->cyc;
+            c->span = static_cast<uint16_t>(c->span + iv);
+          } else if (iv <= c->t25) {
+            c->cyc = static_cast<uint16_t>(c->cyc + 2u);
+            c->span = static_cast<uint16_t>(c->span + iv);
+          }
+        }
+        c->last_t = c->t;
+        c->have_last = 1;
       }
     }
   } else if (y9 < -c->amp) {
     c->high = 0;
   }
-  ++c->n;
+  if (c->settle) --c->settle;
 }
 
 /// The low-pass shift for an expected ripple frequency f_hz at fs_hz: two-pole corner near 2 f.
@@ -109,13 +138,18 @@ inline uint8_t ripple_lp_shift(float f_hz, float fs_hz) {
   return k;
 }
 
-/// What a burst's count gives: the ripple frequency over the counted cycles (rises - 1
-/// cycles from the first to the last rising crossing), false with fewer than 2 rises.
-inline bool ripple_counter_hz(uint16_t rises, uint16_t first, uint16_t last, float fs_hz, float* f_hz) {
-  if (rises < 2 || last <= first) return false;
-  *f_hz = static_cast<float>(rises - 1u) * fs_hz / static_cast<float>(last - first);
+/// The ripple frequency of counted cycles over span PWM periods at fs_hz; false without.
+inline bool ripple_counter_hz(float cyc, float span, float fs_hz, float* f_hz) {
+  if (!(cyc >= 1.0f) || !(span > 0.0f)) return false;
+  *f_hz = cyc * fs_hz / span;
   return true;
 }
+
+/// The counts of the recent bursts, each window's weighted by 1 - dt / tau per window older
+/// (kRippleCountTauS; none for windows of tau or longer): at 100 Hz windows a burst holds
+/// less than a ripple cycle.
+static const float kRippleCountTauS = 0.25f;
+static const float kRippleMinCycles = 3.0f;  ///< weighted cycles at least for a confident speed
 
 static const float kRippleFloorA = 0.10f;        ///< no Ra below this mean current (the host's floor)
 static const float kRippleKeCalS = 1.0f;         ///< confident windows over this long calibrate Ke, cold, s
@@ -149,7 +183,7 @@ inline void ripple_ra_reset(RippleRa* r) {
 
 /// One window with a confident ripple speed rpm (output shaft) and the window's measured V,
 /// I and length dt_s; true when r holds Ra and the winding temperature.
-inline bool ripple_ra_step(const hpddo::PhysicsParams& p, float v_V, float i_A, float rpm, float dt_s,
+__attribute__((noinline)) inline bool ripple_ra_step(const hpddo::PhysicsParams& p, float v_V, float i_A, float rpm, float dt_s,
                            RippleRa* r) {
   const float v = hpddo::true_voltage_V(p, v_V);
   const float i = hpddo::true_current_A(p, i_A);

@@ -132,13 +132,14 @@ def check_count(a, twin, df, windows, feed_codes, n_feed_windows, win_periods, n
         v.append((w["v_mV"] * 1023 // 5000 + 0.5) * lsb_v)
         i.append((w["i_mV"] * 1023 // 5000 + 0.5) * lsb_i)
     per_rev = 6 * HW.gear_ratio
-    ref = rc.track(bursts, v, i, df["rpm_est"].to_numpy(), 1.0 / a.rate, model.physics, float(a.hz), per_rev)
+    ref = rc.track(bursts, v, i, df["rpm_est"].to_numpy(), 1.0 / a.rate, model.physics, float(a.hz), per_rev,
+                   win_periods - n_burst)
     worst = [0.0, 0.0, 0.0]
     for row, r in zip(df.itertuples(), ref):
         got_conf = np.isfinite(row.rpm_rip)
         if got_conf != r["confident"]:
             fail(f"seq {row.seq}: board confident={got_conf} ({row.rpm_rip}), reference {r['confident']} "
-                 f"({r['rpm']:.3f} RPM, {r['rises']} rises, k {r['k']})")
+                 f"({r['rpm']:.3f} RPM, {r['cyc']} cycles, k {r['k']})")
         if got_conf:
             worst[0] = max(worst[0], abs(row.rpm_rip - r["rpm"]))
         if np.isfinite(row.ra_ohm) != r["have_ra"]:
@@ -179,6 +180,8 @@ def main():
                     help="drive and feed from this twin log and its bursts (2 Hz, ripple at --hz); --rate "
                          "and --duty then come from it")
     ap.add_argument("--count", action="store_true", help="the counting build (-DACQ_RIPPLE_COUNT=1)")
+    ap.add_argument("--measure", action="store_true",
+                    help="print the figures even when the harness reports link errors or missing rows (not a test)")
     a = ap.parse_args()
     twin = None
     if a.count and a.twin is None:
@@ -231,8 +234,11 @@ def main():
         env["UNO_SIM_PEEK"] = hex(ring_addr + 2 * ring_n + 2)
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
     print(res.stdout.strip())
-    if res.returncode != 0:
+    if res.returncode != 0 and not (a.measure and res.returncode == 1):
         fail(f"harness exit {res.returncode}: {res.stderr.strip()}")
+    if res.returncode:
+        print(f"MEASURE ONLY: the harness reported link framing or marker errors, or missing rows (exit 1); "
+              f"the figures below are printed, not a pass")
     summary = [l for l in res.stdout.splitlines() if l.startswith("uno_sim ripple:") and " triggers, " in l][0]
     no_edge = int(summary.split(" triggers, ")[1].split()[0])
     sp_room = int(summary.split("(")[1].split()[0])

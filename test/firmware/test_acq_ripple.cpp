@@ -139,14 +139,14 @@ TEST(AcqRipple, RingKeepsOrderAndRefusesWhenFull) {
 }
 
 // The counter on a sampled sine of known frequency (plus a mean and a sub-harmonic at f/2)
-// counts it: rises - 1 cycles between the first and the last rise.
+// counts it: cycles from rise to rise over the PWM periods they took.
 TEST(AcqRippleCount, CountsTheLineOfAKnownFrequency) {
   const float fs = 10000.0f;
   for (float f : {30.0f, 79.0f, 110.0f}) {
     acq::RippleCounter c;
     acq::ripple_counter_reset(&c);
-    const uint8_t k = acq::ripple_lp_shift(f, fs);
-    acq::ripple_counter_begin(&c, k, true);
+    const uint8_t k = acq::ripple_lp_shift(f, 0.5f * fs);  // filtered at the decimated 5 kHz
+    acq::ripple_counter_begin(&c, k, static_cast<uint16_t>(fs / f + 0.5f), 0, true);
     for (int n = 0; n < 20000; ++n) {
       const double t = n / static_cast<double>(fs);
       const double fd = static_cast<double>(f);
@@ -154,7 +154,7 @@ TEST(AcqRippleCount, CountsTheLineOfAKnownFrequency) {
       acq::ripple_counter_sample(&c, static_cast<uint16_t>(x + 0.5));
     }
     float got = 0.0f;
-    ASSERT_TRUE(acq::ripple_counter_hz(c.rises, c.first, c.last, fs, &got)) << f;
+    ASSERT_TRUE(acq::ripple_counter_hz(c.cyc, c.span, fs, &got)) << f;
     EXPECT_NEAR(got, f, 0.002f * f) << "k " << int(k);
     EXPECT_TRUE(acq::ripple_count_confident(got, f * 1.1f));
     EXPECT_FALSE(acq::ripple_count_confident(got / 2.0f, f));  // the octave below is refused
@@ -162,6 +162,32 @@ TEST(AcqRippleCount, CountsTheLineOfAKnownFrequency) {
   EXPECT_EQ(acq::ripple_lp_shift(79.0f, 10000.0f), 3);   // 2^3: a corner near 2 f
   EXPECT_EQ(acq::ripple_lp_shift(30.0f, 10000.0f), 5);
   EXPECT_EQ(acq::ripple_lp_shift(0.0f, 10000.0f), 5);
+}
+
+// Across gaps shorter than a ripple period (100 Hz windows: 64 of 100 periods), a crossing in
+// a gap is bridged by the expected period: the count is the line's.
+TEST(AcqRippleCount, CountsAcrossGapsShorterThanAPeriod) {
+  const float fs = 10000.0f, f = 79.0f;
+  acq::RippleCounter c;
+  acq::ripple_counter_reset(&c);
+  const uint8_t k = acq::ripple_lp_shift(f, 0.5f * fs);
+  long period = 0;
+  float cyc = 0.0f, span = 0.0f;
+  for (int w = 0; w < 300; ++w) {
+    acq::ripple_counter_begin(&c, k, static_cast<uint16_t>(fs / f + 0.5f), 36, w == 0);
+    period += 36;
+    for (int j = 0; j < 64; ++j, ++period) {
+      const double x = 100.0 + 6.0 * std::sin(2 * M_PI * static_cast<double>(f) * static_cast<double>(period) / 10000.0);
+      acq::ripple_counter_sample(&c, static_cast<uint16_t>(x + 0.5));
+    }
+    cyc += c.cyc;
+    span += c.span;
+    c.cyc = c.span = 0;
+  }
+  float got = 0.0f;
+  ASSERT_TRUE(acq::ripple_counter_hz(cyc, span, fs, &got));
+  EXPECT_NEAR(got, f, 0.003f * f);
+  EXPECT_GT(cyc, 200.0f);  // most of the 237 cycles of the 3 s
 }
 
 // Ra from exact inputs: the calibrated Ke, then the copper's rise through Ra(T).

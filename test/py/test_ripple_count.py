@@ -17,9 +17,9 @@ def test_counts_a_line_of_known_frequency(f):
     n = np.arange(20000)
     x = np.floor(100 + 6 * np.sin(2 * np.pi * f * n / 1e4) + 1.5 * np.sin(np.pi * f * n / 1e4 + 0.3) + 0.5)
     c = rc.Counter()
-    c.begin(rc.lp_shift(f, 1e4), True)
+    c.begin(rc.lp_shift(f, 5e3), int(1e4 / f + 0.5), 0, True)  # the band at the decimated 5 kHz
     c.run(x.astype(int))
-    got = rc.burst_hz(c.rises, c.first, c.last, 1e4)
+    got = rc.counter_hz(*c.latch(), 1e4)
     assert got == pytest.approx(f, rel=0.002)
     assert rc.confident(got, 1.1 * f) and not rc.confident(got / 2, f)
 

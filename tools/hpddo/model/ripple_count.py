@@ -34,42 +34,65 @@ class Counter:
     amp: int = 0
     k: int = 5
     high: int = 0
-    n: int = 0
+    odd: int = 0
+    have_last: int = 0
     settle: int = 0
-    rises: int = 0
-    first: int = 0
-    last: int = 0
+    t: int = 0
+    last_t: int = 0
+    t15: int = 0
+    t25: int = 0
+    cyc: int = 0
+    span: int = 0
 
-    def begin(self, k: int, first_burst: bool) -> None:
+    def begin(self, k: int, t_exp: int, gap: int, first_burst: bool) -> None:
         """acq_ripple_count.h ripple_counter_begin."""
-        self.k, self.n, self.rises, self.first, self.last = k, 0, 0, 0, 0
-        self.settle = min(60000, (8 if first_burst else 4) << (k + 2))
+        self.k, self.odd = k, 0
+        self.t = (self.t + gap) & 0xFFFF
+        self.t15, self.t25 = min(65535, 3 * t_exp // 2), min(65535, 5 * t_exp // 2)
+        if first_burst or gap > self.t25:
+            self.settle = min(60000, (8 if first_burst else 4) << (k + 2))
 
     def run(self, codes) -> None:
-        """ripple_counter_sample on each code, in order."""
-        l1, l2, b, amp, k, high = self.l1, self.l2, self.b, self.amp, self.k, self.high
-        n, settle, rises, first, last = self.n, self.settle, self.rises, self.first, self.last
-        for x in codes:  # the C++'s 32-bit states never overflow (h < 2^18, amp < 2^27)
+        """ripple_counter_sample on each code, in order (the C++'s 32-bit states never
+        overflow: h < 2^18, |y| < 2^18, amp < 2^27; the 16-bit clock wraps as there)."""
+        l1, l2, b, amp, k, high, odd = self.l1, self.l2, self.b, self.amp, self.k, self.high, self.odd
+        settle, t, last_t, have_last = self.settle, self.t, self.last_t, self.have_last
+        t15, t25, cyc, span = self.t15, self.t25, self.cyc, self.span
+        for x in codes:
+            t = (t + 1) & 0xFFFF
+            odd ^= 1
+            if not odd:
+                continue
             h = int(x) << 8
             l1 += (h - l1) >> k
             l2 += (l1 - l2) >> k
             b += (l2 - b) >> (k + 2)
             y = l2 - b
             amp += abs(y) - (amp >> AMP_SHIFT)
-            y9 = y << 9
+            y9 = y * 512
             if not high:
                 if y9 > amp:
                     high = 1
-                    if n >= settle:
-                        if not rises:
-                            first = n
-                        last = n
-                        rises += 1
+                    if not settle:
+                        if have_last:
+                            iv = (t - last_t) & 0xFFFF
+                            if iv <= t15:
+                                cyc, span = cyc + 1, (span + iv) & 0xFFFF
+                            elif iv <= t25:
+                                cyc, span = cyc + 2, (span + iv) & 0xFFFF
+                        last_t, have_last = t, 1
             elif y9 < -amp:
                 high = 0
-            n += 1
-        self.l1, self.l2, self.b, self.amp, self.high = l1, l2, b, amp, high
-        self.n, self.rises, self.first, self.last = n, rises, first, last
+            if settle:
+                settle -= 1
+        self.l1, self.l2, self.b, self.amp, self.high, self.odd = l1, l2, b, amp, high, odd
+        self.settle, self.t, self.last_t, self.have_last, self.cyc, self.span = settle, t, last_t, have_last, cyc, span
+
+    def latch(self) -> tuple:
+        """The count since the last latch (the board's at a burst's last code), zeroed."""
+        out = (self.cyc, self.span)
+        self.cyc = self.span = 0
+        return out
 
 
 def lp_shift(f_hz: float, fs_hz: float) -> int:
@@ -84,11 +107,15 @@ def lp_shift(f_hz: float, fs_hz: float) -> int:
     return k
 
 
-def burst_hz(rises: int, first: int, last: int, fs_hz: float) -> float:
-    """The frequency of a burst's count, NaN with fewer than 2 rises."""
-    if rises < 2 or last <= first:
+def counter_hz(cyc: float, span: float, fs_hz: float) -> float:
+    """acq_ripple_count.h ripple_counter_hz: NaN without a counted cycle."""
+    if not (cyc >= 1) or not (span > 0):
         return math.nan
-    return (rises - 1) * fs_hz / (last - first)
+    return cyc * fs_hz / span
+
+
+COUNT_TAU_S = 0.25      # kRippleCountTauS
+MIN_CYCLES = 3.0        # kRippleMinCycles
 
 
 FLOOR_A = 0.10          # acq_ripple_count.h kRippleFloorA
@@ -146,24 +173,30 @@ class RaTracker:
         return True
 
 
-def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per_output_rev: float):
-    """What the board computes over a recording (acq_ripple_board.h on_window with the counter
-    reset at the first window): bursts are the windows' current codes in order, v_V, i_A their
-    means, rpm_prior the observer's estimates (the back-EMF prior). One dict a window: rpm (the
-    count's speed, NaN without two rising crossings), confident, have_ra, ra_ohm, tw_C, k."""
+def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per_output_rev: float,
+          gap_periods: int):
+    """What the board computes over a recording (acq_ripple_board.h on_window, the counter reset
+    at the first window): bursts are the windows' current codes in order (each the window's
+    last periods, gap_periods after the previous burst's end), v_V, i_A their means, rpm_prior
+    the observer's estimates (the back-EMF prior). One dict a window: rpm (NaN without a
+    count), confident, have_ra, ra_ohm, tw_C, k."""
     c = Counter()
     ra = RaTracker(p)
-    k = 5
+    k, t_exp = 5, 0
+    cyc_w = span_w = 0.0
+    keep = float(np.float32(1) - np.float32(dt_s) / np.float32(COUNT_TAU_S)) if dt_s < COUNT_TAU_S else 0.0
     out = []
     for n, codes in enumerate(bursts):
-        c.begin(k, n == 0)
+        c.begin(k, t_exp, gap_periods, n == 0)
         c.run(codes)
-        f = burst_hz(c.rises, c.first, c.last, fs_hz)
-        rpm = f * 60.0 / ripples_per_output_rev if f == f else math.nan
+        cyc, span = c.latch()
+        cyc_w, span_w = cyc_w * keep + cyc, span_w * keep + span
+        f = counter_hz(cyc_w, span_w, fs_hz)
+        rpm = f * 60.0 / ripples_per_output_rev
         f_prior = rpm_prior[n] * ripples_per_output_rev / 60.0 if rpm_prior[n] > 0 else 0.0
-        conf = f == f and confident(f, f_prior)
+        conf = f == f and cyc_w >= MIN_CYCLES and confident(f, f_prior)
         have = ra.step(v_V[n], i_A[n], rpm, dt_s) if conf else ra.have
-        out.append(dict(rpm=rpm, confident=conf, have_ra=have, ra_ohm=ra.ra_ohm, tw_C=ra.tw_C, k=c.k,
-                        rises=c.rises))
-        k = lp_shift(f_prior, fs_hz)
+        out.append(dict(rpm=rpm, confident=conf, have_ra=have, ra_ohm=ra.ra_ohm, tw_C=ra.tw_C, k=c.k, cyc=cyc))
+        k = lp_shift(f_prior, 0.5 * fs_hz)
+        t_exp = min(65535, int(np.float32(fs_hz) / np.float32(f_prior) + np.float32(0.5))) if f_prior > 0 else 0
     return out

@@ -31,10 +31,14 @@ RIPPLES_PER_REV = 6  # the build's ACQ_RIPPLES_PER_REV
 
 
 def burst_n(window_periods: int) -> int:
-    """acq_ripple.h ripple_burst_samples for the counting build at 10 kHz (no line budget:
-    whole chunks of 32 in the window less its 20 % V/I share and 3 stop periods)."""
+    """acq_ripple.h ripple_burst_samples at 10 kHz and 500000 baud (whole chunks of 32 in the
+    window less its 20 % V/I share and 3 stop periods, within the line's budget)."""
     room = window_periods - window_periods * 0.2 - 3
-    return int(room) // 32 * 32
+    n = int(room) // 32 * 32
+    chars = 50000 * 0.8 * window_periods / 10000 - 96
+    while n and (n // 32) * 82 > chars:
+        n -= 32
+    return n
 
 
 def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, bench_twin=None, seed: int = 1,
@@ -54,7 +58,8 @@ def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, b
     n = burst_n(round(10000 / rate_hz))
     codes = [np.asarray(c)[len(c) - n:] for c in burst_codes]
     per_rev = RIPPLES_PER_REV * bench.HARDWARE.gear_ratio
-    rows = rc.track(codes, log["v_V"].to_numpy(), log["i_A"].to_numpy(), prior, dt, model.physics, 10000.0, per_rev)
+    rows = rc.track(codes, log["v_V"].to_numpy(), log["i_A"].to_numpy(), prior, dt, model.physics, 10000.0, per_rev,
+                    round(10000 / rate_hz) - n)
     rpm = np.array([r["rpm"] if r["confident"] else np.nan for r in rows])
     have = np.array([r["have_ra"] for r in rows])
     ra = np.array([r["ra_ohm"] for r in rows])
@@ -85,6 +90,7 @@ def main(argv=None) -> int:
          dict(protocol="long", rate_hz=2.0, bench_twin=params.with_effects(params.preset("default"),
                                                                            magnet_thermal=0.0))),
         ("load steps, 2 Hz, default twin", dict(protocol="load", rate_hz=2.0)),
+        ("long warm-up, 100 Hz, default twin", dict(protocol="long", rate_hz=100.0, time_scale=0.02)),
     ]
     out = {}
     print("| scenario | windows | confident | speed RMS / max % | windows with Ra | Ra RMS / max % | "
