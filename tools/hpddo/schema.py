@@ -593,6 +593,9 @@ def _params_h_body() -> str:
     all_bits = 0
     for e in EFFECTS:
         all_bits |= e.bit
+    materials = _comment_pad([(f"static const float kMaterial{e.cpp_name[len('kEffect'):]} = {e.material!r}f;",
+                               f"{e.name}: {e.material_name}, {_unit_words(e.unit)}")
+                              for e in EFFECTS if e.material is not None])
     return f"""#ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -611,6 +614,10 @@ enum Effect : uint16_t {{
 
 /// Every effect bit of the library.
 static const uint16_t kEffectsAll = 0x{all_bits:04x}u;
+
+/// The material constant of an effect (what a fitted coefficient is checked against; the
+/// board's ripple counter turns Ra into a winding temperature with copper's).
+{chr(10).join(materials)}
 
 /// Lumped parameters of one motor-drivetrain assembly, all in SI units, speed
 /// at the output shaft. Effect coefficients at zero switch their effect off.

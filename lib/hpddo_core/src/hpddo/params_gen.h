@@ -3,7 +3,7 @@
 // source: tools/hpddo/schema.py
 // generator: hpddo.schema 1
 // layout: crc32 0x71a0bead (kParamsSchema)
-// checksum: crc32 0xe67381f6 of the text below this banner
+// checksum: crc32 0x6529eaed of the text below this banner
 #ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -29,6 +29,11 @@ enum Effect : uint16_t {
 
 /// Every effect bit of the library.
 static const uint16_t kEffectsAll = 0x00ffu;
+
+/// The material constant of an effect (what a fitted coefficient is checked against; the
+/// board's ripple counter turns Ra into a winding temperature with copper's).
+static const float kMaterialThermalRa = 0.00393f;     ///< thermal_ra: copper, 1/K
+static const float kMaterialMagnetThermal = -0.002f;  ///< magnet_thermal: magnets, 1/K
 
 /// Lumped parameters of one motor-drivetrain assembly, all in SI units, speed
 /// at the output shaft. Effect coefficients at zero switch their effect off.
