@@ -132,6 +132,8 @@ class App {
   }
 
   const ModelT& model() const { return *model_; }
+  /// The model in force's dynamic family (kDynamicsOff where it names none).
+  const hpddo::DynamicsParams& dynamics() const { return *dynamics_; }
   uint32_t model_crc() const { return model_crc_; }
   bool uploaded() const { return active_slot_ >= 0; }
   ObserverT& observer() { return observer_; }
