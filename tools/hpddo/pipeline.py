@@ -124,8 +124,8 @@ def identify_dynamics(recs, m2: ph.PhysicsParams):
     if not fam.fast:
         slow = ", ".join(str(r.source) for r in recs)
         raise InputError(f"{slow}: --dynamics needs a recording at {family.MIN_RATE_HZ:g} Hz or faster (the fastest "
-                         f"here is at {fam.rate_hz:.3g} Hz, where a row averages over the motor's transients): "
-                         f"record {family.NEEDS}")
+                         f"here is at {fam.rate_hz:.3g} Hz, where a row averages over the motor's transients); "
+                         f"what would determine J, B and Tc: {family.NEEDS}")
     fast = ", ".join(str(r.source) for r in recs if r.name in fam.fast)
     for q in fam.quantities:
         if q.field != "la_H" and not q.determined:
