@@ -108,3 +108,24 @@ def test_the_diagnosis_next_command_names_the_family_only_when_it_is_named():
     for res in (dict(named, verdict="Nothing missing."),
                 dict(named, dynamics={"quantities": [dict(q[0], determined=False)] + q[1:]})):
         assert "--dynamics" not in diagnose_cli.next_steps(types.SimpleNamespace(to_json=lambda r=res: r), args)
+
+
+def test_a_fast_log_that_does_not_determine_j_is_refused_naming_it_and_why(monkeypatch):
+    """A fast recording whose steps do not hold J (here the identification says so): train names the
+    file, the quantity, why and what would determine it, before anything is trained or written."""
+    from hpddo import pipeline
+    from hpddo.diagnosis import dynamics as family
+    from hpddo.diagnosis.intervals import Interval
+    from hpddo.logs.errors import InputError
+    rec = types.SimpleNamespace(name="fast", source=ROOT / "x" / "fast.csv")
+    j = Interval("J", "j_kgm2", "kg m^2", 3e-4, None, None, False, why="1 usable duty step(s) (two or more needed)",
+                 needs=family.NEEDS)
+    monkeypatch.setattr(family, "identify", lambda *a, **k: family.Dynamics(
+        rate_hz=100.0, fast=["fast"], speed_from="encoder periods", quantities=[j]))
+    monkeypatch.setattr("hpddo.model.train.physics_rpm", lambda r, p: np.zeros(3))
+    m2 = types.SimpleNamespace(ra_ohm=4.5, ke_vs_per_rad=0.355, la_H=0.0)
+    with pytest.raises(InputError) as err:
+        pipeline.identify_dynamics([rec], m2)
+    text = str(err.value)
+    assert "\n" not in text and text.startswith(str(rec.source)), text
+    assert "J not determined by these recordings (1 usable duty step(s)" in text and family.NEEDS in text, text
