@@ -51,7 +51,7 @@ class FsStore : public infer::Store {
 
 SoftwareSerial g_link(kPinLinkRx, -1);
 FsStore g_store;
-infer::App<infer::model::Net> g_app(infer::model::kModel, infer::model::kChecksum, g_store);
+infer::App<infer::model::Net> g_app(infer::model::kModel, infer::model::kChecksum, g_store, infer::model::kDynamics);
 
 class SerialSink : public infer::LineSink {
  public:

@@ -38,9 +38,13 @@ class App {
 
   /// compiled: the model built into the firmware (kModel), crc its kChecksum; store: where
   /// models are kept (LittleFS on the board).
-  App(const ModelT& compiled, uint32_t compiled_crc, Store& store)
+  /// compiled_dynamics: the compiled model's dynamic family (its header's kDynamics; infer_model.h).
+  App(const ModelT& compiled, uint32_t compiled_crc, Store& store,
+      const hpddo::DynamicsParams& compiled_dynamics = hpddo::kDynamicsOff)
       : compiled_(compiled), compiled_crc_(compiled_crc), store_(store), model_(&compiled), model_crc_(compiled_crc),
-        active_slot_(-1), limits_(compiled.limits), rx_(&limits_), observer_(compiled), console_(*this), now_ms_(0),
+        compiled_dynamics_(compiled_dynamics), dynamics_(&compiled_dynamics),
+        active_slot_(-1), limits_(compiled.limits), rx_(&limits_), observer_(compiled, compiled_dynamics),
+        console_(*this), now_ms_(0),
         receiving_(false), expect_bytes_(0), got_bytes_(0), expect_crc_(0), running_crc_(0), next_seq_(0),
         last_chunk_ms_(0) {}
 
@@ -54,7 +58,7 @@ class App {
     }
     ArduinoJson::JsonDocument doc(&scratch_);
     doc["event"] = "ready";
-    doc["model_crc_ok"] = hpddo::model_checksum(*model_) == model_crc_;
+    doc["model_crc_ok"] = hpddo::model_checksum(*model_, *dynamics_) == model_crc_;
     doc["model"] = source();
     doc["model_crc"] = model_crc_;
     send_json(doc, out);
@@ -98,7 +102,7 @@ class App {
     if (strcmp(cmd, "status") == 0) {
       reply["model"] = source();
       reply["model_crc"] = model_crc_;
-      reply["model_crc_ok"] = hpddo::model_checksum(*model_) == model_crc_;
+      reply["model_crc_ok"] = hpddo::model_checksum(*model_, *dynamics_) == model_crc_;
       reply["frames"] = rx_.frames();
       reply["gaps"] = rx_.gaps();
       reply["lost"] = rx_.lost();
@@ -128,6 +132,8 @@ class App {
   }
 
   const ModelT& model() const { return *model_; }
+  /// The model in force's dynamic family (kDynamicsOff where it names none).
+  const hpddo::DynamicsParams& dynamics() const { return *dynamics_; }
   uint32_t model_crc() const { return model_crc_; }
   bool uploaded() const { return active_slot_ >= 0; }
   ObserverT& observer() { return observer_; }
@@ -269,8 +275,9 @@ class App {
     active_slot_ = k;
     model_ = k < 0 ? &compiled_ : &slots_[k].model;
     model_crc_ = k < 0 ? compiled_crc_ : slots_[k].crc;
+    dynamics_ = k < 0 ? &compiled_dynamics_ : &slots_[k].dynamics;
     limits_ = model_->limits;
-    observer_ = ObserverT(*model_);
+    observer_ = ObserverT(*model_, *dynamics_);
   }
 
   const ModelT& compiled_;
@@ -278,6 +285,8 @@ class App {
   Store& store_;
   const ModelT* model_;
   uint32_t model_crc_;
+  const hpddo::DynamicsParams& compiled_dynamics_;
+  const hpddo::DynamicsParams* dynamics_;  ///< the model in force's dynamic family (kDynamicsOff: none)
   int active_slot_;  ///< -1: the compiled model; 0 or 1: that slot
   ModelSlot<Net> slots_[2];
   hpddo::InputLimits limits_;  ///< the model in force's, which the link judges frames by

@@ -12,6 +12,8 @@
 #define HPDDO_MODEL_NS hpddo_model_default
 #endif
 
+#include "hpddo/dynamics.h"
+HPDDO_DYNAMICS_DEFAULT(HPDDO_MODEL_NS)  // model::kDynamics: the header's, or the family off
 #include HPDDO_MODEL_HEADER
 
 namespace infer {

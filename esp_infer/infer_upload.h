@@ -14,6 +14,10 @@
 //    "gate_prototypes":[160],"gate_r":[r_in_sq,r_out_sq],"clamp_rpm":<bits>,
 //    "limits":[v_max_V,i_max_A,temp_min_C,temp_max_C],"crc":<hpddo::model_checksum>}
 //
+// A model that names the dynamic family (hpddo/dynamics.h) adds "dynamics":[<4 float bits,
+// DynamicsParams in the schema's order>], and its crc covers them (model_checksum(model,
+// dynamics)); without the member the family is off.
+//
 // (a network with one hidden layer: "shape":[5,H1,1], "w1":[H1], "b1":[1], no w2, b2).
 // Refused, the model in force unchanged, with the reason: another format or parameter
 // layout, another network shape than the firmware's (with the command to rebuild), a
@@ -28,6 +32,7 @@
 
 #include <ArduinoJson.h>
 
+#include "hpddo/dynamics.h"
 #include "hpddo/model.h"
 #include "infer_arena.h"
 
@@ -93,10 +98,12 @@ struct ModelSlot {
   float env_lo[kF], env_hi[kF];
   float gate_centre[kF], gate_scale[kF], gate_prototypes[kProtos];
   hpddo::Model<Net> model;
-  uint32_t crc;  ///< the document's checksum, equal to hpddo::model_checksum(model)
+  hpddo::DynamicsParams dynamics;  ///< the dynamic family ("dynamics"; all 0: off)
+  uint32_t crc;  ///< the document's checksum, equal to hpddo::model_checksum(model, dynamics)
 
   ModelSlot() : crc(0) {
     memset(&model, 0, sizeof model);
+    memset(&dynamics, 0, sizeof dynamics);
     model.scaler.mean = scaler_mean;
     model.scaler.scale = scaler_scale;
     model.weights.w0 = w0;
@@ -296,8 +303,14 @@ bool read_model(Reader& in, ArduinoJson::Allocator* arena, ModelSlot<Net>& slot,
     *why = ModelError{o["crc"].isNull() ? "missing" : "type", "crc"};
     return false;
   }
+  float dyn[hpddo::kDynamicsParamCount] = {0.0f, 0.0f, 0.0f, 0.0f};
+  if (!o["dynamics"].isNull() && !detail::read_floats(o, "dynamics", dyn, hpddo::kDynamicsParamCount, why)) return false;
+  slot.dynamics.j_kgm2 = dyn[0];
+  slot.dynamics.b_nms_per_rad = dyn[1];
+  slot.dynamics.tc_nm = dyn[2];
+  slot.dynamics.tau_obs_s = dyn[3];
   slot.crc = o["crc"].as<uint32_t>();
-  if (hpddo::model_checksum(slot.model) != slot.crc) {
+  if (hpddo::model_checksum(slot.model, slot.dynamics) != slot.crc) {
     *why = ModelError{"checksum", "the model's checksum differs from its crc: damaged, or edited by hand"};
     return false;
   }

@@ -195,7 +195,7 @@ int golden_check(App& app, const std::string& path) {
     std::fprintf(stderr, "esp_host: %s is not a golden CSV\n", path.c_str());
     return -1;
   }
-  hpddo::Observer<hpddo_model_default::Net> obs(app.model());
+  hpddo::Observer<hpddo_model_default::Net> obs(app.model(), app.dynamics());
   int rows = 0, differ = 0;
   for (std::string line; std::getline(in, line);) {
     std::vector<float> v;

@@ -32,6 +32,7 @@
 #define HPDDO_MODEL_HEADER "model_default.h"
 #define HPDDO_MODEL_NS hpddo_model_default
 #endif
+HPDDO_DYNAMICS_DEFAULT(HPDDO_MODEL_NS)  // model::kDynamics: the header's, or the family off
 #include HPDDO_MODEL_HEADER
 
 namespace model = HPDDO_MODEL_NS;
@@ -82,7 +83,7 @@ bool full_seq_gap(const hpddo_host::BenchLog& log, size_t k) {
 
 /// The board path: one Observer::step per sample.
 void run_per_sample(const hpddo_host::BenchLog& log, size_t split, std::vector<Row>& out) {
-  hpddo::Observer<Net> obs(model::kModel);
+  hpddo::Observer<Net> obs(model::kModel, model::kDynamics);
   const float dt0 = first_dt(log);
   out.resize(log.size());
   for (size_t k = 0; k < log.size(); ++k) {
@@ -100,7 +101,7 @@ void run_batched(const hpddo_host::BenchLog& log, size_t split, std::vector<Row>
   using Observer = hpddo::Observer<Net>;
   const size_t n = log.size();
   out.resize(n);
-  Observer obs(model::kModel);
+  Observer obs(model::kModel, model::kDynamics);
   const float dt0 = first_dt(log);
   std::vector<typename Observer::Prepared> prep(n);
   std::vector<float> m1(n);
@@ -205,7 +206,7 @@ int main(int argc, char** argv) {
     }
   }
   if (paths.empty() || !(fraction >= 0 && fraction < 1)) return usage();
-  if (hpddo::model_checksum(model::kModel) != model::kChecksum) {
+  if (hpddo::model_checksum(model::kModel, model::kDynamics) != model::kChecksum) {
     std::fprintf(stderr, "replay: model checksum mismatch: the model header was edited\n");
     return 1;
   }

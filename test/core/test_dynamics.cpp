@@ -1,10 +1,17 @@
 // The dynamic family's observer (hpddo/dynamics.h): the same bits as its Python reference
 // (tools/hpddo/model/dynamics_ref.py) on the golden vector, the measured speed itself when the
-// family is not named, and the physics of the mechanical balance.
+// family is not named, and the physics of the mechanical balance; in the board's observer
+// (Observer(kModel, kDynamics)) and the model checksum.
+#include <math.h>
+#include <string.h>
+
 #include <gtest/gtest.h>
 
 #include "dynamics_golden.h"
+#include "golden_tiny.h"
 #include "hpddo/dynamics.h"
+#include "hpddo/observer.h"
+#include "model_tiny.h"
 
 namespace {
 hpddo::DynamicsParams golden_params() {
@@ -73,4 +80,60 @@ TEST(Dynamics, UnusableSampleLeavesTheState) {
   const float load = obs.load_nm();
   EXPECT_EQ(obs.step(0.355f, d, 0.3f, 120.0f, 0.0f), 120.0f);
   EXPECT_EQ(obs.load_nm(), load);
+}
+
+// ---------------------------------------------------------------------------------------
+// The family in the observer (observer.h: Observer(kModel, kDynamics)) and in the checksum.
+
+namespace {
+/// A shaft slow against the tiny stream's 0.5 s period, so that the observer filters.
+hpddo::DynamicsParams slow_shaft() {
+  hpddo::DynamicsParams d = {5e-3f, 4e-3f, 0.095f, 1.0f};
+  return d;
+}
+}  // namespace
+
+TEST(DynamicsInTheObserver, OffIsTheObserverAsBeforeBitForBit) {
+  using Net = hpddo_model_tiny::Net;
+  hpddo::Observer<Net> plain(hpddo_model_tiny::kModel);
+  hpddo::Observer<Net> off(hpddo_model_tiny::kModel, hpddo::kDynamicsOff);
+  for (uint16_t r = 0; r < hpddo_golden_tiny::kCount; ++r) {
+    const hpddo::Sample s = hpddo_golden_tiny::sample(r);
+    const hpddo::Estimate a = plain.step(s), b = off.step(s);
+    ASSERT_EQ(0, memcmp(&a, &b, sizeof a)) << "row " << r;
+  }
+}
+
+TEST(DynamicsInTheObserver, NamedTheBackEmfSpeedIsItsMeasurementAndItsEstimateIsNM2) {
+  // the tiny stream's ramp: 40 samples in one segment (seq without gaps, valid readings)
+  using Net = hpddo_model_tiny::Net;
+  const hpddo::DynamicsParams d = slow_shaft();
+  hpddo::Observer<Net> off(hpddo_model_tiny::kModel);
+  hpddo::Observer<Net> on(hpddo_model_tiny::kModel, d);
+  hpddo::DynamicsObserver by_hand;
+  const hpddo::PhysicsParams& p = hpddo_model_tiny::kModel.physics;
+  float moved = 0.0f;
+  for (uint16_t r = 0; r < 40; ++r) {
+    const hpddo::Sample s = hpddo_golden_tiny::sample(r);
+    const hpddo::Estimate a = off.step(s), b = on.step(s);
+    ASSERT_NE(a.status, hpddo::kStatusInvalid) << "row " << r;
+    const float want = by_hand.step(p.ke_vs_per_rad, d, hpddo::true_current_A(p, s.i_A), a.rpm_m2, s.dt_s);
+    ASSERT_EQ(b.rpm_m2, want) << "row " << r;
+    ASSERT_EQ(b.rpm, b.rpm_m2 + b.residual_rpm) << "row " << r;
+    if (r == 0) {
+      EXPECT_EQ(b.rpm_m2, a.rpm_m2);  // starts settled on the back-EMF speed
+    }
+    moved = fmaxf(moved, fabsf(b.rpm_m2 - a.rpm_m2));
+  }
+  EXPECT_GT(moved, 1.0f);  // and filters it where it changes
+}
+
+TEST(DynamicsInTheObserver, ChecksumCoversTheFamilyOnlyWhereNamed) {
+  const uint32_t plain = hpddo::model_checksum(hpddo_model_tiny::kModel);
+  EXPECT_EQ(hpddo::model_checksum(hpddo_model_tiny::kModel, hpddo::kDynamicsOff), plain);
+  hpddo::DynamicsParams d = slow_shaft();
+  const uint32_t named = hpddo::model_checksum(hpddo_model_tiny::kModel, d);
+  EXPECT_NE(named, plain);
+  d.tau_obs_s = 0.5f;
+  EXPECT_NE(hpddo::model_checksum(hpddo_model_tiny::kModel, d), named);
 }

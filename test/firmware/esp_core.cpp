@@ -29,7 +29,7 @@ class Store : public infer::Store {
   bool exists(const char* path) override { return hpddo_esp_store(9, path, nullptr, 0) == 0; }
 };
 Store g_store;
-infer::App<infer::model::Net> g_app(infer::model::kModel, infer::model::kChecksum, g_store);  // as the sketch
+infer::App<infer::model::Net> g_app(infer::model::kModel, infer::model::kChecksum, g_store, infer::model::kDynamics);  // as the sketch
 uint32_t (*g_clock)();
 uint32_t clock_us() { return g_clock(); }
 class Sink : public infer::LineSink {

@@ -140,6 +140,50 @@ def test_a_model_with_new_effects_reaches_the_board_without_a_rebuild(board, tmp
     assert f"model uploaded (crc 0x{export.model_checksum(model):08x}), 77 rows, 0 differ bitwise" in res.stdout
 
 
+# The dynamic family (issue 21, item 8): a model that names it, a shaft slow enough against the golden
+# rows' 0.5 s period that the observer filters (tau 1 s; at 20 ms it would follow the back-EMF speed).
+DYNAMICS = dict(j_kgm2=5e-3, b_nms_per_rad=4e-3, tc_nm=0.095, tau_obs_s=1.0)
+
+
+def model_with_dynamics():
+    from hpddo.model import dynamics_ref
+    return dataclasses.replace(upload.read_model(DEFAULT), dynamics=dynamics_ref.dynamics_params(**DYNAMICS))
+
+
+def test_the_dynamic_family_goes_into_the_header_and_the_document_and_comes_back():
+    model = model_with_dynamics()
+    header = export.model_header(model, "dyn", {"command": "test_upload.py"})
+    plain = export.model_header(upload.read_model(DEFAULT), "dyn", {"command": "test_upload.py"})
+    assert "kDynamics" in header and "kDynamics" not in plain
+    assert header.startswith(plain[:plain.index("#ifndef")].replace(
+        f"0x{export.model_checksum(upload.read_model(DEFAULT)):08x}", f"0x{export.model_checksum(model):08x}"))
+    back = export.read_model_header(header)  # its checksum checked: it covers the family
+    assert back.dynamics == model.dynamics
+    assert export.model_checksum(model) != export.model_checksum(upload.read_model(DEFAULT))
+    doc = json.loads(upload.document(model))
+    want = [int(b) for b in np.array([DYNAMICS[d.field] for d in schema.DYNAMICS], "<f4").view("<u4")]
+    assert doc["dynamics"] == want and doc["crc"] == export.model_checksum(model)
+    assert "dynamics" not in json.loads(FIXTURE.read_bytes())  # a model without it: the document as before
+
+
+def test_a_model_with_the_dynamic_family_reaches_the_board_bit_for_bit(board, tmp_path):
+    model = model_with_dynamics()
+    folder = tmp_path / "with_dynamics"
+    folder.mkdir()
+    (folder / "model_dyn.h").write_text(export.model_header(model, "dyn", {"command": "test_upload.py"}))
+    golden = export.golden_rows(model, golden_inputs(DEFAULT / "golden_default.csv"))
+    (tmp_path / "golden_dyn.csv").write_text(export.golden_csv(golden))
+    col = len(export.GOLDEN_INPUTS) + export.GOLDEN_STAGES.index("rpm_m2")
+    default_m2 = np.genfromtxt(DEFAULT / "golden_default.csv", delimiter=",", names=True)["rpm_m2"]
+    diff = np.abs(golden[:, col] - default_m2.astype(np.float32))
+    assert np.nanmax(diff) > 1.0  # the family filters the back-EMF speed where it changes
+    assert diff[0] == 0.0  # and starts settled on it
+    assert upload_cli.main(["--port", board.port, str(folder)]) == 0
+    res = board.golden_check(tmp_path / "golden_dyn.csv")
+    assert res.returncode == 0, res.stdout + res.stderr
+    assert f"model uploaded (crc 0x{export.model_checksum(model):08x}), 77 rows, 0 differ bitwise" in res.stdout
+
+
 def test_a_model_trained_with_new_effects_reaches_the_running_board(board, tmp_path):
     """The mission's loop on the (host-built) board: hpddo train with the effects the
     diagnosis names, hpddo upload, and the board runs it: its golden vectors bit for bit."""

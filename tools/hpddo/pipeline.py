@@ -10,6 +10,7 @@ import pathlib
 
 import numpy as np
 
+from . import schema
 from .evaluation import baseline
 from .evaluation.evaluate import recordings_record, replay_natively, score_recordings
 from .logs import dataset, outdir
@@ -37,6 +38,9 @@ class PipelineConfig:
     nameplate_source: str = "default"
     ke_fit: str = "eq20"
     effects: tuple = ()
+    # the dynamic family (inertia, viscous and Coulomb friction; schema.DYNAMICS): identified from the
+    # training rows of recordings at 50 Hz and up and computed by the model (hpddo train --dynamics)
+    dynamics: bool = False
     # M2 already identified on these recordings (Ke and the effect coefficients, e.g. a
     # diagnosis's after_model): used as it is instead of identifying it again
     physics: ph.PhysicsParams | None = None
@@ -81,9 +85,9 @@ def data_hash(paths) -> str:
     return h.hexdigest()
 
 
-def model_data(m1, m2, res: Residual) -> ModelData:
+def model_data(m1, m2, res: Residual, dynamics: dict | None = None) -> ModelData:
     layers = [(w.T.astype(np.float32), b.astype(np.float32)) for w, b in zip(res.mlp.coefs_, res.mlp.intercepts_)]
-    return ModelData(physics=m2, scaler_mean=res.scaler.mean_.astype(np.float32),
+    return ModelData(physics=m2, dynamics=dynamics, scaler_mean=res.scaler.mean_.astype(np.float32),
                      scaler_scale=res.scaler.scale_.astype(np.float32), layers=layers,
                      env_lo=res.env_lo.astype(np.float32), env_hi=res.env_hi.astype(np.float32),
                      gate=res.gate, clamp_rpm=float(np.float32(res.clamp_rpm)), limits=Limits(), nameplate=m1)
@@ -106,6 +110,41 @@ def golden_samples(recs):
     return out
 
 
+def identify_dynamics(recs, m2: ph.PhysicsParams):
+    """The dynamic family of hpddo train --dynamics: J, B, Tc from the training rows of the
+    recordings at 50 Hz and up (diagnosis/dynamics.py, with their intervals) and the observer's
+    tau chosen on the training rows with M2's speed as its measurement. Returns (the
+    identification, dynamics_ref.dynamics_params); an InputError naming the file(s) where the
+    recordings do not determine J, B or Tc."""
+    from .diagnosis import dynamics as family
+    from .model import dynamics_ref
+    from .model.train import physics_rpm
+    fam = family.identify(recs, m2.ra_ohm, m2.ke_vs_per_rad, [physics_rpm(r, m2) for r in recs],
+                          la_given_H=m2.la_H)
+    if not fam.fast:
+        slow = ", ".join(str(r.source) for r in recs)
+        raise InputError(f"{slow}: --dynamics needs a recording at {family.MIN_RATE_HZ:g} Hz or faster (the fastest "
+                         f"here is at {fam.rate_hz:.3g} Hz, where a row averages over the motor's transients); "
+                         f"what would determine J, B and Tc: {family.NEEDS}")
+    fast = ", ".join(str(r.source) for r in recs if r.name in fam.fast)
+    for q in fam.quantities:
+        if q.field != "la_H" and not q.determined:
+            raise InputError(f"{fast}: --dynamics: {q.quantity} not determined by these recordings ({q.why}); "
+                             f"what would determine it: {q.needs}")
+    values = {q.field: q.value for q in fam.quantities if q.field != "la_H"}
+    return fam, dynamics_ref.dynamics_params(**values, tau_obs_s=fam.tau_obs_s)
+
+
+def dynamics_record(fam, dyn: dict) -> dict:
+    """metrics.json identification.dynamics: the family in the model (SI, float32 as exported),
+    each identified quantity with its 95 % interval, and what it came from."""
+    return {"model": {k: float(v) for k, v in dyn.items()},
+            "quantities": [q.to_json() for q in fam.quantities],
+            "rate_hz": fam.rate_hz, "fast_recordings": fam.fast, "speed_from": fam.speed_from,
+            "steps": fam.steps, "segments": fam.segments, "lag_s": fam.lag_s,
+            "tau_obs_s": fam.tau_obs_s, "text": fam.text()}
+
+
 def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     """Runs everything; raises BenchLogError / IdentificationError / ValueError on bad input
     before anything is written to out_dir."""
@@ -122,8 +161,9 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         if cfg.effects:
             from .model import effects
             m2 = effects.identify(recs, m2, cfg.effects)
-    res = residual_or_physics_only(recs, m2, cfg.train)  # physics only below one batch of rows
-    model = model_data(m1, m2, res)
+    fam, dyn = identify_dynamics(recs, m2) if cfg.dynamics else (None, None)
+    res = residual_or_physics_only(recs, m2, cfg.train, dyn)  # physics only below one batch of rows
+    model = model_data(m1, m2, res, dyn)
 
     out = pathlib.Path(out_dir)
     with outdir.staged(out, "gen_weights") as stage:
@@ -136,6 +176,8 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
                              f"iterations={cfg.train.max_iter}, {res.n_train} rows, chronological "
                              f"{cfg.train_fraction:.0%} of each recording") if res.trained else
                             f"none: the residual network is {res.note}"}
+        if dyn is not None:
+            prov["dynamics"] = ", ".join(f"{d.field} {float(dyn[d.field]):.6g} {d.unit}" for d in schema.DYNAMICS)
         name = cfg.name
         (stage / f"model_{name}.h").write_text(export.model_header(model, name, prov))
         samples = golden_samples(recs)
@@ -157,6 +199,8 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
             "final_loss": res.loss_curve[-1] if res.loss_curve else None,
             "nameplate": nameplate_record(cfg),
         }
+        if dyn is not None:
+            metrics["identification"]["dynamics"] = dynamics_record(fam, dyn)
         if not res.trained:
             metrics["identification"]["residual"] = res.note
         metrics.update(recordings_record(recs))

@@ -141,6 +141,14 @@ def hybrid_note(d) -> str | None:
             "and after; hpddo train trains it for 2000, so its M3 figures differ)")
 
 
+def dynamics_named(res: dict) -> bool:
+    """Whether the diagnosis (its JSON) names the dynamic family and the recordings determine J, B
+    and Tc: then hpddo train --dynamics can add it."""
+    from ..diagnosis.verdict import NAMED_DYNAMICS
+    got = {q["field"]: q["determined"] for q in (res.get("dynamics") or {}).get("quantities", [])}
+    return NAMED_DYNAMICS in (res.get("verdict") or "") and all(got.get(f) for f in ("j_kgm2", "b_nms_per_rad", "tc_nm"))
+
+
 def next_steps(d, args) -> str:
     """What to type next: train with the named effects (and the Ra the data support, where
     they name a mismatch), then score that model on a recording it never saw."""
@@ -153,6 +161,9 @@ def next_steps(d, args) -> str:
     words = ["hpddo", "train", *map(str, args.logs), "--out", "MODEL"]
     if effects:
         words += ["--effects", ",".join(effects)]
+    dynamics = dynamics_named(res)
+    if dynamics:
+        words.append("--dynamics")
     if ra.get("mismatch"):
         words += ["--ra-ohm", f"{ra['supported_ohm']:.4g}"]
     elif args.ra_ohm is not None:
@@ -160,7 +171,7 @@ def next_steps(d, args) -> str:
     if args.no_glitch_filter:
         words.append("--no-glitch-filter")
     words += options.reference_words(args)
-    what = ("add what the diagnosis named" if effects != list(args.effects) or ra.get("mismatch")
+    what = ("add what the diagnosis named" if effects != list(args.effects) or ra.get("mismatch") or dynamics
             else "nothing to add: train the model as it is")
     lines.append(f"next ({what}):\n  {shlex.join(words)}")
     lines.append("then score it on a recording it never saw:\n  "

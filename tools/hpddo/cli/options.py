@@ -72,6 +72,15 @@ def effects(p, what: str) -> None:
                    help=f"{what}, comma separated: {', '.join(fx.NAMES)}")
 
 
+def dynamics(p, what: str) -> None:
+    """--dynamics: the dynamic family (inertia, viscous and Coulomb friction at the output shaft;
+    tools/hpddo/schema.py), from recordings at 50 Hz and up (docs/diagnosis.md, Fast logs and dynamics)."""
+    p.add_argument("--dynamics", action="store_true",
+                   help=f"{what}: the dynamic family (inertia J, viscous friction B, Coulomb friction Tc at the "
+                        "output shaft), identified from recordings at 50 Hz and up with steps of duty; the "
+                        "inductance is the effect 'inductance' in --effects")
+
+
 def ripple(p, required: bool, need: str = " (with --reference ripple)") -> None:
     """--ripples-per-rev N --gear-ratio G [--ke-vs-per-rad KE] [--floor-a A]: the speed from the
     commutation ripple (docs/ripple.md); required by hpddo ripple, by --reference ripple elsewhere

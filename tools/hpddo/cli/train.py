@@ -6,7 +6,9 @@ From labelled bench logs (t_s, duty, v_V, i_A, rpm_ref, ...): removes sensor gli
 (reports them per file), splits each recording chronologically (first 80 % train, last
 20 % test), identifies M1 (nameplate Ke) and M2 (measured Ra, Ke by the paper's eq. 20 or
 least squares, plus any --effects), trains M3 on the residual e = rpm_ref - n_M2 with
-features [V, I, n_M2, I(t-1), n_M2(t-1)], and writes into DIR:
+features [V, I, n_M2, I(t-1), n_M2(t-1)] (with --dynamics, n_M2 through the dynamic
+family identified from recordings at 50 Hz and up: docs/diagnosis.md, Fast logs and
+dynamics), and writes into DIR:
 
   model_<name>.h      the model header for lib/hpddo_core (provenance, checksum)
   golden_<name>.h/.csv  golden vectors: inputs and every stage's float32 output
@@ -59,6 +61,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
                    help="nameplate no-load speed for M1, RPM (default 1000)")
     options.ke_fit(p)
     options.effects(p, "effect terms to add to the physics model M2")
+    options.dynamics(p, "add to the model")
     p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,N]",
                    help="hidden layer sizes of M3 (default 16,8; the paper's is 128,64)")
     options.epochs(p, 2000, "M3")
@@ -101,6 +104,8 @@ def provenance(args) -> str:
     words += ["--seed", str(args.seed)]
     if args.no_glitch_filter:
         words.append("--no-glitch-filter")
+    if args.dynamics:
+        words.append("--dynamics")
     if args.no_gate:
         words.append("--no-gate")
     if args.leave_one_out:
@@ -121,7 +126,7 @@ def run(args) -> int:
                          rated_V=DEFAULT_RATED_V if args.rated_v is None else args.rated_v,
                          rated_rpm=DEFAULT_RATED_RPM if args.rated_rpm is None else args.rated_rpm,
                          nameplate_source=("default", "partly given", "given")[given],
-                         ke_fit=args.ke_fit, effects=args.effects, train_fraction=args.split,
+                         ke_fit=args.ke_fit, effects=args.effects, dynamics=args.dynamics, train_fraction=args.split,
                          glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
                          train=TrainConfig(hidden=args.hidden, max_iter=args.epochs, seed=args.seed,
                                            gate=not args.no_gate, progress=not args.quiet),
@@ -142,6 +147,10 @@ def run(args) -> int:
           f"(nameplate); M2 Ke = {ident['ke_m2_vs_per_rad']:.4f} V s/rad ({args.ke_fit})")
     for e, val in ident["effects"].items():
         print(f"  effect {e}: {physics.EFFECT_BITS[e][1]} = {val:.5g}")
+    if "dynamics" in ident:
+        d = ident["dynamics"]
+        print("  dynamics: " + "; ".join(q["text"] for q in d["quantities"] if q["field"] != "la_H")
+              + f"; observer tau {1e3 * d['tau_obs_s']:.0f} ms")
     if "residual" in ident:  # too few rows for the network: physics only
         print(f"note: M3 {args.hidden} {ident['residual']}")
     else:

@@ -101,6 +101,7 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
 
 
 NOTHING = "Nothing missing: the residual is consistent with measurement noise."
+NAMED_DYNAMICS = "Named: dynamics"  # the verdict names the dynamic family (hpddo train --dynamics)
 
 
 def dynamics(before: ResidualAnalysis, dt_s: float, family=None) -> str:
@@ -116,7 +117,7 @@ def dynamics(before: ResidualAnalysis, dt_s: float, family=None) -> str:
     lag = top["peak_lag"]
     if family is not None and family.fast:
         text = (f"The residual follows {top['input']} (r = {top['peak']:+.2f} at a lag of {lag} rows, "
-                f"{lag * dt_s * 1e3:+.0f} ms). Named: dynamics (inertia and friction, the winding's inductance), "
+                f"{lag * dt_s * 1e3:+.0f} ms). {NAMED_DYNAMICS} (inertia and friction, the winding's inductance), "
                 "which M2 does not carry: it is algebraic in V and I, the speed's lag is in the current. "
                 + family.text())
         if lag in SHARED_LAGS:

@@ -75,7 +75,48 @@ def checksum_floats(model: ModelData) -> np.ndarray:
               np.asarray(g.centre, np.float32), np.asarray(g.scale, np.float32),
               np.asarray(g.prototypes, np.float32).ravel(), np.array([g.r_in_sq, g.r_out_sq], np.float32),
               np.array([model.clamp_rpm, lim.v_max_V, lim.i_max_A, lim.temp_min_C, lim.temp_max_C], np.float32)]
+    parts += [dynamics_floats(model)]
     return np.concatenate(parts).astype("<f4")
+
+
+# BEGIN the dynamic family (issue 21, item 8): kDynamics, in a header only where the model names it
+
+
+def dynamics_floats(model: ModelData) -> np.ndarray:
+    """The dynamic family's floats the checksum covers, last (hpddo::model_checksum(m, d)):
+    the DynamicsParams fields in the schema's order where named, none otherwise (a model
+    without the family keeps its checksum)."""
+    if not model.dynamics_named:
+        return np.zeros(0, np.float32)
+    return np.array([model.dynamics[d.field] for d in schema.DYNAMICS], np.float32)
+
+
+def _c_dynamics(model: ModelData, ns: str | None = None) -> str:
+    """kDynamics of a header (ns: a reference to that namespace's), or "" where not named."""
+    if not model.dynamics_named:
+        return ""
+    head = ("/// The dynamic family (dynamics.h; Observer(kModel, kDynamics)), covered by kChecksum: "
+            + ", ".join(d.show(float(model.dynamics[d.field])) for d in schema.DYNAMICS) + ".\n")
+    if ns is not None:
+        return head + f"static const hpddo::DynamicsParams& kDynamics = {ns}::kDynamics;\n\n"
+    body = "".join(f"    {(c_float(model.dynamics[d.field]) + ',').ljust(16)}  // {d.field} [{d.unit}]\n"
+                   for d in schema.DYNAMICS)
+    return (head + f"static_assert(hpddo::kDynamicsParamCount == {len(schema.DYNAMICS)}, "
+            "\"one initialiser per hpddo::DynamicsParams field\");\n"
+            f"static const hpddo::DynamicsParams kDynamics = {{\n{body}}};\n\n")
+
+
+def _read_dynamics(text: str) -> dict | None:
+    """The kDynamics of a header written by model_header(), or None."""
+    import re
+    m = re.search(r"static const hpddo::DynamicsParams kDynamics = \{([^}]*)\}", text)
+    if m is None:
+        return None
+    vals = {lab: float(v.rstrip(",").rstrip("f")) for v, lab in re.findall(r"^\s+(\S+),?\s+// (\w+)", m.group(1), re.M)}
+    from .dynamics_ref import dynamics_params
+    return dynamics_params(**vals)
+
+# END the dynamic family
 
 
 def model_checksum(model: ModelData) -> int:
@@ -157,6 +198,7 @@ def model_header(model: ModelData, name: str, provenance: dict) -> str:
             "};\n\n",
             "/// The nameplate model M1 (rated voltage over rated speed), for comparison only.\n",
             f"static const hpddo::PhysicsParams kNameplate = {_c_physics(m1, f'0x{m1.effects:04x}u', '')};\n\n",
+            _c_dynamics(model),
             f"}}  // namespace hpddo_model_{name}\n\n#endif  // {guard}\n"]
     return "".join(out)
 
@@ -279,7 +321,7 @@ def model_header_q(model: ModelData, q, name: str, provenance: dict) -> str:
             f"{c_float(gq.fade)}}},\n",
             f"    {c_float(model.clamp_rpm)},\n",
             f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
-            "};\n\n", f"}}  // namespace hpddo_model_{name}_q\n\n#endif  // {guard}\n"]
+            "};\n\n", _c_dynamics(model, f), f"}}  // namespace hpddo_model_{name}_q\n\n#endif  // {guard}\n"]
     return "".join(out)
 
 
@@ -387,7 +429,8 @@ def read_model_header(text: str) -> ModelData:
     from .observer_ref import Limits
     model = ModelData(physics=p, scaler_mean=arrays["kScalerMean"], scaler_scale=arrays["kScalerScale"],
                       layers=layers, env_lo=arrays["kEnvLo"], env_hi=arrays["kEnvHi"],
-                      clamp_rpm=float(np.float32(gm.group(3))), gate=g, limits=Limits(*lim))
+                      clamp_rpm=float(np.float32(gm.group(3))), gate=g, limits=Limits(*lim),
+                      dynamics=_read_dynamics(text))
     want = int(re.search(r"kChecksum = 0x([0-9a-f]+)u", text).group(1), 16)
     if model_checksum(model) != want:
         raise ValueError("the model read back does not have the header's checksum")

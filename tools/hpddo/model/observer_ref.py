@@ -9,6 +9,7 @@ import dataclasses
 
 import numpy as np
 
+from . import dynamics_ref
 from . import gate as gate_mod
 from . import physics as ph
 
@@ -33,6 +34,12 @@ class ModelData:
     gate: gate_mod.GateData  # the novelty gate over the features (gate.h)
     limits: Limits = dataclasses.field(default_factory=Limits)
     nameplate: ph.PhysicsParams | None = None  # M1, for comparison only; not in the checksum
+    # the dynamic family (dynamics_ref.dynamics_params, the header's kDynamics) where named, else None
+    dynamics: dict | None = None
+
+    @property
+    def dynamics_named(self) -> bool:
+        return self.dynamics is not None and dynamics_ref.named(self.dynamics)
 
     @property
     def hidden(self) -> tuple:
@@ -86,6 +93,7 @@ class ReferenceObserver:
         self.i_lag = F32(0)
         self.m2_lag = F32(0)
         self.rise_K = F32(0)
+        self.dyn = dynamics_ref.DynamicsObserver()
         self.last = dict(rpm=F32(0), rpm_m2=F32(0), residual_rpm=F32(0), temp_C=F32(0), confidence=F32(0))
 
     def _invalid(self, out):
@@ -125,6 +133,10 @@ class ReferenceObserver:
         m2 = F32(m2)
         if not (np.isfinite(m2) and abs(m2) <= self.speed_limit):  # beyond the model's speed range: no speed
             return self._invalid(out)
+        if m.dynamics_named:  # the dynamic family: n_M2 is its measurement, restarted with the lags
+            if not self.has_lag:
+                self.dyn.reset()
+            m2 = F32(self.dyn.step(p.ke_vs_per_rad, m.dynamics, i_true, m2, dt))
         x = np.array([v, i, m2, self.i_lag if self.has_lag else i, self.m2_lag if self.has_lag else m2], F32)
         self.i_lag, self.m2_lag, self.has_lag = i, m2, True
         out.update(x=x, rpm_m2=m2, temp_C=temp_used, residual_rpm=F32(0), confidence=F32(0),

@@ -7,6 +7,7 @@ import functools
 import numpy as np
 from tqdm import tqdm
 
+from . import dynamics_ref
 from . import gate as gate_mod
 from . import network
 from . import physics as ph
@@ -45,10 +46,26 @@ def physics_rpm(rec: Recording, p: ph.PhysicsParams) -> np.ndarray:
                           temperature_used(rec, p))
 
 
-def features(rec: Recording, p: ph.PhysicsParams) -> tuple[np.ndarray, np.ndarray]:
-    """Feature matrix [V, I, n_M2, I(t-1), n_M2(t-1)] and n_M2 of every row."""
+def dynamic_rpm(rec: Recording, p: ph.PhysicsParams, n2: np.ndarray, dyn: dict | None) -> np.ndarray:
+    """n_M2 through the dynamic family's observer (dynamics_ref, hpddo/dynamics.h) where dyn names
+    it, restarted where the lags restart (observer.h); n2 itself otherwise."""
+    if dyn is None or not dynamics_ref.named(dyn):
+        return n2
+    starts = np.flatnonzero(segment_starts(rec))
+    ends = np.r_[starts[1:], rec.n]
+    i_true = ph.true_current_A(p, rec.df["i_A"].to_numpy(float))
+    dt = dt_s(rec)
+    out = np.empty(rec.n)
+    for s, e in zip(starts, ends):
+        out[s:e] = dynamics_ref.run(p.ke_vs_per_rad, dyn, i_true[s:e], n2[s:e], dt[s:e])[0]
+    return out
+
+
+def features(rec: Recording, p: ph.PhysicsParams, dyn: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Feature matrix [V, I, n_M2, I(t-1), n_M2(t-1)] and n_M2 of every row (through the dynamic
+    family where dyn names it)."""
     starts = segment_starts(rec)
-    n2 = physics_rpm(rec, p)
+    n2 = dynamic_rpm(rec, p, physics_rpm(rec, p), dyn)
     i = rec.df["i_A"].to_numpy(float)
     x = np.column_stack([rec.df["v_V"].to_numpy(float), i, n2, lagged(i, starts), lagged(n2, starts)])
     return x, n2
@@ -71,11 +88,11 @@ class Residual:
         return not self.note
 
 
-def training_rows(recs: list[Recording], p: ph.PhysicsParams) -> tuple[np.ndarray, np.ndarray]:
+def training_rows(recs: list[Recording], p: ph.PhysicsParams, dyn: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
     """The features x and residuals e = rpm_ref - n_M2 of the labelled training rows."""
     xs, es = [], []
     for r in recs:
-        x, n2 = features(r, p)
+        x, n2 = features(r, p, dyn)
         x, n2 = x[: r.n_train], n2[: r.n_train]
         ref = r.part("train")["rpm_ref"].to_numpy(float) if "rpm_ref" in r.df else np.full(r.n_train, np.nan)
         keep = np.isfinite(ref) & np.isfinite(x).all(axis=1)
@@ -84,10 +101,10 @@ def training_rows(recs: list[Recording], p: ph.PhysicsParams) -> tuple[np.ndarra
     return np.concatenate(xs), np.concatenate(es)
 
 
-def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig) -> Residual:
-    """Fits the residual e = rpm_ref - n_M2 on the training rows of every recording;
-    TrainingError with fewer labelled rows than one batch."""
-    x, e = training_rows(recs, p)
+def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig, dyn: dict | None = None) -> Residual:
+    """Fits the residual e = rpm_ref - n_M2 on the training rows of every recording (n_M2 through
+    the dynamic family where dyn names it); TrainingError with fewer labelled rows than one batch."""
+    x, e = training_rows(recs, p, dyn)
     if len(x) < cfg.batch_size:
         raise TrainingError(f"only {len(x)} labelled training rows: too few to train the residual network "
                             f"(at least one batch, {cfg.batch_size}); record longer, or give more recordings")
@@ -132,13 +149,14 @@ def physics_only(n_rows: int, cfg: TrainConfig) -> Residual:
                     gate=closed, n_train=n_rows, loss_curve=[], note=physics_only_note(n_rows, cfg))
 
 
-def residual_or_physics_only(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig) -> Residual:
+def residual_or_physics_only(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig,
+                             dyn: dict | None = None) -> Residual:
     """train_residual where the labelled training rows fill one batch, else physics_only
     (its note says why)."""
-    x, _ = training_rows(recs, p)
+    x, _ = training_rows(recs, p, dyn)
     if len(x) < cfg.batch_size:
         return physics_only(len(x), cfg)
-    return train_residual(recs, p, cfg)
+    return train_residual(recs, p, cfg, dyn)
 
 
 def correction(res: Residual, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -159,7 +177,7 @@ def correction(res: Residual, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return corr, w
 
 
-def hybrid_rpm(res: Residual, rec: Recording, p: ph.PhysicsParams) -> np.ndarray:
+def hybrid_rpm(res: Residual, rec: Recording, p: ph.PhysicsParams, dyn: dict | None = None) -> np.ndarray:
     """n_M3 for every row of a recording: n_M2 plus the correction (train.correction)."""
-    x, n2 = features(rec, p)
+    x, n2 = features(rec, p, dyn)
     return n2 + correction(res, x)[0]

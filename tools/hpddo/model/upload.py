@@ -61,6 +61,9 @@ def document(model) -> bytes:
                 "clamp_rpm": _bits([model.clamp_rpm])[0],
                 "limits": _bits([lim.v_max_V, lim.i_max_A, lim.temp_min_C, lim.temp_max_C]),
                 "crc": export.model_checksum(model)})
+    if model.dynamics_named:  # the dynamic family (infer_upload.h: "dynamics", before the crc it is covered by)
+        crc = doc.pop("crc")
+        doc.update(dynamics=_bits(export.dynamics_floats(model)), crc=crc)
     return json.dumps(doc, separators=(",", ":")).encode("ascii")
 
 

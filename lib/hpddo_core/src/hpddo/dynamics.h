@@ -22,6 +22,8 @@
 
 #include <math.h>
 
+#include "crc.h"
+#include "model.h"
 #include "params_gen.h"
 #include "physics.h"
 
@@ -32,6 +34,37 @@ static const float kFrictionSmooth_rad_s = 0.5f;
 
 /// True when the dynamic family is named (the model computes it).
 inline bool dynamics_named(const DynamicsParams& d) { return d.j_kgm2 > 0.0f; }
+
+/// The family off: what a model header without kDynamics runs with (one initialiser per field:
+/// -Wmissing-field-initializers says where a field was added to the schema and not here).
+static const DynamicsParams kDynamicsOff = {0.0f, 0.0f, 0.0f, 0.0f};
+
+/// A model header carries `static const hpddo::DynamicsParams kDynamics` in its namespace only
+/// when the family is named (a model without it keeps its bytes). Before including a header
+/// whose namespace is ns, HPDDO_DYNAMICS_DEFAULT(ns) gives ns::kDynamics = kDynamicsOff where
+/// the header declares none (qualified lookup looks into a using-directive's namespace only
+/// when ns itself declares no such name): `ns::kDynamics` is then the model's family either way.
+namespace dynamics_default {
+static const DynamicsParams& kDynamics = kDynamicsOff;
+}  // namespace dynamics_default
+#define HPDDO_DYNAMICS_DEFAULT(ns) \
+  namespace ns {                   \
+  using namespace ::hpddo::dynamics_default;  \
+  }
+
+/// CRC-32 of a model with its dynamic family: model_checksum(m), continued over the
+/// DynamicsParams floats (schema order) when the family is named, else model_checksum(m)
+/// itself (a model without the family keeps its checksum). The exporter's order
+/// (tools/hpddo/model/export.py, checksum_floats: the family's floats last).
+template <class Net>
+uint32_t model_checksum(const Model<Net>& m, const DynamicsParams& d) {
+  const uint32_t crc = model_checksum(m);
+  if (!dynamics_named(d)) return crc;
+  const float f[] = {d.j_kgm2, d.b_nms_per_rad, d.tc_nm, d.tau_obs_s};
+  uint32_t state = crc ^ 0xFFFFFFFFu;
+  for (uint8_t k = 0; k < sizeof f / sizeof f[0]; ++k) state = detail::crc_float(state, f[k]);
+  return state ^ 0xFFFFFFFFu;
+}
 
 /// Two-state observer of the output shaft's speed and load torque.
 class DynamicsObserver {

@@ -17,12 +17,18 @@
 // restart) but is used; an n_M2 beyond the model's speed range
 // (speed_limit_rpm) is no speed, so the sample is invalid; the winding stays
 // within [reference, kWindingMax_C] (thermal.h).
+//
+// The dynamic family (dynamics.h), where the model names it (its header's kDynamics, passed to
+// the constructor): n_M2 above is the back-EMF speed, the measurement of DynamicsObserver, and
+// its estimate takes n_M2's place in everything after (the features, rpm_m2, rpm). It restarts
+// with the lags (a new segment). Not named: not called, the observer as before bit for bit.
 #ifndef HPDDO_OBSERVER_H
 #define HPDDO_OBSERVER_H
 
 #include <stdint.h>
 
 #include "clamp.h"
+#include "dynamics.h"
 #include "model.h"
 #include "physics.h"
 #include "platform.h"
@@ -112,15 +118,19 @@ class Observer {
 
  public:
   /// Keeps a reference to model: pass one that outlives the observer (a generated kModel).
-  explicit Observer(const Model<Net>& model)
+  /// dynamics: the model's dynamic family (its header's kDynamics; kDynamicsOff: none), kept
+  /// by reference as the model.
+  explicit Observer(const Model<Net>& model, const DynamicsParams& dynamics = kDynamicsOff)
       : model_(&model),
         physics_const_(physics_const(model.physics)),
-        speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)) {
+        speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)),
+        dynamics_(&dynamics) {
     reset();
   }
 
   /// A temporary Model would leave the observer with a dangling reference.
   explicit Observer(const Model<Net>&& model) = delete;
+  Observer(const Model<Net>& model, const DynamicsParams&& dynamics) = delete;
 
   /// Forgets the lags and the held estimate; the winding restarts at its reference.
   void reset() {
@@ -133,6 +143,7 @@ class Observer {
     gate_first_ = 0;
     seq_gaps_ = 0;
     period_breaks_ = 0;
+    dyn_.reset();
   }
 
   /// Forgets the one-step lags only: the next sample starts a new segment, as
@@ -215,6 +226,10 @@ class Observer {
       has_lag_ = false;
       return out;
     }
+    if (dynamics_named(*dynamics_)) {  // the dynamic family: n_M2 is its measurement (dynamics.h)
+      if (!has_lag_) dyn_.reset();
+      m2 = dyn_.step(p.ke_vs_per_rad, *dynamics_, i_true_A, m2, dt_s);
+    }
 
     out.x[kFeatV] = s.v_V;
     out.x[kFeatI] = s.i_A;
@@ -287,6 +302,8 @@ class Observer {
   bool has_seq_ = false;
   uint32_t seq_gaps_ = 0;
   uint32_t period_breaks_ = 0;
+  const DynamicsParams* dynamics_;  ///< the model's dynamic family (kDynamicsOff: none)
+  DynamicsObserver dyn_;            ///< its state, where named
 };
 
 }  // namespace hpddo
