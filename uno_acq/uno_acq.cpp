@@ -9,6 +9,11 @@
 //   INT0/INT1   encoder edge: x4 quadrature count
 //   TIMER2_COMPA next bit of the ESP8266 link (the pin itself is set by OC2A)
 // Pure logic is in the acq_*.h headers, tested on the host (test/firmware).
+//
+// The UNO's observer runs its model without the dynamic family (hpddo/dynamics.h): the
+// ESP8266 runs it where a model names it; here its code would not fit the flash beside the
+// ripple counter.
+#define HPDDO_DYNAMICS 0
 #include <Arduino.h>
 #include <avr/interrupt.h>
 #include <avr/io.h>

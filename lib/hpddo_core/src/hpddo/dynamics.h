@@ -20,6 +20,14 @@
 #ifndef HPDDO_DYNAMICS_H
 #define HPDDO_DYNAMICS_H
 
+/// 1 (the default): the observer runs the dynamic family where the model names it. 0: a build
+/// that never runs it (the UNO's uno_acq, whose flash it would not fit beside the ripple
+/// counter) compiles the observer without it; a model that names it is then refused by
+/// Observer's users (uno_acq checks at compile time).
+#ifndef HPDDO_DYNAMICS
+#define HPDDO_DYNAMICS 1
+#endif
+
 #include <math.h>
 
 #include "crc.h"

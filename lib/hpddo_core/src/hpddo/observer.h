@@ -226,7 +226,7 @@ class Observer {
       has_lag_ = false;
       return out;
     }
-    if (dynamics_named(*dynamics_)) {  // the dynamic family: n_M2 is its measurement (dynamics.h)
+    if (HPDDO_DYNAMICS && dynamics_named(*dynamics_)) {  // the dynamic family: n_M2 is its measurement (dynamics.h)
       if (!has_lag_) dyn_.reset();
       m2 = dyn_.step(p.ke_vs_per_rad, *dynamics_, i_true_A, m2, dt_s);
     }
