@@ -10,11 +10,19 @@
 #include "golden.h"
 #include "golden_tiny1_q.h"
 #include "golden_tiny_q.h"
+#include "golden_tiny1_q8.h"
+#include "golden_tiny_q8.h"
 #include "model_tiny1_q.h"
+#include "model_tiny1_q8.h"
 #include "model_tiny_q.h"
+#include "model_tiny_q8.h"
 #if defined(HPDDO_HAVE_DEFAULT_MODEL)
 #include "golden_default_q.h"
 #include "model_default_q.h"
+#endif
+#if defined(HPDDO_HAVE_DEFAULT_MODEL_Q8)
+#include "golden_default_q8.h"
+#include "model_default_q8.h"
 #endif
 
 namespace {
@@ -83,6 +91,49 @@ TEST(MlpQ, ChecksumMatchesGeneratedHeader) {
   EXPECT_EQ(hpddo::model_checksum(hpddo_model_tiny1_q::kModel), hpddo_model_tiny1_q::kChecksum);
   EXPECT_NE(hpddo_model_tiny_q::kChecksum, hpddo_model_tiny::kChecksum);
 }
+
+// The int8 networks (layer 0 int8, the hidden layer int8 where there is one; mlp_q.h's mac8).
+TEST(MlpQ8, TinyNetworksMatchIntegerReferenceBitForBit) {
+  check_network(hpddo_model_tiny_q8::kModel, hpddo_golden_tiny_q8::kCount, hpddo_golden_tiny_q8::at,
+                hpddo_golden_tiny_q8::int_at);
+  check_network(hpddo_model_tiny1_q8::kModel, hpddo_golden_tiny1_q8::kCount, hpddo_golden_tiny1_q8::at,
+                hpddo_golden_tiny1_q8::int_at);
+}
+
+TEST(MlpQ8, ObserverWithInt8NetworkMatchesReference) {
+  check_observer(hpddo_model_tiny_q8::kModel, hpddo_golden_tiny_q8::kCount, hpddo_golden_tiny_q8::at,
+                 hpddo_golden_tiny_q8::sample);
+  check_observer(hpddo_model_tiny1_q8::kModel, hpddo_golden_tiny1_q8::kCount, hpddo_golden_tiny1_q8::at,
+                 hpddo_golden_tiny1_q8::sample);
+}
+
+TEST(MlpQ8, ChecksumMatchesGeneratedHeader) {
+  EXPECT_EQ(hpddo::model_checksum(hpddo_model_tiny_q8::kModel), hpddo_model_tiny_q8::kChecksum);
+  EXPECT_EQ(hpddo::model_checksum(hpddo_model_tiny1_q8::kModel), hpddo_model_tiny1_q8::kChecksum);
+  EXPECT_NE(hpddo_model_tiny_q8::kChecksum, hpddo_model_tiny_q::kChecksum);
+}
+
+TEST(MlpQ8, Mac8IsTheProductForEverySignAndByte) {
+  const int16_t as[] = {0, 1, -1, 127, -128, 255, 256, -256, 32767, -32767, -32768, 12345, -12345, 0x00FF, 0x7F80};
+  const int32_t accs[] = {0, 1, -1, 0x7FFF0000, -0x7FFF0000, 0x00FFFFFF, -0x01000000};
+  for (int w = -128; w <= 127; ++w) {
+    for (int16_t a : as) {
+      for (int32_t acc : accs) {
+        EXPECT_EQ(hpddo::detail::mac8(acc, static_cast<int8_t>(w), a), acc + w * static_cast<int32_t>(a));
+      }
+    }
+  }
+}
+
+#if defined(HPDDO_HAVE_DEFAULT_MODEL_Q8)
+TEST(MlpQ8, DefaultModelMatchesIntegerReference) {
+  check_network(hpddo_model_default_q8::kModel, hpddo_golden_default_q8::kCount, hpddo_golden_default_q8::at,
+                hpddo_golden_default_q8::int_at);
+  check_observer(hpddo_model_default_q8::kModel, hpddo_golden_default_q8::kCount, hpddo_golden_default_q8::at,
+                 hpddo_golden_default_q8::sample);
+  EXPECT_EQ(hpddo::model_checksum(hpddo_model_default_q8::kModel), hpddo_model_default_q8::kChecksum);
+}
+#endif
 
 #if defined(HPDDO_HAVE_DEFAULT_MODEL)
 TEST(MlpQ, DefaultModelMatchesIntegerReference) {

@@ -93,9 +93,9 @@ struct Residual {
 };
 /// The fixed-point network takes the inputs the gate quantised (the same exponents: the
 /// generated models share one array), else quantises them itself.
-template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1>
-struct Residual<MlpQ<kIn, kH1, kH2, WH, kR0, kR1> > {
-  typedef MlpQ<kIn, kH1, kH2, WH, kR0, kR1> Net;
+template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1, class W0>
+struct Residual<MlpQ<kIn, kH1, kH2, WH, kR0, kR1, W0> > {
+  typedef MlpQ<kIn, kH1, kH2, WH, kR0, kR1, W0> Net;
   static float of(const Model<Net>& m, const float (&x)[kFeatureCount], const int16_t (&xq)[kFeatureCount]) {
     if (m.gate.in_exp == m.weights.in_exp) return Net::forward_q(m.weights, xq);
     return Net::residual(m.scaler, m.weights, x);
