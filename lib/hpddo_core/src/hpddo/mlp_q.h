@@ -144,22 +144,48 @@ template <uint8_t kIn>
 struct Dot<kIn, int16_t> {
   static int32_t run(const int16_t* row, int32_t bias, const int16_t* in) { return dot_lpm16<kIn, false>(row, bias, in); }
 };
-/// int8 weights on the AVR: one LPM Z+ a weight and mac8; about 21 cycles a weight.
-/// kSkipZero as dot_lpm16.
+/// int8 weights on the AVR: the whole row in one assembly loop (the weights read with
+/// LPM Z+, the inputs with LD X+, mac8's two products and adds, a count down): about 23
+/// cycles a weight, against 33 where the compiler shuffles the pointers through Z around
+/// mac8. kSkipZero: a zero input skips its products (14 cycles; the sum is the same).
 template <uint8_t kIn, bool kSkipZero>
 inline int32_t dot_lpm8(const int8_t* row, int32_t bias, const int16_t* in) {
   int32_t acc = bias;
   const int8_t* p = row;
-  for (uint8_t k = 0; k < kIn; ++k) {
-    const int16_t v = in[k];
-    if (kSkipZero && v == 0) {
-      ++p;
-      continue;
-    }
-    int8_t w;
-    __asm__ __volatile__("lpm %0, Z+" : "=r"(w), "+z"(p));
-    acc = mac8(acc, w, v);
-  }
+  const int16_t* x = in;
+  uint8_t n = kIn;
+  uint8_t zero, w, lo, hi, t;
+  __asm__ __volatile__(
+      "clr   %[z]          \n\t"
+      "1:                  \n\t"
+      "lpm   %[w], Z+      \n\t"
+      "ld    %[lo], X+     \n\t"
+      "ld    %[hi], X+     \n\t"
+      ".if %[skip]         \n\t"
+      "mov   %[t], %[lo]   \n\t"
+      "or    %[t], %[hi]   \n\t"
+      "breq  2f            \n\t"
+      ".endif              \n\t"
+      "muls  %[w], %[hi]   \n\t"
+      "sbc   %D[acc], %[z] \n\t"
+      "add   %B[acc], r0   \n\t"
+      "adc   %C[acc], r1   \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "mulsu %[w], %[lo]   \n\t"
+      "sbc   %C[acc], %[z] \n\t"
+      "sbc   %D[acc], %[z] \n\t"
+      "add   %A[acc], r0   \n\t"
+      "adc   %B[acc], r1   \n\t"
+      "adc   %C[acc], %[z] \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "2:                  \n\t"
+      "dec   %[n]          \n\t"
+      "brne  1b            \n\t"
+      "clr   r1            \n\t"
+      : [acc] "+r"(acc), [z] "=&r"(zero), [w] "=&a"(w), [lo] "=&a"(lo), [hi] "=&d"(hi), [t] "=&r"(t),
+        [n] "+r"(n), "+z"(p), "+x"(x)
+      : [skip] "n"(kSkipZero ? 1 : 0)
+      : "r0", "memory");
   return acc;
 }
 template <uint8_t kIn>
