@@ -38,7 +38,7 @@ namespace g = hpddo_golden_default;
 
 enum Stage : uint8_t {
   kStageStep = 1, kStagePrepare, kStageResidual, kStageFinish, kStagePhysics, kStageEnvelope, kStageGate,
-  kStageThermal, kStageScaler, kStagePeer, kStagePhysicsAll, kStageThermalOn,
+  kStageThermal, kStageScaler, kStagePeer, kStagePhysicsAll, kStageThermalOn, kStageGateHinted,
 };
 
 #define BARRIER() __asm__ __volatile__("" ::: "memory")
@@ -145,6 +145,7 @@ int main() {
   // The reciprocals the observer computes once (physics.h): the stages time the step's physics.
   const hpddo::PhysicsConst pk = hpddo::physics_const(pp);
   const hpddo::PhysicsConst all_k = hpddo::physics_const(all);
+  uint8_t gate_first = 0;
   for (uint16_t r = 0; r < g::kCount; ++r) {
     float x[5];
     for (uint8_t j = 0; j < 5; ++j) x[j] = g::at(r, static_cast<uint8_t>(g::kCol_x0 + j));
@@ -175,6 +176,11 @@ int main() {
     start(kStageGate);
     const float w = m::kModel.gate.weight(x);
     stop();
+    // As in the step: the search starts at the previous row's nearest prototype.
+    start(kStageGateHinted);
+    const float w_hinted = m::kModel.gate.weight(x, &gate_first);
+    stop();
+    if (w_hinted != w && bad < 255) ++bad;
     float z[5] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
 #if !defined(HPDDO_BENCH_INTEGER)  // the fixed-point network has the scaler folded into layer 0
     start(kStageScaler);

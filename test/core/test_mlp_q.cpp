@@ -169,31 +169,6 @@ TEST(MlpQ, InputQuantisationRoundsHalvesAwayFromZeroAndSaturates) {
 
 }  // namespace
 
-namespace {
-
-// The square-root bound of the integer gate's board path (gate_q.h): |d| > b must imply
-// d^2 >= x, that is (b + 1)^2 >= x, for every best the gate can hold (0 < x < 2^31).
-void expect_sqrt_bound(uint32_t x) {
-  const uint32_t b = hpddo::detail::sqrt_bound(x);
-  const uint64_t next = static_cast<uint64_t>(b + 1u) * (b + 1u);
-  EXPECT_GE(next, x) << "x = " << x << ", b = " << b;
-  // and useful: within a few units of the root, not a blanket bound
-  EXPECT_LE(static_cast<double>(b), std::sqrt(static_cast<double>(x)) * 1.02 + 2.0) << "x = " << x;
-}
-
-}  // namespace
-
-TEST(GateQ, SquareRootBoundNeverPassesOverANearerPrototype) {
-  for (uint32_t x = 1; x <= 300000u; ++x) expect_sqrt_bound(x);
-  uint32_t x = 300001u;
-  while (x < 0x7FFFFFFFu - x / 1000u) {
-    expect_sqrt_bound(x);
-    expect_sqrt_bound(x - 1u);
-    x += x / 1000u + 1u;
-  }
-  expect_sqrt_bound(0x7FFFFFFFu);
-}
-
 TEST(MlpQ, ShiftRightByBytesIsTheShift) {
   const int32_t values[] = {0, 1, -1, 12345, -12345, 0x7FFFFFFF, -0x7FFFFFFF - 1, 0x12345678, -0x12345678};
   for (int32_t v : values) {

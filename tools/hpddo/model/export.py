@@ -278,7 +278,7 @@ def model_header_q(model: ModelData, q, name: str, provenance: dict, suffix: str
             f"    {{kInExp, kW0, kB0, {w1}, kWOut, kBOut, kOutScale}},\n",
             f"    {{{f}::kEnvLo, {f}::kEnvHi}},\n",
             f"    {{kInExp, kGateCentreQ, kGateShiftQ, kGateMultQ, kGatePrototypesQ, {gq.r_in_q}, {gq.r_out_q}, "
-            f"{c_float(gq.fade)}}},\n",
+            f"{c_float(gq.fade)}, {gq.sort_dim}}},\n",
             f"    {c_float(model.clamp_rpm)},\n",
             f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
             "};\n\n", f"}}  // namespace hpddo_model_{name}_{suffix}\n\n#endif  // {guard}\n"]

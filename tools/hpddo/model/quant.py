@@ -318,7 +318,8 @@ def forward_int(q: QuantNet, x) -> tuple[list, int, np.float32]:
 #   zq_j  = clip(((gq_j - cq_j) m_j + 2^(S_j-1)) >> S_j, -GATE_ZMAX, GATE_ZMAX)
 #           cq_j = round(centre_j 2^e_j), m_j / 2^S_j ~ 2^GATE_FRAC / (scale_j 2^e_j), m_j <= 16383
 #   acc_k = sum_j (zq_j - pq_kj)^2                   int32 (|zq - pq| <= 2 GATE_ZMAX: no overflow)
-#   best  = min(r_out_q, acc_k ...) (a prototype's sum stops once acc >= best)
+#   best  = min(r_out_q, acc_k ...) (a prototype's sum stops once acc >= best; the prototypes
+#           sorted by their coordinate sort_dim, for the board's search)
 #   w     = 0 unless best < r_out_q; 1 if best <= r_in_q; else float32(r_out_q - best) * fade
 #           pq = clip(round(p 2^GATE_FRAC)), r_q = round(r_sq 2^(2 GATE_FRAC)), fade = float32(1 / (r_out_q - r_in_q))
 # A NaN or infinite g_j gives w = 0, as gate.h.
@@ -337,6 +338,7 @@ class GateQ:
     r_in_q: int
     r_out_q: int
     fade: np.float32
+    sort_dim: int = 0  # the prototypes are in ascending order of this coordinate (quantise_gate)
 
 
 def quantise_gate(gd, in_exp) -> GateQ:
@@ -354,6 +356,15 @@ def quantise_gate(gd, in_exp) -> GateQ:
         mult.append(min(GATE_MULT_MAX, round_half_away(unit * 2.0 ** s)))
     protos = [[max(-GATE_ZMAX, min(GATE_ZMAX, round_half_away(float(np.float32(v)) * 2.0 ** GATE_FRAC))) for v in row]
               for row in np.asarray(gd.prototypes, np.float32)]
+    # Stored in ascending order of one coordinate, the one along which the prototypes spread
+    # most (sort_dim, the largest variance; then the others): the board's search (gate_q.h) starts at the previous
+    # nearest and walks up and down that order, stopping each way where that coordinate's
+    # difference alone reaches the best distance (exact: the prototypes beyond differ more
+    # still). The minimum, and so the weight, does not depend on the order.
+    n = len(protos)  # n^2 times each coordinate's variance, exact
+    spread = [n * sum(r[j] * r[j] for r in protos) - sum(r[j] for r in protos) ** 2 for j in range(len(in_exp))]
+    sort_dim = spread.index(max(spread))
+    protos = sorted(protos, key=lambda r: (r[sort_dim], r))
     def q_sq(r):  # a squared radius in units of 2^-2GATE_FRAC, within [0, 2^31 - 1]
         r = float(np.float32(r)) * 2.0 ** (2 * GATE_FRAC)
         return INT32_MAX if not math.isfinite(r) or r >= INT32_MAX else max(0, round_half_away(r))
@@ -361,7 +372,7 @@ def quantise_gate(gd, in_exp) -> GateQ:
     r_in = min(q_sq(gd.r_in_sq), INT32_MAX - 1)
     r_out = max(r_in + 1, q_sq(gd.r_out_sq))
     return GateQ(in_exp=list(in_exp), centre=centre, shift=shift, mult=mult, prototypes=protos, r_in_q=r_in,
-                 r_out_q=r_out, fade=np.float32(1.0 / (r_out - r_in)))
+                 r_out_q=r_out, fade=np.float32(1.0 / (r_out - r_in)), sort_dim=sort_dim)
 
 
 def gate_weight_int(gq: GateQ, g) -> np.float32:
@@ -406,11 +417,13 @@ def fixed_observer(model, q: QuantNet):
 
 def gate_bytes(gq: GateQ) -> bytes:
     """Little-endian bytes of the stored gate in gate_q.h's checksum order: centre (int16),
-    shifts (int8), multipliers (int16), prototypes (int16), r_in_q, r_out_q (int32), fade (float32)."""
+    shifts (int8), multipliers (int16), prototypes (int16), r_in_q, r_out_q (int32), fade
+    (float32), sort_dim (uint8)."""
     return b"".join([np.asarray(gq.centre, "<i2").tobytes(), np.asarray(gq.shift, "<i1").tobytes(),
                      np.asarray(gq.mult, "<i2").tobytes(),
                      np.asarray([v for r in gq.prototypes for v in r], "<i2").tobytes(),
-                     np.asarray([gq.r_in_q, gq.r_out_q], "<i4").tobytes(), np.asarray([gq.fade], "<f4").tobytes()])
+                     np.asarray([gq.r_in_q, gq.r_out_q], "<i4").tobytes(), np.asarray([gq.fade], "<f4").tobytes(),
+                     bytes([gq.sort_dim])])
 
 
 def residual_fn(q: QuantNet):

@@ -43,7 +43,8 @@ from .. import resource_root
 
 ROOT = resource_root()
 STAGES = {1: "step", 2: "prepare", 3: "residual", 4: "finish", 5: "physics", 6: "envelope", 7: "gate",
-          8: "thermal_off", 9: "scaler", 10: "peer_predict", 11: "physics_all_effects", 12: "thermal_on"}
+          8: "thermal_off", 9: "scaler", 10: "peer_predict", 11: "physics_all_effects", 12: "thermal_on",
+          13: "gate_hinted"}
 AVR_FLAGS = ["-std=gnu++11", "-mmcu=atmega328p", "-DF_CPU=16000000L", "-Os", "-ffunction-sections",
              "-fdata-sections", "-fno-exceptions", "-fno-threadsafe-statics", "-Wall", "-Wextra"]
 GOAL_AVR_STEP = 6000          # cycles, fixed-point (16, 8) full step
