@@ -193,12 +193,11 @@ class Observer {
 
     const float i_true_A = true_current_A(p, s.i_A);
     const float dt_s = s.dt_s;
-    if (dt_s < kPeriodMin_s || dt_s > kPeriodMax_s) {
+    if (!within(dt_s, kPeriodMin_s, kPeriodMax_s)) {  // order-key compares (platform.h): exact, cheap
       ++period_breaks_;
       has_lag_ = false;
     }
-    const bool temp_read = is_finite(s.temp_C) && s.temp_C >= model_->limits.temp_min_C &&
-                           s.temp_C <= model_->limits.temp_max_C;
+    const bool temp_read = is_finite(s.temp_C) && within(s.temp_C, model_->limits.temp_min_C, model_->limits.temp_max_C);
     const float ref_C = temp_read ? s.temp_C : p.t_amb_C;
     thermal_.step(p, i_true_A, dt_s, ref_C);
     PhysicsInput in;
@@ -270,8 +269,10 @@ class Observer {
  private:
   bool reading_valid(const Sample& s) const {
     const InputLimits& lim = model_->limits;
-    return is_finite(s.v_V) && is_finite(s.i_A) && s.v_V <= lim.v_max_V && s.v_V >= -lim.v_max_V &&
-           s.i_A <= lim.i_max_A && s.i_A >= -lim.i_max_A && s.dt_s > 0.0f && is_finite(s.dt_s);
+    // The floats' order keys (platform.h): the float compares' results at a fifth of the
+    // cycles on the AVR; a key above 0 is a float above 0 (-0's key is 0).
+    return is_finite(s.v_V) && is_finite(s.i_A) && within(s.v_V, -lim.v_max_V, lim.v_max_V) &&
+           within(s.i_A, -lim.i_max_A, lim.i_max_A) && order_key(s.dt_s) > 0 && is_finite(s.dt_s);
   }
 
   const Model<Net>* model_;  ///< a pointer, not a reference: an observer can be assigned (a new model in force)
