@@ -204,6 +204,12 @@ inline bool within(float x, float lo, float hi) {
   return k >= order_key(lo) && k <= order_key(hi);
 }
 
+/// x > 0 by the order key: false for zeros, negatives and NaN, as the float compare.
+inline bool above_zero(float x) {
+  const int32_t k = order_key(x);
+  return k > 0 && k <= 0x7F800000;  // up to +inf's key; a NaN's lies above it
+}
+
 /// A quiet NaN, the marker of an absent optional reading.
 inline float absent() { return __builtin_nanf(""); }
 
