@@ -1,6 +1,6 @@
 // Cycle-exact cost of the observer on the ATmega328P (run in simavr by cycles_sim.c):
-// one full Observer::step per golden row of models/default, float or fixed point
-// (-DHPDDO_BENCH_FIXED), then each stage alone. Every timed region is framed by two
+// one full Observer::step per golden row of models/default, float, fixed point int16
+// (-DHPDDO_BENCH_FIXED) or int8 (-DHPDDO_BENCH_INT8), then each stage alone. Every timed region is framed by two
 // writes to GPIOR0 (1: start, 2: stop) with its stage id in GPIOR1; the harness reads
 // the cycle counter at each write. Each step's estimate is checked against the golden
 // row (1e-4 relative, golden.h's rule); the number of misses goes to GPIOR2 at the end.
@@ -17,8 +17,15 @@
 namespace g = hpddo_golden_default;
 #else
 #include "model_default_q.h"
+#include "model_default_q8.h"
 #include "model_tiny.h"  // every effect term on and a thermal node: their cost
-#if defined(HPDDO_BENCH_FIXED)
+#if defined(HPDDO_BENCH_INT8)  // the int8 model (model_default_q8.h)
+#define HPDDO_BENCH_INTEGER 1
+#include "golden_default_q8.h"
+namespace m = hpddo_model_default_q8;
+namespace g = hpddo_golden_default_q8;
+#elif defined(HPDDO_BENCH_FIXED)
+#define HPDDO_BENCH_INTEGER 1
 #include "golden_default_q.h"
 namespace m = hpddo_model_default_q;
 namespace g = hpddo_golden_default_q;
@@ -31,7 +38,7 @@ namespace g = hpddo_golden_default;
 
 enum Stage : uint8_t {
   kStageStep = 1, kStagePrepare, kStageResidual, kStageFinish, kStagePhysics, kStageEnvelope, kStageGate,
-  kStageThermal, kStageScaler, kStagePeer, kStagePhysicsAll, kStageThermalOn,
+  kStageThermal, kStageScaler, kStagePeer, kStagePhysicsAll, kStageThermalOn, kStageGateHinted,
 };
 
 #define BARRIER() __asm__ __volatile__("" ::: "memory")
@@ -138,6 +145,7 @@ int main() {
   // The reciprocals the observer computes once (physics.h): the stages time the step's physics.
   const hpddo::PhysicsConst pk = hpddo::physics_const(pp);
   const hpddo::PhysicsConst all_k = hpddo::physics_const(all);
+  uint8_t gate_first = 0;
   for (uint16_t r = 0; r < g::kCount; ++r) {
     float x[5];
     for (uint8_t j = 0; j < 5; ++j) x[j] = g::at(r, static_cast<uint8_t>(g::kCol_x0 + j));
@@ -168,8 +176,13 @@ int main() {
     start(kStageGate);
     const float w = m::kModel.gate.weight(x);
     stop();
+    // As in the step: the search starts at the previous row's nearest prototype.
+    start(kStageGateHinted);
+    const float w_hinted = m::kModel.gate.weight(x, &gate_first);
+    stop();
+    if (w_hinted != w && bad < 255) ++bad;
     float z[5] = {0.0f, 0.0f, 0.0f, 0.0f, 0.0f};
-#if !defined(HPDDO_BENCH_FIXED)  // the fixed-point network has the scaler folded into layer 0
+#if !defined(HPDDO_BENCH_INTEGER)  // the fixed-point network has the scaler folded into layer 0
     start(kStageScaler);
     m::kModel.scaler.transform(x, z);
     stop();
@@ -177,7 +190,7 @@ int main() {
     g_sink = rpm + w + z[0] + th.rise_K() + rpm_all + th_on.rise_K();
     g_sink8 = static_cast<uint8_t>(ok + inside + ok_all);
   }
-#if defined(HPDDO_BENCH_FIXED)
+#if defined(HPDDO_BENCH_INTEGER)
   // The integer network on the board against the integer reference, bit for bit.
   for (uint16_t r = 0; r < g::kCount; ++r) {
     float x[5];

@@ -1,7 +1,8 @@
 // Host throughput of the observer, one thread: best of N passes (and at least half a
 // second of them) of Observer::step over
 // every row of the given bench logs, for the float and the fixed-point form of two
-// models (models/default (16, 8) and a (128, 64) timing model, tools/hpddo/studies/perf.py).
+// models (models/default (16, 8) and a (128, 64) timing model, tools/hpddo/studies/perf.py),
+// and the int8 form of the first (model_default_q8.h).
 // Prints one JSON object: samples per second per model.
 //
 // usage: host_step N LOG...
@@ -13,6 +14,7 @@
 
 #include "bench_log.h"
 #include "model_default_q.h"
+#include "model_default_q8.h"
 #include "model_wide_q.h"
 
 namespace {
@@ -91,20 +93,21 @@ int main(int argc, char** argv) {
   // The passes of the four models and of the two stage splits take turns, so that a burst
   // of load on this shared machine falls on all of them alike (the ratios are taken in
   // the same run); the best pass of each counts.
-  double best[8];
+  double best[9];
   for (double& b : best) b = 1e30;
-  double c[4], cs[2];
+  double c[5], cs[2];
   size_t net_rows[2] = {0, 0};
   double total = 0.0;
   for (int rep = 0; rep < repeat || total < kMinSeconds; ++rep) {
-    double dt[8];
+    double dt[9];
     dt[0] = pass(hpddo_model_default::kModel, rows, &c[0]);
     dt[1] = pass(hpddo_model_default_q::kModel, rows, &c[1]);
     dt[2] = pass(hpddo_model_wide::kModel, rows, &c[2]);
     dt[3] = pass(hpddo_model_wide_q::kModel, rows, &c[3]);
     net_rows[0] = stage_pass(hpddo_model_default::kModel, rows, &dt[4], &dt[5], &cs[0]);
     net_rows[1] = stage_pass(hpddo_model_default_q::kModel, rows, &dt[6], &dt[7], &cs[1]);
-    for (int k = 0; k < 8; ++k) {
+    dt[8] = pass(hpddo_model_default_q8::kModel, rows, &c[4]);
+    for (int k = 0; k < 9; ++k) {
       if (dt[k] < best[k]) best[k] = dt[k];
       total += dt[k];
     }
@@ -113,10 +116,11 @@ int main(int argc, char** argv) {
   const double f16 = n / best[0], q16 = n / best[1], f128 = n / best[2], q128 = n / best[3];
   const double pf = n / best[4], nf = static_cast<double>(net_rows[0]) / best[5];
   const double pq = n / best[6], nq = static_cast<double>(net_rows[1]) / best[7];
+  const double i16 = n / best[8];
   std::printf("{\"samples\": %zu, \"repeat\": %d, \"float_16_8\": %.6g, \"fixed_16_8\": %.6g, "
               "\"float_128_64\": %.6g, \"fixed_128_64\": %.6g, \"prepare_finish_float_16_8\": %.6g, "
               "\"network_float_16_8\": %.6g, \"prepare_finish_fixed_16_8\": %.6g, \"network_fixed_16_8\": %.6g, "
-              "\"checksums\": [%.9g, %.9g, %.9g, %.9g, %.9g, %.9g]}\n",
-              rows.size(), repeat, f16, q16, f128, q128, pf, nf, pq, nq, c[0], c[1], c[2], c[3], cs[0], cs[1]);
+              "\"int8_16_8\": %.6g, \"checksums\": [%.9g, %.9g, %.9g, %.9g, %.9g, %.9g, %.9g]}\n",
+              rows.size(), repeat, f16, q16, f128, q128, pf, nf, pq, nq, i16, c[0], c[1], c[2], c[3], cs[0], cs[1], c[4]);
   return 0;
 }

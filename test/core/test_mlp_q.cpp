@@ -10,11 +10,19 @@
 #include "golden.h"
 #include "golden_tiny1_q.h"
 #include "golden_tiny_q.h"
+#include "golden_tiny1_q8.h"
+#include "golden_tiny_q8.h"
 #include "model_tiny1_q.h"
+#include "model_tiny1_q8.h"
 #include "model_tiny_q.h"
+#include "model_tiny_q8.h"
 #if defined(HPDDO_HAVE_DEFAULT_MODEL)
 #include "golden_default_q.h"
 #include "model_default_q.h"
+#endif
+#if defined(HPDDO_HAVE_DEFAULT_MODEL_Q8)
+#include "golden_default_q8.h"
+#include "model_default_q8.h"
 #endif
 
 namespace {
@@ -80,6 +88,49 @@ TEST(MlpQ, ChecksumMatchesGeneratedHeader) {
   EXPECT_NE(hpddo_model_tiny_q::kChecksum, hpddo_model_tiny::kChecksum);
 }
 
+// The int8 networks (layer 0 int8, the hidden layer int8 where there is one; mlp_q.h's mac8).
+TEST(MlpQ8, TinyNetworksMatchIntegerReferenceBitForBit) {
+  check_network(hpddo_model_tiny_q8::kModel, hpddo_golden_tiny_q8::kCount, hpddo_golden_tiny_q8::at,
+                hpddo_golden_tiny_q8::int_at);
+  check_network(hpddo_model_tiny1_q8::kModel, hpddo_golden_tiny1_q8::kCount, hpddo_golden_tiny1_q8::at,
+                hpddo_golden_tiny1_q8::int_at);
+}
+
+TEST(MlpQ8, ObserverWithInt8NetworkMatchesReference) {
+  check_observer(hpddo_model_tiny_q8::kModel, hpddo_golden_tiny_q8::kCount, hpddo_golden_tiny_q8::at,
+                 hpddo_golden_tiny_q8::sample);
+  check_observer(hpddo_model_tiny1_q8::kModel, hpddo_golden_tiny1_q8::kCount, hpddo_golden_tiny1_q8::at,
+                 hpddo_golden_tiny1_q8::sample);
+}
+
+TEST(MlpQ8, ChecksumMatchesGeneratedHeader) {
+  EXPECT_EQ(hpddo::model_checksum(hpddo_model_tiny_q8::kModel), hpddo_model_tiny_q8::kChecksum);
+  EXPECT_EQ(hpddo::model_checksum(hpddo_model_tiny1_q8::kModel), hpddo_model_tiny1_q8::kChecksum);
+  EXPECT_NE(hpddo_model_tiny_q8::kChecksum, hpddo_model_tiny_q::kChecksum);
+}
+
+TEST(MlpQ8, Mac8IsTheProductForEverySignAndByte) {
+  const int16_t as[] = {0, 1, -1, 127, -128, 255, 256, -256, 32767, -32767, -32768, 12345, -12345, 0x00FF, 0x7F80};
+  const int32_t accs[] = {0, 1, -1, 0x7FFF0000, -0x7FFF0000, 0x00FFFFFF, -0x01000000};
+  for (int w = -128; w <= 127; ++w) {
+    for (int16_t a : as) {
+      for (int32_t acc : accs) {
+        EXPECT_EQ(hpddo::detail::mac8(acc, static_cast<int8_t>(w), a), acc + w * static_cast<int32_t>(a));
+      }
+    }
+  }
+}
+
+#if defined(HPDDO_HAVE_DEFAULT_MODEL_Q8)
+TEST(MlpQ8, DefaultModelMatchesIntegerReference) {
+  check_network(hpddo_model_default_q8::kModel, hpddo_golden_default_q8::kCount, hpddo_golden_default_q8::at,
+                hpddo_golden_default_q8::int_at);
+  check_observer(hpddo_model_default_q8::kModel, hpddo_golden_default_q8::kCount, hpddo_golden_default_q8::at,
+                 hpddo_golden_default_q8::sample);
+  EXPECT_EQ(hpddo::model_checksum(hpddo_model_default_q8::kModel), hpddo_model_default_q8::kChecksum);
+}
+#endif
+
 #if defined(HPDDO_HAVE_DEFAULT_MODEL)
 TEST(MlpQ, DefaultModelMatchesIntegerReference) {
   check_network(hpddo_model_default_q::kModel, hpddo_golden_default_q::kCount, hpddo_golden_default_q::at,
@@ -113,31 +164,6 @@ TEST(MlpQ, InputQuantisationRoundsHalvesAwayFromZeroAndSaturates) {
 }
 
 }  // namespace
-
-namespace {
-
-// The square-root bound of the integer gate's board path (gate_q.h): |d| > b must imply
-// d^2 >= x, that is (b + 1)^2 >= x, for every best the gate can hold (0 < x < 2^31).
-void expect_sqrt_bound(uint32_t x) {
-  const uint32_t b = hpddo::detail::sqrt_bound(x);
-  const uint64_t next = static_cast<uint64_t>(b + 1u) * (b + 1u);
-  EXPECT_GE(next, x) << "x = " << x << ", b = " << b;
-  // and useful: within a few units of the root, not a blanket bound
-  EXPECT_LE(static_cast<double>(b), std::sqrt(static_cast<double>(x)) * 1.02 + 2.0) << "x = " << x;
-}
-
-}  // namespace
-
-TEST(GateQ, SquareRootBoundNeverPassesOverANearerPrototype) {
-  for (uint32_t x = 1; x <= 300000u; ++x) expect_sqrt_bound(x);
-  uint32_t x = 300001u;
-  while (x < 0x7FFFFFFFu - x / 1000u) {
-    expect_sqrt_bound(x);
-    expect_sqrt_bound(x - 1u);
-    x += x / 1000u + 1u;
-  }
-  expect_sqrt_bound(0x7FFFFFFFu);
-}
 
 TEST(MlpQ, ShiftRightByBytesIsTheShift) {
   const int32_t values[] = {0, 1, -1, 12345, -12345, 0x7FFFFFFF, -0x7FFFFFFF - 1, 0x12345678, -0x12345678};

@@ -19,8 +19,10 @@ case "${ACQ_DEFINES:-}" in *ACQ_NO_OBSERVER*) flash_budget=60 ;; esac
 case "${ACQ_DEFINES:-}" in *ACQ_RIPPLE_HZ*) flash_budget=92; budget=75 ;; esac
 case "${ACQ_DEFINES:-}" in *ACQ_RIPPLE_COUNT=1*) flash_budget=95 ;; esac
 mkdir -p "$out/core"
+# -flto as the Arduino IDE and PlatformIO build the AVR core and sketches (link-time
+# optimisation: about 1.8 KB less flash in the counting build, 0.45 KB in the normal one).
 flags=(-mmcu=atmega328p -DF_CPU=16000000L -DARDUINO=10807 -DARDUINO_AVR_UNO -DARDUINO_ARCH_AVR
-       -DDECIMAL_DIG=__DECIMAL_DIG__ -Os -ffunction-sections -fdata-sections
+       -DDECIMAL_DIG=__DECIMAL_DIG__ -Os -flto -ffunction-sections -fdata-sections
        -I"$core/cores/arduino" -I"$core/variants/standard")
 
 # The core, compiled once per output dir.
@@ -37,14 +39,14 @@ if [[ ! -f $out/core/libcore.a ]]; then
     objs+=("$obj")
   done
   rm -f "$out/core/libcore.a.tmp"
-  avr-ar rcs "$out/core/libcore.a.tmp" "${objs[@]}"
+  avr-gcc-ar rcs "$out/core/libcore.a.tmp" "${objs[@]}"  # the LTO plugin's archiver
   mv "$out/core/libcore.a.tmp" "$out/core/libcore.a"
 fi
 
 avr-g++ -std=gnu++11 -fno-exceptions -fno-threadsafe-statics "${flags[@]}" \
   -Wall -Wextra -Werror -I"$root/lib/hpddo_core/src" -I"$root/uno_acq" -I"$root/models/default" ${ACQ_DEFINES:-} \
   -c "$root/uno_acq/uno_acq.cpp" -o "$out/uno_acq.o"
-avr-g++ -mmcu=atmega328p -Os -Wl,--gc-sections "$out/uno_acq.o" "$out/core/libcore.a" -o "$out/uno_acq.elf"
+avr-g++ -mmcu=atmega328p -Os -flto -Wl,--gc-sections "$out/uno_acq.o" "$out/core/libcore.a" -o "$out/uno_acq.elf"
 
 # Flash = .text + .data; RAM = .data + .bss + .noinit (the stack takes the rest).
 read -r text data bss noinit < <(avr-size -A "$out/uno_acq.elf" |

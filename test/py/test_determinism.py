@@ -103,7 +103,8 @@ def test_default_model_regenerates_byte_identical_under_another_blas_and_simd_se
                          env=run_env(extra), capture_output=True, text=True, timeout=900)
     assert res.returncode == 0, res.stderr
     for name in ("model_default.h", "golden_default.h", "golden_default.csv", "metrics.json",
-                 "model_default_q.h", "golden_default_q.h", "golden_default_q.csv"):
+                 "model_default_q.h", "golden_default_q.h", "golden_default_q.csv", "model_default_q8.h",
+                 "golden_default_q8.h", "golden_default_q8.csv"):
         got = (out / name).read_bytes()
         want = (ROOT / "models" / "default" / name).read_bytes()
         assert got == want, (f"models/default/{name} differs when regenerated under {extra} "

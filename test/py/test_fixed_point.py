@@ -55,3 +55,46 @@ def test_int8_hidden_weights_are_rejected_for_cause(default):
     acc = quant.accuracy(model, q8, dataset.load_recordings(DATA), "test")
     assert quant.DEFAULT_HIDDEN_TYPE == "int16"
     assert acc["all"]["rms_diff_rpm"] > BUDGET_RPM, acc
+
+
+# The int8 model (issue 24): layer 0 and the hidden layer int8, the shifts from the envelope,
+# the weights rounded for the training rows (quant.quantise's calibration).
+@pytest.fixture(scope="module")
+def default_int8(default):
+    from hpddo.model import train
+    model, _ = default
+    recs = dataset.load_recordings(DATA)
+    return model, export.quantise_int8(model, train.training_rows(recs, model.physics)[0])
+
+
+def test_committed_int8_header_is_the_int8_quantisation_of_the_committed_float_model(default_int8):
+    model, q8 = default_int8
+    text = (MODEL / "model_default_q8.h").read_text()
+    assert f"kChecksum = 0x{export.model_checksum_q(model, q8):08x}u" in text
+    assert "typedef hpddo::MlpQ<5, 16, 8, int8_t, " in text and ", int8_t> Net;" in text
+
+
+@pytest.mark.parametrize("paths,part", [(DATA, "test"), (VALIDATION, "all")], ids=["default-test", "validation"])
+def test_int8_accuracy_cost_against_the_float_model_is_within_budget(default_int8, paths, part):
+    model, q8 = default_int8
+    acc = quant.accuracy(model, q8, dataset.load_recordings(paths), part)
+    assert acc["all"]["rms_diff_rpm"] <= BUDGET_RPM, acc
+    assert abs(acc["all"]["rmse_fixed_rpm"] - acc["all"]["rmse_float_rpm"]) <= BUDGET_RPM, acc
+
+
+def test_int8_rounded_to_nearest_is_over_budget_for_cause(default):
+    """Why the int8 weights are rounded for the training rows: to nearest, they cost more than
+    the budget (measured on every run)."""
+    model, _ = default
+    q8 = export.quantise_int8(model)
+    acc = quant.accuracy(model, q8, dataset.load_recordings(DATA), "test")
+    assert acc["all"]["rms_diff_rpm"] > BUDGET_RPM, acc
+
+
+def test_int8_sums_never_overflow_for_any_input(default_int8):
+    _, q8 = default_int8
+    rng = np.random.default_rng(24)
+    big = np.float32(3e38)
+    for x in [np.full(5, big), np.full(5, -big), np.array([big, -big, big, -big, big], np.float32),
+              *rng.uniform(-1e6, 1e6, (200, 5)).astype(np.float32)]:
+        quant.forward_int(q8, x)

@@ -23,6 +23,7 @@ def test_committed_measurement_had_no_golden_miss_and_a_peer():
     fig = json.loads(perf.FIGURES.read_text())
     assert fig["avr"]["float"]["golden_misses"] == 0
     assert fig["avr"]["fixed"]["golden_misses"] == 0
+    assert fig["avr"]["int8"]["golden_misses"] == 0
     assert fig["avr"]["peer"]["status"] == "run"
     steps = fig["avr"]["fixed"]["stages"]["step"]
     assert steps["n"] >= 70 and steps["median"] <= steps["max"]
@@ -31,7 +32,7 @@ def test_committed_measurement_had_no_golden_miss_and_a_peer():
 def test_committed_lx106_counts_had_no_golden_miss():
     fig = json.loads(perf.FIGURES.read_text())["lx106"]
     assert fig["status"] == "run"
-    for kind in ("float_16_8", "fixed_16_8"):
+    for kind in ("float_16_8", "fixed_16_8", "int8_16_8"):
         assert fig[kind]["golden_misses"] == 0
         assert abs(fig[kind]["counts_per_instruction"] - 40.96) < 1e-9  # -icount shift=10 at the sim's 40 MHz
     assert fig["fixed_128_64"]["step"]["median"] < fig["float_128_64"]["step"]["median"]
@@ -88,3 +89,11 @@ def test_committed_upload_of_the_default_model_within_its_goal():
     up = json.loads(perf.FIGURES.read_text())["esp_upload"]
     assert up["status"] == "run" and up["baud"] == 460800 and up["seconds"]["n"] >= 3
     assert up["seconds"]["max"] <= perf.GOAL_UPLOAD_S
+
+
+def test_committed_uno_loop_checked_every_estimate():
+    """The UNO's main loop figures come from a run whose estimates all matched the reference."""
+    u = json.loads(perf.FIGURES.read_text())["uno_loop"]
+    assert u["status"] == "run"
+    assert u["checked"] and "estimates within" in u["checked"][0]
+    assert u["window"]["n"] >= 250 and u["observer"]["median"] < u["window"]["median"]

@@ -68,7 +68,8 @@ def regenerated(tmp_path_factory):
 
 def test_default_model_regenerates_byte_identical(regenerated):
     for name in ("model_default.h", "golden_default.h", "golden_default.csv", "metrics.json", "lookup.json",
-                 "model_default_q.h", "golden_default_q.h", "golden_default_q.csv"):
+                 "model_default_q.h", "golden_default_q.h", "golden_default_q.csv", "model_default_q8.h",
+                 "golden_default_q8.h", "golden_default_q8.csv"):
         assert (regenerated / name).read_bytes() == (MODEL / name).read_bytes(), (
             f"models/default/{name} differs from a regeneration: run "
             "tools/gen_weights.py data/default/{load,long,sweep}.csv --out models/default")

@@ -19,7 +19,7 @@ from .evaluation import metrics as metrics_mod
 from .model import physics as ph
 from .logs.errors import InputError
 from .model.observer_ref import Limits, ModelData
-from .model.train import TrainConfig, Residual, residual_or_physics_only
+from .model.train import TrainConfig, Residual, residual_or_physics_only, training_rows
 
 GOLDEN_ROWS_PER_RECORDING = 24
 # M1's nameplate when the user gives none (hpddo train --rated-v, --rated-rpm)
@@ -185,6 +185,8 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         (stage / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
         (stage / f"golden_{name}.csv").write_text(export.golden_csv(rows))
         export.write_fixed_point(stage, model, name, prov, samples)  # model_<name>_q.h, its goldens
+        # model_<name>_q8.h, its goldens: the int8 network, rounded for the training rows
+        export.write_int8(stage, model, name, prov, samples, training_rows(recs, m2)[0] if res.trained else None)
         work = stage / "work"  # cleaned logs, the replay built for this model, its estimates
         est = replay_natively(recs, stage, name, work)
         lookup = baseline.Lookup.fit(recs)

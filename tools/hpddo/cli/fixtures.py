@@ -42,9 +42,10 @@ def run(args) -> int:
         (out / f"golden_{name}.h").write_text(export.golden_header(rows, name, prov))
         (out / f"golden_{name}.csv").write_text(export.golden_csv(rows))
         export.write_fixed_point(out, model, name, prov, fixtures.tiny_stream(seed))
+        export.write_int8(out, model, name, prov, fixtures.tiny_stream(seed))  # int8 weights, quantised as they are
         if not args.quiet:
-            print(f"wrote {out}/model_{name}.h, golden_{name}.h/.csv, model_{name}_q.h, golden_{name}_q.h/.csv "
-                  f"({len(rows)} rows)")
+            print(f"wrote {out}/model_{name}.h, golden_{name}.h/.csv, model_{name}_q.h, golden_{name}_q.h/.csv, "
+                  f"model_{name}_q8.h, golden_{name}_q8.h/.csv ({len(rows)} rows)")
     df, meta = fixtures.short_log()
     benchlog.write_log(out / "log_short.csv", df, meta)
     (out / "log_bad_duty.csv").write_text(fixtures.BAD_DUTY_LOG)

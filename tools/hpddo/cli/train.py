@@ -14,6 +14,8 @@ dynamics), and writes into DIR:
   golden_<name>.h/.csv  golden vectors: inputs and every stage's float32 output
   model_<name>_q.h    the same model with the fixed-point network (hpddo::MlpQ, quant.py)
   golden_<name>_q.h/.csv  its golden vectors, from the integer reference (quant.py)
+  model_<name>_q8.h   the same with int8 weights (hpddo::MlpQ, quant.py), rounded for the
+                      training rows; golden_<name>_q8.h/.csv its golden vectors
   metrics.json        RMSE of M1, M2, M3 per condition on the test parts, measured by
                       the native replay of the cleaned logs through the board observer
   work/               the cleaned logs, the replay built for this model (by CMake, from

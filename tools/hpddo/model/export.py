@@ -274,10 +274,11 @@ def model_checksum_q(model: ModelData, q) -> int:
     return zlib.crc32(data) & 0xFFFFFFFF
 
 
-def model_header_q(model: ModelData, q, name: str, provenance: dict) -> str:
-    """Text of `model_<name>_q.h`, namespace hpddo_model_<name>_q: the fixed-point network
-    (quant.QuantNet of this model) with the float header's physics, scaler (folded into the
-    network, kept for the record), envelope and gate; it includes model_<name>.h."""
+def model_header_q(model: ModelData, q, name: str, provenance: dict, suffix: str = "q") -> str:
+    """Text of `model_<name>_<suffix>.h`, namespace hpddo_model_<name>_<suffix>: the fixed-point
+    network (quant.QuantNet of this model) with the float header's physics, scaler (folded into
+    the network, kept for the record), envelope and gate; it includes model_<name>.h. suffix:
+    "q" the int16 model, "q8" the int8 one."""
     from . import quant
     hidden = q.hidden
     h2 = hidden[1] if len(hidden) == 2 else 0
@@ -286,14 +287,15 @@ def model_header_q(model: ModelData, q, name: str, provenance: dict) -> str:
     prov = dict(provenance)
     prov.update(generator=GENERATOR, quantiser="hpddo.model.quant (tools/hpddo/model/quant.py)",
                 shapes="-".join(str(n) for n in (5, *hidden, 1)),
-                weights=f"layer 0 int16 (scaler folded in), hidden {q.hidden_type}, output int16; int32 sums",
+                weights=f"layer 0 {q.first_type} (scaler folded in), hidden {q.hidden_type}, output int16; int32 sums",
                 shifts=" ".join(map(str, q.shifts)), checksum=f"crc32 0x{crc:08x}")
-    guard = f"HPDDO_MODEL_{name.upper()}_Q_H"
+    guard = f"HPDDO_MODEL_{name.upper()}_{suffix.upper()}_H"
     f = f"hpddo_model_{name}"
     wt = quant.C_TYPES[q.hidden_type]
+    w0t = "" if q.first_type == "int16" else f", {quant.C_TYPES[q.first_type]}"  # MlpQ's default: int16_t
     out = [_banner("fixed-point model header", prov), f"#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n",
-           f'#include "model_{name}.h"\n\n', f"namespace hpddo_model_{name}_q {{\n\n",
-           f"typedef hpddo::MlpQ<5, {hidden[0]}, {h2}, {wt}, {shifts[0]}, {shifts[1]}> Net;\n\n",
+           f'#include "model_{name}.h"\n\n', f"namespace hpddo_model_{name}_{suffix} {{\n\n",
+           f"typedef hpddo::MlpQ<5, {hidden[0]}, {h2}, {wt}, {shifts[0]}, {shifts[1]}{w0t}> Net;\n\n",
            f"/// CRC-32 over the stored model (see hpddo::model_checksum).\nstatic const uint32_t kChecksum = 0x{crc:08x}u;\n\n",
            f"static const uint16_t kEffects = {f}::kEffects;\n\n",
            "/// Input exponents: xq_j = round(x_j 2^e_j).\n",
@@ -312,16 +314,16 @@ def model_header_q(model: ModelData, q, name: str, provenance: dict) -> str:
     g = model.gate
     lim = model.limits
     w1 = "kW1, kB1" if h2 else "nullptr, nullptr"
-    out += ["\n", _c_layout_asserts(f"{name}_q"), "/// The deployed fixed-point model.\nstatic const hpddo::Model<Net> kModel = {\n",
+    out += ["\n", _c_layout_asserts(f"{name}_{suffix}"), "/// The deployed fixed-point model.\nstatic const hpddo::Model<Net> kModel = {\n",
             f"    {_c_physics(model.physics, 'kEffects')},\n",
             f"    {{{f}::kScalerMean, {f}::kScalerScale}},\n",
             f"    {{kInExp, kW0, kB0, {w1}, kWOut, kBOut, kOutScale}},\n",
             f"    {{{f}::kEnvLo, {f}::kEnvHi}},\n",
             f"    {{kInExp, kGateCentreQ, kGateShiftQ, kGateMultQ, kGatePrototypesQ, {gq.r_in_q}, {gq.r_out_q}, "
-            f"{c_float(gq.fade)}}},\n",
+            f"{c_float(gq.fade)}, {gq.sort_dim}}},\n",
             f"    {c_float(model.clamp_rpm)},\n",
             f"    {{{c_float(lim.v_max_V)}, {c_float(lim.i_max_A)}, {c_float(lim.temp_min_C)}, {c_float(lim.temp_max_C)}}},\n",
-            "};\n\n", _c_dynamics(model, f), f"}}  // namespace hpddo_model_{name}_q\n\n#endif  // {guard}\n"]
+            "};\n\n", _c_dynamics(model, f), f"}}  // namespace hpddo_model_{name}_{suffix}\n\n#endif  // {guard}\n"]
     return "".join(out)
 
 
@@ -342,10 +344,10 @@ def golden_rows_q(model: ModelData, q, samples):
     return np.asarray(rows, np.float32), ints
 
 
-def golden_header_q(rows: np.ndarray, ints, name: str, provenance: dict) -> str:
-    """Text of `golden_<name>_q.h`: the float table kRows and the integer table kInts."""
+def golden_header_q(rows: np.ndarray, ints, name: str, provenance: dict, suffix: str = "q") -> str:
+    """Text of `golden_<name>_<suffix>.h`: the float table kRows and the integer table kInts."""
     from . import quant
-    guard = f"HPDDO_GOLDEN_{name.upper()}_Q_H"
+    guard = f"HPDDO_GOLDEN_{name.upper()}_{suffix.upper()}_H"
     cols = GOLDEN_INPUTS + GOLDEN_Q_STAGES
     prov = dict(provenance)
     prov.update(generator=GENERATOR, reference="hpddo.model.quant.forward_int (Python integers) in hpddo.model.observer_ref",
@@ -354,7 +356,7 @@ def golden_header_q(rows: np.ndarray, ints, name: str, provenance: dict) -> str:
     ienums = ",\n".join(f"  kInt_{c} = {k}" for k, c in enumerate(GOLDEN_Q_INTS))
     return "".join([
         _banner("fixed-point golden vectors", prov), f"#ifndef {guard}\n#define {guard}\n\n#include <stdint.h>\n\n",
-        '#include "hpddo/observer.h"\n#include "hpddo/platform.h"\n\n', f"namespace hpddo_golden_{name}_q {{\n\n",
+        '#include "hpddo/observer.h"\n#include "hpddo/platform.h"\n\n', f"namespace hpddo_golden_{name}_{suffix} {{\n\n",
         f"enum Column : uint8_t {{\n{enums}\n}};\n\n", f"enum IntColumn : uint8_t {{\n{ienums}\n}};\n\n",
         f"static const uint16_t kCount = {len(rows)};\nstatic const uint8_t kWidth = {len(cols)};\n",
         f"static const uint8_t kIntWidth = {len(GOLDEN_Q_INTS)};\n\n",
@@ -372,7 +374,7 @@ def golden_header_q(rows: np.ndarray, ints, name: str, provenance: dict) -> str:
         "  hpddo::Sample s;\n  s.v_V = at(r, kCol_v_V);\n  s.i_A = at(r, kCol_i_A);\n  s.temp_C = at(r, kCol_temp_C);\n",
         "  s.dt_s = at(r, kCol_dt_s);\n  s.seq = static_cast<uint16_t>(at(r, kCol_seq));\n",
         "  s.has_seq = at(r, kCol_has_seq) != 0.0f;\n  return s;\n}\n",
-        f"\n}}  // namespace hpddo_golden_{name}_q\n\n#endif  // {guard}\n"])
+        f"\n}}  // namespace hpddo_golden_{name}_{suffix}\n\n#endif  // {guard}\n"])
 
 
 def golden_csv_q(rows: np.ndarray, ints) -> str:
@@ -388,12 +390,34 @@ def write_fixed_point(folder: pathlib.Path, model: ModelData, name: str, prov: d
     the QuantNet."""
     from . import quant
     q = quant.quantise(model, hidden_type or quant.DEFAULT_HIDDEN_TYPE)
-    folder = pathlib.Path(folder)
-    (folder / f"model_{name}_q.h").write_text(model_header_q(model, q, name, prov))
-    rows, ints = golden_rows_q(model, q, samples)
-    (folder / f"golden_{name}_q.h").write_text(golden_header_q(rows, ints, name, prov))
-    (folder / f"golden_{name}_q.csv").write_text(golden_csv_q(rows, ints))
+    _write_q(folder, model, q, name, prov, samples, "q")
     return q
+
+
+def quantise_int8(model: ModelData, calibration=None):
+    """The int8 network of a model (quant.INT8_TYPES, the shifts from the envelope), its
+    weights rounded for the calibration rows (the training features) where given."""
+    from . import quant
+    return quant.quantise(model, quant.INT8_TYPES[1], quant.INT8_TYPES[0], envelope_shifts=True,
+                          calibration=calibration)
+
+
+def write_int8(folder: pathlib.Path, model: ModelData, name: str, prov: dict, samples, calibration=None):
+    """Writes model_<name>_q8.h, golden_<name>_q8.h and golden_<name>_q8.csv into folder (the
+    int8 model, quantise_int8); the QuantNet."""
+    q = quantise_int8(model, calibration)
+    prov = dict(prov, rounding=("data-aware, for the training rows' features (quant.quantise calibration)"
+                                if calibration is not None else "to nearest"))
+    _write_q(folder, model, q, name, prov, samples, "q8")
+    return q
+
+
+def _write_q(folder, model, q, name, prov, samples, suffix):
+    folder = pathlib.Path(folder)
+    (folder / f"model_{name}_{suffix}.h").write_text(model_header_q(model, q, name, prov, suffix))
+    rows, ints = golden_rows_q(model, q, samples)
+    (folder / f"golden_{name}_{suffix}.h").write_text(golden_header_q(rows, ints, name, prov, suffix))
+    (folder / f"golden_{name}_{suffix}.csv").write_text(golden_csv_q(rows, ints))
 
 
 def read_model_header(text: str) -> ModelData:

@@ -43,6 +43,10 @@ C_TYPES = {"int8": "int8_t", "int16": "int16_t"}
 # model on the test rows of data/default (int16: 0.021), over the 0.05 RPM budget
 # (docs/performance.md, `hpddo bench --accuracy`).
 DEFAULT_HIDDEN_TYPE = "int16"
+# The int8 model (model_<name>_q8.h, issue 24): layer 0 and the hidden layer int8, the output
+# layer int16 (8 weights, about 150 AVR cycles in int16; int8 there gains little), the shifts
+# from the envelope and the weights rounded for the training rows (quantise's calibration).
+INT8_TYPES = ("int8", "int8")  # (layer 0, hidden layers)
 
 
 def round_half_away(y: float) -> int:
@@ -72,6 +76,10 @@ class QuantNet:
     def hidden_type(self) -> str:
         return self.types[1] if len(self.types) > 2 else "int16"
 
+    @property
+    def first_type(self) -> str:
+        return self.types[0]
+
 
 def input_exponent(lo: float, hi: float) -> int:
     """Largest e with max(|lo|, |hi|) 2^e <= 32767 (within [-60, 60])."""
@@ -82,10 +90,78 @@ def input_exponent(lo: float, hi: float) -> int:
     return e
 
 
-def _quantise_layer(a_rows, bias, wmax: int, in_max: list, limit: int):
+@dataclasses.dataclass
+class Moments:
+    """Exact integer moments of a layer's integer inputs over calibration rows: n rows,
+    sums S_j and products P_jk (Python integers: the same on every machine)."""
+
+    n: int
+    sums: list
+    prods: list
+
+    @classmethod
+    def of(cls, rows: np.ndarray) -> "Moments":
+        r = [[int(v) for v in col] for col in np.asarray(rows, np.int64).T]
+        return cls(n=len(rows), sums=[sum(c) for c in r],
+                   prods=[[sum(a * b for a, b in zip(ci, cj)) for cj in r] for ci in r])
+
+    def cov(self) -> list:
+        """n^2 times the covariance, as floats from exact integers: n P_jk - S_j S_k."""
+        return [[float(self.n * p - sj * sk) for p, sk in zip(row, self.sums)] for row, sj in zip(self.prods, self.sums)]
+
+
+def _data_rounding(u: list, wq: list, wmax: int, cov: list) -> list:
+    """Integer weights near u (real weights in units of the row's step) that make the row's
+    output error over the calibration inputs small: the rounding of each weight up or down
+    chosen so that the errors d = u - wq cancel over correlated inputs (minimising d' C d,
+    C their covariance; greedy, one weight at a time, while the error falls), instead of each
+    weight to its nearest. The mean error goes into the bias (_quantise_layer)."""
+    wq = list(wq)
+    d = [a - w for a, w in zip(u, wq)]
+    n = len(u)
+    for _ in range(8 * n):
+        best, best_j, best_step = 0.0, -1, 0
+        for j in range(n):
+            step = 1 if d[j] > 0 else -1  # the other rounding of weight j
+            if abs(wq[j] + step) > wmax or abs(d[j]) >= 1.0:
+                continue
+            cd = math.fsum(cov[j][k] * d[k] for k in range(n))
+            gain = -(2.0 * (-step) * cd + cov[j][j])  # change of d' C d when d_j -> d_j - step, negated
+            if gain > best * (1.0 + 1e-12) + 1e-300:
+                best, best_j, best_step = gain, j, step
+        if best_j < 0:
+            break
+        wq[best_j] += best_step
+        d[best_j] -= best_step
+    return wq
+
+
+SCALE_TRIES = 12  # the data-aware rounding tries the row scales s (1 + k / 64), k < SCALE_TRIES
+
+
+def _best_scale(a, s0, wq0, wmax, cov):
+    """The row's scale among s0 (1 + k / 64), and its data-aware rounding, with the smallest
+    output error s^2 d' C d over the calibration rows (a larger step can put the weights
+    nearer their grid); the first of equals."""
+    best = None
+    for k in range(SCALE_TRIES):
+        s = s0 * (1.0 + k / 64.0)
+        u = [v / s for v in a]
+        wq = _data_rounding(u, [round_half_away(v) for v in u], wmax, cov)
+        d = [x - w for x, w in zip(u, wq)]
+        err = s * s * math.fsum(d[j] * math.fsum(cov[j][k2] * d[k2] for k2 in range(len(d))) for j in range(len(d)))
+        if best is None or err < best[0]:
+            best = (err, s, wq)
+    return best[1], best[2]
+
+
+def _quantise_layer(a_rows, bias, wmax: int, in_max: list, limit: int, moments: "Moments | None" = None):
     """Rows of real weights a (per unit of the integer inputs) and real biases -> integer
-    rows, biases and scales, each row's bound within limit."""
+    rows, biases and scales, each row's bound within limit. moments: the integer inputs'
+    moments over calibration rows, for the data-aware rounding (_data_rounding) and the
+    bias correction (the mean of the rounding errors over the rows added to the bias)."""
     w_out, b_out, s_out, bound_out = [], [], [], []
+    cov = moments.cov() if moments is not None else None
     for a, b in zip(a_rows, bias):
         amax = max(abs(v) for v in a)
         # A row of zero weights is its bias alone: stored as 2^24, far from any bound.
@@ -93,6 +169,11 @@ def _quantise_layer(a_rows, bias, wmax: int, in_max: list, limit: int):
         while True:
             wq = [round_half_away(v / s) for v in a]
             bq = round_half_away(b / s)
+            if cov is not None and amax > 0:
+                s, wq = _best_scale(a, s, wq, wmax, cov)
+                u = [v / s for v in a]
+                mean_err = math.fsum((x - w) * sj for x, w, sj in zip(u, wq, moments.sums)) / moments.n
+                bq = round_half_away(b / s + mean_err)
             bound = abs(bq) + sum(abs(w) * m for w, m in zip(wq, in_max))
             if bound <= limit and max(abs(w) for w in wq) <= wmax:
                 break
@@ -112,10 +193,31 @@ def _shift(bounds) -> int:
     return r
 
 
-def quantise(model, hidden_type: str = DEFAULT_HIDDEN_TYPE) -> QuantNet:
-    """The fixed-point network of a ModelData (observer_ref.py), from its float32 weights."""
-    if hidden_type not in TYPES:
-        raise ValueError(f"hidden_type is one of {sorted(TYPES)}, got {hidden_type!r}")
+def _box_max(wq, bq, lo, hi) -> list:
+    """Per row, the largest accumulator bq + sum_j w_j x_j over the box lo_j <= x_j <= hi_j
+    (exact, Python integers), at least 0 (the ReLU's)."""
+    return [max(0, b + sum(max(w * a, w * c) for w, a, c in zip(row, lo, hi))) for row, b in zip(wq, bq)]
+
+
+def quantise(model, hidden_type: str = DEFAULT_HIDDEN_TYPE, first_type: str = "int16",
+             envelope_shifts: bool = False, calibration=None) -> QuantNet:
+    """The fixed-point network of a ModelData (observer_ref.py), from its float32 weights;
+    hidden_type and first_type: the weights of the hidden layers and of layer 0.
+
+    envelope_shifts: each hidden layer's shift R is the smallest that keeps its values
+    within int16 for inputs inside the training envelope (the only ones the observer runs
+    the network on), instead of for any int16 input: the hidden values then use the whole
+    int16 range where it matters (with int8 weights, the any-input shifts left them below
+    3,000 and cost 0.08 RPM RMS; issue 24). Outside the envelope a hidden value saturates
+    at 32767 (mlp_q.h's clamp, as before), and the sums' int32 bounds still hold for any
+    input (each layer's inputs taken at 32767).
+
+    calibration: feature rows x (the training rows) for the data-aware rounding of the
+    int8 layers (_data_rounding, with the bias correction); None: every weight to its
+    nearest integer."""
+    for t in (hidden_type, first_type):
+        if t not in TYPES:
+            raise ValueError(f"weight types are one of {sorted(TYPES)}, got {t!r}")
     layers = [(np.asarray(w, np.float32), np.asarray(b, np.float32)) for w, b in model.layers]
     mean = [float(v) for v in np.asarray(model.scaler_mean, np.float32)]
     scale = [float(v) for v in np.asarray(model.scaler_scale, np.float32)]
@@ -126,13 +228,21 @@ def quantise(model, hidden_type: str = DEFAULT_HIDDEN_TYPE) -> QuantNet:
     c0 = [float(b0[o]) - math.fsum(float(w0[o, j]) * mean[j] / scale[j] for j in range(w0.shape[1]))
           for o in range(w0.shape[0])]
     in_max = [INT16_MAX] * w0.shape[1]
+    # The envelope box in units of xq (the inputs the observer runs the network on).
+    box = ([quantise_inputs_e(e, model.env_lo)], [quantise_inputs_e(e, model.env_hi)])
+    box = ([min(a, c) for a, c in zip(box[0][0], box[1][0])], [max(a, c) for a, c in zip(box[0][0], box[1][0])])
     weights, biases, types, shifts, bounds = [], [], [], [], []
     a_rows, bias, n = a0, c0, len(layers)
+    if calibration is not None:
+        cal_in = np.asarray([quantise_inputs_e(e, r) for r in np.asarray(calibration, np.float32)], np.int64)
     for k in range(n):
         last = k == n - 1
-        t = "int16" if (k == 0 or last) else hidden_type
+        t = first_type if k == 0 and not last else "int16" if last else hidden_type
         limit = INT32_MAX if last else INT32_MAX - (1 << 15)  # room for the rounding of a shift <= 16
-        wq, bq, s, bd = _quantise_layer(a_rows, bias, TYPES[t], in_max, limit)
+        mom = None
+        if calibration is not None and t == "int8":
+            mom = Moments.of(cal_in)
+        wq, bq, s, bd = _quantise_layer(a_rows, bias, TYPES[t], in_max, limit, mom)
         weights.append(wq)
         biases.append(bq)
         types.append(t)
@@ -140,11 +250,18 @@ def quantise(model, hidden_type: str = DEFAULT_HIDDEN_TYPE) -> QuantNet:
         if last:
             out_scale = np.float32(s[0])
             break
-        r = _shift(bd)
+        top = _box_max(wq, bq, *box) if envelope_shifts else bd
+        r = _shift(top)
         if r > 16:
             raise ValueError(f"layer {k} needs a shift of {r} > 16")
         shifts.append(r)
-        in_max = [min(INT16_MAX, (b + ((1 << r) >> 1)) >> r) for b in bd]
+        box_top = [min(INT16_MAX, (b + ((1 << r) >> 1)) >> r) for b in top]
+        box = ([0] * len(box_top), box_top)
+        if calibration is not None:  # the next layer's integer inputs over the calibration rows
+            acc = np.asarray(bq, np.int64)[None, :] + sum(np.asarray([row[j] for row in wq], np.int64)[None, :]
+                                                          * cal_in[:, j: j + 1] for j in range(cal_in.shape[1]))
+            cal_in = np.minimum((np.maximum(acc, 0) + ((1 << r) >> 1)) >> r, INT16_MAX)
+        in_max = [INT16_MAX] * len(bd) if envelope_shifts else box_top
         # The next layer's columns absorb each row's scale s_o 2^R.
         w_next, b_next = layers[k + 1]
         a_rows = [[float(w_next[p, o]) * s[o] * 2.0 ** r for o in range(w_next.shape[1])]
@@ -156,8 +273,13 @@ def quantise(model, hidden_type: str = DEFAULT_HIDDEN_TYPE) -> QuantNet:
 
 def quantise_inputs(q: QuantNet, x) -> list:
     """xq_j = sat16(round(x_j 2^e_j)), a NaN as 0; x in float32."""
+    return quantise_inputs_e(q.in_exp, x)
+
+
+def quantise_inputs_e(in_exp, x) -> list:
+    """quantise_inputs with the input exponents e_j."""
     out = []
-    for xj, e in zip(np.asarray(x, np.float32), q.in_exp):
+    for xj, e in zip(np.asarray(x, np.float32), in_exp):
         y = float(xj)
         if math.isnan(y):
             out.append(0)
@@ -196,7 +318,8 @@ def forward_int(q: QuantNet, x) -> tuple[list, int, np.float32]:
 #   zq_j  = clip(((gq_j - cq_j) m_j + 2^(S_j-1)) >> S_j, -GATE_ZMAX, GATE_ZMAX)
 #           cq_j = round(centre_j 2^e_j), m_j / 2^S_j ~ 2^GATE_FRAC / (scale_j 2^e_j), m_j <= 16383
 #   acc_k = sum_j (zq_j - pq_kj)^2                   int32 (|zq - pq| <= 2 GATE_ZMAX: no overflow)
-#   best  = min(r_out_q, acc_k ...) (a prototype's sum stops once acc >= best)
+#   best  = min(r_out_q, acc_k ...) (a prototype's sum stops once acc >= best; the prototypes
+#           sorted by their coordinate sort_dim, for the board's search)
 #   w     = 0 unless best < r_out_q; 1 if best <= r_in_q; else float32(r_out_q - best) * fade
 #           pq = clip(round(p 2^GATE_FRAC)), r_q = round(r_sq 2^(2 GATE_FRAC)), fade = float32(1 / (r_out_q - r_in_q))
 # A NaN or infinite g_j gives w = 0, as gate.h.
@@ -215,6 +338,7 @@ class GateQ:
     r_in_q: int
     r_out_q: int
     fade: np.float32
+    sort_dim: int = 0  # the prototypes are in ascending order of this coordinate (quantise_gate)
 
 
 def quantise_gate(gd, in_exp) -> GateQ:
@@ -232,6 +356,15 @@ def quantise_gate(gd, in_exp) -> GateQ:
         mult.append(min(GATE_MULT_MAX, round_half_away(unit * 2.0 ** s)))
     protos = [[max(-GATE_ZMAX, min(GATE_ZMAX, round_half_away(float(np.float32(v)) * 2.0 ** GATE_FRAC))) for v in row]
               for row in np.asarray(gd.prototypes, np.float32)]
+    # Stored in ascending order of one coordinate, the one along which the prototypes spread
+    # most (sort_dim, the largest variance; then the others): the board's search (gate_q.h) starts at the previous
+    # nearest and walks up and down that order, stopping each way where that coordinate's
+    # difference alone reaches the best distance (exact: the prototypes beyond differ more
+    # still). The minimum, and so the weight, does not depend on the order.
+    n = len(protos)  # n^2 times each coordinate's variance, exact
+    spread = [n * sum(r[j] * r[j] for r in protos) - sum(r[j] for r in protos) ** 2 for j in range(len(in_exp))]
+    sort_dim = spread.index(max(spread))
+    protos = sorted(protos, key=lambda r: (r[sort_dim], r))
     def q_sq(r):  # a squared radius in units of 2^-2GATE_FRAC, within [0, 2^31 - 1]
         r = float(np.float32(r)) * 2.0 ** (2 * GATE_FRAC)
         return INT32_MAX if not math.isfinite(r) or r >= INT32_MAX else max(0, round_half_away(r))
@@ -239,7 +372,7 @@ def quantise_gate(gd, in_exp) -> GateQ:
     r_in = min(q_sq(gd.r_in_sq), INT32_MAX - 1)
     r_out = max(r_in + 1, q_sq(gd.r_out_sq))
     return GateQ(in_exp=list(in_exp), centre=centre, shift=shift, mult=mult, prototypes=protos, r_in_q=r_in,
-                 r_out_q=r_out, fade=np.float32(1.0 / (r_out - r_in)))
+                 r_out_q=r_out, fade=np.float32(1.0 / (r_out - r_in)), sort_dim=sort_dim)
 
 
 def gate_weight_int(gq: GateQ, g) -> np.float32:
@@ -284,11 +417,13 @@ def fixed_observer(model, q: QuantNet):
 
 def gate_bytes(gq: GateQ) -> bytes:
     """Little-endian bytes of the stored gate in gate_q.h's checksum order: centre (int16),
-    shifts (int8), multipliers (int16), prototypes (int16), r_in_q, r_out_q (int32), fade (float32)."""
+    shifts (int8), multipliers (int16), prototypes (int16), r_in_q, r_out_q (int32), fade
+    (float32), sort_dim (uint8)."""
     return b"".join([np.asarray(gq.centre, "<i2").tobytes(), np.asarray(gq.shift, "<i1").tobytes(),
                      np.asarray(gq.mult, "<i2").tobytes(),
                      np.asarray([v for r in gq.prototypes for v in r], "<i2").tobytes(),
-                     np.asarray([gq.r_in_q, gq.r_out_q], "<i4").tobytes(), np.asarray([gq.fade], "<f4").tobytes()])
+                     np.asarray([gq.r_in_q, gq.r_out_q], "<i4").tobytes(), np.asarray([gq.fade], "<f4").tobytes(),
+                     bytes([gq.sort_dim])])
 
 
 def residual_fn(q: QuantNet):

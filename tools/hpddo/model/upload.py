@@ -94,7 +94,7 @@ def find_model(model_dir: pathlib.Path) -> pathlib.Path:
     model_dir = pathlib.Path(model_dir)
     if not model_dir.is_dir():
         raise UploadError(f"{model_dir}: no such folder")
-    found = sorted(p for p in model_dir.glob("model_*.h") if not p.name.endswith("_q.h"))
+    found = sorted(p for p in model_dir.glob("model_*.h") if not p.name.endswith(("_q.h", "_q8.h")))  # not the integer ones
     if len(found) != 1:
         names = ", ".join(p.name for p in found) or "none"
         raise UploadError(f"{model_dir}: needs exactly one model_<name>.h (found: {names})")

@@ -43,10 +43,13 @@ from .. import resource_root
 
 ROOT = resource_root()
 STAGES = {1: "step", 2: "prepare", 3: "residual", 4: "finish", 5: "physics", 6: "envelope", 7: "gate",
-          8: "thermal_off", 9: "scaler", 10: "peer_predict", 11: "physics_all_effects", 12: "thermal_on"}
+          8: "thermal_off", 9: "scaler", 10: "peer_predict", 11: "physics_all_effects", 12: "thermal_on",
+          13: "gate_hinted"}
 AVR_FLAGS = ["-std=gnu++11", "-mmcu=atmega328p", "-DF_CPU=16000000L", "-Os", "-ffunction-sections",
              "-fdata-sections", "-fno-exceptions", "-fno-threadsafe-statics", "-Wall", "-Wextra"]
-GOAL_AVR_STEP = 6000          # cycles, fixed-point (16, 8) full step
+GOAL_AVR_STEP = 8000          # cycles, the int8 (16, 8) full step (issue 24)
+GOAL_AVR_STEP_STRETCH = 6000  # cycles, the same, stretch
+GOAL_UNO_LOOP = 0.5           # the UNO's 100 Hz main loop: its work per window within half the window (issue 24)
 GOAL_HOST_PER_S = 5e6         # samples/s per core, (16, 8)
 CPU_HZ = 16e6
 DOC = ROOT / "docs" / "performance.md"
@@ -138,7 +141,7 @@ def avr(build: pathlib.Path, model, peer_python) -> dict:
     harness = build / "cycles_sim"
     _run(["gcc", "-O2", "-I/usr/include/simavr", src / "cycles_sim.c", "-lsimavr", "-o", harness])
     fig = {"cpu_hz": CPU_HZ, "compiler": _run(["avr-g++", "--version"]).splitlines()[0], "flags": " ".join(AVR_FLAGS)}
-    for kind, define in (("float", []), ("fixed", ["-DHPDDO_BENCH_FIXED"])):
+    for kind, define in (("float", []), ("fixed", ["-DHPDDO_BENCH_FIXED"]), ("int8", ["-DHPDDO_BENCH_INT8"])):
         elf = build / f"step_{kind}.elf"
         _run(["avr-g++", *AVR_FLAGS, *define, *_avr_includes(), src / "avr_step.cpp", "-Wl,--gc-sections", "-o", elf])
         size_elf = build / f"size_{kind}.elf"
@@ -334,11 +337,46 @@ def lx106(build: pathlib.Path, model) -> dict:
            "compiler": _run([LX_CXX, "--version"]).splitlines()[0], "flags": " ".join(LX_FLAGS)}
     cases = {"float_16_8": bench_model_h("model_default", "golden_default"),
              "fixed_16_8": bench_model_h("model_default_q", "golden_default_q"),
+             "int8_16_8": bench_model_h("model_default_q8", "golden_default_q8"),
              "float_128_64": bench_model_h("model_wide", "golden_default", check=False),
              "fixed_128_64": bench_model_h("model_wide_q", "golden_default", check=False)}
     for name, inc in cases.items():
         fig[name] = _lx106_run(build, name, inc, [default, build], libsoft)
     fig["telemetry_line"] = lx106_line(build, libsoft)
+    return fig
+
+
+UNO_RATE_HZ = 100  # the UNO's main loop measured at this sample rate (firmware.uno.sim_100hz's run)
+
+
+def uno_loop(build: pathlib.Path) -> dict:
+    """The UNO's main loop at 100 Hz in simavr: uno_acq built as for the board
+    (test/firmware/build_uno.sh, the observer on), driven with the test rows of
+    data/default/long.csv by test/firmware/check_uno_sim.py (every estimate checked against
+    the reference observer), and the cycles of the loop's work per window and of the
+    observer step in it (GPIOR1 markers, busy.csv), median and maximum."""
+    if not shutil.which("avr-g++") or not pathlib.Path("/usr/include/simavr/sim_avr.h").exists():
+        return {"status": "not run: avr-g++ or simavr's headers (libsimavr-dev) missing"}
+    build.mkdir(parents=True, exist_ok=True)
+    fw = ROOT / "test" / "firmware"
+    _run(["bash", fw / "build_uno.sh", ROOT, build / "uno_acq"])
+    _run(["gcc", "-O2", "-I/usr/include/simavr", f"-I{ROOT / 'uno_acq'}", fw / "uno_sim.c", "-lsimavr",
+          "-o", build / "uno_sim"])
+    _run(["g++", "-std=c++17", "-O2", f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}", fw / "frame_dump.cpp",
+          "-o", build / "frame_dump"])
+    out = _run([sys.executable, fw / "check_uno_sim.py", "--harness", build / "uno_sim", "--elf",
+                build / "uno_acq" / "uno_acq.elf", "--frame-dump", build / "frame_dump", "--workdir", build / "sim",
+                "--pwm", "1000", "--rate", str(UNO_RATE_HZ), "--rows", "300", "--drive", "recording"],
+               env=dict(os.environ, PYTHONPATH=str(ROOT / "tools")))
+    fig = {"status": "run", "rate_hz": UNO_RATE_HZ, "window_cycles": int(CPU_HZ / UNO_RATE_HZ)}
+    for line in (build / "sim" / "busy.csv").read_text().splitlines()[1:]:
+        kind, _, cyc = line.split(",")
+        fig.setdefault(kind, []).append(int(cyc))
+    for kind in ("window", "observer"):
+        fig[kind] = _stats(fig.get(kind, [0]))
+    size = (build / "uno_acq" / "uno_acq.size").read_text().split()
+    fig["flash_B"], fig["flash_max_B"], fig["ram_B"], fig["ram_max_B"] = map(int, size)
+    fig["checked"] = [ln for ln in out.splitlines() if ln.startswith("observer (")]
     return fig
 
 
@@ -444,89 +482,120 @@ def _sklearn_best(model, x, repeat: int) -> float:
 
 
 def table(fig: dict) -> str:
-    """The Markdown table of the figures."""
+    """The Markdown table of the figures: float, fixed point int16 and int8 side by side."""
     a, h = fig["avr"], fig["host"]
-    fs, qs = a["float"]["stages"], a["fixed"]["stages"]
-    rows = ["| What | Float | Fixed point | Goal / peer |", "|---|---:|---:|---|"]
-    goal = "met" if qs["step"]["median"] <= GOAL_AVR_STEP and qs["step"]["max"] <= GOAL_AVR_STEP else "**missed**"
+    fs, qs, es = a["float"]["stages"], a["fixed"]["stages"], a["int8"]["stages"]
+    rows = ["| What | Float | Fixed point int16 | int8 | Goal / peer |", "|---|---:|---:|---:|---|"]
+    e_step = es["step"]
+    met = lambda goal: e_step["median"] <= goal and e_step["max"] <= goal
+    goal = (f"goal {GOAL_AVR_STEP:,} (int8): {'met' if met(GOAL_AVR_STEP) else '**missed**'}; stretch "
+            f"{GOAL_AVR_STEP_STRETCH:,}: {'met' if met(GOAL_AVR_STEP_STRETCH) else '**missed**'}")
+    mm = lambda st: f"{st['median']:,.0f} / {st['max']:,}"
     rows.append(f"| AVR full step (16, 8), cycles, median / max over {qs['step']['n']} golden rows | "
-                f"{fs['step']['median']:,.0f} / {fs['step']['max']:,} | {qs['step']['median']:,.0f} / {qs['step']['max']:,} "
-                f"| goal {GOAL_AVR_STEP:,} (fixed): {goal} |")
-    rows.append(f"| AVR full step, ms at 16 MHz (median) | {fs['step']['median'] / CPU_HZ * 1e3:.2f} | "
-                f"{qs['step']['median'] / CPU_HZ * 1e3:.2f} | |")
+                f"{mm(fs['step'])} | {mm(qs['step'])} | {mm(e_step)} | {goal} |")
+    ms = lambda st: f"{st['median'] / CPU_HZ * 1e3:.2f}"
+    rows.append(f"| AVR full step, ms at 16 MHz (median) | {ms(fs['step'])} | {ms(qs['step'])} | {ms(e_step)} | |")
     rows.append(f"| AVR network (residual: scaler + MLP), cycles, median | {fs['residual']['median']:,.0f} | "
-                f"{qs['residual']['median']:,.0f} | float / fixed {fs['residual']['median'] / qs['residual']['median']:.2f}x |")
+                f"{qs['residual']['median']:,.0f} | {es['residual']['median']:,.0f} | float / int16 "
+                f"{fs['residual']['median'] / qs['residual']['median']:.2f}x, float / int8 "
+                f"{fs['residual']['median'] / es['residual']['median']:.2f}x |")
     p = a["peer"]
     if p["status"] == "run":
         pm = p["stages"]["peer_predict"]["median"]
         rows.append(f"| emlearn {p['emlearn']} predict, same network (peer), cycles, median / max | "
-                    f"{pm:,.0f} / {p['stages']['peer_predict']['max']:,} | | peer / fixed network "
-                    f"{pm / qs['residual']['median']:.2f}x; peer / float network {pm / fs['residual']['median']:.2f}x |")
-        rows.append(f"| emlearn predict alone: flash / RAM, bytes | {p['size']['flash_B']:,} / {p['size']['ram_B']:,} | | weights in RAM |")
+                    f"{pm:,.0f} / {p['stages']['peer_predict']['max']:,} | | | peer / int8 network "
+                    f"{pm / es['residual']['median']:.2f}x; peer / int16 network {pm / qs['residual']['median']:.2f}x; "
+                    f"peer / float network {pm / fs['residual']['median']:.2f}x |")
+        rows.append(f"| emlearn predict alone: flash / RAM, bytes | {p['size']['flash_B']:,} / {p['size']['ram_B']:,} "
+                    "| | | weights in RAM |")
     else:
-        rows.append(f"| emlearn predict (peer) | {p['status']} | | |")
-    rows.append(f"| AVR one-step program: flash / RAM, bytes | {a['float']['size']['flash_B']:,} / {a['float']['size']['ram_B']:,} "
-                f"| {a['fixed']['size']['flash_B']:,} / {a['fixed']['size']['ram_B']:,} | |")
-    rows.append(f"| AVR steps off the golden estimate (1e-4 rel.) | {a['float']['golden_misses']} | {a['fixed']['golden_misses']} | 0 |")
+        rows.append(f"| emlearn predict (peer) | {p['status']} | | | |")
+    fr = lambda k: f"{a[k]['size']['flash_B']:,} / {a[k]['size']['ram_B']:,}"
+    rows.append(f"| AVR one-step program: flash / RAM, bytes | {fr('float')} | {fr('fixed')} | {fr('int8')} | |")
+    rows.append(f"| AVR steps off the golden estimate (1e-4 rel.) | {a['float']['golden_misses']} | "
+                f"{a['fixed']['golden_misses']} | {a['int8']['golden_misses']} | 0 |")
+    u = fig.get("uno_loop", {"status": "not run"})
+    if u.get("status") == "run":
+        wc = u["window_cycles"]
+        w, o = u["window"], u["observer"]
+        ok = w["max"] <= GOAL_UNO_LOOP * wc
+        rows.append(f"| UNO main loop at {u['rate_hz']} Hz (uno_acq in simavr, int16 model), work per window, "
+                    f"cycles, median / max over {w['n']} windows of {wc:,} | | {mm(w)} "
+                    f"({100.0 * w['max'] / wc:.1f} % at most) | | goal {GOAL_UNO_LOOP:.0%} of the window: "
+                    f"{'met' if ok else '**missed**'} |")
+        rows.append(f"| the observer step in it (the interrupts run during it), cycles, median / max | | {mm(o)} "
+                    f"({100.0 * o['max'] / wc:.1f} %) | | uno_acq flash {u['flash_B']:,} of {u['flash_max_B']:,} bytes |")
+    else:
+        rows.append(f"| UNO main loop at 100 Hz | | {u.get('status')} | | |")
     for key, label in (("16_8", "(16, 8)"), ("128_64", "(128, 64) timing model")):
         f, q, sk = h[f"float_{key}"], h[f"fixed_{key}"], h[f"sklearn_{key}"]
+        e = h.get(f"int8_{key}")
         g = ""
         if key == "16_8":
             g = f"goal {GOAL_HOST_PER_S:.0e}: {'met' if max(f, q) >= GOAL_HOST_PER_S else '**missed**'}; "
-        rows.append(f"| Host Observer::step {label}, samples/s, one core | {f:,.0f} | {q:,.0f} | {g}scikit-learn predict "
-                    f"{sk:,.0f}/s: ratio {f / sk:.1f}x (float), {q / sk:.1f}x (fixed) |")
+        ratio = f", {e / sk:.1f}x (int8)" if e else ""
+        rows.append(f"| Host Observer::step {label}, samples/s, one core | {f:,.0f} | {q:,.0f} | "
+                    f"{f'{e:,.0f}' if e else ''} | {g}scikit-learn predict {sk:,.0f}/s: ratio {f / sk:.1f}x (float), "
+                    f"{q / sk:.1f}x (int16){ratio} |")
     ns = lambda per_s: 1e9 / per_s
     rows.append(f"| Host (16, 8) per sample, ns: prepare + finish (physics, envelope, gate, clamp) / network "
                 f"| {ns(h['prepare_finish_float_16_8']):.0f} / {ns(h['network_float_16_8']):.0f} "
-                f"| {ns(h['prepare_finish_fixed_16_8']):.0f} / {ns(h['network_fixed_16_8']):.0f} | each alone, best of the passes |")
+                f"| {ns(h['prepare_finish_fixed_16_8']):.0f} / {ns(h['network_fixed_16_8']):.0f} | | each alone, best of "
+                "the passes |")
     lx = fig.get("lx106", {"status": "not run"})
     if lx.get("status") == "run":
         for key, label in (("16_8", "(16, 8)"), ("128_64", "(128, 64) timing model")):
             f, q = lx[f"float_{key}"]["step"], lx[f"fixed_{key}"]["step"]
+            e = lx[f"int8_{key}"]["step"] if f"int8_{key}" in lx else None
             note = ""
             if key == "128_64":
                 ok = q["median"] <= GOAL_LX106_WIDE_FIXED and q["max"] <= GOAL_LX106_WIDE_FIXED
-                note = (f"goal {GOAL_LX106_WIDE_FIXED:,} (fixed): {'met' if ok else '**missed**'}; the paper's float "
+                note = (f"goal {GOAL_LX106_WIDE_FIXED:,} (int16): {'met' if ok else '**missed**'}; the paper's float "
                         f"(128, 64): {PAPER_LX106_MS} ms")
             rows.append(f"| ESP8266 (QEMU lx106) full step {label}, instructions, median / max | "
-                        f"{f['median']:,.0f} / {f['max']:,} | {q['median']:,.0f} / {q['max']:,} | {note} |")
+                        f"{mm(f)} | {mm(q)} | {mm(e) if e else ''} | {note} |")
+            lms = lambda st: f"{st['median'] / LX_CLOCK_HZ * 1e3:.3f}"
             rows.append(f"| the same, ms at 80 MHz, one instruction a cycle (a lower bound), median | "
-                        f"{f['median'] / LX_CLOCK_HZ * 1e3:.3f} | {q['median'] / LX_CLOCK_HZ * 1e3:.3f} | |")
+                        f"{lms(f)} | {lms(q)} | {lms(e) if e else ''} | |")
+        e_miss = lx["int8_16_8"]["golden_misses"] if "int8_16_8" in lx else ""
         rows.append(f"| ESP8266 steps off the golden estimate (1e-4 rel.), (16, 8) | "
-                    f"{lx['float_16_8']['golden_misses']} | {lx['fixed_16_8']['golden_misses']} | 0 |")
+                    f"{lx['float_16_8']['golden_misses']} | {lx['fixed_16_8']['golden_misses']} | {e_miss} | 0 |")
         tl = lx.get("telemetry_line", {"status": "not run"})
         if tl.get("status") == "run":
             ln = tl["line"]
             ok = ln["median"] <= GOAL_LX106_LINE and ln["max"] <= GOAL_LX106_LINE
             rows.append(f"| ESP8266 (QEMU lx106) telemetry line, ArduinoJson {tl['arduinojson']}, instructions, median / max "
-                        f"over {ln['n']} golden rows ({tl['bytes']['median']:.0f} bytes) | {ln['median']:,.0f} / {ln['max']:,} "
-                        f"| | goal {GOAL_LX106_LINE:,}: {'met' if ok else '**missed**'}; "
+                        f"over {ln['n']} golden rows ({tl['bytes']['median']:.0f} bytes) | {mm(ln)} "
+                        f"| | | goal {GOAL_LX106_LINE:,}: {'met' if ok else '**missed**'}; "
                         f"{ln['median'] / (LX_CLOCK_HZ / 100) * 100:.1f} % of a 100 Hz sample at 80 MHz |")
             up = tl["upload_parse"]
             rows.append(f"| ESP8266 (QEMU lx106) model upload: parse and checks of the default model's document "
                         f"({up['document_B']:,} bytes; accepted: {'yes' if up['accepted'] else '**no**'}), instructions | "
-                        f"{up['instructions']:,} | | {up['instructions'] / LX_CLOCK_HZ * 1e3:.1f} ms at 80 MHz (a lower "
+                        f"{up['instructions']:,} | | | {up['instructions'] / LX_CLOCK_HZ * 1e3:.1f} ms at 80 MHz (a lower "
                         f"bound); ArduinoJson arena peak {up['arena_peak_B']:,} of {up['arena_capacity_B']:,} bytes |")
         else:
-            rows.append(f"| ESP8266 (QEMU lx106) telemetry line | {tl.get('status')} | | |")
+            rows.append(f"| ESP8266 (QEMU lx106) telemetry line | {tl.get('status')} | | | |")
     else:
-        rows.append(f"| ESP8266 (QEMU lx106) instruction counts | {lx.get('status')} | | |")
+        rows.append(f"| ESP8266 (QEMU lx106) instruction counts | {lx.get('status')} | | | |")
     up = fig.get("esp_upload", {"status": "not run"})
     if up.get("status") == "run":
         t = up["seconds"]
         ok = t["max"] <= GOAL_UPLOAD_S
         rows.append(f"| ESP8266 model upload (`hpddo upload`), default model, {up['document_B']:,} bytes in {up['chunks']} "
                     f"chunks, to the board's logic built for the host over a pseudo-terminal at an emulated "
-                    f"{up['baud']:,} baud, s, median / max of {t['n']} | {t['median']:.3f} / {t['max']:.3f} | | "
+                    f"{up['baud']:,} baud, s, median / max of {t['n']} | {t['median']:.3f} / {t['max']:.3f} | | | "
                     f"goal {GOAL_UPLOAD_S:g} s: {'met' if ok else '**missed**'}; no USB bridge latency, no flash writes |")
     else:
-        rows.append(f"| ESP8266 model upload | {up.get('status')} | | |")
-    prof = ["", "Profile per stage on the AVR (cycles, median over the golden rows; each stage timed alone):", "",
-            "| Stage | Float | Fixed point |", "|---|---:|---:|"]
-    for k in ("prepare", "residual", "finish", "gate", "physics", "physics_all_effects", "thermal_on", "scaler", "envelope"):
+        rows.append(f"| ESP8266 model upload | {up.get('status')} | | | |")
+    prof = ["", "Profile per stage on the AVR (cycles, median over the golden rows; each stage timed alone; "
+            "gate: the search from prototype 0, gate_hinted: from the previous row's nearest, as in the step):", "",
+            "| Stage | Float | Fixed point int16 | int8 |", "|---|---:|---:|---:|"]
+    for k in ("prepare", "residual", "finish", "gate", "gate_hinted", "physics", "physics_all_effects", "thermal_on",
+              "scaler", "envelope"):
         if k in fs:
             q = f"{qs[k]['median']:,.0f}" if k in qs else "folded into layer 0"
-            prof.append(f"| {k} | {fs[k]['median']:,.0f} | {q} |")
+            e = f"{es[k]['median']:,.0f}" if k in es else "folded into layer 0"
+            prof.append(f"| {k} | {fs[k]['median']:,.0f} | {q} | {e} |")
     return "\n".join(rows + prof) + "\n"
 
 
@@ -549,7 +618,8 @@ def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = F
     model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
     fig = {"command": COMMAND, "when": time.strftime("%Y-%m-%d", time.gmtime()),
            "machine": f"{os.uname().machine}, {os.cpu_count()} cores",
-           "avr": avr(build / "avr", model, peer_python), "host": host(build / "host", model, repeat),
+           "avr": avr(build / "avr", model, peer_python), "uno_loop": uno_loop(build / "uno"),
+           "host": host(build / "host", model, repeat),
            "lx106": lx106(build / "lx106", model) if lx else {"status": "not run (--no-lx106)"},
            "esp_upload": esp_upload(build / "esp_upload")}
     text = table(fig)

