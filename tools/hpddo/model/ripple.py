@@ -49,6 +49,7 @@ ALTERNATIVES = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
 # the weight of each sub-harmonic's power in a candidate's evidence: small enough that the main
 # line's own second harmonic (2 f, whose f/2 is the main line) does not rival the main line
 FAMILY_WEIGHT = 0.25
+SD_MAX = 3.0  # the largest log-sd of the prior: a factor e^3 = 20 either way, no prior to speak of
 TRIM = 0.05  # check_ratio: a window's own ripples per encoder revolution this far from the median is left out
 
 
@@ -57,7 +58,11 @@ class Options:
     ripples_per_rev: int          # commutation ripples per motor revolution (2 x segments for 2 brushes)
     gear_ratio: float             # motor revolutions per output revolution (the user's figure)
     floor_A: float = 0.10         # no estimate under this mean current
-    prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty (log-normal sd)
+    prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty proportional to speed (log-normal sd):
+    #                               Ke's error (calibration, magnet temperature)
+    prior_unmodelled_V: float = 0.5   # a voltage the prior (V - I Ra)/Ke does not know: of the order of a brush drop
+    prior_ra_rel: float = 0.2     # Ra's relative error in the prior: the multimeter's value against a winding
+    #                               up to ~50 K warmer (copper +0.39 %/K) or colder
     min_snr: float = 10.0         # the line's power over the local noise floor
     min_cycles: float = 5.0       # ripple cycles a window must hold
     max_spread: float = 0.03      # relative spread of the quarter-window speeds still counted as steady
@@ -68,6 +73,24 @@ class Options:
 def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
     """The back-EMF estimate of the output speed, RPM: (V - I Ra) / Ke (M2 without effects)."""
     return (np.asarray(v_V, float) - np.asarray(i_A, float) * ra_ohm) / ke_vs_per_rad * 60.0 / (2 * math.pi)
+
+
+def m2_prior_rel_sd(v_V, i_A, ra_ohm: float, opts: Options):
+    """The back-EMF prior's log-normal sd per window, from what (V - I Ra) / Ke cannot know at
+    that operating point: an unmodelled voltage u (a brush drop, opts.prior_unmodelled_V, and
+    Ra's error times I, opts.prior_ra_rel Ra I, independent) over the back-EMF E = V - I Ra,
+    beside Ke's own relative error (opts.prior_rel_sd):
+
+        sd = sqrt(prior_rel_sd^2 + (u / E)^2),   u = sqrt(U^2 + (ra_rel Ra I)^2)
+
+    Strong at high speed (E large), weak at low speed and high current, where u is a large
+    share of E; capped at SD_MAX (no prior to speak of) where E <= u / SD_MAX."""
+    v = np.asarray(v_V, float)
+    i = np.asarray(i_A, float)
+    e = v - i * ra_ohm
+    u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * i)
+    rel = np.where(e > u / SD_MAX, u / np.maximum(e, 1e-12), SD_MAX)
+    return np.minimum(np.hypot(opts.prior_rel_sd, rel), SD_MAX)
 
 
 def _spectrum(x, fs, pad=8):
@@ -133,11 +156,12 @@ def _tracked_phase(x, fs, f_end, i_end, frame_s=0.05):
     return phi + np.unwrap(np.angle(zl))
 
 
-def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None):
+def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None, prior_sd=None):
     """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
     frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
     confidence (0..1), reason ('' when confident), key (REASONS key or ''). prior_before: the
-    previous window's prior (RPM), the speed where this window starts, bounding a tracked count."""
+    previous window's prior (RPM), the speed where this window starts, bounding a tracked count.
+    prior_sd: the prior's log-normal sd at this window (m2_prior_rel_sd); None: opts.prior_rel_sd."""
     from scipy import signal
 
     fs = bursts.sample_hz
@@ -159,6 +183,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     T = n / fs
     per_rev_out = opts.ripples_per_rev * opts.gear_ratio  # ripples per output revolution
     f_prior = rpm_prior * per_rev_out / 60.0 if rpm_prior is not None and np.isfinite(rpm_prior) else math.nan
+    sd = opts.prior_rel_sd if prior_sd is None or not np.isfinite(prior_sd) else float(prior_sd)
 
     # 2. the line: comb evidence weighted by the prior
     f, p = _spectrum(x0, fs)
@@ -181,7 +206,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
     ev = evidence(grid)
     if np.isfinite(f_prior) and f_prior > 0:
-        like = np.exp(-0.5 * (np.log(grid / f_prior) / opts.prior_rel_sd) ** 2)
+        like = np.exp(-0.5 * (np.log(grid / f_prior) / sd) ** 2)
     else:
         like = np.ones_like(grid)
     post = ev * like
@@ -201,7 +226,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     ok = (alt_f > f_lo) & (alt_f < f_hi)
     if ok.any():
         alt_ev = evidence(alt_f[ok])
-        alt_like = (np.exp(-0.5 * (np.log(alt_f[ok] / f_prior) / opts.prior_rel_sd) ** 2)
+        alt_like = (np.exp(-0.5 * (np.log(alt_f[ok] / f_prior) / sd) ** 2)
                     if np.isfinite(f_prior) and f_prior > 0 else np.ones(ok.sum()))
         rival = float(np.max(alt_ev * alt_like / max(like[j], 1e-300)))
         if rival >= opts.ambiguity * float(ev[j]):
@@ -254,26 +279,41 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     return out
 
 
-def estimate(bursts, duty, rpm_prior, opts: Options):
+def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None):
     """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
-    duty, rpm_prior: per window (None or NaN where unknown); the prior passes a running median
-    of three windows first, so that a glitch of one sample of V or I cannot steer the line."""
+    duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's log-normal sd
+    per window (m2_prior_rel_sd; None: opts.prior_rel_sd everywhere). The prior passes a running
+    median of three windows first, so that a glitch of one sample of V or I cannot steer the
+    line; where the window's own prior and that median disagree (a step of speed beside a
+    glitch, where the median takes the speed before the step), the window's speed may be either,
+    and the prior's sd spans both: sd = sqrt(sd^2 + ln(own / median)^2). The DataFrame carries
+    the prior used (`rpm_prior_used`) and its sd (`prior_sd`)."""
     import pandas as pd
 
+    n = len(bursts)
+    sd = (np.full(n, opts.prior_rel_sd) if prior_sd is None
+          else np.where(np.isfinite(np.asarray(prior_sd, float)), np.asarray(prior_sd, float), opts.prior_rel_sd))
     if rpm_prior is not None:  # a one-window glitch of V or I must not move the prior: median of three
-        pr = np.asarray(rpm_prior, float)
+        own = np.asarray(rpm_prior, float)
+        pr = own
         if len(pr) >= 3:
             pr = np.concatenate([pr[:1], np.median(np.stack([pr[:-2], pr[1:-1], pr[2:]]), axis=0), pr[-1:]])
+            with np.errstate(divide="ignore", invalid="ignore"):
+                gap = np.abs(np.log(own / pr))
+            gap = np.where(np.isfinite(gap), gap, 0.0)
+            sd = np.minimum(np.hypot(sd, gap), SD_MAX)
         rpm_prior = pr
     rows = []
-    for k in range(len(bursts)):
+    for k in range(n):
         d = None if duty is None else float(duty[k])
         pr = None if rpm_prior is None else float(rpm_prior[k])
         before = None if rpm_prior is None or k == 0 else float(rpm_prior[k - 1])
-        rows.append(estimate_window(bursts, k, d, pr, opts, before))
+        rows.append(estimate_window(bursts, k, d, pr, opts, before, float(sd[k])))
     df = pd.DataFrame(rows)
     df.insert(0, "seq", bursts.seq)
     df["confident"] = df["key"] == ""
+    df["rpm_prior_used"] = np.nan if rpm_prior is None else rpm_prior
+    df["prior_sd"] = sd if rpm_prior is not None else np.nan
     return df
 
 
@@ -359,7 +399,7 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
         ke_from = f"ripple ({n_ke} windows)"
     prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
-    est = estimate(b, duty, prior, opts)
+    est = estimate(b, duty, prior, opts, m2_prior_rel_sd(v, i, ra, opts))
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from
