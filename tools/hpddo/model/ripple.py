@@ -40,6 +40,8 @@ REASONS = {
     "floor": "mean current under the floor",
     "few_cycles": "too few ripple cycles in the window for a count",
     "not_found": "the ripple line not found (no line above the noise near the back-EMF prior)",
+    "far": "the strongest line is too far from the back-EMF prior to be the ripple (a fixed line: interference, "
+           "while the shaft stands or turns too slowly for its ripple)",
     "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
                  "and the back-EMF prior cannot tell them apart",
     "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
@@ -49,7 +51,6 @@ ALTERNATIVES = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
 # the weight of each sub-harmonic's power in a candidate's evidence: small enough that the main
 # line's own second harmonic (2 f, whose f/2 is the main line) does not rival the main line
 FAMILY_WEIGHT = 0.25
-SD_MAX = 3.0  # the largest log-sd of the prior: a factor e^3 = 20 either way, no prior to speak of
 TRIM = 0.05  # check_ratio: a window's own ripples per encoder revolution this far from the median is left out
 
 
@@ -68,6 +69,8 @@ class Options:
     max_spread: float = 0.03      # relative spread of the quarter-window speeds still counted as steady
     band: float = 1.2             # the band-pass: f / band .. f * band
     ambiguity: float = 0.5        # an alternative with this share of the best's evidence (prior-weighted) is a rival
+    max_prior_z: float = 3.0      # a line further than this many of the prior's sd from it is not the ripple
+    #                               (a fixed line, interference, while the shaft stands or turns slowly)
 
 
 def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
@@ -75,22 +78,36 @@ def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
     return (np.asarray(v_V, float) - np.asarray(i_A, float) * ra_ohm) / ke_vs_per_rad * 60.0 / (2 * math.pi)
 
 
-def m2_prior_rel_sd(v_V, i_A, ra_ohm: float, opts: Options):
-    """The back-EMF prior's log-normal sd per window, from what (V - I Ra) / Ke cannot know at
-    that operating point: an unmodelled voltage u (a brush drop, opts.prior_unmodelled_V, and
-    Ra's error times I, opts.prior_ra_rel Ra I, independent) over the back-EMF E = V - I Ra,
-    beside Ke's own relative error (opts.prior_rel_sd):
+def m2_prior_sd_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float, opts: Options):
+    """What the back-EMF prior (V - I Ra) / Ke cannot know at each window's operating point, as
+    a speed (RPM), below and above it (an array (n, 2)): a voltage the winding does not see.
 
-        sd = sqrt(prior_rel_sd^2 + (u / E)^2),   u = sqrt(U^2 + (ra_rel Ra I)^2)
+        below: u / Ke,  u = sqrt(U^2 + (ra_rel Ra I)^2);     above: ra_rel Ra I / Ke
 
-    Strong at high speed (E large), weak at low speed and high current, where u is a large
-    share of E; capped at SD_MAX (no prior to speak of) where E <= u / SD_MAX."""
-    v = np.asarray(v_V, float)
-    i = np.asarray(i_A, float)
-    e = v - i * ra_ohm
-    u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * i)
-    rel = np.where(e > u / SD_MAX, u / np.maximum(e, 1e-12), SD_MAX)
-    return np.minimum(np.hypot(opts.prior_rel_sd, rel), SD_MAX)
+    U (opts.prior_unmodelled_V) is of the order of a brush drop: it only takes voltage from the
+    winding, so it only puts the speed below the prior; Ra's error times I (opts.prior_ra_rel)
+    goes either way (a winding warmer or colder than when Ra was measured). Beside it the
+    likelihood takes Ke's own relative error (opts.prior_rel_sd) times the candidate's speed
+    (`_prior_like`). Against the back-EMF E = V - I Ra these voltages are small at high speed
+    (a strong prior) and a large share of E at low speed and high current (a weak one)."""
+    i = np.abs(np.asarray(i_A, float))
+    u_ra = opts.prior_ra_rel * ra_ohm * i
+    u = np.hypot(opts.prior_unmodelled_V, u_ra)
+    to_rpm = 60.0 / (2 * math.pi) / ke_vs_per_rad
+    return np.stack([u * to_rpm, u_ra * to_rpm], axis=-1)
+
+
+def _prior_like(g, f_prior, sd_below, sd_above, rel_sd):
+    """The prior's weight at the candidate frequencies g (Hz) and their distance from it in sd:
+    z = (g - f_prior) / sqrt(sd_side^2 + (rel_sd g)^2), a voltage error (sd_below under the prior,
+    sd_above over it, in Hz) and Ke's relative error on the candidate's own back-EMF. Ones and
+    zeros without a prior."""
+    g = np.asarray(g, float)
+    if not np.isfinite(f_prior):
+        return np.ones_like(g), np.zeros_like(g)
+    d = g - f_prior
+    z = d / np.sqrt(np.where(d < 0, sd_below, sd_above) ** 2 + (rel_sd * g) ** 2)
+    return np.exp(-0.5 * z ** 2), z
 
 
 def _spectrum(x, fs, pad=8):
@@ -161,7 +178,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
     confidence (0..1), reason ('' when confident), key (REASONS key or ''). prior_before: the
     previous window's prior (RPM), the speed where this window starts, bounding a tracked count.
-    prior_sd: the prior's log-normal sd at this window (m2_prior_rel_sd); None: opts.prior_rel_sd."""
+    prior_sd: the prior's voltage-borne sd at this window (RPM), one figure or (below, above)
+    (m2_prior_sd_rpm); None: 0 (Ke's relative error, opts.prior_rel_sd, alone)."""
     from scipy import signal
 
     fs = bursts.sample_hz
@@ -182,8 +200,12 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         return out
     T = n / fs
     per_rev_out = opts.ripples_per_rev * opts.gear_ratio  # ripples per output revolution
+    def rpm_of(f_Hz):
+        return f_Hz * 60.0 / per_rev_out
+
     f_prior = rpm_prior * per_rev_out / 60.0 if rpm_prior is not None and np.isfinite(rpm_prior) else math.nan
-    sd = opts.prior_rel_sd if prior_sd is None or not np.isfinite(prior_sd) else float(prior_sd)
+    sd_lo, sd_hi = (np.nan_to_num(np.broadcast_to(np.asarray(prior_sd, float), (2,)), nan=0.0) * per_rev_out / 60.0
+                    if prior_sd is not None else (0.0, 0.0))
 
     # 2. the line: comb evidence weighted by the prior
     f, p = _spectrum(x0, fs)
@@ -205,10 +227,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     band_all = (f >= f_lo) & (f <= f_hi)
     out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
     ev = evidence(grid)
-    if np.isfinite(f_prior) and f_prior > 0:
-        like = np.exp(-0.5 * (np.log(grid / f_prior) / sd) ** 2)
-    else:
-        like = np.ones_like(grid)
+    like, z = _prior_like(grid, f_prior, sd_lo, sd_hi, opts.prior_rel_sd)
     post = ev * like
     j = int(np.argmax(post))
     f_star = float(grid[j])
@@ -220,14 +239,17 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if snr < opts.min_snr or post[j] <= 0:
         out.update(key="not_found", reason=REASONS["not_found"], f_Hz=f_star)
         return out
+    if abs(z[j]) > opts.max_prior_z:  # a line the back-EMF cannot hold: not the ripple
+        out.update(key="far", f_Hz=f_star, reason=f"{REASONS['far']} ({f_star:.1f} Hz, {rpm_of(f_star):.1f} RPM, "
+                   f"{z[j]:+.1f} sd from the prior's {rpm_prior:.1f} RPM)")
+        return out
     # rivals in the family: the data's own evidence at f* x r, weighted by the prior
     alt = ALTERNATIVES
     alt_f = np.array([f_star * r for r in alt])
     ok = (alt_f > f_lo) & (alt_f < f_hi)
     if ok.any():
         alt_ev = evidence(alt_f[ok])
-        alt_like = (np.exp(-0.5 * (np.log(alt_f[ok] / f_prior) / sd) ** 2)
-                    if np.isfinite(f_prior) and f_prior > 0 else np.ones(ok.sum()))
+        alt_like, _ = _prior_like(alt_f[ok], f_prior, sd_lo, sd_hi, opts.prior_rel_sd)
         rival = float(np.max(alt_ev * alt_like / max(like[j], 1e-300)))
         if rival >= opts.ambiguity * float(ev[j]):
             r = alt_f[ok][int(np.argmax(alt_ev * alt_like))]
@@ -282,52 +304,64 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
 def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None):
     """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
     duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's log-normal sd
-    per window (m2_prior_rel_sd; None: opts.prior_rel_sd everywhere). The prior passes a running
+    per window (RPM), one figure or (below, above) (m2_prior_sd_rpm; None: 0, Ke's relative error
+    opts.prior_rel_sd alone). The prior passes a running
     median of three windows first, so that a glitch of one sample of V or I cannot steer the
     line; where the window's own prior and that median disagree (a step of speed beside a
     glitch, where the median takes the speed before the step), the window's speed may be either,
-    and the prior's sd spans both: sd = sqrt(sd^2 + ln(own / median)^2). The DataFrame carries
-    the prior used (`rpm_prior_used`) and its sd (`prior_sd`)."""
+    and the prior's sd spans both: sd = sqrt(sd^2 + (own - median)^2). The DataFrame carries
+    the prior used (`rpm_prior_used`) and its sd (`prior_sd_below`, `prior_sd_above`)."""
     import pandas as pd
 
     n = len(bursts)
-    sd = (np.full(n, opts.prior_rel_sd) if prior_sd is None
-          else np.where(np.isfinite(np.asarray(prior_sd, float)), np.asarray(prior_sd, float), opts.prior_rel_sd))
+    sd = np.zeros((n, 2))
+    if prior_sd is not None:  # one figure per window, or (below, above)
+        given = np.asarray(prior_sd, float)
+        given = np.repeat(given[:, None], 2, axis=1) if given.ndim == 1 else given
+        sd = np.where(np.isfinite(given), given, 0.0)
     if rpm_prior is not None:  # a one-window glitch of V or I must not move the prior: median of three
         own = np.asarray(rpm_prior, float)
         pr = own
         if len(pr) >= 3:
             pr = np.concatenate([pr[:1], np.median(np.stack([pr[:-2], pr[1:-1], pr[2:]]), axis=0), pr[-1:]])
-            with np.errstate(divide="ignore", invalid="ignore"):
-                gap = np.abs(np.log(own / pr))
-            gap = np.where(np.isfinite(gap), gap, 0.0)
-            sd = np.minimum(np.hypot(sd, gap), SD_MAX)
+            gap = np.nan_to_num(np.abs(own - pr), nan=0.0)
+            sd = np.hypot(sd, gap[:, None])
         rpm_prior = pr
     rows = []
     for k in range(n):
         d = None if duty is None else float(duty[k])
         pr = None if rpm_prior is None else float(rpm_prior[k])
         before = None if rpm_prior is None or k == 0 else float(rpm_prior[k - 1])
-        rows.append(estimate_window(bursts, k, d, pr, opts, before, float(sd[k])))
+        rows.append(estimate_window(bursts, k, d, pr, opts, before, sd[k]))
     df = pd.DataFrame(rows)
     df.insert(0, "seq", bursts.seq)
     df["confident"] = df["key"] == ""
     df["rpm_prior_used"] = np.nan if rpm_prior is None else rpm_prior
-    df["prior_sd"] = sd if rpm_prior is not None else np.nan
+    df["prior_sd_below"] = sd[:, 0] if rpm_prior is not None else np.nan
+    df["prior_sd_above"] = sd[:, 1] if rpm_prior is not None else np.nan
     return df
 
 
 def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder: the ripple speed
     of the windows where the comb alone (no prior) gives a confident count, against
-    V - I Ra; the median. Returns (ke, windows used)."""
+    V - I Ra; their median, each window weighted by (w / u)^2 (u: the voltage the prior does
+    not know, m2_prior_sd_rpm). Returns (ke, windows used)."""
     df = estimate(bursts, duty, None, opts)
     ok = df["confident"].to_numpy() & (df["rpm"].to_numpy() > 0)
     if ok.sum() == 0:
         return math.nan, 0
     w = df["rpm"].to_numpy()[ok] * 2 * math.pi / 60.0
-    e = np.asarray(v_V, float)[ok] - np.asarray(i_A, float)[ok] * ra_ohm
-    return float(np.median(e / w)), int(ok.sum())
+    i = np.asarray(i_A, float)[ok]
+    e = np.asarray(v_V, float)[ok] - i * ra_ohm
+    # each window's E / w is off by the voltage the prior does not know (u, m2_prior_sd_rpm) over w:
+    # the median weighted by (w / u)^2, so that slow, loaded windows (and a fixed line counted
+    # while the shaft stands) weigh little
+    u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * np.abs(i))
+    ke = e / w
+    order = np.argsort(ke)
+    cw = np.cumsum(((w / u) ** 2)[order])
+    return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ok.sum())
 
 
 def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001):
@@ -399,7 +433,7 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
         ke_from = f"ripple ({n_ke} windows)"
     prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
-    est = estimate(b, duty, prior, opts, m2_prior_rel_sd(v, i, ra, opts))
+    est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from

@@ -41,6 +41,7 @@ class Scenario:
     gear_ratio_user: float = None                             # the user's figure; None: the bench's
     prior: bool = True
     ke_user: float = None     # a Ke the user knows (V s/rad, output shaft); None: calibrated from the ripple
+    seed: int = 1
 
 
 SCENARIOS = (
@@ -58,12 +59,22 @@ SCENARIOS = (
              ripple={"interference_hz": 60.0, "interference_mA": 40.0}),
     Scenario("low_current", "a light motor (friction a tenth): mean current under the floor, said so", ("sweep",),
              bench={"tc_motor_nm": 0.0055, "tc_gen_nm": 0.004, "b_motor_nms": 2.5e-4, "b_gen_nms": 1.5e-4}),
+    Scenario("unseen", "the never-seen protocol (duties and loads the training does not hold): at duty 0.3 under "
+             "load the shaft turns at 22-24 RPM with 0.39 A, where the back-EMF prior is weak (its sd from a brush "
+             "drop and Ra's error over E = V - I Ra); the count rests on the lines' own evidence or says ambiguous",
+             ("unseen",)),
+    Scenario("hot", "the warm-up (hot ambient, Ra and Ke drifting through the run)", ("hot",)),
+    Scenario("low_speed_high_load", "a stiff gearbox (the generator's Coulomb friction x3): the low duties turn "
+             "slowly under a high current, where the prior is weakest", ("sweep", "load"), bench={"tc_gen_nm": 0.12}),
+    Scenario("quarter", "every protocol at a quarter of its length, seed 2 (a load step beside a current glitch "
+             "in load)", ("sweep", "load", "long", "unseen", "hot"), time_scale=0.25, seed=2),
     Scenario("wrong_gear", "the gear is 4.3901:1 where the user says 4.4:1 (the -0.225 % of 98.777:1 sold as "
              "99:1): said when the encoder is there", ("load",), bench={"gear_ratio": WRONG_GEAR}, gear_ratio_user=4.4),
 )
 
 
-def run_scenario(sc: Scenario, seed: int = 1, quiet: bool = True) -> dict:
+def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True) -> dict:
+    seed = sc.seed if seed is None else seed
     bench = params.preset(sc.preset)
     if sc.effects:
         bench = params.with_effects(bench, **sc.effects)
@@ -87,7 +98,7 @@ def run_scenario(sc: Scenario, seed: int = 1, quiet: bool = True) -> dict:
             prior = rp.m2_prior_rpm(v, i, RA_OHM, ke) if np.isfinite(ke) else None
         else:
             ke, n_ke, prior = math.nan, 0, None
-        df = rp.estimate(b, duty, prior, opts)
+        df = rp.estimate(b, duty, prior, opts, None if prior is None else rp.m2_prior_sd_rpm(v, i, RA_OHM, ke, opts))
         df["rpm_prior"] = np.nan if prior is None else prior
         df["protocol"] = prot
         df["rpm_ref"] = log["rpm_ref"].to_numpy()
@@ -162,16 +173,34 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
     return out
 
 
+def worst_confident(results) -> dict:
+    """The worst confident error over the scenarios, against the encoder and the truth, with
+    the scenario it is in ({} where no scenario has a confident row)."""
+    out = {}
+    for key, col in (("vs_encoder", "max_vs_encoder_pct"), ("vs_truth", "max_vs_truth_pct")):
+        vals = [(r[col], r["scenario"]) for r in results if np.isfinite(r[col])]
+        if not vals:
+            return {}
+        v, name = max(vals)
+        out[f"{key}_pct"], out[f"{key}_scenario"] = v, name
+    return out
+
+
 def table(results) -> str:
     lines = ["| scenario | windows | above floor | confident there | RMS vs encoder % | max vs encoder % | "
              "RMS vs truth % | max vs truth % | no estimate, why |",
              "|---|---|---|---|---|---|---|---|---|"]
+    def pct(x, nd):
+        return "–" if not np.isfinite(x) else f"{x:.{nd}f}"
+
     for r in results:
         why = ", ".join(f"{k} {v}" for k, v in r["reasons"].items() if k != "confident")
+        share = ("–" if not np.isfinite(r["confident_share_above_floor"]) else
+                 f"{r['confident_share_above_floor']:.1%} ({r['confident_share_above_both_floors']:.1%} above "
+                 f"{r['rpm_floor']:.1f} RPM)")
         lines.append(f"| {r['scenario']} | {r['windows']} | {r['above_floor']} | "
-                     f"{r['confident_share_above_floor']:.1%} ({r['confident_share_above_both_floors']:.1%} above "
-                     f"{r['rpm_floor']:.1f} RPM) | {r['rms_vs_encoder_pct']:.3f} | {r['max_vs_encoder_pct']:.2f} | "
-                     f"{r['rms_vs_truth_pct']:.3f} | {r['max_vs_truth_pct']:.2f} | {why} |")
+                     f"{share} | {pct(r['rms_vs_encoder_pct'], 3)} | {pct(r['max_vs_encoder_pct'], 2)} | "
+                     f"{pct(r['rms_vs_truth_pct'], 3)} | {pct(r['max_vs_truth_pct'], 2)} | {why} |")
     return "\n".join(lines)
 
 
@@ -188,6 +217,11 @@ def main(argv=None) -> int:
             continue
         res.append(run_scenario(sc, quiet=a.quiet))
     print(table(res), flush=True)
+    worst = worst_confident(res)
+    if worst:
+        print(f"worst confident error over these scenarios: {worst['vs_encoder_pct']:.2f} % against the encoder "
+              f"({worst['vs_encoder_scenario']}), {worst['vs_truth_pct']:.2f} % against the truth "
+              f"({worst['vs_truth_scenario']}); the target is 5 %", flush=True)
     for r in res:
         print(f"{r['scenario']}: {r['ratio_check']['statement']}", flush=True)
         if "fused_rmse_rpm" in r:
