@@ -8,7 +8,11 @@ The steps, per window:
    mean current is under its floor (the ripple drowns in the ADC's steps);
 2. the line: a comb search over the spectrum of the window, each candidate ripple frequency f
    scored by the power at f and at its sub-harmonic family f/2, f/3, f/6 (rotor asymmetry),
-   weighted by the back-EMF (M2) prior, a log-normal around N G n_M2 / 60;
+   weighted by the back-EMF (M2) prior around N G n_M2 / 60, whose spread is what the prior
+   cannot know at that operating point (m2_prior_sd_rpm: a brush drop and Ra's error times I,
+   over Ke, beside Ke's own relative error): strong at high speed, weak at low speed and
+   high current, where the choice among the family rests on the lines' own evidence;
+   a line more than max_prior_z of those sd from the prior is not the ripple (`far`);
    the data's own best candidates among f x {2, 3, 3/2, 1/2, 1/3, 2/3} are checked: where
    one of them fits the data as well and the prior cannot tell them apart, the ambiguity is
    unresolved and said so;
