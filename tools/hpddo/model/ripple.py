@@ -22,7 +22,9 @@ The steps, per window:
    speed over the window, as the encoder counts it, where one FFT peak would give the
    dominant (final) frequency of a window in which the shaft spins up;
 4. the speed's spread over the window's quarters says whether the speed changed inside it
-   (inrush, spin-up, a load step); then the line has left the fixed band, and the count
+   (inrush, spin-up, a load step), counted, and from the current (at constant duty a change of
+   the quarters' mean current is a change of the back-EMF, Ra dI / Ke, which sees a transient
+   whose line lay outside the band); then the line has left the fixed band, and the count
    follows it instead (`_tracked_phase`: the line tracked through 50 ms spectra, the current
    demodulated along the track), and is given but not confident.
 
@@ -177,18 +179,43 @@ def _tracked_phase(x, fs, f_end, i_end, frame_s=0.05):
     return phi + np.unwrap(np.angle(zl))
 
 
-def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None, prior_sd=None):
+def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A):
+    """The speed change inside a window that the back-EMF gives from the current alone: the
+    lines of the ripple (f, its second harmonic and the family f/2, f/3, f/6 that the window holds
+    a whole cycle of) fitted out by least squares, the mean of what is left over each quarter;
+    at the window's constant duty a change of it is a change of the back-EMF, -Ra dI, i.e. of the
+    speed, rpm_per_A dI (Ra / Ke in RPM per A): (max - min) over the quarters, relative to rpm.
+    It sees a transient that the fixed band cannot (the line outside the band at the window's
+    start)."""
+    n = len(x0)
+    t = np.arange(n) / fs
+    cols = []
+    for h in (1.0, 2.0) + tuple(1.0 / d for d in FAMILY):
+        if h * f_Hz * n / fs >= 1.0 and h * f_Hz < fs / 2:
+            cols += [np.cos(2 * math.pi * h * f_Hz * t), np.sin(2 * math.pi * h * f_Hz * t)]
+    x = x0 - x0.mean()
+    if cols:
+        a = np.column_stack(cols)
+        coef, *_ = np.linalg.lstsq(a, x, rcond=None)
+        x = x - a @ coef
+    means = [float(q.mean()) for q in np.array_split(x, 4)]
+    return rpm_per_A * (max(means) - min(means)) / max(abs(rpm), 1e-12)
+
+
+def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None, prior_sd=None, rpm_per_A=None):
     """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
     frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
     confidence (0..1), reason ('' when confident), key (REASONS key or ''). prior_before: the
     previous window's prior (RPM), the speed where this window starts, bounding a tracked count.
     prior_sd: the prior's voltage-borne sd at this window (RPM), one figure or (below, above)
-    (m2_prior_sd_rpm); None: 0 (Ke's relative error, opts.prior_rel_sd, alone)."""
+    (m2_prior_sd_rpm); None: 0 (Ke's relative error, opts.prior_rel_sd, alone). rpm_per_A: Ra / Ke
+    in RPM per A, the speed change a change of current means at constant duty (_current_spread;
+    None: not checked)."""
     from scipy import signal
 
     fs = bursts.sample_hz
     out = dict(rpm=math.nan, rpm_fft=math.nan, f_Hz=math.nan, f_strongest_Hz=math.nan, cycles=math.nan, snr=math.nan,
-               spread=math.nan, i_mean_A=math.nan, confidence=0.0, reason="", key="")
+               spread=math.nan, spread_current=math.nan, i_mean_A=math.nan, confidence=0.0, reason="", key="")
     x0 = bursts.current_A(k)
     n = len(x0)
     if n < 16:
@@ -276,7 +303,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     q = np.linspace(b, e, 5).astype(int)
     fq = np.diff(phase[q]) / (2 * math.pi) / (np.diff(q) / fs)
     spread = float((fq.max() - fq.min()) / max(abs(f_count), 1e-12))
-    if spread > opts.max_spread:  # the speed moved out of the fixed band: follow the line instead
+    spread_i = (_current_spread(x0, fs, f_count, f_count * 60.0 / per_rev_out, rpm_per_A)
+                if rpm_per_A is not None and np.isfinite(rpm_per_A) and f_count > 0 else 0.0)
+    out["spread_current"] = spread_i
+    if max(spread, spread_i) > opts.max_spread:  # the speed moved out of the fixed band: follow the line instead
         tracked = _tracked_phase(xx, fs, f_star, e)
         if tracked is not None:
             f_tr = (tracked[e] - tracked[b]) / (2 * math.pi) / ((e - b) / fs)
@@ -297,15 +327,16 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if f_count * T < opts.min_cycles:
         out.update(key="few_cycles", reason=f"{REASONS['few_cycles']} ({f_count * T:.1f} < {opts.min_cycles:g})")
         return out
-    if spread > opts.max_spread:
-        out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%})")
+    if max(spread, spread_i) > opts.max_spread:
+        out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}; from the "
+                   f"current, Ra dI / Ke, {spread_i:.1%})")
         return out
     out["confidence"] = float(min(1.0, (1 - math.exp(-snr / (4 * opts.min_snr)))
-                                  * (1 - spread / opts.max_spread / 2)))
+                                  * (1 - max(spread, spread_i) / opts.max_spread / 2)))
     return out
 
 
-def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None):
+def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=None):
     """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
     duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's log-normal sd
     per window (RPM), one figure or (below, above) (m2_prior_sd_rpm; None: 0, Ke's relative error
@@ -314,7 +345,8 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None):
     line; where the window's own prior and that median disagree (a step of speed beside a
     glitch, where the median takes the speed before the step), the window's speed may be either,
     and the prior's sd spans both: sd = sqrt(sd^2 + (own - median)^2). The DataFrame carries
-    the prior used (`rpm_prior_used`) and its sd (`prior_sd_below`, `prior_sd_above`)."""
+    the prior used (`rpm_prior_used`) and its sd (`prior_sd_below`, `prior_sd_above`). rpm_per_A:
+    Ra / Ke in RPM per A (rpm_per_amp), for the speed change the current shows inside a window."""
     import pandas as pd
 
     n = len(bursts)
@@ -336,7 +368,7 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None):
         d = None if duty is None else float(duty[k])
         pr = None if rpm_prior is None else float(rpm_prior[k])
         before = None if rpm_prior is None or k == 0 else float(rpm_prior[k - 1])
-        rows.append(estimate_window(bursts, k, d, pr, opts, before, sd[k]))
+        rows.append(estimate_window(bursts, k, d, pr, opts, before, sd[k], rpm_per_A))
     df = pd.DataFrame(rows)
     df.insert(0, "seq", bursts.seq)
     df["confident"] = df["key"] == ""
@@ -344,6 +376,11 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None):
     df["prior_sd_below"] = sd[:, 0] if rpm_prior is not None else np.nan
     df["prior_sd_above"] = sd[:, 1] if rpm_prior is not None else np.nan
     return df
+
+
+def rpm_per_amp(ra_ohm: float, ke_vs_per_rad: float) -> float:
+    """Ra / Ke in RPM per A: the speed a change of the armature current costs at constant voltage."""
+    return ra_ohm / ke_vs_per_rad * 60.0 / (2 * math.pi)
 
 
 def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
@@ -437,7 +474,8 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
         ke_from = f"ripple ({n_ke} windows)"
     prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
-    est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None)
+    est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None,
+                   rpm_per_amp(ra, ke) if math.isfinite(ke) else None)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from
