@@ -143,7 +143,23 @@ def test_the_prior_is_weak_at_low_speed_and_high_current_and_strong_at_high_spee
     sd = rp.m2_prior_sd_rpm(v, i, 4.5, ke, opts)
     rel = sd / rp.m2_prior_rpm(v, i, 4.5, ke)[:, None]
     assert np.all(sd[:, 0] > sd[:, 1])  # a brush drop only puts the speed below the prior
-    assert rel[0, 0] > 0.3 and rel[1, 0] < 0.15  # a third of the speed at 24 RPM, a tenth at 180
+    assert rel[0, 0] > 0.3 and rel[1, 0] < 0.15  # over a third of the prior at duty 0.3 loaded, a tenth at 0.8 free
+
+
+def test_the_current_shows_a_speed_change_that_the_fixed_band_cannot():
+    """_current_spread: the ripple family fitted out, a steady window's quarters agree to well
+    under the 3 % of a steady count; a current step in the first 30 ms (a fast transient whose
+    line lay outside the band) is seen."""
+    fs, n, f = 10000.0, 5000, 15.0  # 34 RPM at 26.4 ripples per output revolution
+    t = np.arange(n) / fs
+    ripple = (0.05 * np.sin(2 * np.pi * f * t) + 0.015 * np.sin(2 * np.pi * 2 * f * t)
+              + 0.03 * np.sin(2 * np.pi * f / 2 * t) + 0.03 * np.sin(2 * np.pi * f / 6 * t))
+    noise = np.random.default_rng(1).normal(0.0, 0.01, n)
+    per_a = rp.rpm_per_amp(4.5, 0.38)
+    steady = 0.55 + ripple + noise
+    assert rp._current_spread(steady, fs, f, 34.0, per_a) < 0.01
+    step = steady - 0.3 * (t < 0.03)  # the current low while the shaft still turns fast
+    assert rp._current_spread(step, fs, f, 34.0, per_a) > 0.03
 
 
 def test_ratio_check_names_the_ripples_per_revolution_when_off_by_a_family_factor():

@@ -189,15 +189,13 @@ def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A):
     start)."""
     n = len(x0)
     t = np.arange(n) / fs
-    cols = []
+    cols = [np.ones(n)]  # the mean, fitted with the lines (a line of few cycles does not average out)
     for h in (1.0, 2.0) + tuple(1.0 / d for d in FAMILY):
         if h * f_Hz * n / fs >= 1.0 and h * f_Hz < fs / 2:
             cols += [np.cos(2 * math.pi * h * f_Hz * t), np.sin(2 * math.pi * h * f_Hz * t)]
-    x = x0 - x0.mean()
-    if cols:
-        a = np.column_stack(cols)
-        coef, *_ = np.linalg.lstsq(a, x, rcond=None)
-        x = x - a @ coef
+    a = np.column_stack(cols)
+    coef, *_ = np.linalg.lstsq(a, x0, rcond=None)
+    x = x0 - a[:, 1:] @ coef[1:]
     means = [float(q.mean()) for q in np.array_split(x, 4)]
     return rpm_per_A * (max(means) - min(means)) / max(abs(rpm), 1e-12)
 
