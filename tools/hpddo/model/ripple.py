@@ -65,8 +65,8 @@ class Options:
     ripples_per_rev: int          # commutation ripples per motor revolution (2 x segments for 2 brushes)
     gear_ratio: float             # motor revolutions per output revolution (the user's figure)
     floor_A: float = 0.10         # no estimate under this mean current
-    prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty proportional to speed (log-normal sd):
-    #                               Ke's error (calibration, magnet temperature)
+    prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty on a candidate's speed: Ke's error
+    #                               (calibration, magnet temperature); beside it the voltages of m2_prior_sd_rpm
     prior_unmodelled_V: float = 0.5   # a voltage the prior (V - I Ra)/Ke does not know: of the order of a brush drop
     prior_ra_rel: float = 0.2     # Ra's relative error in the prior: the multimeter's value against a winding
     #                               up to ~50 K warmer (copper +0.39 %/K) or colder
@@ -229,6 +229,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         return out
     T = n / fs
     per_rev_out = opts.ripples_per_rev * opts.gear_ratio  # ripples per output revolution
+
     def rpm_of(f_Hz):
         return f_Hz * 60.0 / per_rev_out
 
@@ -336,11 +337,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
 
 def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=None):
     """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
-    duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's log-normal sd
-    per window (RPM), one figure or (below, above) (m2_prior_sd_rpm; None: 0, Ke's relative error
-    opts.prior_rel_sd alone). The prior passes a running
-    median of three windows first, so that a glitch of one sample of V or I cannot steer the
-    line; where the window's own prior and that median disagree (a step of speed beside a
+    duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's voltage-borne
+    sd per window (RPM), one figure or (below, above) (m2_prior_sd_rpm; None: 0, Ke's relative
+    error opts.prior_rel_sd alone). The prior passes a running median of three windows first, so
+    that a glitch of one sample of V or I cannot steer the line; where the window's own prior and that median disagree (a step of speed beside a
     glitch, where the median takes the speed before the step), the window's speed may be either,
     and the prior's sd spans both: sd = sqrt(sd^2 + (own - median)^2). The DataFrame carries
     the prior used (`rpm_prior_used`) and its sd (`prior_sd_below`, `prior_sd_above`). rpm_per_A:
