@@ -6,7 +6,7 @@
   log (`<condition>.ripple.csv`; hpddo.model.ripple), the encoder's column set aside. A row
   takes the ripple speed where the count is confident; elsewhere its rpm_ref is NaN, so the
   row drives the replay (the observer's lags run through it) but no fit or score uses it,
-  and it is counted by its reason (coasting, floor, few_cycles, not_found, ambiguous,
+  and it is counted by its reason (coasting, floor, few_cycles, not_found, far, ambiguous,
   changing; no_burst: a row with no burst). Every step downstream already leaves NaN
   references out (identify, effects, the residual network, the lookup baseline, the
   metrics).

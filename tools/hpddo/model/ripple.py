@@ -8,7 +8,11 @@ The steps, per window:
    mean current is under its floor (the ripple drowns in the ADC's steps);
 2. the line: a comb search over the spectrum of the window, each candidate ripple frequency f
    scored by the power at f and at its sub-harmonic family f/2, f/3, f/6 (rotor asymmetry),
-   weighted by the back-EMF (M2) prior, a log-normal around N G n_M2 / 60;
+   weighted by the back-EMF (M2) prior around N G n_M2 / 60, whose spread is what the prior
+   cannot know at that operating point (m2_prior_sd_rpm: a brush drop and Ra's error times I,
+   over Ke, beside Ke's own relative error): strong at high speed, weak at low speed and
+   high current, where the choice among the family rests on the lines' own evidence;
+   a line more than max_prior_z of those sd from the prior is not the ripple (`far`);
    the data's own best candidates among f x {2, 3, 3/2, 1/2, 1/3, 2/3} are checked: where
    one of them fits the data as well and the prior cannot tell them apart, the ambiguity is
    unresolved and said so;
@@ -18,7 +22,9 @@ The steps, per window:
    speed over the window, as the encoder counts it, where one FFT peak would give the
    dominant (final) frequency of a window in which the shaft spins up;
 4. the speed's spread over the window's quarters says whether the speed changed inside it
-   (inrush, spin-up, a load step); then the line has left the fixed band, and the count
+   (inrush, spin-up, a load step), counted, and from the current (at constant duty a change of
+   the quarters' mean current is a change of the back-EMF, Ra dI / Ke, which sees a transient
+   whose line lay outside the band); then the line has left the fixed band, and the count
    follows it instead (`_tracked_phase`: the line tracked through 50 ms spectra, the current
    demodulated along the track), and is given but not confident.
 
@@ -40,6 +46,8 @@ REASONS = {
     "floor": "mean current under the floor",
     "few_cycles": "too few ripple cycles in the window for a count",
     "not_found": "the ripple line not found (no line above the noise near the back-EMF prior)",
+    "far": "the strongest line is too far from the back-EMF prior to be the ripple (a fixed line: interference, "
+           "while the shaft stands or turns too slowly for its ripple)",
     "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
                  "and the back-EMF prior cannot tell them apart",
     "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
@@ -57,17 +65,55 @@ class Options:
     ripples_per_rev: int          # commutation ripples per motor revolution (2 x segments for 2 brushes)
     gear_ratio: float             # motor revolutions per output revolution (the user's figure)
     floor_A: float = 0.10         # no estimate under this mean current
-    prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty (log-normal sd)
+    prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty on a candidate's speed: Ke's error
+    #                               (calibration, magnet temperature); beside it the voltages of m2_prior_sd_rpm
+    prior_unmodelled_V: float = 0.5   # a voltage the prior (V - I Ra)/Ke does not know: of the order of a brush drop
+    prior_ra_rel: float = 0.2     # Ra's relative error in the prior: the multimeter's value against a winding
+    #                               up to ~50 K warmer (copper +0.39 %/K) or colder
     min_snr: float = 10.0         # the line's power over the local noise floor
     min_cycles: float = 5.0       # ripple cycles a window must hold
     max_spread: float = 0.03      # relative spread of the quarter-window speeds still counted as steady
     band: float = 1.2             # the band-pass: f / band .. f * band
     ambiguity: float = 0.5        # an alternative with this share of the best's evidence (prior-weighted) is a rival
+    max_prior_z: float = 3.0      # a line further than this many of the prior's sd from it is not the ripple
+    #                               (a fixed line, interference, while the shaft stands or turns slowly)
 
 
 def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
     """The back-EMF estimate of the output speed, RPM: (V - I Ra) / Ke (M2 without effects)."""
     return (np.asarray(v_V, float) - np.asarray(i_A, float) * ra_ohm) / ke_vs_per_rad * 60.0 / (2 * math.pi)
+
+
+def m2_prior_sd_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float, opts: Options):
+    """What the back-EMF prior (V - I Ra) / Ke cannot know at each window's operating point, as
+    a speed (RPM), below and above it (an array (n, 2)): a voltage the winding does not see.
+
+        below: u / Ke,  u = sqrt(U^2 + (ra_rel Ra I)^2);     above: ra_rel Ra I / Ke
+
+    U (opts.prior_unmodelled_V) is of the order of a brush drop: it only takes voltage from the
+    winding, so it only puts the speed below the prior; Ra's error times I (opts.prior_ra_rel)
+    goes either way (a winding warmer or colder than when Ra was measured). Beside it the
+    likelihood takes Ke's own relative error (opts.prior_rel_sd) times the candidate's speed
+    (`_prior_like`). Against the back-EMF E = V - I Ra these voltages are small at high speed
+    (a strong prior) and a large share of E at low speed and high current (a weak one)."""
+    i = np.abs(np.asarray(i_A, float))
+    u_ra = opts.prior_ra_rel * ra_ohm * i
+    u = np.hypot(opts.prior_unmodelled_V, u_ra)
+    to_rpm = 60.0 / (2 * math.pi) / ke_vs_per_rad
+    return np.stack([u * to_rpm, u_ra * to_rpm], axis=-1)
+
+
+def _prior_like(g, f_prior, sd_below, sd_above, rel_sd):
+    """The prior's weight at the candidate frequencies g (Hz) and their distance from it in sd:
+    z = (g - f_prior) / sqrt(sd_side^2 + (rel_sd g)^2), a voltage error (sd_below under the prior,
+    sd_above over it, in Hz) and Ke's relative error on the candidate's own back-EMF. Ones and
+    zeros without a prior."""
+    g = np.asarray(g, float)
+    if not np.isfinite(f_prior):
+        return np.ones_like(g), np.zeros_like(g)
+    d = g - f_prior
+    z = d / np.sqrt(np.where(d < 0, sd_below, sd_above) ** 2 + (rel_sd * g) ** 2)
+    return np.exp(-0.5 * z ** 2), z
 
 
 def _spectrum(x, fs, pad=8):
@@ -133,16 +179,41 @@ def _tracked_phase(x, fs, f_end, i_end, frame_s=0.05):
     return phi + np.unwrap(np.angle(zl))
 
 
-def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None):
+def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A):
+    """The speed change inside a window that the back-EMF gives from the current alone: the
+    lines of the ripple (f, its second harmonic and the family f/2, f/3, f/6 that the window holds
+    a whole cycle of) fitted out by least squares, the mean of what is left over each quarter;
+    at the window's constant duty a change of it is a change of the back-EMF, -Ra dI, i.e. of the
+    speed, rpm_per_A dI (Ra / Ke in RPM per A): (max - min) over the quarters, relative to rpm.
+    It sees a transient that the fixed band cannot (the line outside the band at the window's
+    start)."""
+    n = len(x0)
+    t = np.arange(n) / fs
+    cols = [np.ones(n)]  # the mean, fitted with the lines (a line of few cycles does not average out)
+    for h in (1.0, 2.0) + tuple(1.0 / d for d in FAMILY):
+        if h * f_Hz * n / fs >= 1.0 and h * f_Hz < fs / 2:
+            cols += [np.cos(2 * math.pi * h * f_Hz * t), np.sin(2 * math.pi * h * f_Hz * t)]
+    a = np.column_stack(cols)
+    coef, *_ = np.linalg.lstsq(a, x0, rcond=None)
+    x = x0 - a[:, 1:] @ coef[1:]
+    means = [float(q.mean()) for q in np.array_split(x, 4)]
+    return rpm_per_A * (max(means) - min(means)) / max(abs(rpm), 1e-12)
+
+
+def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None, prior_sd=None, rpm_per_A=None):
     """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
     frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
     confidence (0..1), reason ('' when confident), key (REASONS key or ''). prior_before: the
-    previous window's prior (RPM), the speed where this window starts, bounding a tracked count."""
+    previous window's prior (RPM), the speed where this window starts, bounding a tracked count.
+    prior_sd: the prior's voltage-borne sd at this window (RPM), one figure or (below, above)
+    (m2_prior_sd_rpm); None: 0 (Ke's relative error, opts.prior_rel_sd, alone). rpm_per_A: Ra / Ke
+    in RPM per A, the speed change a change of current means at constant duty (_current_spread;
+    None: not checked)."""
     from scipy import signal
 
     fs = bursts.sample_hz
     out = dict(rpm=math.nan, rpm_fft=math.nan, f_Hz=math.nan, f_strongest_Hz=math.nan, cycles=math.nan, snr=math.nan,
-               spread=math.nan, i_mean_A=math.nan, confidence=0.0, reason="", key="")
+               spread=math.nan, spread_current=math.nan, i_mean_A=math.nan, confidence=0.0, reason="", key="")
     x0 = bursts.current_A(k)
     n = len(x0)
     if n < 16:
@@ -158,7 +229,13 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         return out
     T = n / fs
     per_rev_out = opts.ripples_per_rev * opts.gear_ratio  # ripples per output revolution
+
+    def rpm_of(f_Hz):
+        return f_Hz * 60.0 / per_rev_out
+
     f_prior = rpm_prior * per_rev_out / 60.0 if rpm_prior is not None and np.isfinite(rpm_prior) else math.nan
+    sd_lo, sd_hi = (np.nan_to_num(np.broadcast_to(np.asarray(prior_sd, float), (2,)), nan=0.0) * per_rev_out / 60.0
+                    if prior_sd is not None else (0.0, 0.0))
 
     # 2. the line: comb evidence weighted by the prior
     f, p = _spectrum(x0, fs)
@@ -180,10 +257,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     band_all = (f >= f_lo) & (f <= f_hi)
     out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
     ev = evidence(grid)
-    if np.isfinite(f_prior) and f_prior > 0:
-        like = np.exp(-0.5 * (np.log(grid / f_prior) / opts.prior_rel_sd) ** 2)
-    else:
-        like = np.ones_like(grid)
+    like, z = _prior_like(grid, f_prior, sd_lo, sd_hi, opts.prior_rel_sd)
     post = ev * like
     j = int(np.argmax(post))
     f_star = float(grid[j])
@@ -195,14 +269,17 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if snr < opts.min_snr or post[j] <= 0:
         out.update(key="not_found", reason=REASONS["not_found"], f_Hz=f_star)
         return out
+    if abs(z[j]) > opts.max_prior_z:  # a line the back-EMF cannot hold: not the ripple
+        out.update(key="far", f_Hz=f_star, reason=f"{REASONS['far']} ({f_star:.1f} Hz, {rpm_of(f_star):.1f} RPM, "
+                   f"{z[j]:+.1f} sd from the prior's {rpm_prior:.1f} RPM)")
+        return out
     # rivals in the family: the data's own evidence at f* x r, weighted by the prior
     alt = ALTERNATIVES
     alt_f = np.array([f_star * r for r in alt])
     ok = (alt_f > f_lo) & (alt_f < f_hi)
     if ok.any():
         alt_ev = evidence(alt_f[ok])
-        alt_like = (np.exp(-0.5 * (np.log(alt_f[ok] / f_prior) / opts.prior_rel_sd) ** 2)
-                    if np.isfinite(f_prior) and f_prior > 0 else np.ones(ok.sum()))
+        alt_like, _ = _prior_like(alt_f[ok], f_prior, sd_lo, sd_hi, opts.prior_rel_sd)
         rival = float(np.max(alt_ev * alt_like / max(like[j], 1e-300)))
         if rival >= opts.ambiguity * float(ev[j]):
             r = alt_f[ok][int(np.argmax(alt_ev * alt_like))]
@@ -225,7 +302,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     q = np.linspace(b, e, 5).astype(int)
     fq = np.diff(phase[q]) / (2 * math.pi) / (np.diff(q) / fs)
     spread = float((fq.max() - fq.min()) / max(abs(f_count), 1e-12))
-    if spread > opts.max_spread:  # the speed moved out of the fixed band: follow the line instead
+    spread_i = (_current_spread(x0, fs, f_count, f_count * 60.0 / per_rev_out, rpm_per_A)
+                if rpm_per_A is not None and np.isfinite(rpm_per_A) and f_count > 0 else 0.0)
+    out["spread_current"] = spread_i
+    if max(spread, spread_i) > opts.max_spread:  # the speed moved out of the fixed band: follow the line instead
         tracked = _tracked_phase(xx, fs, f_star, e)
         if tracked is not None:
             f_tr = (tracked[e] - tracked[b]) / (2 * math.pi) / ((e - b) / fs)
@@ -246,48 +326,81 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if f_count * T < opts.min_cycles:
         out.update(key="few_cycles", reason=f"{REASONS['few_cycles']} ({f_count * T:.1f} < {opts.min_cycles:g})")
         return out
-    if spread > opts.max_spread:
-        out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%})")
+    if max(spread, spread_i) > opts.max_spread:
+        out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}; from the "
+                   f"current, Ra dI / Ke, {spread_i:.1%})")
         return out
     out["confidence"] = float(min(1.0, (1 - math.exp(-snr / (4 * opts.min_snr)))
-                                  * (1 - spread / opts.max_spread / 2)))
+                                  * (1 - max(spread, spread_i) / opts.max_spread / 2)))
     return out
 
 
-def estimate(bursts, duty, rpm_prior, opts: Options):
+def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=None):
     """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
-    duty, rpm_prior: per window (None or NaN where unknown); the prior passes a running median
-    of three windows first, so that a glitch of one sample of V or I cannot steer the line."""
+    duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's voltage-borne
+    sd per window (RPM), one figure or (below, above) (m2_prior_sd_rpm; None: 0, Ke's relative
+    error opts.prior_rel_sd alone). The prior passes a running median of three windows first, so
+    that a glitch of one sample of V or I cannot steer the line; where the window's own prior and that median disagree (a step of speed beside a
+    glitch, where the median takes the speed before the step), the window's speed may be either,
+    and the prior's sd spans both: sd = sqrt(sd^2 + (own - median)^2). The DataFrame carries
+    the prior used (`rpm_prior_used`) and its sd (`prior_sd_below`, `prior_sd_above`). rpm_per_A:
+    Ra / Ke in RPM per A (rpm_per_amp), for the speed change the current shows inside a window."""
     import pandas as pd
 
+    n = len(bursts)
+    sd = np.zeros((n, 2))
+    if prior_sd is not None:  # one figure per window, or (below, above)
+        given = np.asarray(prior_sd, float)
+        given = np.repeat(given[:, None], 2, axis=1) if given.ndim == 1 else given
+        sd = np.where(np.isfinite(given), given, 0.0)
     if rpm_prior is not None:  # a one-window glitch of V or I must not move the prior: median of three
-        pr = np.asarray(rpm_prior, float)
+        own = np.asarray(rpm_prior, float)
+        pr = own
         if len(pr) >= 3:
             pr = np.concatenate([pr[:1], np.median(np.stack([pr[:-2], pr[1:-1], pr[2:]]), axis=0), pr[-1:]])
+            gap = np.nan_to_num(np.abs(own - pr), nan=0.0)
+            sd = np.hypot(sd, gap[:, None])
         rpm_prior = pr
     rows = []
-    for k in range(len(bursts)):
+    for k in range(n):
         d = None if duty is None else float(duty[k])
         pr = None if rpm_prior is None else float(rpm_prior[k])
         before = None if rpm_prior is None or k == 0 else float(rpm_prior[k - 1])
-        rows.append(estimate_window(bursts, k, d, pr, opts, before))
+        rows.append(estimate_window(bursts, k, d, pr, opts, before, sd[k], rpm_per_A))
     df = pd.DataFrame(rows)
     df.insert(0, "seq", bursts.seq)
     df["confident"] = df["key"] == ""
+    df["rpm_prior_used"] = np.nan if rpm_prior is None else rpm_prior
+    df["prior_sd_below"] = sd[:, 0] if rpm_prior is not None else np.nan
+    df["prior_sd_above"] = sd[:, 1] if rpm_prior is not None else np.nan
     return df
+
+
+def rpm_per_amp(ra_ohm: float, ke_vs_per_rad: float) -> float:
+    """Ra / Ke in RPM per A: the speed a change of the armature current costs at constant voltage."""
+    return ra_ohm / ke_vs_per_rad * 60.0 / (2 * math.pi)
 
 
 def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder: the ripple speed
     of the windows where the comb alone (no prior) gives a confident count, against
-    V - I Ra; the median. Returns (ke, windows used)."""
+    V - I Ra; their median, each window weighted by (w / u)^2 (u: the voltage the prior does
+    not know, m2_prior_sd_rpm). Returns (ke, windows used)."""
     df = estimate(bursts, duty, None, opts)
     ok = df["confident"].to_numpy() & (df["rpm"].to_numpy() > 0)
     if ok.sum() == 0:
         return math.nan, 0
     w = df["rpm"].to_numpy()[ok] * 2 * math.pi / 60.0
-    e = np.asarray(v_V, float)[ok] - np.asarray(i_A, float)[ok] * ra_ohm
-    return float(np.median(e / w)), int(ok.sum())
+    i = np.asarray(i_A, float)[ok]
+    e = np.asarray(v_V, float)[ok] - i * ra_ohm
+    # each window's E / w is off by the voltage the prior does not know (u, m2_prior_sd_rpm) over w:
+    # the median weighted by (w / u)^2, so that slow, loaded windows (and a fixed line counted
+    # while the shaft stands) weigh little
+    u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * np.abs(i))
+    ke = e / w
+    order = np.argsort(ke)
+    cw = np.cumsum(((w / u) ** 2)[order])
+    return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ok.sum())
 
 
 def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001):
@@ -359,7 +472,8 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
         ke_from = f"ripple ({n_ke} windows)"
     prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
-    est = estimate(b, duty, prior, opts)
+    est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None,
+                   rpm_per_amp(ra, ke) if math.isfinite(ke) else None)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from
