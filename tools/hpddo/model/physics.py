@@ -66,10 +66,16 @@ def ra_at_ohm(p, temp_C, dtype=np.float64):
 
 
 def brush_drop_V(p, i_true_A, dtype=np.float64):
+    """brush_V i / (|i|^m + knee^m)^(1/m), m = brush_order: the base form i / (|i| + knee) for
+    m = 1 (and an order below 1 or NaN, as the boards), computed as before the order existed."""
     i = np.asarray(i_true_A, dtype)
     knee = _f(p, "brush_knee_A", dtype)
     knee = knee if knee > dtype(BRUSH_KNEE_MIN_A) else dtype(BRUSH_KNEE_MIN_A)  # NaN: the minimum, as the boards
-    return _f(p, "brush_V", dtype) * i / (np.abs(i) + knee)
+    m = _f(p, "brush_order", dtype)
+    if not m > dtype(1.0):
+        return _f(p, "brush_V", dtype) * i / (np.abs(i) + knee)
+    den = np.power(np.power(np.abs(i), m) + np.power(knee, m), dtype(dtype(1.0) / m))
+    return _f(p, "brush_V", dtype) * i / den
 
 
 def ke_at_vs_per_rad(p, temp_C, i_true_A, dtype=np.float64):
