@@ -98,7 +98,7 @@ def _describe(field: str) -> tuple:
             return e.name, e.show_unit, e.show_scale, phys, needs, e.unit
         for sh in e.shapes:
             if sh.field == field:
-                return f"{e.name} shape {field}", sh.unit, 1.0, sh.bounds, needs, sh.unit
+                return f"{e.name} shape {field}", sh.unit, 1.0, sh.widened or sh.bounds, needs, sh.unit
     for n in schema.NODE:
         if n.field == field:
             return f"winding node {field}", n.show_unit, 1.0, n.physical, THERMAL_NEEDS, n.show_unit
@@ -226,11 +226,11 @@ def _rng(b: tuple, scale: float, unit: str) -> str:
     return f"{lo * scale:.3g}..{hi * scale:.3g} {unit}" if math.isfinite(hi) else f"above {lo * scale:.3g} {unit}"
 
 
-def fitted_fields(rows, names, hold=None, ra_bounds=None) -> tuple[list, dict]:
+def fitted_fields(rows, names, hold=None, ra_bounds=None, widen=()) -> tuple[list, dict]:
     """(fields, {field: bounds}) that fx.fit moves for the effects in names (hold as fx.fit's;
-    ra_bounds: Ra moved too, within them): Ke, the coefficients not held, their shapes, the
-    winding node of a thermal effect."""
-    spec = fx.spec_for(rows, names, hold)
+    ra_bounds: Ra moved too, within them; widen: the effects fitted in their widened family):
+    Ke, the coefficients not held, their shapes, the winding node of a thermal effect."""
+    spec = fx.spec_for(rows, names, hold, widen)
     fields, bounds = list(spec.free), dict(spec.bounds)
     if spec.thermal_state:
         for n in fx.node_params(spec.blind):
@@ -245,7 +245,8 @@ def fitted_fields(rows, names, hold=None, ra_bounds=None) -> tuple[list, dict]:
 def of_fit(data, p: ph.PhysicsParams, names, hold=None, ra_bounds=None) -> list[Interval]:
     """The Interval of every quantity that fx.fit(data.rows, ..., names, hold, ra_bounds)
     moved to reach p (its training rows, the bootstrap's operating-point blocks)."""
-    fields, bounds = fitted_fields(data.rows, names, hold, ra_bounds)
+    widen = fx.widened_in(p, [n for n in names if n in fx.LIBRARY])
+    fields, bounds = fitted_fields(data.rows, names, hold, ra_bounds, widen)
     return intervals(data.rows, data.blocks_train, p, fields, bounds)
 
 

@@ -205,9 +205,29 @@ def rest_offsets(rows: list[Rows]) -> dict:
     return out
 
 
-def spec_for(rows: list[Rows], names, hold=None) -> FitSpec:
+def shape_bounds(sh: schema.Shape, widened: bool) -> tuple:
+    """The range a shape is fitted within: its widened range in a widened family, else its bounds."""
+    return sh.widened if widened and sh.widened is not None else sh.bounds
+
+
+def widened_in(p: ph.PhysicsParams, names) -> tuple:
+    """The effects of names whose family p is in the widened one: an extension shape off its
+    default, or a shape beyond its base bounds."""
+    out = []
+    for n in names:
+        for sh in LIBRARY[n].shapes if n in LIBRARY else ():
+            v = float(getattr(p, sh.field))
+            if (sh.extension and v != sh.default) or (sh.widened is not None and not sh.bounds[0] <= v <= sh.bounds[1]):
+                out.append(n)
+                break
+    return tuple(out)
+
+
+def spec_for(rows: list[Rows], names, hold=None, widen=()) -> FitSpec:
     """hold: {effect: coefficient} held at a value instead of fitted. An offset effect is
-    held at its reading at rest where the rows have one (rest_offsets)."""
+    held at its reading at rest where the rows have one (rest_offsets). widen: the effects
+    fitted in their widened family (schema.Shape.widened; their extension shapes free, held
+    at the base form for the others)."""
     names = check_names(names)
     hold = dict(hold or {})
     if any(n in REST_READ and n not in hold for n in names):
@@ -245,9 +265,12 @@ def spec_for(rows: list[Rows], names, hold=None) -> FitSpec:
         if n in hold:
             continue
         for sh in LIBRARY[n].shapes:
+            if sh.extension and n not in widen:
+                fixed[sh.field] = sh.default  # the base form
+                continue
             free.append(sh.field)
             scales.append(sh.scale)
-            bounds[sh.field] = sh.bounds
+            bounds[sh.field] = shape_bounds(sh, n in widen)
     return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state, blind=blind,
                    bounds=bounds)
 
@@ -296,8 +319,45 @@ def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
     return dataclasses.replace(p, **kw)
 
 
+# The widened family of an effect (schema.Shape.widened, extension shapes) is taken where it
+# removes at least this share of the training error the base family leaves (the sum of
+# squares): as an effect is named only where it removes REL_MIN = 2 % of the held-out error
+# (diagnosis/ranking.py), a form is widened only where the data ask for it. A model whose
+# effects stay in their base family is the fit it always was (data/default: 0.1 % less).
+WIDEN_REL = 0.02
+
+
 def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
-        start: ph.PhysicsParams | None = None, hold=None, ra_prior=None, ra_bounds=None) -> ph.PhysicsParams:
+        start: ph.PhysicsParams | None = None, hold=None, ra_prior=None, ra_bounds=None,
+        widen=None) -> ph.PhysicsParams:
+    """fit_in (below) in the base family of every named effect; where a named effect has a
+    widened family (schema.Shape.widened: a brush drop that builds up over more than 300 mA
+    or levels off more sharply than i / (|i| + knee)), fitted again from there in it, and
+    that fit kept where it lowers the sum of squares by WIDEN_REL or more. widen: the
+    effects fitted in their widened family from the start (no base fit); None: decided as
+    above."""
+    hold = dict(hold or {})
+    if widen is not None:
+        return _fit(rows, base, names, mask, weights, start, hold, ra_prior, ra_bounds, tuple(widen))[0]
+    p, cost = _fit(rows, base, names, mask, weights, start, hold, ra_prior, ra_bounds, ())
+    wide = tuple(n for n in check_names(names) if n not in hold and any(sh.widened for sh in LIBRARY[n].shapes))
+    if not wide:
+        return p
+    pw, cost_w = _fit(rows, base, names, mask, weights, p, hold, ra_prior, ra_bounds, wide)
+    return pw if cost_w <= (1.0 - WIDEN_REL) * cost else p
+
+
+def fit_in(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
+           start: ph.PhysicsParams | None = None, hold=None, ra_prior=None, ra_bounds=None,
+           widen=()) -> ph.PhysicsParams:
+    """The fit in the families given: widen, the effects fitted in their widened family
+    (the others in their base family); as _fit, without its cost."""
+    return _fit(rows, base, names, mask, weights, start, hold, ra_prior, ra_bounds, widen)[0]
+
+
+def _fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
+         start: ph.PhysicsParams | None = None, hold=None, ra_prior=None, ra_bounds=None,
+         widen=()) -> tuple:
     """Least squares of rpm_ref - n_M2 over the `mask` rows of `rows` (weights per row,
     optional), moving Ke and the coefficients of `names` (but those in `hold`, {effect:
     coefficient}, which stay at the value given); Ra, t_ref stay at base's.
@@ -309,8 +369,10 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     posterior.
 
     ra_bounds (the diagnosis only): (lo, hi) ohm moves Ra too, within those bounds and with no
-    prior: Ra as the data alone determine it (diagnosis.intervals)."""
-    spec = spec_for(rows, names, hold)
+    prior: Ra as the data alone determine it (diagnosis.intervals).
+
+    Returns (the fitted parameters, the cost: half the weighted sum of squares)."""
+    spec = spec_for(rows, names, hold, widen)
     if ra_prior is not None or ra_bounds is not None:
         spec.free.append("ra_ohm")
         spec.scales.append(float(ra_prior[1]) if ra_prior is not None else 0.05 * base.ra_ohm)
@@ -365,7 +427,7 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     bits = 0
     for n in spec.names:
         bits |= LIBRARY[n].bit
-    return dataclasses.replace(p, effects=bits)
+    return dataclasses.replace(p, effects=bits), float(res.cost)
 
 
 FIT_DIGITS = 7  # significant digits kept of a fitted coefficient

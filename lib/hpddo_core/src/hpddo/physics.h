@@ -13,7 +13,6 @@
 #ifndef HPDDO_PHYSICS_H
 #define HPDDO_PHYSICS_H
 
-#include <math.h>
 #include <stdint.h>
 
 #include "limits.h"
@@ -90,14 +89,14 @@ inline float ra_at_ohm(const PhysicsParams& p, float temp_C) {
 /// Brush contact drop at current i_A (true current), V: brush_V i / (|i|^m + knee^m)^(1/m)
 /// with m = brush_order. The base form m = 1 (an order below 1, or NaN, is taken as 1) is
 /// brush_V i / (|i| + knee), one division; a higher order levels off more sharply (tanh-
-/// and exp-like drops) and costs three powf.
+/// and exp-like drops) and costs three powers (pow_f).
 inline float brush_drop_V(const PhysicsParams& p, float i_A) {
   if (p.brush_V == 0.0f) return 0.0f;  // off: no division (0 x a finite ratio is 0)
   const float mag = i_A < 0.0f ? -i_A : i_A;
   const float knee = p.brush_knee_A > kBrushKneeMin_A ? p.brush_knee_A : kBrushKneeMin_A;
   if (!(p.brush_order > 1.0f)) return p.brush_V * i_A / (mag + knee);
   const float m = p.brush_order;
-  return p.brush_V * i_A / powf(powf(mag, m) + powf(knee, m), 1.0f / m);
+  return p.brush_V * i_A / pow_f(pow_f(mag, m) + pow_f(knee, m), 1.0f / m);
 }
 
 /// The armature reaction's growth with the current, A: |i| (1 - q + q |i| / 1 A) with

@@ -15,6 +15,7 @@
 #ifndef HPDDO_PLATFORM_H
 #define HPDDO_PLATFORM_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -111,6 +112,17 @@ inline void read(const void* p, void* out, size_t n) {
 #endif
 
 namespace hpddo {
+
+/// x to the power y in float on every target. avr-libc has no powf of its own (it names
+/// pow, whose double is a 32-bit float there): the call goes through pow with the
+/// conversions written out, which cost nothing on the AVR.
+inline float pow_f(float x, float y) {
+#if defined(__AVR__)
+  return static_cast<float>(pow(static_cast<double>(x), static_cast<double>(y)));
+#else
+  return powf(x, y);
+#endif
+}
 
 /// Reads one float stored with HPDDO_FLASH (and only such a float).
 inline float flash_float(const float* p) {
