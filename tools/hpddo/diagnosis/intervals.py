@@ -212,7 +212,31 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
         out.append(Interval(q, f, si, v, lo if math.isfinite(se) else None, hi if math.isfinite(se) else None,
                             determined=not why, why=why, needs=needs, clusters=len(np.unique(np.concatenate(groups))),
                             method=method, show_scale=scale, show_unit=unit))
-    return out
+    return _sizes_of_unfixed_forms(out, p, bounds)
+
+
+def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> list:
+    """ivs with the coefficient of an effect fitted in its widened family (schema.Shape.widened)
+    not determined where one of its shapes stops at an edge of the widest range (but the base
+    form's): the data pull the form beyond every form allowed, and the size depends on the
+    form, so a narrow interval of the size at the edge's form would be a silent edge."""
+    by_field = {iv.field: k for k, iv in enumerate(ivs)}
+    for e in schema.EFFECTS:
+        if e.field not in by_field or e.name not in fx.widened_in(p, [e.name]):
+            continue
+        for sh in e.shapes:
+            v = float(getattr(p, sh.field))
+            if sh.field not in bounds or v == sh.default or not _on_edge(v, bounds[sh.field]):
+                continue
+            k = by_field[e.field]
+            if ivs[k].determined:
+                ivs[k] = dataclasses.replace(
+                    ivs[k], determined=False,
+                    why=(f"its form stopped at the edge of the forms allowed ({sh.field} = "
+                         f"{schema.quantity(v, sh.unit)}, range {_rng(bounds[sh.field], 1.0, sh.unit)}) and its "
+                         f"size depends on the form"))
+            break
+    return ivs
 
 
 def _on_edge(v: float, b: tuple) -> bool:
