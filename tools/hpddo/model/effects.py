@@ -174,6 +174,7 @@ class FitSpec:
     fixed: dict           # fields held at a value
     thermal_state: bool   # th_r_K_per_W, th_tau_s fitted too (log-parametrised)
     blind: bool = False   # some rows read no temperature: the node is the rise above ambient
+    base_forms: dict = dataclasses.field(default_factory=dict)  # extension shapes held at the base form
 
 
 # Channel offsets read where the truth is known: at standstill with the supply off (duty 0,
@@ -260,19 +261,19 @@ def spec_for(rows: list[Rows], names, hold=None, widen=()) -> FitSpec:
             scales.append(abs(eff.scale))
     # The shape of a named effect's term moves within the forms physics allows (schema.Shape):
     # the effect is named, not the form. Held effects keep theirs (the start's, else the base form).
-    bounds = {}
+    bounds, base_forms = {}, {}
     for n in names:
         if n in hold:
             continue
         for sh in LIBRARY[n].shapes:
             if sh.extension and n not in widen:
-                fixed[sh.field] = sh.default  # the base form
+                base_forms[sh.field] = sh.default
                 continue
             free.append(sh.field)
             scales.append(sh.scale)
             bounds[sh.field] = shape_bounds(sh, n in widen)
     return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state, blind=blind,
-                   bounds=bounds)
+                   bounds=bounds, base_forms=base_forms)
 
 
 def node_path(blind: bool) -> str:
@@ -306,6 +307,7 @@ def node_plausibility(p: ph.PhysicsParams, blind: bool) -> list:
 def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsParams:
     kw = dict(zip(spec.free, (float(v) for v in x[: len(spec.free)])))
     kw.update(spec.fixed)
+    kw.update(spec.base_forms)
     if spec.thermal_state:
         kw["th_r_K_per_W"] = float(math.exp(x[len(spec.free)]))
         kw["th_tau_s"] = float(math.exp(x[len(spec.free) + 1]))

@@ -145,32 +145,21 @@ WARMUP_AT_ONCE = 0.8         # ... this share of it at once (an amplifier's drif
 V_BOW_V = 8.0                # "bowed": the voltage channel's gain error g at 8 V, 0 at 0 V
 # Forms outside every library form (issue 21, item 7; test/py/test_diagnosis_forms.py):
 BRUSH_TANH_A = 0.3           # "tanh_300mA": a smooth saturating drop tanh(i / 300 mA)
-BRUSH_TANH_WIDE_A = 1.0      # "tanh_1A": the same over 1 A (half the drop at 0.55 A)
 SATURATION_LATE_ONSET_A = 0.6  # "onset_600mA": no armature reaction below 600 mA
-SATURATION_LEVEL_A = 0.5     # "levelling_500mA": a fall that levels off above 500 mA
-DRIFT_K = 40.0               # "case_drift": the offset at this rise of the case above ambient, K
-RAMP_S = 3600.0              # "ramp_3600s": an offset growing linearly over an hour of running
 _WARMUP = (f"an offset that settles after power-up: {WARMUP_AT_ONCE:.0%} of it at once, the rest with a "
            f"{WARMUP_S:g} s time constant (an amplifier warming up)")
-_CASE_DRIFT = (f"an offset that follows the case temperature: none at ambient, all of it {DRIFT_K:g} K above "
-               "(an amplifier on the motor's bracket drifting with its temperature)")
-_RAMP = f"an offset growing linearly from none at power-up to all of it after {RAMP_S:g} s (a slow drift with time)"
 FORMS = {
     "saturation": {
         "linear": "Ke (1 - s |i|)",
         "quadratic": "Ke (1 - s i^2 / 1 A): the field weakens with the square of the current",
         "onset": f"Ke (1 - s max(0, |i| - {SATURATION_ONSET_A:g} A)): none below the onset current",
         "onset_600mA": f"Ke (1 - s max(0, |i| - {SATURATION_LATE_ONSET_A:g} A)): none below a late onset current",
-        "levelling_500mA": f"Ke (1 - s i0 x^2 / (1 + x^2)), x = |i| / {SATURATION_LEVEL_A:g} A: a fall that "
-                           "grows with i^2 at low current and levels off above i0 (the iron saturating)",
-        "lorentz": "Ke / (1 + s i^2 / 1 A): Ke falling with the square of the current in another law",
     },
     "brush_drop": {
         "constant": "the full drop whenever current flows (a hard switch at zero current)",
         "knee_100mA": f"drop i / (i + {BRUSH_KNEE_SOFT_A * 1000:g} mA), at the mean current: a soft contact film",
         "exp_50mA": f"drop (1 - exp(-i / {BRUSH_EXP_A * 1000:g} mA)), at the mean current",
         "tanh_300mA": f"drop tanh(i / {BRUSH_TANH_A * 1000:g} mA), at the mean current: a smooth saturating drop",
-        "tanh_1A": f"drop tanh(i / {BRUSH_TANH_WIDE_A:g} A), at the mean current: a drop still building at full load",
     },
     "thermal_ra": {
         "winding": "the copper at the winding node's temperature (it runs hotter than the case under load)",
@@ -185,14 +174,10 @@ FORMS = {
     "current_offset": {
         "constant": "a fixed offset of the current channel",
         "warmup": _WARMUP,
-        "case_drift": _CASE_DRIFT,
-        "ramp_3600s": _RAMP,
     },
     "v_offset": {
         "constant": "a fixed offset of the voltage channel",
         "warmup": _WARMUP,
-        "case_drift": _CASE_DRIFT,
-        "ramp_3600s": _RAMP,
     },
     "v_gain": {
         "constant": "a fixed gain error (divider tolerance, ADC reference)",
@@ -202,15 +187,10 @@ FORMS = {
 }
 
 
-def warmup_share(form: str, t_s, case_rise_K=None):
-    """The share of a sensor offset present at time t_s after power-up (1: all of it);
-    case_rise_K: the case's rise above ambient per sample (the "case_drift" form)."""
+def warmup_share(form: str, t_s):
+    """The share of a sensor offset present at time t_s after power-up (1: all of it)."""
     if form == "warmup":
         return 1.0 - (1.0 - WARMUP_AT_ONCE) * np.exp(-np.asarray(t_s, float) / WARMUP_S)
-    if form == "ramp_3600s":
-        return np.minimum(np.asarray(t_s, float) / RAMP_S, 1.0)
-    if form == "case_drift":
-        return np.asarray(case_rise_K, float) / DRIFT_K
     return np.ones_like(np.asarray(t_s, float))
 
 
@@ -221,18 +201,12 @@ def v_gain_share(form: str, v_V):
     return np.ones_like(np.asarray(v_V, float))
 
 
-def saturation_shape(form: str, i_A: float, s_per_A: float = 0.0) -> float:
-    """How the armature reaction grows with the (non-negative) current, in A (s_per_A: the
-    effect's size, for the "lorentz" form, whose shape depends on it)."""
+def saturation_shape(form: str, i_A: float) -> float:
+    """How the armature reaction grows with the (non-negative) current, in A."""
     if form == "quadratic":
         return i_A * i_A
     if form == "onset_600mA":
         return i_A - SATURATION_LATE_ONSET_A if i_A > SATURATION_LATE_ONSET_A else 0.0
-    if form == "levelling_500mA":
-        x2 = (i_A / SATURATION_LEVEL_A) ** 2
-        return SATURATION_LEVEL_A * x2 / (1.0 + x2)
-    if form == "lorentz":  # 1 - s sat = 1 / (1 + s i^2)
-        return i_A * i_A / (1.0 + s_per_A * i_A * i_A)
     if form == "onset":
         return i_A - SATURATION_ONSET_A if i_A > SATURATION_ONSET_A else 0.0
     return i_A
@@ -247,8 +221,6 @@ def brush_share(form: str, i_A: float) -> float:
         return -math.expm1(-i_A / BRUSH_EXP_A)
     if form == "tanh_300mA":
         return math.tanh(i_A / BRUSH_TANH_A)
-    if form == "tanh_1A":
-        return math.tanh(i_A / BRUSH_TANH_WIDE_A)
     return 1.0
 
 

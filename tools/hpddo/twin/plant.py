@@ -209,7 +209,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
             t_mag = Tw if magnet_form == "winding" else Tm if magnet_form == "lag_600s" else Tc
             ke_flux = ke0 * (1.0 + b_mag * (t_mag - t_ref))
             ib_pos = ib if ib > 0.0 else 0.0
-            sat = saturation_shape(sat_form, ib_pos, s_sat)
+            sat = saturation_shape(sat_form, ib_pos)
             ke = ke_flux * (1.0 - s_sat * sat)  # mean EMF constant (armature reaction)
             E = ke * w
             vb_k = vb * brush_share(brush_form, ib_pos)  # the drop at the mean current (quasi-static)
