@@ -21,6 +21,15 @@
 #include "acq_protocol.h"
 #include "acq_window.h"
 #include "hpddo/frame.h"
+#if defined(ACQ_RIPPLE_HZ)
+// The ripple mode (issue 23): the current once per PWM period at the middle of the on-time,
+// sent in chunks beside each window's V and I, and counted on the board (Ra, winding
+// temperature); acq_ripple_board.h, docs/ripple.md.
+#if defined(ACQ_NO_OBSERVER)
+#error "the ripple build counts with the observer's estimate as the prior: build it with the observer"
+#endif
+#include "acq_ripple_board.h"
+#endif
 #if !defined(ACQ_NO_OBSERVER)
 // The whole observer runs on the board (issue 14): the fixed-point model by default,
 // the float one with -DACQ_OBSERVER_FLOAT; both from models/default (-I models/default).
@@ -72,6 +81,9 @@ volatile uint8_t g_load;
 volatile uint16_t g_next_duty_q;                    // requested by the main loop
 volatile uint8_t g_next_load;
 volatile uint16_t g_next_ocr;
+#if defined(ACQ_RIPPLE_HZ)
+volatile uint16_t g_next_ocr1b;                     // the ripple trigger of the next setpoint
+#endif
 volatile uint8_t g_next_mode;
 uint16_t g_pre_duty_q;                              // latched for the next window
 uint8_t g_pre_load, g_pre_mode;
@@ -132,6 +144,9 @@ __attribute__((always_inline)) inline void apply_pwm_mode(uint8_t mode) {
 
 __attribute__((always_inline)) inline void preload_next_window() {
   OCR1A = g_next_ocr;  // double-buffered: in force from the next PWM period on
+#if defined(ACQ_RIPPLE_HZ)
+  OCR1B = g_next_ocr1b;  // the ripple sample at the middle of the next on-time
+#endif
   g_pre_duty_q = g_next_duty_q;
   g_pre_load = g_next_load;
   g_pre_mode = g_next_mode;
@@ -170,6 +185,9 @@ ISR(TIMER1_OVF_vect) {
   }
   g_periods = p;
   if (static_cast<uint16_t>(p + 1u) == g_win_periods) preload_next_window();
+#if defined(ACQ_RIPPLE_HZ)
+  ripple::on_period(p, g_seq);
+#endif
 }
 
 // The window close must not wait behind the other interrupts: its latency is
@@ -196,6 +214,9 @@ ISR(ADC_vect, ISR_NOBLOCK) {
   const uint16_t code = ADC;
   Acc* const acc = g_acc;
   sei();
+#if defined(ACQ_RIPPLE_HZ)
+  if (ripple::on_adc(code, acc)) return;
+#endif
   const uint8_t mux = ADMUX;
   ADMUX = static_cast<uint8_t>(mux ^ 1u);  // the other channel for the next conversion
   ADCSRA = kAdcsraStart;                   // starts it: 13 ADC clocks
@@ -255,8 +276,14 @@ bool link_idle() { return !(TIMSK2 & _BV(OCIE2A)); }
 void set_next_setpoint(uint16_t duty_q, uint8_t load) {
   const uint16_t ocr = pwm_compare(g_pwm, duty_q);
   const uint8_t mode = duty_q == 0 ? kPwmOff : (duty_q >= 10000 ? kPwmOn : kPwmRun);
+#if defined(ACQ_RIPPLE_HZ)
+  const uint16_t ocr1b = ripple::trigger_for(g_pwm, ocr, duty_q);
+#endif
   const uint8_t s = SREG;
   cli();
+#if defined(ACQ_RIPPLE_HZ)
+  g_next_ocr1b = ocr1b;
+#endif
   g_next_duty_q = duty_q;
   g_next_load = load;
   g_next_ocr = ocr;
@@ -272,6 +299,9 @@ bool set_rate(float rate_hz) {
   cli();
   g_next_win_periods = n;
   g_next_win_us = us;
+#if defined(ACQ_RIPPLE_HZ)
+  ripple::configure(g_pwm_hz, n, kRippleHostBaud);  // the burst length follows the window
+#endif
   SREG = s;
   g_rate_hz = rate_hz;
   return true;
@@ -291,8 +321,15 @@ bool start_sampling(uint32_t pwm_hz) {
   if (!pwm_timing(pwm_hz, &t)) return false;
   const uint16_t n = periods_per_window(t, g_rate_hz);
   if (!n) return false;
+#if defined(ACQ_RIPPLE_HZ)
+  RippleTiming rt;
+  if (!ripple_timing(pwm_hz, &rt)) return false;  // the PWM is the sample rate: 8..20 kHz
+#endif
   const uint8_t s = SREG;
   cli();
+#if defined(ACQ_RIPPLE_HZ)
+  ripple::configure(pwm_hz, n, kRippleHostBaud);
+#endif
   g_pwm = t;
   g_pwm_hz = pwm_hz;
   TCCR1B = 0;
@@ -309,6 +346,9 @@ bool start_sampling(uint32_t pwm_hz) {
   g_enc_prev = g_enc_total;
   g_seq = g_seq + 1u;  // the dropped window leaves a seq gap
   g_next_ocr = pwm_compare(t, g_next_duty_q);
+#if defined(ACQ_RIPPLE_HZ)
+  g_next_ocr1b = ripple::trigger_for(t, g_next_ocr, g_next_duty_q);
+#endif
   preload_next_window();
   g_duty_q = g_pre_duty_q;
   g_load = g_pre_load;
@@ -398,6 +438,9 @@ struct OneWireJob {
 /// open window has more than 2 ms to go.
 bool onewire_slot_free() {
   if (!link_idle()) return false;
+#if defined(ACQ_RIPPLE_HZ)
+  if (ripple::g.left) return false;  // a bus step (up to 1 ms) would fill the burst's ring
+#endif
   const uint8_t s = SREG;
   cli();
   const uint16_t left = static_cast<uint16_t>(g_win_periods - g_periods);
@@ -481,6 +524,14 @@ void print_status(const char* head) {
   w.u32(g_overruns);
   w.str(" link_drops=");
   w.u32(g_txq.dropped());
+#if defined(ACQ_RIPPLE_HZ)
+  w.str(" ripple_n=");
+  w.u32(ripple::g.burst_n);
+  w.str(" ripple_lost=");
+  w.u32(static_cast<uint32_t>(ripple::g.not_started) + ripple::g.overflows);
+  w.str(" ring_peak=");
+  w.u32(ripple::g_ring.peak());
+#endif
   say(w.c_str());
 }
 
@@ -517,14 +568,32 @@ void begin_recording(const char* condition, uint32_t first_seq) {
   w = LineWriter(g_line, sizeof g_line);
   w.compact(kEncoderCountsPerRev);
   meta(F("encoder_cpr"), g_line);
+#if defined(ACQ_RIPPLE_HZ)
+  // The bursts ("~" lines): hpddo capture writes them to <condition>.ripple.csv.
+  w = LineWriter(g_line, sizeof g_line);
+  w.u32(g_pwm_hz);
+  meta(F("ripple_hz"), g_line);
+  w = LineWriter(g_line, sizeof g_line);
+  w.u32(ripple::g.burst_n);
+  meta(F("ripple_n"), g_line);
+  w = LineWriter(g_line, sizeof g_line);
+  w.compact(kCalibration.shunt_gain);
+  meta(F("shunt_gain"), g_line);
+#endif
   Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeader));
 #if !defined(ACQ_NO_OBSERVER)
   Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeaderEstimate));
+#if defined(ACQ_RIPPLE_HZ) && ACQ_RIPPLE_COUNT
+  Serial.print(reinterpret_cast<const __FlashStringHelper*>(ripple::kLogHeaderRipple));
+#endif
   g_obs.reset();
 #endif
   Serial.write('\n');
   g_rec_start = first_seq;
   g_recording = true;
+#if defined(ACQ_RIPPLE_HZ) && ACQ_RIPPLE_COUNT
+  ripple::on_recording(first_seq);
+#endif
 }
 
 uint32_t open_seq() {
@@ -632,6 +701,11 @@ void process(const WindowSums& w) {
   GPIOR1 = 3;  // observer marker (timed in simulation)
   const hpddo::Estimate est = g_obs.step(s);
   GPIOR1 = 4;
+#if defined(ACQ_RIPPLE_HZ) && ACQ_RIPPLE_COUNT
+  GPIOR1 = 5;  // ripple counter's window marker (timed in simulation)
+  const ripple::WindowRipple rip = ripple::on_window(model::kModel.physics, w.seq, m.v_V, m.i_A, s.dt_s, est.rpm);
+  GPIOR1 = 6;
+#endif
 #endif
 
   if (g_plan.protocol() != kProtoNone) {
@@ -662,6 +736,9 @@ void process(const WindowSums& w) {
     format_row(lw, r);
 #if !defined(ACQ_NO_OBSERVER)
     format_estimate(lw, est.rpm, static_cast<uint8_t>(est.status));
+#if defined(ACQ_RIPPLE_HZ) && ACQ_RIPPLE_COUNT
+    ripple::format_window(lw, rip);
+#endif
 #endif
     lw.put('\n');
     Serial.write(lw.c_str(), lw.length());
@@ -678,11 +755,19 @@ void setup() {
   DDRD |= kBitRelay1;
   DDRB |= kBitRelay2 | kBitPwm;
   PORTB &= static_cast<uint8_t>(~kBitPwm);
+#if defined(ACQ_RIPPLE_HZ)
+  Serial.begin(kRippleHostBaud);
+#else
   Serial.begin(kHostBaud);
+#endif
   link_begin();
   encoder_begin();
   set_next_setpoint(0, 0);
+#if defined(ACQ_RIPPLE_HZ)
+  start_sampling(ACQ_RIPPLE_HZ);
+#else
   start_sampling(kDefaultPwmHz);
+#endif
   adc_begin();
   print_status("uno_acq 1 ready");
 }
@@ -717,6 +802,9 @@ void loop() {
     process(w);
     GPIOR1 = 2;
   }
+#if defined(ACQ_RIPPLE_HZ)
+  ripple::drain(g_recording, g_rec_start, [](const char* text, uint8_t n) { Serial.write(text, n); });
+#endif
 #ifndef ACQ_NO_TEMP
   temperature_step();
 #endif

@@ -19,11 +19,7 @@
 
 namespace {
 
-uint32_t bits(float f) {
-  uint32_t u;
-  std::memcpy(&u, &f, sizeof u);
-  return u;
-}
+using golden::bits;
 
 // Columns are the same in every fixed-point golden table.
 using namespace hpddo_golden_tiny_q;

@@ -3,16 +3,11 @@
 #include <gtest/gtest.h>
 
 #include "hpddo/physics.h"
+#include "motor.h"
 
 namespace {
 
-hpddo::PhysicsParams plain() {
-  hpddo::PhysicsParams p = hpddo::PhysicsParams();
-  p.ra_ohm = 4.5f;
-  p.ke_vs_per_rad = 0.406f;
-  p.t_ref_C = 31.0f;
-  return p;
-}
+hpddo::PhysicsParams plain() { return motor::plain(31.0f); }
 
 hpddo::PhysicsInput at(float v_V, float i_A, float temp_C = 31.0f, float di_dt = 0.0f) {
   hpddo::PhysicsInput in = {v_V, i_A, di_dt, temp_C, temp_C};

@@ -3,13 +3,11 @@
 #include <gtest/gtest.h>
 
 #include "hpddo/thermal.h"
+#include "motor.h"
 
 namespace {
 hpddo::PhysicsParams params() {
-  hpddo::PhysicsParams p = hpddo::PhysicsParams();
-  p.ra_ohm = 4.5f;
-  p.ke_vs_per_rad = 0.406f;
-  p.t_ref_C = 30.0f;
+  hpddo::PhysicsParams p = motor::plain(30.0f);
   p.ra_tc_per_K = 0.00393f;
   p.th_r_K_per_W = 8.0f;
   p.th_tau_s = 600.0f;

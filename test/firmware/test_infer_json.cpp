@@ -17,6 +17,7 @@
 #include "acq_config.h"
 #include "infer_app.h"
 #include "infer_line.h"
+#include "golden.h"
 #include "infer_model.h"
 #include "mem_store.h"
 
@@ -28,11 +29,7 @@
 
 namespace {
 
-float from_bits(uint32_t b) {
-  float f;
-  std::memcpy(&f, &b, sizeof f);
-  return f;
-}
+using golden::from_bits;
 
 infer::Telemetry widest() {
   infer::Telemetry t;
@@ -320,7 +317,6 @@ TEST(InferConsole, CommandsNeverTouchTheObserverOrTheLink) {
 }
 
 // ---- a new model without reflashing (infer_upload.h through the App's commands)
-#include "golden.h"
 
 #ifndef HPDDO_UPLOAD_DOCUMENT
 #error "HPDDO_UPLOAD_DOCUMENT: path of test/fixtures/upload_default.json"
@@ -458,12 +454,8 @@ TEST(InferUpload, AnotherModelIsPutInForceAndAChangedParameterShows) {
   const std::string compiled = estimates(app);
   ArduinoJson::JsonDocument d;
   ASSERT_FALSE(ArduinoJson::deserializeJson(d, default_document()));
-  float ra;
-  uint32_t bits = d["physics"][0];
-  std::memcpy(&ra, &bits, 4);
-  ra *= 2.0f;
-  std::memcpy(&bits, &ra, 4);
-  d["physics"][0] = bits;
+  const float ra = 2.0f * golden::from_bits(d["physics"][0].as<uint32_t>());
+  d["physics"][0] = golden::bits(ra);
   MemStore scratch_store;
   infer::ModelSlot<infer::model::Net> slot;
   infer::ModelError why;

@@ -92,6 +92,8 @@ static long n_edges;
 static avr_cycle_count_t comp_cycle[64]; /* first compare matches: the bit clock */
 static long n_comp;
 
+#include "uno_sim_ripple.h"
+
 static unsigned pin_mV(double v) {
   double mv = v * 1000.0;
   if (mv < 0) mv = 0;
@@ -105,7 +107,9 @@ static void set_inputs(long window_index) {
   cur_i_mV = pin_mV(r->i_A * shunt_ohm);
   cur_rpm = r->rpm;
   avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0), cur_v_mV);
-  avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC1), cur_i_mV);
+  rip_cur_i_mV = cur_i_mV;
+  if (!rip_on) /* the ripple mode feeds A1 at each conversion's start (uno_sim_ripple.h) */
+    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC1), cur_i_mV);
 }
 
 static avr_cycle_count_t encoder_tick(struct avr_t* a, avr_cycle_count_t when, void* param);
@@ -212,7 +216,7 @@ static void host_byte(struct avr_irq_t* irq, uint32_t value, void* param) {
   } else if (line[0] == 't' && strncmp(line, "t_s,", 4) == 0) {
     header_seen = 1;
     rows_seen = 0;
-  } else if (header_seen && line[0] != '#') {
+  } else if (header_seen && line[0] != '#' && line[0] != '~') { /* '~': a ripple chunk, not a row */
     rows_seen++;
   }
 }
@@ -307,6 +311,10 @@ int main(int argc, char** argv) {
                           link_pin, NULL);
   avr_register_io_write(avr, GPIOR0_ADDR, marker_write, NULL);
   avr_register_io_write(avr, GPIOR1_ADDR, busy_write, NULL);
+  if (rip_init(0x100u + fw.datasize + fw.bsssize)) {
+    fprintf(stderr, "uno_sim: bad ripple feed %s or no interrupt irqs\n", getenv("UNO_SIM_RIPPLE"));
+    return 2;
+  }
   drive_encoder(0);
   set_inputs(0);
   avr_cycle_timer_register(avr, F_CPU / 1000, encoder_tick, NULL);
@@ -317,6 +325,7 @@ int main(int argc, char** argv) {
   int state = cpu_Running;
   while (state != cpu_Done && state != cpu_Crashed && avr->cycle < limit) {
     state = avr_run(avr);
+    rip_step();
     if (!waiting_answer && sent < n_commands && answers > 0) {
       answers_before = answers;
       send_line(commands[sent++]);
@@ -368,6 +377,7 @@ int main(int argc, char** argv) {
     fprintf(f, "%s,%llu,%llu\n", busy[k].kind == 1 ? "window" : "observer", (unsigned long long)busy[k].start,
             (unsigned long long)busy[k].cycles);
   fclose(f);
+  if (rip_write(outdir)) return 2;
   printf("uno_sim: %.3f s simulated, %ld windows, %d log rows, %ld link bytes (%ld framing errors), "
          "%d marker errors, link bit %.2f cycles\n",
          (double)avr->cycle / F_CPU, n_windows, rows_seen, n_link, framing, seq_errors, link_bit_cycles);

@@ -470,7 +470,95 @@ def validate() -> None:
                              "start within plausible")
 
 
+# ---------------------------------------------------------------------------------------
+# BEGIN the dynamic family (issue 21, item 8): inertia and friction at the output shaft
+#
+# On a fast recording (50 Hz and up) the speed lags the voltage through the shaft's inertia
+# and friction, and the current lags it through the winding's inductance. The inductance is
+# the effect "inductance" above (La di/dt in the voltage balance, la_H in PhysicsParams); the
+# mechanical part is declared here, once: the balance at the output shaft
+#     Kt i = J dw/dt + B w + Tc sgn(w) + T_load        (Kt = Ke in SI)
+# with its parameters in DynamicsParams, a struct of its own beside PhysicsParams, so that a
+# model without the family keeps its layout, its kParamsSchema and its checksum bit for bit.
+# The diagnosis identifies J, B and Tc from recordings at DYNAMICS_MIN_RATE_HZ and up
+# (diagnosis/dynamics.py); the boards compute the balance when the family is named
+# (j_kgm2 > 0: lib/hpddo_core/src/hpddo/dynamics.h, the Python reference model/dynamics_ref.py).
+
+
+@dataclasses.dataclass(frozen=True)
+class DynParam:
+    """One parameter of the dynamic family (a DynamicsParams field)."""
+
+    field: str
+    unit: str             # SI unit
+    show_scale: float     # field value x show_scale = value in show_unit
+    show_unit: str
+    meaning: str          # one line, the C++ field comment
+    plausible: tuple      # (lo, hi), SI
+    physical: tuple       # (lo / 2, 2 hi): a fit outside is not this quantity
+    basis: str            # where the range comes from, one line
+
+    def show(self, value: float) -> str:
+        return f"{value * self.show_scale:.3g} {self.show_unit}"
+
+
+DYNAMICS = (
+    DynParam("j_kgm2", "kg m^2", 1e7, "g cm^2",
+             "inertia of the shaft and all it drives, at the output shaft (0: the family is off)",
+             (1e-5, 5e-3), (5e-6, 1e-2),
+             "a small gear motor's rotor (1e-6 kg m^2) times the gear ratio squared, up to a coupled load "
+             "machine and flywheel"),
+    DynParam("b_nms_per_rad", "N m s/rad", 1e3, "mN m s/rad",
+             "viscous friction at the output shaft (bearings, gearbox oil, a coupled machine's)",
+             (1e-4, 2e-2), (5e-5, 4e-2),
+             "gearbox and bearings of small gear motors: a few % of the stall torque per 100 rad/s"),
+    DynParam("tc_nm", "N m", 1e3, "mN m",
+             "Coulomb friction at the output shaft (brushes, gear mesh, seals): a torque against the motion",
+             (0.005, 0.3), (0.0025, 0.6),
+             "the no-load current times Kt: 50..300 mA x 0.1..1 N m/A at the output shaft"),
+    DynParam("tau_obs_s", "s", 1e3, "ms",
+             "the observer's time constant: how fast the back-EMF speed pulls the mechanical model back "
+             "(a filter's setting, not the motor's)",
+             (0.005, 0.5), (0.0025, 1.0),
+             "a few sample periods at 50..1000 Hz, within the mechanical time constant's range"),
+)
+DYNAMICS_INDUCTANCE = "inductance"   # the family's electrical part: the effect declared above
+DYNAMICS_MIN_RATE_HZ = 50.0          # recordings at this rate and up can show the dynamics
+DYN_BY_FIELD = {d.field: d for d in DYNAMICS}
+
+
+def _dynamics_h() -> str:
+    """The generated C++ of the dynamic family: struct DynamicsParams."""
+    struct = _comment_pad([(f"  float {d.field};", f"{d.meaning}, {d.unit}") for d in DYNAMICS])
+    return f"""/// The dynamic family (inertia and friction at the output shaft, with the inductance effect
+/// la_H of PhysicsParams): Kt i = J dw/dt + B w + Tc sgn(w) + T_load, Kt = Ke. Computed on the
+/// boards when named (j_kgm2 > 0; dynamics.h), its own struct so that PhysicsParams and
+/// kParamsSchema do not change. Constructor-free, initialised in field order.
+struct DynamicsParams {{
+{chr(10).join(struct)}
+}};
+
+/// Number of DynamicsParams fields.
+static const uint8_t kDynamicsParamCount = {len(DYNAMICS)};
+"""
+
+
+def _validate_dynamics() -> None:
+    if len(DYN_BY_FIELD) != len(DYNAMICS) or any(f in FIELDS for f in DYN_BY_FIELD):
+        raise ValueError("dynamic family: a field twice, or one that PhysicsParams already has")
+    for d in DYNAMICS:
+        lo, hi = d.plausible
+        if not (0 < lo < hi) or d.physical != (lo / 2, 2 * hi) or not d.field.isidentifier():
+            raise ValueError(f"dynamic family {d.field}: want 0 < plausible, physical = (lo/2, 2 hi)")
+    if DYNAMICS_INDUCTANCE not in BY_NAME:
+        raise ValueError(f"dynamic family: no effect {DYNAMICS_INDUCTANCE!r}")
+
+# END the dynamic family
+# ---------------------------------------------------------------------------------------
+
+
 validate()
+_validate_dynamics()
 
 
 # ---------------------------------------------------------------------------------------
@@ -531,6 +619,9 @@ def _params_h_body() -> str:
     all_bits = 0
     for e in EFFECTS:
         all_bits |= e.bit
+    materials = _comment_pad([(f"static const float kMaterial{e.cpp_name[len('kEffect'):]} = {e.material!r}f;",
+                               f"{e.name}: {e.material_name}, {_unit_words(e.unit)}")
+                              for e in EFFECTS if e.material is not None])
     return f"""#ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -549,6 +640,10 @@ enum Effect : uint16_t {{
 
 /// Every effect bit of the library.
 static const uint16_t kEffectsAll = 0x{all_bits:04x}u;
+
+/// The material constant of an effect (what a fitted coefficient is checked against; the
+/// board's ripple counter turns Ra into a winding temperature with copper's).
+{chr(10).join(materials)}
 
 /// Lumped parameters of one motor-drivetrain assembly, all in SI units, speed
 /// at the output shaft. Effect coefficients at zero switch their effect off.
@@ -569,6 +664,7 @@ inline void for_each_param(Params& p, F& f) {{
 {visit}
 }}
 
+{_dynamics_h()}
 }}  // namespace hpddo
 
 #endif  // HPDDO_PARAMS_GEN_H

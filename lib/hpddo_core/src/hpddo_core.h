@@ -19,5 +19,6 @@
 #include "hpddo/observer.h"
 #include "hpddo/frame.h"
 #include "hpddo/text.h"
+#include "hpddo/dynamics.h"
 
 #endif  // HPDDO_CORE_H

@@ -19,6 +19,12 @@ when a limit stopped it; "# garbled_rows=N" always. A capture that fails
 names the fault, the port or file, and OUT.partial, which keeps the rows
 received so far for inspection.
 
+The UNO's ripple build (uno_acq with -DACQ_RIPPLE_HZ, 500000 baud: --baud 500000) also sends
+the current of each window in bursts, "~" lines of framed, CRC-checked chunks
+(docs/ripple.md, "The UNO's ripple mode"). They are collected and, with the log, written to
+OUT's <condition>.ripple.csv beside it (the file the twin writes, which `hpddo ripple` reads);
+a burst that did not arrive whole is left out and counted, a damaged chunk line counted.
+
 Exit status: 0 log written, 3 log written with garbled rows (complete=false),
 1 capture failed (one line "hpddo capture: ...", nothing written to OUT), 130 interrupted.
 Lost samples are reported from gaps in the seq column.
@@ -33,7 +39,7 @@ import shutil
 import sys
 import time
 
-from ..logs import benchlog
+from ..logs import benchlog, ripple, ripple_link
 from ..logs.errors import InputError
 from . import options
 
@@ -96,12 +102,18 @@ class Capture:
         self.replies: list[str] = []
         self.seq_col: int | None = None
         self.line_no = 0  # lines received from the port, 1-based once one arrived
+        self.ripple = ripple_link.Assembler()  # the ripple build's bursts ("~" lines)
+        self.t_by_seq: dict[int, float] = {}  # t_s of each row by seq, for the bursts' times
 
     def feed(self, line: str) -> str | None:
         """Takes one line; returns the text to write to the log, or None (reply, garbled, not ours)."""
         self.line_no += 1
         line = line.rstrip("\r\n")
         if not line:
+            return None
+        if line.startswith(ripple_link.PREFIX):
+            if self.header is not None:  # a chunk of the recording (none come before it)
+                self.ripple.feed(line, self.line_no)
             return None
         if line.startswith("!"):
             self.replies.append(line)
@@ -149,6 +161,7 @@ class Capture:
         self.last_t = t_s
         seq = int(values["seq"]) if "seq" in values else None
         if seq is not None:
+            self.t_by_seq[seq] = t_s
             if self.last_seq is not None and seq != self.last_seq + 1:
                 self.gaps.append((self.last_seq, seq - self.last_seq - 1))
             self.last_seq = seq
@@ -301,7 +314,26 @@ def capture(port, out: pathlib.Path, command: str | None = None, rows: int | Non
         partial.unlink()
     except OSError:
         pass
+    if cap.ripple.chunks or cap.ripple.bad:
+        write_bursts(cap, out, log)
     return cap
+
+
+def write_bursts(cap: Capture, out: pathlib.Path, log=print) -> None:
+    """Writes the recording's whole bursts to OUT's <condition>.ripple.csv and says what was
+    left out; an OutputError when the file cannot be written."""
+    meta = dict(kv for kv in (benchlog.parse_meta_line(m) for m in cap.meta) if kv)
+    bursts, incomplete = cap.ripple.bursts()
+    path = ripple.path_for(out)
+    try:
+        _, kept = ripple_link.bursts_file(path, bursts, meta, cap.t_by_seq)
+    except ValueError as exc:
+        raise CaptureError(f"{out} written, but its ripple bursts cannot be: {exc}") from None
+    except OSError as exc:
+        raise OutputError(f"{out} written, but not {path}: {os_fault(exc)}") from None
+    log(f"{path}: {kept} bursts of {len(cap.t_by_seq)} rows; left out: {len(incomplete)} incomplete, "
+        f"{len(bursts) - kept} without a row; {cap.ripple.bad} damaged chunk lines, "
+        f"{cap.ripple.duplicates} repeated")
 
 
 def send_stop(port) -> None:

@@ -107,6 +107,8 @@ def summary(d) -> str:
         lines.append("  steady-state tables, no lag, dI/dt or whiteness statistics: " + ", ".join(kinds))
     if (res.get("thresholds") or {}).get("held_out"):
         lines.append(f"  held out: {res['thresholds']['held_out']}")
+    if (res.get("dynamics") or {}).get("text"):
+        lines.append(f"  {res['dynamics']['text']}")
     for f in res.get("channels", []):
         lines.append(f"  channel: {f['channel']} of {f['recording']} {f['fault']} ({f['figure']})")
     for u in (res.get("consistency") or {}).get("units", []):

@@ -72,10 +72,11 @@ def effects(p, what: str) -> None:
                    help=f"{what}, comma separated: {', '.join(fx.NAMES)}")
 
 
-def ripple(p, required: bool) -> None:
+def ripple(p, required: bool, need: str = " (with --reference ripple)") -> None:
     """--ripples-per-rev N --gear-ratio G [--ke-vs-per-rad KE] [--floor-a A]: the speed from the
-    commutation ripple (docs/ripple.md); required by hpddo ripple, by --reference ripple elsewhere."""
-    need = "" if required else " (with --reference ripple)"
+    commutation ripple (docs/ripple.md); required by hpddo ripple, by --reference ripple elsewhere
+    (need: when they apply, in the help)."""
+    need = "" if required else need
     p.add_argument("--ripples-per-rev", type=positive_int, required=required, default=None, metavar="N",
                    help=f"commutation ripples per motor revolution (2 x segments for two brushes){need}")
     p.add_argument("--gear-ratio", type=positive_float, required=required, default=None, metavar="G",

@@ -33,6 +33,7 @@ from ..model import effects as fx
 from ..model import physics as ph
 from ..model.train import TrainConfig, TrainingError, hybrid_rpm, train_residual
 from . import analysis, channels, intervals, noise, ranking
+from . import dynamics as dynamics_family
 # The stages' values and the verdict's text live in result.py and verdict.py; core.X names
 # them too, for the callers that take them from the diagnosis as a whole.
 from .result import (  # noqa: F401 (HYBRID_ITER, as core.HYBRID_ITER)
@@ -687,7 +688,12 @@ def physics(inp: Inputs, opt: Options) -> tuple:
     sel, conf = material_check(inp, mf, sel, conf)
     sel = with_intervals(inp, sel, mf.noise)
     resid = residuals(inp, mf, sel)
-    text = verdict(sel, conf, resid, mf.sigma2, mf.noise)
+    # the dynamic family (issue 21, item 8): identified from the fast recordings, the observer on the
+    # model under test's speed for the held-out figure
+    mf.dynamics = dynamics_family.identify([r.rec for r in inp.rows], mf.model.ra_ohm, mf.model.ke_vs_per_rad,
+                                           [r.ref - e for r, e in zip(inp.rows, mf.res_model)],
+                                           la_given_H=mf.model.la_H)
+    text = verdict(sel, conf, resid, mf.sigma2, mf.noise, mf.dynamics)
     if not sel.missing:
         hidden = absorbed_by_ke(ident)
         if hidden:
@@ -747,6 +753,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         ranking=sel.ranking, verdict=text, intervals=sel.intervals, noise_rpm=float(np.sqrt(mf.sigma2)),
         noise_floor=mf.noise.to_json() if mf.noise is not None else {}, ke_check=mf.ke_check,
         channels=[f.to_json() for f in mf.channels],
+        dynamics=mf.dynamics.to_json() if mf.dynamics is not None else {},
         rmse_before=_rmse_by_condition(rows, mf.res_model), rmse_after=_rmse_by_condition(rows, resid.res_after),
         after_model=resid.after_model, residual_before=resid.before, residual_after=resid.after,
         steps=[RankingStep.of(s) for s in sel.steps],

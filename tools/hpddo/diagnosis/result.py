@@ -248,6 +248,7 @@ class ModelFit:
     noise: noise.NoiseFloor | None = None  # the floor and its parts
     ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check(): eq. 20 against least squares
     channels: list = dataclasses.field(default_factory=list)  # channels.ChannelFault
+    dynamics: object = None   # dynamics.Dynamics: the dynamic family from the fast recordings
 
 
 @dataclasses.dataclass
@@ -367,6 +368,7 @@ class Diagnosis:
     consistency: dict = dataclasses.field(default_factory=dict)
     ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check()
     channels: list = dataclasses.field(default_factory=list)  # channels.ChannelFault.to_json()
+    dynamics: dict = dataclasses.field(default_factory=dict)  # dynamics.Dynamics.to_json()
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -397,6 +399,7 @@ class Diagnosis:
             "consistency": self.consistency,
             "ke_check": self.ke_check,
             "channels": self.channels,
+            "dynamics": self.dynamics,
             "rmse_rpm": {"before": self.rmse_before, "after": self.rmse_after},
             "after_model": dataclasses.asdict(self.after_model),
             "thermal_node": self.thermal_node,

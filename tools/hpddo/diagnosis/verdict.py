@@ -25,6 +25,10 @@ DYNAMICS_R = 0.45
 # sweep and long) is the few rows of a duty step, at the noise floor.
 DYNAMICS_MAX_DT_S = 0.05
 
+# The lags at which a rate of change (the backward difference) shares a row's reading with the residual:
+# lag 0 (X(k) - X(k-1)) and lag -1 (X(k+1) - X(k)).
+SHARED_LAGS = (0, -1)
+
 ENCODER_NEEDS = ("speed from encoder periods (the time between counts) or counts over longer windows, or an encoder "
                  "with more counts per revolution")
 
@@ -70,10 +74,17 @@ def ra_verdict(ra: RaFit | None) -> str:
 
 
 def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
-            floor: noise.NoiseFloor | None = None) -> str:
+            floor: noise.NoiseFloor | None = None, family=None) -> str:
+    """The verdict's text; family: the dynamic family from the fast recordings (dynamics.Dynamics)."""
     ra = ra_verdict(sel.ra_fit)
     text = _verdict(sel, conf, resid, sigma2, floor)
-    dyn = dynamics(resid.before, resid.dt_s)
+    dyn = dynamics(resid.before, resid.dt_s, family)
+    if dyn and family is not None and family.fast:  # the dynamics are named: no "no library effect explains it"
+        for said, say in (("No library effect explains the residual", "Apart from the dynamics (above), no library "
+                                                                        "effect is named for the residual"),
+                          ("A structured residual remains that no library effect explains",
+                           "A structured residual remains beyond the named effects and the dynamics (above)")):
+            text = text.replace(said, say)
     if dyn:
         if text.startswith(NOTHING):  # the floor from row-to-row differences holds the dynamics' fast error
             text = ("No library effect is named; the residual is within the floor measured from row-to-row "
@@ -92,15 +103,28 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
 NOTHING = "Nothing missing: the residual is consistent with measurement noise."
 
 
-def dynamics(before: ResidualAnalysis, dt_s: float) -> str:
+def dynamics(before: ResidualAnalysis, dt_s: float, family=None) -> str:
     """The verdict's sentence on dynamics: when the model under test's residual is correlated
     with a rate of change (RATES) beyond its band by |r| >= DYNAMICS_R, the strongest one's r
-    and lag; "" otherwise."""
+    and lag, and, from recordings at 50 Hz and up (family: dynamics.Dynamics), the dynamic
+    family identified (J, B, Tc, La with intervals), the speed's measured lag and the held-out
+    RMSE before and after the family; "" otherwise."""
     top = max((c for c in before.correlates if c["significant"] and c["input"] in RATES),
               key=lambda c: abs(c["peak"]), default=None)
     if top is None or abs(top["peak"]) < DYNAMICS_R or not dt_s <= DYNAMICS_MAX_DT_S:
         return ""
     lag = top["peak_lag"]
+    if family is not None and family.fast:
+        text = (f"The residual follows {top['input']} (r = {top['peak']:+.2f} at a lag of {lag} rows, "
+                f"{lag * dt_s * 1e3:+.0f} ms). Named: dynamics (inertia and friction, the winding's inductance), "
+                "which M2 does not carry: it is algebraic in V and I, the speed's lag is in the current. "
+                + family.text())
+        if lag in SHARED_LAGS:
+            text += (f" At a lag of {lag} rows the rate's difference holds the row's own reading (dX/dt of row k + 1 "
+                     "is (X(k+1) - X(k)) / T), so the channel's noise, in the residual and in the rate, correlates "
+                     "there by itself (docs/diagnosis.md, Fast logs and dynamics).")
+        return text + (" Effects named on this recording may stand in for the dynamics: confirm them on settled "
+                       "rows (a 2 Hz recording).")
     return (f"The residual follows {top['input']} (r = {top['peak']:+.2f} at a lag of {lag} rows, "
             f"{lag * dt_s * 1e3:+.0f} ms): the speed lags the voltage through the motor's dynamics (inertia and "
             "friction, and the winding's inductance), which the library does not model at this rate; effects "

@@ -261,6 +261,35 @@ SENSOR_KEYS = {
 }
 
 
+# A column a log may carry beside the format's (an extra column to the readers, docs/bench-log.md,
+# What the log says about itself), read by the diagnosis of fast logs (diagnosis/dynamics.py):
+# the encoder's period, the speed from the time between counts rather than from the counts.
+ENC_PERIOD_COLUMN = "enc_period_s"
+SENSOR_COLUMNS = {
+    ENC_PERIOD_COLUMN: "the time between the last two encoder counts at or before the row's end, s (one count is "
+                       "1 / encoder_counts_per_rev of a revolution of the output shaft); empty where the shaft "
+                       "made fewer than two counts in the encoder's timeout (standing still)",
+}
+
+
+def enc_period_s(rec: Recording) -> np.ndarray | None:
+    """The encoder period column (s, NaN where empty) of a recording, None where the log has none;
+    a cell that is not a positive number is refused with the file and line."""
+    if ENC_PERIOD_COLUMN not in rec.df:
+        return None
+    col = rec.df[ENC_PERIOD_COLUMN]
+    x = pd.to_numeric(col, errors="coerce").to_numpy(float)
+    bad = np.flatnonzero((col.notna().to_numpy() & ~np.isfinite(x)) | (np.isfinite(x) & ~(x > 0)))
+    if len(bad):
+        k = int(bad[0])
+        log = benchlog.read_log(rec.source)  # t_s is strictly increasing: it names the row's line
+        at = np.flatnonzero(log.df["t_s"].to_numpy(float) == float(rec.df["t_s"].iloc[k]))
+        line = int(np.asarray(log.lines)[at[0]]) if len(at) else None
+        raise benchlog.BenchLogError(rec.source, line, f"{ENC_PERIOD_COLUMN} {col.iloc[k]!r} is not a positive "
+                                                       "number of seconds (or empty: not measured)")
+    return x
+
+
 def _meta_error(rec: Recording, key: str, fault: str) -> benchlog.BenchLogError:
     """A fault of metadata `key`, naming its file and line."""
     line = None

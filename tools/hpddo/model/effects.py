@@ -354,7 +354,7 @@ def _fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", w
          start: ph.PhysicsParams | None = None, hold=None, ra_prior=None, ra_bounds=None,
          widen=()) -> tuple:
     """Least squares of rpm_ref - n_M2 over the `mask` rows of `rows` (weights per row,
-    optional), moving Ke and the coefficients of `names` (but those in `hold`, {effect:
+    optional, times the reference's confidence where it has one: Recording.weight), moving Ke and the coefficients of `names` (but those in `hold`, {effect:
     coefficient}, which stay at the value given); Ra, t_ref stay at base's.
 
     ra_prior (the diagnosis only): (ra0, sd_ohm, sigma_rpm) moves Ra too, with a Gaussian
@@ -387,6 +387,8 @@ def _fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", w
         raise IdentificationError(f"too few labelled rows above {MIN_RPM} RPM to fit {', '.join(spec.free)}")
     w = ([np.ones(int(m.sum())) for m in sel] if weights is None
          else [np.asarray(wi, float)[m] for wi, m in zip(weights, sel)])
+    # a reference with a confidence per row (the ripple's: Recording.weight) weights its rows too
+    w = [wi if r.rec.weight is None else wi * np.asarray(r.rec.weight, float)[m] for wi, r, m in zip(w, rows, sel)]
     sw = [np.sqrt(wi) for wi in w]
     fixed_temp = [None if (spec.thermal_state or r.needs_state) else r.temp for r in rows]
 

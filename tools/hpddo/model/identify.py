@@ -65,42 +65,54 @@ def reference_temp_C(recs: list[Recording]) -> float:
     return 25.0
 
 
-def ke_eq20(v_V, i_A, rpm_ref, ra_ohm) -> float:
-    """Paper eq. 20: mean over rows of (V - I Ra) / (rpm_ref * 2 pi / 60)."""
-    return float(np.mean((v_V - i_A * ra_ohm) / (rpm_ref * RAD_S_PER_RPM)))
+def ke_eq20(v_V, i_A, rpm_ref, ra_ohm, weight=None) -> float:
+    """Paper eq. 20: mean over rows of (V - I Ra) / (rpm_ref * 2 pi / 60); with a weight per
+    row (the ripple reference's confidence), the weighted mean."""
+    ratio = (v_V - i_A * ra_ohm) / (rpm_ref * RAD_S_PER_RPM)
+    return float(np.mean(ratio) if weight is None else np.average(ratio, weights=weight))
 
 
-def ke_lsq(v_V, i_A, rpm_ref, ra_ohm) -> float:
-    """Least squares: minimises sum (V - I Ra - Ke w)^2 over rows."""
+def ke_lsq(v_V, i_A, rpm_ref, ra_ohm, weight=None) -> float:
+    """Least squares: minimises sum weight (V - I Ra - Ke w)^2 over rows (weight 1 unless given)."""
     w = rpm_ref * RAD_S_PER_RPM
-    return float(np.sum((v_V - i_A * ra_ohm) * w) / np.sum(w * w))
+    c = np.ones_like(w) if weight is None else np.asarray(weight, float)
+    return float(np.sum(c * (v_V - i_A * ra_ohm) * w) / np.sum(c * w * w))
 
 
 def steady_rows(recs: list[Recording]):
-    """(v, i, rpm_ref) of the training rows with rpm_ref > MIN_RPM, pooled."""
+    """(v, i, rpm_ref, weight) of the training rows with rpm_ref > MIN_RPM, pooled; weight is
+    None unless a recording's reference carries a confidence per row (Recording.weight: the
+    ripple), then each row's (1 for a recording without one)."""
     labelled = [r for r in recs if "rpm_ref" in r.df]
     if not labelled:
         raise IdentificationError(
             f"no recording has an rpm_ref column (encoder speed): {', '.join(str(r.source) for r in recs)}; "
             "identifying M2 and training M3 need at least one labelled recording")
-    parts = [window_means(r.part("train")) for r in labelled]
+    weighted = any(r.weight is not None for r in labelled)
+    parts = [window_means(r.part("train"), weight=(None if not weighted else
+                                                   np.ones(r.n_train) if r.weight is None else r.weight[:r.n_train]))
+             for r in labelled]
     v = np.concatenate([p[0] for p in parts])
     i = np.concatenate([p[1] for p in parts])
     n = np.concatenate([p[2] for p in parts])
+    w = np.concatenate([p[3] for p in parts]) if weighted else None
     keep = np.isfinite(n) & (n > MIN_RPM)
     if keep.sum() < 5:
         raise IdentificationError(f"only {int(keep.sum())} training rows with rpm_ref > {MIN_RPM} RPM in "
                                   f"{', '.join(str(r.source) for r in labelled)}: M2 needs a labelled recording "
                                   "of the motor turning")
-    return v[keep], i[keep], n[keep]
+    return v[keep], i[keep], n[keep], (None if w is None else w[keep])
 
 
-def window_means(part, window_s: float = IDENT_WINDOW_S):
+def window_means(part, window_s: float = IDENT_WINDOW_S, weight=None):
     """(v, i, rpm_ref) of a recording part as means over consecutive windows of about
-    window_s (rows with no rpm_ref left out); at 2 Hz and slower, the rows themselves."""
+    window_s (rows with no rpm_ref left out); at 2 Hz and slower, the rows themselves. With a
+    weight per row of the part, (v, i, rpm_ref, weight), the weight meaned as the rest."""
     t = part["t_s"].to_numpy(float)
     keep = np.isfinite(part["rpm_ref"].to_numpy(float))
     cols = [part[c].to_numpy(float)[keep] for c in ("v_V", "i_A", "rpm_ref")]
+    if weight is not None:
+        cols.append(np.asarray(weight, float)[keep])
     dt = float(np.median(np.diff(t))) if len(t) > 1 else window_s
     k = max(1, int(round(window_s / dt))) if dt > 0 else 1
     if k == 1:
@@ -134,8 +146,8 @@ KE_FITS = ("eq20", "lsq")
 
 def m2_params(recs: list[Recording], ra_ohm: float, ke_fit: str = "eq20") -> ph.PhysicsParams:
     """Plain M2: measured Ra, identified Ke, no effects."""
-    v, i, n = steady_rows(recs)
-    ke = ke_eq20(v, i, n, ra_ohm) if ke_fit == "eq20" else ke_lsq(v, i, n, ra_ohm)
+    v, i, n, w = steady_rows(recs)
+    ke = ke_eq20(v, i, n, ra_ohm, w) if ke_fit == "eq20" else ke_lsq(v, i, n, ra_ohm, w)
     check_ke(ke, v, i, ra_ohm)
     t_ref = reference_temp_C(recs)
     return ph.PhysicsParams(ra_ohm=ra_ohm, ke_vs_per_rad=ke, t_ref_C=t_ref, t_amb_C=t_ref)

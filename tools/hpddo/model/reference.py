@@ -11,10 +11,10 @@
   references out (identify, effects, the residual network, the lookup baseline, the
   metrics).
 
-The confidence of each kept row is returned as its weight (Recording.weight), but nothing
-downstream weights rows yet: M2's Ke (eq. 20 or least squares), the effect fits and M3 count
-every kept row once. The rows without a confident speed are left out instead; the record
-says so (WEIGHTS_NOTE).
+The confidence of each kept row is returned as its weight (Recording.weight), and weights
+that row in M2's Ke (eq. 20 as a weighted mean, least squares as weighted least squares) and
+in the effect fits (effects.fit, the diagnosis included). M3's training counts every kept row
+once. The rows without a confident speed are left out (WEIGHTS_NOTE).
 """
 from __future__ import annotations
 
@@ -28,8 +28,8 @@ from . import ripple as rp
 REFERENCES = ("encoder", "ripple")
 NO_BURST = "no_burst"
 ENCODER_META = ("encoder_counts_per_rev", "encoder_window_s")  # docs/bench-log.md: the encoder's resolution
-WEIGHTS_NOTE = ("the ripple's confidence is recorded as each kept row's weight but not applied: Ke, the effect "
-                "fits and M3 count every kept row once; rows without a confident ripple speed are left out")
+WEIGHTS_NOTE = ("the ripple's confidence weights each kept row in Ke (eq. 20 or least squares) and the effect "
+                "fits; M3's training counts every kept row once; rows without a confident ripple speed are left out")
 
 
 @dataclasses.dataclass(frozen=True)

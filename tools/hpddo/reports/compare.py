@@ -82,6 +82,11 @@ def verdict(t7: dict, effects) -> list:
     return out
 
 
+def ripple_notes(part: dict) -> list:
+    """The ripple rows' coverage under a Table 7 section (none without ripple rows)."""
+    return [part["ripple_note"]] if part.get("ripple_note") else []
+
+
 def write(tables: dict, out: pathlib.Path, command: str, seconds: float) -> pathlib.Path:
     """Writes out/index.html; returns it."""
     t7, t8, t9, t10, ood = (tables[k] for k in ("table7", "table8", "table9", "table10", "ood"))
@@ -92,12 +97,15 @@ def write(tables: dict, out: pathlib.Path, command: str, seconds: float) -> path
              "their figures are not the comparison; run without --quick for it.") if st.get("quick") else None
     sections = []
     sections.append({"title": "Table 7, chronological test parts", "what": t7["chronological"]["what"],
-                     "table": rmse_rows(t7["chronological"]["rmse_rpm"], t7["paper"], effects)})
+                     "table": rmse_rows(t7["chronological"]["rmse_rpm"], t7["paper"], effects),
+                     "notes": ripple_notes(t7["chronological"])})
     if "validation" in t7:
         sections.append({"title": "Table 7, never-seen recordings", "what": t7["validation"]["what"],
-                         "table": rmse_rows(t7["validation"]["rmse_rpm"], effects=effects)})
+                         "table": rmse_rows(t7["validation"]["rmse_rpm"], effects=effects),
+                         "notes": ripple_notes(t7["validation"])})
     sections.append({"title": "Table 7, leave one recording out", "what": t7["leave_one_out"]["what"],
-                     "table": rmse_rows(t7["leave_one_out"]["rmse_rpm"], effects=effects)})
+                     "table": rmse_rows(t7["leave_one_out"]["rmse_rpm"], effects=effects),
+                     "notes": ripple_notes(t7["leave_one_out"])})
     sections.append({"title": t8["title"], "what": t8["what"], "table": rmse_rows(t8["rmse_rpm"], t8["paper"])})
     rm9 = {f"{k}: {v['params']} params, {v['memory_kB']} kB": v["rmse_rpm"] for k, v in t9["rows"].items()}
     p9 = {f"{k}: {v['params']} params, {v['memory_kB']} kB": dict(zip(["sweep", "load", "long", "average"],

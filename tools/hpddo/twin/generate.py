@@ -23,6 +23,8 @@ import pathlib
 import numpy as np
 import pandas as pd
 
+from .. import bench as bench_hw
+from .. import schema
 from ..logs import benchlog
 from ..logs import ripple as ripple_file
 from . import plant, protocols, sensors
@@ -94,6 +96,8 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
         "note": f"simulated by {GENERATOR_VERSION}, protocol={protocol}, seed={seed}; "
                 f"ground truth in {condition}.truth.json / {condition}.truth.csv",
     }
+    if rate_hz >= schema.DYNAMICS_MIN_RATE_HZ:  # a fast log carries its encoder's periods: their scale
+        meta["encoder_counts_per_rev"] = f"{bench_hw.HARDWARE.encoder_quadrature * bench.encoder_ppr * bench.gear_ratio:g}"
     glitch_flag = np.zeros(len(duty), dtype=np.int64)
     for gl in glitches:
         glitch_flag[gl["row"]] = 1

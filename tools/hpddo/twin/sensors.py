@@ -26,8 +26,58 @@ import math
 import numpy as np
 
 from .. import bench as _hw
+from .. import schema
+from ..logs import dataset
 from ..model import libm
 from .params import Bench, v_gain_share, warmup_share
+
+
+# The encoder's period as the acquisition board measures it: each count's edge time-stamped by
+# micros() (4 us steps on the 16 MHz UNO), the row carrying the time between the last two edges at or
+# before its end; none (empty) when the older edge is more than ENCODER_TIMEOUT_S before the end.
+ENCODER_TICK_S = 4e-6
+ENCODER_TIMEOUT_S = 0.1
+
+
+def _hermite_angle(th0, th1, w0, w1, h, s):
+    """The angle at s (0..1 of a step of h) of the cubic that matches th and w at both ends."""
+    s2, s3 = s * s, s * s * s
+    return ((2 * s3 - 3 * s2 + 1) * th0 + (s3 - 2 * s2 + s) * h * w0 + (-2 * s3 + 3 * s2) * th1
+            + (s3 - s2) * h * w1)
+
+
+def encoder_period_s(theta_m, w_m, Ts, counts_per_rev, off):
+    """Per row, the time between the last two encoder edges at or before the row's end (NaN: none
+    within ENCODER_TIMEOUT_S). theta_m, w_m: the motor shaft's angle (rad) and speed (rad/s) at the
+    n + 1 row boundaries; an edge where theta_m / 2 pi x counts_per_rev + off crosses an integer; the
+    angle within a row is the cubic through both ends' angle and speed (the speed never negative)."""
+    c = theta_m / (2 * math.pi) * counts_per_rev + off   # counts, at the boundaries
+    n = len(c) - 1
+    scale = counts_per_rev / (2 * math.pi)
+
+    def edge_time(m):
+        """Time of the edge where the count reaches m (each m <= c[-1]), s."""
+        j = np.clip(np.searchsorted(c, m, side="left") - 1, 0, n - 1)  # the row whose span holds m
+        lo, hi = np.zeros(len(m)), np.ones(len(m))
+        for _ in range(40):  # bisection on the monotone cubic
+            mid = 0.5 * (lo + hi)
+            below = _hermite_angle(c[j], c[j + 1], w_m[j] * scale, w_m[j + 1] * scale, Ts, mid) < m
+            lo, hi = np.where(below, mid, lo), np.where(below, hi, mid)
+        return (j + 0.5 * (lo + hi)) * Ts
+
+    t_end = (np.arange(n) + 1) * Ts
+    m1 = np.floor(c[1:])            # the last edge at or before each row's end
+    first = np.floor(c[0]) + 1      # the first edge of the recording
+    ok = m1 - 1 >= first
+    out = np.full(n, np.nan)
+    if ok.any():
+        t1 = edge_time(m1[ok])
+        t0 = edge_time(m1[ok] - 1)
+        t1q, t0q = np.floor(t1 / ENCODER_TICK_S), np.floor(t0 / ENCODER_TICK_S)
+        per = (t1q - t0q) * ENCODER_TICK_S
+        fresh = (t_end[ok] - t0 <= ENCODER_TIMEOUT_S) & (per > 0)
+        out[np.flatnonzero(ok)[fresh]] = per[fresh]
+    return out
 
 
 def adc_channel(x, var, gain, shift, n_conv, bench: Bench, rng):
@@ -78,6 +128,9 @@ def measure(bench: Bench, res, duty, load, rng):
     cnt = np.floor(theta_m / (2 * math.pi) * counts_per_rev + off)
     rpm_ref = np.diff(cnt) / counts_per_rev / bench.gear_ratio / Ts * 60.0
 
+    if rate >= schema.DYNAMICS_MIN_RATE_HZ:  # a fast log: the speed from the encoder's periods too
+        period = encoder_period_s(res.theta * bench.gear_ratio, res.w_bound * bench.gear_ratio, Ts,
+                                  counts_per_rev, off)
     # DS18B20: readings finished at m * period; row k carries the latest one at t_end
     t_end = (np.arange(n) + 1) * Ts
     t_read = np.floor(t_end / bench.temp_period_s) * bench.temp_period_s
@@ -96,6 +149,8 @@ def measure(bench: Bench, res, duty, load, rng):
         "load": np.asarray(load, dtype=np.int64),
         "seq": np.arange(n, dtype=np.int64),
     }
+    if rate >= schema.DYNAMICS_MIN_RATE_HZ:
+        cols[dataset.ENC_PERIOD_COLUMN] = period
     glitches = []
     if bench.glitches > 0 and n > 10:
         rows = np.sort(rng.choice(np.arange(5, n), size=min(bench.glitches, n - 5), replace=False))

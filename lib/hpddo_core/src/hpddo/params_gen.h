@@ -3,7 +3,7 @@
 // source: tools/hpddo/schema.py
 // generator: hpddo.schema 1
 // layout: crc32 0x5effc3d9 (kParamsSchema)
-// checksum: crc32 0x65a96c26 of the text below this banner
+// checksum: crc32 0x5e91ae1d of the text below this banner
 #ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -29,6 +29,11 @@ enum Effect : uint16_t {
 
 /// Every effect bit of the library.
 static const uint16_t kEffectsAll = 0x00ffu;
+
+/// The material constant of an effect (what a fitted coefficient is checked against; the
+/// board's ripple counter turns Ra into a winding temperature with copper's).
+static const float kMaterialThermalRa = 0.00393f;     ///< thermal_ra: copper, 1/K
+static const float kMaterialMagnetThermal = -0.002f;  ///< magnet_thermal: magnets, 1/K
 
 /// Lumped parameters of one motor-drivetrain assembly, all in SI units, speed
 /// at the output shaft. Effect coefficients at zero switch their effect off.
@@ -82,6 +87,20 @@ inline void for_each_param(Params& p, F& f) {
   f(p.t_amb_C);
   f(p.effects);
 }
+
+/// The dynamic family (inertia and friction at the output shaft, with the inductance effect
+/// la_H of PhysicsParams): Kt i = J dw/dt + B w + Tc sgn(w) + T_load, Kt = Ke. Computed on the
+/// boards when named (j_kgm2 > 0; dynamics.h), its own struct so that PhysicsParams and
+/// kParamsSchema do not change. Constructor-free, initialised in field order.
+struct DynamicsParams {
+  float j_kgm2;         ///< inertia of the shaft and all it drives, at the output shaft (0: the family is off), kg m^2
+  float b_nms_per_rad;  ///< viscous friction at the output shaft (bearings, gearbox oil, a coupled machine's), N m s/rad
+  float tc_nm;          ///< Coulomb friction at the output shaft (brushes, gear mesh, seals): a torque against the motion, N m
+  float tau_obs_s;      ///< the observer's time constant: how fast the back-EMF speed pulls the mechanical model back (a filter's setting, not the motor's), s
+};
+
+/// Number of DynamicsParams fields.
+static const uint8_t kDynamicsParamCount = 4;
 
 }  // namespace hpddo
 

@@ -20,6 +20,7 @@ from .observers import observers_exe, tune_observers, write_mlp
 from .tables import cv_folds, make_ood, make_table10, make_table8, make_table9, replay_m3, table7_chrono_and_validation, table7_loro
 from .text import text_summary
 from .training import Trainer
+from . import ripple_peer
 
 
 @dataclasses.dataclass
@@ -43,6 +44,8 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
             raise InputError(f"{r.source}: no encoder readings (rpm_ref): hpddo compare needs labelled recordings")
     whole = dataset.load_recordings(log_paths, 0.0, cfg.glitch_filter)   # every row a test row
     vrecs = dataset.load_recordings(validation_paths, 0.0, cfg.glitch_filter) if validation_paths else []
+    ropts = ripple_peer.check_options(cfg.ripples_per_rev, cfg.gear_ratio, recs + vrecs, cfg.ripple_floor_A,
+                                      cfg.ripple_ke_vs_per_rad)
     ra, _ = identify.ra_from_logs(recs, cfg.ra_ohm)
     m1 = ph.nameplate_params(ra)
     m2 = _m2(recs, ra)
@@ -128,8 +131,13 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
             # ---- Table 7: chronological and never seen
             nn = trainer.get(("pure NN", label(h), "chronological"))
             mlp_file = write_mlp(nn[0], nn[1], (work / "pure_nn_chronological.mlp"))
-            table7, native = table7_chrono_and_validation(recs, vrecs, m2, m2e, fit, replays, tuned, mlp_file, work)
-            table7["leave_one_out"] = table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra)
+            ripple = None
+            if ropts is not None:
+                ripple = {r.name: ripple_peer.speeds(r, ropts, ra, m2.ke_vs_per_rad, cfg.ripple_ke_vs_per_rad) for r in recs + vrecs}
+                say("ripple counted")
+            table7, native = table7_chrono_and_validation(recs, vrecs, m2, m2e, fit, replays, tuned, mlp_file, work,
+                                                          ripple)
+            table7["leave_one_out"] = table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra, ripple)
             table7["tuned"] = {"chronological": tuned, "leave_one_out": tuned_loro}
             table7["checks"] = native
 
@@ -155,7 +163,10 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
 
 def settings(cfg: CompareConfig, recs, vrecs) -> dict:
     return {"hidden": list(cfg.hidden), "epochs": cfg.epochs, "seed": cfg.seed, "quick": cfg.quick,
-            "effects": list(cfg.effects), "recordings": [r.source.name for r in recs],
+            "effects": list(cfg.effects),
+            "ripple": ({"ripples_per_rev": cfg.ripples_per_rev, "gear_ratio": cfg.gear_ratio}
+                       if cfg.ripples_per_rev is not None else None),
+            "recordings": [r.source.name for r in recs],
             "validation": [r.source.name for r in vrecs], "train_fraction": dataset.TRAIN_FRACTION,
             "training": "network.train's algorithm (Adam 1e-3, batch 200, L2 1e-4, Glorot, no early stop), "
                         "in lockstep with BLAS products (network.train_lockstep)"}

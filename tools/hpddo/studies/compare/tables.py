@@ -12,6 +12,7 @@ from ...model import train as train_mod
 from .config import CV_FOLDS, EQ26_FLOAT64_TOLERANCE_RPM, EQ26_TOLERANCE_RPM, FEATURE_SETS, PAPER, label, param_count
 from .methods import Fitted, _physics, finish_fit, m3_variants, reference
 from .observers import run_observers, write_mlp
+from . import ripple_peer
 
 
 def rmse_table(recs, estimates: list, masks=None) -> dict:
@@ -65,9 +66,12 @@ def replay_m3(recs, vrecs, m1, m2, fit: Fitted, gated: bool, work, cfg) -> dict:
     return out
 
 
-def table7_chrono_and_validation(recs, vrecs, m2, m2e, fit: Fitted, replays: dict, tuned, mlp_file, work):
+def table7_chrono_and_validation(recs, vrecs, m2, m2e, fit: Fitted, replays: dict, tuned, mlp_file, work,
+                                 ripple: dict | None = None):
     """Chronological test parts and never-seen recordings: M1, M2, M3 (with and without
-    the gate) by the native replay of the board observer, the rest as documented."""
+    the gate) by the native replay of the board observer, the rest as documented.
+    ripple: None, or {recording name: ripple_peer.RippleSpeeds} of every recording (the
+    ripple rows and their coverage)."""
     est = {"chronological": [dict() for _ in recs], "validation": [dict() for _ in vrecs]}
     native_check = {}
     float64_only = []
@@ -110,8 +114,10 @@ def table7_chrono_and_validation(recs, vrecs, m2, m2e, fit: Fitted, replays: dic
                 e["M2 + effects"] = _physics(r, m2e)
             e.update(obs[k])
             e["lookup"] = lookup.predict_rows(r)
+            if ripple is not None:
+                e.update(ripple_peer.estimates(ripple[r.name], e["M2"]))
     out = {"title": "Table 7: RMSE (RPM) of every method",
-           "methods": method_order(m2e is not None),
+           "methods": method_order(m2e is not None, ripple is not None),
            "chronological": {"what": "the held-out chronological 20 % of each recording (the paper's Table 7)",
                              "rmse_rpm": order(rmse_table(recs, est["chronological"],
                                                           [np.arange(r.n) >= r.n_train for r in recs]),
@@ -128,22 +134,35 @@ def table7_chrono_and_validation(recs, vrecs, m2, m2e, fit: Fitted, replays: dic
         out["validation"] = {"what": "every row of recordings no training saw (--validation); models of the "
                                      "chronological training part",
                              "rmse_rpm": order(rmse_table(vrecs, est["validation"]), m2e is not None)}
+    if ripple is not None:
+        out["sources"].update(RIPPLE_SOURCES)
+        out["chronological"].update(ripple_peer.coverage(
+            recs, [ripple[r.name] for r in recs], [np.arange(r.n) >= r.n_train for r in recs]))
+        if vrecs:
+            out["validation"].update(ripple_peer.coverage(vrecs, [ripple[r.name] for r in vrecs]))
     return out, native_check
 
 
-def method_order(effects: bool) -> list:
-    return ["M1", "M2"] + (["M2 + effects"] if effects else []) + ["EKF", "SMO", "pure NN", "M3", "M3 gated",
-                                                                  "lookup"]
+RIPPLE_SOURCES = {
+    ripple_peer.ALONE: "hpddo.model.ripple on the current bursts beside each log, its back-EMF prior's Ke calibrated "
+                       "from the ripple (no encoder); RMSE over the rows with a confident count (ripple_coverage)",
+    ripple_peer.FUSED: "the ripple count with M2 as its prior where confident, M2 elsewhere; every row"}
+
+
+def method_order(effects: bool, ripple: bool = False) -> list:
+    return (["M1", "M2"] + (["M2 + effects"] if effects else []) + ["EKF", "SMO", "pure NN", "M3", "M3 gated"]
+            + (list(ripple_peer.METHODS) if ripple else []) + ["lookup"])
 
 
 def order(t: dict, effects: bool) -> dict:
-    return {m: t[m] for m in method_order(effects) if m in t}
+    return {m: t[m] for m in method_order(effects, ripple=True) if m in t}
 
 
-def table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra) -> dict:
+def table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra, ripple: dict | None = None) -> dict:
     """Leave one recording out: for each recording, every method identified, trained and
     tuned on the training parts of the others, scored on every row of it (M3 by the
-    float64 rules)."""
+    float64 rules; the ripple counts as in the chronological table, their prior the
+    chronological M2, fused with this M2)."""
     h = label(cfg.hidden)
     rmse = {}
     for k, rec in enumerate(whole):
@@ -163,13 +182,18 @@ def table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra) -> dic
         est["M3"] = v["clamped + fallback"]
         est["M3 gated"] = v["clamped + fallback + gate"]
         est["lookup"] = baseline.Lookup.fit(others).predict_rows(rec)
+        if ripple is not None:
+            est.update(ripple_peer.estimates(ripple[rec.name], n2))
         for m, val in rmse_table([rec], [est]).items():
             rmse.setdefault(m, {})[rec.name] = val[rec.name]
     for m in rmse:
         rmse[m]["average"] = metrics_mod.figure(float(np.mean([v for v in rmse[m].values()])))
-    return {"what": "every row of each recording, everything identified, trained and tuned on the training parts "
-                    "of the others (M1, M2, M3 by the float64 rules of the observer)",
-            "rmse_rpm": order(rmse, m2e is not None)}
+    out = {"what": "every row of each recording, everything identified, trained and tuned on the training parts "
+                   "of the others (M1, M2, M3 by the float64 rules of the observer)",
+           "rmse_rpm": order(rmse, m2e is not None)}
+    if ripple is not None:
+        out.update(ripple_peer.coverage(whole, [ripple[r.name] for r in whole]))
+    return out
 
 
 def cv_folds(recs, ra, seed: int) -> dict:

@@ -24,6 +24,10 @@ def rmse_text(title: str, rm: dict, paper: dict | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _note(part: dict) -> str:
+    return f"  {part['ripple_note']}\n" if part.get("ripple_note") else ""
+
+
 def text_summary(t: dict) -> str:
     t7 = t["table7"]
     st = t7.get("settings", {})
@@ -34,10 +38,13 @@ def text_summary(t: dict) -> str:
     if st.get("effects"):
         head.append(f"M2 + effects: M2 with {', '.join(st['effects'])}.\n")
     head.append("Rows 'paper': the paper's figures on its own recordings, quoted; all others measured on yours.\n")
-    parts = head + [rmse_text("Table 7, chronological test parts (RPM)", t7["chronological"]["rmse_rpm"], t7["paper"])]
+    parts = head + [rmse_text("Table 7, chronological test parts (RPM)", t7["chronological"]["rmse_rpm"], t7["paper"])
+                    + _note(t7["chronological"])]
     if "validation" in t7:
-        parts.append(rmse_text("Table 7, never-seen recordings (--validation), every row", t7["validation"]["rmse_rpm"]))
-    parts.append(rmse_text("Table 7, leave one recording out, every row", t7["leave_one_out"]["rmse_rpm"]))
+        parts.append(rmse_text("Table 7, never-seen recordings (--validation), every row", t7["validation"]["rmse_rpm"])
+                     + _note(t7["validation"]))
+    parts.append(rmse_text("Table 7, leave one recording out, every row", t7["leave_one_out"]["rmse_rpm"])
+                 + _note(t7["leave_one_out"]))
     parts.append(rmse_text("Table 8, M3", t["table8"]["rmse_rpm"], t["table8"]["paper"]))
     parts.append(rmse_text("Table 9, M3 per architecture", {f"{k} {v['params']} p": v["rmse_rpm"]
                                                             for k, v in t["table9"]["rows"].items()}))

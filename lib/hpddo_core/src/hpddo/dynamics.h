@@ -1,0 +1,91 @@
+// The dynamic family on the boards: a two-state observer at the output shaft, the speed w
+// (rad/s) and the load torque T_L (N m) that the modelled friction does not explain. The
+// process is the mechanical balance declared in tools/hpddo/schema.py (the dynamic family,
+// DynamicsParams in params_gen.h):
+//
+//   J dw/dt = Kt i - B w - Tc sgn(w) - T_L,   dT_L/dt = 0,   Kt = Ke (SI),
+//
+// advanced one sample with the explicit step, the sign smoothed over kFrictionSmooth_rad_s so
+// that the friction does not chatter at standstill. The measurement is the back-EMF speed of
+// the physics model (M2 with its named effects; La di/dt among them when the inductance is
+// named). The gains put both poles of the error's dynamics at p = exp(-dt / tau_obs): with
+// a = 1 - dt B / J and g = dt / J, l_w = 1 - p^2 / a and l_T = -(1 - p)^2 / g. The result is a
+// speed smoothed by the mechanics (the channels' noise filtered) that follows the back-EMF
+// within a few tau_obs, and the load torque.
+//
+// Named when j_kgm2 > 0; otherwise step() returns the measured speed itself (the same float):
+// a model without the family runs as before, bit for bit. No heap, float, C++11. The Python
+// reference (tools/hpddo/model/dynamics_ref.py) computes the same bits (test_dynamics.cpp,
+// test/py/test_dynamics.py, golden vector test/fixtures/dynamics_golden.h).
+#ifndef HPDDO_DYNAMICS_H
+#define HPDDO_DYNAMICS_H
+
+#include <math.h>
+
+#include "params_gen.h"
+#include "physics.h"
+
+namespace hpddo {
+
+/// The speed over which Coulomb friction reaches its full torque, rad/s.
+static const float kFrictionSmooth_rad_s = 0.5f;
+
+/// True when the dynamic family is named (the model computes it).
+inline bool dynamics_named(const DynamicsParams& d) { return d.j_kgm2 > 0.0f; }
+
+/// Two-state observer of the output shaft's speed and load torque.
+class DynamicsObserver {
+ public:
+  DynamicsObserver() : w_rad_s_(0.0f), load_nm_(0.0f), started_(false) {}
+
+  /// Restarts: the next sample sets the state.
+  void reset() {
+    w_rad_s_ = 0.0f;
+    load_nm_ = 0.0f;
+    started_ = false;
+  }
+
+  /// The load torque beyond the modelled friction, N m (0 before the first sample).
+  float load_nm() const { return load_nm_; }
+
+  /// The speed estimate, RPM, after one sample of current i_A (A) and the physics model's
+  /// back-EMF speed n_meas_rpm, dt_s after the previous sample. Not named, or a sample it
+  /// cannot use (dt not positive, a NaN): n_meas_rpm itself, the state unchanged.
+  float step(float ke_vs_per_rad, const DynamicsParams& d, float i_A, float n_meas_rpm, float dt_s) {
+    if (!dynamics_named(d)) return n_meas_rpm;
+    if (!(dt_s > 0.0f) || n_meas_rpm != n_meas_rpm || i_A != i_A) return n_meas_rpm;
+    const float y = n_meas_rpm / kRpmPerRadS;
+    if (!started_) {  // start settled: the load torque that holds the measured speed
+      w_rad_s_ = y;
+      load_nm_ = ke_vs_per_rad * i_A - d.b_nms_per_rad * y - d.tc_nm * sign(y);
+      started_ = true;
+      return n_meas_rpm;
+    }
+    const float g = dt_s / d.j_kgm2;
+    const float a = 1.0f - g * d.b_nms_per_rad;
+    float p = 0.0f;  // the poles: tau_obs 0 puts them at the origin (the estimate is the measurement)
+    if (d.tau_obs_s > 0.0f) p = expf(-dt_s / d.tau_obs_s);
+    const float lw = 1.0f - (p * p) / a;
+    const float lt = -((1.0f - p) * (1.0f - p)) / g;
+    const float torque = (ke_vs_per_rad * i_A - d.tc_nm * sign(w_rad_s_)) - load_nm_;
+    const float w_pred = a * w_rad_s_ + g * torque;
+    const float e = y - w_pred;
+    w_rad_s_ = w_pred + lw * e;
+    load_nm_ = load_nm_ + lt * e;
+    return w_rad_s_ * kRpmPerRadS;
+  }
+
+ private:
+  static float sign(float w) {
+    const float s = w / kFrictionSmooth_rad_s;
+    return s > 1.0f ? 1.0f : (s < -1.0f ? -1.0f : s);
+  }
+
+  float w_rad_s_;  ///< speed estimate at the output shaft, rad/s
+  float load_nm_;  ///< load torque beyond the modelled friction, N m
+  bool started_;   ///< whether a sample has set the state
+};
+
+}  // namespace hpddo
+
+#endif  // HPDDO_DYNAMICS_H

@@ -1,0 +1,111 @@
+"""Ripple counting as a peer of hpddo compare (issue 23 item 6, docs/ripple.md): alone and
+fused with M2, on twin recordings in the ripple mode; the rows it is scored on stated; the
+options refused where they cannot apply."""
+import json
+import math
+import pathlib
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hpddo import cli
+from hpddo.logs import dataset
+from hpddo.model import identify
+from hpddo.model import ripple as rp
+from hpddo.studies.compare import ripple_peer
+
+pytestmark = pytest.mark.slow  # runs the twin and hpddo compare: not in scripts/test.sh --quick
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+RIPPLES_PER_REV, GEAR = "6", "4.4"   # the twin's motor: 3 segments, two brushes; 25GA371 1:4.4
+
+
+@pytest.fixture(scope="module")
+def bench(tmp_path_factory):
+    """sweep and load (training) and unseen (never seen) on the twin in the ripple mode at 10
+    kHz, a quarter of their length (the seeds are the tests' own)."""
+    out = tmp_path_factory.mktemp("ripple_bench")
+    for prot, seed, sub in (("sweep", 3, "."), ("load", 3, "."), ("unseen", 4, "v")):
+        assert cli.main(["twin", "--protocol", prot, "--ripple-hz", "10000", "--time-scale", "0.25", "--seed",
+                         str(seed), "--quiet", "--out", str(out / sub)]) == 0
+    return out
+
+
+def truth_rpm(path: pathlib.Path, rec) -> np.ndarray:
+    t = pd.read_csv(path.with_suffix(".truth.csv")).set_index("t_s")["rpm_true"]
+    return t.reindex(rec.df["t_s"].to_numpy()).to_numpy(float)
+
+
+def test_alone_and_fused_speeds_per_row(bench):
+    recs = dataset.load_recordings([bench / "sweep.csv", bench / "load.csv"])
+    ra, _ = identify.ra_from_logs(recs, None)
+    m2 = identify.m2_params(recs, ra)
+    opts = rp.Options(int(RIPPLES_PER_REV), float(GEAR))
+    for rec in recs:
+        s = ripple_peer.speeds(rec, opts, ra, m2.ke_vs_per_rad)
+        assert s.alone_rpm.shape == (rec.n,) and s.with_m2_prior_rpm.shape == (rec.n,)
+        conf = np.isfinite(s.alone_rpm)
+        assert conf.sum() > 0.1 * rec.n, rec.name
+        # the count where confident is the encoder's speed within 1 % RMS (the twin's encoder
+        # counts over the same window as the bursts)
+        ref = rec.df["rpm_ref"].to_numpy(float)
+        ok = conf & (ref > 10)
+        rel = (s.alone_rpm[ok] - ref[ok]) / ref[ok]
+        assert math.sqrt(np.mean(rel ** 2)) < 0.01, (rec.name, math.sqrt(np.mean(rel ** 2)))
+        # the fusion: the count where it is confident, the physics elsewhere
+        m2_rpm = np.linspace(1.0, 2.0, rec.n)
+        fused = ripple_peer.estimates(s, m2_rpm)[ripple_peer.FUSED]
+        c2 = np.isfinite(s.with_m2_prior_rpm)
+        assert np.array_equal(fused[c2], s.with_m2_prior_rpm[c2]) and np.array_equal(fused[~c2], m2_rpm[~c2])
+        assert np.isfinite(fused).all()
+        # coverage: the share of rows with an encoder reading that have a confident count
+        cov = ripple_peer.coverage([rec], [s])
+        labelled = np.isfinite(ref)
+        assert cov["ripple_coverage"][rec.name] == round((labelled & conf).sum() / labelled.sum(), 4)
+        assert f"{100 * cov['ripple_coverage']['all']:.1f} %" in cov["ripple_note"]
+
+
+def test_compare_scores_the_ripple_beside_the_observers(bench, tmp_path):
+    out = tmp_path / "cmp"
+    code = cli.main(["compare", str(bench / "sweep.csv"), str(bench / "load.csv"), "--validation",
+                     str(bench / "v" / "unseen.csv"), "--ripples-per-rev", RIPPLES_PER_REV, "--gear-ratio", GEAR,
+                     "--quick", "--quiet", "--out", str(out)])
+    assert code == 0
+    t7 = json.loads((out / "table7.json").read_text())
+    assert t7["methods"][-3:] == [ripple_peer.ALONE, ripple_peer.FUSED, "lookup"]
+    assert t7["settings"]["ripple"] == {"ripples_per_rev": 6, "gear_ratio": 4.4}
+    for part in ("chronological", "validation", "leave_one_out"):
+        block = t7[part]
+        rm = block["rmse_rpm"]
+        assert ripple_peer.ALONE in rm and ripple_peer.FUSED in rm, part
+        assert 0 < block["ripple_coverage"]["all"] <= 1 and block["ripple_note"], part
+        for cond, v in rm[ripple_peer.FUSED].items():
+            # where the count is confident it is far closer to the encoder than the physics: the
+            # fusion is never worse than M2 by more than the count's own error
+            assert v <= rm["M2"][cond] + rm[ripple_peer.ALONE][cond] + 1e-9, (part, cond)
+    # the load run turns at every row above the current floor: a count on every row, under
+    # 1 % of its speed
+    assert t7["chronological"]["ripple_coverage"]["load"] > 0.95
+    assert t7["chronological"]["rmse_rpm"][ripple_peer.ALONE]["load"] < 2.0
+    summary = (out / "summary.txt").read_text()
+    assert summary.count("a confident count on") == 3
+    page = (out / "report" / "index.html").read_text()
+    assert "a confident count on" in page and ripple_peer.FUSED in page
+
+
+def test_the_peer_is_refused_without_its_bursts_or_with_half_its_options(bench, tmp_path, capsys):
+    default = [str(ROOT / "data" / "default" / f"{n}.csv") for n in ("sweep", "load")]
+    code = cli.main(["compare", *default, "--ripples-per-rev", RIPPLES_PER_REV, "--gear-ratio", GEAR,
+                     "--quick", "--quiet", "--out", str(tmp_path / "a")])
+    err = capsys.readouterr().err
+    assert code == 1 and "sweep.csv: no current bursts beside it (sweep.ripple.csv)" in err and err.count("\n") == 1
+    assert not (tmp_path / "a").exists()
+    code = cli.main(["compare", str(bench / "sweep.csv"), str(bench / "load.csv"), "--ripples-per-rev", "6",
+                     "--quick", "--quiet", "--out", str(tmp_path / "b")])
+    err = capsys.readouterr().err
+    assert code == 1 and "--ripples-per-rev N and --gear-ratio G" in err and not (tmp_path / "b").exists()
+    code = cli.main(["compare", str(bench / "sweep.csv"), str(bench / "load.csv"), "--floor-a", "0.2",
+                     "--quick", "--quiet", "--out", str(tmp_path / "c")])
+    err = capsys.readouterr().err
+    assert code == 1 and "apply to the ripple peer only" in err and not (tmp_path / "c").exists()

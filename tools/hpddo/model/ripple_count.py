@@ -1,0 +1,202 @@
+"""The board's ripple counter (uno_acq/acq_ripple_count.h, issue 23 item 5), the same integer
+arithmetic in Python: the reference the simavr test holds the AVR build to, code for code
+and count for count (test/firmware/check_uno_ripple.py --count), and the host's replay of
+what the board would estimate over a whole run (`ra_track`).
+
+Per burst: a band of two low-pass poles and one high-pass pole (which takes out the mean) whose
+shift k follows the back-EMF prior, a rising zero-crossing count with hysteresis at half
+the mean |y|; the frequency is (rises - 1) cycles from the first to the last rising crossing.
+Where that frequency lies within PRIOR_TOL of the prior's, the window is confident and
+Ra = (V - brush drop - Ke w) / I is taken, filtered, and turned into the winding temperature
+with copper's coefficient (hpddo.schema's thermal_ra material constant).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from .. import schema
+
+AMP_SHIFT = 8
+LP_MIN, LP_MAX = 2, 10
+PRIOR_TOL = 0.25
+#: copper's temperature coefficient of resistance, 1/K (declared once, in the schema)
+ALPHA_CU = next(e.material for e in schema.EFFECTS if e.name == "thermal_ra")
+
+
+@dataclasses.dataclass
+class Counter:
+    l1: int = 0
+    l2: int = 0
+    b: int = 0
+    amp: int = 0
+    k: int = 5
+    high: int = 0
+    odd: int = 0
+    have_last: int = 0
+    settle: int = 0
+    t: int = 0
+    last_t: int = 0
+    t15: int = 0
+    t25: int = 0
+    cyc: int = 0
+    span: int = 0
+
+    def begin(self, k: int, t_exp: int, gap: int, first_burst: bool) -> None:
+        """acq_ripple_count.h ripple_counter_begin."""
+        self.k, self.odd = k, 0
+        self.t = (self.t + gap) & 0xFFFF
+        self.t15, self.t25 = min(65535, 3 * t_exp // 2), min(65535, 5 * t_exp // 2)
+        if first_burst or gap > self.t25:
+            self.settle = min(60000, (8 if first_burst else 4) << (k + 2))
+
+    def run(self, codes) -> None:
+        """ripple_counter_sample on each code, in order (the C++'s 32-bit states never
+        overflow: h < 2^18, |y| < 2^18, amp < 2^27; the 16-bit clock wraps as there)."""
+        l1, l2, b, amp, k, high, odd = self.l1, self.l2, self.b, self.amp, self.k, self.high, self.odd
+        settle, t, last_t, have_last = self.settle, self.t, self.last_t, self.have_last
+        t15, t25, cyc, span = self.t15, self.t25, self.cyc, self.span
+        for x in codes:
+            t = (t + 1) & 0xFFFF
+            odd ^= 1
+            if not odd:
+                continue
+            h = int(x) << 8
+            l1 += (h - l1) >> k
+            l2 += (l1 - l2) >> k
+            b += (l2 - b) >> (k + 2)
+            y = l2 - b
+            amp += abs(y) - (amp >> AMP_SHIFT)
+            y9 = y * 512
+            if not high:
+                if y9 > amp:
+                    high = 1
+                    if not settle:
+                        if have_last:
+                            iv = (t - last_t) & 0xFFFF
+                            if iv <= t15:
+                                cyc, span = cyc + 1, (span + iv) & 0xFFFF
+                            elif iv <= t25:
+                                cyc, span = cyc + 2, (span + iv) & 0xFFFF
+                        last_t, have_last = t, 1
+            elif y9 < -amp:
+                high = 0
+            if settle:
+                settle -= 1
+        self.l1, self.l2, self.b, self.amp, self.high, self.odd = l1, l2, b, amp, high, odd
+        self.settle, self.t, self.last_t, self.have_last, self.cyc, self.span = settle, t, last_t, have_last, cyc, span
+
+    def latch(self) -> tuple:
+        """The count since the last latch (the board's at a burst's last code), zeroed."""
+        out = (self.cyc, self.span)
+        self.cyc = self.span = 0
+        return out
+
+
+def lp_shift(f_hz: float, fs_hz: float) -> int:
+    """acq_ripple_count.h ripple_lp_shift (float32 as on the board)."""
+    if not f_hz > 0:
+        return 5
+    f32 = np.float32
+    ratio = f32(fs_hz) / (f32(6.2831853) * f32(2.0) * f32(f_hz))
+    k = LP_MIN
+    while k < LP_MAX and f32(1 << (k + 1)) <= ratio * f32(1.41421356):
+        k += 1
+    return k
+
+
+def counter_hz(cyc: float, span: float, fs_hz: float) -> float:
+    """acq_ripple_count.h ripple_counter_hz: NaN without a counted cycle."""
+    if not (cyc >= 1) or not (span > 0):
+        return math.nan
+    return cyc * fs_hz / span
+
+
+COUNT_TAU_S = 0.25      # kRippleCountTauS
+MIN_CYCLES = 3.0        # kRippleMinCycles
+
+
+FLOOR_A = 0.10          # acq_ripple_count.h kRippleFloorA
+KE_CAL_S = 1.0          # kRippleKeCalS
+RA_TAU_S = 10.0         # kRippleRaTauS
+MIN_DEN = 1.0e-3        # kRippleMinDen
+RA_GATE = 0.08          # kRippleRaGate
+RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
+
+
+def confident(f_hz: float, f_prior_hz: float) -> bool:
+    """acq_ripple_count.h ripple_count_confident."""
+    return f_prior_hz > 0 and abs(f_hz / f_prior_hz - 1.0) <= PRIOR_TOL
+
+
+class RaTracker:
+    """acq_ripple_count.h RippleRa and ripple_ra_step (float64: the board's float32 differs in
+    the last bits). p: the model's PhysicsParams (hpddo.model.physics)."""
+
+    def __init__(self, p):
+        from . import physics
+        self.p, self.physics = p, physics
+        self.ke_sum, self.ke_cal, self.ra_ohm, self.tw_C, self.n_cal, self.have = 0.0, 0.0, 0.0, 0.0, 0, False
+
+    def step(self, v_V: float, i_A: float, rpm: float, dt_s: float) -> bool:
+        p, ph = self.p, self.physics
+        v = float(ph.true_voltage_V(p, v_V))
+        i = float(ph.true_current_A(p, i_A))
+        if not (i >= FLOOR_A) or not (rpm > 0):
+            return self.have
+        w = rpm / RPM_PER_RAD_S
+        vb = float(ph.brush_drop_V(p, i))
+        sat = float(ph.ke_at_vs_per_rad(p, p.t_ref_C, i)) / p.ke_vs_per_rad
+        cal = KE_CAL_S / dt_s
+        n_cal = 1 if cal < 1.5 else (100 if cal > 100 else int(cal + 0.5))
+        if self.n_cal < n_cal:
+            self.ke_sum += (v - vb - i * p.ra_ohm) / (w * sat)
+            self.n_cal += 1
+            if self.n_cal == n_cal:
+                self.ke_cal = self.ke_sum / n_cal
+                self.ra_ohm, self.tw_C, self.have = p.ra_ohm, p.t_ref_C, True
+            return self.have
+        ke = self.ke_cal * sat
+        if p.ke_tc_per_K != 0:
+            den = i * p.ra_ohm * ALPHA_CU + ke * w * p.ke_tc_per_K
+            if not abs(den) > MIN_DEN:
+                return self.have
+            ra = p.ra_ohm * (1.0 + ALPHA_CU * ((v - vb - ke * w - i * p.ra_ohm) / den))
+        else:
+            ra = (v - vb - ke * w) / i
+        if abs(ra - self.ra_ohm) > RA_GATE * self.ra_ohm:  # a glitch of V or I, not the copper
+            return True
+        self.ra_ohm += (ra - self.ra_ohm) * (dt_s / (RA_TAU_S + dt_s))
+        self.tw_C = p.t_ref_C + (self.ra_ohm / p.ra_ohm - 1.0) / ALPHA_CU
+        return True
+
+
+def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per_output_rev: float,
+          gap_periods: int):
+    """What the board computes over a recording (acq_ripple_board.h on_window, the counter reset
+    at the first window): bursts are the windows' current codes in order (each the window's
+    last periods, gap_periods after the previous burst's end), v_V, i_A their means, rpm_prior
+    the observer's estimates (the back-EMF prior). One dict a window: rpm (NaN without a
+    count), confident, have_ra, ra_ohm, tw_C, k."""
+    c = Counter()
+    ra = RaTracker(p)
+    k, t_exp = 5, 0
+    cyc_w = span_w = 0.0
+    keep = float(np.float32(1) - np.float32(dt_s) / np.float32(COUNT_TAU_S)) if dt_s < COUNT_TAU_S else 0.0
+    out = []
+    for n, codes in enumerate(bursts):
+        c.begin(k, t_exp, gap_periods, n == 0)
+        c.run(codes)
+        cyc, span = c.latch()
+        cyc_w, span_w = cyc_w * keep + cyc, span_w * keep + span
+        f = counter_hz(cyc_w, span_w, fs_hz)
+        rpm = f * 60.0 / ripples_per_output_rev
+        f_prior = rpm_prior[n] * ripples_per_output_rev / 60.0 if rpm_prior[n] > 0 else 0.0
+        conf = f == f and cyc_w >= MIN_CYCLES and confident(f, f_prior)
+        have = ra.step(v_V[n], i_A[n], rpm, dt_s) if conf else ra.have
+        out.append(dict(rpm=rpm, confident=conf, have_ra=have, ra_ohm=ra.ra_ohm, tw_C=ra.tw_C, k=c.k, cyc=cyc))
+        k = lp_shift(f_prior, 0.5 * fs_hz)
+        t_exp = min(65535, int(np.float32(fs_hz) / np.float32(f_prior) + np.float32(0.5))) if f_prior > 0 else 0
+    return out

@@ -1,0 +1,122 @@
+"""Ripple counting as a peer of the comparison (issue 23 item 6, docs/ripple.md): the speed
+counted from the commutation ripple of the current bursts beside each log
+(`<condition>.ripple.csv`, hpddo.model.ripple), given the motor's ripples per revolution and
+gear ratio.
+
+* "ripple": alone, as a user without an encoder has it: the back-EMF prior that resolves the
+  octave and sub-harmonic ambiguity is (V - I Ra) / Ke with Ke calibrated from the ripple
+  itself (no encoder reading used). A row without a confident count has no estimate: its
+  RMSE is over the confident rows, and the coverage (the share of rows with an estimate) is
+  reported beside it.
+* "ripple + M2": fused with the physics: the prior is the comparison's M2 (Ke from the
+  training rows), and a row without a confident count takes M2's estimate, so every row is
+  scored.
+
+Neither is trained, so the same estimate serves every split (chronological, never seen,
+leave one out)."""
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ...logs import benchlog
+from ...logs import ripple as ripple_file
+from ...logs.errors import InputError
+from ...model import ripple as rp
+
+ALONE = "ripple"
+FUSED = "ripple + M2"
+METHODS = (ALONE, FUSED)
+
+
+@dataclasses.dataclass(frozen=True)
+class RippleSpeeds:
+    """Per cleaned row of one recording: the ripple speed alone and with M2's prior (NaN where
+    the count is not confident), and the Ke its own prior took."""
+
+    alone_rpm: np.ndarray
+    with_m2_prior_rpm: np.ndarray
+    ke_alone_vs_per_rad: float
+
+
+def has_bursts(rec) -> bool:
+    return ripple_file.path_for(rec.source).exists()
+
+
+def speeds(rec, opts: rp.Options, ra_ohm: float, ke_m2_vs_per_rad: float,
+           ke_alone_vs_per_rad: float | None = None) -> RippleSpeeds:
+    """The ripple speeds of one recording (hpddo.logs.dataset.Recording), counted on the log's
+    own rows (before the glitch filter, as the bursts are) and mapped onto the cleaned rows by
+    seq. ke_alone_vs_per_rad: the alone count's prior Ke as the user gives it (None: calibrated
+    from the ripple)."""
+    log = benchlog.read_log(rec.source)
+    raw = log.df
+    if "seq" not in raw:
+        raw = raw.assign(seq=np.arange(len(raw), dtype=np.int64))
+    row_of = {int(s): k for k, s in enumerate(rec.df["seq"].to_numpy(np.int64))}
+
+    def on_rows(est) -> np.ndarray:
+        out = np.full(rec.n, np.nan)
+        seq = raw["seq"].to_numpy(np.int64)[est["row"].to_numpy()]
+        conf = est["confident"].to_numpy()
+        for s, c, v in zip(seq, conf, est["rpm"].to_numpy(float)):
+            k = row_of.get(int(s))
+            if c and k is not None:
+                out[k] = v
+        return out
+
+    alone, ke_alone, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_alone_vs_per_rad)
+    fused, _, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_m2_vs_per_rad)
+    return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone))
+
+
+def estimates(s: RippleSpeeds, m2_rpm: np.ndarray) -> dict:
+    """{ALONE: NaN where not confident, FUSED: the ripple where confident, else M2}."""
+    m2_rpm = np.asarray(m2_rpm, float)
+    return {ALONE: s.alone_rpm, FUSED: np.where(np.isfinite(s.with_m2_prior_rpm), s.with_m2_prior_rpm, m2_rpm)}
+
+
+def coverage(recs, all_speeds, masks=None) -> dict:
+    """{"ripple_coverage": {recording: share of the scored rows (with an encoder reading)
+    that have a confident count, "all": over all}, "ripple_note": the sentence under the
+    table}: the rows the alone row's RMSE is taken over."""
+    per, n_all, n_kept = {}, 0, 0
+    for k, (r, s) in enumerate(zip(recs, all_speeds)):
+        ref = r.df["rpm_ref"].to_numpy(float) if "rpm_ref" in r.df else np.full(r.n, np.nan)
+        mask = np.isfinite(ref) & (np.ones(r.n, bool) if masks is None else masks[k])
+        kept = int(np.sum(mask & np.isfinite(s.alone_rpm)))
+        per[r.name] = round(kept / max(int(mask.sum()), 1), 4)
+        n_all, n_kept = n_all + int(mask.sum()), n_kept + kept
+    cov = {**per, "all": round(n_kept / max(n_all, 1), 4)}
+    return {"ripple_coverage": cov, "ripple_note": coverage_note(cov)}
+
+
+def coverage_note(cov: dict | None) -> str | None:
+    """The sentence under a table with ripple rows: the rows the alone row is scored on."""
+    if not cov:
+        return None
+    per = ", ".join(f"{k} {100 * v:.1f} %" for k, v in cov.items() if k != "all")
+    return (f"{ALONE}: a confident count on {100 * cov['all']:.1f} % of these rows ({per}); its RMSE is over those "
+            f"rows only, '{FUSED}' scores every row (M2 where there is no confident count)")
+
+
+def check_options(ripples_per_rev, gear_ratio, recs, floor_A: float | None = None,
+                  ke_vs_per_rad: float | None = None) -> rp.Options | None:
+    """The ripple options of a comparison: None where not asked for; an InputError where asked
+    for and a recording has no bursts beside it, or where only part of them is given."""
+    if ripples_per_rev is None and gear_ratio is None:
+        if floor_A is not None or ke_vs_per_rad is not None:
+            raise InputError("--floor-a and --ke-vs-per-rad apply to the ripple peer only: give --ripples-per-rev N "
+                             "and --gear-ratio G too (docs/ripple.md)")
+        return None
+    if ripples_per_rev is None or gear_ratio is None:
+        raise InputError("ripple counting as a peer needs both --ripples-per-rev N and --gear-ratio G "
+                         "(docs/ripple.md)")
+    missing = [str(r.source) for r in recs if not has_bursts(r)]
+    if missing:
+        raise InputError(f"{missing[0]}: no current bursts beside it ({ripple_file.path_for(missing[0]).name}); "
+                         "ripple counting as a peer needs the bursts of every recording (the UNO's ripple mode, or "
+                         "hpddo twin --ripple-hz; docs/ripple.md)")
+    opts = rp.Options(int(ripples_per_rev), float(gear_ratio))
+    return opts if floor_A is None else dataclasses.replace(opts, floor_A=float(floor_A))

@@ -1,0 +1,112 @@
+"""What the board's ripple counter gives through a warm-up (issue 23 item 5, docs/ripple.md,
+"The ripple counter on the board"): a twin run in the ripple mode replayed through the host's
+reference of the counting build (hpddo.model.ripple_count.track, which the simavr test
+firmware.uno.sim_ripple_count holds the AVR build equal to), with the board's observer (the
+fixed-point default model) as the prior, scored against the twin's truth: the ripple speed,
+Ra and the winding temperature, with no temperature sensor.
+
+    PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple_board            # ~1 min
+    PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple_board --json F
+
+Each board window's burst is its last ripple_n periods (acq_ripple.h: 3968 of 5000 at 2 Hz,
+768 of 1000 at 10 Hz), the counter runs on those codes; V and I are the twin log's window
+means (the board's come from the window's first 20 %).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import pathlib
+import sys
+
+import numpy as np
+
+from .. import bench, resource_root
+from ..model import export, quant
+from ..model import ripple_count as rc
+from ..twin import generate, params
+
+RIPPLES_PER_REV = 6  # the build's ACQ_RIPPLES_PER_REV
+
+
+def burst_n(window_periods: int) -> int:
+    """acq_ripple.h ripple_burst_samples at 10 kHz and 500000 baud (whole chunks of 32 in the
+    window less its 20 % V/I share and 3 stop periods, within the line's budget)."""
+    room = window_periods - window_periods * 0.2 - 3
+    n = int(room) // 32 * 32
+    chars = 50000 * 0.8 * window_periods / 10000 - 96
+    while n and (n // 32) * 82 > chars:
+        n -= 32
+    return n
+
+
+def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, bench_twin=None, seed: int = 1,
+        model_dir=None):
+    """Replays one twin run through the board's counter; returns the per-window table and figures."""
+    tw = bench_twin or params.preset("default")
+    out = generate.generate(tw, protocol, rate_hz, seed, time_scale=time_scale,
+                            ripple=params.ripple_burst(sample_hz=10000))
+    log, truth = out["log"], out["truth"]
+    _, burst_codes, _ = out["bursts"]
+    model_dir = pathlib.Path(model_dir or resource_root() / "models" / "default")
+    model = export.read_model_header((model_dir / "model_default.h").read_text())
+    obs = quant.fixed_observer(model, quant.quantise(model))
+    dt = 1.0 / rate_hz
+    prior = np.array([float(obs.step(v, i, None, dt, k & 0xFFFF)["rpm"])
+                      for k, (v, i) in enumerate(zip(log["v_V"], log["i_A"]))])
+    n = burst_n(round(10000 / rate_hz))
+    codes = [np.asarray(c)[len(c) - n:] for c in burst_codes]
+    per_rev = RIPPLES_PER_REV * bench.HARDWARE.gear_ratio
+    rows = rc.track(codes, log["v_V"].to_numpy(), log["i_A"].to_numpy(), prior, dt, model.physics, 10000.0, per_rev,
+                    round(10000 / rate_hz) - n)
+    rpm = np.array([r["rpm"] if r["confident"] else np.nan for r in rows])
+    have = np.array([r["have_ra"] for r in rows])
+    ra = np.array([r["ra_ohm"] for r in rows])
+    tw_c = np.array([r["tw_C"] for r in rows])
+    rpm_true, ra_true, t_true = (truth[c].to_numpy() for c in ("rpm_true", "ra_ohm", "winding_C"))
+    ok = np.isfinite(rpm)
+    e_rpm = (rpm[ok] - rpm_true[ok]) / rpm_true[ok]
+    e_ra = (ra[have] - ra_true[have]) / ra_true[have]
+    e_t = tw_c[have] - t_true[have]
+    figures = dict(protocol=protocol, time_scale=time_scale, rate_hz=rate_hz, windows=len(rows), burst_n=n,
+                   confident=int(ok.sum()), rpm_rms_pct=float(100 * np.sqrt(np.mean(e_rpm ** 2))),
+                   rpm_max_pct=float(100 * np.max(np.abs(e_rpm))), windows_with_ra=int(have.sum()),
+                   ra_rms_pct=float(100 * np.sqrt(np.mean(e_ra ** 2))), ra_max_pct=float(100 * np.max(np.abs(e_ra))),
+                   t_rms_K=float(np.sqrt(np.mean(e_t ** 2))), t_max_K=float(np.max(np.abs(e_t))),
+                   t_true_start_C=float(t_true[0]), t_true_end_C=float(t_true[-1]),
+                   t_est_end_C=float(tw_c[-1]), ra_true_end=float(ra_true[-1]), ra_est_end=float(ra[-1]))
+    return figures
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--json", type=pathlib.Path, default=None)
+    a = ap.parse_args(argv)
+    scenarios = [
+        ("long warm-up, 2 Hz, default twin", dict(protocol="long", rate_hz=2.0)),
+        ("long warm-up, 10 Hz, default twin", dict(protocol="long", rate_hz=10.0)),
+        ("long warm-up, 2 Hz, magnets without temperature drift",
+         dict(protocol="long", rate_hz=2.0, bench_twin=params.with_effects(params.preset("default"),
+                                                                           magnet_thermal=0.0))),
+        ("load steps, 2 Hz, default twin", dict(protocol="load", rate_hz=2.0)),
+        ("long warm-up, 100 Hz, default twin", dict(protocol="long", rate_hz=100.0, time_scale=0.02)),
+    ]
+    out = {}
+    print("| scenario | windows | confident | speed RMS / max % | windows with Ra | Ra RMS / max % | "
+          "winding T RMS / max K | T truth start -> end | T board end |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for name, kw in scenarios:
+        f = run(**kw)
+        out[name] = f
+        print(f"| {name} | {f['windows']} | {f['confident']} | {f['rpm_rms_pct']:.3f} / {f['rpm_max_pct']:.2f} | "
+              f"{f['windows_with_ra']} | {f['ra_rms_pct']:.2f} / {f['ra_max_pct']:.2f} | {f['t_rms_K']:.2f} / "
+              f"{f['t_max_K']:.2f} | {f['t_true_start_C']:.1f} -> {f['t_true_end_C']:.1f} | {f['t_est_end_C']:.1f} |")
+        sys.stdout.flush()
+    if a.json:
+        a.json.write_text(json.dumps(out, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
