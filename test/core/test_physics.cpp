@@ -102,8 +102,8 @@ TEST(Physics, BrushOrderSetsHowSharplyTheDropLevelsOff) {
   p.brush_order = 2.0f;  // i / sqrt(i^2 + knee^2)
   EXPECT_NEAR(hpddo::brush_drop_V(p, 0.2f), 1.0 / std::sqrt(2.0), 1e-6);
   EXPECT_NEAR(hpddo::brush_drop_V(p, -0.6f), -0.6 / std::sqrt(0.36 + 0.04), 1e-6);
-  p.brush_order = 4.0f;  // sharper: nearly all of the drop at twice the knee
-  EXPECT_NEAR(hpddo::brush_drop_V(p, 0.4f), 1.0 / std::pow(1.0 + 1.0 / 16.0, 0.25), 1e-6);
+  p.brush_order = 1.5f;  // half way between the base form and order 2
+  EXPECT_NEAR(hpddo::brush_drop_V(p, 0.2f), 0.5 * (0.5 + 1.0 / std::sqrt(2.0)), 1e-6);
   EXPECT_EQ(hpddo::brush_drop_V(p, 0.0f), 0.0f);
 }
 

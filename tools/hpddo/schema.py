@@ -225,16 +225,16 @@ EFFECTS = (
                # A brush drop that levels off smoothly (tanh, 1 - exp) is none of i / (|i| + knee):
                # on such a bench the base form stopped at its 300 mA knee and left the physics
                # 1.26..1.42 x the true model's held-out error (docs/diagnosis.md, Forms outside the
-               # library). The widened family's order m spans the common laws: m = 1 the base form,
-               # about 1.4 1 - exp(-|i| / i0), 2 i / sqrt(i^2 + knee^2), about 2.5..3 tanh(|i| / i0),
-               # large m a drop rising linearly to the knee and flat above; knee -> 0 the hard
-               # switch at any m.
+               # library). The widened family's order m runs from the base form (m = 1) to
+               # i / sqrt(i^2 + knee^2) (m = 2), the straight blend between (one square root on
+               # the boards): about 1.4 holds 1 - exp(-|i| / i0); tanh(|i| / i0) is sharper still
+               # and sits at m = 2; knee -> 0 the hard switch.
                Shape("brush_order", "1",
-                     "how sharply the brush drop levels off: the order m of i / (|i|^m + knee^m)^(1/m)",
-                     1.0, (1.0, 4.0), 0.5,
-                     "brush_V i / (|i|^m + knee^m)^(1/m): m = 1 the base form, about 1.4 an exponential "
-                     "1 - exp(-|i| / i0), 2 i / sqrt(i^2 + knee^2), about 2.5..3 tanh(|i| / i0), 4 nearly a "
-                     "drop rising linearly up to the knee and constant above (the widened family only)",
+                     "how sharply the brush drop levels off: 1 i/(|i|+knee), 2 i/sqrt(i^2+knee^2), the blend between",
+                     1.0, (1.0, 2.0), 0.5,
+                     "brush_V ((2 - m) i / (|i| + knee) + (m - 1) i / sqrt(i^2 + knee^2)): m = 1 the base form, "
+                     "about 1.4 an exponential 1 - exp(-|i| / i0), 2 an algebraic drop as sharp as tanh's "
+                     "nearly (the widened family only)",
                      extension=True),
            ),
            separated_from=(

@@ -3,7 +3,7 @@
 // source: tools/hpddo/schema.py
 // generator: hpddo.schema 1
 // layout: crc32 0x5effc3d9 (kParamsSchema)
-// checksum: crc32 0x5e91ae1d of the text below this banner
+// checksum: crc32 0xce11459c of the text below this banner
 #ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -51,7 +51,7 @@ struct PhysicsParams {
   float la_H;           ///< inductance: armature inductance, H
   float v_offset_V;     ///< v_offset: reading minus true voltage, V
   float brush_knee_A;   ///< brush_drop shape: current scale over which the brush drop builds up (half of it at the knee for order 1), A
-  float brush_order;    ///< brush_drop shape: how sharply the brush drop levels off: the order m of i / (|i|^m + knee^m)^(1/m), dimensionless
+  float brush_order;    ///< brush_drop shape: how sharply the brush drop levels off: 1 i/(|i|+knee), 2 i/sqrt(i^2+knee^2), the blend between, dimensionless
   float ke_sat_quad;    ///< saturation shape: share of the armature reaction that grows with i^2 (per 1 A) instead of |i|, dimensionless
   float th_r_K_per_W;   ///< thermal state: winding-to-ambient resistance (0: no estimate), K/W
   float th_tau_s;       ///< thermal state: time constant, s

@@ -113,14 +113,14 @@ inline void read(const void* p, void* out, size_t n) {
 
 namespace hpddo {
 
-/// x to the power y in float on every target. avr-libc has no powf of its own (it names
-/// pow, whose double is a 32-bit float there): the call goes through pow with the
-/// conversions written out, which cost nothing on the AVR.
-inline float pow_f(float x, float y) {
+/// The square root in float on every target (correctly rounded, as IEEE 754 requires).
+/// avr-libc has no sqrtf of its own (it names sqrt, whose double is a 32-bit float there):
+/// the call goes through sqrt with the conversions written out, which cost nothing on the AVR.
+inline float sqrt_f(float x) {
 #if defined(__AVR__)
-  return static_cast<float>(pow(static_cast<double>(x), static_cast<double>(y)));
+  return static_cast<float>(sqrt(static_cast<double>(x)));
 #else
-  return powf(x, y);
+  return sqrtf(x);
 #endif
 }
 
