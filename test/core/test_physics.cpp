@@ -91,6 +91,22 @@ TEST(Physics, BrushKneeSetsWhereTheDropSwitchesOn) {
   EXPECT_EQ(hpddo::brush_drop_V(p, 0.0f), 0.0f);
 }
 
+TEST(Physics, BrushOrderSetsHowSharplyTheDropLevelsOff) {
+  hpddo::PhysicsParams p = plain();
+  p.brush_V = 1.0f;
+  p.brush_knee_A = 0.2f;
+  p.brush_order = 1.0f;  // the base form, the same float as i / (|i| + knee)
+  EXPECT_EQ(hpddo::brush_drop_V(p, 0.3f), 1.0f * 0.3f / (0.3f + 0.2f));
+  p.brush_order = NAN;   // below 1 (and NaN): the base form
+  EXPECT_EQ(hpddo::brush_drop_V(p, 0.3f), 1.0f * 0.3f / (0.3f + 0.2f));
+  p.brush_order = 2.0f;  // i / sqrt(i^2 + knee^2)
+  EXPECT_NEAR(hpddo::brush_drop_V(p, 0.2f), 1.0 / std::sqrt(2.0), 1e-6);
+  EXPECT_NEAR(hpddo::brush_drop_V(p, -0.6f), -0.6 / std::sqrt(0.36 + 0.04), 1e-6);
+  p.brush_order = 1.5f;  // half way between the base form and order 2
+  EXPECT_NEAR(hpddo::brush_drop_V(p, 0.2f), 0.5 * (0.5 + 1.0 / std::sqrt(2.0)), 1e-6);
+  EXPECT_EQ(hpddo::brush_drop_V(p, 0.0f), 0.0f);
+}
+
 TEST(Physics, VoltageOffsetIsRemovedBeforeTheGain) {
   hpddo::PhysicsParams p = plain();
   p.v_offset_V = 0.1f;

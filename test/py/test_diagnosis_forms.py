@@ -5,10 +5,17 @@ effect that 2 Hz recordings show is hidden in a form other than the twin's defau
 magnets at the winding's temperature or lagging the case, sensor offsets that drift while
 the electronics warm, a bowed voltage gain) besides its default form (test_diagnosis.py);
 inductance is not seen at 2 Hz in any form (test_diagnosis.py). Two seeds each."""
+import dataclasses
+
 import pytest
 
+import law_benches
+import true_forms
 import twin_benches
+from hpddo import schema
 from hpddo.diagnosis import core
+from hpddo.model import effects as fx
+from hpddo.model import physics as ph
 
 SEEDS = (3, 4)
 # name -> (effects (twin units), forms, bench overrides, effect that must be named)
@@ -98,3 +105,144 @@ def test_a_knee_shaped_brush_drop_is_not_named_as_something_else(root, seed):
         assert ("cannot tell a wrong Ra from" in res["verdict"] if res["ra_fit"]["mismatch"] else
                 "a wrong Ra (with Ke, the named effects and brush_drop fitted alongside" in res["verdict"]), \
             res["verdict"]
+
+
+# ---------------------------------------------------------------------------------------
+# Forms outside the library (issue 21, item 7; docs/diagnosis.md, Forms outside the library):
+# benches simulated from a law of the motor the library has no form for (law_benches.py: no
+# PWM, the law exact for the means), and two of the twin's own. After naming, the physics on
+# the diagnosis' held-out rows comes within RATIO_MAX of the true model's (the law in its own
+# form, Ke and its sizes fitted on the same training rows, Ra at the true value); a shape at
+# the edge of its range is said not to be fixed, and the size of an effect whose widened
+# family stops at an edge is not determined.
+
+RATIO_MAX = 1.2
+Law = law_benches.Law
+# name -> (the law, the effect that must be named, its true size in the library's field or None)
+LAWS = {
+    "brush_tanh_200mA": (Law("brush_drop", "tanh", {"V": 0.8, "i0": 0.2}), "brush_drop", 0.8),
+    "brush_tanh_500mA": (Law("brush_drop", "tanh", {"V": 0.8, "i0": 0.5}), "brush_drop", 0.8),
+    "brush_exp_500mA": (Law("brush_drop", "exp", {"V": 0.8, "i0": 0.5}), "brush_drop", 0.8),
+    "saturation_lorentz_3A": (Law("saturation", "lorentz", {"i0": 3.0}), "saturation", None),
+    "saturation_onset_600mA": (Law("saturation", "onset", {"s": 0.1, "i0": 0.6}), "saturation", None),
+}
+# offsets that drift: with the case temperature (zero cold, all of it 30 K warmer) or over an hour
+DRIFTS = {
+    "current_offset_follows_the_case": Law("current_offset", "case", {"A": 0.03}),
+    "v_offset_follows_the_case": Law("v_offset", "case", {"V": 0.15}),
+    "v_offset_ramp": Law("v_offset", "ramp", {"V": 0.15}),
+}
+
+
+def _ratio(res, truth) -> tuple[float, str]:
+    after = res["rmse_rpm"]["after"]["average"]
+    text = (f"physics after naming {after:.3f} RPM, true model {truth:.3f} RPM: ratio {after / truth:.3f}; "
+            f"named {res['missing_effects']}")
+    print(text)  # the figures of docs/diagnosis.md (pytest -s)
+    return after / truth, text
+
+
+def _no_silent_edge(res) -> None:
+    """Every named effect's shape at an edge of the forms allowed (but the base form) is said
+    not to be fixed; in the widened family, its size is then not determined either."""
+    for e in res["ranking"]:
+        if not e["named"]:
+            continue
+        eff = schema.BY_NAME[e["effect"]]
+        shapes = {sh.field: e["params"][sh.field] for sh in eff.shapes}
+        p = dataclasses.replace(ph.PhysicsParams(ra_ohm=1.0, ke_vs_per_rad=1.0), **shapes)
+        widened = bool(fx.widened_in(p, [eff.name]))
+        for sh in eff.shapes:
+            v, (lo, hi) = shapes[sh.field], fx.shape_bounds(sh, widened)
+            at_edge = min(abs(v - lo), abs(v - hi)) <= 1e-6 * (hi - lo) and v != sh.default
+            if at_edge:
+                assert "do not fix it" in e["plausibility"], (eff.name, sh.field, v, e["plausibility"])
+                if widened:
+                    size = next(iv for iv in e["intervals"] if iv["field"] == eff.field)
+                    assert not size["determined"], (eff.name, size)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("key", sorted(LAWS))
+def test_an_effect_outside_the_library_is_named_and_its_physics_comes_within_1_2_of_the_true_model(root, key, seed):
+    law, want, size = LAWS[key]
+    paths = law_benches.write(root / f"law_{key}_{seed}", law, seed)
+    res = run(paths)
+    truth, _ = law_benches.true_rmse(paths, law)
+    ratio, text = _ratio(res, truth)
+    assert res["missing_effects"] == [want], res["verdict"]
+    assert ratio <= RATIO_MAX, text
+    if size is not None:  # the right magnitude
+        named = {e["effect"]: e for e in res["ranking"] if e["named"]}
+        got = named[want]["params"][schema.BY_NAME[want].field]
+        assert abs(got - size) <= 0.25 * size, (got, size)
+    _no_silent_edge(res)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("key", ["brush_tanh_200mA", "brush_exp_500mA"])
+def test_a_smooth_brush_drop_with_ra_given_10_percent_high_gets_no_spurious_saturation(root, key, seed):
+    """Before the widened family: brush_drop, saturation (its shape at an edge) and a current
+    offset were named for a tanh drop with Ra given 10 % high."""
+    law, want, _ = LAWS[key]
+    paths = law_benches.write(root / f"law_{key}_ra_high_{seed}", law, seed, ra_given=1.1 * law_benches.RA_OHM)
+    res = run(paths)
+    truth, _ = law_benches.true_rmse(paths, law)
+    ratio, text = _ratio(res, truth)
+    assert want in res["missing_effects"], res["verdict"]
+    named = {e["effect"]: e for e in res["ranking"] if e["named"]}
+    if "saturation" in named:  # only where its size is said not to be determined
+        size = next(iv for iv in named["saturation"]["intervals"] if iv["field"] == "ke_sat_per_A")
+        assert not size["determined"], res["verdict"]
+    assert ratio <= RATIO_MAX, text
+    _no_silent_edge(res)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("key", sorted(DRIFTS))
+def test_a_drifting_offset_leaves_the_physics_within_1_2_of_the_true_model(root, key, seed):
+    """The library has no offset that drifts: on these recordings the drift acts during the
+    hour's warm-up at one operating point, where it looks like a temperature effect, and a
+    thermal effect stands in for it (docs/diagnosis.md: the right name is left undone). The
+    physics still comes within RATIO_MAX, and nothing else is named."""
+    law = DRIFTS[key]
+    paths = law_benches.write(root / f"law_{key}_{seed}", law, seed)
+    res = run(paths)
+    truth, _ = law_benches.true_rmse(paths, law)
+    ratio, text = _ratio(res, truth)
+    assert set(res["missing_effects"]) <= {law.effect, "thermal_ra", "magnet_thermal"}, res["verdict"]
+    assert ratio <= RATIO_MAX, text
+    _no_silent_edge(res)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", SEEDS)
+def test_a_tanh_brush_drop_on_the_twin_is_named_with_its_unfixed_form_said(root, seed):
+    """The twin's brush drop tanh(i / 300 mA) through its PWM stage (the drop acts only while
+    current flows, a share of the period at light load): named, within RATIO_MAX of the
+    twin's own law fitted on the same rows, its form at the edges of the widened family and
+    said so, its size not determined."""
+    b = twin_benches.bench({"brush_drop": 0.5, "inductance": 2.5}, {"brush_drop": "tanh_300mA"})
+    paths = twin_benches.recordings(root / f"twin_brush_tanh_300mA_{seed}", b, seed)
+    res = run(paths)
+    truth, _ = true_forms.true_rmse(paths, b, "brush_drop")
+    ratio, text = _ratio(res, truth)
+    assert res["missing_effects"] == ["brush_drop"], res["verdict"]
+    assert ratio <= RATIO_MAX, text
+    _no_silent_edge(res)
+
+
+@pytest.mark.slow
+def test_saturation_from_600mA_on_the_twin_is_said_not_told_from_a_wrong_ra(root):
+    """Left undone: the twin's armature reaction from 600 mA (load and long run above it, the
+    sweep below) is explained as well by a wrong Ra; neither is named, so the physics stays
+    at the plain model's (3.69 RPM against the true model's 1.67, seed 3). The statement is
+    that a wrong Ra cannot be told from saturation, never a confident value."""
+    b = twin_benches.bench({"saturation": 8.0}, {"saturation": "onset_600mA"})
+    res = run(twin_benches.recordings(root / "twin_saturation_onset_600mA", b, SEEDS[0]))
+    assert res["missing_effects"] == [] and not res["ra_fit"]["mismatch"], res["verdict"]
+    assert "saturation" in res["ra_fit"]["confounded_with"], res["verdict"]
+    assert "explains as well as saturation" in res["verdict"], res["verdict"]

@@ -1,7 +1,8 @@
 """Parity of every library effect between Python (tools/hpddo/model/physics.py through
 effects.py, float32) and hpddo_core (physics.h, thermal.h): a small C++ probe evaluates
 the board's terms for the same parameters and inputs, each effect switched on alone at
-its typical size and at the edges of its plausible range, then all together."""
+its typical size and at the edges of its plausible range, each shape across its range, then all
+together."""
 import dataclasses
 import shutil
 import subprocess
@@ -32,6 +33,14 @@ def cases():
     for name, eff in fx.LIBRARY.items():
         for label, val in (("typical", eff.scale), ("lo", eff.plausible[0]), ("hi", eff.plausible[1])):
             out.append((f"{name}:{label}", dataclasses.replace(BASE, **{eff.field: val})))
+    for name, eff in fx.LIBRARY.items():  # each shape across its forms, its effect at its typical size
+        for sh in eff.shapes:
+            lo, hi = sh.bounds
+            for label, val in (("lo", lo), ("mid", 0.5 * (lo + hi)), ("hi", hi)):
+                out.append((f"{name}:{sh.field}:{label}",
+                            dataclasses.replace(BASE, **{eff.field: eff.scale, sh.field: val})))
+    # a tanh-like brush drop (docs/diagnosis.md, Forms outside the library)
+    out.append(("brush_drop:tanh_like", dataclasses.replace(BASE, brush_V=0.8, brush_knee_A=0.21, brush_order=2.85)))
     out.append(("all", dataclasses.replace(BASE, **{e.field: e.scale for e in fx.LIBRARY.values()},
                                            th_r_K_per_W=12.0, th_tau_s=400.0)))
     return out

@@ -75,6 +75,12 @@ class Shape:
     bounds: tuple               # (lo, hi): the range of forms physics allows, SI
     scale: float                # a typical step of the field, SI (parameter scaling in fits)
     forms: str                  # the forms the range covers, in words
+    # The widened family (effects.fit): where the fit of the base family stops at an edge of
+    # `bounds` that `widened` extends, the data pull the form beyond the base family, and
+    # the effect is fitted again in the widened one: this shape within `widened`, and the
+    # effect's `extension` shapes (held at their default, the base form, otherwise) free.
+    widened: tuple | None = None  # (lo, hi) of the widened family, containing bounds
+    extension: bool = False     # fitted only in the widened family
 
     def param(self, effect: str) -> Param:
         return Param(self.field, self.unit, f"{effect} shape: {self.meaning}", self.default)
@@ -210,10 +216,26 @@ EFFECTS = (
            "a constant voltage while current flows (sign of the current)",
            "runs at several speeds, including light load",
            shapes=(
-               Shape("brush_knee_A", "A", "current at which the brush drop reaches half its full value",
+               Shape("brush_knee_A", "A",
+                     "current scale over which the brush drop builds up (half of it at the knee for order 1)",
                      0.02, (0.002, 0.3), 0.02,
                      "brush_V i / (|i| + knee): a drop that switches on within a few mA (hard carbon) "
-                     "to one that builds up over a few hundred mA (soft graphite, film)"),
+                     "to one that builds up over a few hundred mA (soft graphite, film); widened: up to 1 A",
+                     widened=(0.002, 1.0)),
+               # A brush drop that levels off smoothly (tanh, 1 - exp) is none of i / (|i| + knee):
+               # on such a bench the base form stopped at its 300 mA knee and left the physics
+               # 1.26..1.42 x the true model's held-out error (docs/diagnosis.md, Forms outside the
+               # library). The widened family's order m runs from the base form (m = 1) to
+               # i / sqrt(i^2 + knee^2) (m = 2), the straight blend between (one square root on
+               # the boards): about 1.4 holds 1 - exp(-|i| / i0); tanh(|i| / i0) is sharper still
+               # and sits at m = 2; knee -> 0 the hard switch.
+               Shape("brush_order", "1",
+                     "how sharply the brush drop levels off: 1 i/(|i|+knee), 2 i/sqrt(i^2+knee^2), the blend between",
+                     1.0, (1.0, 2.0), 0.5,
+                     "brush_V ((2 - m) i / (|i| + knee) + (m - 1) i / sqrt(i^2 + knee^2)): m = 1 the base form, "
+                     "about 1.4 an exponential 1 - exp(-|i| / i0), 2 an algebraic drop as sharp as tanh's "
+                     "nearly (the widened family only)",
+                     extension=True),
            ),
            separated_from=(
                ("current_offset",
@@ -422,6 +444,10 @@ def validate() -> None:
             lo, hi = sh.bounds
             if not (lo <= sh.default <= hi and lo < hi and sh.scale > 0):
                 raise ValueError(f"{e.name} shape {sh.field}: want lo <= default <= hi, lo < hi, scale > 0")
+            if sh.widened is not None and not (sh.widened[0] <= lo and hi <= sh.widened[1] and sh.widened != sh.bounds):
+                raise ValueError(f"{e.name} shape {sh.field}: the widened range must contain the bounds")
+        if any(sh.extension for sh in e.shapes) and not any(sh.widened for sh in e.shapes):
+            raise ValueError(f"{e.name}: an extension shape needs a shape whose edge widens the family")
         if e.shares_work_with:
             other = BY_NAME.get(e.shares_work_with)
             if other is None or other is e:
@@ -660,10 +686,15 @@ def _effects_md() -> str:
                     f"{lo * e.show_scale:.3g}..{hi * e.show_scale:.3g} {e.show_unit} | {md_cell(e.meaning)} | "
                     f"{md_cell(e.excited_by)} |")
     rows += ["", "The shape parameters (`Shape`: the forms of a term physics allows, fitted wherever its "
-                 "effect is named; the default is the base form):", "",
+                 "effect is named; the default is the base form; where the base family's fit stops at an "
+                 "edge its widened range extends, the effect is fitted again in the widened family, "
+                 "extension shapes free):", "",
              "| effect | field | SI unit | default | range | forms |", "|---|---|---|---|---|---|"]
     for e in EFFECTS:
         for sh in e.shapes:
-            rows.append(f"| {e.name} | `{sh.field}` | {sh.unit} | {sh.default:g} | {sh.bounds[0]:g}..{sh.bounds[1]:g} | "
+            rng = f"{sh.bounds[0]:g}..{sh.bounds[1]:g}"
+            if sh.widened is not None:
+                rng += f" (widened {sh.widened[0]:g}..{sh.widened[1]:g})"
+            rows.append(f"| {e.name} | `{sh.field}` | {sh.unit} | {sh.default:g} | {rng} | "
                         f"{md_cell(sh.forms)} |")
     return "\n".join(rows) + "\n"

@@ -98,7 +98,7 @@ def _describe(field: str) -> tuple:
             return e.name, e.show_unit, e.show_scale, phys, needs, e.unit
         for sh in e.shapes:
             if sh.field == field:
-                return f"{e.name} shape {field}", sh.unit, 1.0, sh.bounds, needs, sh.unit
+                return f"{e.name} shape {field}", sh.unit, 1.0, sh.widened or sh.bounds, needs, sh.unit
     for n in schema.NODE:
         if n.field == field:
             return f"winding node {field}", n.show_unit, 1.0, n.physical, THERMAL_NEEDS, n.show_unit
@@ -212,7 +212,31 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
         out.append(Interval(q, f, si, v, lo if math.isfinite(se) else None, hi if math.isfinite(se) else None,
                             determined=not why, why=why, needs=needs, clusters=len(np.unique(np.concatenate(groups))),
                             method=method, show_scale=scale, show_unit=unit))
-    return out
+    return _sizes_of_unfixed_forms(out, p, bounds)
+
+
+def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> list:
+    """ivs with the coefficient of an effect fitted in its widened family (schema.Shape.widened)
+    not determined where one of its shapes stops at an edge of the widest range (but the base
+    form's): the data pull the form beyond every form allowed, and the size depends on the
+    form, so a narrow interval of the size at the edge's form would be a silent edge."""
+    by_field = {iv.field: k for k, iv in enumerate(ivs)}
+    for e in schema.EFFECTS:
+        if e.field not in by_field or e.name not in fx.widened_in(p, [e.name]):
+            continue
+        for sh in e.shapes:
+            v = float(getattr(p, sh.field))
+            if sh.field not in bounds or v == sh.default or not _on_edge(v, bounds[sh.field]):
+                continue
+            k = by_field[e.field]
+            if ivs[k].determined:
+                ivs[k] = dataclasses.replace(
+                    ivs[k], determined=False,
+                    why=(f"its form stopped at the edge of the forms allowed ({sh.field} = "
+                         f"{schema.quantity(v, sh.unit)}, range {_rng(bounds[sh.field], 1.0, sh.unit)}) and its "
+                         f"size depends on the form"))
+            break
+    return ivs
 
 
 def _on_edge(v: float, b: tuple) -> bool:
@@ -226,11 +250,11 @@ def _rng(b: tuple, scale: float, unit: str) -> str:
     return f"{lo * scale:.3g}..{hi * scale:.3g} {unit}" if math.isfinite(hi) else f"above {lo * scale:.3g} {unit}"
 
 
-def fitted_fields(rows, names, hold=None, ra_bounds=None) -> tuple[list, dict]:
+def fitted_fields(rows, names, hold=None, ra_bounds=None, widen=()) -> tuple[list, dict]:
     """(fields, {field: bounds}) that fx.fit moves for the effects in names (hold as fx.fit's;
-    ra_bounds: Ra moved too, within them): Ke, the coefficients not held, their shapes, the
-    winding node of a thermal effect."""
-    spec = fx.spec_for(rows, names, hold)
+    ra_bounds: Ra moved too, within them; widen: the effects fitted in their widened family):
+    Ke, the coefficients not held, their shapes, the winding node of a thermal effect."""
+    spec = fx.spec_for(rows, names, hold, widen)
     fields, bounds = list(spec.free), dict(spec.bounds)
     if spec.thermal_state:
         for n in fx.node_params(spec.blind):
@@ -245,7 +269,8 @@ def fitted_fields(rows, names, hold=None, ra_bounds=None) -> tuple[list, dict]:
 def of_fit(data, p: ph.PhysicsParams, names, hold=None, ra_bounds=None) -> list[Interval]:
     """The Interval of every quantity that fx.fit(data.rows, ..., names, hold, ra_bounds)
     moved to reach p (its training rows, the bootstrap's operating-point blocks)."""
-    fields, bounds = fitted_fields(data.rows, names, hold, ra_bounds)
+    widen = fx.widened_in(p, [n for n in names if n in fx.LIBRARY])
+    fields, bounds = fitted_fields(data.rows, names, hold, ra_bounds, widen)
     return intervals(data.rows, data.blocks_train, p, fields, bounds)
 
 

@@ -94,8 +94,9 @@ def _described(name: str, p: ph.PhysicsParams, blind: bool = False) -> dict:
     ok, text = eff.plausibility(val)
     params = {eff.field: val}
     params.update((sh.field, float(getattr(p, sh.field))) for sh in eff.shapes)  # the form fitted
+    widened = name in fx.widened_in(p, [name])
     for sh in eff.shapes:  # a form at the edge of those allowed (but the base form): not fixed by the data
-        v, (lo, hi) = float(getattr(p, sh.field)), sh.bounds
+        v, (lo, hi) = float(getattr(p, sh.field)), fx.shape_bounds(sh, widened)
         edge = lo if abs(v - lo) <= 1e-6 * (hi - lo) else hi if abs(v - hi) <= 1e-6 * (hi - lo) else None
         if edge is not None and edge != sh.default:
             text += (f"; its form ({sh.field} = {schema.quantity(v, sh.unit)}) is at the edge of those allowed "

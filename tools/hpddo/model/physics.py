@@ -66,10 +66,19 @@ def ra_at_ohm(p, temp_C, dtype=np.float64):
 
 
 def brush_drop_V(p, i_true_A, dtype=np.float64):
+    """brush_V f_m(i), m = brush_order: f_1 = i / (|i| + knee) the base form (m = 1, an order
+    below 1 or NaN, as the boards; computed as before the order existed), f_2 = i / sqrt(i^2 +
+    knee^2), and between them the straight blend f_1 + (m - 1) (f_2 - f_1): one square root,
+    no pow on the boards (physics.h)."""
     i = np.asarray(i_true_A, dtype)
     knee = _f(p, "brush_knee_A", dtype)
     knee = knee if knee > dtype(BRUSH_KNEE_MIN_A) else dtype(BRUSH_KNEE_MIN_A)  # NaN: the minimum, as the boards
-    return _f(p, "brush_V", dtype) * i / (np.abs(i) + knee)
+    m = _f(p, "brush_order", dtype)
+    if not m > dtype(1.0):
+        return _f(p, "brush_V", dtype) * i / (np.abs(i) + knee)
+    f1 = i / (np.abs(i) + knee)
+    f2 = i / np.sqrt(i * i + knee * knee)
+    return _f(p, "brush_V", dtype) * (f1 + (m - dtype(1.0)) * (f2 - f1))
 
 
 def ke_at_vs_per_rad(p, temp_C, i_true_A, dtype=np.float64):

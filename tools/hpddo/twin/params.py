@@ -143,6 +143,9 @@ MAGNET_LAG_S = 600.0         # "lag_600s": the magnets' own node, 600 s behind t
 WARMUP_S = 300.0             # "warmup": a sensor offset settling after power-up,
 WARMUP_AT_ONCE = 0.8         # ... this share of it at once (an amplifier's drift while it warms)
 V_BOW_V = 8.0                # "bowed": the voltage channel's gain error g at 8 V, 0 at 0 V
+# Forms outside every library form (issue 21, item 7; test/py/test_diagnosis_forms.py):
+BRUSH_TANH_A = 0.3           # "tanh_300mA": a smooth saturating drop tanh(i / 300 mA)
+SATURATION_LATE_ONSET_A = 0.6  # "onset_600mA": no armature reaction below 600 mA
 _WARMUP = (f"an offset that settles after power-up: {WARMUP_AT_ONCE:.0%} of it at once, the rest with a "
            f"{WARMUP_S:g} s time constant (an amplifier warming up)")
 FORMS = {
@@ -150,11 +153,13 @@ FORMS = {
         "linear": "Ke (1 - s |i|)",
         "quadratic": "Ke (1 - s i^2 / 1 A): the field weakens with the square of the current",
         "onset": f"Ke (1 - s max(0, |i| - {SATURATION_ONSET_A:g} A)): none below the onset current",
+        "onset_600mA": f"Ke (1 - s max(0, |i| - {SATURATION_LATE_ONSET_A:g} A)): none below a late onset current",
     },
     "brush_drop": {
         "constant": "the full drop whenever current flows (a hard switch at zero current)",
         "knee_100mA": f"drop i / (i + {BRUSH_KNEE_SOFT_A * 1000:g} mA), at the mean current: a soft contact film",
         "exp_50mA": f"drop (1 - exp(-i / {BRUSH_EXP_A * 1000:g} mA)), at the mean current",
+        "tanh_300mA": f"drop tanh(i / {BRUSH_TANH_A * 1000:g} mA), at the mean current: a smooth saturating drop",
     },
     "thermal_ra": {
         "winding": "the copper at the winding node's temperature (it runs hotter than the case under load)",
@@ -200,6 +205,8 @@ def saturation_shape(form: str, i_A: float) -> float:
     """How the armature reaction grows with the (non-negative) current, in A."""
     if form == "quadratic":
         return i_A * i_A
+    if form == "onset_600mA":
+        return i_A - SATURATION_LATE_ONSET_A if i_A > SATURATION_LATE_ONSET_A else 0.0
     if form == "onset":
         return i_A - SATURATION_ONSET_A if i_A > SATURATION_ONSET_A else 0.0
     return i_A
@@ -212,6 +219,8 @@ def brush_share(form: str, i_A: float) -> float:
         return i_A / (i_A + BRUSH_KNEE_SOFT_A)
     if form == "exp_50mA":
         return -math.expm1(-i_A / BRUSH_EXP_A)
+    if form == "tanh_300mA":
+        return math.tanh(i_A / BRUSH_TANH_A)
     return 1.0
 
 

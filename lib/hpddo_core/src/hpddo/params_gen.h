@@ -2,8 +2,8 @@
 // command: cd tools && ../.venv/bin/python -m hpddo.regenerate --write
 // source: tools/hpddo/schema.py
 // generator: hpddo.schema 1
-// layout: crc32 0x71a0bead (kParamsSchema)
-// checksum: crc32 0x6529eaed of the text below this banner
+// layout: crc32 0x5effc3d9 (kParamsSchema)
+// checksum: crc32 0xce11459c of the text below this banner
 #ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -13,7 +13,7 @@ namespace hpddo {
 
 /// CRC-32 of the parameter layout (field names, types and order, effect bits). A model
 /// header asserts that it was written for this layout.
-static const uint32_t kParamsSchema = 0x71a0beadu;
+static const uint32_t kParamsSchema = 0x5effc3d9u;
 
 /// Bit of each effect in PhysicsParams::effects, for reporting and telemetry.
 enum Effect : uint16_t {
@@ -50,7 +50,8 @@ struct PhysicsParams {
   float v_gain;         ///< v_gain: reading / true voltage - 1, dimensionless
   float la_H;           ///< inductance: armature inductance, H
   float v_offset_V;     ///< v_offset: reading minus true voltage, V
-  float brush_knee_A;   ///< brush_drop shape: current at which the brush drop reaches half its full value, A
+  float brush_knee_A;   ///< brush_drop shape: current scale over which the brush drop builds up (half of it at the knee for order 1), A
+  float brush_order;    ///< brush_drop shape: how sharply the brush drop levels off: 1 i/(|i|+knee), 2 i/sqrt(i^2+knee^2), the blend between, dimensionless
   float ke_sat_quad;    ///< saturation shape: share of the armature reaction that grows with i^2 (per 1 A) instead of |i|, dimensionless
   float th_r_K_per_W;   ///< thermal state: winding-to-ambient resistance (0: no estimate), K/W
   float th_tau_s;       ///< thermal state: time constant, s
@@ -59,7 +60,7 @@ struct PhysicsParams {
 };
 
 /// Number of PhysicsParams fields, the effect bits included.
-static const uint8_t kPhysicsParamCount = 17;
+static const uint8_t kPhysicsParamCount = 18;
 
 /// Calls f(p.field) for every PhysicsParams field in the schema's order, the order of
 /// the struct, of a model header's initialiser and of model_checksum(): each float
@@ -79,6 +80,7 @@ inline void for_each_param(Params& p, F& f) {
   f(p.la_H);
   f(p.v_offset_V);
   f(p.brush_knee_A);
+  f(p.brush_order);
   f(p.ke_sat_quad);
   f(p.th_r_K_per_W);
   f(p.th_tau_s);

@@ -15,6 +15,7 @@
 #ifndef HPDDO_PLATFORM_H
 #define HPDDO_PLATFORM_H
 
+#include <math.h>
 #include <stddef.h>
 #include <stdint.h>
 
@@ -111,6 +112,17 @@ inline void read(const void* p, void* out, size_t n) {
 #endif
 
 namespace hpddo {
+
+/// The square root in float on every target (correctly rounded, as IEEE 754 requires).
+/// avr-libc has no sqrtf of its own (it names sqrt, whose double is a 32-bit float there):
+/// the call goes through sqrt with the conversions written out, which cost nothing on the AVR.
+inline float sqrt_f(float x) {
+#if defined(__AVR__)
+  return static_cast<float>(sqrt(static_cast<double>(x)));
+#else
+  return sqrtf(x);
+#endif
+}
 
 /// Reads one float stored with HPDDO_FLASH (and only such a float).
 inline float flash_float(const float* p) {
