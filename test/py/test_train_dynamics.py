@@ -129,3 +129,15 @@ def test_a_fast_log_that_does_not_determine_j_is_refused_naming_it_and_why(monke
     text = str(err.value)
     assert "\n" not in text and text.startswith(str(rec.source)), text
     assert "J not determined by these recordings (1 usable duty step(s)" in text and family.NEEDS in text, text
+
+
+def test_an_effect_fitted_outside_its_physical_range_is_refused(trained, tmp_path, capsys):
+    """The inductance fitted on a 100 Hz log comes out negative (the current's rise is over
+    within a row): train refuses to put it on the board, in one line, writing nothing."""
+    out = tmp_path / "m"
+    code = train_cli.main([str(trained / "fast" / "sweep.csv"), "--effects", "inductance", "--out", str(out),
+                           "--quiet"])
+    err = capsys.readouterr().err
+    assert code == 1 and err.count("\n") == 1, err
+    assert "--effects inductance: fitted -" in err and "outside its physical range 0.25..40 mH" in err, err
+    assert "a recording at 1 kHz or faster" in err and not out.exists()

@@ -110,6 +110,24 @@ def golden_samples(recs):
     return out
 
 
+def check_physical(recs, m2: ph.PhysicsParams, names) -> None:
+    """An InputError where a named effect's fitted coefficient lies outside what that effect can
+    physically be (schema.Effect.physical, the plausible range widened twice): the recordings
+    do not determine it, or the error is another effect's (e.g. an inductance fitted negative
+    on a 100 Hz log). A model carrying it would put a false value on the board."""
+    from .model import effects
+    for name in names:
+        e = effects.LIBRARY[name]
+        value = float(getattr(m2, e.field))
+        lo, hi = e.physical
+        if not lo <= value <= hi:
+            files = ", ".join(str(r.source) for r in recs)
+            raise InputError(f"{files}: --effects {name}: fitted {e.show(value)}, outside its physical range "
+                             f"{lo * e.show_scale:.3g}..{hi * e.show_scale:.3g} {e.show_unit} ({e.coefficient}): these "
+                             f"recordings do not determine it, or another effect shows through it; leave it out, or "
+                             f"add what would show it: {e.excited_by} (hpddo diagnose names what the data support)")
+
+
 def identify_dynamics(recs, m2: ph.PhysicsParams):
     """The dynamic family of hpddo train --dynamics: J, B, Tc from the training rows of the
     recordings at 50 Hz and up (diagnosis/dynamics.py, with their intervals) and the observer's
@@ -161,6 +179,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         if cfg.effects:
             from .model import effects
             m2 = effects.identify(recs, m2, cfg.effects)
+            check_physical(recs, m2, cfg.effects)
     fam, dyn = identify_dynamics(recs, m2) if cfg.dynamics else (None, None)
     res = residual_or_physics_only(recs, m2, cfg.train, dyn)  # physics only below one batch of rows
     model = model_data(m1, m2, res, dyn)
