@@ -33,6 +33,32 @@
 #include "platform.h"
 
 namespace hpddo {
+namespace detail {
+
+#if !HPDDO_GATE_EARLY_EXIT  // the boards search with early exits (platform.h); so does avr-gcc 5, without the pragma
+/// min(best, the smallest over the kProtos prototypes (row-major in flash) of the sum over j of
+/// (z_j - p_kj)^2), every sum in full and in the same order of terms, then a vector minimum:
+/// the search without early exits, for the float gate (Acc float) and the integer gate (Acc
+/// int32_t, z and the prototypes int16_t: the sums cannot overflow).
+template <typename Acc, uint8_t kDims, uint8_t kProtos, typename Z, typename P>
+Acc min_sq_distance(const Z (&z)[kDims], const P* prototypes, Acc best) {
+  Acc d2[kProtos];
+  for (uint8_t k = 0; k < kProtos; ++k) {
+    const P* p = prototypes + static_cast<uint32_t>(k) * kDims;
+    Acc acc = 0;
+#pragma GCC unroll 8
+    for (uint8_t j = 0; j < kDims; ++j) {
+      const Acc diff = static_cast<Acc>(z[j]) - static_cast<Acc>(flash_read(p + j));
+      acc = acc + diff * diff;
+    }
+    d2[k] = acc;
+  }
+  for (uint8_t k = 0; k < kProtos; ++k) best = d2[k] < best ? d2[k] : best;  // a vector min
+  return best;
+}
+#endif
+
+}  // namespace detail
 
 /// Distance-to-prototypes gate over kDims inputs and kProtos prototypes in flash.
 template <uint8_t kDims, uint8_t kProtos>
@@ -75,18 +101,7 @@ struct Gate {
 #if !HPDDO_GATE_EARLY_EXIT
     // Every sum in full (the same order of terms), then the minimum: a sum that the
     // early exit would stop is at least best in full too (the terms are not negative).
-    float d2[kProtos];
-    for (uint8_t k = 0; k < kProtos; ++k) {
-      const float* p = prototypes + static_cast<uint32_t>(k) * kDims;
-      float acc = 0.0f;
-#pragma GCC unroll 8
-      for (uint8_t j = 0; j < kDims; ++j) {
-        const float diff = z[j] - flash_float(p + j);
-        acc = acc + diff * diff;
-      }
-      d2[k] = acc;
-    }
-    for (uint8_t k = 0; k < kProtos; ++k) best = d2[k] < best ? d2[k] : best;  // a vector min
+    best = detail::min_sq_distance<float, kDims, kProtos>(z, prototypes, best);
     (void)first;  // the hint serves the early exits only: left as it is
 #else
     uint8_t k = *first < kProtos ? *first : 0;

@@ -16,6 +16,7 @@
 #include <stdint.h>
 
 #include "crc.h"
+#include "gate.h"
 #include "mlp_q.h"
 #include "platform.h"
 
@@ -126,18 +127,7 @@ struct GateQ {
     (void)first;  // the hint serves the early exits only: left as it is
 #elif !HPDDO_GATE_EARLY_EXIT
     // Every sum in full, then the minimum (gate.h); the sums cannot overflow.
-    int32_t d2[kProtos];
-    for (uint8_t k = 0; k < kProtos; ++k) {
-      const int16_t* p = prototypes + static_cast<uint16_t>(k) * kDims;
-      int32_t acc = 0;
-#pragma GCC unroll 8
-      for (uint8_t j = 0; j < kDims; ++j) {
-        const int32_t d = static_cast<int32_t>(z[j]) - flash_int16(p + j);
-        acc += d * d;
-      }
-      d2[k] = acc;
-    }
-    for (uint8_t k = 0; k < kProtos; ++k) best = d2[k] < best ? d2[k] : best;  // a vector min
+    best = detail::min_sq_distance<int32_t, kDims, kProtos>(z, prototypes, best);
     (void)first;  // the hint serves the early exits only: left as it is
 #else
     // The prototypes are stored in ascending order of their coordinate sort_dim (quant.py):

@@ -176,6 +176,11 @@ inline int16_t flash_int16(const int16_t* p) {
 #endif
 }
 
+/// One value stored with HPDDO_FLASH, by its type (for code written once over float and
+/// integer tables: the gates' distances).
+inline float flash_read(const float* p) { return flash_float(p); }
+inline int16_t flash_read(const int16_t* p) { return flash_int16(p); }
+
 /// Reads one int32_t stored with HPDDO_FLASH.
 inline int32_t flash_int32(const int32_t* p) {
 #if defined(__AVR__)
