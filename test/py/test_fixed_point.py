@@ -19,21 +19,6 @@ def default():
     return model, quant.quantise(model)
 
 
-def test_committed_fixed_point_header_is_the_quantised_committed_float_model(default):
-    model, q = default
-    text = (MODEL / "model_default_q.h").read_text()
-    assert f"kChecksum = 0x{export.model_checksum_q(model, q):08x}u" in text
-    assert "typedef hpddo::MlpQ<5, 16, 8, int16_t, " in text
-
-
-@pytest.mark.parametrize("paths,part", [(DATA, "test"), (VALIDATION, "all")], ids=["default-test", "validation"])
-def test_accuracy_cost_against_the_float_model_is_within_budget(default, paths, part):
-    model, q = default
-    acc = quant.accuracy(model, q, dataset.load_recordings(paths), part)
-    assert acc["all"]["rms_diff_rpm"] <= BUDGET_RPM, acc
-    assert abs(acc["all"]["rmse_fixed_rpm"] - acc["all"]["rmse_float_rpm"]) <= BUDGET_RPM, acc
-
-
 def test_no_accumulator_overflows_for_any_input(default):
     """forward_int asserts every sum within int32; inputs at the int16 extremes and random."""
     model, q = default
@@ -67,17 +52,32 @@ def default_int8(default):
     return model, export.quantise_int8(model, train.training_rows(recs, model.physics)[0])
 
 
-def test_committed_int8_header_is_the_int8_quantisation_of_the_committed_float_model(default_int8):
-    model, q8 = default_int8
-    text = (MODEL / "model_default_q8.h").read_text()
-    assert f"kChecksum = 0x{export.model_checksum_q(model, q8):08x}u" in text
-    assert "typedef hpddo::MlpQ<5, 16, 8, int8_t, " in text and ", int8_t> Net;" in text
+# Both integer models (int16 layer 0: model_default_q.h; int8: model_default_q8.h): the
+# committed header is the quantisation of the committed float model, and costs at most the
+# budget against it.
+VARIANTS = {"int16": ("model_default_q.h", "typedef hpddo::MlpQ<5, 16, 8, int16_t, "),
+            "int8": ("model_default_q8.h", "typedef hpddo::MlpQ<5, 16, 8, int8_t, ")}
+
+
+@pytest.fixture(params=list(VARIANTS))
+def integer_model(request, default, default_int8):
+    return (request.param, *(default if request.param == "int16" else default_int8))
+
+
+def test_committed_integer_header_is_the_quantisation_of_the_committed_float_model(integer_model):
+    name, model, q = integer_model
+    header, typedef = VARIANTS[name]
+    text = (MODEL / header).read_text()
+    assert f"kChecksum = 0x{export.model_checksum_q(model, q):08x}u" in text
+    assert typedef in text
+    if name == "int8":
+        assert ", int8_t> Net;" in text
 
 
 @pytest.mark.parametrize("paths,part", [(DATA, "test"), (VALIDATION, "all")], ids=["default-test", "validation"])
-def test_int8_accuracy_cost_against_the_float_model_is_within_budget(default_int8, paths, part):
-    model, q8 = default_int8
-    acc = quant.accuracy(model, q8, dataset.load_recordings(paths), part)
+def test_integer_accuracy_cost_against_the_float_model_is_within_budget(integer_model, paths, part):
+    _, model, q = integer_model
+    acc = quant.accuracy(model, q, dataset.load_recordings(paths), part)
     assert acc["all"]["rms_diff_rpm"] <= BUDGET_RPM, acc
     assert abs(acc["all"]["rmse_fixed_rpm"] - acc["all"]["rmse_float_rpm"]) <= BUDGET_RPM, acc
 
