@@ -44,6 +44,25 @@ inline int32_t flash_weight<int16_t>(const int16_t* p) { return flash_int16(p); 
 template <>
 inline int32_t flash_weight<int8_t>(const int8_t* p) { return flash_int8(p); }
 
+#if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
+// After a MULS or MULSU (the signed 16-bit product in r1:r0, its sign in the carry), the
+// product added into the 32-bit accumulator %[acc], the carry subtracted from the bytes above
+// it first (the sign extension); %[z] holds zero. _BCD: the product of a high byte, at bytes
+// B..D; _ABCD: of a low byte, at bytes A..D.
+#define HPDDO_AVR_ADD_PRODUCT_BCD \
+  "sbc   %D[acc], %[z] \n\t"      \
+  "add   %B[acc], r0   \n\t"      \
+  "adc   %C[acc], r1   \n\t"      \
+  "adc   %D[acc], %[z] \n\t"
+#define HPDDO_AVR_ADD_PRODUCT_ABCD \
+  "sbc   %C[acc], %[z] \n\t"       \
+  "sbc   %D[acc], %[z] \n\t"       \
+  "add   %A[acc], r0   \n\t"       \
+  "adc   %B[acc], r1   \n\t"       \
+  "adc   %C[acc], %[z] \n\t"       \
+  "adc   %D[acc], %[z] \n\t"
+#endif
+
 /// acc + a b, a and b int16, exactly (the sum cannot overflow: quant.py's bounds).
 __attribute__((always_inline)) inline int32_t mac16(int32_t acc, int16_t a, int16_t b) {
 #if defined(__AVR__) && defined(__AVR_HAVE_MUL__)
@@ -61,15 +80,9 @@ __attribute__((always_inline)) inline int32_t mac16(int32_t acc, int16_t a, int1
       "adc   %C[acc], %[z] \n\t"
       "adc   %D[acc], %[z] \n\t"
       "mulsu %B[a], %A[b]  \n\t"
-      "sbc   %D[acc], %[z] \n\t"
-      "add   %B[acc], r0   \n\t"
-      "adc   %C[acc], r1   \n\t"
-      "adc   %D[acc], %[z] \n\t"
+      HPDDO_AVR_ADD_PRODUCT_BCD
       "mulsu %B[b], %A[a]  \n\t"
-      "sbc   %D[acc], %[z] \n\t"
-      "add   %B[acc], r0   \n\t"
-      "adc   %C[acc], r1   \n\t"
-      "adc   %D[acc], %[z] \n\t"
+      HPDDO_AVR_ADD_PRODUCT_BCD
       "clr   r1            \n\t"
       : [acc] "+r"(acc), [z] "=&r"(zero)
       : [a] "a"(a), [b] "a"(b)
@@ -90,17 +103,9 @@ __attribute__((always_inline)) inline int32_t mac8(int32_t acc, int8_t w, int16_
   __asm__(
       "clr   %[z]          \n\t"
       "muls  %[w], %B[a]   \n\t"
-      "sbc   %D[acc], %[z] \n\t"
-      "add   %B[acc], r0   \n\t"
-      "adc   %C[acc], r1   \n\t"
-      "adc   %D[acc], %[z] \n\t"
+      HPDDO_AVR_ADD_PRODUCT_BCD
       "mulsu %[w], %A[a]   \n\t"
-      "sbc   %C[acc], %[z] \n\t"
-      "sbc   %D[acc], %[z] \n\t"
-      "add   %A[acc], r0   \n\t"
-      "adc   %B[acc], r1   \n\t"
-      "adc   %C[acc], %[z] \n\t"
-      "adc   %D[acc], %[z] \n\t"
+      HPDDO_AVR_ADD_PRODUCT_ABCD
       "clr   r1            \n\t"
       : [acc] "+r"(acc), [z] "=&r"(zero)
       : [w] "a"(w), [a] "a"(a)
@@ -167,17 +172,9 @@ inline int32_t dot_lpm8(const int8_t* row, int32_t bias, const int16_t* in) {
       "breq  2f            \n\t"
       ".endif              \n\t"
       "muls  %[w], %[hi]   \n\t"
-      "sbc   %D[acc], %[z] \n\t"
-      "add   %B[acc], r0   \n\t"
-      "adc   %C[acc], r1   \n\t"
-      "adc   %D[acc], %[z] \n\t"
+      HPDDO_AVR_ADD_PRODUCT_BCD
       "mulsu %[w], %[lo]   \n\t"
-      "sbc   %C[acc], %[z] \n\t"
-      "sbc   %D[acc], %[z] \n\t"
-      "add   %A[acc], r0   \n\t"
-      "adc   %B[acc], r1   \n\t"
-      "adc   %C[acc], %[z] \n\t"
-      "adc   %D[acc], %[z] \n\t"
+      HPDDO_AVR_ADD_PRODUCT_ABCD
       "2:                  \n\t"
       ".endr               \n\t"
       "clr   r1            \n\t"
