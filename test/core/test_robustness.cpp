@@ -33,13 +33,7 @@ float speed_bound_rpm(const hpddo::Model<Net>& m) {
 }
 
 hpddo::Sample make(float v, float i, float temp, float dt, uint16_t seq, bool has_seq = true) {
-  hpddo::Sample s;
-  s.v_V = v;
-  s.i_A = i;
-  s.temp_C = temp;
-  s.dt_s = dt;
-  s.seq = seq;
-  s.has_seq = has_seq;
+  const hpddo::Sample s = {v, i, temp, dt, seq, has_seq};  // the fields in their declared order
   return s;
 }
 
