@@ -20,7 +20,11 @@
  * compare match, the cycle of the period's start (the last TOV1), whether the ADC started
  * (1; 0 when it was converting; -1 when the flag was still set, no edge),
  * the fed mV and code; and <out>/ripple_isr.csv: per ADC interrupt its entry cycle and
- * cycles until reti (nested interrupts included), and whether ADATE was set at entry.
+ * cycles until reti (nested interrupts included), and whether ADATE was set at entry; and
+ * <out>/ripple_reads.csv: every read of the ADC's result (ADCL, which the firmware reads in an
+ * atomic section with the window's bank), its cycle, the 10-bit code, ADMUX's channel bit and
+ * ADATE at the read: with the window closes, which window's V or I sum each code went into
+ * (check_uno_ripple.py's exact V/I means).
  */
 #ifndef UNO_SIM_RIPPLE_H
 #define UNO_SIM_RIPPLE_H
@@ -62,6 +66,33 @@ static int rip_isr_depth;
 static avr_cycle_count_t rip_isr_entry;
 static int rip_isr_triggered;
 static unsigned rip_cur_i_mV; /* the window's current, for free-running conversions of A1 */
+typedef struct {
+  avr_cycle_count_t cycle;
+  unsigned code;
+  int channel, adate;
+} rip_read_t;
+static rip_read_t* rip_read;
+static long rip_n_read;
+#define RIP_ADCL 0x78
+#define RIP_ADCH 0x79
+#define RIP_ADMUX 0x7C
+static avr_io_read_t rip_adcl_orig; /* simavr's ADCL read (it converts there) */
+static void* rip_adcl_orig_param;
+
+/* ADCL is read: simavr's own read converts, then the code, channel and ADATE are recorded. */
+static uint8_t rip_adcl_read(struct avr_t* a, avr_io_addr_t addr, void* param) {
+  (void)param;
+  const uint8_t lo = rip_adcl_orig(a, addr, rip_adcl_orig_param);
+  if (rip_n_read < RIP_MAX) {
+    rip_read_t* r = &rip_read[rip_n_read++];
+    r->cycle = a->cycle;
+    r->code = lo | ((unsigned)(a->data[RIP_ADCH] & 3u) << 8);
+    r->channel = a->data[RIP_ADMUX] & 1;
+    r->adate = (a->data[RIP_ADCSRA] >> RIP_ADATE) & 1;
+  }
+  return lo;
+}
+
 static unsigned rip_sp_min = 0xFFFF; /* the stack pointer's low-water mark (rip_step) */
 static unsigned rip_ram_end;          /* first address above .data and .bss */
 
@@ -184,7 +215,14 @@ static int rip_init(unsigned ram_end) {
   if (!rip_n_feed) return -1;
   rip_trig = calloc(RIP_MAX, sizeof *rip_trig);
   rip_isr = calloc(RIP_MAX, sizeof *rip_isr);
+  rip_read = calloc(RIP_MAX, sizeof *rip_read);
   rip_on = 1;
+  /* Chained by hand: avr_register_io_read refuses a second callback on an address. */
+  rip_adcl_orig = avr->io[AVR_DATA_TO_IO(RIP_ADCL)].r.c;
+  rip_adcl_orig_param = avr->io[AVR_DATA_TO_IO(RIP_ADCL)].r.param;
+  if (!rip_adcl_orig) return -1;
+  avr->io[AVR_DATA_TO_IO(RIP_ADCL)].r.c = rip_adcl_read;
+  avr->io[AVR_DATA_TO_IO(RIP_ADCL)].r.param = NULL;
   avr_irq_t* compb = rip_vector_irq(RIP_VEC_T1_COMPB, AVR_INT_IRQ_PENDING);
   avr_irq_t* ovf = rip_vector_irq(RIP_VEC_T1_OVF, AVR_INT_IRQ_PENDING);
   avr_irq_t* adc_run = rip_vector_irq(RIP_VEC_ADC, AVR_INT_IRQ_RUNNING);
@@ -217,6 +255,14 @@ static int rip_write(const char* outdir) {
   for (long k = 0; k < rip_n_isr; ++k)
     fprintf(f, "%llu,%llu,%d\n", (unsigned long long)rip_isr[k].entry, (unsigned long long)rip_isr[k].cycles,
             rip_isr[k].triggered);
+  fclose(f);
+  snprintf(path, sizeof path, "%s/ripple_reads.csv", outdir);
+  f = fopen(path, "w");
+  if (!f) return -1;
+  fprintf(f, "cycle,code,channel,adate\n");
+  for (long k = 0; k < rip_n_read; ++k)
+    fprintf(f, "%llu,%u,%d,%d\n", (unsigned long long)rip_read[k].cycle, rip_read[k].code, rip_read[k].channel,
+            rip_read[k].adate);
   fclose(f);
   const char* peek = getenv("UNO_SIM_PEEK"); /* a data address to print at the end (the ring's peak) */
   if (peek && *peek) {
