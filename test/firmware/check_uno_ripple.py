@@ -61,6 +61,21 @@ def fail(msg):
     sys.exit(1)
 
 
+MEASURE = []  # --measure: the budget faults seen (lost windows, a window's work over its length)
+
+
+def fail_or_note(msg):
+    """A fault of the CPU budget: fails, or with --measure is noted and the figures go on."""
+    if MEASURE_MODE:
+        print("NOT A PASS:", msg)
+        MEASURE.append(msg)
+    else:
+        fail(msg)
+
+
+MEASURE_MODE = False
+
+
 def mv_for_code(code):
     """The pin mV that simavr converts to code (code = mV * 1023 // 5000)."""
     mv = -(-code * 5000 // 1023)
@@ -205,7 +220,12 @@ def check_count(a, twin, df, windows, feed_codes, n_feed_windows, win_periods, n
     ref = rc.track(bursts, v, i, df["rpm_est"].to_numpy(), 1.0 / a.rate, model.physics, float(a.hz), per_rev,
                    win_periods - n_burst)
     worst = [0.0, 0.0, 0.0]
+    first_off = None
     for row, r in zip(df.itertuples(), ref):
+        if first_off is None and ((np.isfinite(row.rpm_rip) and abs(row.rpm_rip - r["rpm"]) > 0.006)
+                                  or (r["have_ra"] and abs(row.ra_ohm - r["ra_ohm"]) > 2e-3)):
+            first_off = (f"first at seq {row.seq}: board {row.rpm_rip} RPM, Ra {row.ra_ohm}; reference "
+                         f"{r['rpm']:.3f} RPM ({r['cyc']} cycles, k {r['k']}), Ra {r['ra_ohm']:.5f}")
         got_conf = np.isfinite(row.rpm_rip)
         if got_conf != r["confident"]:
             fail(f"seq {row.seq}: board confident={got_conf} ({row.rpm_rip}), reference {r['confident']} "
@@ -221,7 +241,7 @@ def check_count(a, twin, df, windows, feed_codes, n_feed_windows, win_periods, n
           f"reference: rpm_rip within {worst[0]:.4f} RPM (printed with 2 decimals), Ra within {worst[1]:.5f} ohm, "
           f"T within {worst[2]:.3f} K")
     if worst[0] > 0.006 or worst[1] > 2e-3 or worst[2] > 0.15:
-        fail("the board's counter or Ra tracker differs from the reference")
+        fail(f"the board's counter or Ra tracker differs from the reference ({first_off})")
     # against the twin's truth
     truth = read_log(a.twin).df  # noqa: F841 (the encoder)
     tcsv = np.genfromtxt(str(a.twin).replace(".csv", ".truth.csv"), delimiter=",", names=True)
@@ -250,14 +270,23 @@ def main():
                     help="drive and feed from this twin log and its bursts (2 Hz, ripple at --hz); --rate "
                          "and --duty then come from it")
     ap.add_argument("--count", action="store_true", help="the counting build (-DACQ_RIPPLE_COUNT=1)")
+    ap.add_argument("--twin-rate", type=float, default=2.0,
+                    help="--count without --twin: the windows per second of the twin it makes")
+    ap.add_argument("--twin-time-scale", type=float, default=0.1,
+                    help="--count without --twin: the time scale of the twin it makes")
+    ap.add_argument("--frame-dump", default=None,
+                    help="frame_dump (test/firmware/frame_dump.cpp): decode the ESP8266 link and check its frames")
     ap.add_argument("--measure", action="store_true",
                     help="print the figures even when the harness reports link errors or missing rows (not a test)")
     a = ap.parse_args()
+    global MEASURE_MODE
+    MEASURE_MODE = a.measure
     twin = None
     if a.count and a.twin is None:
         a.twin = pathlib.Path(a.workdir) / "twin" / "load.csv"
         subprocess.run([sys.executable, "-m", "hpddo", "twin", "--protocol", "load", "--ripple-hz", str(a.hz),
-                        "--time-scale", "0.1", "--out", str(a.twin.parent)], check=True, capture_output=True,
+                        "--rate-hz", f"{a.twin_rate:g}", "--time-scale", f"{a.twin_time_scale:g}",
+                        "--out", str(a.twin.parent)], check=True, capture_output=True,
                        env={"PYTHONPATH": str(ROOT / "tools"), "PATH": "/usr/bin:/bin"})
     if a.twin is not None:
         twin = read_log(a.twin)
@@ -337,6 +366,10 @@ def main():
     seqs = [int(s) for s in df["seq"]]
     print(f"log: {len(df)} rows, seq {seqs[0]}..{seqs[-1]}; {len(chunk_lines)} chunk lines, {asm.chunks} chunks, "
           f"{len(bursts)} whole bursts of {n_burst} codes, {len(incomplete)} incomplete (seq {incomplete})")
+    if len(df) < a.rows:
+        fail_or_note(f"{len(df)} rows, want {a.rows}")
+    if seqs != list(range(seqs[0], seqs[0] + len(seqs))):
+        fail_or_note(f"seq has a gap: windows lost ({sorted(set(range(seqs[0], seqs[-1] + 1)) - set(seqs))[:5]} ...)")
 
     # ---- windows and triggers
     windows = {}
@@ -455,12 +488,42 @@ def main():
     print(f"CPU share of the ADC interrupt over {len(seqs)} windows: {100 * share:.1f} % "
           f"({busy_all} of {t1 - t0} cycles)")
 
-    # ---- the main loop's work on each closed window (GPIOR1 markers), beside the sender
-    busy = (work / "busy.csv").read_text().splitlines()[1:]
-    for kind in ("window", "observer"):
-        c = sorted(int(l.split(",")[2]) for l in busy if l.startswith(kind + ","))
+    # ---- the main loop's work on each recorded window (GPIOR1 markers: it starts after the
+    # window's close), beside the sender or the counter; it must end within a window
+    window_cycles = round(F_CPU / a.rate)
+    w_first, w_last = windows[seqs[0]]["close"], windows[seqs[-1]]["close"]
+    busy = [l.split(",") for l in (work / "busy.csv").read_text().splitlines()[1:]]
+    loop = {}
+    for kind in ("window", "observer", "ripple"):
+        c = sorted(int(cyc) for k, start, cyc in busy if k == kind and w_first <= int(start) < w_last + window_cycles)
         if c:
-            print(f"main loop, {kind}: median {c[len(c) // 2]} max {c[-1]} cycles ({len(c)} windows)")
+            loop[kind] = dict(median=c[len(c) // 2], max=c[-1], n=len(c))
+            print(f"main loop, {kind}: median {c[len(c) // 2]} max {c[-1]} cycles of the {window_cycles}-cycle window "
+                  f"({100.0 * c[len(c) // 2] / window_cycles:.1f} % median, {100.0 * c[-1] / window_cycles:.1f} % at "
+                  f"most), {len(c)} windows")
+    if "window" not in loop:
+        fail("no main-loop markers for the recorded windows")
+    if loop["window"]["max"] >= window_cycles:
+        fail_or_note(f"the work on a window takes up to {loop['window']['max']} cycles, longer than the window")
+    print(f"figures: adc_share_pct={100 * share:.2f} loop_median={loop['window']['median']} "
+          f"loop_max={loop['window']['max']} window_cycles={window_cycles}")
+
+    # ---- the ESP8266 link: every recorded window's frame, CRCs valid, no byte dropped
+    if a.frame_dump:
+        out = subprocess.run([a.frame_dump, str(work / "link.bin")], capture_output=True, text=True,
+                             check=True).stdout.strip().splitlines()
+        summary = dict(kv.split("=") for kv in out[-1][2:].split())
+        frames = {int(l.split(",")[0]): [int(x) for x in l.split(",")] for l in out[1:-1]}
+        if int(summary["crc_errors"]) or int(summary["dropped_bytes"]):
+            fail(f"link: {summary}")
+        for row in df.itertuples():
+            f = frames.get(int(row.seq) & 0xFFFF)
+            if f is None:
+                fail(f"link: no frame for seq {row.seq}")
+            if abs(f[3] - row.v_V * 1000) > 1 or abs(f[4] - row.i_A * 1000) > 1 or abs(f[2] - row.duty * 255) > 0.51:
+                fail(f"link: frame {f} does not match row {row}")
+        print(f"link: {summary['frames']} frames, no CRC error, no dropped byte; every recorded row's frame "
+              f"holds its V, I and duty")
 
     # ---- bytes/s on the USB line
     sim_s = (t1 - t0) / F_CPU
@@ -486,7 +549,7 @@ def main():
         print(f"stack: low-water mark {sp_room} bytes above the static RAM")
         if sp_room < 64:
             fail("the stack came within 64 bytes of the static RAM")
-        print("PASS")
+        print("MEASURED, NOT A PASS: " + "; ".join(MEASURE) if MEASURE else "PASS")
         return
 
     # ---- the burst file hpddo ripple reads
@@ -512,7 +575,7 @@ def main():
     print(f"stack: low-water mark {sp_room} bytes above the static RAM")
     if sp_room < 64:
         fail("the stack came within 64 bytes of the static RAM")
-    print("PASS")
+    print("MEASURED, NOT A PASS: " + "; ".join(MEASURE) if MEASURE else "PASS")
 
 
 if __name__ == "__main__":
