@@ -463,7 +463,7 @@ def main():
 
     # ---- ADC interrupt: cycles, ends before the next trigger, CPU share
     isr = []
-    for l in (work / "ripple_isr.csv").read_text().splitlines()[1:]:
+    for l in (work / "adc_isr.csv").read_text().splitlines()[1:]:
         e, c, tr = (int(x) for x in l.split(","))
         isr.append((e, c, tr))
     t0, t1 = windows[seqs[0] - 1]["close"], windows[seqs[-1]]["close"]
@@ -505,8 +505,12 @@ def main():
         fail("no main-loop markers for the recorded windows")
     if loop["window"]["max"] >= window_cycles:
         fail_or_note(f"the work on a window takes up to {loop['window']['max']} cycles, longer than the window")
-    print(f"figures: adc_share_pct={100 * share:.2f} loop_median={loop['window']['median']} "
-          f"loop_max={loop['window']['max']} window_cycles={window_cycles}")
+    fig = (f"figures: adc_share_pct={100 * share:.2f} loop_median={loop['window']['median']} "
+           f"loop_max={loop['window']['max']} window_cycles={window_cycles}")
+    for kind, key in (("observer", "obs"), ("ripple", "rip")):
+        if kind in loop:
+            fig += f" {key}_median={loop[kind]['median']} {key}_max={loop[kind]['max']}"
+    print(fig)
 
     # ---- the ESP8266 link: every recorded window's frame, CRCs valid, no byte dropped
     if a.frame_dump:

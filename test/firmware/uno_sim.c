@@ -9,6 +9,8 @@
  *   <out>/windows.csv  per closed sample window: seq, cycle of the close,
  *                      driven pin voltages, driven speed, encoder counts
  *                      driven
+ *   <out>/adc_isr.csv  per ADC interrupt: entry cycle, cycles to reti (nested
+ *                      ones included), ADATE at entry (uno_sim_ripple.h)
  *   <out>/busy.csv     the main loop's work per window (GPIOR1 1..2), the
  *                      observer step in it (GPIOR1 3..4) and the ripple counter's
  *                      window step (GPIOR1 5..6, the counting build): kind, start
@@ -314,6 +316,10 @@ int main(int argc, char** argv) {
                           link_pin, NULL);
   avr_register_io_write(avr, GPIOR0_ADDR, marker_write, NULL);
   avr_register_io_write(avr, GPIOR1_ADDR, busy_write, NULL);
+  if (adc_isr_init()) {
+    fprintf(stderr, "uno_sim: no ADC interrupt irq\n");
+    return 2;
+  }
   if (rip_init(0x100u + fw.datasize + fw.bsssize)) {
     fprintf(stderr, "uno_sim: bad ripple feed %s or no interrupt irqs\n", getenv("UNO_SIM_RIPPLE"));
     return 2;
@@ -381,7 +387,7 @@ int main(int argc, char** argv) {
             (unsigned long long)busy[k].start,
             (unsigned long long)busy[k].cycles);
   fclose(f);
-  if (rip_write(outdir)) return 2;
+  if (rip_write(outdir) || adc_isr_write(outdir)) return 2;
   printf("uno_sim: %.3f s simulated, %ld windows, %d log rows, %ld link bytes (%ld framing errors), "
          "%d marker errors, link bit %.2f cycles\n",
          (double)avr->cycle / F_CPU, n_windows, rows_seen, n_link, framing, seq_errors, link_bit_cycles);
