@@ -18,7 +18,12 @@ period's start, whether the ADC started, and every ADC interrupt. Then:
 * each triggered conversion's interrupt ends before the next trigger; its cycles and the
   CPU share of the ADC interrupt are printed, and the bytes/s of the bursts against the
   line (500000 baud);
-* the log rows' V and I are the means of the free-running conversions driven (one LSB);
+* the log rows' V and I are the means of the free-running conversions the board read in each
+  window (ripple_reads.csv), each the driven value (free_running_means says the one exception);
+* no window lost (the rows' seq without a gap), the main loop's work on every recorded window
+  within the window (printed, with the ADC interrupt's share, as a "figures:" line that hpddo
+  bench --observer reads); with --frame-dump, every recorded row's frame on the ESP8266 link,
+  no CRC error and no dropped byte (the harness fails on a framing error);
 * the bursts written as <condition>.ripple.csv (ripple_link.bursts_file) read back with
   hpddo.logs.ripple.read;
 * the stack's low-water mark stays above the static RAM (printed).
