@@ -106,7 +106,7 @@ inline uint16_t ripple_trigger(const PwmTiming& t, uint16_t ocr1a, uint16_t duty
 
 /// Line characters of the chunks of a burst of n samples.
 inline uint32_t ripple_burst_chars(uint16_t n) {
-  const uint16_t full = n / kRippleChunkSamples;
+  const uint16_t full = static_cast<uint16_t>(n / kRippleChunkSamples);
   const uint8_t rest = static_cast<uint8_t>(n % kRippleChunkSamples);
   uint32_t chars = static_cast<uint32_t>(full) * kRippleLineMax;
   if (rest) {

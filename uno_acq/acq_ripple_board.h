@@ -72,8 +72,13 @@ struct State {
   volatile uint16_t deferred;     ///< codes taken from a nested interrupt
   uint32_t chunks;                ///< chunks sent
   // the ripple counter (acq_ripple_count.h): the ADC interrupt counts, the main loop reads
-  volatile uint8_t next_k;        ///< low-pass shift for the next burst (main loop, from the prior)
-  volatile uint16_t next_t_exp;   ///< expected ripple period for the next burst, PWM periods (0: none)
+  struct Band {
+    uint32_t seq;                 ///< the window whose burst this band is for
+    uint16_t t_exp;               ///< expected ripple period, PWM periods (0: none)
+    uint8_t k;                    ///< low-pass shift
+    bool valid;
+  } band[2];                      ///< by the burst's seq & 1 (main loop writes, the burst's open reads)
+  uint8_t band_lag;               ///< windows from the prior's to the burst's (ripple_band_lag)
   volatile bool counted_burst;    ///< a burst has been counted since configure()
   volatile uint32_t reset_seq;    ///< the counter starts afresh at this window's burst
   volatile bool reset_pending;
@@ -112,8 +117,8 @@ inline bool configure(uint32_t hz, uint16_t window_periods, uint32_t baud) {
   g.sent = 0;
   g_ring.clear();
   ripple_counter_reset(&g_counter);
-  g.next_k = g_counter.k;
-  g.next_t_exp = 0;
+  g.band[0].valid = g.band[1].valid = false;
+  g.band_lag = ripple_band_lag(g.burst_period, pwm_period_cycles(rt.pwm));
   g.counted_burst = false;
   g.count.valid = false;
   ADCSRB = 0;
@@ -150,18 +155,35 @@ __attribute__((always_inline)) inline void on_period(uint16_t p, uint32_t seq) {
   s.open = true;
   g.slot_w = static_cast<uint8_t>(g.slot_w + 1);
   g.left = g.burst_n;
+  // The counter begins the burst at its first code, in the ADC interrupt (begin_count), not
+  // here: this interrupt runs with interrupts off, and the link's bit interrupt must not wait
+  // behind it (a burst's opening here took 439 cycles, and 100 Hz windows had framing errors
+  // on the ESP8266 link in simavr).
+}
+
 #if ACQ_RIPPLE_COUNT
-  if (g.reset_pending && seq == g.reset_seq) {  // a recording's first window: from a cold start
-    g.reset_pending = false;
+/// The count of the burst of window seq begins (its first code, the ADC interrupt, interrupts
+/// on): the band from the prior of window seq - band_lag (on_window), none yet: the reset's;
+/// from a cold start at a recording's first window. g.count (the last burst's, tagged with its
+/// seq) stays until this burst's last code: at 100 Hz windows the main loop may read the window
+/// before's after this burst began.
+__attribute__((noinline)) void begin_count(uint32_t seq) {
+  cli();
+  const State::Band b = g.band[seq & 1u];
+  const bool reset = g.reset_pending && seq == g.reset_seq;
+  if (reset) g.reset_pending = false;
+  sei();
+  uint8_t k = kRippleLpReset;
+  uint16_t t_exp = 0;
+  if (b.valid && b.seq == seq) k = b.k, t_exp = b.t_exp;
+  if (reset) {
     ripple_counter_reset(&g_counter);
-    g.next_k = g_counter.k;
-    g.next_t_exp = 0;
+    k = g_counter.k;
     g.counted_burst = false;
   }
-  ripple_counter_begin(&g_counter, g.next_k, g.next_t_exp, g.burst_period, !g.counted_burst);
-  g.count.valid = false;
-#endif
+  ripple_counter_begin(&g_counter, k, t_exp, g.burst_period, !g.counted_burst);
 }
+#endif
 
 /// OCR1B of a setpoint: the middle of its on-time (main loop; preload copies it).
 inline uint16_t trigger_for(const PwmTiming& t, uint16_t ocr1a, uint16_t duty_q) {
@@ -178,6 +200,7 @@ __attribute__((always_inline)) inline void triggered_sample(uint16_t code) {
   if (!left) return;  // a trigger between the arm and the burst: not a sample
   Slot& s = g.slot[static_cast<uint8_t>(w - 1u) & (kSlots - 1)];
 #if ACQ_RIPPLE_COUNT
+  if (left == g.burst_n) begin_count(s.seq);
   ripple_counter_sample(&g_counter, code);
   if (left == 1u) {  // the burst's last sample: its count, for the main loop's window
     g.count.seq = s.seq;
@@ -309,11 +332,20 @@ inline WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float
   out.have_ra = track ? ripple_ra_step(p, v_V, i_A, out.rpm, dt_s, &g_ra) : g_ra.have;
   out.ra_ohm = g_ra.ra_ohm;
   out.tw_C = g_ra.tw_C;
-  // The next window's burst (its last periods: it has not begun) is counted in the band of
-  // this window's prior, at the decimated rate, and across its gap with this expected period.
-  g.next_k = ripple_lp_shift(f_prior, 0.5f * fs);
-  const float t_exp = f_prior > 0.0f ? fs / f_prior + 0.5f : 0.0f;
-  g.next_t_exp = static_cast<uint16_t>(t_exp > 65535.0f ? 65535.0f : t_exp);
+  // The burst of window seq + band_lag (its last periods: it has not begun) is counted in the
+  // band of this window's prior, at the decimated rate, and across its gap with this expected
+  // period. From a recording's windows only: the reference starts there (no band before).
+  if (static_cast<int32_t>(seq - g_ra_from_seq) >= 0) {
+    const float t_exp = f_prior > 0.0f ? fs / f_prior + 0.5f : 0.0f;
+    State::Band b;
+    b.seq = seq + g.band_lag;
+    b.k = ripple_lp_shift(f_prior, 0.5f * fs);
+    b.t_exp = static_cast<uint16_t>(t_exp > 65535.0f ? 65535.0f : t_exp);
+    b.valid = true;
+    cli();
+    g.band[b.seq & 1u] = b;
+    sei();
+  }
   return out;
 }
 

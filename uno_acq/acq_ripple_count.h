@@ -42,6 +42,7 @@ namespace acq {
 static const uint8_t kRippleAmpShift = 8;
 static const uint8_t kRippleLpMin = 2;   ///< k range: band corners at fs/(2 pi 4) .. fs/(2 pi 1024)
 static const uint8_t kRippleLpMax = 10;
+static const uint8_t kRippleLpReset = 5;  ///< k of a burst without a prior's band (ripple_counter_reset's)
 static const float kRippleCountPriorTol = 0.25f;  ///< |f / f_prior - 1| at most for a confident count
 
 /// The counter's state; the ADC interrupt calls sample() on each burst code.
@@ -61,7 +62,7 @@ struct RippleCounter {
 
 inline void ripple_counter_reset(RippleCounter* c) {
   c->l1 = c->l2 = c->b = c->amp = 0;
-  c->k = 5;
+  c->k = kRippleLpReset;
   c->high = c->odd = c->have_last = 0;
   c->settle = c->t = c->last_t = c->t15 = c->t25 = c->cyc = c->span = 0;
 }
@@ -127,6 +128,22 @@ __attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, ui
     c->high = 0;
   }
   if (c->settle) --c->settle;
+}
+
+/// The main loop's work on a window ends this many cycles after the window's close at most (with
+/// margin): 85 600 measured at 100 Hz windows (simavr, the counting build; docs/ripple.md).
+static const uint32_t kRippleBandLeadCycles = 320000u;
+
+/// Windows between the one whose prior sets a burst's band (on_window, in the main loop after
+/// the observer's step) and the burst's window. 1 when the burst opens surely after that work
+/// (burst_period periods of period_cycles after the close, at least kRippleBandLeadCycles: 2 and
+/// 10 Hz windows); else 2 (100 Hz windows: the burst opens 36 periods, 57 600 cycles, after the
+/// close, while the main loop's work on the window before may still run, up to 85 600 cycles
+/// in simavr): the band then comes from the prior of the window before the last, whose work
+/// ended in the window before, so which prior counts a burst never depends on the main loop's
+/// timing, and the host's reference (ripple_count.py band_lag) counts the same.
+inline uint8_t ripple_band_lag(uint16_t burst_period, uint32_t period_cycles) {
+  return static_cast<uint32_t>(burst_period) * period_cycles >= kRippleBandLeadCycles ? 1u : 2u;
 }
 
 /// The low-pass shift for an expected ripple frequency f_hz at fs_hz: two-pole corner near 2 f.

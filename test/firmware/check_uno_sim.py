@@ -238,6 +238,25 @@ def main():
             if kind == "window" and c[-1] >= nominal:
                 fail("the work on a window takes longer than the window")
 
+    # ---- the figures over the recorded windows (hpddo bench --observer reads this line): the
+    # main loop's work on each (it starts after the window's close) and the ADC interrupt's
+    # share of the CPU (adc_isr.csv: nested interrupts included)
+    t0, t1 = windows[int(seq[0]) - 1]["close"], windows[int(seq[-1])]["close"]
+    rec = {kind: sorted(int(l.split(",")[2]) for l in busy if l.startswith(kind + ",")
+                        and windows[int(seq[0])]["close"] <= int(l.split(",")[1]) < t1 + nominal)
+           for kind in ("window", "observer")}
+    rec = {k: v for k, v in rec.items() if v}
+    isr = [tuple(int(x) for x in l.split(",")) for l in (work / "adc_isr.csv").read_text().splitlines()[1:]]
+    adc = sum(c for e, c, _ in isr if t0 <= e < t1)
+    print(f"ADC interrupt: {sum(1 for e, _, _ in isr if t0 <= e < t1)} interrupts over the {len(df)} recorded windows, "
+          f"{100.0 * adc / (t1 - t0):.1f} % of the CPU ({adc} of {t1 - t0} cycles)")
+    if "window" in rec:
+        fig = (f"figures: adc_share_pct={100.0 * adc / (t1 - t0):.2f} loop_median={rec['window'][len(rec['window']) // 2]} "
+               f"loop_max={rec['window'][-1]} window_cycles={nominal}")
+        if "observer" in rec:
+            fig += f" obs_median={rec['observer'][len(rec['observer']) // 2]} obs_max={rec['observer'][-1]}"
+        print(fig)
+
     # ---- ESP8266 link frames
     out = subprocess.run([a.frame_dump, str(work / "link.bin")], capture_output=True, text=True, check=True).stdout
     flines = out.strip().splitlines()

@@ -5,6 +5,7 @@
 // tools/hpddo/logs/ripple_link.py.
 #include <cstring>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -213,3 +214,18 @@ TEST(AcqRippleCount, RaAndTemperatureFromExactInputs) {
 }
 
 }  // namespace
+
+// The window whose prior sets a burst's band: the one before at 2 and 10 Hz windows (the burst
+// opens 1032 and 232 periods after the close), the one before that at 100 Hz (36 periods,
+// while the main loop may still work on the window before). ripple_count.band_lag agrees
+// (test/py/test_ripple_count.py).
+TEST(AcqRippleCount, BandLagFollowsTheBurstsLead) {
+  acq::RippleTiming rt;
+  ASSERT_TRUE(acq::ripple_timing(10000, &rt));
+  const uint32_t period = acq::pwm_period_cycles(rt.pwm);
+  for (const auto& c : {std::make_pair(5000, 1), std::make_pair(1000, 1), std::make_pair(100, 2)}) {
+    const uint16_t window = static_cast<uint16_t>(c.first);
+    const uint16_t n = acq::ripple_burst_samples(rt, window, acq::kRippleHostBaud);
+    EXPECT_EQ(acq::ripple_band_lag(static_cast<uint16_t>(window - n), period), c.second) << window;
+  }
+}

@@ -9,8 +9,12 @@
  *   <out>/windows.csv  per closed sample window: seq, cycle of the close,
  *                      driven pin voltages, driven speed, encoder counts
  *                      driven
- *   <out>/busy.csv     the main loop's work per window (GPIOR1 1..2) and the
- *                      observer step in it (GPIOR1 3..4): kind, start cycle, cycles
+ *   <out>/adc_isr.csv  per ADC interrupt: entry cycle, cycles to reti (nested
+ *                      ones included), ADATE at entry (uno_sim_ripple.h)
+ *   <out>/busy.csv     the main loop's work per window (GPIOR1 1..2), the
+ *                      observer step in it (GPIOR1 3..4) and the ripple counter's
+ *                      window step (GPIOR1 5..6, the counting build): kind, start
+ *                      cycle, cycles
  *
  * A window closes when the firmware writes its marker to GPIOR0; the cycle
  * of that write is exact, so the period jitter is measured, not estimated.
@@ -140,22 +144,23 @@ static void marker_write(avr_t* a, avr_io_addr_t addr, uint8_t v, void* param) {
   avr_cycle_timer_register(a, 1, encoder_tick, NULL);
 }
 
-/* busy markers: 1 starts and 2 ends the work on a window, 3 and 4 the observer step */
+/* busy markers: 1 starts and 2 ends the work on a window, 3 and 4 the observer step, 5 and 6
+ * the ripple counter's window step (acq_ripple_board.h on_window: it sets the next burst's band) */
 typedef struct { int kind; avr_cycle_count_t start, cycles; } busy_t;
 static busy_t* busy;
 static long n_busy;
-static avr_cycle_count_t busy_start[2];
+static avr_cycle_count_t busy_start[3];
 
 static void busy_write(avr_t* a, avr_io_addr_t addr, uint8_t v, void* param) {
   (void)param;
   a->data[addr] = v;
-  if (v == 1 || v == 3) {
-    busy_start[v == 3] = a->cycle;
-  } else if ((v == 2 || v == 4) && n_busy < MAX_BUSY) {
+  if (v == 1 || v == 3 || v == 5) {
+    busy_start[v / 2] = a->cycle;
+  } else if ((v == 2 || v == 4 || v == 6) && n_busy < MAX_BUSY) {
     busy_t* b = &busy[n_busy++];
-    b->kind = v == 4 ? 2 : 1;
-    b->start = busy_start[v == 4];
-    b->cycles = a->cycle - busy_start[v == 4];
+    b->kind = v / 2;
+    b->start = busy_start[v / 2 - 1];
+    b->cycles = a->cycle - busy_start[v / 2 - 1];
   }
 }
 
@@ -311,6 +316,10 @@ int main(int argc, char** argv) {
                           link_pin, NULL);
   avr_register_io_write(avr, GPIOR0_ADDR, marker_write, NULL);
   avr_register_io_write(avr, GPIOR1_ADDR, busy_write, NULL);
+  if (adc_isr_init()) {
+    fprintf(stderr, "uno_sim: no ADC interrupt irq\n");
+    return 2;
+  }
   if (rip_init(0x100u + fw.datasize + fw.bsssize)) {
     fprintf(stderr, "uno_sim: bad ripple feed %s or no interrupt irqs\n", getenv("UNO_SIM_RIPPLE"));
     return 2;
@@ -374,10 +383,11 @@ int main(int argc, char** argv) {
   if (!f) return 2;
   fprintf(f, "kind,start_cycle,cycles\n");
   for (long k = 0; k < n_busy; ++k)
-    fprintf(f, "%s,%llu,%llu\n", busy[k].kind == 1 ? "window" : "observer", (unsigned long long)busy[k].start,
+    fprintf(f, "%s,%llu,%llu\n", busy[k].kind == 1 ? "window" : busy[k].kind == 2 ? "observer" : "ripple",
+            (unsigned long long)busy[k].start,
             (unsigned long long)busy[k].cycles);
   fclose(f);
-  if (rip_write(outdir)) return 2;
+  if (rip_write(outdir) || adc_isr_write(outdir)) return 2;
   printf("uno_sim: %.3f s simulated, %ld windows, %d log rows, %ld link bytes (%ld framing errors), "
          "%d marker errors, link bit %.2f cycles\n",
          (double)avr->cycle / F_CPU, n_windows, rows_seen, n_link, framing, seq_errors, link_bit_cycles);

@@ -44,3 +44,9 @@ def test_ra_tracker_recovers_the_copper_rise():
     t.step(ke * w + i * ra_hot + 2.0, i, rpm, 0.5)  # a glitch of V: left out
     assert t.ra_ohm == before
     assert not math.isnan(t.tw_C)
+
+
+@pytest.mark.parametrize("burst_period,lag", [(1032, 1), (232, 1), (36, 2)])  # 2, 10, 100 Hz windows at 10 kHz
+def test_band_lag_as_the_board(burst_period, lag):
+    """acq_ripple_count.h ripple_band_lag (host test AcqRippleCount.BandLagFollowsTheBurstsLead)."""
+    assert rc.band_lag(burst_period, 1e4) == lag

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from .. import schema
+from .. import bench, schema
 
 AMP_SHIFT = 8
 LP_MIN, LP_MAX = 2, 10
@@ -114,6 +114,18 @@ def counter_hz(cyc: float, span: float, fs_hz: float) -> float:
     return cyc * fs_hz / span
 
 
+BAND_LEAD_CYCLES = 320000  # kRippleBandLeadCycles
+
+
+def band_lag(burst_period: int, fs_hz: float) -> int:
+    """acq_ripple_count.h ripple_band_lag: windows from the one whose prior sets a burst's band
+    to the burst's; 1 when the burst opens at least BAND_LEAD_CYCLES after its window's start
+    (2 and 10 Hz windows), else 2 (100 Hz: the board's main loop may still work on the window
+    before when the burst opens)."""
+    period_cycles = round(bench.HARDWARE.cpu_hz / fs_hz)
+    return 1 if burst_period * period_cycles >= BAND_LEAD_CYCLES else 2
+
+
 COUNT_TAU_S = 0.25      # kRippleCountTauS
 MIN_CYCLES = 3.0        # kRippleMinCycles
 
@@ -179,14 +191,17 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
     at the first window): bursts are the windows' current codes in order (each the window's
     last periods, gap_periods after the previous burst's end), v_V, i_A their means, rpm_prior
     the observer's estimates (the back-EMF prior). One dict a window: rpm (NaN without a
-    count), confident, have_ra, ra_ohm, tw_C, k."""
+    count), confident, have_ra, ra_ohm, tw_C, k. Burst n is counted in the band of window
+    n - band_lag's prior (band_lag(gap_periods, fs_hz)), the reset's before that."""
     c = Counter()
     ra = RaTracker(p)
-    k, t_exp = 5, 0
+    lag = band_lag(gap_periods, fs_hz)
+    bands = {}  # burst index -> (k, t_exp) from the prior band_lag windows before
     cyc_w = span_w = 0.0
     keep = float(np.float32(1) - np.float32(dt_s) / np.float32(COUNT_TAU_S)) if dt_s < COUNT_TAU_S else 0.0
     out = []
     for n, codes in enumerate(bursts):
+        k, t_exp = bands.pop(n, (5, 0))
         c.begin(k, t_exp, gap_periods, n == 0)
         c.run(codes)
         cyc, span = c.latch()
@@ -197,6 +212,6 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
         conf = f == f and cyc_w >= MIN_CYCLES and confident(f, f_prior)
         have = ra.step(v_V[n], i_A[n], rpm, dt_s) if conf else ra.have
         out.append(dict(rpm=rpm, confident=conf, have_ra=have, ra_ohm=ra.ra_ohm, tw_C=ra.tw_C, k=c.k, cyc=cyc))
-        k = lp_shift(f_prior, 0.5 * fs_hz)
-        t_exp = min(65535, int(np.float32(fs_hz) / np.float32(f_prior) + np.float32(0.5))) if f_prior > 0 else 0
+        bands[n + lag] = (lp_shift(f_prior, 0.5 * fs_hz),
+                          min(65535, int(np.float32(fs_hz) / np.float32(f_prior) + np.float32(0.5))) if f_prior > 0 else 0)
     return out

@@ -19,7 +19,12 @@
    step (test/bench/lx106_step.cpp), and the ESP8266's JSON with ArduinoJson 7.2.0 from
    ../shared/vendor (test/bench/lx106_line.cpp): one telemetry line, and an uploaded
    model's parse and checks.
-4. `hpddo upload` of the default model to the board's logic built for the host
+4. The UNO's 100 Hz main loop in simavr (uno_acq as built for the board, test/firmware/
+   check_uno_sim.py), and the same with the ripple counter (the counting build,
+   check_uno_ripple.py --count on a 100 Hz twin): the work per window against the window and
+   the ADC interrupt's share of the CPU, from the same runs as the ctests
+   firmware.uno.sim_100hz and firmware.uno.sim_ripple_count_100hz.
+5. `hpddo upload` of the default model to the board's logic built for the host
    (host/esp_host.cpp) over a pseudo-terminal at an emulated 460800 baud, seconds.
 
 Prints the table; with --write-docs writes it into docs/performance.md (between the
@@ -347,36 +352,93 @@ def lx106(build: pathlib.Path, model) -> dict:
 
 
 UNO_RATE_HZ = 100  # the UNO's main loop measured at this sample rate (firmware.uno.sim_100hz's run)
+UNO_RIPPLE_HZ = 10000  # the counting build's ripple sample rate (firmware.uno.sim_ripple_count_100hz)
+
+
+def _figures_line(out: str) -> dict:
+    """The "figures: key=value ..." line test/firmware/check_uno_sim.py and check_uno_ripple.py
+    print: the main loop's work on the recorded windows (median, max), the ADC interrupt's CPU
+    share, the window's cycles."""
+    line = [ln for ln in out.splitlines() if ln.startswith("figures: ")][-1]
+    return {k: (float(v) if "." in v else int(v)) for k, v in (kv.split("=") for kv in line[9:].split())}
+
+
+def _loop_figures(f: dict, rows: int) -> dict:
+    out = {"window_cycles": f["window_cycles"], "adc_share_pct": f["adc_share_pct"],
+           "window": {"median": f["loop_median"], "max": f["loop_max"], "n": rows}}
+    for key, name in (("obs", "observer"), ("rip", "ripple")):
+        if f"{key}_median" in f:
+            out[name] = {"median": f[f"{key}_median"], "max": f[f"{key}_max"], "n": rows}
+    return out
+
+
+def _uno_tools(build: pathlib.Path) -> str | None:
+    """Builds the simavr harness and frame_dump in build; None, or why not."""
+    if not shutil.which("avr-g++") or not pathlib.Path("/usr/include/simavr/sim_avr.h").exists():
+        return "not run: avr-g++ or simavr's headers (libsimavr-dev) missing"
+    build.mkdir(parents=True, exist_ok=True)
+    fw = ROOT / "test" / "firmware"
+    _run(["gcc", "-O2", "-I/usr/include/simavr", f"-I{ROOT / 'uno_acq'}", fw / "uno_sim.c", "-lsimavr",
+          "-o", build / "uno_sim"])
+    _run(["g++", "-std=c++17", "-O2", f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}", fw / "frame_dump.cpp",
+          "-o", build / "frame_dump"])
+    return None
 
 
 def uno_loop(build: pathlib.Path) -> dict:
     """The UNO's main loop at 100 Hz in simavr: uno_acq built as for the board
     (test/firmware/build_uno.sh, the observer on), driven with the test rows of
     data/default/long.csv by test/firmware/check_uno_sim.py (every estimate checked against
-    the reference observer), and the cycles of the loop's work per window and of the
-    observer step in it (GPIOR1 markers, busy.csv), median and maximum."""
-    if not shutil.which("avr-g++") or not pathlib.Path("/usr/include/simavr/sim_avr.h").exists():
-        return {"status": "not run: avr-g++ or simavr's headers (libsimavr-dev) missing"}
-    build.mkdir(parents=True, exist_ok=True)
+    the reference observer), and over the recorded windows the cycles of the loop's work per
+    window and of the observer step in it (GPIOR1 markers, busy.csv), median and maximum, and
+    the ADC interrupt's share of the CPU (adc_isr.csv)."""
+    missing = _uno_tools(build)
+    if missing:
+        return {"status": missing}
     fw = ROOT / "test" / "firmware"
     _run(["bash", fw / "build_uno.sh", ROOT, build / "uno_acq"])
-    _run(["gcc", "-O2", "-I/usr/include/simavr", f"-I{ROOT / 'uno_acq'}", fw / "uno_sim.c", "-lsimavr",
-          "-o", build / "uno_sim"])
-    _run(["g++", "-std=c++17", "-O2", f"-I{ROOT / 'lib' / 'hpddo_core' / 'src'}", fw / "frame_dump.cpp",
-          "-o", build / "frame_dump"])
+    rows = 300
     out = _run([sys.executable, fw / "check_uno_sim.py", "--harness", build / "uno_sim", "--elf",
                 build / "uno_acq" / "uno_acq.elf", "--frame-dump", build / "frame_dump", "--workdir", build / "sim",
-                "--pwm", "1000", "--rate", str(UNO_RATE_HZ), "--rows", "300", "--drive", "recording"],
+                "--pwm", "1000", "--rate", str(UNO_RATE_HZ), "--rows", str(rows), "--drive", "recording"],
                env=dict(os.environ, PYTHONPATH=str(ROOT / "tools")))
-    fig = {"status": "run", "rate_hz": UNO_RATE_HZ, "window_cycles": int(CPU_HZ / UNO_RATE_HZ)}
-    for line in (build / "sim" / "busy.csv").read_text().splitlines()[1:]:
-        kind, _, cyc = line.split(",")
-        fig.setdefault(kind, []).append(int(cyc))
-    for kind in ("window", "observer"):
-        fig[kind] = _stats(fig.get(kind, [0]))
+    fig = {"status": "run", "rate_hz": UNO_RATE_HZ, **_loop_figures(_figures_line(out), rows)}
     size = (build / "uno_acq" / "uno_acq.size").read_text().split()
     fig["flash_B"], fig["flash_max_B"], fig["ram_B"], fig["ram_max_B"] = map(int, size)
     fig["checked"] = [ln for ln in out.splitlines() if ln.startswith("observer (")]
+    return fig
+
+
+def uno_ripple_loop(build: pathlib.Path) -> dict:
+    """The same 100 Hz main loop with the ripple counter (issue 23 item 5): uno_acq built with
+    -DACQ_RIPPLE_HZ=10000 -DACQ_RIPPLE_COUNT=1 (the 10 kHz bursts counted in the ADC interrupt,
+    Ra and the winding temperature tracked in the main loop), run by
+    test/firmware/check_uno_ripple.py --count as firmware.uno.sim_ripple_count_100hz does: 300
+    windows of a 100 Hz twin's load steps, the board's counts and Ra checked against the host's
+    reference, the link's frames decoded. --measure: the figures also when the build does not
+    keep up, and whether it passed (no window lost, no framing error, every window's work within
+    the window, the counts equal to the reference)."""
+    missing = _uno_tools(build)
+    if missing:
+        return {"status": missing}
+    fw = ROOT / "test" / "firmware"
+    _run(["bash", fw / "build_uno.sh", ROOT, build / "uno_acq_count"],
+         env=dict(os.environ, ACQ_DEFINES=f"-DACQ_RIPPLE_HZ={UNO_RIPPLE_HZ} -DACQ_RIPPLE_COUNT=1"))
+    rows = 300
+    res = subprocess.run([sys.executable, str(fw / "check_uno_ripple.py"), "--harness", str(build / "uno_sim"),
+                          "--elf", str(build / "uno_acq_count" / "uno_acq.elf"), "--frame-dump",
+                          str(build / "frame_dump"), "--workdir", str(build / "sim_count"), "--hz", str(UNO_RIPPLE_HZ),
+                          "--count", "--rows", str(rows), "--twin-rate", str(UNO_RATE_HZ), "--twin-time-scale", "0.02",
+                          "--measure"], capture_output=True, text=True, env=dict(os.environ, PYTHONPATH=str(ROOT / "tools")))
+    if not any(ln.startswith("figures: ") for ln in res.stdout.splitlines()):
+        return {"status": f"failed: {(res.stdout + res.stderr).strip().splitlines()[-1:]}"}
+    fig = {"status": "run", "rate_hz": UNO_RATE_HZ, "ripple_hz": UNO_RIPPLE_HZ,
+           **_loop_figures(_figures_line(res.stdout), rows)}
+    fig["passed"] = res.returncode == 0 and res.stdout.strip().splitlines()[-1] == "PASS"
+    fig["verdict"] = res.stdout.strip().splitlines()[-1]
+    size = (build / "uno_acq_count" / "uno_acq.size").read_text().split()
+    fig["flash_B"], fig["flash_max_B"], fig["ram_B"], fig["ram_max_B"] = map(int, size)
+    fig["checked"] = [ln for ln in res.stdout.splitlines() if ln.startswith(("counter: ", "link: "))]
     return fig
 
 
@@ -515,18 +577,42 @@ def table(fig: dict) -> str:
     rows.append(f"| AVR steps off the golden estimate (1e-4 rel.) | {a['float']['golden_misses']} | "
                 f"{a['fixed']['golden_misses']} | {a['int8']['golden_misses']} | 0 |")
     u = fig.get("uno_loop", {"status": "not run"})
+    pct = lambda st, wc: f"{100.0 * st['median'] / wc:.1f} % median, {100.0 * st['max'] / wc:.1f} % at most"  # noqa: E731
     if u.get("status") == "run":
         wc = u["window_cycles"]
         w, o = u["window"], u["observer"]
         ok = w["max"] <= GOAL_UNO_LOOP * wc
         rows.append(f"| UNO main loop at {u['rate_hz']} Hz (uno_acq in simavr, int16 model), work per window, "
                     f"cycles, median / max over {w['n']} windows of {wc:,} | | {mm(w)} "
-                    f"({100.0 * w['max'] / wc:.1f} % at most) | | goal {GOAL_UNO_LOOP:.0%} of the window: "
+                    f"({pct(w, wc)}) | | goal {GOAL_UNO_LOOP:.0%} of the window: "
                     f"{'met' if ok else '**missed**'} |")
         rows.append(f"| the observer step in it (the interrupts run during it), cycles, median / max | | {mm(o)} "
                     f"({100.0 * o['max'] / wc:.1f} %) | | uno_acq flash {u['flash_B']:,} of {u['flash_max_B']:,} bytes |")
+        if "adc_share_pct" in u:
+            rows.append(f"| the ADC interrupt in that run (free-running V/I conversions), share of the CPU | | "
+                        f"{u['adc_share_pct']:.1f} % | | |")
     else:
         rows.append(f"| UNO main loop at 100 Hz | | {u.get('status')} | | |")
+    r = fig.get("uno_ripple_loop", {"status": "not run"})
+    if r.get("status") == "run":
+        wc = r["window_cycles"]
+        w = r["window"]
+        verdict = ("fits: no window lost, no framing error on the link, every window's work within it, the counts "
+                   "and Ra equal to the reference" if r["passed"] else f"**does not fit**: {r['verdict']}")
+        rows.append(f"| UNO main loop at {r['rate_hz']} Hz with the ripple counter (counting build: "
+                    f"{r['ripple_hz'] // 1000} kHz bursts counted in the ADC interrupt, Ra tracked; twin load steps), "
+                    f"work per window, cycles, median / max over {w['n']} windows of {wc:,} | | {mm(w)} "
+                    f"({pct(w, wc)}) | | {verdict} (the {GOAL_UNO_LOOP:.0%} goal is the loop's without the "
+                    f"counter) |")
+        if "ripple" in r:
+            rows.append(f"| the counter's window step in it (`on_window`: the ripple speed, Ra, the next band), "
+                        f"cycles, median / max | | {mm(r['ripple'])} ({100.0 * r['ripple']['max'] / wc:.1f} %) | | "
+                        f"counting build flash {r['flash_B']:,} of {r['flash_max_B']:,} bytes |")
+        rows.append(f"| the ADC interrupt in that run (10 kHz triggered conversions counted, and the V/I ones), "
+                    f"share of the CPU | | {r['adc_share_pct']:.1f} % | | without the counter: "
+                    f"{u.get('adc_share_pct', float('nan')):.1f} % |")
+    else:
+        rows.append(f"| UNO main loop at 100 Hz with the ripple counter | | {r.get('status')} | | |")
     for key, label in (("16_8", "(16, 8)"), ("128_64", "(128, 64) timing model")):
         f, q, sk = h[f"float_{key}"], h[f"fixed_{key}"], h[f"sklearn_{key}"]
         e = h.get(f"int8_{key}")
@@ -619,6 +705,7 @@ def run(build: pathlib.Path, repeat: int = 20, peer_python=None, write: bool = F
     fig = {"command": COMMAND, "when": time.strftime("%Y-%m-%d", time.gmtime()),
            "machine": f"{os.uname().machine}, {os.cpu_count()} cores",
            "avr": avr(build / "avr", model, peer_python), "uno_loop": uno_loop(build / "uno"),
+           "uno_ripple_loop": uno_ripple_loop(build / "uno"),
            "host": host(build / "host", model, repeat),
            "lx106": lx106(build / "lx106", model) if lx else {"status": "not run (--no-lx106)"},
            "esp_upload": esp_upload(build / "esp_upload")}
