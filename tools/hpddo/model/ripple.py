@@ -394,7 +394,7 @@ def steady_spans(bursts, duty, keys, opts: Options) -> list:
     windows at the same nonzero duty whose own count failed for a reason in SPAN_KEYS, each burst
     contiguous with the next (so the current is one record over the span), not the first window
     after a change of duty (the inrush); a run longer than opts.span_max_s is cut into equal spans
-    no longer than it. A run of one window is no span."""
+    no longer than it, each of two windows at least. A run of one window is no span."""
     n = len(bursts)
     if opts.span_max_s <= 0 or n < 2 or duty is None:
         return []
@@ -411,7 +411,7 @@ def steady_spans(bursts, duty, keys, opts: Options) -> list:
         while e < n and ok[e] and duty[e] == duty[k] and _contiguous(bursts, e - 1):
             e += 1
         if e - k >= 2:
-            n_cut = int(math.ceil(float(lengths[k:e].sum()) / opts.span_max_s - 1e-9))
+            n_cut = min(int(math.ceil(float(lengths[k:e].sum()) / opts.span_max_s - 1e-9)), (e - k) // 2)
             cuts = np.linspace(k, e, max(n_cut, 1) + 1).round().astype(int)
             spans += [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:]) if b - a >= 2]
         k = e
