@@ -16,21 +16,19 @@ the commands of that section, run in one go, and their figures printed as its ta
 4. `hpddo diagnose bench/*.csv` with and without the ripple.
 
 Every figure is read back from the commands' own metrics.json / diagnosis.json; the costs are
-wall-clock seconds of each command in this run (ratios ripple / encoder in the same run).
+wall-clock seconds of each command (a process of its own) in this run, ripple against encoder.
 """
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import json
+import os
 import pathlib
 import shutil
+import subprocess
 import sys
 import tempfile
 import time
-
-from ..cli import main as hpddo
 
 EFFECTS = ("brush_drop", "thermal_ra", "magnet_thermal")  # what the diagnosis names from either reference
 RIPPLE = ["--reference", "ripple", "--ripples-per-rev", "6", "--gear-ratio", "4.4"]
@@ -42,14 +40,15 @@ MODELS = (("plain", "encoder", (), 1), ("plain", "ripple", (), 1), ("plain", "en
 
 
 def _run(argv: list) -> tuple[float, str]:
-    """One hpddo command in this process: (wall seconds, its printed output)."""
-    buf = io.StringIO()
+    """One hpddo command, `python -m hpddo ...` in a process of its own (the studies room sits
+    below the CLI's): (wall seconds, its printed output)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(pathlib.Path(__file__).resolve().parents[2]), *filter(None, [os.environ.get("PYTHONPATH")])])}
     t0 = time.perf_counter()
-    with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
-        rc = hpddo([str(a) for a in argv])
-    if rc not in (0, None):
-        raise RuntimeError(f"hpddo {' '.join(map(str, argv))} failed ({rc}):\n{buf.getvalue()}")
-    return time.perf_counter() - t0, buf.getvalue()
+    p = subprocess.run([sys.executable, "-m", "hpddo", *map(str, argv)], capture_output=True, text=True, env=env)
+    if p.returncode != 0:
+        raise RuntimeError(f"hpddo {' '.join(map(str, argv))} failed ({p.returncode}):\n{p.stdout}{p.stderr}")
+    return time.perf_counter() - t0, p.stdout
 
 
 def benches(work: pathlib.Path, long_time_scale: float, time_scale: float = 1.0) -> tuple[list, list]:
