@@ -84,7 +84,18 @@ def _diagnosis(d: dict) -> dict:
     ke = next((q for q in d["intervals"] if q.get("field") == "ke_vs_per_rad"), None)
     ra = d["ra_fit"].get("data_alone") or {}
     named = [m if isinstance(m, str) else m.get("effect") for m in d["missing_effects"]]
-    shown = {r["effect"]: r.get("shown") for r in d["ranking"] if r.get("effect") in named}
+    shown = {}
+    for r in d["ranking"]:
+        if r.get("effect") not in named:
+            continue
+        q = next((q for q in d["intervals"] if q.get("quantity") == r["effect"] and q.get("determined")), None)
+        text = r.get("shown") or ""
+        if q is not None and q.get("lo") is not None:
+            scale = 100.0 if q.get("unit") == "1/K" else 1.0  # %/K as the ranking shows it
+            text += f" ({q['lo'] * scale:.3f}..{q['hi'] * scale:.3f})"
+        if r.get("inclusion") is not None and (q is None or q.get("lo") is None):
+            text += f", inclusion {r['inclusion']:.0%}"
+        shown[r["effect"]] = text
     return {"named": named, "shown": shown, "ke_vs_per_rad": None if ke is None else ke["value"],
             "ra_data_ohm": [ra.get("value"), ra.get("lo"), ra.get("hi")], "noise_rpm": d["noise_rpm"],
             "told_apart": d.get("told_apart"), "confounded": d.get("confounded"), "verdict": d["verdict"]}
