@@ -57,3 +57,23 @@ def test_effect_fits_multiply_the_confidence_with_the_callers_weights(sweep):
     assert with_conf.ke_vs_per_rad == pytest.approx(product.ke_vs_per_rad, rel=1e-9)
     assert with_conf.brush_V == pytest.approx(product.brush_V, rel=1e-7)
     assert with_conf.brush_V != pytest.approx(unweighted.brush_V, rel=1e-6)
+
+
+def test_m3_training_weights_rows_and_ones_change_nothing():
+    from hpddo.model import network
+
+    rng = np.random.default_rng(3)
+    z = rng.normal(size=(400, 3))
+    y = np.where(np.arange(400) % 2 == 0, 0.0, 10.0)  # two targets at the same inputs
+    cfg = network.AdamConfig(hidden=(4,), max_iter=40, seed=1, batch_size=50, learning_rate=1e-2)
+    plain, loss_plain = network.train(z, y, cfg)
+    ones, loss_ones = network.train(z, y, cfg, weight=np.full(400, 0.7))
+    assert all(np.array_equal(a, b) for a, b in zip(plain.coefs_ + plain.intercepts_, ones.coefs_ + ones.intercepts_))
+    assert loss_plain == loss_ones
+    w = np.where(y == 0.0, 1.0, 0.25)  # the y = 0 rows 4x as confident: the fit leans to 0 (weighted mean 2)
+    leaned, _ = network.train(z, y, cfg, weight=w)
+    assert abs(leaned.predict(z).mean() - 2.0) < 1.0 and abs(plain.predict(z).mean() - 5.0) < 1.0
+    lock = network.train_lockstep([z, z], [y, y], cfg, weights=[None, w])
+    assert abs(lock[0].predict(z).mean() - 5.0) < 1.0 and abs(lock[1].predict(z).mean() - 2.0) < 1.0
+    with pytest.raises(ValueError):
+        network.train(z, y, cfg, weight=np.zeros(400))

@@ -330,3 +330,66 @@ def test_train_from_the_ripple_alone_scores_against_the_encoder_like_a_model_fro
     for model in ("M2", "M3"):
         enc, rip_ = rmse["encoder"][model]["average"], rmse["ripple"][model]["average"]
         assert rip_ <= 1.10 * enc, (model, rip_, enc)
+
+
+def _span_run(tmp_path, protocol, time_scale, seed=1, **bench_changes):
+    """A twin recording in the ripple mode and its ripple speed through speed_of_log (the counts over
+    spans of steady windows included), the prior's Ke given (the sweep's calibrated figure), with the truth."""
+    import pandas as pd
+
+    bench = dataclasses.replace(params.preset("default"), **bench_changes)
+    g = generate.generate(bench, protocol, 2.0, seed, out_dir=tmp_path, time_scale=time_scale,
+                          ripple=params.ripple_burst(), preset_name="default")
+    path = tmp_path / f"{protocol}.csv"
+    df = pd.read_csv(path, comment="#")
+    est, _, _ = rp.speed_of_log(path, df, {"ra_ohm": "4.50"}, rp.Options(6, 4.4), ke_vs_per_rad=0.3757)
+    rows = est["row"].to_numpy()
+    return est, df.iloc[rows].reset_index(drop=True), g["truth"]["rpm_true"].to_numpy()[rows]
+
+
+@pytest.mark.slow
+def test_counts_over_steady_windows_give_the_slow_rows_within_one_percent_of_the_encoder(tmp_path):
+    est, log, true = _span_run(tmp_path, "sweep", 0.5)
+    slow = log["duty"].to_numpy() == 0.2
+    span = est["span"].to_numpy()
+    conf = est["confident"].to_numpy()
+    assert slow.sum() >= 50 and (conf & slow).sum() >= 0.8 * slow.sum()  # 4-6 RPM: a window alone holds ~1 cycle
+    assert np.all(span[conf & slow] > 1)
+    # the encoder's 0.62 RPM steps are 12 % at 5 RPM in one window: compare the span's count with the
+    # encoder's counts summed over the same span
+    starts = np.flatnonzero(conf & slow & (np.r_[True, np.diff(est["rpm"].to_numpy()) != 0]))
+    assert len(starts) >= 2
+    for a in starts:
+        e = a + span[a]
+        enc = log["rpm_ref"].to_numpy()[a:e].mean()
+        assert abs(est["rpm"].to_numpy()[a] / enc - 1) < 0.01, (a, est["rpm"].to_numpy()[a], enc)
+        assert abs(est["rpm"].to_numpy()[a] / true[a:e].mean() - 1) < 0.01
+    err = np.abs(est["rpm"].to_numpy()[conf] / true[conf] - 1)
+    assert err.max() < 0.05
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("protocol,time_scale,changes", [("unseen", 0.5, {}), ("sweep", 0.5, {"tc_gen_nm": 0.12}),
+                                                         ("sweep", 0.5, {"j_kgm2": 3.0e-3})])
+def test_counts_over_steady_windows_no_confident_count_five_percent_off(tmp_path, protocol, time_scale, changes):
+    est, _, true = _span_run(tmp_path, protocol, time_scale, **changes)
+    conf = est["confident"].to_numpy()
+    assert conf.sum() > 0.5 * len(est)
+    assert not np.any(conf & (true <= 0)), "a confident count where the shaft stands"
+    moving = conf & (true > 0)
+    worst = float(np.max(np.abs(est["rpm"].to_numpy()[moving] / true[moving] - 1)))
+    assert worst < 0.05, f"{protocol} {changes}: a confident count {worst:.2%} off the truth"
+
+
+def test_steady_spans_stay_within_one_duty_and_leave_the_first_window_after_a_change():
+    fs, n = 1000.0, 500
+    keys = ["few_cycles"] * 12
+    keys[5] = "changing"
+    duty = np.array([0.2] * 8 + [0.3] * 4)
+    b = rf.Bursts({}, fs, 0.01, np.arange(12), np.arange(12) * n / fs, [np.zeros(n, int)] * 12)
+    spans = rp.steady_spans(b, duty, keys, rp.Options(6, 4.4))
+    assert spans == [(1, 5), (6, 8), (9, 12)]  # not row 0 or 8 (a duty change), not across the changing row 5
+    assert rp.steady_spans(b, duty, keys, rp.Options(6, 4.4, span_max_s=1.0)) == [(1, 3), (3, 5), (6, 8), (9, 12)]
+    assert rp.steady_spans(b, duty, keys, rp.Options(6, 4.4, span_max_s=0.0)) == []
+    gap = rf.Bursts({}, fs, 0.01, np.arange(12), np.arange(12) * 2 * n / fs, [np.zeros(n, int)] * 12)
+    assert rp.steady_spans(gap, duty, keys, rp.Options(6, 4.4)) == []  # bursts not contiguous: no span

@@ -149,13 +149,27 @@ def adam_step(theta: np.ndarray, grad: np.ndarray, m: np.ndarray, v: np.ndarray,
     theta -= lr_t * m / (np.sqrt(v) + ADAM_EPS)
 
 
-def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None) -> tuple[Network, list]:
+def sample_weights(weight, n: int) -> np.ndarray | None:
+    """Per-row weights of the squared loss scaled to mean 1 (so the L2 term and Adam's step keep
+    their balance against it); None stays None (every row once)."""
+    if weight is None:
+        return None
+    w = np.asarray(weight, float).reshape(-1)
+    if w.shape != (n,) or not np.isfinite(w).all() or (w < 0).any() or w.sum() <= 0:
+        raise ValueError("sample weights: one finite, non-negative weight per row, not all zero")
+    return (w / w.mean()).reshape(-1, 1)
+
+
+def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None, weight=None) -> tuple[Network, list]:
     """Fits the network to targets y on standardised rows z; returns it and the loss per
     epoch (mean of the halved squared error plus the L2 term, over the epoch's batches).
-    `progress`, if given, wraps the epoch range (a tqdm bar)."""
+    `progress`, if given, wraps the epoch range (a tqdm bar). weight: one per row (the
+    reference's confidence), scaled to mean 1 (sample_weights): each row's squared error
+    counts that many times; None: every row once, the arithmetic unchanged."""
     z = np.asarray(z, float)
     y = np.asarray(y, float).reshape(-1, 1)
     n = len(z)
+    wt = sample_weights(weight, n)
     rng = np.random.default_rng(cfg.seed)
     theta, flat = init_network(z.shape[1], tuple(cfg.hidden), rng)
     ws, bs = flat.views(theta)
@@ -171,13 +185,19 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None) -> tuple
     for _ in epochs:
         order = rng.permutation(n)
         zs, ys = z[order], y[order]
+        wts = None if wt is None else wt[order]
         acc_loss = 0.0
         for start in range(0, n, cfg.batch_size):
             zb, yb = zs[start: start + cfg.batch_size], ys[start: start + cfg.batch_size]
             nb = len(zb)
             acts = net.activations(zb)
             delta = acts[-1] - yb
-            sq = float((delta * delta).sum()) / nb / 2.0
+            if wts is None:
+                sq = float((delta * delta).sum()) / nb / 2.0
+            else:  # the weighted loss: sum w d^2 / 2 nb, its gradient w d
+                wb = wts[start: start + cfg.batch_size]
+                sq = float((wb * delta * delta).sum()) / nb / 2.0
+                delta = delta * wb
             l2 = sum(float((w * w).sum()) for w in ws)
             acc_loss += (sq + 0.5 * cfg.alpha * l2 / nb) * nb
             for k in range(nlayers - 1, -1, -1):
@@ -193,7 +213,7 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None) -> tuple
     return Network(coefs_=[w.copy() for w in ws], intercepts_=[b.copy() for b in bs]), losses
 
 
-def train_lockstep(zs: list, ys: list, cfg: AdamConfig, hiddens: list | None = None) -> list:
+def train_lockstep(zs: list, ys: list, cfg: AdamConfig, hiddens: list | None = None, weights: list | None = None) -> list:
     """network.train for several networks at once, each on its own rows: the same
     initialisation (its own generator seeded cfg.seed), the same fresh permutation each
     epoch, the same batches, loss gradients, L2 term and Adam steps, so each network is
@@ -206,10 +226,13 @@ def train_lockstep(zs: list, ys: list, cfg: AdamConfig, hiddens: list | None = N
     cfg.hidden for all; the same number of layers): each is embedded in the widest shape
     with zeros, and the zeros stay zeros (a zero input or unit has no gradient, the L2
     term of a zero weight is zero, Adam does not move a weight whose gradients were all
-    zero), so the padding changes nothing but the cost. Returns one Network per (z, y)."""
+    zero), so the padding changes nothing but the cost. weights: per network, one weight per
+    row or None, as network.train's weight. Returns one Network per (z, y)."""
     K = len(zs)
     zs = [np.asarray(z, float) for z in zs]
     ys = [np.asarray(y, float).reshape(-1) for y in ys]
+    wts = [None] * K if weights is None else [sample_weights(w, len(z)) for w, z in zip(weights, zs)]
+    wts = [np.ones(len(z)) if w is None else w.reshape(-1) for w, z in zip(wts, zs)]
     hiddens = [tuple(cfg.hidden)] * K if hiddens is None else [tuple(h) for h in hiddens]
     sizes = [(z.shape[1], *h, 1) for z, h in zip(zs, hiddens)]
     if len({len(sz) for sz in sizes}) != 1:
@@ -248,13 +271,13 @@ def train_lockstep(zs: list, ys: list, cfg: AdamConfig, hiddens: list | None = N
             j = t % per_epoch[k]
             if j == 0:
                 order = rngs[k].permutation(n[k])
-                shuffled[k] = (zs[k][order], ys[k][order])
+                shuffled[k] = (zs[k][order], ys[k][order], wts[k][order])
             lo = j * B
             zb, yb = shuffled[k][0][lo: lo + B], shuffled[k][1][lo: lo + B]
             c = len(zb)
             X[k, :c, : sizes[k][0]] = zb
             Y[k, :c, 0] = yb
-            mask[k, :c] = 1.0
+            mask[k, :c, 0] = shuffled[k][2][lo: lo + B]  # 1 for a row (times its weight), 0 for padding
             nb[k] = c
         acts = [X]
         for l in range(L):

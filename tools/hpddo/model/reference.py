@@ -13,8 +13,10 @@
 
 The confidence of each kept row is returned as its weight (Recording.weight), and weights
 that row in M2's Ke (eq. 20 as a weighted mean, least squares as weighted least squares) and
-in the effect fits (effects.fit, the diagnosis included). M3's training counts every kept row
-once. The rows without a confident speed are left out (WEIGHTS_NOTE).
+in the effect fits (effects.fit, the diagnosis included) and in M3's training (its squared loss,
+train.labelled_rows, network.train). The rows without a confident speed are left out
+(WEIGHTS_NOTE). Where one window holds too few ripple cycles (a slow shaft), the ripple is
+counted over a span of steady windows (ripple.count_steady_spans).
 """
 from __future__ import annotations
 
@@ -28,8 +30,8 @@ from . import ripple as rp
 REFERENCES = ("encoder", "ripple")
 NO_BURST = "no_burst"
 ENCODER_META = ("encoder_counts_per_rev", "encoder_window_s")  # docs/bench-log.md: the encoder's resolution
-WEIGHTS_NOTE = ("the ripple's confidence weights each kept row in Ke (eq. 20 or least squares) and the effect "
-                "fits; M3's training counts every kept row once; rows without a confident ripple speed are left out")
+WEIGHTS_NOTE = ("the ripple's confidence weights each kept row in Ke (eq. 20 or least squares), the effect "
+                "fits and M3's training loss; rows without a confident ripple speed are left out")
 
 
 @dataclasses.dataclass(frozen=True)

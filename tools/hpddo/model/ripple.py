@@ -77,6 +77,8 @@ class Options:
     ambiguity: float = 0.5        # an alternative with this share of the best's evidence (prior-weighted) is a rival
     max_prior_z: float = 3.0      # a line further than this many of the prior's sd from it is not the ripple
     #                               (a fixed line, interference, while the shaft stands or turns slowly)
+    span_max_s: float = 10.0      # count_steady_spans: the longest span of steady windows counted as one (s);
+    #                               0 turns the multi-window count off
 
 
 def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
@@ -376,6 +378,84 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
     return df
 
 
+#: the single-window reasons that a count over several steady windows may lift: the window held too few
+#: cycles or too little evidence for its line; not `changing` (the speed moved), `far`, `floor`, `coasting`
+SPAN_KEYS = ("few_cycles", "not_found", "ambiguous")
+
+
+def _contiguous(bursts, k) -> bool:
+    """Whether burst k + 1 starts where burst k ends (one sample period apart at most)."""
+    fs = bursts.sample_hz
+    return abs(bursts.t_s[k] + len(bursts.codes[k]) / fs - bursts.t_s[k + 1]) < 1.5 / fs
+
+
+def steady_spans(bursts, duty, keys, opts: Options) -> list:
+    """The spans (first, end) of consecutive windows that count_steady_spans counts as one: runs of
+    windows at the same nonzero duty whose own count failed for a reason in SPAN_KEYS, each burst
+    contiguous with the next (so the current is one record over the span), not the first window
+    after a change of duty (the inrush); a run longer than opts.span_max_s is cut into equal spans
+    no longer than it, each of two windows at least. A run of one window is no span."""
+    n = len(bursts)
+    if opts.span_max_s <= 0 or n < 2 or duty is None:
+        return []
+    duty = np.asarray(duty, float)
+    lengths = np.array([len(c) for c in bursts.codes]) / bursts.sample_hz
+    ok = np.array([keys[k] in SPAN_KEYS and np.isfinite(duty[k]) and duty[k] > 0
+                   and (k > 0 and duty[k - 1] == duty[k]) for k in range(n)])
+    spans, k = [], 0
+    while k < n:
+        if not ok[k]:
+            k += 1
+            continue
+        e = k + 1
+        while e < n and ok[e] and duty[e] == duty[k] and _contiguous(bursts, e - 1):
+            e += 1
+        if e - k >= 2:
+            n_cut = min(int(math.ceil(float(lengths[k:e].sum()) / opts.span_max_s - 1e-9)), (e - k) // 2)
+            cuts = np.linspace(k, e, max(n_cut, 1) + 1).round().astype(int)
+            spans += [(int(a), int(b)) for a, b in zip(cuts[:-1], cuts[1:]) if b - a >= 2]
+        k = e
+    return spans
+
+
+def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
+    """The ripple counted over several consecutive windows where one window holds too few cycles or
+    too little evidence (a slow shaft: at duty 0.2 the bench turns at 4-6 RPM, about one ripple
+    cycle in a 0.5 s window). Over a span of steady windows (steady_spans: the same duty, the bursts
+    contiguous) the speed is constant, so the bursts are one record of the current, counted as one
+    window (estimate_window) with every honesty check of a single one: the prior (the median of the
+    span's priors and of their sd, the window before the span as the speed before it), `far`,
+    `ambiguous`, the line above the noise, at least opts.min_cycles cycles over the span, and the
+    steadiness across the span (the counted quarters and the current's quarters, Ra dI / Ke, within
+    opts.max_spread). Where the span's count is confident, each of its windows takes its speed and
+    confidence (`span`: the number of windows counted together); elsewhere each window keeps its
+    own estimate and reason. est: estimate()'s DataFrame for these bursts. Returns a copy."""
+    est = est.copy()
+    est["span"] = 1
+    keys = est["key"].to_numpy()
+    prior = est["rpm_prior_used"].to_numpy(float)
+    sd = est[["prior_sd_below", "prior_sd_above"]].to_numpy(float)
+    for a, e in steady_spans(bursts, duty, keys, opts):
+        joined = type(bursts)(meta=bursts.meta, sample_hz=bursts.sample_hz, a_per_code=bursts.a_per_code,
+                              seq=bursts.seq[a:a + 1], t_s=bursts.t_s[a:a + 1],
+                              codes=[np.concatenate(bursts.codes[a:e])])
+        has_prior = bool(np.isfinite(prior[a:e]).any())
+        pr = float(np.nanmedian(prior[a:e])) if has_prior else None
+        psd = np.nanmedian(sd[a:e], axis=0) if has_prior else None
+        before = float(prior[a - 1]) if has_prior and a > 0 and np.isfinite(prior[a - 1]) else None
+        r = estimate_window(joined, 0, float(np.asarray(duty, float)[a]), pr, opts, before, psd, rpm_per_A)
+        if r["key"]:
+            continue
+        idx = est.index[a:e]
+        for c in ("rpm", "rpm_fft", "f_Hz", "f_strongest_Hz", "snr", "spread", "spread_current", "confidence"):
+            est.loc[idx, c] = r[c]
+        est.loc[idx, "cycles"] = r["cycles"] / (e - a)  # the window's share of the span's cycles
+        est.loc[idx, ["key", "reason"]] = ""
+        est.loc[idx, "confident"] = True
+        est.loc[idx, "span"] = e - a
+    return est
+
+
 def rpm_per_amp(ra_ohm: float, ke_vs_per_rad: float) -> float:
     """Ra / Ke in RPM per A: the speed a change of the armature current costs at constant voltage."""
     return ra_ohm / ke_vs_per_rad * 60.0 / (2 * math.pi)
@@ -472,8 +552,9 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
         ke_from = f"ripple ({n_ke} windows)"
     prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
-    est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None,
-                   rpm_per_amp(ra, ke) if math.isfinite(ke) else None)
+    per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) else None
+    est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None, per_A)
+    est = count_steady_spans(b, duty, est, opts, per_A)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from

@@ -88,9 +88,11 @@ class Residual:
         return not self.note
 
 
-def training_rows(recs: list[Recording], p: ph.PhysicsParams, dyn: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """The features x and residuals e = rpm_ref - n_M2 of the labelled training rows."""
-    xs, es = [], []
+def labelled_rows(recs: list[Recording], p: ph.PhysicsParams, dyn: dict | None = None):
+    """The features x, residuals e = rpm_ref - n_M2 and weights of the labelled training rows: the
+    weight is the reference's confidence (Recording.weight, the ripple's) where a recording has
+    one, 1 elsewhere; None where no recording has one (the encoder: every row once)."""
+    xs, es, ws = [], [], []
     for r in recs:
         x, n2 = features(r, p, dyn)
         x, n2 = x[: r.n_train], n2[: r.n_train]
@@ -98,13 +100,22 @@ def training_rows(recs: list[Recording], p: ph.PhysicsParams, dyn: dict | None =
         keep = np.isfinite(ref) & np.isfinite(x).all(axis=1)
         xs.append(x[keep])
         es.append((ref - n2)[keep])
-    return np.concatenate(xs), np.concatenate(es)
+        ws.append((np.ones(r.n_train) if r.weight is None else np.asarray(r.weight, float)[: r.n_train])[keep])
+    weighted = any(r.weight is not None for r in recs)
+    return np.concatenate(xs), np.concatenate(es), (np.concatenate(ws) if weighted else None)
+
+
+def training_rows(recs: list[Recording], p: ph.PhysicsParams, dyn: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """The features x and residuals e = rpm_ref - n_M2 of the labelled training rows."""
+    x, e, _ = labelled_rows(recs, p, dyn)
+    return x, e
 
 
 def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig, dyn: dict | None = None) -> Residual:
     """Fits the residual e = rpm_ref - n_M2 on the training rows of every recording (n_M2 through
-    the dynamic family where dyn names it); TrainingError with fewer labelled rows than one batch."""
-    x, e = training_rows(recs, p, dyn)
+    the dynamic family where dyn names it), each row weighted by its reference's confidence where
+    it has one (labelled_rows: the ripple's); TrainingError with fewer labelled rows than one batch."""
+    x, e, weight = labelled_rows(recs, p, dyn)
     if len(x) < cfg.batch_size:
         raise TrainingError(f"only {len(x)} labelled training rows: too few to train the residual network "
                             f"(at least one batch, {cfg.batch_size}); record longer, or give more recordings")
@@ -112,7 +123,7 @@ def train_residual(recs: list[Recording], p: ph.PhysicsParams, cfg: TrainConfig,
     z = scaler.transform(x)
     bar = functools.partial(tqdm, desc=f"train M3 {cfg.hidden}", unit="epoch", disable=None if cfg.progress else True,  # None: no bar off a terminal
                             mininterval=0.5, leave=False)
-    mlp, losses = network.train(z, e, cfg, progress=bar)
+    mlp, losses = network.train(z, e, cfg, progress=bar, weight=weight)
     lo, hi = x.min(axis=0), x.max(axis=0)
     span = np.maximum(hi - lo, 1e-6)
     return Residual(scaler=scaler, mlp=mlp, clamp_rpm=float(np.percentile(np.abs(e), CLAMP_PERCENTILE)),

@@ -1,0 +1,251 @@
+"""Training, diagnosis and evaluation from the ripple alone against the same from the encoder
+(issue 23 item 4, docs/ripple.md "Training, diagnosis and evaluation from the ripple alone"):
+the commands of that section, run in one go, and their figures printed as its tables.
+
+    PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple_reference --json F [--work DIR]
+
+1. twin benches in the ripple mode: `hpddo twin --protocol all --preset default --ripple-hz 10000
+   --out bench` (sweep, load, long; with --long-time-scale S the long run alone at that time
+   scale) and `hpddo twin --protocol validation ... --out val` (unseen, hot: never seen);
+2. `hpddo train bench/*.csv` with the encoder and with `--reference ripple --ripples-per-rev 6
+   --gear-ratio 4.4`: plain M2 (network seeds 1 and 2) and M2 with the effects the diagnosis
+   names (EFFECTS);
+3. each model scored against the encoder on every row of val (`hpddo evaluate --model M
+   val/unseen.csv val/hot.csv`), and the plain ripple model against the ripple itself
+   (`--reference ripple`, what a user without an encoder sees);
+4. `hpddo diagnose bench/*.csv` with and without the ripple.
+
+Every figure is read back from the commands' own metrics.json / diagnosis.json; the costs are
+wall-clock seconds of each command (a process of its own) in this run, ripple against encoder.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import pathlib
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+EFFECTS = ("brush_drop", "thermal_ra", "magnet_thermal")  # what the diagnosis names from either reference
+RIPPLE = ["--reference", "ripple", "--ripples-per-rev", "6", "--gear-ratio", "4.4"]
+BENCH = ("sweep", "load", "long")
+VAL = ("unseen", "hot")
+# (label, trained from, effects, network seed)
+MODELS = (("plain", "encoder", (), 1), ("plain", "ripple", (), 1), ("plain", "encoder", (), 2),
+          ("plain", "ripple", (), 2), ("effects", "encoder", EFFECTS, 1), ("effects", "ripple", EFFECTS, 1))
+
+
+def _run(argv: list) -> tuple[float, str]:
+    """One hpddo command, `python -m hpddo ...` in a process of its own (the studies room sits
+    below the CLI's): (wall seconds, its printed output)."""
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join(
+        [str(pathlib.Path(__file__).resolve().parents[2]), *filter(None, [os.environ.get("PYTHONPATH")])])}
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-m", "hpddo", *map(str, argv)], capture_output=True, text=True, env=env)
+    if p.returncode != 0:
+        raise RuntimeError(f"hpddo {' '.join(map(str, argv))} failed ({p.returncode}):\n{p.stdout}{p.stderr}")
+    return time.perf_counter() - t0, p.stdout
+
+
+def benches(work: pathlib.Path, long_time_scale: float, time_scale: float = 1.0) -> tuple[list, list]:
+    """The twin benches (time_scale: every run, for a quick check; long_time_scale: the long run's
+    on top of it). At 1 and 1 these are the doc's two commands."""
+    bench, val = work / "bench", work / "val"
+    common = ["--preset", "default", "--ripple-hz", "10000", "--quiet"]
+    if long_time_scale == 1.0 and time_scale == 1.0:
+        _run(["twin", "--protocol", "all", *common, "--out", bench])
+        _run(["twin", "--protocol", "validation", *common, "--out", val])
+    else:
+        for prot in BENCH:
+            ts = time_scale * (long_time_scale if prot == "long" else 1.0)
+            _run(["twin", "--protocol", prot, *common, "--time-scale", ts, "--out", bench])
+        for prot in VAL:
+            _run(["twin", "--protocol", prot, *common, "--time-scale", time_scale, "--out", val])
+    return [bench / f"{p}.csv" for p in BENCH], [val / f"{p}.csv" for p in VAL]
+
+
+def _ref_record(metrics: dict) -> dict | None:
+    r = metrics.get("reference")
+    if not r:
+        return None
+    return {"rows": r["rows"], "kept": r["kept"], "left_out": r["left_out"],
+            "left_out_by_reason": r["left_out_by_reason"],
+            "per_recording": {k: {"rows": v["rows"], "left_out_by_reason": v["left_out_by_reason"],
+                                  "ke_prior_vs_per_rad": v["ke_prior_vs_per_rad"],
+                                  "confidence_kept": v["confidence_kept"]} for k, v in r["recordings"].items()}}
+
+
+def _diagnosis(d: dict) -> dict:
+    """What the comparison of the two diagnoses needs from diagnosis.json."""
+    ke = next((q for q in d["intervals"] if q.get("field") == "ke_vs_per_rad"), None)
+    ra = d["ra_fit"].get("data_alone") or {}
+    named = [m if isinstance(m, str) else m.get("effect") for m in d["missing_effects"]]
+    shown = {}
+    for r in d["ranking"]:
+        if r.get("effect") not in named:
+            continue
+        q = next((q for q in d["intervals"] if q.get("quantity") == r["effect"] and q.get("determined")), None)
+        text = r.get("shown") or ""
+        if q is not None and q.get("lo") is not None:
+            scale = 100.0 if q.get("unit") == "1/K" else 1.0  # %/K as the ranking shows it
+            text += f" ({q['lo'] * scale:.3f}..{q['hi'] * scale:.3f})"
+        if r.get("inclusion") is not None and (q is None or q.get("lo") is None):
+            text += f", inclusion {r['inclusion']:.0%}"
+        shown[r["effect"]] = text
+    return {"named": named, "shown": shown, "ke_vs_per_rad": None if ke is None else ke["value"],
+            "ra_data_ohm": [ra.get("value"), ra.get("lo"), ra.get("hi")], "noise_rpm": d["noise_rpm"],
+            "told_apart": d.get("told_apart"), "confounded": d.get("confounded"), "verdict": d["verdict"]}
+
+
+def run(work: pathlib.Path, long_time_scale: float = 1.0, quiet: bool = False, time_scale: float = 1.0,
+        epochs: int | None = None) -> dict:
+    say = (lambda *a: None) if quiet else (lambda *a: print(*a, file=sys.stderr, flush=True))
+    t0 = time.perf_counter()
+    logs, val = benches(work, long_time_scale, time_scale)
+    say(f"benches in {time.perf_counter() - t0:.0f} s")
+    out = {"long_time_scale": long_time_scale, "time_scale": time_scale, "epochs": epochs, "models": [], "costs_s": {}}
+    for label, ref, effects, seed in MODELS:
+        name = f"{label}_{ref}_s{seed}"
+        mdir, edir = work / f"M_{name}", work / f"E_{name}"
+        argv = ["train", *logs, "--out", mdir, "--seed", seed, "--quiet"]
+        if epochs:
+            argv += ["--epochs", epochs]
+        if effects:
+            argv += ["--effects", ",".join(effects)]
+        if ref == "ripple":
+            argv += RIPPLE
+        t_train, _ = _run(argv)
+        t_eval, _ = _run(["evaluate", "--model", mdir, *val, "--out", edir, "--quiet"])
+        m = json.loads((mdir / "metrics.json").read_text())
+        e = json.loads((edir / "metrics.json").read_text())
+        rec = {"label": label, "from": ref, "effects": list(effects), "seed": seed,
+               "ke_m2_vs_per_rad": m["identification"]["ke_m2_vs_per_rad"],
+               "train_rows_m3": m["identification"]["train_rows"],
+               "rmse_vs_encoder": {k: {c: e["rmse_rpm"][k][c] for c in (*VAL, "average")} for k in ("M2", "M3")},
+               "fallback_share": {c: e["fallback_share"][c] for c in VAL},
+               "gated_share": {c: e["gated_share"][c] for c in VAL},
+               "reference": _ref_record(m), "train_s": t_train}
+        out["models"].append(rec)
+        out["costs_s"][f"train {name}"] = t_train
+        say(f"{name}: train {t_train:.0f} s, M2 {rec['rmse_vs_encoder']['M2']['average']:.2f}, "
+            f"M3 {rec['rmse_vs_encoder']['M3']['average']:.2f} RPM")
+    # the plain ripple model scored against the ripple itself
+    edir = work / "E_plain_ripple_s1_vs_ripple"
+    _, _ = _run(["evaluate", "--model", work / "M_plain_ripple_s1", *val, "--out", edir, "--quiet", *RIPPLE])
+    e = json.loads((edir / "metrics.json").read_text())
+    out["scored_against_ripple"] = {"rmse": {k: {c: e["rmse_rpm"][k][c] for c in VAL} for k in ("M2", "M3")},
+                                    "reference": _ref_record(e)}
+    out["diagnosis"] = {}
+    for ref in ("encoder", "ripple"):
+        ddir = work / f"D_{ref}"
+        t, _ = _run(["diagnose", *logs, "--out", ddir, "--quiet", *(RIPPLE if ref == "ripple" else [])])
+        out["diagnosis"][ref] = _diagnosis(json.loads((ddir / "diagnosis.json").read_text()))
+        out["costs_s"][f"diagnose {ref}"] = t
+    out["total_s"] = time.perf_counter() - t0
+    return out
+
+
+def _pair(models, label, seed):
+    enc = next(m for m in models if m["label"] == label and m["from"] == "encoder" and m["seed"] == seed)
+    rip = next(m for m in models if m["label"] == label and m["from"] == "ripple" and m["seed"] == seed)
+    return enc, rip
+
+
+def tables(r: dict) -> str:
+    lines = []
+    ref = next(m for m in r["models"] if m["from"] == "ripple")["reference"]
+    why = ", ".join(f"{k} {c}" for k, c in sorted(ref["left_out_by_reason"].items()))
+    lines.append(f"rows left out of the training by the ripple: {ref['left_out']} of {ref['rows']} ({why})")
+    for name, pr in ref["per_recording"].items():
+        w = ", ".join(f"{k} {c}" for k, c in sorted(pr["left_out_by_reason"].items())) or "none"
+        ck = pr["confidence_kept"]
+        lines.append(f"  {name}: {pr['rows']} rows, left out: {w}; prior Ke {pr['ke_prior_vs_per_rad']:.4f} V s/rad; "
+                     f"kept rows' confidence median {ck['median']:.2f}, min {ck['min']:.2f}")
+    lines.append("")
+    lines.append("| model | trained from | RMSE unseen | RMSE hot | average | ripple / encoder |")
+    lines.append("|---|---|---|---|---|---|")
+    for label, title in (("plain", "M2 (no effects)"), ("effects", "M2 with the named effects")):
+        seeds = sorted({m["seed"] for m in r["models"] if m["label"] == label})
+        for k, kt in (("M2", title), ("M3", "M3 on it")):
+            rows = {"encoder": [], "ripple": []}
+            for s in seeds:
+                enc, rip = _pair(r["models"], label, s)
+                rows["encoder"].append(enc["rmse_vs_encoder"][k])
+                rows["ripple"].append(rip["rmse_vs_encoder"][k])
+                if k == "M2":
+                    break  # M2 does not depend on the network's seed
+            for src in ("encoder", "ripple"):
+                cells = [" / ".join(f"{x[c]:.2f}" for x in rows[src]) for c in (*VAL, "average")]
+                ratio = ""
+                if src == "ripple":
+                    ratio = " / ".join(f"{a['average'] / b['average'] - 1:+.1%}"
+                                       for a, b in zip(rows["ripple"], rows["encoder"]))
+                seed_note = f" (seed {' / '.join(map(str, seeds))})" if k == "M3" and len(rows[src]) > 1 else ""
+                lines.append(f"| {kt} | {src}{seed_note} | " + " | ".join(cells) + f" | {ratio} |")
+    for label in ("plain", "effects"):
+        enc, rip = _pair(r["models"], label, 1)
+        lines.append(f"{label}: Ke of M2 {enc['ke_m2_vs_per_rad']:.4f} (encoder) / {rip['ke_m2_vs_per_rad']:.4f} "
+                     f"(ripple) V s/rad; M3 trained on {enc['train_rows_m3']} / {rip['train_rows_m3']} rows; "
+                     f"fallback on unseen {enc['fallback_share']['unseen']:.1%} / {rip['fallback_share']['unseen']:.1%}, "
+                     f"hot {enc['fallback_share']['hot']:.1%} / {rip['fallback_share']['hot']:.1%}")
+    lines.append("")
+    d = r["diagnosis"]
+    lines.append(f"diagnosis names: encoder {', '.join(d['encoder']['named']) or 'nothing'}; "
+                 f"ripple {', '.join(d['ripple']['named']) or 'nothing'}")
+    lines.append("| | encoder | ripple |")
+    lines.append("|---|---|---|")
+    for eff in dict.fromkeys(d["encoder"]["named"] + d["ripple"]["named"]):
+        lines.append(f"| {eff} | {d['encoder']['shown'].get(eff, '-')} | {d['ripple']['shown'].get(eff, '-')} |")
+    lines.append(f"| Ke | {d['encoder']['ke_vs_per_rad']:.4f} V s/rad | {d['ripple']['ke_vs_per_rad']:.4f} V s/rad |")
+    lines.append("| Ra the data support | " + " | ".join(
+        f"{x['ra_data_ohm'][0]:.2f} ohm ({x['ra_data_ohm'][1]:.2f}..{x['ra_data_ohm'][2]:.2f})"
+        for x in (d["encoder"], d["ripple"])) + " |")
+    lines.append(f"| noise floor | {d['encoder']['noise_rpm']:.2f} RPM | {d['ripple']['noise_rpm']:.2f} RPM |")
+    for src in ("encoder", "ripple"):
+        lines.append(f"told apart ({src}): {json.dumps(d[src]['told_apart'])}; confounded: {json.dumps(d[src]['confounded'])}")
+    lines.append("")
+    s = r["scored_against_ripple"]
+    lines.append("scored against the ripple (plain ripple model): M2 " + " / ".join(f"{s['rmse']['M2'][c]:.2f}" for c in VAL)
+                 + ", M3 " + " / ".join(f"{s['rmse']['M3'][c]:.2f}" for c in VAL) + " RPM on " + " / ".join(VAL))
+    for name, pr in s["reference"]["per_recording"].items():
+        w = ", ".join(f"{k} {c}" for k, c in sorted(pr["left_out_by_reason"].items())) or "none"
+        lines.append(f"  left out of the score: {name} {sum(pr['left_out_by_reason'].values())} of {pr['rows']} ({w})")
+    lines.append("")
+    c = r["costs_s"]
+    lines.append(f"costs: train {c['train plain_ripple_s1']:.0f} s with the ripple, {c['train plain_encoder_s1']:.0f} s "
+                 f"with the encoder; diagnose {c['diagnose ripple']:.0f} s against {c['diagnose encoder']:.0f} s; "
+                 f"the whole study {r['total_s']:.0f} s")
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.ripple_reference", description=__doc__,
+                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--json", type=pathlib.Path, help="write the figures here as JSON")
+    ap.add_argument("--work", type=pathlib.Path, help="keep the benches, models and reports here (new or empty); "
+                    "default a temporary folder, removed after")
+    ap.add_argument("--long-time-scale", type=float, default=1.0, help="the long run's time scale (default 1: 60 min)")
+    ap.add_argument("--time-scale", type=float, default=1.0, help="every twin run's time scale, for a quick check "
+                    "(default 1: the doc's figures)")
+    ap.add_argument("--epochs", type=int, default=None, help="M3's epochs (default hpddo train's), for a quick check")
+    ap.add_argument("--quiet", action="store_true")
+    args = ap.parse_args(argv)
+    work = args.work or pathlib.Path(tempfile.mkdtemp(prefix="hpddo-ripple-reference-"))
+    work.mkdir(parents=True, exist_ok=True)
+    try:
+        r = run(work, args.long_time_scale, args.quiet, args.time_scale, args.epochs)
+    finally:
+        if args.work is None:
+            shutil.rmtree(work, ignore_errors=True)
+    print(tables(r))
+    if args.json:
+        args.json.write_text(json.dumps(r, indent=1, default=str))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
