@@ -7,3 +7,15 @@ target (perf).
 May import: everything below the command line (the foundations, logs, model, evaluation,
 twin, diagnosis, reports, hpddo.pipeline); not hpddo.cli.
 """
+
+import argparse as _argparse
+import pathlib as _pathlib
+
+
+def parser(module: str, doc: str) -> _argparse.ArgumentParser:
+    """A study's command line: `python -m hpddo.studies.<module>`, its docstring as the help, and
+    --json FILE (the figures also written as JSON)."""
+    ap = _argparse.ArgumentParser(prog=f"python -m hpddo.studies.{module}", description=doc,
+                                  formatter_class=_argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--json", type=_pathlib.Path, metavar="FILE", help="also write the figures as JSON")
+    return ap

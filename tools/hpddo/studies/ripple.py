@@ -12,7 +12,6 @@ comparison with the encoder and counted.
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import math
@@ -23,6 +22,7 @@ import numpy as np
 from ..logs.ripple import Bursts
 from ..model import ripple as rp
 from ..twin import generate, params
+from . import parser
 
 RA_OHM = 4.50  # the logs' ra_ohm metadata (the multimeter value)
 WINDOW_S = 0.5  # 2 Hz windows, the paper's rate
@@ -248,9 +248,7 @@ def over_seeds_table(results) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.ripple", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", metavar="FILE", help="also write the figures as JSON")
+    ap = parser("ripple", __doc__)
     ap.add_argument("--only", metavar="NAME", help="one scenario")
     ap.add_argument("--quiet", action="store_true")
     ap.add_argument("--seeds", metavar="S,S,..", help="instead of the scenarios: every protocol on the default "

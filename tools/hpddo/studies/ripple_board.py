@@ -14,7 +14,6 @@ means (the board's come from the window's first 20 %).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import math
 import pathlib
@@ -26,6 +25,7 @@ from .. import bench, resource_root
 from ..model import export, quant
 from ..model import ripple_count as rc
 from ..twin import generate, params
+from . import parser
 
 RIPPLES_PER_REV = 6  # the build's ACQ_RIPPLES_PER_REV
 
@@ -80,8 +80,7 @@ def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, b
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", type=pathlib.Path, default=None)
+    ap = parser("ripple_board", __doc__)
     a = ap.parse_args(argv)
     scenarios = [
         ("long warm-up, 2 Hz, default twin", dict(protocol="long", rate_hz=2.0)),

@@ -20,7 +20,6 @@ wall-clock seconds of each command (a process of its own) in this run, ripple ag
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import pathlib
@@ -29,6 +28,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from . import parser
 
 EFFECTS = ("brush_drop", "thermal_ra", "magnet_thermal")  # what the diagnosis names from either reference
 RIPPLE = ["--reference", "ripple", "--ripples-per-rev", "6", "--gear-ratio", "4.4"]
@@ -214,18 +214,13 @@ def tables(r: dict) -> str:
     for name, pr in s["reference"]["per_recording"].items():
         w = ", ".join(f"{k} {c}" for k, c in sorted(pr["left_out_by_reason"].items())) or "none"
         lines.append(f"  left out of the score: {name} {sum(pr['left_out_by_reason'].values())} of {pr['rows']} ({w})")
-    lines.append("")
-    c = r["costs_s"]
-    lines.append(f"costs: train {c['train plain_ripple_s1']:.0f} s with the ripple, {c['train plain_encoder_s1']:.0f} s "
-                 f"with the encoder; diagnose {c['diagnose ripple']:.0f} s against {c['diagnose encoder']:.0f} s; "
-                 f"the whole study {r['total_s']:.0f} s")
-    return "\n".join(lines)
+    costs = ("costs: train {train plain_ripple_s1:.0f} s with the ripple, {train plain_encoder_s1:.0f} s with the "
+             "encoder; diagnose {diagnose ripple:.0f} s against {diagnose encoder:.0f} s").format_map(r["costs_s"])
+    return "\n".join([*lines, "", f"{costs}; the whole study {r['total_s']:.0f} s"])
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.ripple_reference", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--json", type=pathlib.Path, help="write the figures here as JSON")
+    ap = parser("ripple_reference", __doc__)
     ap.add_argument("--work", type=pathlib.Path, help="keep the benches, models and reports here (new or empty); "
                     "default a temporary folder, removed after")
     ap.add_argument("--long-time-scale", type=float, default=1.0, help="the long run's time scale (default 1: 60 min)")
