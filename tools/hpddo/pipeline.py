@@ -119,8 +119,8 @@ def check_physical(recs, m2: ph.PhysicsParams, names) -> None:
     for name in names:
         e = effects.LIBRARY[name]
         value = float(getattr(m2, e.field))
-        lo, hi = e.physical
-        if not lo <= value <= hi:
+        if not e.is_physical(value):
+            lo, hi = e.physical
             files = ", ".join(str(r.source) for r in recs)
             raise InputError(f"{files}: --effects {name}: fitted {e.show(value)}, outside its physical range "
                              f"{lo * e.show_scale:.3g}..{hi * e.show_scale:.3g} {e.show_unit} ({e.coefficient}): these "

@@ -143,6 +143,11 @@ class Effect:
     def show(self, value: float) -> str:
         return f"{value * self.show_scale:+.3g} {self.show_unit}"
 
+    def is_physical(self, value: float) -> bool:
+        """Whether a fitted coefficient can be this effect at all (strictly inside `physical`)."""
+        lo, hi = self.physical
+        return lo < value < hi
+
     def plausibility(self, value: float) -> tuple[bool, str]:
         lo, hi = self.plausible
         ok = lo <= value <= hi

@@ -400,8 +400,7 @@ def _physical(name: str, value: float, m2: ph.PhysicsParams | None = None) -> bo
     more than RA_MISMATCH_SIGMAS tolerances from the reading m2.ra_ohm."""
     if name == RA_MISMATCH:
         return RA_MISMATCH_SIGMAS < abs(ra_sigmas(m2, value)) <= RA_PLAUSIBLE_SIGMAS
-    lo, hi = fx.LIBRARY[name].physical
-    return lo < value < hi
+    return fx.LIBRARY[name].is_physical(value)
 
 
 def _value(name: str, p: ph.PhysicsParams) -> float:

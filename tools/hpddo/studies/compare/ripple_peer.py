@@ -24,6 +24,7 @@ from ...logs import benchlog
 from ...logs import ripple as ripple_file
 from ...logs.errors import InputError
 from ...model import ripple as rp
+from .methods import reference
 
 ALONE = "ripple"
 FUSED = "ripple + M2"
@@ -83,7 +84,7 @@ def coverage(recs, all_speeds, masks=None) -> dict:
     table}: the rows the alone row's RMSE is taken over."""
     per, n_all, n_kept = {}, 0, 0
     for k, (r, s) in enumerate(zip(recs, all_speeds)):
-        ref = r.df["rpm_ref"].to_numpy(float) if "rpm_ref" in r.df else np.full(r.n, np.nan)
+        ref = reference(r)
         mask = np.isfinite(ref) & (np.ones(r.n, bool) if masks is None else masks[k])
         kept = int(np.sum(mask & np.isfinite(s.alone_rpm)))
         per[r.name] = round(kept / max(int(mask.sum()), 1), 4)
