@@ -522,21 +522,22 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001)
 
 
 def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = None,
-                 ke_vs_per_rad: float | None = None):
+                 ke_vs_per_rad: float | None = None, bursts=None):
     """The ripple speed of every window of one bench log (its rows df, metadata meta) from the
     bursts beside it (`<condition>.ripple.csv`): (estimate DataFrame, one row per burst, with
     `row`, the index of its window in df, and `rpm_prior`; Ke of the prior, where it came
     from). The prior is M2 without effects, (V - I Ra) / Ke: Ke the user's, else calibrated
     from the ripple (calibrate_ke); Ra the user's, else the log's ra_ohm metadata.
-    InputError where the bursts are missing, do not match the log, or Ra is unknown."""
+    InputError where the bursts are missing, do not match the log, or Ra is unknown. bursts:
+    the log's bursts already read (logs.ripple.read), for a caller that counts them twice."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
 
     bpath = rf.path_for(path)
-    if not bpath.exists():
+    if bursts is None and not bpath.exists():
         raise InputError(f"{path}: no current bursts beside it ({bpath.name}); record them in the ripple "
                          "mode (hpddo twin --ripple-hz, docs/ripple.md)")
-    b = rf.read(bpath)
+    b = rf.read(bpath) if bursts is None else bursts
     seq = df["seq"].to_numpy() if "seq" in df else np.arange(len(df))
     pos = {int(s): k for k, s in enumerate(seq)}
     rows = [pos.get(int(s)) for s in b.seq]

@@ -67,8 +67,9 @@ def speeds(rec, opts: rp.Options, ra_ohm: float, ke_m2_vs_per_rad: float,
                 out[k] = v
         return out
 
-    alone, ke_alone, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_alone_vs_per_rad)
-    fused, _, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_m2_vs_per_rad)
+    bursts = ripple_file.read(ripple_file.path_for(rec.source))  # read once, counted with either prior
+    alone, ke_alone, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_alone_vs_per_rad, bursts)
+    fused, _, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_m2_vs_per_rad, bursts)
     return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone))
 
 
