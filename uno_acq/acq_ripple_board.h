@@ -291,7 +291,7 @@ struct WindowRipple {
 
 RippleRa g_ra;
 uint32_t g_ra_from_seq;  ///< Ra is tracked from this window on (a recording's first)
-float g_cnt_cyc, g_cnt_span;  ///< the recent bursts' cycles and PWM periods (kRippleCountTauS)
+RippleSpan g_span;  ///< the count's span (acq_ripple_count.h)
 
 /// A recording starts with window first_seq (main loop): the counter starts afresh at that
 /// window's burst (its band from the reset, k = 5), and Ke is calibrated again from there: the
@@ -303,14 +303,17 @@ inline void on_recording(uint32_t first_seq) {
   sei();
   ripple_ra_reset(&g_ra);
   g_ra_from_seq = first_seq;
-  g_cnt_cyc = g_cnt_span = 0.0f;
+  g_span.cyc = g_span.span = g_span.n = g_span.i2 = g_span.rpm = g_span.i_last = 0.0f;
+  g_span.age = kRippleSettleWindows;
 }
 
 /// Main loop, after the observer's step on window seq (v_V, i_A its means, dt_s its length,
 /// rpm_prior the observer's estimate, the back-EMF prior): the window's ripple speed, whether
-/// it is the prior's line, Ra and the winding temperature; sets the next burst's band.
-inline WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float v_V, float i_A, float dt_s,
-                              float rpm_prior) {
+/// it is the prior's line, Ra and the winding temperature; sets a later burst's band. The
+/// host's reference, step for step: ripple_count.py track.
+__attribute__((noinline)) WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float v_V,
+                                                          float i_A, float dt_s, float rpm_prior,
+                                                          RippleSpan* span = &g_span) {
   WindowRipple out;
   out.rpm = hpddo::absent();
   out.confident = false;
@@ -319,27 +322,58 @@ inline WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float
   cli();
   const State::Count c = g.count;
   sei();
-  if (c.valid && c.seq == seq && static_cast<int32_t>(seq - g_ra_from_seq) >= 0) {
-    const float keep = dt_s < kRippleCountTauS ? 1.0f - dt_s / kRippleCountTauS : 0.0f;
-    g_cnt_cyc = g_cnt_cyc * keep + static_cast<float>(c.cyc);
-    g_cnt_span = g_cnt_span * keep + static_cast<float>(c.span);
+  RippleSpan* s = span;
+  __asm__("" : "+r"(s));  // the span through a pointer register (2-byte loads), not 32 absolute addresses
+  const bool rec = static_cast<int32_t>(seq - g_ra_from_seq) >= 0;
+  if (c.valid && c.seq == seq && rec) {
+    float keep = dt_s < kRippleCountTauS ? 1.0f - dt_s / kRippleCountTauS : 0.0f;
+    // The window's current: the sum of its own and the window before's (a short window's mean
+    // current aliases the ripple, in opposite sense from one window to the next). Against the
+    // span's: where Ra |I - I_span| > kRippleSteadyTol Ke w_span (a load or voltage step: the
+    // speed moves by more than that share at constant voltage), the span begins again without
+    // this window, and the counts of the next kRippleSettleWindows - 1 are left out.
+    const float i2 = s->i_last + i_A;
+    s->i_last = i_A;
+    if (keep > 0.0f && fabsf(p.ra_ohm * (i2 * s->n - s->i2)) >
+                           2.0f * kRippleSteadyTol / hpddo::kRpmPerRadS * p.ke_vs_per_rad * s->rpm) {
+      keep = 0.0f;  // both sides above times the span's weight, and the current twice
+      s->age = 0;
+    } else if (s->age < kRippleSettleWindows) {
+      ++s->age;
+    }
+    float cyc = static_cast<float>(c.cyc), periods = static_cast<float>(c.span);
+    float keep_cyc = keep;
+    if (s->age < kRippleSettleWindows) {
+      cyc = periods = 0.0f;
+    } else if (c.cyc >= static_cast<uint16_t>(kRippleMinCycles)) {  // a burst holding enough cycles is the count alone
+      keep_cyc = 0.0f;
+    }
+    s->cyc = s->cyc * keep_cyc + cyc;
+    s->span = s->span * keep_cyc + periods;
+    s->n = s->n * keep + 1.0f;
+    s->i2 = s->i2 * keep + i2;
+    s->rpm = s->rpm * keep + rpm_prior;
   }
   float f = 0.0f;
-  if (ripple_counter_hz(g_cnt_cyc, g_cnt_span, fs, &f)) out.rpm = f * 60.0f / per_rev;
-  const float f_prior = rpm_prior > 0.0f ? rpm_prior * per_rev / 60.0f : 0.0f;
-  if (f > 0.0f && g_cnt_cyc >= kRippleMinCycles) out.confident = ripple_count_confident(f, f_prior);
-  const bool track = out.confident && static_cast<int32_t>(seq - g_ra_from_seq) >= 0;
+  if (ripple_counter_hz(s->cyc, s->span, fs, &f)) out.rpm = f * 60.0f / per_rev;
+  const float rpm_span = s->rpm / s->n;  // the span's mean prior (NaN before its first window: none)
+  const float f_prior = rpm_span > 0.0f ? rpm_span * per_rev / 60.0f : 0.0f;
+  if (f > 0.0f && s->cyc >= kRippleMinCycles) out.confident = ripple_count_confident(f, f_prior);
+  const bool track = out.confident && rec;
   out.have_ra = track ? ripple_ra_step(p, v_V, i_A, out.rpm, dt_s, &g_ra) : g_ra.have;
   out.ra_ohm = g_ra.ra_ohm;
   out.tw_C = g_ra.tw_C;
   // The burst of window seq + band_lag (its last periods: it has not begun) is counted in the
-  // band of this window's prior, at the decimated rate, and across its gap with this expected
-  // period. From a recording's windows only: the reference starts there (no band before).
-  if (static_cast<int32_t>(seq - g_ra_from_seq) >= 0) {
-    const float t_exp = f_prior > 0.0f ? fs / f_prior + 0.5f : 0.0f;
+  // band of the count where it is confident, else of the span's mean prior (one 100 Hz window's
+  // prior is 15-25 % off with its voltage's PWM noise: enough to count a gap of two ripple
+  // periods as one), at the decimated rate, and across its gap with this expected period. From
+  // a recording's windows only: the reference starts there (no band before).
+  if (rec) {
+    const float f_band = out.confident ? f : f_prior;
+    const float t_exp = f_band > 0.0f ? fs / f_band + 0.5f : 0.0f;
     State::Band b;
     b.seq = seq + g.band_lag;
-    b.k = ripple_lp_shift(f_prior, 0.5f * fs);
+    b.k = ripple_lp_shift(f_band, 0.5f * fs);
     b.t_exp = static_cast<uint16_t>(t_exp > 65535.0f ? 65535.0f : t_exp);
     b.valid = true;
     cli();

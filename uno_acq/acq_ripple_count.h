@@ -162,11 +162,29 @@ inline bool ripple_counter_hz(float cyc, float span, float fs_hz, float* f_hz) {
   return true;
 }
 
-/// The counts of the recent bursts, each window's weighted by 1 - dt / tau per window older
-/// (kRippleCountTauS; none for windows of tau or longer): at 100 Hz windows a burst holds
-/// less than a ripple cycle.
+/// The count's span (acq_ripple_board.h on_window): the counts, currents and priors of the
+/// windows since the last load or voltage step, each older window's weighted by 1 - dt / tau
+/// per window (kRippleCountTauS; none for windows of tau or longer): at 100 Hz windows a burst
+/// holds less than a ripple cycle.
 static const float kRippleCountTauS = 0.25f;
-static const float kRippleMinCycles = 3.0f;  ///< weighted cycles at least for a confident speed
+static const float kRippleMinCycles = 5.0f;  ///< weighted cycles at least for a confident speed
+/// A steady operating point: the window's current (the mean of its own and the window
+/// before's) within Ra |I - I_span| <= kRippleSteadyTol Ke w_span of the span's mean: at
+/// constant voltage the speed moves by at most this share. Beyond it (a load or voltage step,
+/// which moves the current) the span begins again.
+static const float kRippleSteadyTol = 0.03f;
+/// Windows after a step whose counts the new span leaves out (the step's window and the next:
+/// the speed settles, and at 100 Hz the next burst is counted in a band set before the step).
+static const uint8_t kRippleSettleWindows = 2;
+
+/// The count's span (acq_ripple_board.h on_window): its cycles, their PWM periods, its windows,
+/// their two-window current sums (A: the window's current and the window before's) and
+/// priors (RPM), each older window's weighted by keep = 1 - dt / kRippleCountTauS.
+struct RippleSpan {
+  float cyc, span, n, i2, rpm;
+  float i_last;  ///< the last counted window's current, A
+  uint8_t age;   ///< windows since the span began (kRippleSettleWindows at most)
+};
 
 static const float kRippleFloorA = 0.10f;        ///< no Ra below this mean current (the host's floor)
 static const float kRippleKeCalS = 1.0f;         ///< confident windows over this long calibrate Ke, cold, s

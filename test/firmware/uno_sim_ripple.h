@@ -95,9 +95,20 @@ static uint8_t rip_adcl_read(struct avr_t* a, avr_io_addr_t addr, void* param) {
 static unsigned rip_sp_min = 0xFFFF; /* the stack pointer's low-water mark (rip_step) */
 static unsigned rip_ram_end;          /* first address above .data and .bss */
 
-/* After each instruction: the stack's low-water mark. */
+/* The instruction at flash byte address pc: OUT to I/O address io (0x3D SPL, 0x3F SREG)? */
+static int rip_is_out(unsigned pc, unsigned io) {
+  if (pc + 1 > avr->flashend) return 0;
+  const unsigned op = avr->flash[pc] | (avr->flash[pc + 1] << 8);
+  return (op & 0xFE0Fu) == (0xB800u | ((io & 0x30u) << 5) | (io & 0x0Fu));
+}
+
+/* After each instruction: the stack's low-water mark. A frame's prologue and epilogue write
+ * SPH, then SREG, then SPL (avr-gcc: out 0x3e; out 0x3f; out 0x3d): between the first and the
+ * last the SP register holds the new high byte beside the old low byte, up to 255 bytes off
+ * where the frame crosses a 256-byte page. Not sampled there (it once read 229 bytes low). */
 static void rip_step(void) {
   if (!rip_on) return;
+  if (rip_is_out(avr->pc, 0x3D) || (rip_is_out(avr->pc, 0x3F) && rip_is_out(avr->pc + 2, 0x3D))) return;
   const unsigned sp = avr->data[0x5D] | (avr->data[0x5E] << 8);
   if (sp < rip_sp_min) rip_sp_min = sp;
 }

@@ -127,7 +127,9 @@ def band_lag(burst_period: int, fs_hz: float) -> int:
 
 
 COUNT_TAU_S = 0.25      # kRippleCountTauS
-MIN_CYCLES = 3.0        # kRippleMinCycles
+MIN_CYCLES = 5.0        # kRippleMinCycles
+STEADY_TOL = 0.03       # kRippleSteadyTol
+SETTLE_WINDOWS = 2      # kRippleSettleWindows
 
 
 FLOOR_A = 0.10          # acq_ripple_count.h kRippleFloorA
@@ -139,8 +141,11 @@ RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
 
 def confident(f_hz: float, f_prior_hz: float) -> bool:
-    """acq_ripple_count.h ripple_count_confident."""
-    return f_prior_hz > 0 and abs(f_hz / f_prior_hz - 1.0) <= PRIOR_TOL
+    """acq_ripple_count.h ripple_count_confident (float32 as there)."""
+    if not f_prior_hz > 0:
+        return False
+    q = np.float32(f_hz) / np.float32(f_prior_hz) - np.float32(1)
+    return bool(-np.float32(PRIOR_TOL) <= q <= np.float32(PRIOR_TOL))
 
 
 class RaTracker:
@@ -191,27 +196,69 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
     at the first window): bursts are the windows' current codes in order (each the window's
     last periods, gap_periods after the previous burst's end), v_V, i_A their means, rpm_prior
     the observer's estimates (the back-EMF prior). One dict a window: rpm (NaN without a
-    count), confident, have_ra, ra_ohm, tw_C, k. Burst n is counted in the band of window
-    n - band_lag's prior (band_lag(gap_periods, fs_hz)), the reset's before that."""
+    count), confident, have_ra, ra_ohm, tw_C, k, cyc (the burst's own cycles), steady (False
+    where the window's current left the span's operating point and the span began again).
+    Burst n is counted in the band of window n - band_lag (band_lag(gap_periods, fs_hz)), the
+    reset's before that.
+
+    The span (on_window): the counts, currents and priors of the windows since the last load
+    or voltage step, each older window's weighted by keep = 1 - dt / COUNT_TAU_S (none for
+    windows of COUNT_TAU_S or longer). A window whose current (the mean of its own and the
+    window before's: a short window's mean current aliases the ripple, from one window to the
+    next in opposite sense) moves from the span's mean by more than a steady operating point
+    allows, Ra |dI| > STEADY_TOL Ke w (the speed would move by STEADY_TOL at constant voltage),
+    begins a new span; its count and the next window's are not taken (SETTLE_WINDOWS: the
+    speed and the band settle). A burst holding MIN_CYCLES itself is the count alone. Confident:
+    MIN_CYCLES weighted cycles at least, within PRIOR_TOL of the span's mean prior. The band
+    of a later burst follows the count where it is confident, else the span's mean prior (one
+    100 Hz window's prior is 15-25 % off with its voltage's PWM noise: enough to count a gap of
+    two ripple periods as one). Float32 as on the board, operation for operation."""
+    f32 = np.float32
     c = Counter()
     ra = RaTracker(p)
     lag = band_lag(gap_periods, fs_hz)
     bands = {}  # burst index -> (k, t_exp) from the prior band_lag windows before
-    cyc_w = span_w = 0.0
-    keep = float(np.float32(1) - np.float32(dt_s) / np.float32(COUNT_TAU_S)) if dt_s < COUNT_TAU_S else 0.0
+    zero = f32(0)
+    cyc_w = span_w = n_w = i_w = rpm_w = i_last = zero
+    age = SETTLE_WINDOWS
+    keep_dt = f32(1) - f32(dt_s) / f32(COUNT_TAU_S) if dt_s < COUNT_TAU_S else zero
+    steady_k = f32(2 * STEADY_TOL) / f32(RPM_PER_RAD_S) * f32(p.ke_vs_per_rad)  # V per RPM, the current twice
+    ra_ohm = f32(p.ra_ohm)
+    fs, per_rev, sixty = f32(fs_hz), f32(ripples_per_output_rev), f32(60)
     out = []
     for n, codes in enumerate(bursts):
         k, t_exp = bands.pop(n, (5, 0))
         c.begin(k, t_exp, gap_periods, n == 0)
         c.run(codes)
         cyc, span = c.latch()
-        cyc_w, span_w = cyc_w * keep + cyc, span_w * keep + span
-        f = counter_hz(cyc_w, span_w, fs_hz)
-        rpm = f * 60.0 / ripples_per_output_rev
-        f_prior = rpm_prior[n] * ripples_per_output_rev / 60.0 if rpm_prior[n] > 0 else 0.0
-        conf = f == f and cyc_w >= MIN_CYCLES and confident(f, f_prior)
+        own = cyc
+        i_n = f32(i_A[n])
+        i2 = i_last + i_n  # twice the mean of this window's current and the one before's
+        i_last = i_n
+        keep, steady = keep_dt, True
+        if keep > zero and abs(ra_ohm * (i2 * n_w - i_w)) > steady_k * rpm_w:
+            keep, age, steady = zero, 0, False  # a step: the span begins again here
+        elif age < SETTLE_WINDOWS:
+            age += 1
+        keep_cyc = keep
+        if age < SETTLE_WINDOWS:
+            cyc, span = 0, 0
+        elif cyc >= MIN_CYCLES:
+            keep_cyc = zero
+        cyc_w = cyc_w * keep_cyc + f32(cyc)
+        span_w = span_w * keep_cyc + f32(span)
+        n_w = n_w * keep + f32(1)
+        i_w = i_w * keep + i2
+        rpm_w = rpm_w * keep + f32(rpm_prior[n])
+        f = cyc_w * fs / span_w if cyc_w >= f32(1) and span_w > zero else f32(math.nan)
+        rpm = float(f * sixty / per_rev)
+        rpm_span = rpm_w / n_w
+        f_prior = float(rpm_span * per_rev / sixty) if rpm_span > zero else 0.0
+        conf = bool(f == f and cyc_w >= f32(MIN_CYCLES) and confident(f, f_prior))
         have = ra.step(v_V[n], i_A[n], rpm, dt_s) if conf else ra.have
-        out.append(dict(rpm=rpm, confident=conf, have_ra=have, ra_ohm=ra.ra_ohm, tw_C=ra.tw_C, k=c.k, cyc=cyc))
-        bands[n + lag] = (lp_shift(f_prior, 0.5 * fs_hz),
-                          min(65535, int(np.float32(fs_hz) / np.float32(f_prior) + np.float32(0.5))) if f_prior > 0 else 0)
+        out.append(dict(rpm=rpm, confident=conf, have_ra=have, ra_ohm=ra.ra_ohm, tw_C=ra.tw_C, k=c.k, cyc=own,
+                        steady=steady))
+        f_band = float(f) if conf else f_prior
+        bands[n + lag] = (lp_shift(f_band, 0.5 * fs_hz),
+                          min(65535, int(f32(fs_hz) / f32(f_band) + f32(0.5))) if f_band > 0 else 0)
     return out
