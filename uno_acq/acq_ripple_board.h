@@ -311,9 +311,8 @@ inline void on_recording(uint32_t first_seq) {
 /// rpm_prior the observer's estimate, the back-EMF prior): the window's ripple speed, whether
 /// it is the prior's line, Ra and the winding temperature; sets a later burst's band. The
 /// host's reference, step for step: ripple_count.py track.
-__attribute__((noinline)) WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float v_V,
-                                                          float i_A, float dt_s, float rpm_prior,
-                                                          RippleSpan* span = &g_span) {
+__attribute__((noinline)) WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float v_V, float i_A,
+                                                 float dt_s, float rpm_prior) {
   WindowRipple out;
   out.rpm = hpddo::absent();
   out.confident = false;
@@ -322,8 +321,8 @@ __attribute__((noinline)) WindowRipple on_window(const hpddo::PhysicsParams& p, 
   cli();
   const State::Count c = g.count;
   sei();
-  RippleSpan* s = span;
-  __asm__("" : "+r"(s));  // the span through a pointer register (2-byte loads), not 32 absolute addresses
+  RippleSpan* s = &g_span;
+  __asm__("" : "+r"(s));  // through a pointer register: 2-byte loads and stores, not 4-byte absolute ones
   const bool rec = static_cast<int32_t>(seq - g_ra_from_seq) >= 0;
   if (c.valid && c.seq == seq && rec) {
     float keep = dt_s < kRippleCountTauS ? 1.0f - dt_s / kRippleCountTauS : 0.0f;
@@ -356,8 +355,9 @@ __attribute__((noinline)) WindowRipple on_window(const hpddo::PhysicsParams& p, 
   }
   float f = 0.0f;
   if (ripple_counter_hz(s->cyc, s->span, fs, &f)) out.rpm = f * 60.0f / per_rev;
-  const float rpm_span = s->rpm / s->n;  // the span's mean prior (NaN before its first window: none)
-  const float f_prior = rpm_span > 0.0f ? rpm_span * per_rev / 60.0f : 0.0f;
+  // the span's mean prior as a ripple frequency (NaN before the span's first window: none)
+  float f_prior = s->rpm * (per_rev / 60.0f) / s->n;
+  if (!(f_prior > 0.0f)) f_prior = 0.0f;
   if (f > 0.0f && s->cyc >= kRippleMinCycles) out.confident = ripple_count_confident(f, f_prior);
   const bool track = out.confident && rec;
   out.have_ra = track ? ripple_ra_step(p, v_V, i_A, out.rpm, dt_s, &g_ra) : g_ra.have;

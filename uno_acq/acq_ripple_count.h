@@ -30,6 +30,7 @@
 
 #include "hpddo/params_gen.h"
 #include "hpddo/physics.h"
+#include "ripple_count_gen.h"  // the constants (kRipple...), generated from tools/hpddo/model/ripple_count.py
 
 /// Ripples per motor revolution (2 x commutator segments for two brushes), the user's figure
 /// as `hpddo ripple --ripples-per-rev`; the gear ratio is the bench's (bench_gen.h).
@@ -38,12 +39,6 @@
 #endif
 
 namespace acq {
-
-static const uint8_t kRippleAmpShift = 8;
-static const uint8_t kRippleLpMin = 2;   ///< k range: band corners at fs/(2 pi 4) .. fs/(2 pi 1024)
-static const uint8_t kRippleLpMax = 10;
-static const uint8_t kRippleLpReset = 5;  ///< k of a burst without a prior's band (ripple_counter_reset's)
-static const float kRippleCountPriorTol = 0.25f;  ///< |f / f_prior - 1| at most for a confident count
 
 /// The counter's state; the ADC interrupt calls sample() on each burst code.
 struct RippleCounter {
@@ -130,9 +125,9 @@ __attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, ui
   if (c->settle) --c->settle;
 }
 
-/// The main loop's work on a window ends this many cycles after the window's close at most (with
-/// margin): 85 600 measured at 100 Hz windows (simavr, the counting build; docs/ripple.md).
-static const uint32_t kRippleBandLeadCycles = 320000u;
+// kRippleBandLeadCycles: the main loop's work on a window ends this many cycles after the
+// window's close at most (with margin): 85 600 measured at 100 Hz windows (simavr, the counting
+// build; docs/ripple.md).
 
 /// Windows between the one whose prior sets a burst's band (on_window, in the main loop after
 /// the observer's step) and the burst's window. 1 when the burst opens surely after that work
@@ -162,35 +157,23 @@ inline bool ripple_counter_hz(float cyc, float span, float fs_hz, float* f_hz) {
   return true;
 }
 
-/// The count's span (acq_ripple_board.h on_window): the counts, currents and priors of the
-/// windows since the last load or voltage step, each older window's weighted by 1 - dt / tau
-/// per window (kRippleCountTauS; none for windows of tau or longer): at 100 Hz windows a burst
-/// holds less than a ripple cycle.
-static const float kRippleCountTauS = 0.25f;
-static const float kRippleMinCycles = 5.0f;  ///< weighted cycles at least for a confident speed
-/// A steady operating point: the window's current (the mean of its own and the window
-/// before's) within Ra |I - I_span| <= kRippleSteadyTol Ke w_span of the span's mean: at
-/// constant voltage the speed moves by at most this share. Beyond it (a load or voltage step,
-/// which moves the current) the span begins again.
-static const float kRippleSteadyTol = 0.03f;
-/// Windows after a step whose counts the new span leaves out (the step's window and the next:
-/// the speed settles, and at 100 Hz the next burst is counted in a band set before the step).
-static const uint8_t kRippleSettleWindows = 2;
-
-/// The count's span (acq_ripple_board.h on_window): its cycles, their PWM periods, its windows,
-/// their two-window current sums (A: the window's current and the window before's) and
-/// priors (RPM), each older window's weighted by keep = 1 - dt / kRippleCountTauS.
+/// The count's span (acq_ripple_board.h on_window; ripple_count.py track): the cycles, their PWM
+/// periods, the windows, their two-window current sums (A: the window's current plus the window
+/// before's; one short window's mean current aliases the ripple, in opposite sense from one
+/// window to the next) and the observer's priors (RPM) of the windows since the last load or
+/// voltage step, each older window's weighted by keep = 1 - dt / kRippleCountTauS (none for
+/// windows of tau or longer: at 100 Hz windows a burst holds less than a ripple cycle). A
+/// steady operating point: Ra |I - I_span| <= kRippleSteadyTol Ke w_span against the span's
+/// means, the speed's move at constant voltage. Beyond it (a load or voltage step, which moves
+/// the current) the span begins again at that window, and the counts of its first
+/// kRippleSettleWindows windows are left out (the step's window and the next: the speed settles,
+/// and at 100 Hz the next burst is counted in a band set before the step). A burst holding
+/// kRippleMinCycles is the count alone; a confident speed needs kRippleMinCycles weighted cycles.
 struct RippleSpan {
   float cyc, span, n, i2, rpm;
   float i_last;  ///< the last counted window's current, A
   uint8_t age;   ///< windows since the span began (kRippleSettleWindows at most)
 };
-
-static const float kRippleFloorA = 0.10f;        ///< no Ra below this mean current (the host's floor)
-static const float kRippleKeCalS = 1.0f;         ///< confident windows over this long calibrate Ke, cold, s
-static const float kRippleRaGate = 0.08f;        ///< an Ra this far from the filtered one is a V or I glitch
-static const float kRippleRaTauS = 10.0f;        ///< time constant of the Ra filter, s
-static const float kRippleMinDen = 1.0e-3f;      ///< V/K: below, the temperature is not observable
 
 /// Ra and the winding temperature from the ripple speed. The first kRippleKeCalS of
 /// confident windows calibrate Ke with Ra at the model's reference (the motor is cold, at

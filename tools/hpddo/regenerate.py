@@ -1,5 +1,6 @@
 """Every file generated from the declarations, written by one command: the C++ parameter
-struct (lib/hpddo_core/src/hpddo/params_gen.h, from hpddo/schema.py) and the generated
+struct (lib/hpddo_core/src/hpddo/params_gen.h, from hpddo/schema.py), the board's ripple
+counter constants (uno_acq/ripple_count_gen.h, from hpddo/model/ripple_count.py) and the generated
 tables of the documents (the effects table of docs/core.md, from the schema; the twin's
 effects table of docs/twin.md, from hpddo/twin/params.py). A pytest compares each with
 what this writes, byte for byte:
@@ -18,18 +19,20 @@ import zlib
 
 from . import schema
 from .schema import GENERATOR, ROOT, layout_crc
+from .model import ripple_count
 from .twin import params as twin_params
 
 COMMAND = "cd tools && ../.venv/bin/python -m hpddo.regenerate --write"
 
 
-def _banner(kind: str, body: str, source: str) -> str:
+def _banner(kind: str, body: str, source: str, layout: bool = True) -> str:
     lines = [f"// GENERATED {kind}: DO NOT EDIT. Regenerate with the command below.",
              f"// command: {COMMAND}",
              f"// source: {source}",
-             f"// generator: {GENERATOR}",
-             f"// layout: crc32 0x{layout_crc():08x} (kParamsSchema)",
-             f"// checksum: crc32 0x{zlib.crc32(body.encode()) & 0xFFFFFFFF:08x} of the text below this banner"]
+             f"// generator: {GENERATOR}"]
+    if layout:
+        lines.append(f"// layout: crc32 0x{layout_crc():08x} (kParamsSchema)")
+    lines.append(f"// checksum: crc32 0x{zlib.crc32(body.encode()) & 0xFFFFFFFF:08x} of the text below this banner")
     return "\n".join(lines) + "\n"
 
 
@@ -61,6 +64,9 @@ def generated(root: pathlib.Path = ROOT) -> dict:
     (whole files, and the documents with a generated block, as they should read)."""
     body = schema._params_h_body()
     out = {"lib/hpddo_core/src/hpddo/params_gen.h": _banner("parameter schema", body, "tools/hpddo/schema.py") + body}
+    body = ripple_count.header_body()
+    out["uno_acq/ripple_count_gen.h"] = _banner("ripple counter constants", body, "tools/hpddo/model/ripple_count.py",
+                                                layout=False) + body
     for doc, what, source, block in doc_blocks():
         text = out.get(doc) or (pathlib.Path(root) / doc).read_text(encoding="utf-8")
         out[doc] = with_generated_block(text, block, doc, what, source)

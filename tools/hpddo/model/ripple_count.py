@@ -19,9 +19,65 @@ import numpy as np
 
 from .. import bench, schema
 
-AMP_SHIFT = 8
-LP_MIN, LP_MAX = 2, 10
-PRIOR_TOL = 0.25
+# The counter's constants, declared here once: the board's uno_acq/ripple_count_gen.h is
+# generated from them (BOARD_CONSTANTS; `cd tools && python -m hpddo.regenerate --write`).
+AMP_SHIFT = 8             # the mean |y|'s pole, a shift (256 filtered codes)
+LP_MIN, LP_MAX = 2, 10    # the band's low-pass shift k: corners at fs/(2 pi 4) .. fs/(2 pi 1024)
+LP_RESET = 5              # k of a burst without a prior's band
+PRIOR_TOL = 0.25          # |f / f_prior - 1| at most for a confident count
+BAND_LEAD_CYCLES = 320000  # CPU cycles: the main loop's work on a window ends this long after its close at most
+COUNT_TAU_S = 0.25        # s: the count's memory, keep = 1 - dt / tau per window older
+MIN_CYCLES = 5.0          # weighted ripple cycles at least for a confident speed
+STEADY_TOL = 0.03         # a steady operating point: Ra |I - I_span| <= STEADY_TOL Ke w_span
+SETTLE_WINDOWS = 2        # windows: a step's and the next, whose counts a new span leaves out
+FLOOR_A = 0.10            # A: no Ra below this mean current (the host's floor)
+KE_CAL_S = 1.0            # s: confident windows over this long calibrate Ke, cold
+RA_TAU_S = 10.0           # s: the Ra filter's time constant
+MIN_DEN = 1.0e-3          # V/K: below, the temperature is not observable
+RA_GATE = 0.08            # an Ra this far from the filtered one (relative) is a glitch of V or I
+
+#: (Python name, the board's name, C type, unit, meaning) of each constant the board takes
+BOARD_CONSTANTS = (
+    ("AMP_SHIFT", "kRippleAmpShift", "uint8_t", "bits", "the mean |y|'s pole: a += |y| - a >> shift"),
+    ("LP_MIN", "kRippleLpMin", "uint8_t", "bits", "k range: band corners at fs/(2 pi 4) .. fs/(2 pi 1024)"),
+    ("LP_MAX", "kRippleLpMax", "uint8_t", "bits", "the band's largest low-pass shift"),
+    ("LP_RESET", "kRippleLpReset", "uint8_t", "bits", "k of a burst without a prior's band (ripple_counter_reset's)"),
+    ("PRIOR_TOL", "kRippleCountPriorTol", "float", "ratio", "|f / f_prior - 1| at most for a confident count"),
+    ("BAND_LEAD_CYCLES", "kRippleBandLeadCycles", "uint32_t", "CPU cycles",
+     "the main loop's work on a window ends this long after its close at most (with margin)"),
+    ("COUNT_TAU_S", "kRippleCountTauS", "float", "s",
+     "the count's memory: each older window weighted by 1 - dt / tau (none for windows of tau or longer)"),
+    ("MIN_CYCLES", "kRippleMinCycles", "float", "cycles", "weighted ripple cycles at least for a confident speed"),
+    ("STEADY_TOL", "kRippleSteadyTol", "float", "1",
+     "a steady operating point: Ra |I - I_span| <= tol Ke w_span, the speed's move at constant voltage"),
+    ("SETTLE_WINDOWS", "kRippleSettleWindows", "uint8_t", "windows",
+     "after a step, the windows whose counts the new span leaves out (the step's and the next)"),
+    ("FLOOR_A", "kRippleFloorA", "float", "A", "no Ra below this mean current (the host's floor)"),
+    ("KE_CAL_S", "kRippleKeCalS", "float", "s", "confident windows over this long calibrate Ke, cold"),
+    ("RA_GATE", "kRippleRaGate", "float", "ratio", "an Ra this far from the filtered one is a glitch of V or I"),
+    ("RA_TAU_S", "kRippleRaTauS", "float", "s", "time constant of the Ra filter"),
+    ("MIN_DEN", "kRippleMinDen", "float", "V/K", "below, the winding temperature is not observable"),
+)
+
+
+def _c_literal(value, c_type: str) -> str:
+    if c_type == "float":
+        return repr(float(value)) + "f"
+    return str(int(value)) + ("u" if c_type == "uint32_t" else "")
+
+
+def header_body() -> str:
+    """The text of uno_acq/ripple_count_gen.h below its banner: BOARD_CONSTANTS in namespace acq."""
+    values = globals()
+    lines = ["#ifndef HPDDO_RIPPLE_COUNT_GEN_H", "#define HPDDO_RIPPLE_COUNT_GEN_H", "", "#include <stdint.h>", "",
+             "namespace acq {", ""]
+    for name, c_name, c_type, unit, meaning in BOARD_CONSTANTS:
+        lines.append(f"/// {meaning} ({unit}; ripple_count.py {name})")
+        lines.append(f"static const {c_type} {c_name} = {_c_literal(values[name], c_type)};")
+    lines += ["", "}  // namespace acq", "", "#endif  // HPDDO_RIPPLE_COUNT_GEN_H", ""]
+    return "\n".join(lines)
+
+
 #: copper's temperature coefficient of resistance, 1/K (declared once, in the schema)
 ALPHA_CU = next(e.material for e in schema.EFFECTS if e.name == "thermal_ra")
 
@@ -32,7 +88,7 @@ class Counter:
     l2: int = 0
     b: int = 0
     amp: int = 0
-    k: int = 5
+    k: int = LP_RESET
     high: int = 0
     odd: int = 0
     have_last: int = 0
@@ -98,7 +154,7 @@ class Counter:
 def lp_shift(f_hz: float, fs_hz: float) -> int:
     """acq_ripple_count.h ripple_lp_shift (float32 as on the board)."""
     if not f_hz > 0:
-        return 5
+        return LP_RESET
     f32 = np.float32
     ratio = f32(fs_hz) / (f32(6.2831853) * f32(2.0) * f32(f_hz))
     k = LP_MIN
@@ -114,9 +170,6 @@ def counter_hz(cyc: float, span: float, fs_hz: float) -> float:
     return cyc * fs_hz / span
 
 
-BAND_LEAD_CYCLES = 320000  # kRippleBandLeadCycles
-
-
 def band_lag(burst_period: int, fs_hz: float) -> int:
     """acq_ripple_count.h ripple_band_lag: windows from the one whose prior sets a burst's band
     to the burst's; 1 when the burst opens at least BAND_LEAD_CYCLES after its window's start
@@ -126,17 +179,6 @@ def band_lag(burst_period: int, fs_hz: float) -> int:
     return 1 if burst_period * period_cycles >= BAND_LEAD_CYCLES else 2
 
 
-COUNT_TAU_S = 0.25      # kRippleCountTauS
-MIN_CYCLES = 5.0        # kRippleMinCycles
-STEADY_TOL = 0.03       # kRippleSteadyTol
-SETTLE_WINDOWS = 2      # kRippleSettleWindows
-
-
-FLOOR_A = 0.10          # acq_ripple_count.h kRippleFloorA
-KE_CAL_S = 1.0          # kRippleKeCalS
-RA_TAU_S = 10.0         # kRippleRaTauS
-MIN_DEN = 1.0e-3        # kRippleMinDen
-RA_GATE = 0.08          # kRippleRaGate
 RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 
 
@@ -227,7 +269,7 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
     fs, per_rev, sixty = f32(fs_hz), f32(ripples_per_output_rev), f32(60)
     out = []
     for n, codes in enumerate(bursts):
-        k, t_exp = bands.pop(n, (5, 0))
+        k, t_exp = bands.pop(n, (LP_RESET, 0))
         c.begin(k, t_exp, gap_periods, n == 0)
         c.run(codes)
         cyc, span = c.latch()
@@ -252,8 +294,8 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
         rpm_w = rpm_w * keep + f32(rpm_prior[n])
         f = cyc_w * fs / span_w if cyc_w >= f32(1) and span_w > zero else f32(math.nan)
         rpm = float(f * sixty / per_rev)
-        rpm_span = rpm_w / n_w
-        f_prior = float(rpm_span * per_rev / sixty) if rpm_span > zero else 0.0
+        f_prior = rpm_w * (per_rev / sixty) / n_w  # the span's mean prior, Hz
+        f_prior = float(f_prior) if f_prior > zero else 0.0
         conf = bool(f == f and cyc_w >= f32(MIN_CYCLES) and confident(f, f_prior))
         have = ra.step(v_V[n], i_A[n], rpm, dt_s) if conf else ra.have
         out.append(dict(rpm=rpm, confident=conf, have_ra=have, ra_ohm=ra.ra_ohm, tw_C=ra.tw_C, k=c.k, cyc=own,
