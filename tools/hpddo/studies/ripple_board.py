@@ -90,6 +90,8 @@ def main(argv=None) -> int:
                                                                            magnet_thermal=0.0))),
         ("load steps, 2 Hz, default twin", dict(protocol="load", rate_hz=2.0)),
         ("long warm-up, 100 Hz, default twin", dict(protocol="long", rate_hz=100.0, time_scale=0.02)),
+        ("load steps, 10 Hz, default twin", dict(protocol="load", rate_hz=10.0)),
+        ("load steps, 100 Hz (time scale 0.02), default twin", dict(protocol="load", rate_hz=100.0, time_scale=0.02)),
     ]
     out = {}
     print("| scenario | windows | confident | speed RMS / max % | windows with Ra | Ra RMS / max % | "
