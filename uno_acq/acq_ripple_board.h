@@ -327,15 +327,18 @@ __attribute__((noinline)) WindowRipple on_window(const hpddo::PhysicsParams& p, 
   if (c.valid && c.seq == seq && rec) {
     float keep = dt_s < kRippleCountTauS ? 1.0f - dt_s / kRippleCountTauS : 0.0f;
     // The window's current: the sum of its own and the window before's (a short window's mean
-    // current aliases the ripple, in opposite sense from one window to the next). Against the
-    // span's: where Ra |I - I_span| > kRippleSteadyTol Ke w_span (a load or voltage step: the
-    // speed moves by more than that share at constant voltage), the span begins again without
-    // this window, and the counts of the next kRippleSettleWindows - 1 are left out.
+    // current aliases the ripple, in opposite sense from one window to the next; 0 before the
+    // recording's first: its second window then begins the span again). Against the span's
+    // mean, both sides times the span's weight n and the current twice: where
+    // Ra |I - I_span| > kRippleSteadyTol Ke w_span (a load or voltage step: the speed moves by
+    // more than that share at constant voltage) the span begins again at this window (keep 0:
+    // its current and prior are the new span's first), and the counts of this window and the
+    // next kRippleSettleWindows - 1 are left out.
     const float i2 = s->i_last + i_A;
     s->i_last = i_A;
     if (keep > 0.0f && fabsf(p.ra_ohm * (i2 * s->n - s->i2)) >
                            2.0f * kRippleSteadyTol / hpddo::kRpmPerRadS * p.ke_vs_per_rad * s->rpm) {
-      keep = 0.0f;  // both sides above times the span's weight, and the current twice
+      keep = 0.0f;
       s->age = 0;
     } else if (s->age < kRippleSettleWindows) {
       ++s->age;

@@ -165,8 +165,8 @@ inline bool ripple_counter_hz(float cyc, float span, float fs_hz, float* f_hz) {
 /// windows of tau or longer: at 100 Hz windows a burst holds less than a ripple cycle). A
 /// steady operating point: Ra |I - I_span| <= kRippleSteadyTol Ke w_span against the span's
 /// means, the speed's move at constant voltage. Beyond it (a load or voltage step, which moves
-/// the current) the span begins again at that window, and the counts of its first
-/// kRippleSettleWindows windows are left out (the step's window and the next: the speed settles,
+/// the current) the span begins again at that window (its current and prior the new span's
+/// first), and the counts of its first kRippleSettleWindows windows are left out (the step's window and the next: the speed settles,
 /// and at 100 Hz the next burst is counted in a band set before the step). A burst holding
 /// kRippleMinCycles is the count alone; a confident speed needs kRippleMinCycles weighted cycles.
 struct RippleSpan {

@@ -6,7 +6,9 @@ what the board would estimate over a whole run (`ra_track`).
 Per burst: a band of two low-pass poles and one high-pass pole (which takes out the mean) whose
 shift k follows the back-EMF prior, a rising zero-crossing count with hysteresis at half
 the mean |y|; the frequency is (rises - 1) cycles from the first to the last rising crossing.
-Where that frequency lies within PRIOR_TOL of the prior's, the window is confident and
+Per window (`track`): the counts of the span since the last load or voltage step (the
+window's current against the span's mean current). Where that frequency lies within PRIOR_TOL
+of the span's mean prior, the window is confident and
 Ra = (V - brush drop - Ke w) / I is taken, filtered, and turned into the winding temperature
 with copper's coefficient (hpddo.schema's thermal_ra material constant).
 """
@@ -249,8 +251,9 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
     window before's: a short window's mean current aliases the ripple, from one window to the
     next in opposite sense) moves from the span's mean by more than a steady operating point
     allows, Ra |dI| > STEADY_TOL Ke w (the speed would move by STEADY_TOL at constant voltage),
-    begins a new span; its count and the next window's are not taken (SETTLE_WINDOWS: the
-    speed and the band settle). A burst holding MIN_CYCLES itself is the count alone. Confident:
+    begins a new span (keep 0: its current and prior are the span's first; the window before
+    the recording's first has current 0, so the second window begins the span again); its
+    count and the next window's are not taken (SETTLE_WINDOWS: the speed and the band settle). A burst holding MIN_CYCLES itself is the count alone. Confident:
     MIN_CYCLES weighted cycles at least, within PRIOR_TOL of the span's mean prior. The band
     of a later burst follows the count where it is confident, else the span's mean prior (one
     100 Hz window's prior is 15-25 % off with its voltage's PWM noise: enough to count a gap of
