@@ -354,7 +354,7 @@ __attribute__((noinline)) WindowRipple on_window(const hpddo::PhysicsParams& p, 
     s->span = s->span * keep_cyc + periods;
     s->n = s->n * keep + 1.0f;
     s->i2 = s->i2 * keep + i2;
-    s->rpm = s->rpm * keep + rpm_prior;
+    s->rpm = s->rpm * keep + (rpm_prior > 0.0f ? rpm_prior : 0.0f);  // no NaN into the sums: it would stay
   }
   float f = 0.0f;
   if (ripple_counter_hz(s->cyc, s->span, fs, &f)) out.rpm = f * 60.0f / per_rev;

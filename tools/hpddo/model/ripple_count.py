@@ -294,7 +294,7 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
         span_w = span_w * keep_cyc + f32(span)
         n_w = n_w * keep + f32(1)
         i_w = i_w * keep + i2
-        rpm_w = rpm_w * keep + f32(rpm_prior[n])
+        rpm_w = rpm_w * keep + (f32(rpm_prior[n]) if rpm_prior[n] > 0 else zero)  # as the board: no NaN
         f = cyc_w * fs / span_w if cyc_w >= f32(1) and span_w > zero else f32(math.nan)
         rpm = float(f * sixty / per_rev)
         f_prior = rpm_w * (per_rev / sixty) / n_w  # the span's mean prior, Hz
