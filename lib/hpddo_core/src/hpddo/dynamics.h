@@ -20,14 +20,6 @@
 #ifndef HPDDO_DYNAMICS_H
 #define HPDDO_DYNAMICS_H
 
-/// 1 (the default): the observer runs the dynamic family where the model names it. 0: a build
-/// that never runs it (the UNO's uno_acq, whose flash it would not fit beside the ripple
-/// counter) compiles the observer without it; a model that names it is then refused by
-/// Observer's users (uno_acq checks at compile time).
-#ifndef HPDDO_DYNAMICS
-#define HPDDO_DYNAMICS 1
-#endif
-
 #include <math.h>
 
 #include "crc.h"
@@ -40,20 +32,23 @@ namespace hpddo {
 /// The speed over which Coulomb friction reaches its full torque, rad/s.
 static const float kFrictionSmooth_rad_s = 0.5f;
 
-/// True when the dynamic family is named (the model computes it).
-inline bool dynamics_named(const DynamicsParams& d) { return d.j_kgm2 > 0.0f; }
+/// True when the dynamic family is named (the model computes it). A constant expression on a
+/// model header's kDynamics (constexpr there): `hpddo::Observer<Net, dynamics_named(kDynamics)>`
+/// compiles the family exactly where the model names it (observer.h; the UNO's uno_acq).
+constexpr bool dynamics_named(const DynamicsParams& d) { return d.j_kgm2 > 0.0f; }
 
 /// The family off: what a model header without kDynamics runs with (one initialiser per field:
 /// -Wmissing-field-initializers says where a field was added to the schema and not here).
-static const DynamicsParams kDynamicsOff = {0.0f, 0.0f, 0.0f, 0.0f};
+static constexpr DynamicsParams kDynamicsOff = {0.0f, 0.0f, 0.0f, 0.0f};
 
-/// A model header carries `static const hpddo::DynamicsParams kDynamics` in its namespace only
+/// A model header carries `static constexpr hpddo::DynamicsParams kDynamics` in its namespace only
 /// when the family is named (a model without it keeps its bytes). Before including a header
 /// whose namespace is ns, HPDDO_DYNAMICS_DEFAULT(ns) gives ns::kDynamics = kDynamicsOff where
 /// the header declares none (qualified lookup looks into a using-directive's namespace only
-/// when ns itself declares no such name): `ns::kDynamics` is then the model's family either way.
+/// when ns itself declares no such name): `ns::kDynamics` is then the model's family either way,
+/// a constant expression (dynamics_named(ns::kDynamics) decides at compile time).
 namespace dynamics_default {
-static const DynamicsParams& kDynamics = kDynamicsOff;
+static constexpr const DynamicsParams& kDynamics = kDynamicsOff;
 }  // namespace dynamics_default
 #define HPDDO_DYNAMICS_DEFAULT(ns) \
   namespace ns {                   \
