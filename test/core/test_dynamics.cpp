@@ -24,7 +24,8 @@ TEST(Dynamics, SameBitsAsThePythonReference) {
   const hpddo::DynamicsParams d = golden_params();
   hpddo::DynamicsObserver obs;
   for (int k = 0; k < dynamics_golden::kN; ++k) {
-    const float* r = dynamics_golden::kRows[k];
+    const float r[4] = {dynamics_golden::at(k, 0), dynamics_golden::at(k, 1), dynamics_golden::at(k, 2),
+                        dynamics_golden::at(k, 3)};
     const float n = obs.step(dynamics_golden::kKe, d, r[0], r[1], dynamics_golden::kDt);
     ASSERT_EQ(n, r[2]) << "sample " << k;
     ASSERT_EQ(obs.load_nm(), r[3]) << "sample " << k;
@@ -36,9 +37,9 @@ TEST(Dynamics, NotNamedReturnsTheMeasuredSpeedItself) {
   d.j_kgm2 = 0.0f;
   hpddo::DynamicsObserver obs;
   for (int k = 0; k < dynamics_golden::kN; ++k) {
-    const float* r = dynamics_golden::kRows[k];
-    const float n = obs.step(dynamics_golden::kKe, d, r[0], r[1], dynamics_golden::kDt);
-    ASSERT_EQ(n, r[1]) << "sample " << k;
+    const float n = obs.step(dynamics_golden::kKe, d, dynamics_golden::at(k, 0), dynamics_golden::at(k, 1),
+                             dynamics_golden::kDt);
+    ASSERT_EQ(n, dynamics_golden::at(k, 1)) << "sample " << k;
   }
   EXPECT_EQ(obs.load_nm(), 0.0f);
 }

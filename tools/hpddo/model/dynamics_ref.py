@@ -144,6 +144,8 @@ def golden_h() -> str:
 #ifndef HPDDO_DYNAMICS_GOLDEN_H
 #define HPDDO_DYNAMICS_GOLDEN_H
 
+#include "hpddo/platform.h"
+
 namespace dynamics_golden {{
 
 static const float kKe = {h(F32(GOLDEN_KE))}f;
@@ -153,11 +155,15 @@ static const float kB = {h(d['b_nms_per_rad'])}f;
 static const float kTc = {h(d['tc_nm'])}f;
 static const float kTau = {h(d['tau_obs_s'])}f;
 
-/// i_A, back-EMF speed (RPM), the observer's speed (RPM), its load torque (N m), per sample.
-static const float kRows[][4] = {{
+/// i_A, back-EMF speed (RPM), the observer's speed (RPM), its load torque (N m), per sample; in
+/// flash on the boards (3.2 KB: more than the UNO's RAM), read with at().
+HPDDO_FLASH static const float kRows[][4] = {{
 {rows}
 }};
 static const int kN = {len(i)};
+
+/// Row k, column c of kRows.
+inline float at(int k, int c) {{ return hpddo::flash_float(&kRows[k][c]); }}
 
 }}  // namespace dynamics_golden
 
