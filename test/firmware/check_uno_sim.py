@@ -80,7 +80,7 @@ def check_estimates(df, windows, a, lsb_v, lsb_i, period):
     from hpddo.model.observer_ref import ReferenceObserver
     if "rpm_est" not in df or "est_status" not in df:
         fail("no rpm_est / est_status columns: the firmware does not run the observer")
-    model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
+    model = export.read_model_header((pathlib.Path(a.model_dir) / "model_default.h").read_text())
     obs = quant.fixed_observer(model, quant.quantise(model)) if a.observer == "fixed" else ReferenceObserver(model)
     worst, statuses = 0.0, {}
     for k, row in enumerate(df.itertuples()):
@@ -98,8 +98,9 @@ def check_estimates(df, windows, a, lsb_v, lsb_i, period):
             fail(f"seq {row.seq}: board estimate {row.rpm_est} status {row.est_status}, reference "
                  f"{float(o['rpm']):.3f} status {o['status']}")
         statuses[int(row.est_status)] = statuses.get(int(row.est_status), 0) + 1
-    print(f"observer ({a.observer}) on the board: {len(df) - 1} estimates within {worst:.4f} RPM of the reference "
-          f"(printed with 2 decimals), statuses {statuses}")
+    family = " with the dynamic family" if model.dynamics_named else ""
+    print(f"observer ({a.observer}{family}) on the board: {len(df) - 1} estimates within {worst:.4f} RPM of the "
+          f"reference (printed with 2 decimals), statuses {statuses}")
 
 
 def recording_table(n):
@@ -131,6 +132,8 @@ def main():
     ap.add_argument("--observer", choices=["fixed", "float", "none"], default="fixed",
                     help="which observer the firmware runs (default fixed: model_default_q.h)")
     ap.add_argument("--max-est-diff", type=float, default=0.05, help="RPM, board against reference")
+    ap.add_argument("--model-dir", default=str(ROOT / "models" / "default"),
+                    help="the folder of the model the firmware was built with (build_uno.sh's ACQ_MODEL_DIR)")
     ap.add_argument("--drive", choices=["random", "recording"], default="random",
                     help="drive table: random points (default) or the test rows of data/default/long.csv")
     a = ap.parse_args()
