@@ -32,6 +32,21 @@ TEST(Dynamics, SameBitsAsThePythonReference) {
   }
 }
 
+TEST(Dynamics, ExpNegSameBitsAsThePythonReferenceAndCloseToExpf) {
+  for (int k = 0; k < dynamics_golden::kExpN; ++k) {
+    const float x = dynamics_golden::exp_at(k, 0);
+    const float e = hpddo::exp_neg(x);
+    ASSERT_EQ(e, dynamics_golden::exp_at(k, 1)) << "x = " << x;
+    if (x > -40.0f) {
+      ASSERT_NEAR(e, expf(x), 2.5e-7f * expf(x)) << "x = " << x;  // within 1 ulp (2^-23 relative) and a half
+    } else {
+      ASSERT_EQ(e, 0.0f) << "x = " << x;
+    }
+  }
+  EXPECT_EQ(hpddo::exp_neg(0.0f), 1.0f);
+  EXPECT_EQ(hpddo::exp_neg(-40.0f), 0.0f);  // below: 0, p^2 never subnormal
+}
+
 TEST(Dynamics, NotNamedReturnsTheMeasuredSpeedItself) {
   hpddo::DynamicsParams d = golden_params();
   d.j_kgm2 = 0.0f;

@@ -17,6 +17,18 @@ def test_golden_vector_is_what_the_reference_writes():
     assert path.read_text() == dr.golden_h(), f"regenerate: {dr.GOLDEN_COMMAND}"
 
 
+def test_exp_neg_is_within_one_ulp_of_the_correctly_rounded_exp():
+    """The observer's pole without libm (hpddo::exp_neg): within 1 ulp of float32(math.exp) over
+    [-40, 0], 0 below, exactly 1 at 0."""
+    import math as m
+    xs = np.float32(-np.linspace(0.0, 40.0, 20001)[:-1]).astype(np.float32)
+    got = np.array([dr.exp_neg(x) for x in xs], np.float32)
+    want = np.array([m.exp(float(x)) for x in xs], np.float32)
+    ulp = np.abs(got.view(np.int32).astype(np.int64) - want.view(np.int32).astype(np.int64))
+    assert ulp.max() <= 1 and got[0] == np.float32(1)
+    assert dr.exp_neg(np.float32(-40.0)) == 0 and dr.exp_neg(np.float32(-50.0)) == 0
+
+
 def test_not_named_returns_the_measured_speed_bit_for_bit():
     i, m = dr.golden_inputs()
     off = dr.dynamics_params(**{**dr.GOLDEN_ON, "j_kgm2": 0.0})

@@ -1,5 +1,6 @@
 // Unity test: the dynamic family (hpddo/dynamics.h, issue 21 item 8) on the boards, against its
 // Python references, bit for bit:
+//  - hpddo::exp_neg, the observer's pole, on its golden rows (dynamics_golden.h's kExp);
 //  - DynamicsObserver on its golden vector (test/fixtures/dynamics_golden.h, from
 //    tools/hpddo/model/dynamics_ref.py): speed and load torque of every sample;
 //  - the UNO's observer (the fixed-point model, Observer<Net, dynamics_named(kDynamics)> as
@@ -52,6 +53,14 @@ static void test_dynamics_observer_bit_for_bit() {
   }
 }
 
+/// hpddo::exp_neg, the observer's pole e^(-dt/tau): the reference's bits (not libm's expf, which
+/// differs between the boards' C libraries).
+static void test_exp_neg_bit_for_bit() {
+  for (int k = 0; k < dynamics_golden::kExpN; ++k) {
+    TEST_ASSERT_EQUAL_HEX32(bits(dynamics_golden::exp_at(k, 1)), bits(hpddo::exp_neg(dynamics_golden::exp_at(k, 0))));
+  }
+}
+
 /// The UNO's observer with the family: every golden row's stages to the bit.
 static void test_uno_observer_with_the_family_bit_for_bit() {
   static hpddo::Observer<mdl::Net, hpddo::dynamics_named(mdl::kDynamics)> obs(mdl::kModel, mdl::kDynamics);
@@ -68,6 +77,7 @@ static void test_uno_observer_with_the_family_bit_for_bit() {
 static int run() {
   UNITY_BEGIN();
   RUN_TEST(test_the_family_is_compiled_because_the_model_names_it);
+  RUN_TEST(test_exp_neg_bit_for_bit);
   RUN_TEST(test_dynamics_observer_bit_for_bit);
   RUN_TEST(test_uno_observer_with_the_family_bit_for_bit);
   return UNITY_END();

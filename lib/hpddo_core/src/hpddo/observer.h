@@ -23,7 +23,7 @@
 // its estimate takes n_M2's place in everything after (the features, rpm_m2, rpm). It restarts
 // with the lags (a new segment). Not named: not called, the observer as before bit for bit.
 // Observer<Net, false> compiles without it (the UNO's uno_acq with a model that does not name it,
-// about 1.5 KB of flash less): Observer<Net, dynamics_named(kDynamics)> decides from the model
+// 1.8 KB of flash less): Observer<Net, dynamics_named(kDynamics)> decides from the model
 // header itself (its kDynamics is a constant expression).
 #ifndef HPDDO_OBSERVER_H
 #define HPDDO_OBSERVER_H
