@@ -53,12 +53,13 @@ def run(args) -> int:
     default = resource_root() / "models" / "default"
     dyn_out = out / fixtures.DYNAMICS_DIR
     dyn_out.mkdir(exist_ok=True)
-    model = fixtures.with_dynamics(export.read_model_header((default / "model_default.h").read_text()))
+    deployed = export.read_model_header((default / "model_default.h").read_text())
+    model = fixtures.with_dynamics(deployed)
     samples = fixtures.golden_samples(np.genfromtxt(default / "golden_default.csv", delimiter=",", names=True))
     shaft = ", ".join(f"{k}={v:g}" for k, v in fixtures.DYNAMICS_SHAFT.items())
     prov = {"command": "tools/gen_fixtures.py", "data": f"models/default/model_default.h "
-            f"(crc32 0x{export.model_checksum(export.read_model_header((default / 'model_default.h').read_text())):08x}) "
-            f"with the dynamic family {shaft} (hpddo.model.fixtures.DYNAMICS_SHAFT)"}
+            f"(crc32 0x{export.model_checksum(deployed):08x}) with the dynamic family {shaft} "
+            f"(hpddo.model.fixtures.DYNAMICS_SHAFT)"}
     (dyn_out / "model_default.h").write_text(export.model_header(model, "default", prov))
     rows = export.golden_rows(model, samples)
     (dyn_out / "golden_default.h").write_text(export.golden_header(rows, "default", prov))
