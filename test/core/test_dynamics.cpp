@@ -24,11 +24,27 @@ TEST(Dynamics, SameBitsAsThePythonReference) {
   const hpddo::DynamicsParams d = golden_params();
   hpddo::DynamicsObserver obs;
   for (int k = 0; k < dynamics_golden::kN; ++k) {
-    const float* r = dynamics_golden::kRows[k];
+    const float r[4] = {dynamics_golden::at(k, 0), dynamics_golden::at(k, 1), dynamics_golden::at(k, 2),
+                        dynamics_golden::at(k, 3)};
     const float n = obs.step(dynamics_golden::kKe, d, r[0], r[1], dynamics_golden::kDt);
     ASSERT_EQ(n, r[2]) << "sample " << k;
     ASSERT_EQ(obs.load_nm(), r[3]) << "sample " << k;
   }
+}
+
+TEST(Dynamics, ExpNegSameBitsAsThePythonReferenceAndCloseToExpf) {
+  for (int k = 0; k < dynamics_golden::kExpN; ++k) {
+    const float x = dynamics_golden::exp_at(k, 0);
+    const float e = hpddo::exp_neg(x);
+    ASSERT_EQ(e, dynamics_golden::exp_at(k, 1)) << "x = " << x;
+    if (x > -40.0f) {
+      ASSERT_NEAR(e, expf(x), 2.5e-7f * expf(x)) << "x = " << x;  // within 1 ulp (2^-23 relative) and a half
+    } else {
+      ASSERT_EQ(e, 0.0f) << "x = " << x;
+    }
+  }
+  EXPECT_EQ(hpddo::exp_neg(0.0f), 1.0f);
+  EXPECT_EQ(hpddo::exp_neg(-40.0f), 0.0f);  // below: 0, p^2 never subnormal
 }
 
 TEST(Dynamics, NotNamedReturnsTheMeasuredSpeedItself) {
@@ -36,9 +52,9 @@ TEST(Dynamics, NotNamedReturnsTheMeasuredSpeedItself) {
   d.j_kgm2 = 0.0f;
   hpddo::DynamicsObserver obs;
   for (int k = 0; k < dynamics_golden::kN; ++k) {
-    const float* r = dynamics_golden::kRows[k];
-    const float n = obs.step(dynamics_golden::kKe, d, r[0], r[1], dynamics_golden::kDt);
-    ASSERT_EQ(n, r[1]) << "sample " << k;
+    const float n = obs.step(dynamics_golden::kKe, d, dynamics_golden::at(k, 0), dynamics_golden::at(k, 1),
+                             dynamics_golden::kDt);
+    ASSERT_EQ(n, dynamics_golden::at(k, 1)) << "sample " << k;
   }
   EXPECT_EQ(obs.load_nm(), 0.0f);
 }

@@ -17,7 +17,7 @@ encoder in quadrature. Then:
 * with --protocol sweep/load: duty and load follow the bench's protocol
   (tools/hpddo/bench.py, from which the firmware's bench_gen.h is generated);
 * with --observer fixed/float (the firmware runs the observer, issue 14): every row
-  after the first carries rpm_est and est_status, equal to the reference observer
+  carries rpm_est and est_status, equal to the reference observer
   (tools/hpddo/model/observer_ref.py; the fixed-point network from tools/hpddo/model/quant.py) run
   on the window's exact ADC means within --max-est-diff RPM, with the same status.
 """
@@ -73,33 +73,55 @@ def drive_table(n, seed):
 
 def check_estimates(df, windows, a, lsb_v, lsb_i, period):
     """The board's rpm_est and est_status against the reference observer on the exact
-    inputs of each window (the first row is skipped: the board's lags may hold a window
-    closed before the recording started)."""
+    inputs of each window, every row. The board resets its observer when the recording begins and
+    steps it on every window it processes from then on: the window open at the command (the one
+    before the first row) and, when one had closed and waited while the command was read, the one
+    before that. The reference runs from each of these starts and the board must follow one of them
+    on every row (with the dynamic family, whose state remembers, the start shows for seconds)."""
     import numpy as np
     from hpddo.model import export, quant
     from hpddo.model.observer_ref import ReferenceObserver
     if "rpm_est" not in df or "est_status" not in df:
         fail("no rpm_est / est_status columns: the firmware does not run the observer")
-    model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
-    obs = quant.fixed_observer(model, quant.quantise(model)) if a.observer == "fixed" else ReferenceObserver(model)
-    worst, statuses = 0.0, {}
-    for k, row in enumerate(df.itertuples()):
-        w = windows[int(row.seq)]
-        v = (w["v_mV"] * 1023 // 5000 + 0.5) * lsb_v
-        i = (w["i_mV"] * 1023 // 5000 + 0.5) * lsb_i
-        o = obs.step(v, i, None, period, int(row.seq) & 0xFFFF)
-        if k == 0:
+    model = export.read_model_header((pathlib.Path(a.model_dir) / "model_default.h").read_text())
+    seq0 = int(df["seq"].iloc[0])
+
+    def reference(start):
+        obs = quant.fixed_observer(model, quant.quantise(model)) if a.observer == "fixed" else ReferenceObserver(model)
+        out = {}
+        for s in range(start, int(df["seq"].iloc[-1]) + 1):
+            w = windows[s]
+            v = (w["v_mV"] * 1023 // 5000 + 0.5) * lsb_v
+            i = (w["i_mV"] * 1023 // 5000 + 0.5) * lsb_i
+            out[s] = obs.step(v, i, None, period, s & 0xFFFF)
+        return out
+
+    best = None
+    for start in (seq0 - 1, seq0 - 2):
+        if start not in windows:
             continue
-        if not np.isfinite(row.rpm_est):
-            fail(f"seq {row.seq}: rpm_est is not a number")
-        d = abs(row.rpm_est - float(o["rpm"]))
-        worst = max(worst, d)
-        if d > a.max_est_diff or int(row.est_status) != int(o["status"]):
-            fail(f"seq {row.seq}: board estimate {row.rpm_est} status {row.est_status}, reference "
-                 f"{float(o['rpm']):.3f} status {o['status']}")
-        statuses[int(row.est_status)] = statuses.get(int(row.est_status), 0) + 1
-    print(f"observer ({a.observer}) on the board: {len(df) - 1} estimates within {worst:.4f} RPM of the reference "
-          f"(printed with 2 decimals), statuses {statuses}")
+        ref = reference(start)
+        worst, bad, statuses = 0.0, None, {}
+        for row in df.itertuples():
+            o = ref[int(row.seq)]
+            if not np.isfinite(row.rpm_est):
+                fail(f"seq {row.seq}: rpm_est is not a number")
+            d = abs(row.rpm_est - float(o["rpm"]))
+            worst = max(worst, d)
+            if bad is None and (d > a.max_est_diff or int(row.est_status) != int(o["status"])):
+                bad = (f"seq {row.seq}: board estimate {row.rpm_est} status {row.est_status}, reference "
+                       f"{float(o['rpm']):.3f} status {o['status']} (the observer started at window {start})")
+            statuses[int(row.est_status)] = statuses.get(int(row.est_status), 0) + 1
+        if best is None or (bad is None) > (best[2] is None) or ((bad is None) == (best[2] is None) and worst < best[1]):
+            best = (start, worst, bad, statuses)
+    if best is None:
+        fail(f"no window before the first row (seq {seq0}) in the simulation")
+    start, worst, bad, statuses = best
+    if bad is not None:
+        fail(bad)
+    family = " with the dynamic family" if model.dynamics_named else ""
+    print(f"observer ({a.observer}{family}) on the board: {len(df)} estimates within {worst:.4f} RPM of the "
+          f"reference started at window {start} (first row {seq0}; printed with 2 decimals), statuses {statuses}")
 
 
 def recording_table(n):
@@ -131,6 +153,8 @@ def main():
     ap.add_argument("--observer", choices=["fixed", "float", "none"], default="fixed",
                     help="which observer the firmware runs (default fixed: model_default_q.h)")
     ap.add_argument("--max-est-diff", type=float, default=0.05, help="RPM, board against reference")
+    ap.add_argument("--model-dir", default=str(ROOT / "models" / "default"),
+                    help="the folder of the model the firmware was built with (build_uno.sh's ACQ_MODEL_DIR)")
     ap.add_argument("--drive", choices=["random", "recording"], default="random",
                     help="drive table: random points (default) or the test rows of data/default/long.csv")
     a = ap.parse_args()

@@ -17,6 +17,18 @@ def test_golden_vector_is_what_the_reference_writes():
     assert path.read_text() == dr.golden_h(), f"regenerate: {dr.GOLDEN_COMMAND}"
 
 
+def test_exp_neg_is_within_one_ulp_of_the_correctly_rounded_exp():
+    """The observer's pole without libm (hpddo::exp_neg): within 1 ulp of float32(math.exp) over
+    [-40, 0], 0 below, exactly 1 at 0."""
+    import math as m
+    xs = np.float32(-np.linspace(0.0, 40.0, 20001)[:-1]).astype(np.float32)
+    got = np.array([dr.exp_neg(x) for x in xs], np.float32)
+    want = np.array([m.exp(float(x)) for x in xs], np.float32)
+    ulp = np.abs(got.view(np.int32).astype(np.int64) - want.view(np.int32).astype(np.int64))
+    assert ulp.max() <= 1 and got[0] == np.float32(1)
+    assert dr.exp_neg(np.float32(-40.0)) == 0 and dr.exp_neg(np.float32(-50.0)) == 0
+
+
 def test_not_named_returns_the_measured_speed_bit_for_bit():
     i, m = dr.golden_inputs()
     off = dr.dynamics_params(**{**dr.GOLDEN_ON, "j_kgm2": 0.0})
@@ -65,3 +77,21 @@ def test_twin_writes_encoder_periods_at_fast_rates_only():
     err_counts = np.sqrt(np.mean((fast["log"]["rpm_ref"].to_numpy() - true)[moving] ** 2))
     assert err_period < 0.4 * err_counts
     assert math.isclose(cpr, 193.6)
+
+
+def test_the_boards_fixture_names_the_family_and_it_moves_the_estimate():
+    """test/fixtures/dynamics (tools/gen_fixtures.py): models/default with DYNAMICS_SHAFT named; the
+    UNO is built with it (ctest firmware.uno.*dynamics*) and its golden rows, which the Unity suite
+    test_dynamics_golden holds the boards to bit for bit, show the family at work."""
+    from hpddo.model import export, fixtures
+    folder = schema.ROOT / "test" / "fixtures" / fixtures.DYNAMICS_DIR
+    model = export.read_model_header((folder / "model_default.h").read_text())  # its checksum checked
+    assert model.dynamics == dr.dynamics_params(**fixtures.DYNAMICS_SHAFT) and model.dynamics_named
+    assert "static constexpr const hpddo::DynamicsParams& kDynamics = hpddo_model_default::kDynamics;" in (
+        folder / "model_default_q.h").read_text()  # a constant expression: uno_acq.cpp decides from it
+    plain = schema.ROOT / "models" / "default"
+    assert "kDynamics" not in (plain / "model_default.h").read_text() + (plain / "model_default_q.h").read_text()
+    col = lambda f: np.genfromtxt(f, delimiter=",", names=True)["rpm_m2"]
+    on, off = col(folder / "golden_default_q.csv"), col(plain / "golden_default_q.csv")
+    assert on[0] == off[0]  # starts settled on the back-EMF speed
+    assert np.nanmax(np.abs(on - off)) > 1.0  # and filters it where it changes (RPM)

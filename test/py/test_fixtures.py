@@ -9,8 +9,10 @@ import gen_fixtures
 def test_fixtures_regenerate_identically(tmp_path: pathlib.Path):
     gen_fixtures.main(["--out", str(tmp_path)])
     committed = ROOT / "test" / "fixtures"
-    names = sorted(p.name for p in tmp_path.iterdir())
+    names = sorted(str(p.relative_to(tmp_path)) for p in tmp_path.rglob("*") if p.is_file())
     assert names, "generator wrote nothing"
+    assert sorted(str(p.relative_to(committed)) for p in committed.rglob("*") if p.is_file()
+                  and p.parent.name == "dynamics") == [n for n in names if n.startswith("dynamics/")]
     for name in names:
         assert (tmp_path / name).read_bytes() == (committed / name).read_bytes(), f"{name} differs: run tools/gen_fixtures.py"
 

@@ -16,7 +16,7 @@ import pytest
 
 from conftest import ROOT
 from hpddo import schema
-from hpddo.model import export, upload
+from hpddo.model import export, fixtures, upload
 from hpddo.cli import upload as upload_cli
 
 DEFAULT = ROOT / "models" / "default"
@@ -142,7 +142,7 @@ def test_a_model_with_new_effects_reaches_the_board_without_a_rebuild(board, tmp
 
 # The dynamic family (issue 21, item 8): a model that names it, a shaft slow enough against the golden
 # rows' 0.5 s period that the observer filters (tau 1 s; at 20 ms it would follow the back-EMF speed).
-DYNAMICS = dict(j_kgm2=5e-3, b_nms_per_rad=4e-3, tc_nm=0.095, tau_obs_s=1.0)
+DYNAMICS = fixtures.DYNAMICS_SHAFT  # the shaft of test/fixtures/dynamics, which the UNO is built with
 
 
 def model_with_dynamics():

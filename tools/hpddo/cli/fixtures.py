@@ -29,6 +29,8 @@ def validate(args, p: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    import numpy as np
+
     from ..logs import benchlog
     from ..model import export, fixtures
 
@@ -46,6 +48,26 @@ def run(args) -> int:
         if not args.quiet:
             print(f"wrote {out}/model_{name}.h, golden_{name}.h/.csv, model_{name}_q.h, golden_{name}_q.h/.csv, "
                   f"model_{name}_q8.h, golden_{name}_q8.h/.csv ({len(rows)} rows)")
+    # The deployed model with the dynamic family, on the inputs of its golden vectors: the UNO's
+    # build and simavr run with it (test/firmware), the Unity suite test_dynamics_golden.
+    default = resource_root() / "models" / "default"
+    dyn_out = out / fixtures.DYNAMICS_DIR
+    dyn_out.mkdir(exist_ok=True)
+    deployed = export.read_model_header((default / "model_default.h").read_text())
+    model = fixtures.with_dynamics(deployed)
+    samples = fixtures.golden_samples(np.genfromtxt(default / "golden_default.csv", delimiter=",", names=True))
+    shaft = ", ".join(f"{k}={v:g}" for k, v in fixtures.DYNAMICS_SHAFT.items())
+    prov = {"command": "tools/gen_fixtures.py", "data": f"models/default/model_default.h "
+            f"(crc32 0x{export.model_checksum(deployed):08x}) with the dynamic family {shaft} "
+            f"(hpddo.model.fixtures.DYNAMICS_SHAFT)"}
+    (dyn_out / "model_default.h").write_text(export.model_header(model, "default", prov))
+    rows = export.golden_rows(model, samples)
+    (dyn_out / "golden_default.h").write_text(export.golden_header(rows, "default", prov))
+    (dyn_out / "golden_default.csv").write_text(export.golden_csv(rows))
+    export.write_fixed_point(dyn_out, model, "default", prov, samples)
+    if not args.quiet:
+        print(f"wrote {dyn_out}/model_default.h, golden_default.h/.csv, model_default_q.h, golden_default_q.h/.csv "
+              f"({len(rows)} rows, the dynamic family {shaft})")
     df, meta = fixtures.short_log()
     benchlog.write_log(out / "log_short.csv", df, meta)
     (out / "log_bad_duty.csv").write_text(fixtures.BAD_DUTY_LOG)

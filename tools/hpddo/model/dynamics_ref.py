@@ -74,7 +74,7 @@ class DynamicsObserver:
             return n_meas
         g = F32(dt / J)
         a = F32(F32(1) - F32(g * B))
-        p = F32(math.exp(float(F32(-dt / d["tau_obs_s"])))) if d["tau_obs_s"] > F32(0) else F32(0)
+        p = exp_neg(F32(-dt / d["tau_obs_s"])) if d["tau_obs_s"] > F32(0) else F32(0)
         lw = F32(F32(1) - F32(F32(p * p) / a))
         lt = F32(-F32(F32(F32(1) - p) * F32(F32(1) - p)) / g)
         torque = F32(F32(F32(ke * i) - F32(Tc * _sign(self.w))) - self.load_nm)
@@ -83,6 +83,30 @@ class DynamicsObserver:
         self.w = F32(w_pred + F32(lw * e))
         self.load_nm = F32(self.load_nm + F32(lt * e))
         return F32(self.w * F32(RPM_PER_RAD_S))
+
+
+# hpddo::exp_neg's constants (dynamics.h), float32: ln 2 split for Cody-Waite, the Taylor
+# coefficients of e^r to r^7 (highest first).
+_LOG2E = F32(1.44269504)
+_LN2_HI, _LN2_LO = F32(0.693359375), F32(-2.12194440e-4)
+_EXP_COEF = [F32(c) for c in (1.98412698e-4, 1.38888889e-3, 8.33333377e-3, 4.16666679e-2, 1.66666672e-1, 0.5, 1.0, 1.0)]
+
+
+def exp_neg(x):
+    """hpddo::exp_neg, step for step in float32: e^x for x <= 0 with the same bits on every board
+    (no libm: the C libraries' expf differ in the last bits), 0 below -40."""
+    x = F32(x)
+    if not (x > F32(-40)):
+        return F32(0)
+    if x >= F32(0):
+        return F32(1)
+    n = int(F32(F32(x * _LOG2E) - F32(0.5)))  # C's cast: toward zero
+    fn = F32(n)
+    r = F32(F32(x - F32(fn * _LN2_HI)) - F32(fn * _LN2_LO))
+    e = _EXP_COEF[0]
+    for c in _EXP_COEF[1:]:
+        e = F32(F32(e * r) + c)
+    return F32(e * F32(2.0 ** n))
 
 
 def _sign(w):
@@ -129,20 +153,34 @@ def golden_inputs(n: int = 200):
     return i, m
 
 
+def golden_exp_args() -> np.ndarray:
+    """The arguments of exp_neg's golden rows: -k^2/64 for k = 0..50 (to -39.1, each exact in
+    float32) and -dt/tau for the bench's periods over the observer's taus (the poles the boards
+    compute), float32."""
+    wide = [F32(-(k * k) / 64.0) for k in range(51)]
+    poles = [F32(-F32(dt) / F32(tau)) for dt in (0.5, 0.1, 0.01, 0.008, 0.001)
+             for tau in (0.005, 0.01, 0.02, 0.05, 0.1, 0.2, 0.5, 1.0, 2.0)]
+    return np.array(wide + poles, F32)
+
+
 def golden_h() -> str:
     """The text of the golden vector's header."""
     i, m = golden_inputs()
+    xs = golden_exp_args()
     d = dynamics_params(**GOLDEN_ON)
     out, load = run(GOLDEN_KE, d, i, m, GOLDEN_DT_S)
     def h(x) -> str:  # 9 significant digits: the float32 exactly, always a float literal
         t = f"{float(x):.9g}"
         return t if any(c in t for c in ".en") else t + ".0"
     rows = "\n".join(f"  {{{h(a)}f, {h(b)}f, {h(c)}f, {h(e)}f}}," for a, b, c, e in zip(i, m, out, load))
+    exp_rows = "\n".join(f"  {{{h(x)}f, {h(exp_neg(x))}f}}," for x in xs)
     return f"""// GENERATED golden vector of the dynamic family's observer: DO NOT EDIT.
 // command: {GOLDEN_COMMAND}
 // source: tools/hpddo/model/dynamics_ref.py (the Python reference of hpddo/dynamics.h)
 #ifndef HPDDO_DYNAMICS_GOLDEN_H
 #define HPDDO_DYNAMICS_GOLDEN_H
+
+#include "hpddo/platform.h"
 
 namespace dynamics_golden {{
 
@@ -153,11 +191,24 @@ static const float kB = {h(d['b_nms_per_rad'])}f;
 static const float kTc = {h(d['tc_nm'])}f;
 static const float kTau = {h(d['tau_obs_s'])}f;
 
-/// i_A, back-EMF speed (RPM), the observer's speed (RPM), its load torque (N m), per sample.
-static const float kRows[][4] = {{
+/// i_A, back-EMF speed (RPM), the observer's speed (RPM), its load torque (N m), per sample; in
+/// flash on the boards (3.2 KB: more than the UNO's RAM), read with at().
+HPDDO_FLASH static const float kRows[][4] = {{
 {rows}
 }};
 static const int kN = {len(i)};
+
+/// Row k, column c of kRows.
+inline float at(int k, int c) {{ return hpddo::flash_float(&kRows[k][c]); }}
+
+/// x and hpddo::exp_neg(x) (the observer's pole e^(-dt/tau)), per row.
+HPDDO_FLASH static const float kExp[][2] = {{
+{exp_rows}
+}};
+static const int kExpN = {len(xs)};
+
+/// Row k, column c of kExp.
+inline float exp_at(int k, int c) {{ return hpddo::flash_float(&kExp[k][c]); }}
 
 }}  // namespace dynamics_golden
 

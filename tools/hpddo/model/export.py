@@ -98,18 +98,18 @@ def _c_dynamics(model: ModelData, ns: str | None = None) -> str:
     head = ("/// The dynamic family (dynamics.h; Observer(kModel, kDynamics)), covered by kChecksum: "
             + ", ".join(d.show(float(model.dynamics[d.field])) for d in schema.DYNAMICS) + ".\n")
     if ns is not None:
-        return head + f"static const hpddo::DynamicsParams& kDynamics = {ns}::kDynamics;\n\n"
+        return head + f"static constexpr const hpddo::DynamicsParams& kDynamics = {ns}::kDynamics;\n\n"
     body = "".join(f"    {(c_float(model.dynamics[d.field]) + ',').ljust(16)}  // {d.field} [{d.unit}]\n"
                    for d in schema.DYNAMICS)
     return (head + f"static_assert(hpddo::kDynamicsParamCount == {len(schema.DYNAMICS)}, "
             "\"one initialiser per hpddo::DynamicsParams field\");\n"
-            f"static const hpddo::DynamicsParams kDynamics = {{\n{body}}};\n\n")
+            f"static constexpr hpddo::DynamicsParams kDynamics = {{\n{body}}};\n\n")
 
 
 def _read_dynamics(text: str) -> dict | None:
     """The kDynamics of a header written by model_header(), or None."""
     import re
-    m = re.search(r"static const hpddo::DynamicsParams kDynamics = \{([^}]*)\}", text)
+    m = re.search(r"static constexpr hpddo::DynamicsParams kDynamics = \{([^}]*)\}", text)
     if m is None:
         return None
     vals = {lab: float(v.rstrip(",").rstrip("f")) for v, lab in re.findall(r"^\s+(\S+),?\s+// (\w+)", m.group(1), re.M)}

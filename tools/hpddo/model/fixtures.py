@@ -103,6 +103,29 @@ FIXTURES = {  # name: (hidden sizes, weight seed, output gain)
 }
 
 
+# The dynamic family's fixture (test/fixtures/dynamics/): the deployed model (models/default) with a
+# slow shaft named, so that the board's observer filters the back-EMF speed visibly at the bench's
+# 2 Hz and at 100 Hz. A 5 g m^2 (50,000 g cm^2) flywheel-like inertia with the twin's friction
+# (twin/params.py: B 4 mN m s/rad, Tc 95 mN m) and an observer of 1 s. The UNO is built with it
+# (test/firmware: firmware.uno.*dynamics*) and the ESP8266's host board runs it (test_upload.py).
+DYNAMICS_DIR = "dynamics"
+DYNAMICS_SHAFT = dict(j_kgm2=5e-3, b_nms_per_rad=4e-3, tc_nm=0.095, tau_obs_s=1.0)
+
+
+def with_dynamics(model: ModelData, shaft=None) -> ModelData:
+    """model with the dynamic family named (DYNAMICS_SHAFT unless given); the rest unchanged."""
+    import dataclasses
+    from . import dynamics_ref
+    return dataclasses.replace(model, dynamics=dynamics_ref.dynamics_params(**(shaft or DYNAMICS_SHAFT)))
+
+
+def golden_samples(rows) -> list:
+    """The samples (v, i, temp or None, dt, seq or None) of a golden table's input columns (a
+    numpy structured array with the names of export.GOLDEN_INPUTS)."""
+    return [(float(r["v_V"]), float(r["i_A"]), None if np.isnan(r["temp_C"]) else float(r["temp_C"]),
+             float(r["dt_s"]), int(r["seq"]) if r["has_seq"] else None) for r in rows]
+
+
 def short_log(seed=SEED):
     """A 240-row labelled log for the replay tests: duty steps, a seq gap, a stretch
     without temperature. Speeds follow the plain back-EMF model plus noise."""

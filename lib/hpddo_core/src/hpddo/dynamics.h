@@ -20,40 +20,69 @@
 #ifndef HPDDO_DYNAMICS_H
 #define HPDDO_DYNAMICS_H
 
-/// 1 (the default): the observer runs the dynamic family where the model names it. 0: a build
-/// that never runs it (the UNO's uno_acq, whose flash it would not fit beside the ripple
-/// counter) compiles the observer without it; a model that names it is then refused by
-/// Observer's users (uno_acq checks at compile time).
-#ifndef HPDDO_DYNAMICS
-#define HPDDO_DYNAMICS 1
-#endif
-
 #include <math.h>
+#include <stdint.h>
+#include <string.h>
 
 #include "crc.h"
 #include "model.h"
 #include "params_gen.h"
 #include "physics.h"
+#include "platform.h"
 
 namespace hpddo {
 
 /// The speed over which Coulomb friction reaches its full torque, rad/s.
 static const float kFrictionSmooth_rad_s = 0.5f;
 
-/// True when the dynamic family is named (the model computes it).
-inline bool dynamics_named(const DynamicsParams& d) { return d.j_kgm2 > 0.0f; }
+/// exp_neg's Taylor coefficients of e^r, highest first: 1/7! .. 1/1!, 1 (a loop over a table in
+/// flash: less code on the UNO than the unrolled Horner).
+HPDDO_FLASH static const float kExpTaylor[8] = {1.98412698e-4f, 1.38888889e-3f, 8.33333377e-3f, 4.16666679e-2f,
+                                                1.66666672e-1f, 0.5f, 1.0f, 1.0f};
+
+/// e^x for x <= 0 in float, the same bits on every target whose float is IEEE single rounded to
+/// nearest (the host's SSE, avr-libc's and libgcc's soft float): only + - * / and a power of two
+/// built from its bits, in a fixed order, no libm. The C libraries' expf differ from each other:
+/// avr-libc's is off the correctly rounded value by up to 1 ulp on [-1, 0] and 12 on [-10, -3]
+/// (docs/firmware.md), which would make the UNO's poles, and so its estimates, differ from the
+/// host's. Cody-Waite reduction x = n ln2 + r, |r| <= ln2 / 2, and e^r by its Taylor series to r^7
+/// (truncation below 6e-9 relative); within 1 ulp of the correctly rounded e^x (measured over
+/// [-40, 0], dynamics_ref.py's exp_neg against math.exp). Below -40 (e^x < 4.3e-18) it returns 0,
+/// so that the observer's p^2 never reaches the subnormals (which avr-libc flushes). Mirrored step
+/// for step in float32 by tools/hpddo/model/dynamics_ref.py (exp_neg). Out of line: 272 bytes less
+/// flash on the UNO than inlined into its main loop.
+inline HPDDO_NOINLINE float exp_neg(float x) {
+  if (!(x > -40.0f)) return 0.0f;
+  if (x >= 0.0f) return 1.0f;
+  const float t = x * 1.44269504f;                    // x / ln 2
+  const int n = static_cast<int>(t - 0.5f);            // round to nearest (t < 0; the cast truncates)
+  const float fn = static_cast<float>(n);
+  const float r = (x - fn * 0.693359375f) - fn * -2.12194440e-4f;  // ln 2 = 0.693359375 - 2.12194440e-4
+  float e = flash_float(&kExpTaylor[0]);
+  for (uint8_t k = 1; k < sizeof kExpTaylor / sizeof kExpTaylor[0]; ++k) e = e * r + flash_float(&kExpTaylor[k]);
+  const uint32_t bits = static_cast<uint32_t>(n + 127) << 23;  // 2^n, n in [-58, 0]
+  float scale;
+  memcpy(&scale, &bits, sizeof scale);
+  return e * scale;
+}
+
+/// True when the dynamic family is named (the model computes it). A constant expression on a
+/// model header's kDynamics (constexpr there): `hpddo::Observer<Net, dynamics_named(kDynamics)>`
+/// compiles the family exactly where the model names it (observer.h; the UNO's uno_acq).
+constexpr bool dynamics_named(const DynamicsParams& d) { return d.j_kgm2 > 0.0f; }
 
 /// The family off: what a model header without kDynamics runs with (one initialiser per field:
 /// -Wmissing-field-initializers says where a field was added to the schema and not here).
-static const DynamicsParams kDynamicsOff = {0.0f, 0.0f, 0.0f, 0.0f};
+static constexpr DynamicsParams kDynamicsOff = {0.0f, 0.0f, 0.0f, 0.0f};
 
-/// A model header carries `static const hpddo::DynamicsParams kDynamics` in its namespace only
+/// A model header carries `static constexpr hpddo::DynamicsParams kDynamics` in its namespace only
 /// when the family is named (a model without it keeps its bytes). Before including a header
 /// whose namespace is ns, HPDDO_DYNAMICS_DEFAULT(ns) gives ns::kDynamics = kDynamicsOff where
 /// the header declares none (qualified lookup looks into a using-directive's namespace only
-/// when ns itself declares no such name): `ns::kDynamics` is then the model's family either way.
+/// when ns itself declares no such name): `ns::kDynamics` is then the model's family either way,
+/// a constant expression (dynamics_named(ns::kDynamics) decides at compile time).
 namespace dynamics_default {
-static const DynamicsParams& kDynamics = kDynamicsOff;
+static constexpr const DynamicsParams& kDynamics = kDynamicsOff;
 }  // namespace dynamics_default
 #define HPDDO_DYNAMICS_DEFAULT(ns) \
   namespace ns {                   \
@@ -92,7 +121,8 @@ class DynamicsObserver {
   /// The speed estimate, RPM, after one sample of current i_A (A) and the physics model's
   /// back-EMF speed n_meas_rpm, dt_s after the previous sample. Not named, or a sample it
   /// cannot use (dt not positive, a NaN): n_meas_rpm itself, the state unchanged.
-  float step(float ke_vs_per_rad, const DynamicsParams& d, float i_A, float n_meas_rpm, float dt_s) {
+  /// (Out of line: 80 bytes less flash on the UNO than inlined into its main loop.)
+  HPDDO_NOINLINE float step(float ke_vs_per_rad, const DynamicsParams& d, float i_A, float n_meas_rpm, float dt_s) {
     if (!dynamics_named(d)) return n_meas_rpm;
     if (!(dt_s > 0.0f) || n_meas_rpm != n_meas_rpm || i_A != i_A) return n_meas_rpm;
     const float y = n_meas_rpm / kRpmPerRadS;
@@ -105,7 +135,7 @@ class DynamicsObserver {
     const float g = dt_s / d.j_kgm2;
     const float a = 1.0f - g * d.b_nms_per_rad;
     float p = 0.0f;  // the poles: tau_obs 0 puts them at the origin (the estimate is the measurement)
-    if (d.tau_obs_s > 0.0f) p = expf(-dt_s / d.tau_obs_s);
+    if (d.tau_obs_s > 0.0f) p = exp_neg(-dt_s / d.tau_obs_s);  // not expf: the same bits on every board
     const float lw = 1.0f - (p * p) / a;
     const float lt = -((1.0f - p) * (1.0f - p)) / g;
     const float torque = (ke_vs_per_rad * i_A - d.tc_nm * sign(w_rad_s_)) - load_nm_;

@@ -22,6 +22,9 @@
 // the constructor): n_M2 above is the back-EMF speed, the measurement of DynamicsObserver, and
 // its estimate takes n_M2's place in everything after (the features, rpm_m2, rpm). It restarts
 // with the lags (a new segment). Not named: not called, the observer as before bit for bit.
+// Observer<Net, false> compiles without it (the UNO's uno_acq with a model that does not name it,
+// 1.8 KB of flash less): Observer<Net, dynamics_named(kDynamics)> decides from the model
+// header itself (its kDynamics is a constant expression).
 #ifndef HPDDO_OBSERVER_H
 #define HPDDO_OBSERVER_H
 
@@ -110,8 +113,11 @@ struct Residual<MlpQ<kIn, kH1, kH2, WH, kR0, kR1, W0> > {
 
 }  // namespace detail
 
-/// Per-sample observer over a Model; no heap, a few dozen bytes of state.
-template <class Net>
+/// Per-sample observer over a Model; no heap, a few dozen bytes of state. kWithDynamics: whether
+/// the dynamic family is compiled in (true, the default: it runs where the model names it; false:
+/// never; derive it from the model header, Observer<Net, dynamics_named(kDynamics)>, so that a
+/// model that names the family is never run without it).
+template <class Net, bool kWithDynamics = true>
 class Observer {
   static_assert(Net::kInputs == kFeatureCount,
                 "hpddo::Observer: the network must take the kFeatureCount residual features (Mlp<5, H1, H2>)");
@@ -226,7 +232,7 @@ class Observer {
       has_lag_ = false;
       return out;
     }
-    if (HPDDO_DYNAMICS && dynamics_named(*dynamics_)) {  // the dynamic family: n_M2 is its measurement (dynamics.h)
+    if (kWithDynamics && dynamics_named(*dynamics_)) {  // the dynamic family: n_M2 is its measurement (dynamics.h)
       if (!has_lag_) dyn_.reset();
       m2 = dyn_.step(p.ke_vs_per_rad, *dynamics_, true_current_A(p, s.i_A), m2, dt_s);
     }

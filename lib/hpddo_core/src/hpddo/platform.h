@@ -34,6 +34,14 @@
 #define HPDDO_FLASH
 #endif
 
+/// A function kept out of line: one copy of code called from one place in a long function (the
+/// UNO's main loop), where inlined it costs flash for the registers it shuffles (dynamics.h).
+#if defined(__GNUC__)
+#define HPDDO_NOINLINE __attribute__((noinline))
+#else
+#define HPDDO_NOINLINE
+#endif
+
 /// 1 where the novelty gate stops a prototype's distance sum once it reaches the best so
 /// far (the boards: no vector unit, a taken branch costs a cycle or two), 0 where every
 /// sum runs in full and the minimum is taken without a data-dependent branch (hosts: the
