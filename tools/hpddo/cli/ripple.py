@@ -65,9 +65,11 @@ def run(args) -> int:
                 glitch, _ = dataset.glitch_mask(df)  # the glitch filter of the pipeline (docs/pipeline.md)
                 ref = np.where(glitch, np.nan, df["rpm_ref"].to_numpy())[rows]
                 s["glitch_rows_left_out"] = int(glitch.sum())
-                ok = conf & np.isfinite(ref) & (ref > 0)
+                # a span's count against the encoder over the same span (ripple.span_reference)
+                ref_span = rp.span_reference(est, ref)
+                ok = conf & np.isfinite(ref_span) & (ref_span > 0)
                 if ok.any():
-                    e = est["rpm"].to_numpy()[ok] / ref[ok] - 1
+                    e = est["rpm"].to_numpy()[ok] / ref_span[ok] - 1
                     s["rms_vs_encoder_pct"] = float(100 * np.sqrt(np.mean(e ** 2)))
                     s["max_vs_encoder_pct"] = float(100 * np.max(np.abs(e)))
                 window_s = float(np.median(np.diff(df["t_s"].to_numpy()))) if len(df) > 1 else math.nan

@@ -432,6 +432,7 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
     own estimate and reason. est: estimate()'s DataFrame for these bursts. Returns a copy."""
     est = est.copy()
     est["span"] = 1
+    est["span_first"] = np.arange(len(est))  # the first window of the row's span (its own where no span)
     keys = est["key"].to_numpy()
     prior = est["rpm_prior_used"].to_numpy(float)
     sd = est[["prior_sd_below", "prior_sd_above"]].to_numpy(float)
@@ -453,7 +454,25 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
         est.loc[idx, ["key", "reason"]] = ""
         est.loc[idx, "confident"] = True
         est.loc[idx, "span"] = e - a
+        est.loc[idx, "span_first"] = a
     return est
+
+
+def span_reference(est, rpm_ref) -> np.ndarray:
+    """The encoder speed each row's ripple speed is compared with: its own window's reading, or for
+    a row counted in a span of steady windows (count_steady_spans) the mean of the encoder over the
+    span's windows, because the span's count is the mean speed over them (at 5 RPM one 0.5 s window
+    of this bench's encoder holds 8 counts, so one window's reading steps by 12 %). NaN readings
+    (glitches left out) are left out of a span's mean; a span with none is NaN."""
+    ref = np.asarray(rpm_ref, float)
+    out = ref.copy()
+    if "span_first" not in est:
+        return out
+    first = est["span_first"].to_numpy()
+    for a in np.unique(first[est["span"].to_numpy() > 1]):
+        m = first == a
+        out[m] = np.nanmean(ref[m]) if np.isfinite(ref[m]).any() else np.nan
+    return out
 
 
 def rpm_per_amp(ra_ohm: float, ke_vs_per_rad: float) -> float:
@@ -483,6 +502,12 @@ def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ok.sum())
 
 
+def _group_sum(group, x) -> np.ndarray:
+    """x summed over each row's group, per row."""
+    import pandas as pd
+    return pd.Series(np.asarray(x, float)).groupby(np.asarray(group)).transform("sum").to_numpy()
+
+
 def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001):
     """With an encoder on the output shaft: the ripples per output revolution measured over the
     confident windows (the sum of counted cycles over the sum of encoder revolutions; windows
@@ -494,9 +519,17 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001)
         return {"windows": 0, "statement": "no confident window with an encoder speed: the ratio is not checked"}
     f_hz = df["f_Hz"].to_numpy()
     # a window whose own ratio departs from the median by more than TRIM is an encoder glitch
-    # (extra counts) or a count gone wrong, not the gear: left out, and counted
-    per = np.where(ok, f_hz / np.where(ok, ref, 1.0) * 60.0, np.nan)
-    med = np.nanmedian(per)
+    # (extra counts) or a count gone wrong, not the gear: left out, and counted. The windows of a
+    # span counted as one (count_steady_spans) are one count: their ratio is the span's, the
+    # cycles over the encoder's revolutions summed over its windows (one slow window's encoder
+    # reading steps by 12 % at 5 RPM)
+    group = df["span_first"].to_numpy() if "span_first" in df else np.arange(len(df))
+    f_sum = _group_sum(group, np.where(ok, f_hz, 0.0))
+    ref_sum = _group_sum(group, np.where(ok, ref, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per = np.where(ok, f_sum / ref_sum * 60.0, np.nan)
+    first = np.r_[True, group[1:] != group[:-1]]  # the median over counts, each span once
+    med = np.nanmedian(per[first & ok]) if (first & ok).any() else np.nanmedian(per)
     trimmed = ok & (np.abs(per / med - 1.0) > TRIM)
     ok = ok & ~trimmed
     cycles = float(np.sum(f_hz[ok]) * window_s)
