@@ -397,6 +397,85 @@ def test_steady_spans_stay_within_one_duty_and_leave_the_first_window_after_a_ch
     assert rp.steady_spans(gap, duty, keys, rp.Options(6, 4.4)) == []  # bursts not contiguous: no span
 
 
+def _model_with_brush_drop(folder):
+    """The bundled default model with a brush drop of 0.3 V among its named effects, written as hpddo
+    train writes a model folder (export.model_header)."""
+    from hpddo import schema
+    from hpddo.model import export
+    model = export.read_model_header((ROOT / "models" / "default" / "model_default.h").read_text())
+    bit, field = schema.EFFECT_BITS["brush_drop"]
+    phys = dataclasses.replace(model.physics, **{field: 0.3}, effects=model.physics.effects | bit)
+    folder.mkdir()
+    (folder / "model_brush.h").write_text(export.model_header(dataclasses.replace(model, physics=phys), "brush",
+                                                              {"command": "test_ripple", "data": "hand-made"}))
+    return phys
+
+
+def test_hpddo_ripple_takes_a_trained_models_m2_with_its_effects_as_the_prior(tmp_path, capsys):
+    import json
+
+    import pandas as pd
+
+    from hpddo import cli
+    from hpddo.model import physics as ph
+
+    logs = tmp_path / "logs"
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=logs, time_scale=0.3,
+                      ripple=params.ripple_burst())
+    phys = _model_with_brush_drop(tmp_path / "model")
+    out = tmp_path / "out"
+    assert cli.main(["ripple", str(logs / "load.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                     "--model", str(tmp_path / "model"), "--out", str(out), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "from model" in printed and "(M2 with brush_drop)" in printed
+    s = json.loads((out / "summary.json").read_text())["load"]
+    assert s["prior_model"]["effects"] == ["brush_drop"] and s["ke_prior_vs_per_rad"] == pytest.approx(0.415295, 1e-5)
+    assert s["rms_vs_encoder_pct"] < 1.0 and s["max_vs_encoder_pct"] < 5.0
+    assert s["confident"] >= 0.9 * s["above_floor"]
+    # the prior is the model's M2 with its brush drop: (V - I Ra - brush drop) / Ke, not (V - I Ra) / Ke
+    est = pd.read_csv(out / "load.ripple_speed.csv")
+    log = pd.read_csv(logs / "load.csv", comment="#")
+    v, i = log["v_V"].to_numpy(), log["i_A"].to_numpy()
+    want = ph.physics_rpm(phys, v, i, np.zeros_like(i), phys.t_ref_C)
+    assert np.allclose(est["rpm_prior"].to_numpy(), want, rtol=1e-5, equal_nan=True)
+    plain = rp.m2_prior_rpm(v, i, phys.ra_ohm, phys.ke_vs_per_rad)
+    assert np.nanmax(plain - want) > 3.0  # 0.3 V over Ke: 6.9 RPM where the drive is on
+
+
+def test_hpddo_ripple_model_option_refuses_a_bad_folder_in_one_line(tmp_path, capsys):
+    from hpddo import cli
+
+    logs = tmp_path / "logs"
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=logs, time_scale=0.05,
+                      ripple=params.ripple_burst())
+    base = [str(logs / "load.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--quiet"]
+
+    def err(*extra, status=1):
+        out = tmp_path / f"out{len(list(tmp_path.iterdir()))}"
+        argv = ["ripple"] + base + ["--out", str(out)] + list(extra)
+        if status == 2:  # argparse's usage error
+            with pytest.raises(SystemExit) as exc:
+                cli.main(argv)
+            assert exc.value.code == 2
+        else:
+            assert cli.main(argv) == status
+        e = capsys.readouterr().err.strip()
+        assert not out.exists() or not any(out.iterdir()), "no partial output"
+        return e.splitlines()[-1]
+
+    assert "no such model folder" in err("--model", str(tmp_path / "nowhere"))
+    (tmp_path / "empty").mkdir()
+    assert "expected one model header" in err("--model", str(tmp_path / "empty"))
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "model_x.h").write_text("// not a model\nstatic const uint32_t kChecksum = 0x12345678u;\n")
+    assert "model_x.h: not a model header of hpddo train" in err("--model", str(bad))
+    _model_with_brush_drop(tmp_path / "good")
+    assert "not allowed with argument" in err("--model", str(tmp_path / "good"), "--ke-vs-per-rad", "0.4", status=2)
+    assert "--ra-ohm does not apply with --model" in err("--model", str(tmp_path / "good"), "--ra-ohm", "4.5")
+    assert "--name applies to --model only" in err("--name", "brush")
+
+
 def test_a_span_is_scored_against_the_encoder_over_the_same_span():
     import pandas as pd
 

@@ -554,15 +554,41 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001)
     return out
 
 
+@dataclasses.dataclass(frozen=True)
+class ModelPrior:
+    """A trained model's identified M2 as the back-EMF prior (hpddo ripple --model): its
+    physics (model.physics.PhysicsParams: Ra, Ke and the named effects it was trained with), and
+    where it came from, for the statement."""
+
+    physics: object
+    source: str
+
+    def rpm(self, path, df, meta: dict) -> np.ndarray:
+        """n_M2 of every row of one log (its rows df, metadata meta) with the model's effects and the
+        observer's lag and thermal rules (train.physics_rpm): the rows as they are, none filtered."""
+        from ..logs.dataset import Recording
+        from . import train
+        rows = df if "seq" in df else df.assign(seq=np.arange(len(df), dtype=np.int64))
+        rec = Recording(name=str(path), source=pathlib.Path(path), meta=dict(meta), df=rows, removed=[], n_train=0)
+        return np.asarray(train.physics_rpm(rec, self.physics), float)
+
+    def describe(self) -> str:
+        effects = self.physics.effect_names()
+        return f"model {self.source} (M2 with {', '.join(effects) if effects else 'no effects'})"
+
+
 def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = None,
-                 ke_vs_per_rad: float | None = None, bursts=None):
+                 ke_vs_per_rad: float | None = None, bursts=None, model: ModelPrior | None = None):
     """The ripple speed of every window of one bench log (its rows df, metadata meta) from the
     bursts beside it (`<condition>.ripple.csv`): (estimate DataFrame, one row per burst, with
     `row`, the index of its window in df, and `rpm_prior`; Ke of the prior, where it came
     from). The prior is M2 without effects, (V - I Ra) / Ke: Ke the user's, else calibrated
     from the ripple (calibrate_ke); Ra the user's, else the log's ra_ohm metadata.
     InputError where the bursts are missing, do not match the log, or Ra is unknown. bursts:
-    the log's bursts already read (logs.ripple.read), for a caller that counts them twice."""
+    the log's bursts already read (logs.ripple.read), for a caller that counts them twice.
+    model: a trained model's M2 with its named effects as the prior instead (ModelPrior; its Ra and
+    Ke give the prior's spread, m2_prior_sd_rpm, and the speed a change of current means); not with
+    ra_ohm or ke_vs_per_rad."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
 
@@ -576,16 +602,24 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     rows = [pos.get(int(s)) for s in b.seq]
     if any(r is None for r in rows):
         raise InputError(f"{bpath}: a burst's seq is not in {pathlib.Path(path).name}")
-    ra = ra_ohm if ra_ohm is not None else float(meta.get("ra_ohm", "nan"))
-    if not math.isfinite(ra):
-        raise InputError(f"{path}: no ra_ohm metadata; give --ra-ohm")
     duty, v, i = (df[c].to_numpy()[rows] for c in ("duty", "v_V", "i_A"))
-    if ke_vs_per_rad:
-        ke, ke_from = float(ke_vs_per_rad), "user"
+    if model is not None:
+        if ra_ohm is not None or ke_vs_per_rad:
+            raise ValueError("a model's M2 is the prior with its own Ra and Ke: not with ra_ohm or ke_vs_per_rad")
+        ra, ke, ke_from = float(model.physics.ra_ohm), float(model.physics.ke_vs_per_rad), model.describe()
+        if not (ke > 0 and math.isfinite(ra)):
+            raise InputError(f"{model.source}: the model's Ke {ke:g} V s/rad or Ra {ra:g} ohm cannot be a prior")
+        prior = model.rpm(path, df, meta)[rows]
     else:
-        ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
-        ke_from = f"ripple ({n_ke} windows)"
-    prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
+        ra = ra_ohm if ra_ohm is not None else float(meta.get("ra_ohm", "nan"))
+        if not math.isfinite(ra):
+            raise InputError(f"{path}: no ra_ohm metadata; give --ra-ohm")
+        if ke_vs_per_rad:
+            ke, ke_from = float(ke_vs_per_rad), "user"
+        else:
+            ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
+            ke_from = f"ripple ({n_ke} windows)"
+        prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
     per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) else None
     est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)
