@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import pathlib
 
+from .. import bench as bench_hw
+
 
 def new_parser(prog: str, doc: str, epilog: str | None = None) -> argparse.ArgumentParser:
     """A subcommand's parser: its module docstring as the description."""
@@ -88,7 +90,8 @@ def ripple(p, required: bool, need: str = " (with --reference ripple)", model: b
     model's M2 as the prior, exclusive with --ke-vs-per-rad (hpddo ripple)."""
     need = "" if required else need
     p.add_argument("--ripples-per-rev", type=positive_int, required=required, default=None, metavar="N",
-                   help=f"commutation ripples per motor revolution (2 x segments for two brushes){need}")
+                   help=f"commutation ripples per motor revolution (2 x segments for two brushes; this bench's "
+                        f"motor: {bench_hw.HARDWARE.ripples_per_rev}, tools/hpddo/bench.py){need}")
     p.add_argument("--gear-ratio", type=positive_float, required=required, default=None, metavar="G",
                    help="motor revolutions per output revolution (the nameplate's; checked where there is an "
                         f"encoder){need}")

@@ -28,10 +28,13 @@ import subprocess
 import sys
 import tempfile
 import time
+
+from .. import bench as bench_hw
 from . import parser
 
 EFFECTS = ("brush_drop", "thermal_ra", "magnet_thermal")  # what the diagnosis names from either reference
-RIPPLE = ["--reference", "ripple", "--ripples-per-rev", "6", "--gear-ratio", "4.4"]
+RIPPLE = ["--reference", "ripple", "--ripples-per-rev", str(bench_hw.HARDWARE.ripples_per_rev), "--gear-ratio",
+          f"{bench_hw.HARDWARE.gear_ratio:g}"]  # the bench's (tools/hpddo/bench.py)
 BENCH = ("sweep", "load", "long")
 VAL = ("unseen", "hot")
 # (label, trained from, effects, network seed)
