@@ -257,15 +257,20 @@ def test_reference_swap_puts_the_confident_ripple_speed_in_rpm_ref_and_counts_th
     conf = est["confident"].to_numpy()
     rows = est["row"].to_numpy()
     got = df["rpm_ref"].to_numpy()
+    still = rp.standing(est, log.df["duty"].to_numpy()[rows], log.df["v_V"].to_numpy()[rows], ref.options())
     assert np.array_equal(got[rows[conf]], est["rpm"].to_numpy()[conf])  # the ripple speed where confident
-    assert np.isnan(got[rows[~conf]]).all()                              # and NaN elsewhere
-    assert np.array_equal(weight[rows[conf]], est["confidence"].to_numpy()[conf]) and (weight[rows[~conf]] == 0).all()
+    assert (got[rows[still]] == 0).all() and (weight[rows[still]] == rp.STANDING_CONFIDENCE).all()  # standing: 0
+    assert np.isnan(got[rows[~conf & ~still]]).all()                     # and NaN elsewhere
+    assert np.array_equal(weight[rows[conf]], est["confidence"].to_numpy()[conf])
+    assert (weight[rows[~conf & ~still]] == 0).all()
     enc = log.df["rpm_ref"].to_numpy()
     assert np.nanmax(np.abs(got - enc)) > 0  # the encoder's column is set aside, not kept
-    # the counts: every row kept or left out by its reason; the sweep's duty-0 rows are coasting
-    assert rec["kept"] == int(conf.sum()) and rec["kept"] + rec["left_out"] == len(log.df)
+    # the counts: every row kept or left out by its reason; the sweep's duty-0 rows are coasting, and
+    # the shaft stands in every one of them (the twin's truth under 0.14 RPM there): labelled 0 RPM
+    assert rec["kept"] == int(conf.sum() + still.sum()) and rec["kept"] + rec["left_out"] == len(log.df)
     assert sum(rec["left_out_by_reason"].values()) == rec["left_out"]
-    assert rec["left_out_by_reason"]["coasting"] == int((log.df["duty"] == 0).sum()) > 0
+    assert rec["standing_labelled"] == int(still.sum()) == int((log.df["duty"] == 0).sum()) > 0
+    assert "coasting" not in rec["left_out_by_reason"]
     assert rec["encoder_set_aside"] and rec["ke_from"].startswith("ripple")
     # through the loader: the glitch filter after the swap, the weight following the rows it keeps
     r = dataset.load_recording(path, reference=ref)
@@ -323,7 +328,7 @@ def test_train_from_the_ripple_alone_scores_against_the_encoder_like_a_model_fro
         if which == "ripple":
             r = metrics["reference"]
             assert r["reference"] == "ripple" and r["kept"] + r["left_out"] == r["rows"]
-            assert r["left_out_by_reason"]["coasting"] > 0 and set(r["recordings"]) == {"sweep", "load"}
+            assert r["standing_labelled"] > 0 and set(r["recordings"]) == {"sweep", "load"}
             assert "reference" not in json.loads((ev / "metrics.json").read_text())  # scored against the encoder
         else:
             assert "reference" not in metrics
@@ -487,3 +492,16 @@ def test_a_span_is_scored_against_the_encoder_over_the_same_span():
     # the ratio check takes the span as one count: its windows' own encoder steps do not trim it
     chk = rp.check_ratio(est, np.array([22.7, 4.96, 4.96, 5.58, 22.7]), 0.5, rp.Options(6, 4.4))
     assert chk["left_out"] == 0 and chk["windows"] == 5
+
+
+def test_standing_is_the_back_emf_of_open_terminals_with_the_drive_off():
+    """0 RPM from the back-EMF only where the drive is off (duty 0), no current flows (the terminals
+    are open, so V is the back-EMF) and |V| is under the threshold."""
+    import pandas as pd
+
+    est = pd.DataFrame({"key": ["coasting", "coasting", "coasting", "", "coasting"],
+                        "i_mean_A": [0.008, 0.008, 0.30, 0.4, 0.008]})
+    duty = np.array([0.0, 0.0, 0.0, 0.2, 0.0])
+    v = np.array([0.004, 0.05, 0.0, 0.0, np.nan])  # turning (50 mV of back-EMF); braked (current); driven; no V
+    assert rp.standing(est, duty, v, rp.Options(6, 4.4)).tolist() == [True, False, False, False, False]
+    assert not rp.standing(est, duty, v, rp.Options(6, 4.4, standing_V=0.0)).any()

@@ -79,6 +79,9 @@ class Options:
     #                               (a fixed line, interference, while the shaft stands or turns slowly)
     span_max_s: float = 10.0      # count_steady_spans: the longest span of steady windows counted as one (s);
     #                               0 turns the multi-window count off
+    standing_V: float = 0.010     # standing(): with the drive off and no current the open terminals show the
+    #                               back-EMF; under this |V| the shaft stands (|n| < standing_V / Ke, 0.25 RPM at
+    #                               0.38 V s/rad); 0 turns the label off
 
 
 def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
@@ -473,6 +476,32 @@ def span_reference(est, rpm_ref) -> np.ndarray:
         m = first == a
         out[m] = np.nanmean(ref[m]) if np.isfinite(ref[m]).any() else np.nan
     return out
+
+
+STANDING = "standing"
+STANDING_REASON = ("standing: the drive off (duty 0) and no current, so the open terminals show the back-EMF, "
+                   "and |V| is under the threshold: 0 RPM from the back-EMF, not counted")
+STANDING_CONFIDENCE = 1.0  # the back-EMF bounds the speed to |V| / Ke, under a quarter RPM: no count is surer
+
+
+def standing(est, duty, v_V, opts: Options) -> np.ndarray:
+    """The windows where the shaft stands by the back-EMF, one bool per row of est (estimate()'s
+    rows; duty and v_V per window): the drive off (duty 0, est's `coasting`), no armature current
+    (the burst's mean under opts.floor_A), so nothing flows through the winding and the terminals
+    are open, and the terminal voltage, which is then the back-EMF Ke w, under opts.standing_V in
+    magnitude. A speed measurement from the back-EMF where the ripple has nothing to count (no
+    current, no ripple), valid for a driver that leaves the terminals open when off (the bench's
+    low-side switch with its freewheel diode, which conducts only while current flows); a driver
+    that brakes (shorts the terminals) makes V = 0 while the shaft turns, and drives current,
+    which the current condition refuses where it is above the floor. Used by the ripple
+    reference (reference.swap) to label those rows 0 RPM with STANDING_CONFIDENCE."""
+    duty = np.asarray(duty, float)
+    v = np.asarray(v_V, float)
+    i = est["i_mean_A"].to_numpy(float)
+    if not opts.standing_V > 0:
+        return np.zeros(len(est), bool)
+    return ((est["key"].to_numpy() == "coasting") & (duty == 0.0) & np.isfinite(v) & (np.abs(v) < opts.standing_V)
+            & np.isfinite(i) & (np.abs(i) < opts.floor_A))
 
 
 def rpm_per_amp(ra_ohm: float, ke_vs_per_rad: float) -> float:
