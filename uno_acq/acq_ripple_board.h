@@ -21,6 +21,12 @@
 
 #include "acq_format.h"
 #include "acq_ripple.h"
+#include "bench_gen.h"
+/// Ripples per motor revolution: the bench's (tools/hpddo/bench.py, generated into bench_gen.h),
+/// unless the build gives its own (-DACQ_RIPPLES_PER_REV=N for another motor).
+#ifndef ACQ_RIPPLES_PER_REV
+#define ACQ_RIPPLES_PER_REV HPDDO_BENCH_RIPPLES_PER_REV
+#endif
 #include "acq_ripple_count.h"
 
 // What the build does with the bursts: send them to the host (ACQ_RIPPLE_STREAM, item 2) or

@@ -32,12 +32,6 @@
 #include "hpddo/physics.h"
 #include "ripple_count_gen.h"  // the constants (kRipple...), generated from tools/hpddo/model/ripple_count.py
 
-/// Ripples per motor revolution (2 x commutator segments for two brushes), the user's figure
-/// as `hpddo ripple --ripples-per-rev`; the gear ratio is the bench's (bench_gen.h).
-#ifndef ACQ_RIPPLES_PER_REV
-#define ACQ_RIPPLES_PER_REV 6
-#endif
-
 namespace acq {
 
 /// The counter's state; the ADC interrupt calls sample() on each burst code.

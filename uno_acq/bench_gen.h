@@ -2,7 +2,7 @@
  * from tools/hpddo/bench.py, the one description of the bench (docs/firmware.md,
  * 'The bench'). Edit bench.py and regenerate; test/py/test_bench_description.py
  * fails when this file and bench.py disagree.
- * sha256 of the body below: 3b2279f681c8fb69
+ * sha256 of the body below: d606f3c3d1ad3304
  */
 #ifndef HPDDO_BENCH_GEN_H
 #define HPDDO_BENCH_GEN_H
@@ -18,6 +18,7 @@
 #define HPDDO_BENCH_ENCODER_COUNTS_PER_MOTOR_REV 44  /* 11 pulses x 4 */
 #define HPDDO_BENCH_GEAR_RATIO 4.4f
 #define HPDDO_BENCH_ENCODER_COUNTS_PER_REV 193.6f  /* output shaft */
+#define HPDDO_BENCH_RIPPLES_PER_REV 6  /* commutation ripples per motor revolution */
 #define HPDDO_BENCH_SWEEP_STEPS 11
 #define HPDDO_BENCH_SWEEP_STEP_S 30.0f
 #define HPDDO_BENCH_LOAD_STEPS 12

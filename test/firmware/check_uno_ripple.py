@@ -107,7 +107,7 @@ def compare_with_twin(a, twin, path, df, windows):
     speed from the twin's own whole-window bursts (the same estimator, hpddo.model.ripple)."""
     import numpy as np
     from hpddo.model import ripple as rp
-    opts = rp.Options(ripples_per_rev=6, gear_ratio=4.4)
+    opts = rp.Options(ripples_per_rev=bench.HARDWARE.ripples_per_rev, gear_ratio=bench.HARDWARE.gear_ratio)
     ra = float(twin.meta["ra_ohm"])
     board, _, _ = rp.speed_of_log(path.with_name("ripple.csv"), df, {"ra_ohm": ra}, opts)
     own, _, _ = rp.speed_of_log(a.twin, twin.df, twin.meta, opts)

@@ -12,13 +12,15 @@ import pytest
 from hpddo import cli
 from hpddo.logs import dataset
 from hpddo.model import identify
+from hpddo.bench import HARDWARE
 from hpddo.model import ripple as rp
 from hpddo.studies.compare import ripple_peer
 
 pytestmark = pytest.mark.slow  # runs the twin and hpddo compare: not in scripts/test.sh --quick
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-RIPPLES_PER_REV, GEAR = "6", "4.4"   # the twin's motor: 3 segments, two brushes; 25GA371 1:4.4
+# the twin's motor, the bench's (tools/hpddo/bench.py): 3 segments, two brushes; 25GA371 1:4.4
+RIPPLES_PER_REV, GEAR = str(HARDWARE.ripples_per_rev), f"{HARDWARE.gear_ratio:g}"
 
 
 @pytest.fixture(scope="module")

@@ -153,6 +153,10 @@ class BenchHardware:
     # Motor 25GA371 1:4.4 (paper App. A item 6); encoder on the motor shaft, 11 pulses
     # per motor revolution in quadrature (paper-silent: as the bundled recordings).
     gear_ratio: float = 4.4
+    # Commutation ripples per motor revolution: 2 x the commutator's segments for two brushes,
+    # a 3-segment rotor (paper-silent: the twin's motor and the UNO's ripple counter's default;
+    # the user's figure on the host, hpddo ripple --ripples-per-rev, docs/ripple.md).
+    ripples_per_rev: int = 6
     encoder_ppr: int = 11
     encoder_quadrature: int = 4
     # ADC: the UNO's 10-bit ADC on AVcc (paper 3.4), free running at 16 MHz / 128 / 13.
@@ -241,6 +245,7 @@ def header_text() -> str:
         h.counts_per_motor_rev, h.encoder_ppr, h.encoder_quadrature))
     w("#define HPDDO_BENCH_GEAR_RATIO %s" % _c_float(h.gear_ratio))
     w("#define HPDDO_BENCH_ENCODER_COUNTS_PER_REV %s  /* output shaft */" % _c_float(h.counts_per_output_rev))
+    w("#define HPDDO_BENCH_RIPPLES_PER_REV %d  /* commutation ripples per motor revolution */" % h.ripples_per_rev)
     w("#define HPDDO_BENCH_SWEEP_STEPS %d" % len(sweep.segments))
     w("#define HPDDO_BENCH_SWEEP_STEP_S %s" % _c_float(sweep.step_s()))
     w("#define HPDDO_BENCH_LOAD_STEPS %d" % len(load.segments))

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import pathlib
 
+from .. import bench as bench_hw
+
 
 def new_parser(prog: str, doc: str, epilog: str | None = None) -> argparse.ArgumentParser:
     """A subcommand's parser: its module docstring as the description."""
@@ -81,19 +83,29 @@ def dynamics(p, what: str) -> None:
                         "inductance is the effect 'inductance' in --effects")
 
 
-def ripple(p, required: bool, need: str = " (with --reference ripple)") -> None:
+def ripple(p, required: bool, need: str = " (with --reference ripple)", model: bool = False) -> None:
     """--ripples-per-rev N --gear-ratio G [--ke-vs-per-rad KE] [--floor-a A]: the speed from the
     commutation ripple (docs/ripple.md); required by hpddo ripple, by --reference ripple elsewhere
-    (need: when they apply, in the help)."""
+    (need: when they apply, in the help). model: besides, --model DIR [--name NAME], a trained
+    model's M2 as the prior, exclusive with --ke-vs-per-rad (hpddo ripple)."""
     need = "" if required else need
     p.add_argument("--ripples-per-rev", type=positive_int, required=required, default=None, metavar="N",
-                   help=f"commutation ripples per motor revolution (2 x segments for two brushes){need}")
+                   help=f"commutation ripples per motor revolution (2 x segments for two brushes; this bench's "
+                        f"motor: {bench_hw.HARDWARE.ripples_per_rev}, tools/hpddo/bench.py){need}")
     p.add_argument("--gear-ratio", type=positive_float, required=required, default=None, metavar="G",
                    help="motor revolutions per output revolution (the nameplate's; checked where there is an "
                         f"encoder){need}")
-    p.add_argument("--ke-vs-per-rad", type=positive_float, default=None, metavar="KE",
-                   help="Ke of the ripple's back-EMF prior, V s/rad at the output shaft (default: calibrated from "
-                        "the ripple)")
+    prior = p.add_mutually_exclusive_group() if model else p
+    prior.add_argument("--ke-vs-per-rad", type=positive_float, default=None, metavar="KE",
+                       help="Ke of the ripple's back-EMF prior, V s/rad at the output shaft (default: calibrated from "
+                            "the ripple)")
+    if model:
+        prior.add_argument("--model", type=pathlib.Path, default=None, metavar="DIR",
+                           help="a model folder written by hpddo train: its identified M2, with the named effects it "
+                                "was trained with, Ra and Ke its own, is the back-EMF prior (not with --ke-vs-per-rad "
+                                "or --ra-ohm)")
+        p.add_argument("--name", default=None, help="with --model: the model name, when DIR holds more than one "
+                                                    "model_<name>.h")
     p.add_argument("--floor-a", type=positive_float, default=None, metavar="A",
                    help="no ripple speed under this mean current (default 0.10 A)")
 

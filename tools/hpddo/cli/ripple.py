@@ -2,11 +2,12 @@
 counted from the current bursts beside it (<condition>.ripple.csv, docs/bench-log.md), with a
 confidence and the reason where there is none (docs/ripple.md).
 
-    hpddo ripple LOG... --ripples-per-rev N --gear-ratio G --out OUT [--ke-vs-per-rad KE]
+    hpddo ripple LOG... --ripples-per-rev N --gear-ratio G --out OUT [--ke-vs-per-rad KE | --model DIR]
 
 The back-EMF prior that picks the main line among its sub-harmonics is M2, (V - I Ra) / Ke:
-with --ke-vs-per-rad, that Ke; without, a Ke calibrated from the ripple itself (the windows
-the comb alone resolves). Where a log has encoder speeds (rpm_ref), the ripple speed is
+with --ke-vs-per-rad, that Ke; with --model, the identified M2 of a model folder written by
+hpddo train, with the named effects it was trained with (its own Ra and Ke); without either,
+a Ke calibrated from the ripple itself (the windows the comb alone resolves). Where a log has encoder speeds (rpm_ref), the ripple speed is
 scored against them (rows the pipeline's glitch filter marks left out) and the gear ratio checked: the statement says when the data's ratio is
 not the one given. Writes OUT/<condition>.ripple_speed.csv and OUT/summary.json.
 """
@@ -25,7 +26,7 @@ TOOL = "ripple"
 def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     p = options.new_parser(prog, __doc__)
     options.logs(p, help="bench logs (CSV, docs/bench-log.md), each with its <condition>.ripple.csv beside it")
-    options.ripple(p, required=True)
+    options.ripple(p, required=True, model=True)
     options.ra_ohm(p)
     options.out(p, "output folder: new, empty, or a previous output of hpddo ripple")
     options.quiet(p)
@@ -38,17 +39,27 @@ def run(args) -> int:
     import numpy as np
 
     from ..logs import benchlog, dataset, outdir
+    from ..logs.errors import InputError
     from ..model import ripple as rp
 
     opts = rp.Options(args.ripples_per_rev, args.gear_ratio)
     if args.floor_a is not None:
         opts = dataclasses.replace(opts, floor_A=args.floor_a)
+    model = None
+    if args.model is None and args.name is not None:
+        raise InputError("--name applies to --model only")
+    if args.model is not None:  # refused before any work: a bad folder, or Ra given beside the model's own
+        from ..evaluation.evaluate import model_physics
+        if args.ra_ohm is not None:
+            raise InputError("--ra-ohm does not apply with --model: the model's M2 has its own Ra")
+        model = rp.ModelPrior(model_physics(args.model, args.name), str(args.model))
     summary = {}
     with outdir.staged(args.out, TOOL) as stage:
         for path in args.logs:
             log = benchlog.read_log(path)
             df = log.df
-            est, ke, ke_from = rp.speed_of_log(path, df, log.meta, opts, args.ra_ohm, args.ke_vs_per_rad)
+            est, ke, ke_from = rp.speed_of_log(path, df, log.meta, opts, args.ra_ohm, args.ke_vs_per_rad,
+                                            model=model)
             rows = est["row"].to_numpy()
             est.insert(1, "t_s", df["t_s"].to_numpy()[rows])
             name = log.condition
@@ -59,15 +70,19 @@ def run(args) -> int:
             conf = est["confident"].to_numpy()
             above = est["i_mean_A"].to_numpy() >= opts.floor_A
             s = {"windows": len(est), "confident": int(conf.sum()), "above_floor": int(above.sum()),
-                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from,
+                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from, "prior_model": None if model is None else {
+                     "folder": str(args.model), "effects": model.physics.effect_names(),
+                     "ra_ohm": float(model.physics.ra_ohm)},
                  "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
             if "rpm_ref" in df and np.isfinite(df["rpm_ref"].to_numpy()[rows]).any():
                 glitch, _ = dataset.glitch_mask(df)  # the glitch filter of the pipeline (docs/pipeline.md)
                 ref = np.where(glitch, np.nan, df["rpm_ref"].to_numpy())[rows]
                 s["glitch_rows_left_out"] = int(glitch.sum())
-                ok = conf & np.isfinite(ref) & (ref > 0)
+                # a span's count against the encoder over the same span (ripple.span_reference)
+                ref_span = rp.span_reference(est, ref)
+                ok = conf & np.isfinite(ref_span) & (ref_span > 0)
                 if ok.any():
-                    e = est["rpm"].to_numpy()[ok] / ref[ok] - 1
+                    e = est["rpm"].to_numpy()[ok] / ref_span[ok] - 1
                     s["rms_vs_encoder_pct"] = float(100 * np.sqrt(np.mean(e ** 2)))
                     s["max_vs_encoder_pct"] = float(100 * np.max(np.abs(e)))
                 window_s = float(np.median(np.diff(df["t_s"].to_numpy()))) if len(df) > 1 else math.nan

@@ -102,6 +102,19 @@ def model_header(model_dir: pathlib.Path, name: str | None = None) -> tuple[str,
     return headers[0].stem[len("model_"):], int(m.group(1), 16)
 
 
+def model_physics(model_dir: pathlib.Path, name: str | None = None):
+    """The identified M2 (model.physics.PhysicsParams: Ra, Ke and the named effects) of the model
+    in model_dir (model_header picks its header); an InputError naming the folder or the header
+    where it is not a model of hpddo train."""
+    from ..model.export import read_model_header
+    model_name, _ = model_header(model_dir, name)
+    header = pathlib.Path(model_dir) / f"model_{model_name}.h"
+    try:
+        return read_model_header(header.read_text(encoding="utf-8")).physics
+    except (ValueError, AttributeError, KeyError, IndexError, TypeError) as exc:
+        raise InputError(f"{header}: not a model header of hpddo train that reads back ({exc})") from None
+
+
 def evaluate(model_dir, log_paths, work_dir: pathlib.Path | None = None, name: str | None = None,
              glitch_filter: bool = True, reference=None) -> Evaluation:
     """Scores the model in model_dir (its header model_<name>.h and lookup.json) on every
@@ -134,9 +147,7 @@ def temperature_warning(physics, rec) -> str | None:
 
 
 def _replay_and_score(model_dir, model_name, checksum, lookup, recs, work: pathlib.Path) -> Evaluation:
-    from ..model.export import read_model_header
-    header = pathlib.Path(model_dir) / f"model_{model_name}.h"
-    physics = read_model_header(header.read_text(encoding="utf-8")).physics
+    physics = model_physics(model_dir, model_name)
     for r in recs:
         w = temperature_warning(physics, r)
         if w:

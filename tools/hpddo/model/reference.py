@@ -16,7 +16,10 @@ that row in M2's Ke (eq. 20 as a weighted mean, least squares as weighted least 
 in the effect fits (effects.fit, the diagnosis included) and in M3's training (its squared loss,
 train.labelled_rows, network.train). The rows without a confident speed are left out
 (WEIGHTS_NOTE). Where one window holds too few ripple cycles (a slow shaft), the ripple is
-counted over a span of steady windows (ripple.count_steady_spans).
+counted over a span of steady windows (ripple.count_steady_spans). Where the drive is off, no
+current flows and the terminal voltage (then the back-EMF) is under a few mV, the shaft stands:
+those rows take 0 RPM from the back-EMF with ripple.STANDING_CONFIDENCE (ripple.standing), counted
+as `standing_labelled`; the other coasting rows are left out.
 """
 from __future__ import annotations
 
@@ -74,6 +77,11 @@ def swap(path, df, meta: dict, ref: Ripple):
     rpm[rows[conf]] = est["rpm"].to_numpy()[conf]
     weight[rows[conf]] = est["confidence"].to_numpy()[conf]
     key[rows] = est["key"].to_numpy()
+    # the rows where the shaft stands by the back-EMF (drive off, no current, |V| under the
+    # threshold): 0 RPM, a measurement where the ripple has nothing to count (ripple.standing)
+    still = rp.standing(est, df["duty"].to_numpy()[rows], df["v_V"].to_numpy()[rows], ref.options())
+    rpm[rows[still]] = 0.0
+    weight[rows[still]] = rp.STANDING_CONFIDENCE
     kept = np.isfinite(rpm)
     out = df.copy()
     had_encoder = "rpm_ref" in out and bool(np.isfinite(out["rpm_ref"].to_numpy(float)).any())
@@ -82,6 +90,7 @@ def swap(path, df, meta: dict, ref: Ripple):
     w = weight[kept]
     record = {**ref.to_json(), "bursts": path_for(path).name,
               "ke_prior_vs_per_rad": ke, "ke_from": ke_from, "rows": n, "kept": int(kept.sum()),
+              "standing_labelled": int(still.sum()), "standing_V": ref.options().standing_V,
               "left_out": int((~kept).sum()), "left_out_by_reason": left,
               "confidence_kept": {"min": float(w.min()), "median": float(np.median(w))} if w.size else None,
               "encoder_set_aside": had_encoder}
@@ -103,6 +112,7 @@ def pooled(records: dict) -> dict | None:
     first = next(iter(records.values()))
     return {**{k: first[k] for k in ("reference", "ripples_per_rev", "gear_ratio", "ke_vs_per_rad", "floor_A")},
             "rows": sum(r["rows"] for r in records.values()), "kept": sum(r["kept"] for r in records.values()),
+            "standing_labelled": sum(r.get("standing_labelled", 0) for r in records.values()),
             "left_out": sum(r["left_out"] for r in records.values()), "left_out_by_reason": dict(sorted(left.items())),
             "weights": WEIGHTS_NOTE, "recordings": records}
 
@@ -112,5 +122,8 @@ def line(name: str, record: dict) -> str:
     why = ", ".join(f"{k} {c}" for k, c in sorted(record["left_out_by_reason"].items()))
     return (f"{name}: reference ripple ({record['ripples_per_rev']} x {record['gear_ratio']:g} per output "
             f"revolution, prior Ke {record['ke_prior_vs_per_rad']:.4f} V s/rad from {record['ke_from']}): "
-            f"{record['kept']} of {record['rows']} rows kept, {record['left_out']} left out"
+            f"{record['kept']} of {record['rows']} rows kept"
+            + (f" ({record['standing_labelled']} of them standing: 0 RPM from the back-EMF, drive off, no "
+               f"current, |V| < {1000 * record['standing_V']:g} mV)" if record.get("standing_labelled") else "")
+            + f", {record['left_out']} left out"
             + (f" ({why})" if why else ""))

@@ -79,6 +79,9 @@ class Options:
     #                               (a fixed line, interference, while the shaft stands or turns slowly)
     span_max_s: float = 10.0      # count_steady_spans: the longest span of steady windows counted as one (s);
     #                               0 turns the multi-window count off
+    standing_V: float = 0.010     # standing(): with the drive off and no current the open terminals show the
+    #                               back-EMF; under this |V| the shaft stands (|n| < standing_V / Ke, 0.25 RPM at
+    #                               0.38 V s/rad); 0 turns the label off
 
 
 def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
@@ -432,6 +435,7 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
     own estimate and reason. est: estimate()'s DataFrame for these bursts. Returns a copy."""
     est = est.copy()
     est["span"] = 1
+    est["span_first"] = np.arange(len(est))  # the first window of the row's span (its own where no span)
     keys = est["key"].to_numpy()
     prior = est["rpm_prior_used"].to_numpy(float)
     sd = est[["prior_sd_below", "prior_sd_above"]].to_numpy(float)
@@ -453,7 +457,51 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
         est.loc[idx, ["key", "reason"]] = ""
         est.loc[idx, "confident"] = True
         est.loc[idx, "span"] = e - a
+        est.loc[idx, "span_first"] = a
     return est
+
+
+def span_reference(est, rpm_ref) -> np.ndarray:
+    """The encoder speed each row's ripple speed is compared with: its own window's reading, or for
+    a row counted in a span of steady windows (count_steady_spans) the mean of the encoder over the
+    span's windows, because the span's count is the mean speed over them (at 5 RPM one 0.5 s window
+    of this bench's encoder holds 8 counts, so one window's reading steps by 12 %). NaN readings
+    (glitches left out) are left out of a span's mean; a span with none is NaN."""
+    ref = np.asarray(rpm_ref, float)
+    out = ref.copy()
+    if "span_first" not in est:
+        return out
+    first = est["span_first"].to_numpy()
+    for a in np.unique(first[est["span"].to_numpy() > 1]):
+        m = first == a
+        out[m] = np.nanmean(ref[m]) if np.isfinite(ref[m]).any() else np.nan
+    return out
+
+
+STANDING = "standing"
+STANDING_REASON = ("standing: the drive off (duty 0) and no current, so the open terminals show the back-EMF, "
+                   "and |V| is under the threshold: 0 RPM from the back-EMF, not counted")
+STANDING_CONFIDENCE = 1.0  # the back-EMF bounds the speed to |V| / Ke, under a quarter RPM: no count is surer
+
+
+def standing(est, duty, v_V, opts: Options) -> np.ndarray:
+    """The windows where the shaft stands by the back-EMF, one bool per row of est (estimate()'s
+    rows; duty and v_V per window): the drive off (duty 0, est's `coasting`), no armature current
+    (the burst's mean under opts.floor_A), so nothing flows through the winding and the terminals
+    are open, and the terminal voltage, which is then the back-EMF Ke w, under opts.standing_V in
+    magnitude. A speed measurement from the back-EMF where the ripple has nothing to count (no
+    current, no ripple), valid for a driver that leaves the terminals open when off (the bench's
+    low-side switch with its freewheel diode, which conducts only while current flows); a driver
+    that brakes (shorts the terminals) makes V = 0 while the shaft turns, and drives current,
+    which the current condition refuses where it is above the floor. Used by the ripple
+    reference (reference.swap) to label those rows 0 RPM with STANDING_CONFIDENCE."""
+    duty = np.asarray(duty, float)
+    v = np.asarray(v_V, float)
+    i = est["i_mean_A"].to_numpy(float)
+    if not opts.standing_V > 0:
+        return np.zeros(len(est), bool)
+    return ((est["key"].to_numpy() == "coasting") & (duty == 0.0) & np.isfinite(v) & (np.abs(v) < opts.standing_V)
+            & np.isfinite(i) & (np.abs(i) < opts.floor_A))
 
 
 def rpm_per_amp(ra_ohm: float, ke_vs_per_rad: float) -> float:
@@ -483,6 +531,12 @@ def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ok.sum())
 
 
+def _group_sum(group, x) -> np.ndarray:
+    """x summed over each row's group, per row."""
+    import pandas as pd
+    return pd.Series(np.asarray(x, float)).groupby(np.asarray(group)).transform("sum").to_numpy()
+
+
 def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001):
     """With an encoder on the output shaft: the ripples per output revolution measured over the
     confident windows (the sum of counted cycles over the sum of encoder revolutions; windows
@@ -494,9 +548,17 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001)
         return {"windows": 0, "statement": "no confident window with an encoder speed: the ratio is not checked"}
     f_hz = df["f_Hz"].to_numpy()
     # a window whose own ratio departs from the median by more than TRIM is an encoder glitch
-    # (extra counts) or a count gone wrong, not the gear: left out, and counted
-    per = np.where(ok, f_hz / np.where(ok, ref, 1.0) * 60.0, np.nan)
-    med = np.nanmedian(per)
+    # (extra counts) or a count gone wrong, not the gear: left out, and counted. The windows of a
+    # span counted as one (count_steady_spans) are one count: their ratio is the span's, the
+    # cycles over the encoder's revolutions summed over its windows (one slow window's encoder
+    # reading steps by 12 % at 5 RPM)
+    group = df["span_first"].to_numpy() if "span_first" in df else np.arange(len(df))
+    f_sum = _group_sum(group, np.where(ok, f_hz, 0.0))
+    ref_sum = _group_sum(group, np.where(ok, ref, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        per = np.where(ok, f_sum / ref_sum * 60.0, np.nan)
+    first = np.r_[True, group[1:] != group[:-1]]  # the median over counts, each span once
+    med = np.nanmedian(per[first & ok]) if (first & ok).any() else np.nanmedian(per)
     trimmed = ok & (np.abs(per / med - 1.0) > TRIM)
     ok = ok & ~trimmed
     cycles = float(np.sum(f_hz[ok]) * window_s)
@@ -521,15 +583,41 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001)
     return out
 
 
+@dataclasses.dataclass(frozen=True)
+class ModelPrior:
+    """A trained model's identified M2 as the back-EMF prior (hpddo ripple --model): its
+    physics (model.physics.PhysicsParams: Ra, Ke and the named effects it was trained with), and
+    where it came from, for the statement."""
+
+    physics: object
+    source: str
+
+    def rpm(self, path, df, meta: dict) -> np.ndarray:
+        """n_M2 of every row of one log (its rows df, metadata meta) with the model's effects and the
+        observer's lag and thermal rules (train.physics_rpm): the rows as they are, none filtered."""
+        from ..logs.dataset import Recording
+        from . import train
+        rows = df if "seq" in df else df.assign(seq=np.arange(len(df), dtype=np.int64))
+        rec = Recording(name=str(path), source=pathlib.Path(path), meta=dict(meta), df=rows, removed=[], n_train=0)
+        return np.asarray(train.physics_rpm(rec, self.physics), float)
+
+    def describe(self) -> str:
+        effects = self.physics.effect_names()
+        return f"model {self.source} (M2 with {', '.join(effects) if effects else 'no effects'})"
+
+
 def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = None,
-                 ke_vs_per_rad: float | None = None, bursts=None):
+                 ke_vs_per_rad: float | None = None, bursts=None, model: ModelPrior | None = None):
     """The ripple speed of every window of one bench log (its rows df, metadata meta) from the
     bursts beside it (`<condition>.ripple.csv`): (estimate DataFrame, one row per burst, with
     `row`, the index of its window in df, and `rpm_prior`; Ke of the prior, where it came
     from). The prior is M2 without effects, (V - I Ra) / Ke: Ke the user's, else calibrated
     from the ripple (calibrate_ke); Ra the user's, else the log's ra_ohm metadata.
     InputError where the bursts are missing, do not match the log, or Ra is unknown. bursts:
-    the log's bursts already read (logs.ripple.read), for a caller that counts them twice."""
+    the log's bursts already read (logs.ripple.read), for a caller that counts them twice.
+    model: a trained model's M2 with its named effects as the prior instead (ModelPrior; its Ra and
+    Ke give the prior's spread, m2_prior_sd_rpm, and the speed a change of current means); not with
+    ra_ohm or ke_vs_per_rad."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
 
@@ -543,16 +631,24 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     rows = [pos.get(int(s)) for s in b.seq]
     if any(r is None for r in rows):
         raise InputError(f"{bpath}: a burst's seq is not in {pathlib.Path(path).name}")
-    ra = ra_ohm if ra_ohm is not None else float(meta.get("ra_ohm", "nan"))
-    if not math.isfinite(ra):
-        raise InputError(f"{path}: no ra_ohm metadata; give --ra-ohm")
     duty, v, i = (df[c].to_numpy()[rows] for c in ("duty", "v_V", "i_A"))
-    if ke_vs_per_rad:
-        ke, ke_from = float(ke_vs_per_rad), "user"
+    if model is not None:
+        if ra_ohm is not None or ke_vs_per_rad:
+            raise ValueError("a model's M2 is the prior with its own Ra and Ke: not with ra_ohm or ke_vs_per_rad")
+        ra, ke, ke_from = float(model.physics.ra_ohm), float(model.physics.ke_vs_per_rad), model.describe()
+        if not (ke > 0 and math.isfinite(ra)):
+            raise InputError(f"{model.source}: the model's Ke {ke:g} V s/rad or Ra {ra:g} ohm cannot be a prior")
+        prior = model.rpm(path, df, meta)[rows]
     else:
-        ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
-        ke_from = f"ripple ({n_ke} windows)"
-    prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
+        ra = ra_ohm if ra_ohm is not None else float(meta.get("ra_ohm", "nan"))
+        if not math.isfinite(ra):
+            raise InputError(f"{path}: no ra_ohm metadata; give --ra-ohm")
+        if ke_vs_per_rad:
+            ke, ke_from = float(ke_vs_per_rad), "user"
+        else:
+            ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
+            ke_from = f"ripple ({n_ke} windows)"
+        prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
     per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) else None
     est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)

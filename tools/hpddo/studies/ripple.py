@@ -24,7 +24,6 @@ from ..model import ripple as rp
 from ..twin import generate, params
 from . import parser
 
-RA_OHM = 4.50  # the logs' ra_ohm metadata (the multimeter value)
 WINDOW_S = 0.5  # 2 Hz windows, the paper's rate
 WRONG_GEAR = 4.4 * 98.777 / 99.0  # the bench's true ratio in the wrong_gear scenario
 
@@ -40,8 +39,8 @@ class Scenario:
     preset: str = "default"
     time_scale: float = 1.0
     gear_ratio_user: float = None                             # the user's figure; None: the bench's
-    prior: bool = True
-    ke_user: float = None     # a Ke the user knows (V s/rad, output shaft); None: calibrated from the ripple
+    ke_user: float = None     # a Ke the user knows (V s/rad, output shaft; hpddo ripple --ke-vs-per-rad);
+    #                           None: calibrated from the ripple, as hpddo ripple does without it
     seed: int = 1
 
 
@@ -51,8 +50,9 @@ SCENARIOS = (
     Scenario("subharmonics", "the f/2 line overtakes the main line: without an encoder the ripple alone cannot "
              "calibrate the prior (every window ambiguous); with a Ke known to 10 % the prior keeps the count on "
              "the main line", ("sweep",), ripple={"sub2_pct": 12.0, "sub6_pct": 6.0}, ke_user=0.42),
-    Scenario("subharmonics_no_prior", "the same without a prior: the ambiguity is said, not guessed",
-             ("sweep",), ripple={"sub2_pct": 12.0, "sub6_pct": 6.0}, prior=False),
+    Scenario("subharmonics_no_prior", "the same without the user's Ke: the ripple cannot calibrate one, so "
+             "there is no prior, and the ambiguity is said, not guessed",
+             ("sweep",), ripple={"sub2_pct": 12.0, "sub6_pct": 6.0}),
     Scenario("spinup", "ten times the inertia, so the speed changes through whole windows: those windows are "
              "not confident, and their count follows the line where one FFT peak reads the final speed",
              ("sweep",), bench={"j_kgm2": 3.0e-3}),
@@ -87,21 +87,15 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True) -> dict:
     for prot in sc.protocols:
         ts = sc.time_scale if prot != "long" else 0.1 * sc.time_scale
         g = generate.generate(bench, prot, 1.0 / WINDOW_S, seed, time_scale=ts, ripple=rparams)
-        t0, codes, meta = g["bursts"]
+        t0, codes, bmeta = g["bursts"]
         log, truth = g["log"], g["truth"]
-        b = Bursts(meta, float(meta["sample_hz"]), float(meta["a_per_code"]), log["seq"].to_numpy(), t0, codes)
-        duty, v, i = log["duty"].to_numpy(), log["v_V"].to_numpy(), log["i_A"].to_numpy()
-        if sc.prior and sc.ke_user:
-            ke, n_ke = sc.ke_user, 0
-            prior = rp.m2_prior_rpm(v, i, RA_OHM, ke)
-        elif sc.prior:
-            ke, n_ke = rp.calibrate_ke(b, duty, v, i, RA_OHM, opts)
-            prior = rp.m2_prior_rpm(v, i, RA_OHM, ke) if np.isfinite(ke) else None
-        else:
-            ke, n_ke, prior = math.nan, 0, None
-        df = rp.estimate(b, duty, prior, opts, None if prior is None else rp.m2_prior_sd_rpm(v, i, RA_OHM, ke, opts),
-                         rp.rpm_per_amp(RA_OHM, ke) if np.isfinite(ke) else None)
-        df["rpm_prior"] = np.nan if prior is None else prior
+        b = Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), log["seq"].to_numpy(), t0, codes)
+        # the product's path (hpddo ripple, --reference ripple, compare's ripple peers): the prior's Ke the
+        # user's or calibrated from the ripple, Ra the log's ra_ohm metadata, each window counted, then the
+        # spans of steady windows counted again
+        df, ke, ke_from = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, sc.ke_user, bursts=b)
+        df = df.drop(columns=["row"])
+        df["span_first"] += sum(len(r) for r in rows)  # the span's first row in the scenario's rows
         df["protocol"] = prot
         df["rpm_ref"] = log["rpm_ref"].to_numpy()
         df["rpm_true"] = truth["rpm_true"].to_numpy()
@@ -110,7 +104,7 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True) -> dict:
         df["ke_prior"] = ke
         rows.append(df)
         if not quiet:
-            print(f"  {sc.name}/{prot}: {len(df)} windows, Ke for the prior {ke:.4f} V s/rad from {n_ke}",
+            print(f"  {sc.name}/{prot}: {len(df)} windows, Ke for the prior {ke:.4f} V s/rad from {ke_from}",
                   file=sys.stderr)
     import pandas as pd
 
@@ -126,8 +120,15 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
     ref = df["rpm_ref"].to_numpy()
     true = df["rpm_true"].to_numpy()
     rpm = df["rpm"].to_numpy()
-    cmp_enc = conf & ~df["encoder_glitch"].to_numpy() & (ref > 0)
-    e_enc = rpm[cmp_enc] / ref[cmp_enc] - 1.0
+    # a row counted in a span of steady windows against the encoder over the same span, as hpddo
+    # ripple compares it (ripple.span_reference); the encoder's glitches (the truth lists them) left out
+    ref_span = rp.span_reference(df, np.where(df["encoder_glitch"].to_numpy(), np.nan, ref))
+    cmp_enc = conf & np.isfinite(ref_span) & (ref_span > 0)
+    e_enc = rpm[cmp_enc] / ref_span[cmp_enc] - 1.0
+    # and each window against its own encoder reading (the encoder's steps, 0.62 RPM at 2 Hz, are
+    # 12 % of a 5 RPM window)
+    own = conf & ~df["encoder_glitch"].to_numpy() & (ref > 0)
+    e_own = rpm[own] / ref[own] - 1.0
     cmp_true = conf & (true > 0)
     e_true = rpm[cmp_true] / true[cmp_true] - 1.0
     changing = (df["key"].to_numpy() == "changing") & (true > 0)
@@ -144,12 +145,21 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
         "compared_with_encoder": int(cmp_enc.sum()),
         "rms_vs_encoder_pct": float(100 * np.sqrt(np.mean(e_enc ** 2))) if e_enc.size else math.nan,
         "max_vs_encoder_pct": float(100 * np.max(np.abs(e_enc))) if e_enc.size else math.nan,
+        "rms_vs_encoder_own_window_pct": float(100 * np.sqrt(np.mean(e_own ** 2))) if e_own.size else math.nan,
+        "max_vs_encoder_own_window_pct": float(100 * np.max(np.abs(e_own))) if e_own.size else math.nan,
         "rms_vs_truth_pct": float(100 * np.sqrt(np.mean(e_true ** 2))) if e_true.size else math.nan,
         "max_vs_truth_pct": float(100 * np.max(np.abs(e_true))) if e_true.size else math.nan,
         "confident_where_strongest_line_not_main": int(top_not_main.sum()),
         # a confident speed where the shaft stands (the truth 0): wrong by any measure, and out of both ratios above
         "confident_at_standstill": int((conf & (true <= 0)).sum()),
         "reasons": {k or "confident": int(v) for k, v in df["key"].value_counts().sort_index().items()},
+        # the rows above the current floor without a confident count, by reason: all of them, and those
+        # above the speed floor too (the window's count is possible there)
+        "uncovered_above_floor": _reasons(df[above & ~conf]),
+        "uncovered_above_both_floors": _reasons(df[above & fast & ~conf]),
+        # of them, where the shaft stands (the truth 0 RPM): no commutation, so no ripple to count
+        "uncovered_above_floor_at_standstill": _reasons(df[above & ~conf & (true <= 0)]),
+        "confident_in_spans": int((conf & (df["span"].to_numpy() > 1)).sum()) if "span" in df else 0,
     }
     if changing.any():
         out["changing_windows"] = int(changing.sum())
@@ -177,6 +187,10 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
     return out
 
 
+def _reasons(df) -> dict:
+    return {k: int(v) for k, v in df["key"].value_counts().sort_index().items()}
+
+
 def worst_confident(results) -> dict:
     """The worst confident error over the scenarios, against the encoder and the truth, with
     the scenario it is in ({} where no scenario has a confident row)."""
@@ -191,19 +205,23 @@ def worst_confident(results) -> dict:
 
 
 def table(results) -> str:
-    lines = ["| scenario | windows | above floor | confident there | RMS vs encoder % | max vs encoder % | "
-             "RMS vs truth % | max vs truth % | no estimate, why |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| scenario | windows | above floor | confident there | of them in spans | RMS vs encoder % | "
+             "max vs encoder % | RMS vs truth % | max vs truth % | above the current floor, not confident, why "
+             "(of them above the speed floor / where the shaft stands) |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     def pct(x, nd):
         return "–" if not np.isfinite(x) else f"{x:.{nd}f}"
 
     for r in results:
-        why = ", ".join(f"{k} {v}" for k, v in r["reasons"].items() if k != "confident")
+        fast = r["uncovered_above_both_floors"]
+        still = r["uncovered_above_floor_at_standstill"]
+        why = ", ".join(f"{k} {v} ({fast.get(k, 0)} / {still.get(k, 0)})"
+                        for k, v in r["uncovered_above_floor"].items()) or "none"
         share = ("–" if not np.isfinite(r["confident_share_above_floor"]) else
                  f"{r['confident_share_above_floor']:.1%} ({r['confident_share_above_both_floors']:.1%} above "
                  f"{r['rpm_floor']:.1f} RPM)")
         lines.append(f"| {r['scenario']} | {r['windows']} | {r['above_floor']} | "
-                     f"{share} | {pct(r['rms_vs_encoder_pct'], 3)} | {pct(r['max_vs_encoder_pct'], 2)} | "
+                     f"{share} | {r['confident_in_spans']} | {pct(r['rms_vs_encoder_pct'], 3)} | {pct(r['max_vs_encoder_pct'], 2)} | "
                      f"{pct(r['rms_vs_truth_pct'], 3)} | {pct(r['max_vs_truth_pct'], 2)} | {why} |")
     return "\n".join(lines)
 
@@ -284,6 +302,9 @@ def main(argv=None) -> int:
               flush=True)
     for r in res:
         print(f"{r['scenario']}: {r['ratio_check']['statement']}", flush=True)
+        if np.isfinite(r["max_vs_encoder_own_window_pct"]):
+            print(f"{r['scenario']}: each confident window against its own encoder reading (a span's too): RMS "
+                  f"{r['rms_vs_encoder_own_window_pct']:.3f} %, max {r['max_vs_encoder_own_window_pct']:.2f} %")
         if "fused_rmse_rpm" in r:
             print(f"{r['scenario']}: RMSE against the encoder over {r['fused_rows']} rows: M2 (Ke from the ripple or "
                   f"the user) {r['m2_rmse_rpm']:.2f} RPM, the ripple where confident and M2 elsewhere "

@@ -27,7 +27,7 @@ from ..model import ripple_count as rc
 from ..twin import generate, params
 from . import parser
 
-RIPPLES_PER_REV = 6  # the build's ACQ_RIPPLES_PER_REV
+RIPPLES_PER_REV = bench.HARDWARE.ripples_per_rev  # the build's ACQ_RIPPLES_PER_REV (bench_gen.h's by default)
 
 
 def burst_n(window_periods: int) -> int:

@@ -28,10 +28,13 @@ import subprocess
 import sys
 import tempfile
 import time
+
+from .. import bench as bench_hw
 from . import parser
 
 EFFECTS = ("brush_drop", "thermal_ra", "magnet_thermal")  # what the diagnosis names from either reference
-RIPPLE = ["--reference", "ripple", "--ripples-per-rev", "6", "--gear-ratio", "4.4"]
+RIPPLE = ["--reference", "ripple", "--ripples-per-rev", str(bench_hw.HARDWARE.ripples_per_rev), "--gear-ratio",
+          f"{bench_hw.HARDWARE.gear_ratio:g}"]  # the bench's (tools/hpddo/bench.py)
 BENCH = ("sweep", "load", "long")
 VAL = ("unseen", "hot")
 # (label, trained from, effects, network seed)
@@ -73,8 +76,9 @@ def _ref_record(metrics: dict) -> dict | None:
     if not r:
         return None
     return {"rows": r["rows"], "kept": r["kept"], "left_out": r["left_out"],
-            "left_out_by_reason": r["left_out_by_reason"],
+            "left_out_by_reason": r["left_out_by_reason"], "standing_labelled": r.get("standing_labelled", 0),
             "per_recording": {k: {"rows": v["rows"], "left_out_by_reason": v["left_out_by_reason"],
+                                  "standing_labelled": v.get("standing_labelled", 0),
                                   "ke_prior_vs_per_rad": v["ke_prior_vs_per_rad"],
                                   "confidence_kept": v["confidence_kept"]} for k, v in r["recordings"].items()}}
 
@@ -159,11 +163,13 @@ def tables(r: dict) -> str:
     lines = []
     ref = next(m for m in r["models"] if m["from"] == "ripple")["reference"]
     why = ", ".join(f"{k} {c}" for k, c in sorted(ref["left_out_by_reason"].items()))
-    lines.append(f"rows left out of the training by the ripple: {ref['left_out']} of {ref['rows']} ({why})")
+    lines.append(f"rows left out of the training by the ripple: {ref['left_out']} of {ref['rows']} ({why}); "
+                 f"{ref.get('standing_labelled', 0)} standing rows labelled 0 RPM from the back-EMF (drive off, no "
+                 "current, |V| under 10 mV)")
     for name, pr in ref["per_recording"].items():
         w = ", ".join(f"{k} {c}" for k, c in sorted(pr["left_out_by_reason"].items())) or "none"
         ck = pr["confidence_kept"]
-        lines.append(f"  {name}: {pr['rows']} rows, left out: {w}; prior Ke {pr['ke_prior_vs_per_rad']:.4f} V s/rad; "
+        lines.append(f"  {name}: {pr['rows']} rows, left out: {w}; standing {pr.get('standing_labelled', 0)}; prior Ke {pr['ke_prior_vs_per_rad']:.4f} V s/rad; "
                      f"kept rows' confidence median {ck['median']:.2f}, min {ck['min']:.2f}")
     lines.append("")
     lines.append("| model | trained from | RMSE unseen | RMSE hot | average | ripple / encoder |")
