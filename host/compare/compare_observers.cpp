@@ -1,16 +1,22 @@
 // compare_observers: the classical competitors of hpddo compare (docs/compare.md),
 // tuned and replayed on bench logs like the board observer.
 //
-//   compare_observers tune --ke KE --ra RA [--coarse] LOG...
+//   compare_observers tune --ke KE --ra RA [--coarse] [--ripple RDIR] LOG...
 //       Identifies the friction (steady-state torque balance) and grid-tunes the EKF
 //       (J, q_w, q_T, r) and the SMO (k, phi, tau) on every row of the LOGs, which must
 //       be training rows only (hpddo compare writes the training part of each recording
 //       to its own log); prints the result as one JSON object. --coarse: about half
 //       the grid points per axis and one refinement instead of two (hpddo compare --quick).
+//       --ripple: also the EKF with the ripple count as a second measurement ("ekf_ripple"),
+//       the counts of each LOG's rows in RDIR/<stem>.ripple_speed.csv.
 //   compare_observers run --motor KE,RA,B,TC --ekf J,QW,QT,R --smo K,PHI,TAU
-//                         [--mlp FILE] [--split F] --out-dir DIR LOG...
+//                         [--mlp FILE] [--ripple RDIR --ekf-ripple J,QW,QT,R] [--split F]
+//                         --out-dir DIR LOG...
 //       Replays each LOG through the EKF, the SMO and (with --mlp) the pure network and
-//       writes DIR/<stem>.observers.csv (t_s, rpm_ref, rpm_ekf, rpm_smo, rpm_nn, part).
+//       writes DIR/<stem>.observers.csv (t_s, rpm_ref, rpm_ekf, rpm_smo, rpm_nn,
+//       rpm_ekf_ripple, part). With --ripple, the EKF tuned for it (--ekf-ripple) runs with the
+//       ripple count of RDIR/<stem>.ripple_speed.csv as a second measurement (rpm_ekf_ripple;
+//       else NaN).
 //
 // Both restart every estimator at the first row, at the split (the log's split_row
 // metadata, else F of the rows; 0: no split), and after a gap in seq, as the board
@@ -87,14 +93,72 @@ std::vector<double> replay(const Log& L, Est est) {
   return out;
 }
 
+/// The ripple count of each row of one log (hpddo.studies.compare writes it): the header
+/// "rpm,sd_rpm", then one line per row of the log; both fields empty where the count is not
+/// confident. sd_rpm: the count's standard uncertainty.
+struct RippleSpeeds {
+  std::vector<double> rpm, sd_rpm;
+};
+
+RippleSpeeds read_ripple_speeds(const std::string& path, size_t rows) {
+  std::ifstream f(path);
+  if (!f) throw std::runtime_error(path + ": cannot read the ripple speeds");
+  std::string line;
+  if (!std::getline(f, line) || line != "rpm,sd_rpm")
+    throw std::runtime_error(path + ":1: the header must be rpm,sd_rpm");
+  RippleSpeeds r;
+  for (size_t n = 2; std::getline(f, line); ++n) {
+    const size_t comma = line.find(',');
+    if (comma == std::string::npos) throw std::runtime_error(path + ":" + std::to_string(n) + ": two fields expected");
+    const std::string a = line.substr(0, comma), b = line.substr(comma + 1);
+    if (a.empty() != b.empty()) throw std::runtime_error(path + ":" + std::to_string(n) + ": rpm and sd_rpm go together");
+    double rpm = NAN, sd = NAN;
+    if (!a.empty()) {
+      char *ea = nullptr, *eb = nullptr;
+      rpm = std::strtod(a.c_str(), &ea);
+      sd = std::strtod(b.c_str(), &eb);
+      if (*ea || *eb || !std::isfinite(rpm) || !(sd > 0.0) || !std::isfinite(sd))
+        throw std::runtime_error(path + ":" + std::to_string(n) + ": rpm finite and sd_rpm > 0 expected");
+    }
+    r.rpm.push_back(rpm);
+    r.sd_rpm.push_back(sd);
+  }
+  if (r.rpm.size() != rows)
+    throw std::runtime_error(path + ": " + std::to_string(r.rpm.size()) + " rows for the log's " +
+                             std::to_string(rows));
+  return r;
+}
+
+/// RDIR/<stem>.ripple_speed.csv for the log at path.
+std::string ripple_file(const std::string& dir, const std::string& path) {
+  std::string stem = path.substr(path.find_last_of('/') + 1);
+  return dir + "/" + stem.substr(0, stem.find_last_of('.')) + ".ripple_speed.csv";
+}
+
+/// The EKF with the ripple count as a second measurement of the speed where there is one.
+std::vector<double> replay_ekf_ripple(const Log& L, Ekf ekf, const RippleSpeeds& rip) {
+  const auto& d = L.data;
+  std::vector<double> out(d.size());
+  for (size_t k = 0; k < d.size(); ++k) {
+    if (L.start[k]) ekf.restart(d.v_V[k], d.i_A[k]);
+    double w = ekf.step(d.v_V[k], d.i_A[k], L.start[k] ? first_dt(d) : L.dt[k]);
+    if (std::isfinite(rip.rpm[k])) {
+      const double sd_rad_s = rip.sd_rpm[k] / kRpmPerRadS;
+      w = ekf.update_speed(rip.rpm[k] / kRpmPerRadS, sd_rad_s * sd_rad_s);
+    }
+    out[k] = w * kRpmPerRadS;
+  }
+  return out;
+}
+
 /// The tuning score: the mean over logs of each log's RMSE on its labelled rows (the
 /// "average" of the tables, which weighs every condition alike); infinite when an
-/// estimate is not finite.
-template <class Make>
-double score(const std::vector<Log>& logs, Make make) {
+/// estimate is not finite. estimates(l): the estimates of every row of logs[l], rpm.
+double score_of(const std::vector<Log>& logs, const std::function<std::vector<double>(size_t)>& estimates) {
   double sum = 0.0;
-  for (const auto& L : logs) {
-    const auto est = replay(L, make());
+  for (size_t l = 0; l < logs.size(); ++l) {
+    const Log& L = logs[l];
+    const auto est = estimates(l);
     double se = 0.0;
     size_t n = 0;
     for (size_t k = 0; k < est.size(); ++k) {
@@ -107,6 +171,12 @@ double score(const std::vector<Log>& logs, Make make) {
     sum += n ? std::sqrt(se / static_cast<double>(n)) : 0.0;
   }
   return sum / static_cast<double>(logs.size());
+}
+
+/// score_of an estimator made by make() and replayed on each log.
+template <class Make>
+double score(const std::vector<Log>& logs, Make make) {
+  return score_of(logs, [&](size_t l) { return replay(logs[l], make()); });
 }
 
 /// A log-spaced axis of the grid: 10^lo .. 10^hi in n points.
@@ -192,7 +262,7 @@ std::vector<Axis> coarser(std::vector<Axis> axes) {
   return axes;
 }
 
-int tune(const Motor& given, const std::vector<std::string>& paths, bool coarse) {
+int tune(const Motor& given, const std::vector<std::string>& paths, bool coarse, const std::string& ripple_dir) {
   std::vector<Log> logs;
   for (const auto& p : paths) logs.push_back(load(p, 0.0));
   Motor m = given;
@@ -208,6 +278,20 @@ int tune(const Motor& given, const std::vector<std::string>& paths, bool coarse)
     const EkfParams e{p[0], p[1], p[2], p[3]};
     return score(logs, [&] { return Ekf(m, e); });
   }, n_ekf);
+  // With the ripple counts of the training rows (--ripple): the EKF that takes the count as a
+  // second measurement tuned over the same grid, since the noises that fit the current alone
+  // (a current trusted to 1e-8 A^2 stands for M2's bias, not for noise) are not those that
+  // fit both.
+  std::pair<std::vector<double>, double> ekf_ripple{{NAN, NAN, NAN, NAN}, NAN};
+  long n_ekf_ripple = 0;
+  if (!ripple_dir.empty()) {
+    std::vector<RippleSpeeds> rip;
+    for (size_t l = 0; l < logs.size(); ++l) rip.push_back(read_ripple_speeds(ripple_file(ripple_dir, paths[l]), logs[l].data.size()));
+    ekf_ripple = grid_tune(ekf_axes, refinements, [&](const std::vector<double>& p) {
+      const EkfParams e{p[0], p[1], p[2], p[3]};
+      return score_of(logs, [&](size_t l) { return replay_ekf_ripple(logs[l], Ekf(m, e), rip[l]); });
+    }, n_ekf_ripple);
+  }
   // k: 1e-4..10 V per sample; phi: 1e-5..1 A; tau: 0.01..30 s.
   std::vector<Axis> smo_axes = {{"k_V", -4, 1, 11}, {"phi_A", -5, 0, 11}, {"tau_s", -2, 1.5, 8}};
   if (coarse) smo_axes = coarser(smo_axes);
@@ -221,10 +305,16 @@ int tune(const Motor& given, const std::vector<std::string>& paths, bool coarse)
               " \"ekf\": {\"j_kgm2\": %.17g, \"q_w\": %.17g, \"q_t\": %.17g, \"r_A2\": %.17g},\n"
               " \"smo\": {\"k_V\": %.17g, \"phi_A\": %.17g, \"tau_s\": %.17g},\n"
               " \"train_rmse_rpm\": {\"ekf\": %.17g, \"smo\": %.17g, \"m2\": %.17g},\n"
-              " \"evaluations\": {\"ekf\": %ld, \"smo\": %ld}, \"rows\": %zu}\n",
+              " \"evaluations\": {\"ekf\": %ld, \"smo\": %ld}, \"rows\": %zu",
               m.ke_vs_per_rad, m.ra_ohm, m.b_nms_per_rad, m.tc_nm, ekf.first[0], ekf.first[1], ekf.first[2],
               ekf.first[3], smo.first[0], smo.first[1], smo.first[2], ekf.second, smo.second, m2_score(logs, m),
               n_ekf, n_smo, rows);
+  if (!ripple_dir.empty())
+    std::printf(",\n \"ekf_ripple\": {\"j_kgm2\": %.17g, \"q_w\": %.17g, \"q_t\": %.17g, \"r_A2\": %.17g, "
+                "\"train_rmse_rpm\": %.17g, \"evaluations\": %ld}",
+                ekf_ripple.first[0], ekf_ripple.first[1], ekf_ripple.first[2], ekf_ripple.first[3], ekf_ripple.second,
+                n_ekf_ripple);
+  std::printf("}\n");
   return 0;
 }
 
@@ -281,8 +371,9 @@ std::vector<double> replay_mlp(const Log& L, const Mlp& net) {
   return out;
 }
 
-int run(const Motor& m, const EkfParams& e, const SmoParams& s, const std::string& mlp_path, double fraction,
-        const std::string& out_dir, const std::vector<std::string>& paths) {
+int run(const Motor& m, const EkfParams& e, const SmoParams& s, const std::string& mlp_path,
+        const std::string& ripple_dir, const EkfParams& e_ripple, double fraction, const std::string& out_dir,
+        const std::vector<std::string>& paths) {
   Mlp net;
   const bool has_mlp = !mlp_path.empty();
   if (has_mlp) {
@@ -297,15 +388,19 @@ int run(const Motor& m, const EkfParams& e, const SmoParams& s, const std::strin
     const size_t split = hpddo_host::split_row(L.data, fraction);
     std::string stem = p.substr(p.find_last_of('/') + 1);
     stem = stem.substr(0, stem.find_last_of('.'));
+    const auto ekf_ripple =
+        ripple_dir.empty()
+            ? std::vector<double>(L.data.size(), NAN)
+            : replay_ekf_ripple(L, Ekf(m, e_ripple), read_ripple_speeds(ripple_file(ripple_dir, p), L.data.size()));
     const std::string path = out_dir + "/" + stem + ".observers.csv";
     std::ofstream f(path + ".tmp");
-    f << "t_s,rpm_ref,rpm_ekf,rpm_smo,rpm_nn,part\n";
+    f << "t_s,rpm_ref,rpm_ekf,rpm_smo,rpm_nn,rpm_ekf_ripple,part\n";
     char buf[256];
     for (size_t k = 0; k < L.data.size(); ++k) {
       char ref[32] = "";
       if (std::isfinite(L.data.rpm_ref[k])) std::snprintf(ref, sizeof ref, "%.10g", L.data.rpm_ref[k]);
-      std::snprintf(buf, sizeof buf, "%.10g,%s,%.9g,%.9g,%.9g,%s\n", L.data.t_s[k], ref, ekf[k], smo[k], nn[k],
-                    k < split ? "train" : "test");
+      std::snprintf(buf, sizeof buf, "%.10g,%s,%.9g,%.9g,%.9g,%.9g,%s\n", L.data.t_s[k], ref, ekf[k], smo[k], nn[k],
+                    ekf_ripple[k], k < split ? "train" : "test");
       f << buf;
     }
     f.close();
@@ -317,9 +412,9 @@ int run(const Motor& m, const EkfParams& e, const SmoParams& s, const std::strin
 
 int usage() {
   std::fprintf(stderr,
-               "usage: compare_observers tune --ke KE --ra RA [--coarse] LOG...\n"
+               "usage: compare_observers tune --ke KE --ra RA [--coarse] [--ripple RDIR] LOG...\n"
                "       compare_observers run --motor KE,RA,B,TC --ekf J,QW,QT,R --smo K,PHI,TAU [--mlp FILE] "
-               "[--split F] --out-dir DIR LOG...\n");
+               "[--ripple RDIR --ekf-ripple J,QW,QT,R] [--split F] --out-dir DIR LOG...\n");
   return 2;
 }
 
@@ -329,11 +424,11 @@ int main(int argc, char** argv) {
   if (argc < 2) return usage();
   const std::string mode = argv[1];
   Motor m;
-  EkfParams e;
+  EkfParams e, e_ripple;
   SmoParams s;
-  std::string mlp, out_dir;
+  std::string mlp, ripple_dir, out_dir;
   double fraction = 0.0;
-  bool have_motor = false, have_ekf = false, have_smo = false, coarse = false;
+  bool have_motor = false, have_ekf = false, have_smo = false, have_ekf_ripple = false, coarse = false;
   std::vector<std::string> paths;
   try {
     for (int a = 2; a < argc; ++a) {
@@ -352,11 +447,16 @@ int main(int argc, char** argv) {
         const auto v = numbers(next(), 4, arg);
         e = EkfParams{v[0], v[1], v[2], v[3]};
         have_ekf = true;
+      } else if (arg == "--ekf-ripple") {
+        const auto v = numbers(next(), 4, arg);
+        e_ripple = EkfParams{v[0], v[1], v[2], v[3]};
+        have_ekf_ripple = true;
       } else if (arg == "--smo") {
         const auto v = numbers(next(), 3, arg);
         s = SmoParams{v[0], v[1], v[2]};
         have_smo = true;
       } else if (arg == "--mlp") mlp = next();
+      else if (arg == "--ripple") ripple_dir = next();
       else if (arg == "--coarse") coarse = true;
       else if (arg == "--split") fraction = std::stod(next());
       else if (arg == "--out-dir") out_dir = next();
@@ -366,11 +466,12 @@ int main(int argc, char** argv) {
     if (paths.empty()) return usage();
     if (mode == "tune") {
       if (!(m.ke_vs_per_rad > 0 && m.ra_ohm > 0)) throw std::runtime_error("tune needs --ke > 0 and --ra > 0");
-      return tune(m, paths, coarse);
+      return tune(m, paths, coarse, ripple_dir);
     }
     if (mode == "run") {
       if (!(have_motor && have_ekf && have_smo) || out_dir.empty()) return usage();
-      return run(m, e, s, mlp, fraction, out_dir, paths);
+      if (ripple_dir.empty() != !have_ekf_ripple) return usage();  // --ripple and --ekf-ripple go together
+      return run(m, e, s, mlp, ripple_dir, e_ripple, fraction, out_dir, paths);
     }
     return usage();
   } catch (const hpddo_host::LogError& err) {

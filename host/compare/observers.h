@@ -80,6 +80,19 @@ class Ekf {
     return x_(0);
   }
 
+  /// A second measurement of the speed itself (the count of the commutation ripple,
+  /// hpddo.model.ripple), w_rad_s with variance var_rad2_s2, after step(): the same Joseph
+  /// update with H = [1 0]. Returns the speed estimate, rad/s.
+  double update_speed(double w_rad_s, double var_rad2_s2) {
+    const Eigen::RowVector2d H(1.0, 0.0);
+    const double s = P_(0, 0) + var_rad2_s2;
+    const Eigen::Vector2d K = P_ * H.transpose() / s;
+    x_ += K * (w_rad_s - x_(0));
+    const Eigen::Matrix2d IKH = Eigen::Matrix2d::Identity() - K * H;
+    P_ = IKH * P_ * IKH.transpose() + K * var_rad2_s2 * K.transpose();
+    return x_(0);
+  }
+
   double load_torque_nm() const { return x_(1); }
 
  private:

@@ -56,6 +56,32 @@ TEST(CompareObservers, EkfSettlesOnEveryLevel) {
   }
 }
 
+// The ripple count as a second measurement: the filter's Ke is 10 % high, so its current
+// alone gives a speed 10 % low; a speed measurement it trusts pulls it to the truth, one it
+// does not trust (a huge variance) leaves it where the current put it.
+TEST(CompareObservers, EkfSpeedMeasurementCorrectsABiasedKe) {
+  Motor biased = kMotor;
+  biased.ke_vs_per_rad *= 1.1;
+  const EkfParams p{1e-3, 1e-2, 1e-4, 1e-4};
+  Ekf alone(biased, p), trusting(biased, p), doubting(biased, p);
+  const auto s = steps();
+  alone.restart(s[0].v_V, s[0].i_A);
+  trusting.restart(s[0].v_V, s[0].i_A);
+  doubting.restart(s[0].v_V, s[0].i_A);
+  for (size_t k = 0; k < s.size(); ++k) {
+    const double w_alone = alone.step(s[k].v_V, s[k].i_A, kDt);
+    trusting.step(s[k].v_V, s[k].i_A, kDt);
+    const double w_trusting = trusting.update_speed(s[k].w_rad_s, 1e-6);
+    doubting.step(s[k].v_V, s[k].i_A, kDt);
+    const double w_doubting = doubting.update_speed(s[k].w_rad_s, 1e12);
+    EXPECT_NEAR(w_trusting, s[k].w_rad_s, 2e-3) << k;
+    EXPECT_NEAR(w_doubting, w_alone, 1e-6) << k;
+    if (k % 40 >= 30 && s[k].w_rad_s > 0) {
+      EXPECT_LT(w_alone, 0.95 * s[k].w_rad_s) << k;  // the bias the measurement removes
+    }
+  }
+}
+
 TEST(CompareObservers, SmoReachesTheBackEmfWithBoundedSlew) {
   const SmoParams p{1.0, 0.4, 0.0};  // 1 V per sample at most; gain k/(phi Ra) = 0.56 in the layer
   Smo smo(kMotor, p);

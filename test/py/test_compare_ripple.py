@@ -61,6 +61,14 @@ def test_alone_and_fused_speeds_per_row(bench):
         c2 = np.isfinite(s.with_m2_prior_rpm)
         assert np.array_equal(fused[c2], s.with_m2_prior_rpm[c2]) and np.array_equal(fused[~c2], m2_rpm[~c2])
         assert np.isfinite(fused).all()
+        # the count's stated uncertainty (the EKF's weight on it) is there exactly where the count
+        # is, and describes its error against the true window-mean speed
+        sd = s.with_m2_prior_sd_rpm
+        assert np.array_equal(np.isfinite(sd), c2) and (sd[c2] > 0).all()
+        truth = truth_rpm(bench / f"{rec.name}.csv", rec)
+        ok2 = c2 & np.isfinite(truth)
+        z = (s.with_m2_prior_rpm[ok2] - truth[ok2]) / sd[ok2]
+        assert 0.2 < math.sqrt(np.mean(z ** 2)) < 1.5, (rec.name, math.sqrt(np.mean(z ** 2)))
         # coverage: the share of rows with an encoder reading that have a confident count
         cov = ripple_peer.coverage([rec], [s])
         labelled = np.isfinite(ref)
@@ -75,7 +83,7 @@ def test_compare_scores_the_ripple_beside_the_observers(bench, tmp_path):
                      "--quick", "--quiet", "--out", str(out)])
     assert code == 0
     t7 = json.loads((out / "table7.json").read_text())
-    assert t7["methods"][-3:] == [ripple_peer.ALONE, ripple_peer.FUSED, "lookup"]
+    assert t7["methods"][-4:] == [ripple_peer.ALONE, ripple_peer.FUSED, ripple_peer.EKF, "lookup"]
     assert t7["settings"]["ripple"] == {"ripples_per_rev": 6, "gear_ratio": 4.4}
     for part in ("chronological", "validation", "leave_one_out"):
         block = t7[part]
@@ -86,8 +94,13 @@ def test_compare_scores_the_ripple_beside_the_observers(bench, tmp_path):
             # where the count is confident it is far closer to the encoder than the physics: the
             # fusion is never worse than M2 by more than the count's own error
             assert v <= rm["M2"][cond] + rm[ripple_peer.ALONE][cond] + 1e-9, (part, cond)
+        assert ripple_peer.EKF in rm, part
+        for cond, v in rm[ripple_peer.EKF].items():
+            assert math.isfinite(v), (part, cond)
     # the load run turns at every row above the current floor: a count on every row, under
-    # 1 % of its speed
+    # 1 % of its speed; the EKF that takes it as a measurement follows it there
+    assert (t7["chronological"]["rmse_rpm"][ripple_peer.EKF]["load"]
+            < 0.5 * t7["chronological"]["rmse_rpm"]["EKF"]["load"])
     assert t7["chronological"]["ripple_coverage"]["load"] > 0.95
     assert t7["chronological"]["rmse_rpm"][ripple_peer.ALONE]["load"] < 2.0
     summary = (out / "summary.txt").read_text()

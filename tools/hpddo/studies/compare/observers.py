@@ -16,6 +16,7 @@ from ...evaluation import replay
 from ...logs import dataset
 from ...model import network
 from ...logs.errors import InputError
+from . import ripple_peer
 from .config import SOURCE
 
 
@@ -54,19 +55,26 @@ def training_log(rec: dataset.Recording, path: pathlib.Path) -> pathlib.Path:
     return benchlog.write_log(path, part.df, meta)
 
 
-def tune_observers(jobs: dict, work: pathlib.Path, coarse: bool = False) -> dict:
+def tune_observers(jobs: dict, work: pathlib.Path, coarse: bool = False, ripple: dict | None = None) -> dict:
     """Friction and the EKF's and SMO's parameters for each job {name: (train_recs, m2)},
     tuned on the training rows of train_recs only: each recording's training part is
-    written to work/<name>/ as a log of its own, and that is all the tuner reads. The
+    written to work/<name>/ as a log of its own, and that is all the tuner reads. ripple
+    ({recording name: ripple_peer.RippleSpeeds}): the counts of those training rows beside
+    them, and the EKF with the count as a second measurement tuned too ("ekf_ripple"). The
     tuners run as parallel processes. Returns {name: the tuner's JSON}."""
     procs = {}
     for name, (train_recs, m2) in jobs.items():
         d = work / dataset.safe_name(name)
         d.mkdir(parents=True, exist_ok=True)
-        logs = [training_log(r, d / f"{r.file_stem}.train.csv") for r in train_recs if r.n_train > 1]
+        kept = [r for r in train_recs if r.n_train > 1]
+        logs = [training_log(r, d / f"{r.file_stem}.train.csv") for r in kept]
+        if ripple is not None:
+            for r, p in zip(kept, logs):
+                ripple_peer.write_speeds(ripple[r.name], d / f"{p.stem}.ripple_speed.csv", rows=r.n_train)
         procs[name] = subprocess.Popen([str(observers_exe()), "tune", "--ke", repr(m2.ke_vs_per_rad), "--ra",
-                                        repr(m2.ra_ohm), *(["--coarse"] if coarse else []), *map(str, logs)], stdout=subprocess.PIPE,
-                                       stderr=subprocess.PIPE, text=True)
+                                        repr(m2.ra_ohm), *(["--coarse"] if coarse else []),
+                                        *(["--ripple", str(d)] if ripple is not None else []), *map(str, logs)],
+                                       stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     out = {}
     for name, pr in procs.items():
         stdout, stderr = pr.communicate()
@@ -87,8 +95,10 @@ def write_mlp(scaler: network.Scaler, net: network.Network, path: pathlib.Path) 
     return path
 
 
-def run_observers(tuned: dict, recs, work: pathlib.Path, mlp: pathlib.Path | None) -> list:
-    """EKF, SMO and pure network estimates (rpm) of every row of recs: [{method: array}]."""
+def run_observers(tuned: dict, recs, work: pathlib.Path, mlp: pathlib.Path | None, ripple: dict | None = None) -> list:
+    """EKF, SMO and pure network estimates (rpm) of every row of recs: [{method: array}];
+    ripple ({recording name: ripple_peer.RippleSpeeds}): also the EKF with the ripple count as
+    a second measurement (ripple_peer.EKF)."""
     import pandas as pd
     (work / "logs").mkdir(parents=True, exist_ok=True)
     (work / "estimates").mkdir(parents=True, exist_ok=True)
@@ -100,6 +110,12 @@ def run_observers(tuned: dict, recs, work: pathlib.Path, mlp: pathlib.Path | Non
            "--out-dir", str(work / "estimates")]
     if mlp is not None:
         cmd += ["--mlp", str(mlp)]
+    if ripple is not None:
+        (work / "ripple").mkdir(parents=True, exist_ok=True)
+        for r, p in zip(recs, logs):
+            ripple_peer.write_speeds(ripple[r.name], work / "ripple" / f"{p.stem}.ripple_speed.csv")
+        er = tuned["ekf_ripple"]
+        cmd += ["--ripple", str(work / "ripple"), "--ekf-ripple", j(er["j_kgm2"], er["q_w"], er["q_t"], er["r_A2"])]
     res = subprocess.run(cmd + [str(p) for p in logs], capture_output=True, text=True)
     if res.returncode != 0:
         raise InputError(f"replaying the observers failed: {res.stderr.strip()}")
@@ -109,5 +125,6 @@ def run_observers(tuned: dict, recs, work: pathlib.Path, mlp: pathlib.Path | Non
         if len(df) != r.n:
             raise RuntimeError(f"compare_observers wrote {len(df)} rows for {r.n} of {r.name}")
         out.append({"EKF": df["rpm_ekf"].to_numpy(float), "SMO": df["rpm_smo"].to_numpy(float),
-                    "pure NN": df["rpm_nn"].to_numpy(float)})
+                    "pure NN": df["rpm_nn"].to_numpy(float),
+                    **({ripple_peer.EKF: df["rpm_ekf_ripple"].to_numpy(float)} if ripple is not None else {})})
     return out

@@ -11,6 +11,9 @@ gear ratio.
 * "ripple + M2": fused with the physics: the prior is the comparison's M2 (Ke from the
   training rows), and a row without a confident count takes M2's estimate, so every row is
   scored.
+* "EKF + ripple": the comparison's EKF (tuned as the paper's) with the same count as a second
+  measurement of the speed beside the current, weighted by the count's own uncertainty
+  (hpddo.model.ripple.count_sd_rpm); every row (host/compare, compare_observers --ripple).
 
 Neither is trained, so the same estimate serves every split (chronological, never seen,
 leave one out)."""
@@ -28,17 +31,20 @@ from .methods import reference
 
 ALONE = "ripple"
 FUSED = "ripple + M2"
-METHODS = (ALONE, FUSED)
+EKF = "EKF + ripple"
+METHODS = (ALONE, FUSED, EKF)
 
 
 @dataclasses.dataclass(frozen=True)
 class RippleSpeeds:
     """Per cleaned row of one recording: the ripple speed alone and with M2's prior (NaN where
-    the count is not confident), and the Ke its own prior took."""
+    the count is not confident), the latter's standard uncertainty, and the Ke its own prior
+    took."""
 
     alone_rpm: np.ndarray
     with_m2_prior_rpm: np.ndarray
     ke_alone_vs_per_rad: float
+    with_m2_prior_sd_rpm: np.ndarray
 
 
 def has_bursts(rec) -> bool:
@@ -57,11 +63,11 @@ def speeds(rec, opts: rp.Options, ra_ohm: float, ke_m2_vs_per_rad: float,
         raw = raw.assign(seq=np.arange(len(raw), dtype=np.int64))
     row_of = {int(s): k for k, s in enumerate(rec.df["seq"].to_numpy(np.int64))}
 
-    def on_rows(est) -> np.ndarray:
+    def on_rows(est, values=None) -> np.ndarray:
         out = np.full(rec.n, np.nan)
         seq = raw["seq"].to_numpy(np.int64)[est["row"].to_numpy()]
         conf = est["confident"].to_numpy()
-        for s, c, v in zip(seq, conf, est["rpm"].to_numpy(float)):
+        for s, c, v in zip(seq, conf, est["rpm"].to_numpy(float) if values is None else values):
             k = row_of.get(int(s))
             if c and k is not None:
                 out[k] = v
@@ -70,13 +76,24 @@ def speeds(rec, opts: rp.Options, ra_ohm: float, ke_m2_vs_per_rad: float,
     bursts = ripple_file.read(ripple_file.path_for(rec.source))  # read once, counted with either prior
     alone, ke_alone, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_alone_vs_per_rad, bursts)
     fused, _, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_m2_vs_per_rad, bursts)
-    return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone))
+    return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone), on_rows(fused, rp.count_sd_rpm(fused)))
 
 
 def estimates(s: RippleSpeeds, m2_rpm: np.ndarray) -> dict:
-    """{ALONE: NaN where not confident, FUSED: the ripple where confident, else M2}."""
+    """{ALONE: NaN where not confident, FUSED: the ripple where confident, else M2} (EKF comes
+    from the observers' replay, run_observers with ripple)."""
     m2_rpm = np.asarray(m2_rpm, float)
     return {ALONE: s.alone_rpm, FUSED: np.where(np.isfinite(s.with_m2_prior_rpm), s.with_m2_prior_rpm, m2_rpm)}
+
+
+def write_speeds(s: RippleSpeeds, path, rows: int | None = None) -> None:
+    """The count with M2's prior and its uncertainty, one line per cleaned row (both fields empty
+    where not confident; rows: the first rows only, a recording's training part): the second
+    measurement of compare_observers --ripple."""
+    import pandas as pd
+    n = len(s.with_m2_prior_rpm) if rows is None else rows
+    pd.DataFrame({"rpm": s.with_m2_prior_rpm[:n], "sd_rpm": s.with_m2_prior_sd_rpm[:n]}).to_csv(
+        path, index=False, float_format="%.10g", na_rep="")
 
 
 def coverage(recs, all_speeds, masks=None) -> dict:

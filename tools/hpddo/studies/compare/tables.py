@@ -107,7 +107,7 @@ def table7_chrono_and_validation(recs, vrecs, m2, m2e, fit: Fitted, replays: dic
                                  "clamp_rpm": v[0]["clamp_rpm"], "tolerance_rpm": EQ26_TOLERANCE_RPM}
     lookup = baseline.Lookup.fit(recs)
     for part, rs in (("chronological", recs), ("validation", vrecs)):
-        obs = run_observers(tuned, rs, work / "observers" / part, mlp_file) if rs else []
+        obs = run_observers(tuned, rs, work / "observers" / part, mlp_file, ripple) if rs else []
         for k, r in enumerate(rs):
             e = est[part][k]
             if m2e is not None:
@@ -146,7 +146,10 @@ def table7_chrono_and_validation(recs, vrecs, m2, m2e, fit: Fitted, replays: dic
 RIPPLE_SOURCES = {
     ripple_peer.ALONE: "hpddo.model.ripple on the current bursts beside each log, its back-EMF prior's Ke calibrated "
                        "from the ripple (no encoder); RMSE over the rows with a confident count (ripple_coverage)",
-    ripple_peer.FUSED: "the ripple count with M2 as its prior where confident, M2 elsewhere; every row"}
+    ripple_peer.FUSED: "the ripple count with M2 as its prior where confident, M2 elsewhere; every row",
+    ripple_peer.EKF: "native replay of host/compare's EKF (as tuned above) with the same count as a second "
+                     "measurement of the speed, weighted by its uncertainty (hpddo.model.ripple.count_sd_rpm); "
+                     "every row"}
 
 
 def method_order(effects: bool, ripple: bool = False) -> list:
@@ -171,7 +174,7 @@ def table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra, ripple
         nn = trainer.get(("pure NN", h, f"leave out {rec.name}"))
         sub = work / "leave_one_out" / dataset.safe_name(rec.name)
         sub.mkdir(parents=True, exist_ok=True)
-        obs = run_observers(tuned_loro[rec.name], [rec], sub, write_mlp(nn[0], nn[1], sub / "pure_nn.mlp"))[0]
+        obs = run_observers(tuned_loro[rec.name], [rec], sub, write_mlp(nn[0], nn[1], sub / "pure_nn.mlp"), ripple)[0]
         x, n2 = train_mod.features(rec, p)
         v = m3_variants(fit, x, n2)
         est = {"M1": _physics(rec, m1), "M2": n2}
