@@ -16,6 +16,12 @@
 #include "golden_default.h"
 namespace g = hpddo_golden_default;
 #else
+// The observer built as uno_acq builds it: with the dynamic family only where the model
+// names it (models/default does not), Observer<Net, dynamics_named(kDynamics)>.
+#include "hpddo/dynamics.h"
+HPDDO_DYNAMICS_DEFAULT(hpddo_model_default)
+HPDDO_DYNAMICS_DEFAULT(hpddo_model_default_q)
+HPDDO_DYNAMICS_DEFAULT(hpddo_model_default_q8)
 #include "model_default_q.h"
 #include "model_default_q8.h"
 #include "model_tiny.h"  // every effect term on and a thermal node: their cost
@@ -34,6 +40,7 @@ namespace g = hpddo_golden_default_q;
 namespace m = hpddo_model_default;
 namespace g = hpddo_golden_default;
 #endif
+using Obs = hpddo::Observer<m::Net, hpddo::dynamics_named(m::kDynamics)>;
 #endif
 
 enum Stage : uint8_t {
@@ -75,7 +82,7 @@ int main() {
 #elif defined(HPDDO_BENCH_SIZE)
 volatile float g_v = 9.0f, g_i = 0.9f, g_t = 36.0f;
 int main() {
-  hpddo::Observer<m::Net> obs(m::kModel);
+  Obs obs(m::kModel);
   for (;;) {
     hpddo::Sample s = {g_v, g_i, g_t, 0.01f, 1, true};
     g_sink = obs.step(s).rpm;
@@ -106,7 +113,7 @@ int main() {
 int main() {
   uint8_t bad = 0;
   {
-    hpddo::Observer<m::Net> obs(m::kModel);
+    Obs obs(m::kModel);
     for (uint16_t r = 0; r < g::kCount; ++r) {
       const hpddo::Sample s = g::sample(r);
       start(kStageStep);
@@ -119,11 +126,11 @@ int main() {
     }
   }
   {  // The stages of step(), in order, over the same stream.
-    hpddo::Observer<m::Net> obs(m::kModel);
+    Obs obs(m::kModel);
     for (uint16_t r = 0; r < g::kCount; ++r) {
       const hpddo::Sample s = g::sample(r);
       start(kStagePrepare);
-      const hpddo::Observer<m::Net>::Prepared p = obs.prepare(s);
+      const Obs::Prepared p = obs.prepare(s);
       stop();
       float res = 0.0f;
       if (p.use_network) {
