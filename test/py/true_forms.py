@@ -10,11 +10,19 @@ from scipy.optimize import least_squares
 from hpddo.diagnosis import core
 from hpddo.model import physics as ph
 from hpddo.twin import params as tp
+from hpddo.twin import protocols
 
 
 def _law(effect: str, form: str, bench, r, ke: float, c: float) -> np.ndarray:
-    """n (RPM) of rows r under the twin's law: effect `effect` in form `form`, size c (SI)."""
+    """n (RPM) of rows r under the twin's law: effect `effect` in form `form`, size c (SI).
+    A channel's offset in its form (tp.offset_share: "case", following the case's rise
+    above the protocol's ambient; the case read by the log's temp_C)."""
     v, i = r.v, r.i
+    if effect in ("current_offset", "v_offset"):
+        ambient = protocols.bench_for(r.rec.name, bench).ambient_C
+        off = c * tp.offset_share(form, r.rec.df["t_s"].to_numpy(float), r.temp, ambient)
+        v, i = (v - off, i) if effect == "v_offset" else (v, i - off)
+        return (v - bench.ra_ohm * i) / ke * ph.RPM_PER_RAD_S
     a = np.abs(i)
     ra = bench.ra_ohm
     if effect == "brush_drop":

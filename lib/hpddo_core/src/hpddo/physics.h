@@ -52,6 +52,13 @@ inline float true_current_A(const PhysicsParams& p, float i_A) {
   return p.i_offset_A == 0.0f ? i_A : i_A - p.i_offset_A;
 }
 
+/// The same with the offset's drift with the case temperature case_C removed too
+/// (current_offset_drift): i - i_offset - i_offset_tc_A_per_K (case_C - t_ref_C), A.
+inline float true_current_A(const PhysicsParams& p, float i_A, float case_C) {
+  const float i = true_current_A(p, i_A);
+  return p.i_offset_tc_A_per_K == 0.0f ? i : i - p.i_offset_tc_A_per_K * (case_C - p.t_ref_C);
+}
+
 /// Reciprocals the physics model would otherwise divide by at every sample, computed once
 /// per model (physics_const(); the observer keeps them): the step multiplies instead. The
 /// brush term's |i| + knee depends on the current and stays a division (only when the
@@ -76,6 +83,14 @@ inline PhysicsConst physics_const(const PhysicsParams& p) {
 inline float true_voltage_V(const PhysicsParams& p, const PhysicsConst& k, float v_V) {
   const float v = p.v_offset_V == 0.0f ? v_V : v_V - p.v_offset_V;
   return p.v_gain == 0.0f ? v : v * k.v_gain_inv;  // without a gain error x 1 is skipped: the same float
+}
+
+/// The same with the offset's drift with the case temperature case_C removed too
+/// (v_offset_drift): (v - v_offset - v_offset_tc_V_per_K (case_C - t_ref_C)) / (1 + v_gain), V.
+inline float true_voltage_V(const PhysicsParams& p, const PhysicsConst& k, float v_V, float case_C) {
+  float v = p.v_offset_V == 0.0f ? v_V : v_V - p.v_offset_V;
+  if (p.v_offset_tc_V_per_K != 0.0f) v = v - p.v_offset_tc_V_per_K * (case_C - p.t_ref_C);
+  return p.v_gain == 0.0f ? v : v * k.v_gain_inv;
 }
 
 /// The same, the reciprocal computed here (the same float as physics_const()'s).
@@ -116,10 +131,11 @@ inline float ke_at_vs_per_rad(const PhysicsParams& p, float temp_C, float i_A) {
   return ke;
 }
 
-/// Back-EMF implied by the voltage balance, V.
+/// Back-EMF implied by the voltage balance, V. The channels' offsets drift with the case
+/// temperature: in.magnet_C, the case reading where one is read (observer.h).
 inline float back_emf_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in) {
-  const float i = true_current_A(p, in.i_A);
-  float emf = true_voltage_V(p, k, in.v_V) - ra_at_ohm(p, in.temp_C) * i;
+  const float i = true_current_A(p, in.i_A, in.magnet_C);
+  float emf = true_voltage_V(p, k, in.v_V, in.magnet_C) - ra_at_ohm(p, in.temp_C) * i;
   if (p.brush_V != 0.0f) emf = emf - brush_drop_V(p, i);
   if (p.la_H != 0.0f) emf = emf - p.la_H * in.di_dt_A_per_s;
   return emf;
@@ -132,7 +148,7 @@ inline float back_emf_V(const PhysicsParams& p, const PhysicsInput& in) { return
 /// positive or the result is not finite. k = physics_const(p). With a constant Ke the
 /// speed is emf x rpm_per_V (one multiply); else emf / ke x kRpmPerRadS.
 inline bool physics_rpm(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in, float* rpm) {
-  const float ke = k.ke_constant ? p.ke_vs_per_rad : ke_at_vs_per_rad(p, in.magnet_C, true_current_A(p, in.i_A));
+  const float ke = k.ke_constant ? p.ke_vs_per_rad : ke_at_vs_per_rad(p, in.magnet_C, true_current_A(p, in.i_A, in.magnet_C));
   if (!(ke > 0.0f)) return false;
   const float emf = back_emf_V(p, k, in);
   const float n = k.ke_constant ? emf * k.rpm_per_V : emf / ke * kRpmPerRadS;
