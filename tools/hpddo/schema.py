@@ -316,13 +316,20 @@ EFFECTS = (
     # shifts V - I Ra by Ra di whatever the current's size and sign, at standstill too, where
     # Ra(T) scales with the current; at one operating point during a warm-up the two are
     # the same speed error (ranking: "cannot be told apart", with the recording that would).
+    # One drift for both channels: the speed sees V - I Ra, where a voltage channel's drift dv
+    # is the current channel's -dv / Ra, and only rows at standstill with the supply off while
+    # warm read which channel drifts (the constant offsets' REST_READ). A voltage-channel drift
+    # of its own was built and measured too: the same verdicts and figures (its drift named as
+    # this one's with the opposite sign, "not told apart"), and 50 bytes over the UNO observer
+    # build's 75 % flash budget (24 242 bytes; docs/diagnosis.md, Offsets that drift).
     Effect("current_offset_drift", 8, "i_offset_tc_A_per_K", "A/K", 1000.0, "mA/K",
            "change of the current channel's offset per kelvin of the case above t_ref_C",
            "current offset drifting with the case temperature",
            "the current channel's offset follows the temperature of its electronics (the case reading): "
-           "i_offset + c (T_case - T_ref)",
-           "a Hall sensor's zero drifts up to about 1 mA/K (a fraction of a mV/K over 100..200 mV/A); "
-           "a shunt amplifier's µV/K over a 0.5 ohm shunt: µA/K",
+           "i_offset + c (T_case - T_ref); a voltage channel drifting by dv per kelvin shows as -dv / Ra",
+           "a Hall sensor's zero drifts up to about 1 mA/K (a fraction of a mV/K over 100..200 mV/A), a "
+           "shunt amplifier's µV/K over a 0.5 ohm shunt µA/K; a level-shifted voltage divider whose "
+           "reference drifts 100 ppm/K under a gain of 12, a few mV/K: about -1 mA/K through 4.5 ohm",
            (-0.0015, 0.0015), (-0.003, 0.003), 0.0005,
            "Ra x the case's rise, at every current including zero",
            "a warm-up with rows at several currents, or at standstill with the supply off, while warm "
@@ -340,34 +347,9 @@ EFFECTS = (
                ("current_offset",
                 "rows at standstill with the supply off, cold and warm: the reading there is the offset "
                 "at each temperature"),
-           )),
-    Effect("v_offset_drift", 9, "v_offset_tc_V_per_K", "V/K", 1000.0, "mV/K",
-           "change of the voltage channel's offset per kelvin of the case above t_ref_C",
-           "voltage offset drifting with the case temperature",
-           "the voltage channel's offset follows the temperature of its electronics (the case reading): "
-           "v_offset + c (T_case - T_ref)",
-           "a level-shifted divider whose reference drifts 100 ppm/K under a gain of 12: a few mV/K; an "
-           "op-amp's offset drift amplified: tens of µV/K",
-           (-0.006, 0.006), (-0.012, 0.012), 0.002,
-           "the case's rise, at every current and speed",
-           "a warm-up with rows at several currents, or at standstill with the supply off, while warm "
-           "and while cold (a log with temp_C)",
-           case_temperature=True,
-           separated_from=(
-               ("thermal_ra",
-                "load steps (several currents, light load included) while the motor is warm, or rows at "
-                "standstill with the supply off before and after a warm-up: an offset's drift shifts "
-                "V - I Ra by the same voltage at every current and at zero, Ra(T) in proportion to the "
-                "current"),
-               ("magnet_thermal",
-                "several speeds at one current while warm (a duty sweep at light load after a warm-up): the "
-                "magnets' error grows with the speed, an offset's drift does not"),
                ("v_offset",
-                "rows at standstill with the supply off, cold and warm: the reading there is the offset "
-                "at each temperature"),
-               ("current_offset_drift",
-                "rows at standstill with the supply off while warm: the voltage reading there is the "
-                "voltage channel's offset, the current reading the current channel's"),
+                "rows at standstill with the supply off, cold and warm: the voltage reading there is the "
+                "voltage channel's offset, the current reading the current channel's, at each temperature"),
            )),
 )
 

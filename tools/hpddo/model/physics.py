@@ -42,8 +42,8 @@ def _f(p: PhysicsParams, name: str, dtype):
 
 
 def _drift(p, field: str, case_C, dtype):
-    """An offset's drift with the case temperature (current_offset_drift, v_offset_drift):
-    coefficient x (T_case - t_ref); 0 without a case temperature."""
+    """An offset's drift with the case temperature (current_offset_drift): coefficient x
+    (T_case - t_ref); 0 without a case temperature."""
     if case_C is None:
         return dtype(0.0)
     return _f(p, field, dtype) * (np.asarray(case_C, dtype) - _f(p, "t_ref_C", dtype))
@@ -63,12 +63,8 @@ def _board(dtype) -> bool:
     return np.dtype(dtype) == np.float32
 
 
-def true_voltage_V(p, v_V, dtype=np.float64, case_C=None):
-    """The voltage with the channel's offset (and with case_C its drift with the case
-    temperature, v_offset_tc_V_per_K) and gain error removed."""
+def true_voltage_V(p, v_V, dtype=np.float64):
     v = np.asarray(v_V, dtype) - _f(p, "v_offset_V", dtype)
-    if case_C is not None:
-        v = v - _drift(p, "v_offset_tc_V_per_K", case_C, dtype)
     if _board(dtype):  # physics_const(): v_gain_inv = 1 / (1 + v_gain), none without a gain error
         g = _f(p, "v_gain", dtype)
         return v if g == 0 else v * dtype(dtype(1.0) / (dtype(1.0) + g))
@@ -128,12 +124,12 @@ def _split(temp_C):
 
 
 def back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
-    """The back-EMF of the voltage balance, V. The channels' offsets drift with the case
-    temperature: the magnets' temperature (the case reading where read, as the boards'
+    """The back-EMF of the voltage balance, V. The current channel's offset drifts with the
+    case temperature: the magnets' temperature (the case reading where read, as the boards'
     PhysicsInput::magnet_C)."""
     winding_C, case_C = _split(temp_C)
     i = true_current_A(p, i_A, dtype, case_C)
-    return (true_voltage_V(p, v_V, dtype, case_C) - ra_at_ohm(p, winding_C, dtype) * i - brush_drop_V(p, i, dtype)
+    return (true_voltage_V(p, v_V, dtype) - ra_at_ohm(p, winding_C, dtype) * i - brush_drop_V(p, i, dtype)
             - _f(p, "la_H", dtype) * np.asarray(di_dt_A_per_s, dtype))
 
 

@@ -2,8 +2,8 @@
 // command: cd tools && ../.venv/bin/python -m hpddo.regenerate --write
 // source: tools/hpddo/schema.py
 // generator: hpddo.schema 1
-// layout: crc32 0xa8a4641f (kParamsSchema)
-// checksum: crc32 0xf635b5ee of the text below this banner
+// layout: crc32 0x432e337e (kParamsSchema)
+// checksum: crc32 0x93a80e5d of the text below this banner
 #ifndef HPDDO_PARAMS_GEN_H
 #define HPDDO_PARAMS_GEN_H
 
@@ -13,7 +13,7 @@ namespace hpddo {
 
 /// CRC-32 of the parameter layout (field names, types and order, effect bits). A model
 /// header asserts that it was written for this layout.
-static const uint32_t kParamsSchema = 0xa8a4641fu;
+static const uint32_t kParamsSchema = 0x432e337eu;
 
 /// Bit of each effect in PhysicsParams::effects, for reporting and telemetry.
 enum Effect : uint16_t {
@@ -26,11 +26,10 @@ enum Effect : uint16_t {
   kEffectInductance = 1u << 6,          ///< inductance: la di/dt, visible at high rates
   kEffectVOffset = 1u << 7,             ///< v_offset: offset of the voltage channel
   kEffectCurrentOffsetDrift = 1u << 8,  ///< current_offset_drift: current offset drifting with the case temperature
-  kEffectVOffsetDrift = 1u << 9,        ///< v_offset_drift: voltage offset drifting with the case temperature
 };
 
 /// Every effect bit of the library.
-static const uint16_t kEffectsAll = 0x03ffu;
+static const uint16_t kEffectsAll = 0x01ffu;
 
 /// The material constant of an effect (what a fitted coefficient is checked against; the
 /// board's ripple counter turns Ra into a winding temperature with copper's).
@@ -53,7 +52,6 @@ struct PhysicsParams {
   float la_H;                 ///< inductance: armature inductance, H
   float v_offset_V;           ///< v_offset: reading minus true voltage, V
   float i_offset_tc_A_per_K;  ///< current_offset_drift: change of the current channel's offset per kelvin of the case above t_ref_C, A/K
-  float v_offset_tc_V_per_K;  ///< v_offset_drift: change of the voltage channel's offset per kelvin of the case above t_ref_C, V/K
   float brush_knee_A;         ///< brush_drop shape: current scale over which the brush drop builds up (half of it at the knee for order 1), A
   float brush_order;          ///< brush_drop shape: how sharply the brush drop levels off: 1 i/(|i|+knee), 2 i/sqrt(i^2+knee^2), the blend between, dimensionless
   float ke_sat_quad;          ///< saturation shape: share of the armature reaction that grows with i^2 (per 1 A) instead of |i|, dimensionless
@@ -64,7 +62,7 @@ struct PhysicsParams {
 };
 
 /// Number of PhysicsParams fields, the effect bits included.
-static const uint8_t kPhysicsParamCount = 20;
+static const uint8_t kPhysicsParamCount = 19;
 
 /// Calls f(p.field) for every PhysicsParams field in the schema's order, the order of
 /// the struct, of a model header's initialiser and of model_checksum(): each float
@@ -84,7 +82,6 @@ inline void for_each_param(Params& p, F& f) {
   f(p.la_H);
   f(p.v_offset_V);
   f(p.i_offset_tc_A_per_K);
-  f(p.v_offset_tc_V_per_K);
   f(p.brush_knee_A);
   f(p.brush_order);
   f(p.ke_sat_quad);

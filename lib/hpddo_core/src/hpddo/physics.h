@@ -85,14 +85,6 @@ inline float true_voltage_V(const PhysicsParams& p, const PhysicsConst& k, float
   return p.v_gain == 0.0f ? v : v * k.v_gain_inv;  // without a gain error x 1 is skipped: the same float
 }
 
-/// The same with the offset's drift with the case temperature case_C removed too
-/// (v_offset_drift): (v - v_offset - v_offset_tc_V_per_K (case_C - t_ref_C)) / (1 + v_gain), V.
-inline float true_voltage_V(const PhysicsParams& p, const PhysicsConst& k, float v_V, float case_C) {
-  float v = p.v_offset_V == 0.0f ? v_V : v_V - p.v_offset_V;
-  if (p.v_offset_tc_V_per_K != 0.0f) v = v - p.v_offset_tc_V_per_K * (case_C - p.t_ref_C);
-  return p.v_gain == 0.0f ? v : v * k.v_gain_inv;
-}
-
 /// The same, the reciprocal computed here (the same float as physics_const()'s).
 inline float true_voltage_V(const PhysicsParams& p, float v_V) { return true_voltage_V(p, physics_const(p), v_V); }
 
@@ -131,14 +123,18 @@ inline float ke_at_vs_per_rad(const PhysicsParams& p, float temp_C, float i_A) {
   return ke;
 }
 
-/// Back-EMF implied by the voltage balance, V. The channels' offsets drift with the case
-/// temperature: in.magnet_C, the case reading where one is read (observer.h).
-inline float back_emf_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in) {
-  const float i = true_current_A(p, in.i_A, in.magnet_C);
-  float emf = true_voltage_V(p, k, in.v_V, in.magnet_C) - ra_at_ohm(p, in.temp_C) * i;
+/// Back-EMF implied by the voltage balance at the true current i (true_current_A), V.
+inline float back_emf_at_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in, float i) {
+  float emf = true_voltage_V(p, k, in.v_V) - ra_at_ohm(p, in.temp_C) * i;
   if (p.brush_V != 0.0f) emf = emf - brush_drop_V(p, i);
   if (p.la_H != 0.0f) emf = emf - p.la_H * in.di_dt_A_per_s;
   return emf;
+}
+
+/// Back-EMF implied by the voltage balance, V. The current channel's offset drifts with the
+/// case temperature: in.magnet_C, the case reading where one is read (observer.h).
+inline float back_emf_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in) {
+  return back_emf_at_V(p, k, in, true_current_A(p, in.i_A, in.magnet_C));
 }
 
 /// The same, the reciprocals computed here.
@@ -148,9 +144,10 @@ inline float back_emf_V(const PhysicsParams& p, const PhysicsInput& in) { return
 /// positive or the result is not finite. k = physics_const(p). With a constant Ke the
 /// speed is emf x rpm_per_V (one multiply); else emf / ke x kRpmPerRadS.
 inline bool physics_rpm(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in, float* rpm) {
-  const float ke = k.ke_constant ? p.ke_vs_per_rad : ke_at_vs_per_rad(p, in.magnet_C, true_current_A(p, in.i_A, in.magnet_C));
+  const float i = true_current_A(p, in.i_A, in.magnet_C);  // once, for Ke and the balance
+  const float ke = k.ke_constant ? p.ke_vs_per_rad : ke_at_vs_per_rad(p, in.magnet_C, i);
   if (!(ke > 0.0f)) return false;
-  const float emf = back_emf_V(p, k, in);
+  const float emf = back_emf_at_V(p, k, in, i);
   const float n = k.ke_constant ? emf * k.rpm_per_V : emf / ke * kRpmPerRadS;
   if (!is_finite(n)) return false;
   *rpm = n;
