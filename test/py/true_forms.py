@@ -54,3 +54,8 @@ def true_rmse(paths, bench, effect: str) -> tuple[float, dict]:
     fit = least_squares(resid, [inp.m2.ke_vs_per_rad, size0], x_scale=[0.3, abs(size0) or 1.0])
     res = [r.ref - _law(effect, form, bench, r, *fit.x) for r in rows]
     return core._rmse_by_condition(rows, res)["average"], {"ke_vs_per_rad": float(fit.x[0]), "size": float(fit.x[1])}
+
+
+def law_rpm(bench, effect: str, r, fitted: dict) -> np.ndarray:
+    """n (RPM) of rows r under the twin's law for `effect` with the sizes true_rmse fitted."""
+    return _law(effect, bench.form(effect), bench, r, fitted["ke_vs_per_rad"], fitted["size"])
