@@ -322,7 +322,7 @@ EFFECTS = (
     # of its own was built and measured too: the same verdicts and figures (its drift named as
     # this one's with the opposite sign, "not told apart"), and over the UNO observer build's
     # 75 % flash budget: 24 196 bytes at best of eight arrangements of the two terms, against
-    # 24 192 allowed (this one: 24 090; docs/diagnosis.md, Offsets that drift).
+    # 24 192 allowed (this one: 24 148; docs/diagnosis.md, Offsets that drift).
     Effect("current_offset_drift", 8, "i_offset_tc_A_per_K", "A/K", 1000.0, "mA/K",
            "change of the current channel's offset per kelvin of the case above t_ref_C",
            "current offset drifting with the case temperature",

@@ -67,6 +67,7 @@ struct PhysicsConst {
   float v_gain_inv;   ///< 1 / (1 + v_gain)
   float rpm_per_V;    ///< kRpmPerRadS / ke_vs_per_rad: RPM per volt of back-EMF (0 when Ke <= 0)
   bool ke_constant;   ///< no ke_tc_per_K and no ke_sat_per_A: the effective Ke is ke_vs_per_rad
+  bool drift;         ///< the current channel's offset drifts with the case (i_offset_tc_A_per_K)
 };
 
 /// The reciprocals of the parameters p (two float divisions, once).
@@ -75,6 +76,7 @@ inline PhysicsConst physics_const(const PhysicsParams& p) {
   k.v_gain_inv = p.v_gain == 0.0f ? 1.0f : 1.0f / (1.0f + p.v_gain);
   k.rpm_per_V = p.ke_vs_per_rad > 0.0f ? kRpmPerRadS / p.ke_vs_per_rad : 0.0f;
   k.ke_constant = p.ke_tc_per_K == 0.0f && p.ke_sat_per_A == 0.0f;
+  k.drift = p.i_offset_tc_A_per_K != 0.0f;
   return k;
 }
 
@@ -134,7 +136,7 @@ inline float back_emf_at_V(const PhysicsParams& p, const PhysicsConst& k, const 
 /// Back-EMF implied by the voltage balance, V. The current channel's offset drifts with the
 /// case temperature: in.magnet_C, the case reading where one is read (observer.h).
 inline float back_emf_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in) {
-  return back_emf_at_V(p, k, in, true_current_A(p, in.i_A, in.magnet_C));
+  return back_emf_at_V(p, k, in, k.drift ? true_current_A(p, in.i_A, in.magnet_C) : true_current_A(p, in.i_A));
 }
 
 /// The same, the reciprocals computed here.
@@ -144,7 +146,8 @@ inline float back_emf_V(const PhysicsParams& p, const PhysicsInput& in) { return
 /// positive or the result is not finite. k = physics_const(p). With a constant Ke the
 /// speed is emf x rpm_per_V (one multiply); else emf / ke x kRpmPerRadS.
 inline bool physics_rpm(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in, float* rpm) {
-  const float i = true_current_A(p, in.i_A, in.magnet_C);  // once, for Ke and the balance
+  // once, for Ke and the balance; the drift's term only where it is on (k.drift: no float compare per sample)
+  const float i = k.drift ? true_current_A(p, in.i_A, in.magnet_C) : true_current_A(p, in.i_A);
   const float ke = k.ke_constant ? p.ke_vs_per_rad : ke_at_vs_per_rad(p, in.magnet_C, i);
   if (!(ke > 0.0f)) return false;
   const float emf = back_emf_at_V(p, k, in, i);
