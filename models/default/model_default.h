@@ -9,8 +9,8 @@
 // training: Adam lr=0.001 batch=200 iterations=2000, 6759 rows, chronological 80% of each recording
 // generator: hpddo.model.export 2
 // shapes: 5-16-8-1
-// checksum: crc32 0xe7111043
-// parameter_layout: crc32 0x5effc3d9 (hpddo::kParamsSchema, hpddo.schema 1)
+// checksum: crc32 0xe1a4236e
+// parameter_layout: crc32 0x432e337e (hpddo::kParamsSchema, hpddo.schema 1)
 #ifndef HPDDO_MODEL_DEFAULT_H
 #define HPDDO_MODEL_DEFAULT_H
 
@@ -23,7 +23,7 @@ namespace hpddo_model_default {
 typedef hpddo::Mlp<5, 16, 8> Net;
 
 /// CRC-32 over the stored floats (see hpddo::model_checksum).
-static const uint32_t kChecksum = 0xe7111043u;
+static const uint32_t kChecksum = 0xe1a4236eu;
 
 /// Effects in the physics model: none (kModel.physics.effects).
 static const uint16_t kEffects = 0x0000u;
@@ -131,9 +131,9 @@ static_assert(sizeof(kW1) / sizeof(float) == Net::kW1Count, "kW1 shape");
 static_assert(sizeof(kW2) / sizeof(float) == Net::kW2Count, "kW2 shape");
 
 /// The physics initialisers are positional: this header holds for one parameter layout.
-static_assert(hpddo::kParamsSchema == 0x5effc3d9u,
+static_assert(hpddo::kParamsSchema == 0x432e337eu,
               "model_default.h was written for another parameter layout (tools/hpddo/schema.py): regenerate it");
-static_assert(hpddo::kPhysicsParamCount == 18, "one initialiser per hpddo::PhysicsParams field");
+static_assert(hpddo::kPhysicsParamCount == 19, "one initialiser per hpddo::PhysicsParams field");
 
 /// The deployed model.
 static const hpddo::Model<Net> kModel = {
@@ -149,6 +149,7 @@ static const hpddo::Model<Net> kModel = {
         0.0f,           // v_gain [1]
         0.0f,           // la_H [H]
         0.0f,           // v_offset_V [V]
+        0.0f,           // i_offset_tc_A_per_K [A/K]
         0.0199999996f,  // brush_knee_A [A]
         1.0f,           // brush_order [1]
         0.0f,           // ke_sat_quad [1]
@@ -178,6 +179,7 @@ static const hpddo::PhysicsParams kNameplate = {
     0.0f,           // v_gain [1]
     0.0f,           // la_H [H]
     0.0f,           // v_offset_V [V]
+    0.0f,           // i_offset_tc_A_per_K [A/K]
     0.0199999996f,  // brush_knee_A [A]
     1.0f,           // brush_order [1]
     0.0f,           // ke_sat_quad [1]

@@ -12,7 +12,7 @@
 // shapes: 5-16-8-1
 // weights: layer 0 int16 (scaler folded in), hidden int16, output int16; int32 sums
 // shifts: 16 16
-// checksum: crc32 0xd3986ef7
+// checksum: crc32 0x71a88aca
 #ifndef HPDDO_MODEL_DEFAULT_Q_H
 #define HPDDO_MODEL_DEFAULT_Q_H
 
@@ -25,7 +25,7 @@ namespace hpddo_model_default_q {
 typedef hpddo::MlpQ<5, 16, 8, int16_t, 16, 16> Net;
 
 /// CRC-32 over the stored model (see hpddo::model_checksum).
-static const uint32_t kChecksum = 0xd3986ef7u;
+static const uint32_t kChecksum = 0x71a88acau;
 
 static const uint16_t kEffects = hpddo_model_default::kEffects;
 
@@ -92,9 +92,9 @@ HPDDO_FLASH static const int16_t kGatePrototypesQ[160] = {
     1075, -2415, 3179, -2058, 4652, 2496, -2088, 4683, -2099, 4683};
 
 /// The physics initialisers are positional: this header holds for one parameter layout.
-static_assert(hpddo::kParamsSchema == 0x5effc3d9u,
+static_assert(hpddo::kParamsSchema == 0x432e337eu,
               "model_default_q.h was written for another parameter layout (tools/hpddo/schema.py): regenerate it");
-static_assert(hpddo::kPhysicsParamCount == 18, "one initialiser per hpddo::PhysicsParams field");
+static_assert(hpddo::kPhysicsParamCount == 19, "one initialiser per hpddo::PhysicsParams field");
 
 /// The deployed fixed-point model.
 static const hpddo::Model<Net> kModel = {
@@ -110,6 +110,7 @@ static const hpddo::Model<Net> kModel = {
         0.0f,           // v_gain [1]
         0.0f,           // la_H [H]
         0.0f,           // v_offset_V [V]
+        0.0f,           // i_offset_tc_A_per_K [A/K]
         0.0199999996f,  // brush_knee_A [A]
         1.0f,           // brush_order [1]
         0.0f,           // ke_sat_quad [1]

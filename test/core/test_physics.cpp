@@ -124,6 +124,23 @@ TEST(Physics, SensorErrorsAreRemovedFromTheReadings) {
   EXPECT_NEAR(rpm(p, at(9.792f, 0.85f)), rpm(plain(), at(9.6f, 0.8f)), 1e-2);
 }
 
+TEST(Physics, CurrentOffsetDriftFollowsTheCaseTemperature) {
+  // current_offset_drift: the offset i_offset + c (T_case - t_ref), the case as magnet_C; at
+  // t_ref only the constant offset, 10 K warmer 10 c more, at every current and at zero
+  hpddo::PhysicsParams p = plain();  // t_ref 31 C
+  p.i_offset_A = 0.01f;
+  p.i_offset_tc_A_per_K = 0.001f;
+  EXPECT_NEAR(hpddo::true_current_A(p, 0.85f, 31.0f), 0.84, 1e-6);
+  EXPECT_NEAR(hpddo::true_current_A(p, 0.85f, 41.0f), 0.83, 1e-6);
+  EXPECT_NEAR(hpddo::true_current_A(p, 0.0f, 41.0f), -0.02, 1e-6);
+  hpddo::PhysicsInput warm = at(9.6f, 0.82f, 31.0f);
+  warm.magnet_C = 41.0f;  // the winding at t_ref, the case 10 K warmer: the drift follows the case
+  hpddo::PhysicsParams q = plain();
+  EXPECT_NEAR(rpm(p, warm), rpm(q, at(9.6f, 0.80f)), 1e-2);
+  p.i_offset_tc_A_per_K = 0.0f;  // off: the constant offset only, whatever the case
+  EXPECT_EQ(rpm(p, warm), rpm(p, at(9.6f, 0.82f)));
+}
+
 TEST(Physics, InductanceSubtractsLdiDt) {
   hpddo::PhysicsParams p = plain();
   p.la_H = 0.004f;

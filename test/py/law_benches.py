@@ -78,28 +78,48 @@ class Law:
                 size["A"] * share if self.effect == "current_offset" else zero)
 
 
-def _points(name):
+WARM_STEPS = [(v, i) for v in (8.0, 12.0) for i in (0.1, 0.4, 0.8, 1.2)]  # 80 s of load steps
+
+
+def _points(name, warm_steps=False):
     if name == "sweep":   # light load: a little friction current growing with speed
         return [(v, 0.02 + 0.012 * v) for v in np.arange(1.0, 12.01, 0.5)]
     if name == "load":
         return [(v, i) for v in (4.0, 6.0, 8.0, 10.0, 12.0) for i in np.arange(0.1, 1.21, 0.1)]
-    return [(12.0, 0.8)] * 180  # long: an hour at one point
+    # long: an hour at one point; with warm_steps, 40 min of it, load steps at two voltages while
+    # warm, 8 min more at the point and the load steps again (in the held-out tail)
+    if warm_steps:
+        return [(12.0, 0.8)] * 120 + WARM_STEPS + [(12.0, 0.8)] * 24 + WARM_STEPS
+    return [(12.0, 0.8)] * 180
 
 
-def write(folder, law: Law, seed: int, ra_given: float = RA_OHM) -> list:
-    """The three recordings of the law bench (seed) in folder; their paths."""
+def _case_rise(i_true, t):
+    """The case's rise over a recording whose current changes: the first-order node (RISE_K
+    at 0.8 A, TAU_S) stepped row by row; heat per row (i / 0.8 A)^2."""
+    rise = np.zeros(len(t))
+    step = -np.expm1(-(1.0 / RATE_HZ) / TAU_S)
+    for k in range(1, len(t)):
+        rise[k] = rise[k - 1] + (RISE_K * (i_true[k - 1] / 0.8) ** 2 - rise[k - 1]) * step
+    return rise
+
+
+def write(folder, law: Law, seed: int, ra_given: float = RA_OHM, warm_steps: bool = False) -> list:
+    """The three recordings of the law bench (seed) in folder; their paths. warm_steps: the
+    long run holds load steps (0.1..1.2 A at 8 and 12 V, 80 s) twice while the case is warm,
+    after 40 and 48 min, the second in the held-out tail: what tells an offset's drift from
+    the thermal effects (docs/diagnosis.md, Offsets that drift)."""
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     paths = []
     for name in ("sweep", "load", "long"):
-        pts = _points(name)
+        pts = _points(name, warm_steps)
         order = rng.permutation(len(pts)) if name != "long" else np.arange(len(pts))
         vi = np.repeat(np.array([pts[k] for k in order]), HOLD_ROWS, axis=0)
         n = len(vi)
         t = np.arange(n) / RATE_HZ
         v_true, i_true = vi[:, 0], vi[:, 1]
         heat = (i_true / 0.8) ** 2 if name == "long" else np.zeros(n)
-        rise = RISE_K * heat * -np.expm1(-t / TAU_S)
+        rise = _case_rise(i_true, t) if (warm_steps and name == "long") else RISE_K * heat * -np.expm1(-t / TAU_S)
         temp = AMBIENT_C + rise
         rpm = law.speed_rpm(v_true, i_true, KE_VS_PER_RAD)
         vo, io = law.offsets(t, rise)

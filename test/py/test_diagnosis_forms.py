@@ -13,9 +13,10 @@ import law_benches
 import true_forms
 import twin_benches
 from hpddo import schema
-from hpddo.diagnosis import core
+from hpddo.diagnosis import core, ranking
 from hpddo.model import effects as fx
 from hpddo.model import physics as ph
+from hpddo.twin import params as tp
 
 SEEDS = (3, 4)
 # name -> (effects (twin units), forms, bench overrides, effect that must be named)
@@ -200,22 +201,107 @@ def test_a_smooth_brush_drop_with_ra_given_10_percent_high_gets_no_spurious_satu
     _no_silent_edge(res)
 
 
+DRIFT = "current_offset_drift"
+THERMAL = ("thermal_ra", "magnet_thermal")
+
+
+def _drift_pairs_said(res) -> list:
+    """The thermal effects the verdict says the drift cannot be told from: each confounded
+    group holding the drift and a thermal effect must be said with its separating recording
+    (schema: separated_from), never left silent."""
+    said = []
+    for group in res["confounded"]:  # the named effect first, then what it is not told from
+        named, others = group[0], group[1:]
+        pairs = ([(named, DRIFT)] if named in THERMAL and DRIFT in others else
+                 [(DRIFT, t) for t in others if t in THERMAL] if named == DRIFT else [])
+        for a, b in pairs:
+            sentence = (f"{a} and {b} cannot be told apart on these recordings; a recording that would "
+                        f"separate them: {ranking.separator(a, b)}")
+            assert sentence in res["verdict"], (sentence, res["verdict"])
+            said.append(a if a != DRIFT else b)
+    return said
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", SEEDS)
 @pytest.mark.parametrize("key", sorted(DRIFTS))
 def test_a_drifting_offset_leaves_the_physics_within_1_2_of_the_true_model(root, key, seed):
-    """The library has no offset that drifts: on these recordings the drift acts during the
-    hour's warm-up at one operating point, where it looks like a temperature effect, and a
-    thermal effect stands in for it (docs/diagnosis.md: the right name is left undone). The
-    physics still comes within RATIO_MAX, and nothing else is named."""
+    """An offset drifting with the case during the hour's warm-up at one operating point is
+    the same speed error as a temperature effect: the thermal effect is named (the motor's
+    physics first, ranking.motor_physics_first) and the verdict says that it cannot be told
+    from current_offset_drift, with the recording that would (load steps while warm for
+    Ra(T), a duty sweep while warm for the magnets). A drift with time (the ramp) is named as
+    the drift with the case it looks like. The physics comes within RATIO_MAX."""
     law = DRIFTS[key]
     paths = law_benches.write(root / f"law_{key}_{seed}", law, seed)
     res = run(paths)
     truth, _ = law_benches.true_rmse(paths, law)
     ratio, text = _ratio(res, truth)
-    assert set(res["missing_effects"]) <= {law.effect, "thermal_ra", "magnet_thermal"}, res["verdict"]
+    assert res["missing_effects"] and set(res["missing_effects"]) <= {DRIFT, *THERMAL}, res["verdict"]
+    if law.form == "case":
+        thermal = [n for n in res["missing_effects"] if n in THERMAL]
+        assert thermal and DRIFT not in res["missing_effects"], res["verdict"]
+        assert set(_drift_pairs_said(res)) & set(thermal), res["verdict"]
     assert ratio <= RATIO_MAX, text
     _no_silent_edge(res)
+
+
+def _drift_size(law) -> float:
+    """The drift's true size in current_offset_drift's field, A/K: a voltage channel's
+    drift through Ra (its -dv / Ra)."""
+    per_k = 1.0 / law_benches.RISE_K
+    return law.size["A"] * per_k if law.effect == "current_offset" else -law.size["V"] / law_benches.RA_OHM * per_k
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("key", ["current_offset_follows_the_case", "v_offset_follows_the_case"])
+def test_a_drifting_offset_with_load_steps_while_warm_is_named_and_told_from_the_thermal_effects(root, key, seed):
+    """The same benches with load steps while warm (law_benches.write(warm_steps=True): 0.1..1.2 A
+    at 8 and 12 V after 40 and 48 min): an offset's drift shifts V - I Ra alike at every current,
+    Ra(T) in proportion to it, so the recordings tell them apart: current_offset_drift is named
+    alone at its size (a voltage channel's drift as -dv / Ra), no thermal effect is said to be
+    confounded with it, and the physics comes within RATIO_MAX."""
+    law = DRIFTS[key]
+    paths = law_benches.write(root / f"law_{key}_warm_{seed}", law, seed, warm_steps=True)
+    res = run(paths)
+    truth, _ = law_benches.true_rmse(paths, law)
+    ratio, text = _ratio(res, truth)
+    assert res["missing_effects"] == [DRIFT], res["verdict"]
+    named = {e["effect"]: e for e in res["ranking"] if e["named"]}
+    got, want = named[DRIFT]["params"]["i_offset_tc_A_per_K"], _drift_size(law)
+    assert abs(got - want) <= 0.25 * abs(want), (got, want)
+    assert _drift_pairs_said(res) == [], res["verdict"]
+    assert ratio <= RATIO_MAX, text
+
+
+TWIN_DRIFTS = {"current": ({"current_offset": 20.0}, {"current_offset": "case"}),
+               "voltage": ({"v_offset": 100.0}, {"v_offset": "case"})}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", SEEDS)
+@pytest.mark.parametrize("key", sorted(TWIN_DRIFTS))
+def test_an_offset_drifting_with_the_case_on_the_twin_is_named(root, key, seed):
+    """The twin's current or voltage offset in its "case" form (twin/params.py: none at
+    ambient, all of it 30 K above): current_offset_drift is named at the drift's size (20 mA
+    or -100 mV / 4.5 ohm over 30 K), every thermal effect it is confounded with said with the
+    recording that would separate them, and the physics within RATIO_MAX of the twin's own
+    law fitted on the same rows."""
+    effects, forms = TWIN_DRIFTS[key]
+    b = twin_benches.bench(effects, forms)
+    paths = twin_benches.recordings(root / f"twin_drift_{key}_{seed}", b, seed)
+    res = run(paths)
+    name = next(iter(effects))
+    truth, _ = true_forms.true_rmse(paths, b, name)
+    ratio, text = _ratio(res, truth)
+    assert res["missing_effects"] == [DRIFT], res["verdict"]
+    si = b.effect_si(name) / tp.DRIFT_RISE_K
+    want = si if name == "current_offset" else -si / b.ra_ohm
+    got = {e["effect"]: e for e in res["ranking"] if e["named"]}[DRIFT]["params"]["i_offset_tc_A_per_K"]
+    assert abs(got - want) <= 0.25 * abs(want), (got, want)
+    _drift_pairs_said(res)
+    assert ratio <= RATIO_MAX, text
 
 
 @pytest.mark.slow
@@ -237,12 +323,32 @@ def test_a_tanh_brush_drop_on_the_twin_is_named_with_its_unfixed_form_said(root,
 
 @pytest.mark.slow
 def test_saturation_from_600mA_on_the_twin_is_said_not_told_from_a_wrong_ra(root):
-    """Left undone: the twin's armature reaction from 600 mA (load and long run above it, the
-    sweep below) is explained as well by a wrong Ra; neither is named, so the physics stays
-    at the plain model's (3.69 RPM against the true model's 1.67, seed 3). The statement is
-    that a wrong Ra cannot be told from saturation, never a confident value."""
+    """The twin's armature reaction from 600 mA (load and long run above it, the sweep at
+    0.33..0.56 A below) is explained as well by a wrong Ra (4.21 ohm against the true 4.5);
+    neither is named, so the physics stays at the plain model's (3.69 RPM against the true
+    model's 1.67, seed 3). The statement is that a wrong Ra cannot be told from saturation,
+    never a confident value. That is what the data hold, not the selection's strictness:
+    even the twin's own law, with Ra at the true value, gains nothing over the wrong Ra on
+    the held-out rows (apart_z below Z_MIN: 0.048 RPM^2 of 3.82, z 0.26), and on the
+    training rows the wrong Ra fits better (docs/diagnosis.md, Forms outside the library).
+    Either explanation forced alone comes within RATIO_MAX of the true model."""
     b = twin_benches.bench({"saturation": 8.0}, {"saturation": "onset_600mA"})
-    res = run(twin_benches.recordings(root / "twin_saturation_onset_600mA", b, SEEDS[0]))
+    paths = twin_benches.recordings(root / "twin_saturation_onset_600mA", b, SEEDS[0])
+    res = run(paths)
     assert res["missing_effects"] == [] and not res["ra_fit"]["mismatch"], res["verdict"]
     assert "saturation" in res["ra_fit"]["confounded_with"], res["verdict"]
     assert "explains as well as saturation" in res["verdict"], res["verdict"]
+    inp = core.load(paths, core.Options(bootstrap=0, hybrid=False))
+    d, sigma2 = inp.data, core.fit_model(inp).sigma2
+    truth, fitted = true_forms.true_rmse(paths, b, "saturation")
+    res_true = [r.ref - true_forms.law_rpm(b, "saturation", r, fitted) for r in d.rows]
+    p_ra, res_ra = ranking.scored_names(d, inp.m2, [ranking.RA_MISMATCH], sigma2)
+    g, z = ranking.gain_z(d, res_ra, res_true, sigma2)
+    print(f"the twin's law over a wrong Ra ({p_ra.ra_ohm:.3f} ohm) on the held-out rows: {g:.4f} RPM^2 "
+          f"of {ranking.held_out_mse(d, res_ra):.3f}, z {z:.2f}")
+    assert ranking.apart_z(d, res_ra, res_true, sigma2) < ranking.Z_MIN
+    for forced in (fx.fit(d.rows, inp.m2, ["saturation"]), p_ra):
+        after = core._rmse_by_condition(inp.rows, [r.ref - fx.predict(r, forced) for r in inp.rows])["average"]
+        print(f"forced (Ra {forced.ra_ohm:.3f} ohm, saturation {forced.ke_sat_per_A:.4f}/A q {forced.ke_sat_quad:.2f}): "
+              f"{after:.3f} RPM, true model {truth:.3f}: ratio {after / truth:.3f}")
+        assert after <= RATIO_MAX * truth

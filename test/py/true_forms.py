@@ -10,11 +10,19 @@ from scipy.optimize import least_squares
 from hpddo.diagnosis import core
 from hpddo.model import physics as ph
 from hpddo.twin import params as tp
+from hpddo.twin import protocols
 
 
 def _law(effect: str, form: str, bench, r, ke: float, c: float) -> np.ndarray:
-    """n (RPM) of rows r under the twin's law: effect `effect` in form `form`, size c (SI)."""
+    """n (RPM) of rows r under the twin's law: effect `effect` in form `form`, size c (SI).
+    A channel's offset in its form (tp.offset_share: "case", following the case's rise
+    above the protocol's ambient; the case read by the log's temp_C)."""
     v, i = r.v, r.i
+    if effect in ("current_offset", "v_offset"):
+        ambient = protocols.bench_for(r.rec.name, bench).ambient_C
+        off = c * tp.offset_share(form, r.rec.df["t_s"].to_numpy(float), r.temp, ambient)
+        v, i = (v - off, i) if effect == "v_offset" else (v, i - off)
+        return (v - bench.ra_ohm * i) / ke * ph.RPM_PER_RAD_S
     a = np.abs(i)
     ra = bench.ra_ohm
     if effect == "brush_drop":
@@ -46,3 +54,8 @@ def true_rmse(paths, bench, effect: str) -> tuple[float, dict]:
     fit = least_squares(resid, [inp.m2.ke_vs_per_rad, size0], x_scale=[0.3, abs(size0) or 1.0])
     res = [r.ref - _law(effect, form, bench, r, *fit.x) for r in rows]
     return core._rmse_by_condition(rows, res)["average"], {"ke_vs_per_rad": float(fit.x[0]), "size": float(fit.x[1])}
+
+
+def law_rpm(bench, effect: str, r, fitted: dict) -> np.ndarray:
+    """n (RPM) of rows r under the twin's law for `effect` with the sizes true_rmse fitted."""
+    return _law(effect, bench.form(effect), bench, r, fitted["ke_vs_per_rad"], fitted["size"])

@@ -106,6 +106,10 @@ class Effect:
     signature: str        # what the speed error of a missing effect scales with
     excited_by: str       # which recording makes the effect visible
     thermal: bool = False  # uses the temperature
+    # Its term follows the case temperature as read (the channels' electronics sit on or
+    # near the motor), without the winding node: the offsets' drift. Scored only where the
+    # log reads a temperature (elsewhere the term is zero, t_ref throughout).
+    case_temperature: bool = False
     separated_from: tuple = ()  # ((other effect, recording that tells the two apart), ...)
     # A coefficient that is a material constant (thermal effects only): its value, held where
     # the temperature scale is unknown (no temperature read) or where the effect it shares
@@ -307,6 +311,47 @@ EFFECTS = (
                 "rows at zero and at very low current with the motor turning (coasting): a brush drop "
                 "vanishes with the current, a voltage offset does not"),
            )),
+    # Offsets that drift (issue 21, item 7): a channel's offset following the temperature of
+    # its electronics, which sit on or near the motor and warm with its case. An offset in i
+    # shifts V - I Ra by Ra di whatever the current's size and sign, at standstill too, where
+    # Ra(T) scales with the current; at one operating point during a warm-up the two are
+    # the same speed error (ranking: "cannot be told apart", with the recording that would).
+    # One drift for both channels: the speed sees V - I Ra, where a voltage channel's drift dv
+    # is the current channel's -dv / Ra, and only rows at standstill with the supply off while
+    # warm read which channel drifts (the constant offsets' REST_READ). A voltage-channel drift
+    # of its own was built and measured too: the same verdicts and figures (its drift named as
+    # this one's with the opposite sign, "not told apart"), and over the UNO observer build's
+    # 75 % flash budget: 24 196 bytes at best of eight arrangements of the two terms, against
+    # 24 192 allowed (this one: 24 148; docs/diagnosis.md, Offsets that drift).
+    Effect("current_offset_drift", 8, "i_offset_tc_A_per_K", "A/K", 1000.0, "mA/K",
+           "change of the current channel's offset per kelvin of the case above t_ref_C",
+           "current offset drifting with the case temperature",
+           "the current channel's offset follows the temperature of its electronics (the case reading): "
+           "i_offset + c (T_case - T_ref); a voltage channel drifting by dv per kelvin shows as -dv / Ra",
+           "a Hall sensor's zero drifts up to about 1 mA/K (a fraction of a mV/K over 100..200 mV/A), a "
+           "shunt amplifier's µV/K over a 0.5 ohm shunt µA/K; a level-shifted voltage divider whose "
+           "reference drifts 100 ppm/K under a gain of 12, a few mV/K: about -1 mA/K through 4.5 ohm",
+           (-0.0015, 0.0015), (-0.003, 0.003), 0.0005,
+           "Ra x the case's rise, at every current including zero",
+           "a warm-up with rows at several currents, or at standstill with the supply off, while warm "
+           "and while cold (a log with temp_C)",
+           case_temperature=True,
+           separated_from=(
+               ("thermal_ra",
+                "load steps (several currents, light load included) while the motor is warm, or rows at "
+                "standstill with the supply off before and after a warm-up: an offset's drift shifts "
+                "V - I Ra by the same voltage at every current and at zero, Ra(T) in proportion to the "
+                "current"),
+               ("magnet_thermal",
+                "several speeds at one current while warm (a duty sweep at light load after a warm-up): the "
+                "magnets' error grows with the speed, an offset's drift does not"),
+               ("current_offset",
+                "rows at standstill with the supply off, cold and warm: the reading there is the offset "
+                "at each temperature"),
+               ("v_offset",
+                "rows at standstill with the supply off, cold and warm: the voltage reading there is the "
+                "voltage channel's offset, the current reading the current channel's, at each temperature"),
+           )),
 )
 
 STATE = (
@@ -437,6 +482,8 @@ def validate() -> None:
             if other not in BY_NAME or other == e.name:
                 raise ValueError(f"{e.name}: separated_from names unknown effect {other!r}")
             pairs.append(frozenset({e.name, other}))
+        if e.case_temperature and e.thermal:
+            raise ValueError(f"{e.name}: a term follows the winding node (thermal) or the case reading, not both")
         if e.material is not None or e.material_band is not None:
             if not e.thermal:
                 raise ValueError(f"{e.name}: a material constant is declared for thermal effects only")

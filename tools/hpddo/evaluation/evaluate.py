@@ -137,7 +137,7 @@ def temperature_warning(physics, rec) -> str | None:
     without a sensor does), and the thermal terms correct for a temperature that was not
     there. None where that is not the case."""
     from .. import schema
-    thermal = [n for n in physics.effect_names() if schema.BY_NAME[n].thermal]
+    thermal = [n for n in physics.effect_names() if schema.BY_NAME[n].thermal or schema.BY_NAME[n].case_temperature]
     if not thermal or rec.has_temp():
         return None
     return (f"{rec.source}: no temp_C, and the model's {', '.join(thermal)} read the case temperature: the "

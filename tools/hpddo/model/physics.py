@@ -41,8 +41,19 @@ def _f(p: PhysicsParams, name: str, dtype):
     return dtype(getattr(p, name))
 
 
-def true_current_A(p, i_A, dtype=np.float64):
-    return np.asarray(i_A, dtype) - _f(p, "i_offset_A", dtype)
+def _drift(p, field: str, case_C, dtype):
+    """An offset's drift with the case temperature (current_offset_drift): coefficient x
+    (T_case - t_ref); 0 without a case temperature."""
+    if case_C is None:
+        return dtype(0.0)
+    return _f(p, field, dtype) * (np.asarray(case_C, dtype) - _f(p, "t_ref_C", dtype))
+
+
+def true_current_A(p, i_A, dtype=np.float64, case_C=None):
+    """The current with the channel's offset removed: i_offset_A, and with case_C (the case
+    temperature, C) its drift i_offset_tc_A_per_K (T_case - t_ref) as well (physics.h)."""
+    i = np.asarray(i_A, dtype) - _f(p, "i_offset_A", dtype)
+    return i if case_C is None else i - _drift(p, "i_offset_tc_A_per_K", case_C, dtype)
 
 
 def _board(dtype) -> bool:
@@ -113,8 +124,11 @@ def _split(temp_C):
 
 
 def back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
-    i = true_current_A(p, i_A, dtype)
-    winding_C, _ = _split(temp_C)
+    """The back-EMF of the voltage balance, V. The current channel's offset drifts with the
+    case temperature: the magnets' temperature (the case reading where read, as the boards'
+    PhysicsInput::magnet_C)."""
+    winding_C, case_C = _split(temp_C)
+    i = true_current_A(p, i_A, dtype, case_C)
     return (true_voltage_V(p, v_V, dtype) - ra_at_ohm(p, winding_C, dtype) * i - brush_drop_V(p, i, dtype)
             - _f(p, "la_H", dtype) * np.asarray(di_dt_A_per_s, dtype))
 
@@ -129,7 +143,8 @@ def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
         if not ke0 > 0:
             return np.full(np.shape(emf), np.nan, dtype)
         return (emf * dtype(dtype(RPM_PER_RAD_S) / ke0)).astype(dtype)
-    ke = ke_at_vs_per_rad(p, _split(temp_C)[1], true_current_A(p, i_A, dtype), dtype)
+    case_C = _split(temp_C)[1]
+    ke = ke_at_vs_per_rad(p, case_C, true_current_A(p, i_A, dtype, case_C), dtype)
     with np.errstate(divide="ignore", invalid="ignore"):
         n = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) / ke * dtype(RPM_PER_RAD_S)
     return np.where(ke > 0, n, np.nan).astype(dtype)

@@ -146,6 +146,9 @@ V_BOW_V = 8.0                # "bowed": the voltage channel's gain error g at 8 
 # Forms outside every library form (issue 21, item 7; test/py/test_diagnosis_forms.py):
 BRUSH_TANH_A = 0.3           # "tanh_300mA": a smooth saturating drop tanh(i / 300 mA)
 SATURATION_LATE_ONSET_A = 0.6  # "onset_600mA": no armature reaction below 600 mA
+DRIFT_RISE_K = 30.0          # "case": an offset growing with the case's rise, all of it this far above ambient
+_CASE_DRIFT = (f"an offset that follows the case temperature: none at ambient, all of it {DRIFT_RISE_K:g} K "
+               "above (the channel's electronics on the motor's housing, drifting as it warms)")
 _WARMUP = (f"an offset that settles after power-up: {WARMUP_AT_ONCE:.0%} of it at once, the rest with a "
            f"{WARMUP_S:g} s time constant (an amplifier warming up)")
 FORMS = {
@@ -174,10 +177,12 @@ FORMS = {
     "current_offset": {
         "constant": "a fixed offset of the current channel",
         "warmup": _WARMUP,
+        "case": _CASE_DRIFT,
     },
     "v_offset": {
         "constant": "a fixed offset of the voltage channel",
         "warmup": _WARMUP,
+        "case": _CASE_DRIFT,
     },
     "v_gain": {
         "constant": "a fixed gain error (divider tolerance, ADC reference)",
@@ -192,6 +197,15 @@ def warmup_share(form: str, t_s):
     if form == "warmup":
         return 1.0 - (1.0 - WARMUP_AT_ONCE) * np.exp(-np.asarray(t_s, float) / WARMUP_S)
     return np.ones_like(np.asarray(t_s, float))
+
+
+def offset_share(form: str, t_s, case_C, ambient_C: float):
+    """The share of a sensor offset present at time t_s after power-up with the case at
+    case_C (1: all of it): the warm-up's (warmup_share), or the case's rise over DRIFT_RISE_K
+    ("case": an offset drifting with the temperature of the electronics)."""
+    if form == "case":
+        return (np.asarray(case_C, float) - ambient_C) / DRIFT_RISE_K
+    return warmup_share(form, t_s)
 
 
 def v_gain_share(form: str, v_V):

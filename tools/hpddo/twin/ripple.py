@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from .params import Bench, warmup_share
+from .params import Bench, offset_share
 
 SEED_TAG = 23  # the burst stream's seed: SeedSequence([seed, protocol offset, 23])
 
@@ -98,7 +98,8 @@ def synthesise(bench: Bench, res, duty, params: dict, rng):
                 sig = sig + a * e_over_r * np.cos(N * theta_m / div + ph[1 + j])
         t_abs = k * T + tau
         # the current channel's offset, as on the log's current (sensors.measure)
-        sig = sig + bench.effect_si("current_offset") * warmup_share(bench.form("current_offset"), t_abs)
+        sig = sig + bench.effect_si("current_offset") * offset_share(bench.form("current_offset"), t_abs, res.tc[k],
+                                                                     bench.ambient_C)
         if a_int:
             sig = sig + a_int * np.sin(2 * math.pi * f_int * t_abs + ph[4])
         if bench.noise:

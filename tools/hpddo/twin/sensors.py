@@ -29,7 +29,7 @@ from .. import bench as _hw
 from .. import schema
 from ..logs import dataset
 from ..model import libm
-from .params import Bench, v_gain_share, warmup_share
+from .params import Bench, offset_share, v_gain_share
 
 
 # The encoder's period as the acquisition board measures it: each count's edge time-stamped by
@@ -117,8 +117,9 @@ def measure(bench: Bench, res, duty, load, rng):
         i_var = i_var + 0.5 * (a_rip * res.i_mean) ** 2
     t_mid = (np.arange(n) + 0.5) * Ts  # the sample's middle, after power-up
     v_meas_in = (res.v_mean * (1.0 + bench.effect_si("v_gain") * v_gain_share(bench.form("v_gain"), res.v_mean))
-                 + bench.effect_si("v_offset") * warmup_share(bench.form("v_offset"), t_mid))
-    i_meas_in = i_true + bench.effect_si("current_offset") * warmup_share(bench.form("current_offset"), t_mid)
+                 + bench.effect_si("v_offset") * offset_share(bench.form("v_offset"), t_mid, res.tc, bench.ambient_C))
+    i_meas_in = i_true + bench.effect_si("current_offset") * offset_share(bench.form("current_offset"), t_mid,
+                                                                          res.tc, bench.ambient_C)
 
     v = adc_channel(v_meas_in, res.v_var, bench.v_div_gain, bench.v_shift_V, n_conv, bench, rng)
     i = adc_channel(i_meas_in, i_var, bench.i_gain_V_per_A, 0.0, n_conv, bench, rng)

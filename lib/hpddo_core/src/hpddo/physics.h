@@ -52,6 +52,13 @@ inline float true_current_A(const PhysicsParams& p, float i_A) {
   return p.i_offset_A == 0.0f ? i_A : i_A - p.i_offset_A;
 }
 
+/// The same with the offset's drift with the case temperature case_C removed too
+/// (current_offset_drift): i - i_offset - i_offset_tc_A_per_K (case_C - t_ref_C), A.
+inline float true_current_A(const PhysicsParams& p, float i_A, float case_C) {
+  const float i = true_current_A(p, i_A);
+  return p.i_offset_tc_A_per_K == 0.0f ? i : i - p.i_offset_tc_A_per_K * (case_C - p.t_ref_C);
+}
+
 /// Reciprocals the physics model would otherwise divide by at every sample, computed once
 /// per model (physics_const(); the observer keeps them): the step multiplies instead. The
 /// brush term's |i| + knee depends on the current and stays a division (only when the
@@ -60,6 +67,7 @@ struct PhysicsConst {
   float v_gain_inv;   ///< 1 / (1 + v_gain)
   float rpm_per_V;    ///< kRpmPerRadS / ke_vs_per_rad: RPM per volt of back-EMF (0 when Ke <= 0)
   bool ke_constant;   ///< no ke_tc_per_K and no ke_sat_per_A: the effective Ke is ke_vs_per_rad
+  bool drift;         ///< the current channel's offset drifts with the case (i_offset_tc_A_per_K)
 };
 
 /// The reciprocals of the parameters p (two float divisions, once).
@@ -68,6 +76,7 @@ inline PhysicsConst physics_const(const PhysicsParams& p) {
   k.v_gain_inv = p.v_gain == 0.0f ? 1.0f : 1.0f / (1.0f + p.v_gain);
   k.rpm_per_V = p.ke_vs_per_rad > 0.0f ? kRpmPerRadS / p.ke_vs_per_rad : 0.0f;
   k.ke_constant = p.ke_tc_per_K == 0.0f && p.ke_sat_per_A == 0.0f;
+  k.drift = p.i_offset_tc_A_per_K != 0.0f;
   return k;
 }
 
@@ -116,13 +125,18 @@ inline float ke_at_vs_per_rad(const PhysicsParams& p, float temp_C, float i_A) {
   return ke;
 }
 
-/// Back-EMF implied by the voltage balance, V.
-inline float back_emf_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in) {
-  const float i = true_current_A(p, in.i_A);
+/// Back-EMF implied by the voltage balance at the true current i (true_current_A), V.
+inline float back_emf_at_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in, float i) {
   float emf = true_voltage_V(p, k, in.v_V) - ra_at_ohm(p, in.temp_C) * i;
   if (p.brush_V != 0.0f) emf = emf - brush_drop_V(p, i);
   if (p.la_H != 0.0f) emf = emf - p.la_H * in.di_dt_A_per_s;
   return emf;
+}
+
+/// Back-EMF implied by the voltage balance, V. The current channel's offset drifts with the
+/// case temperature: in.magnet_C, the case reading where one is read (observer.h).
+inline float back_emf_V(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in) {
+  return back_emf_at_V(p, k, in, k.drift ? true_current_A(p, in.i_A, in.magnet_C) : true_current_A(p, in.i_A));
 }
 
 /// The same, the reciprocals computed here.
@@ -132,9 +146,11 @@ inline float back_emf_V(const PhysicsParams& p, const PhysicsInput& in) { return
 /// positive or the result is not finite. k = physics_const(p). With a constant Ke the
 /// speed is emf x rpm_per_V (one multiply); else emf / ke x kRpmPerRadS.
 inline bool physics_rpm(const PhysicsParams& p, const PhysicsConst& k, const PhysicsInput& in, float* rpm) {
-  const float ke = k.ke_constant ? p.ke_vs_per_rad : ke_at_vs_per_rad(p, in.magnet_C, true_current_A(p, in.i_A));
+  // once, for Ke and the balance; the drift's term only where it is on (k.drift: no float compare per sample)
+  const float i = k.drift ? true_current_A(p, in.i_A, in.magnet_C) : true_current_A(p, in.i_A);
+  const float ke = k.ke_constant ? p.ke_vs_per_rad : ke_at_vs_per_rad(p, in.magnet_C, i);
   if (!(ke > 0.0f)) return false;
-  const float emf = back_emf_V(p, k, in);
+  const float emf = back_emf_at_V(p, k, in, i);
   const float n = k.ke_constant ? emf * k.rpm_per_V : emf / ke * kRpmPerRadS;
   if (!is_finite(n)) return false;
   *rpm = n;
