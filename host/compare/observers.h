@@ -43,7 +43,8 @@ struct EkfParams {
 ///   J dw/dt = Kt (V - Ke w)/Ra - B w - Tc tanh(w/ws) - T_L,  dT_L/dt = noise,
 /// the linear part discretised exactly over each period (stable at any dt, as the
 /// mechanical time constant J Ra / (Ke Kt) is far below the 500 ms of a 2 Hz log), the
-/// Coulomb term and T_L held over the period; measurement i = (V - Ke w)/Ra.
+/// Coulomb term and T_L held over the period (the shaft stopped where Coulomb friction would
+/// carry it through zero); measurement i = (V - Ke w)/Ra.
 class Ekf {
  public:
   Ekf(const Motor& m, const EkfParams& p) : m_(m), p_(p) {}
@@ -63,8 +64,14 @@ class Ekf {
     const double g = (1.0 - phi) / (a * j);  // rad/s per N m of constant torque over the period
     const double w = x_(0), tl = x_(1);
     const double th = std::tanh(w / kCoulombSmoothRadS);
-    const double u = ke * v_V / ra - m_.tc_nm * th - tl;
+    const double drive = ke * v_V / ra - tl;  // N m: the torque at standstill, before friction
+    const double u = drive - m_.tc_nm * th;
     x_(0) = phi * w + g * u;
+    // Coulomb friction stops the shaft, it cannot turn it back: held over a period longer than the
+    // time to stop, -Tc sgn(w) would carry the speed through zero (a limit cycle of +-g Tc at
+    // standstill). Where the speed would change sign and the drive cannot overcome Tc, the shaft
+    // stands at the period's end.
+    if (x_(0) * w < 0.0 && std::fabs(drive) <= m_.tc_nm) x_(0) = 0.0;
     Eigen::Matrix2d F;
     F << phi - g * m_.tc_nm * (1.0 - th * th) / kCoulombSmoothRadS, -g, 0.0, 1.0;
     P_ = F * P_ * F.transpose();

@@ -82,6 +82,21 @@ TEST(CompareObservers, EkfSpeedMeasurementCorrectsABiasedKe) {
   }
 }
 
+// Coasting to rest: no voltage, no current, a filter that trusts its model (the current's
+// variance 1 A^2). Coulomb friction brings the shaft to rest and keeps it there; held over a
+// 0.5 s period it would carry the speed through zero into a limit cycle of +-g Tc.
+TEST(CompareObservers, EkfCoulombFrictionStopsTheShaftWithoutReversingIt) {
+  Ekf ekf(kMotor, EkfParams{1e-3, 1e-2, 1e-8, 1.0});
+  ekf.restart(kMotor.ke_vs_per_rad * 20.0 + 0.3 * kMotor.ra_ohm, 0.3);  // 20 rad/s, loaded
+  double w = ekf.step(0.0, 0.0, kDt);
+  for (int k = 0; k < 20; ++k) {
+    const double next = ekf.step(0.0, 0.0, kDt);
+    EXPECT_GE(next * w, 0.0) << k;  // never through zero
+    w = next;
+  }
+  EXPECT_LT(std::fabs(w), 0.1);  // at rest but for the current measurement's small pull
+}
+
 TEST(CompareObservers, SmoReachesTheBackEmfWithBoundedSlew) {
   const SmoParams p{1.0, 0.4, 0.0};  // 1 V per sample at most; gain k/(phi Ra) = 0.56 in the layer
   Smo smo(kMotor, p);

@@ -60,7 +60,8 @@ def tune_observers(jobs: dict, work: pathlib.Path, coarse: bool = False, ripple:
     tuned on the training rows of train_recs only: each recording's training part is
     written to work/<name>/ as a log of its own, and that is all the tuner reads. ripple
     ({recording name: ripple_peer.RippleSpeeds}): the counts of those training rows beside
-    them, and the EKF with the count as a second measurement tuned too ("ekf_ripple"). The
+    them (withheld from every other block of rows, ripple_peer.write_speeds), and the EKF with
+    the count as a second measurement tuned too ("ekf_ripple"). The
     tuners run as parallel processes. Returns {name: the tuner's JSON}."""
     procs = {}
     for name, (train_recs, m2) in jobs.items():
@@ -70,7 +71,8 @@ def tune_observers(jobs: dict, work: pathlib.Path, coarse: bool = False, ripple:
         logs = [training_log(r, d / f"{r.file_stem}.train.csv") for r in kept]
         if ripple is not None:
             for r, p in zip(kept, logs):
-                ripple_peer.write_speeds(ripple[r.name], d / f"{p.stem}.ripple_speed.csv", rows=r.n_train)
+                ripple_peer.write_speeds(ripple[r.name], d / f"{p.stem}.ripple_speed.csv", rows=r.n_train,
+                                         for_tuning=True)
         procs[name] = subprocess.Popen([str(observers_exe()), "tune", "--ke", repr(m2.ke_vs_per_rad), "--ra",
                                         repr(m2.ra_ohm), *(["--coarse"] if coarse else []),
                                         *(["--ripple", str(d)] if ripple is not None else []), *map(str, logs)],

@@ -86,14 +86,24 @@ def estimates(s: RippleSpeeds, m2_rpm: np.ndarray) -> dict:
     return {ALONE: s.alone_rpm, FUSED: np.where(np.isfinite(s.with_m2_prior_rpm), s.with_m2_prior_rpm, m2_rpm)}
 
 
-def write_speeds(s: RippleSpeeds, path, rows: int | None = None) -> None:
+#: tuning the EKF that takes the count: the count is withheld from every other block of this many
+#: rows of the training parts, so that the tuned noises also fit the rows without a count (the
+#: coasting, slow and changing rows of the test parts), not only a filter that follows the count
+TUNING_WITHHELD_BLOCK_ROWS = 10
+
+
+def write_speeds(s: RippleSpeeds, path, rows: int | None = None, for_tuning: bool = False) -> None:
     """The count with M2's prior and its uncertainty, one line per cleaned row (both fields empty
-    where not confident; rows: the first rows only, a recording's training part): the second
-    measurement of compare_observers --ripple."""
+    where not confident; rows: the first rows only, a recording's training part; for_tuning:
+    withheld from every other block of TUNING_WITHHELD_BLOCK_ROWS rows): the second measurement
+    of compare_observers --ripple."""
     import pandas as pd
     n = len(s.with_m2_prior_rpm) if rows is None else rows
-    pd.DataFrame({"rpm": s.with_m2_prior_rpm[:n], "sd_rpm": s.with_m2_prior_sd_rpm[:n]}).to_csv(
-        path, index=False, float_format="%.10g", na_rep="")
+    rpm, sd = s.with_m2_prior_rpm[:n].copy(), s.with_m2_prior_sd_rpm[:n].copy()
+    if for_tuning:
+        withheld = (np.arange(n) // TUNING_WITHHELD_BLOCK_ROWS) % 2 == 1
+        rpm[withheld] = sd[withheld] = np.nan
+    pd.DataFrame({"rpm": rpm, "sd_rpm": sd}).to_csv(path, index=False, float_format="%.10g", na_rep="")
 
 
 def coverage(recs, all_speeds, masks=None) -> dict:
