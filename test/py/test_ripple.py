@@ -173,6 +173,31 @@ def test_ratio_check_names_the_ripples_per_revolution_when_off_by_a_family_facto
     assert "ripples per motor revolution" in chk["statement"]
 
 
+def test_ratio_check_weighs_the_encoders_resolution():
+    """A slow run's few encoder counts are not a wrong gear: 118 windows at 4-6 RPM with a 0.62 RPM
+    encoder step (the twin's: 193.6 counts per output revolution over 0.5 s) agree with the
+    nameplate whatever their quantisation does to the ratio; a 1 % gear error over fast windows
+    with the same encoder is named."""
+    import pandas as pd
+
+    step = 60.0 / (193.6 * 0.5)
+    rng = np.random.default_rng(7)
+    for n, lo, hi, gear_error, agrees in ((118, 4.0, 6.0, 0.0, True), (200, 90.0, 110.0, 0.01, False)):
+        true = rng.uniform(lo, hi, n)
+        reading = np.round(true / step) * step  # whole counts per window
+        df = pd.DataFrame({"confident": [True] * n, "f_Hz": true * 6 * 4.4 * (1 + gear_error) / 60.0})
+        chk = rp.check_ratio(df, reading, 0.5, rp.Options(6, 4.4))
+        assert abs(chk["encoder_step_rpm"] - step) < 1e-6  # read from the readings
+        assert ("agrees with the data" in chk["statement"]) == agrees, chk["statement"]
+        if agrees:
+            assert "the encoder's resolution" in chk["statement"] and chk["tolerance"] > 0.001
+        else:
+            assert "not the nameplate's 4.4:1" in chk["statement"]
+    # the header's step, where given, is the one used
+    chk = rp.check_ratio(df, reading, 0.5, rp.Options(6, 4.4), encoder_step_rpm=0.05)
+    assert chk["encoder_step_rpm"] == 0.05
+
+
 def test_hpddo_ripple_on_twin_logs_scores_and_checks_the_ratio(tmp_path, capsys):
     from hpddo import cli
 

@@ -17,6 +17,7 @@ import argparse
 import json
 import math
 import sys
+import types
 
 from . import options
 
@@ -86,7 +87,12 @@ def run(args) -> int:
                     s["rms_vs_encoder_pct"] = float(100 * np.sqrt(np.mean(e ** 2)))
                     s["max_vs_encoder_pct"] = float(100 * np.max(np.abs(e)))
                 window_s = float(np.median(np.diff(df["t_s"].to_numpy()))) if len(df) > 1 else math.nan
-                s["ratio_check"] = rp.check_ratio(est, ref, window_s, opts)
+                # one encoder count per window where the header declares the encoder (docs/bench-log.md),
+                # else check_ratio reads it from the readings
+                sensors = dataset.sensor_meta(types.SimpleNamespace(source=path, meta=log.meta))
+                step = (60.0 / (sensors["encoder_counts_per_rev"] * sensors.get("encoder_window_s", window_s))
+                        if "encoder_counts_per_rev" in sensors else None)
+                s["ratio_check"] = rp.check_ratio(est, ref, window_s, opts, encoder_step_rpm=step)
             summary[name] = s
             share = f"{(conf & above).sum() / above.sum():.1%}" if above.sum() else "-"
             line = (f"{name}: {len(est)} windows, confident {conf.sum()} ({share} of the {above.sum()} above "

@@ -290,11 +290,11 @@ def enc_period_s(rec: Recording) -> np.ndarray | None:
     return x
 
 
-def _meta_error(rec: Recording, key: str, fault: str) -> benchlog.BenchLogError:
-    """A fault of metadata `key`, naming its file and line."""
+def _meta_error(rec, key: str, fault: str) -> benchlog.BenchLogError:
+    """A fault of metadata `key` of rec (anything with .source and .meta), naming its file and line."""
     line = None
     try:
-        for k, text in enumerate(rec.source.read_text(encoding="utf-8-sig").splitlines(), 1):
+        for k, text in enumerate(pathlib.Path(rec.source).read_text(encoding="utf-8-sig").splitlines(), 1):
             if not text.startswith("#"):
                 break
             if re.match(rf"#[ \t]*{re.escape(key)}[ \t]*=", text):
@@ -326,8 +326,9 @@ def kind(rec: Recording) -> tuple[str, str]:
 STEADY_MAX_ROWS = 1000
 
 
-def sensor_meta(rec: Recording) -> dict:
-    """{key: value} of the SENSOR_KEYS the recording declares, each a positive number."""
+def sensor_meta(rec) -> dict:
+    """{key: value} of the SENSOR_KEYS the recording declares, each a positive number (rec: a
+    Recording, or anything with .source, the log's path, and .meta, its metadata)."""
     out = {}
     for key in SENSOR_KEYS:
         if key not in rec.meta:

@@ -557,11 +557,27 @@ def _group_sum(group, x) -> np.ndarray:
     return pd.Series(np.asarray(x, float)).groupby(np.asarray(group)).transform("sum").to_numpy()
 
 
-def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001):
+def encoder_step_from_readings(rpm_ref) -> float:
+    """One encoder count per window in RPM as the readings themselves show it: the smallest
+    difference between two distinct readings (a counted encoder reads whole counts per window; a
+    period-timed one gives differences far below any count, and then a step of about 0)."""
+    v = np.unique(np.round(np.asarray(rpm_ref, float)[np.isfinite(rpm_ref)], 9))
+    d = np.diff(v)
+    return float(d.min()) if len(d) else 0.0
+
+
+def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001,
+                encoder_step_rpm: float | None = None):
     """With an encoder on the output shaft: the ripples per output revolution measured over the
     confident windows (the sum of counted cycles over the sum of encoder revolutions; windows
     whose own ratio departs from the median by more than TRIM left out and counted), the gear
-    ratio it implies for the user's ripples per motor revolution, and a statement."""
+    ratio it implies for the user's ripples per motor revolution, and a statement. The ratio is
+    called the nameplate's unless it departs by more than tol and by more than three standard
+    uncertainties of the encoder's own resolution over the windows used: each window's reading
+    is off by up to one count (encoder_step_rpm, RPM per count and window: the log header's
+    where it declares the encoder, else encoder_step_from_readings), a standard deviation of
+    step / sqrt(6) per window, independent across windows, which a slow run's few counts make
+    large (118 windows at 5 RPM with a 0.62 RPM step: 0.33 %)."""
     ref = np.asarray(rpm_ref, float)
     ok = df["confident"].to_numpy() & np.isfinite(ref) & (ref > 0)
     if ok.sum() == 0:
@@ -586,20 +602,26 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001)
     per_rev = cycles / revs
     ratio = per_rev / opts.ripples_per_rev
     rel = ratio / opts.gear_ratio - 1.0
+    step = encoder_step_from_readings(ref[ok]) if encoder_step_rpm is None else float(encoder_step_rpm)
+    rel_sd = math.sqrt(ok.sum()) * step / math.sqrt(6.0) / float(np.sum(ref[ok]))  # of the encoder's revolutions
+    tol_used = max(tol, 3.0 * rel_sd)
     out = {"windows": int(ok.sum()), "left_out": int(trimmed.sum()), "ripples_per_output_rev": per_rev, "gear_ratio_measured": ratio,
-           "gear_ratio_given": opts.gear_ratio, "relative": rel}
+           "gear_ratio_given": opts.gear_ratio, "relative": rel, "encoder_step_rpm": step,
+           "relative_sd_encoder": rel_sd, "tolerance": tol_used}
     family = [m for m in (2.0, 3.0, 0.5, 1 / 3, 6.0, 1 / 6) if abs(rel + 1 - m) < 0.02 * m]
     if family:
         out["statement"] = (f"the data give {per_rev:.2f} ripples per output revolution, {rel + 1:.3g}x the "
                             f"{opts.ripples_per_rev} x {opts.gear_ratio:g} given: the ripples per motor revolution "
                             "(2 x segments for 2 brushes) are likely wrong, not the gear ratio")
-    elif abs(rel) > tol:
+    elif abs(rel) > tol_used:
         out["statement"] = (f"the gear ratio is {ratio:.3f}:1, not the nameplate's {opts.gear_ratio:g}:1 "
-                            f"({rel:+.2%}; {per_rev:.2f} ripples per output revolution over {ok.sum()} windows, "
-                            f"{opts.ripples_per_rev} per motor revolution)")
+                            f"({rel:+.2%}, beyond {tol_used:.2%}; {per_rev:.2f} ripples per output revolution over "
+                            f"{ok.sum()} windows, {opts.ripples_per_rev} per motor revolution)")
     else:
+        why = (f"the encoder's resolution over these {ok.sum()} windows, {step:.3g} RPM a count" if tol_used > tol
+               else "the check's own tolerance")
         out["statement"] = (f"the gear ratio {opts.gear_ratio:g}:1 agrees with the data ({ratio:.3f}:1, "
-                            f"{rel:+.2%}, within {tol:.1%})")
+                            f"{rel:+.2%}, within {tol_used:.2%}: {why})")
     return out
 
 
