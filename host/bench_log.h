@@ -38,6 +38,14 @@ struct LogError : std::runtime_error {
   std::string fault_;
 };
 
+/// A file's name without its folder and its extension: "a/b/load.csv" -> "load".
+inline std::string file_stem(const std::string& path) {
+  const size_t slash = path.find_last_of('/');
+  const std::string name = slash == std::string::npos ? path : path.substr(slash + 1);
+  const size_t dot = name.find_last_of('.');
+  return dot == std::string::npos ? name : name.substr(0, dot);
+}
+
 /// The columns the observer and the metrics need; optional ones are NaN where absent.
 struct BenchLog {
   std::string path;
@@ -52,10 +60,7 @@ struct BenchLog {
   std::string condition() const {
     auto it = meta.find("condition");
     if (it != meta.end() && !it->second.empty()) return it->second;
-    const size_t slash = path.find_last_of('/');
-    std::string stem = slash == std::string::npos ? path : path.substr(slash + 1);
-    const size_t dot = stem.find_last_of('.');
-    return dot == std::string::npos ? stem : stem.substr(0, dot);
+    return file_stem(path);
   }
 };
 

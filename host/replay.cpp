@@ -230,8 +230,7 @@ int main(int argc, char** argv) {
         max_diff = std::max(max_diff, static_cast<double>(std::fabs(rows[k].rpm_m3 - other[k].rpm_m3)));
     }
     if (!out_dir.empty()) {
-      std::string stem = log.path.substr(log.path.find_last_of('/') + 1);
-      stem = stem.substr(0, stem.find_last_of('.'));
+      const std::string stem = hpddo_host::file_stem(log.path);
       const std::string path = out_dir + "/" + stem + ".estimates.csv";
       if (!write_estimates(path, log, split, rows)) {
         std::fprintf(stderr, "replay: cannot write %s\n", path.c_str());

@@ -81,16 +81,22 @@ Log load(const std::string& path, double fraction) {
   return L;
 }
 
-/// Speed estimates of every row, rpm, by an estimator with restart(v, i) and step(v, i, dt).
-template <class Est>
-std::vector<double> replay(const Log& L, Est est) {
+/// Speed estimates of every row, rpm, by an estimator with restart(v, i) and step(v, i, dt);
+/// after(est, k, w) may update the row's estimate w (rad/s) with a further measurement.
+template <class Est, class After>
+std::vector<double> replay(const Log& L, Est est, After after) {
   const auto& d = L.data;
   std::vector<double> out(d.size());
   for (size_t k = 0; k < d.size(); ++k) {
     if (L.start[k]) est.restart(d.v_V[k], d.i_A[k]);
-    out[k] = est.step(d.v_V[k], d.i_A[k], L.start[k] ? first_dt(d) : L.dt[k]) * kRpmPerRadS;
+    out[k] = after(est, k, est.step(d.v_V[k], d.i_A[k], L.start[k] ? first_dt(d) : L.dt[k])) * kRpmPerRadS;
   }
   return out;
+}
+
+template <class Est>
+std::vector<double> replay(const Log& L, Est est) {
+  return replay(L, est, [](Est&, size_t, double w) { return w; });
 }
 
 /// The ripple count of each row of one log (hpddo.studies.compare writes it): the header
@@ -131,24 +137,16 @@ RippleSpeeds read_ripple_speeds(const std::string& path, size_t rows) {
 
 /// RDIR/<stem>.ripple_speed.csv for the log at path.
 std::string ripple_file(const std::string& dir, const std::string& path) {
-  std::string stem = path.substr(path.find_last_of('/') + 1);
-  return dir + "/" + stem.substr(0, stem.find_last_of('.')) + ".ripple_speed.csv";
+  return dir + "/" + hpddo_host::file_stem(path) + ".ripple_speed.csv";
 }
 
 /// The EKF with the ripple count as a second measurement of the speed where there is one.
 std::vector<double> replay_ekf_ripple(const Log& L, Ekf ekf, const RippleSpeeds& rip) {
-  const auto& d = L.data;
-  std::vector<double> out(d.size());
-  for (size_t k = 0; k < d.size(); ++k) {
-    if (L.start[k]) ekf.restart(d.v_V[k], d.i_A[k]);
-    double w = ekf.step(d.v_V[k], d.i_A[k], L.start[k] ? first_dt(d) : L.dt[k]);
-    if (std::isfinite(rip.rpm[k])) {
-      const double sd_rad_s = rip.sd_rpm[k] / kRpmPerRadS;
-      w = ekf.update_speed(rip.rpm[k] / kRpmPerRadS, sd_rad_s * sd_rad_s);
-    }
-    out[k] = w * kRpmPerRadS;
-  }
-  return out;
+  return replay(L, ekf, [&](Ekf& e, size_t k, double w) {
+    if (!std::isfinite(rip.rpm[k])) return w;
+    const double sd_rad_s = rip.sd_rpm[k] / kRpmPerRadS;
+    return e.update_speed(rip.rpm[k] / kRpmPerRadS, sd_rad_s * sd_rad_s);
+  });
 }
 
 /// The tuning score: the mean over logs of each log's RMSE on its labelled rows (the
@@ -386,8 +384,7 @@ int run(const Motor& m, const EkfParams& e, const SmoParams& s, const std::strin
     const auto smo = replay(L, Smo(m, s));
     const auto nn = has_mlp ? replay_mlp(L, net) : std::vector<double>(L.data.size(), NAN);
     const size_t split = hpddo_host::split_row(L.data, fraction);
-    std::string stem = p.substr(p.find_last_of('/') + 1);
-    stem = stem.substr(0, stem.find_last_of('.'));
+    const std::string stem = hpddo_host::file_stem(p);
     const auto ekf_ripple =
         ripple_dir.empty()
             ? std::vector<double>(L.data.size(), NAN)
