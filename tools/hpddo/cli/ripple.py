@@ -90,9 +90,8 @@ def run(args) -> int:
                 # one encoder count per window where the header declares the encoder (docs/bench-log.md),
                 # else check_ratio reads it from the readings
                 sensors = dataset.sensor_meta(types.SimpleNamespace(source=path, meta=log.meta))
-                step = (60.0 / (sensors["encoder_counts_per_rev"] * sensors.get("encoder_window_s", window_s))
-                        if "encoder_counts_per_rev" in sensors else None)
-                s["ratio_check"] = rp.check_ratio(est, ref, window_s, opts, encoder_step_rpm=step)
+                s["ratio_check"] = rp.check_ratio(est, ref, window_s, opts,
+                                                  encoder_step_rpm=dataset.encoder_count_rpm(sensors, window_s))
             summary[name] = s
             share = f"{(conf & above).sum() / above.sum():.1%}" if above.sum() else "-"
             line = (f"{name}: {len(est)} windows, confident {conf.sum()} ({share} of the {above.sum()} above "

@@ -120,15 +120,13 @@ def step_rpm(rec, r) -> float | None:
     median spacing of the rows; not the time since the previous row, which a removed glitch
     row doubles)."""
     meta = dataset.sensor_meta(rec)
-    if not meta.get("encoder_counts_per_rev"):
-        return None
-    window = meta.get("encoder_window_s")
-    if window is None:
+    period = None
+    if "encoder_counts_per_rev" in meta and "encoder_window_s" not in meta:  # the window is the sample period
         try:
-            window = 1.0 / float(rec.meta["sample_rate_hz"])
+            period = 1.0 / float(rec.meta["sample_rate_hz"])
         except (KeyError, ValueError, ZeroDivisionError):
-            window = float(np.median(r.dt))
-    return 60.0 / (meta["encoder_counts_per_rev"] * window)
+            period = float(np.median(r.dt))
+    return dataset.encoder_count_rpm(meta, period)
 
 
 def encoder_step_rpm(recs, rows) -> float:

@@ -291,7 +291,8 @@ def enc_period_s(rec: Recording) -> np.ndarray | None:
 
 
 def _meta_error(rec, key: str, fault: str) -> benchlog.BenchLogError:
-    """A fault of metadata `key` of rec (anything with .source and .meta), naming its file and line."""
+    """A fault of metadata `key` of rec (a Recording, or a log's benchlog read with its path as
+    .source), naming its file and line."""
     line = None
     try:
         for k, text in enumerate(pathlib.Path(rec.source).read_text(encoding="utf-8-sig").splitlines(), 1):
@@ -341,6 +342,15 @@ def sensor_meta(rec) -> dict:
             raise _meta_error(rec, key, "is not a positive number")
         out[key] = v
     return out
+
+
+def encoder_count_rpm(sensors: dict, window_s: float | None) -> float | None:
+    """One encoder count per counting window, RPM, from sensor_meta's {key: value}: the window is
+    encoder_window_s where declared, else window_s (the caller's sample period, needed only
+    then); None where the log declares no encoder."""
+    if "encoder_counts_per_rev" not in sensors:
+        return None
+    return 60.0 / (sensors["encoder_counts_per_rev"] * sensors.get("encoder_window_s", window_s))
 
 
 def write_clean(rec: Recording, path) -> pathlib.Path:

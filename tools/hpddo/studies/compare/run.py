@@ -96,17 +96,17 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
             # ---- three threads: the observers build and tune; the board observer is built
             # against the chronological M3 with and without the gate and replayed (the
             # networks train meanwhile in their processes)
-            ripple = {}
+            ripple = {} if ropts is not None else None  # {recording: ripple_peer.RippleSpeeds}, counted below
 
             def observers():
                 jobs_ = {"chronological": (recs, m2)}
                 jobs_.update({f"leave out {name}": (v[0], v[1]) for name, v in loro.items()})
                 observers_exe()
-                if ropts is not None:  # the counts first: the EKF that takes them is tuned with them
+                if ripple is not None:  # the counts first: the EKF that takes them is tuned with them
                     ripple.update({r.name: ripple_peer.speeds(r, ropts, ra, m2.ke_vs_per_rad, cfg.ripple_ke_vs_per_rad)
                                    for r in recs + vrecs})
                     say("ripple counted")
-                t = tune_observers(jobs_, work / "tuning", coarse=cfg.quick, ripple=ripple if ropts is not None else None)
+                t = tune_observers(jobs_, work / "tuning", coarse=cfg.quick, ripple=ripple)
                 say(f"observers tuned: EKF train RMSE {t['chronological']['train_rmse_rpm']['ekf']:.2f}, SMO "
                     f"{t['chronological']['train_rmse_rpm']['smo']:.2f} RPM (M2 "
                     f"{t['chronological']['train_rmse_rpm']['m2']:.2f})")
@@ -137,7 +137,6 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
             # ---- Table 7: chronological and never seen
             nn = trainer.get(("pure NN", label(h), "chronological"))
             mlp_file = write_mlp(nn[0], nn[1], (work / "pure_nn_chronological.mlp"))
-            ripple = ripple if ropts is not None else None
             table7, native = table7_chrono_and_validation(recs, vrecs, m2, m2e, fit, replays, tuned, mlp_file, work,
                                                           ripple)
             table7["leave_one_out"] = table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra, ripple)
