@@ -200,6 +200,7 @@ class RaTracker:
         from . import physics
         self.p, self.physics = p, physics
         self.ke_sum, self.ke_cal, self.ra_ohm, self.tw_C, self.n_cal, self.have = 0.0, 0.0, 0.0, 0.0, 0, False
+        self.n_glitch = 0  # windows left out as a glitch (the host's count only: the board keeps none)
 
     def step(self, v_V: float, i_A: float, rpm: float, dt_s: float) -> bool:
         p, ph = self.p, self.physics
@@ -228,6 +229,7 @@ class RaTracker:
         else:
             ra = (v - vb - ke * w) / i
         if abs(ra - self.ra_ohm) > RA_GATE * self.ra_ohm:  # a glitch of V or I, not the copper
+            self.n_glitch += 1
             return True
         self.ra_ohm += (ra - self.ra_ohm) * (dt_s / (RA_TAU_S + dt_s))
         self.tw_C = p.t_ref_C + (self.ra_ohm / p.ra_ohm - 1.0) / ALPHA_CU

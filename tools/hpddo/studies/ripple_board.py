@@ -7,6 +7,13 @@ Ra and the winding temperature, with no temperature sensor.
 
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple_board            # ~1 min
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple_board --json F
+    PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple_board --model DIR   # another model's prior and M2
+
+The second table is the warm-up's error budget: the Ke the first KE_CAL_S of confident windows
+calibrate, over five seeds of the same run (its spread and what it is worth in kelvin at the
+warm-up's operating point: ke w / (I Ra0 alpha + ke w b), b the model's magnet coefficient),
+the windows the Ra gate leaves out, and T's errors with the seeds' mean Ke in place of each
+seed's own.
 
 Each board window's burst is its last ripple_n periods (acq_ripple.h: 3968 of 5000 at 2 Hz,
 768 of 1000 at 10 Hz), the counter runs on those codes; V and I are the twin log's window
@@ -42,8 +49,9 @@ def burst_n(window_periods: int) -> int:
 
 
 def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, bench_twin=None, seed: int = 1,
-        model_dir=None):
-    """Replays one twin run through the board's counter; returns the per-window table and figures."""
+        model_dir=None, ke_cal=None):
+    """Replays one twin run through the board's counter; returns the per-window table and figures.
+    ke_cal: the calibrated Ke (V s/rad) put in place of the tracker's own once it has one."""
     tw = bench_twin or params.preset("default")
     out = generate.generate(tw, protocol, rate_hz, seed, time_scale=time_scale,
                             ripple=params.ripple_burst(sample_hz=10000))
@@ -58,8 +66,28 @@ def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, b
     n = burst_n(round(10000 / rate_hz))
     codes = [np.asarray(c)[len(c) - n:] for c in burst_codes]
     per_rev = RIPPLES_PER_REV * bench.HARDWARE.gear_ratio
-    rows = rc.track(codes, log["v_V"].to_numpy(), log["i_A"].to_numpy(), prior, dt, model.physics, 10000.0, per_rev,
-                    round(10000 / rate_hz) - n)
+    tracker = {}
+
+    class _Kept(rc.RaTracker):  # keeps the tracker for the budget: its Ke, its gate's count
+        def __init__(self, p):
+            super().__init__(p)
+            tracker["t"] = self
+            if ke_cal is not None:
+                self.step = self._fixed_ke_step
+
+        def _fixed_ke_step(self, *a):
+            had = self.have
+            out = rc.RaTracker.step(self, *a)
+            if self.have and not had:
+                self.ke_cal = ke_cal
+            return out
+
+    real, rc.RaTracker = rc.RaTracker, _Kept
+    try:
+        rows = rc.track(codes, log["v_V"].to_numpy(), log["i_A"].to_numpy(), prior, dt, model.physics, 10000.0, per_rev,
+                        round(10000 / rate_hz) - n)
+    finally:
+        rc.RaTracker = real
     rpm = np.array([r["rpm"] if r["confident"] else np.nan for r in rows])
     have = np.array([r["have_ra"] for r in rows])
     ra = np.array([r["ra_ohm"] for r in rows])
@@ -75,13 +103,48 @@ def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, b
                    ra_rms_pct=float(100 * np.sqrt(np.mean(e_ra ** 2))), ra_max_pct=float(100 * np.max(np.abs(e_ra))),
                    t_rms_K=float(np.sqrt(np.mean(e_t ** 2))), t_max_K=float(np.max(np.abs(e_t))),
                    t_true_start_C=float(t_true[0]), t_true_end_C=float(t_true[-1]),
-                   t_est_end_C=float(tw_c[-1]), ra_true_end=float(ra_true[-1]), ra_est_end=float(ra[-1]))
+                   t_est_end_C=float(tw_c[-1]), ra_true_end=float(ra_true[-1]), ra_est_end=float(ra[-1]),
+                   ke_cal=float(tracker["t"].ke_cal), ra_glitches=int(tracker["t"].n_glitch),
+                   ke_sens_K_per_pct=_ke_sensitivity(model.physics, log, truth, have))
     return figures
+
+
+def _ke_sensitivity(p, log, truth, have) -> float:
+    """Kelvin of winding temperature per 1 % of calibrated Ke at the run's median operating
+    point: 0.01 ke w / (I Ra0 alpha + ke w b) (b the model's magnet coefficient, 0 without)."""
+    if not have.any():
+        return float("nan")
+    i = float(np.median(log["i_A"].to_numpy()[have]))
+    emf = float(np.median(truth["ke_vs_per_rad"].to_numpy()[have] * truth["rpm_true"].to_numpy()[have])) / rc.RPM_PER_RAD_S
+    return 0.01 * emf / (i * p.ra_ohm * rc.ALPHA_CU + emf * p.ke_tc_per_K)
+
+
+def budget(model_dir=None, seeds=(1, 2, 3, 4, 5)):
+    """The warm-up's error budget per window rate: each seed's calibrated Ke, its spread, the
+    gate's left-out windows, and T's errors with the seeds' mean Ke in place of each seed's."""
+    out = {}
+    for name, kw in (("2 Hz", dict(rate_hz=2.0)), ("10 Hz", dict(rate_hz=10.0)),
+                     ("100 Hz (time scale 0.02)", dict(rate_hz=100.0, time_scale=0.02))):
+        own = [run(protocol="long", seed=s, model_dir=model_dir, **kw) for s in seeds]
+        kes = np.array([f["ke_cal"] for f in own])
+        mean_ke = float(kes.mean())
+        fixed = [run(protocol="long", seed=s, model_dir=model_dir, ke_cal=mean_ke, **kw) for s in seeds]
+        out[name] = dict(seeds=list(seeds), ke_cal=kes.tolist(), ke_sd_pct=float(100 * kes.std(ddof=1) / mean_ke),
+                         k_per_pct=own[0]["ke_sens_K_per_pct"],
+                         glitches=[f["ra_glitches"] for f in own], windows=[f["confident"] for f in own],
+                         t_max_own=[f["t_max_K"] for f in own], t_max_mean_ke=[f["t_max_K"] for f in fixed],
+                         t_end_err_own=[f["t_est_end_C"] - f["t_true_end_C"] for f in own],
+                         t_end_err_mean_ke=[f["t_est_end_C"] - f["t_true_end_C"] for f in fixed])
+    return out
 
 
 def main(argv=None) -> int:
     ap = parser("ripple_board", __doc__)
+    ap.add_argument("--model", type=pathlib.Path, metavar="DIR",
+                    help="a trained model's folder (model_default.h) in place of models/default")
     a = ap.parse_args(argv)
+    if a.model is not None and not (a.model / "model_default.h").is_file():
+        ap.error(f"--model {a.model}: no model_default.h there (a folder hpddo train wrote)")
     scenarios = [
         ("long warm-up, 2 Hz, default twin", dict(protocol="long", rate_hz=2.0)),
         ("long warm-up, 10 Hz, default twin", dict(protocol="long", rate_hz=10.0)),
@@ -98,12 +161,24 @@ def main(argv=None) -> int:
           "winding T RMS / max K | T truth start -> end | T board end |")
     print("|---|---|---|---|---|---|---|---|---|")
     for name, kw in scenarios:
-        f = run(**kw)
+        f = run(model_dir=a.model, **kw)
         out[name] = f
         print(f"| {name} | {f['windows']} | {f['confident']} | {f['rpm_rms_pct']:.3f} / {f['rpm_max_pct']:.2f} | "
               f"{f['windows_with_ra']} | {f['ra_rms_pct']:.2f} / {f['ra_max_pct']:.2f} | {f['t_rms_K']:.2f} / "
               f"{f['t_max_K']:.2f} | {f['t_true_start_C']:.1f} -> {f['t_true_end_C']:.1f} | {f['t_est_end_C']:.1f} |")
         sys.stdout.flush()
+    print()
+    print("| warm-up, window rate | Ke calibrated, spread over seeds | K per 1 % of Ke | windows the Ra gate "
+          "left out | T max error, each seed's Ke | T max error, the seeds' mean Ke | T end error, each seed's Ke |")
+    print("|---|---|---|---|---|---|---|")
+    b = budget(a.model)
+    for name, r in b.items():
+        print(f"| {name} | {np.mean(r['ke_cal']):.4f} V s/rad, {r['ke_sd_pct']:.2f} % | {r['k_per_pct']:.2f} | "
+              f"{', '.join(f'{g} of {w}' for g, w in zip(r['glitches'], r['windows']))} | "
+              f"{', '.join(f'{x:.1f}' for x in r['t_max_own'])} | {', '.join(f'{x:.1f}' for x in r['t_max_mean_ke'])} | "
+              f"{', '.join(f'{x:+.1f}' for x in r['t_end_err_own'])} |")
+        sys.stdout.flush()
+    out["budget"] = b
     if a.json:
         a.json.write_text(json.dumps(out, indent=1))
     return 0
