@@ -3,6 +3,8 @@
 // simavr this runs mlp_q.h's assembly rows (dot_lpm8), which the host tests do not.
 #include <unity.h>
 
+#include "../golden_rows.h"
+
 #include "golden_default_q8.h"
 #include "model_default_q8.h"
 
@@ -32,14 +34,8 @@ static void test_network_bit_for_bit() {
 
 static void test_golden_rows() {
   static hpddo::Observer<mdl::Net> obs(mdl::kModel);
-  for (uint16_t r = 0; r < gold::kCount; ++r) {
-    const hpddo::Estimate e = obs.step(gold::sample(r));
-    const float want = g(r, gold::kCol_rpm);
-    const float mag = want < 0.0f ? -want : want;
-    TEST_ASSERT_FLOAT_WITHIN(1e-4f * (mag > 1.0f ? mag : 1.0f), want, e.rpm);
-    TEST_ASSERT_EQUAL_INT(static_cast<int>(g(r, gold::kCol_status)), static_cast<int>(e.status));
-    TEST_ASSERT_FLOAT_WITHIN(1e-4f, g(r, gold::kCol_confidence), e.confidence);
-  }
+  const GoldenColumns col = {gold::kCount, gold::kCol_rpm, gold::kCol_status, gold::kCol_confidence};
+  check_golden_rows(&obs, col, gold::at, gold::sample);
 }
 
 static int run() {
