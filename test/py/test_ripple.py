@@ -313,7 +313,7 @@ def test_reference_options_are_checked_before_any_work(tmp_path, capsys):
     log = str(tmp_path / "x.csv")
     for sub, argv, said in (
             ("train", [log, "--out", str(tmp_path / "t"), "--reference", "ripple"], "needs --ripples-per-rev"),
-            ("diagnose", [log, "--out", str(tmp_path / "d"), "--gear-ratio", "4.4"], "apply to --reference ripple"),
+            ("diagnose", [log, "--out", str(tmp_path / "d"), "--gear-ratio", "4.4"], "applies to --reference ripple"),
             ("evaluate", ["--model", str(tmp_path), log, "--out", str(tmp_path / "e"), "--reference", "ripple",
                           "--gear-ratio", "4.4"], "needs --ripples-per-rev")):
         assert cli.main([sub] + argv) == 1, sub
@@ -504,6 +504,136 @@ def test_hpddo_ripple_model_option_refuses_a_bad_folder_in_one_line(tmp_path, ca
     assert "not allowed with argument" in err("--model", str(tmp_path / "good"), "--ke-vs-per-rad", "0.4", status=2)
     assert "--ra-ohm does not apply with --model" in err("--model", str(tmp_path / "good"), "--ra-ohm", "4.5")
     assert "--name applies to --model only" in err("--name", "brush")
+
+
+REFERENCE_COMMANDS = ("train", "diagnose", "evaluate")
+
+
+def _reference_argv(sub, log, out, *extra):
+    """A command line of hpddo train, diagnose or evaluate with --reference ripple on one log."""
+    head = ["--model", str(out.parent / "scored")] if sub == "evaluate" else []
+    return [sub, *head, str(log), "--out", str(out), "--reference", "ripple", "--ripples-per-rev", "6",
+            "--gear-ratio", "4.4", *extra]
+
+
+def test_reference_ripple_takes_a_models_m2_as_the_prior_as_hpddo_ripple_does(tmp_path, capsys):
+    """--prior-model DIR of train, diagnose and evaluate (one option definition, cli/options.py) is
+    hpddo ripple's --model: the same prior, so the same counts, confidences and left-out rows; and it
+    is used: against the prior calibrated from the ripple, the confidences (the rows' weights) and
+    the prior's Ke differ."""
+    import pandas as pd
+
+    from hpddo import cli
+    from hpddo.cli import diagnose, evaluate, options, train
+    from hpddo.logs import benchlog
+
+    (path,) = _twin_logs(tmp_path / "logs", ("sweep",), time_scale=0.3)
+    phys = _model_with_brush_drop(tmp_path / "model")
+    out = tmp_path / "ripple"
+    assert cli.main(["ripple", str(path), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                     "--model", str(tmp_path / "model"), "--out", str(out), "--quiet"]) == 0
+    capsys.readouterr()
+    by_ripple = pd.read_csv(out / "sweep.ripple_speed.csv")
+    log = benchlog.read_log(path)
+    parsers = {"train": train.parser(), "diagnose": diagnose.parser(), "evaluate": evaluate.parser()}
+    swaps = {}
+    for sub in REFERENCE_COMMANDS:
+        argv = _reference_argv(sub, path, tmp_path / sub, "--prior-model", str(tmp_path / "model"))[1:]
+        if sub != "evaluate":
+            argv += ["--ra-ohm", "4.9"]  # the Ra of the model identified; the prior's is the model's
+        ref = options.reference_of(parsers[sub].parse_args(argv))
+        assert ref.model.physics.effect_names() == ["brush_drop"] and ref.model.physics.brush_V == pytest.approx(0.3)
+        assert ref.ra_ohm is None and ref.ke_vs_per_rad is None, sub
+        swaps[sub] = ref(path, log.df, log.meta)
+    df, _, weight, rec = swaps["train"]
+    for sub in ("diagnose", "evaluate"):
+        assert swaps[sub][0].equals(df) and np.array_equal(swaps[sub][2], weight) and swaps[sub][3] == rec, sub
+    assert rec["ke_from"] == "model " + str(tmp_path / "model") + " (M2 with brush_drop)"
+    assert rec["prior_model"]["effects"] == ["brush_drop"] and rec["prior_model"]["ke_vs_per_rad"] == pytest.approx(phys.ke_vs_per_rad)
+    # the same figures as hpddo ripple --model: the confident counts are the rows' reference speeds
+    conf = by_ripple["confident"].to_numpy()
+    rpm = df["rpm_ref"].to_numpy()
+    assert np.allclose(rpm[conf], by_ripple["rpm_ripple"].to_numpy()[conf], rtol=1e-5)
+    assert np.allclose(weight[conf], by_ripple["confidence"].to_numpy()[conf], rtol=1e-5)
+    assert np.isnan(rpm[~conf & (log.df["duty"].to_numpy() > 0)]).all()
+    # and not the prior calibrated from the ripple: other confidences, another Ke
+    plain = options.reference_of(parsers["train"].parse_args(_reference_argv("train", path, tmp_path / "t")[1:]))
+    assert plain.model is None
+    df0, _, weight0, rec0 = plain(path, log.df, log.meta)
+    assert rec0["ke_from"].startswith("ripple") and rec0["prior_model"] is None
+    assert abs(rec0["ke_prior_vs_per_rad"] / rec["ke_prior_vs_per_rad"] - 1) > 0.05
+    both = np.isfinite(rpm) & np.isfinite(df0["rpm_ref"].to_numpy()) & (rpm > 0)
+    assert both.sum() > 100 and np.abs(weight[both] - weight0[both]).max() > 0.01  # the prior weighs the line
+    # the counts themselves hardly depend on the prior once it picks the same line
+    assert np.abs(rpm[both] / df0["rpm_ref"].to_numpy()[both] - 1).max() < 0.01
+
+
+def test_reference_ripple_prior_model_refused_in_one_line_before_any_work(tmp_path, capsys):
+    from hpddo import cli
+
+    log = tmp_path / "load.csv"
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=tmp_path, time_scale=0.05,
+                      ripple=params.ripple_burst())
+    _model_with_brush_drop(tmp_path / "good")
+    (tmp_path / "empty").mkdir()
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "model_x.h").write_text("// not a model\nstatic const uint32_t kChecksum = 0x12345678u;\n")
+
+    def err(argv, status=1):
+        if status == 2:  # argparse's usage error
+            with pytest.raises(SystemExit) as exc:
+                cli.main(argv)
+            assert exc.value.code == 2
+        else:
+            assert cli.main(argv) == status
+        e = capsys.readouterr().err.strip().splitlines()
+        assert not (tmp_path / "out").exists(), "no output"
+        return e[-1]
+
+    for sub in REFERENCE_COMMANDS:
+        def ref(*extra):
+            return _reference_argv(sub, log, tmp_path / "out", *extra)
+        assert f"{tmp_path / 'nowhere'}: no such model folder" in err(ref("--prior-model", str(tmp_path / "nowhere")))
+        assert "expected one model header" in err(ref("--prior-model", str(tmp_path / "empty")))
+        assert "model_x.h: not a model header of hpddo train" in err(ref("--prior-model", str(bad)))
+        assert "expected one model header model_other.h" in err(ref("--prior-model", str(tmp_path / "good"),
+                                                                    "--prior-name", "other"))
+        assert "not allowed with argument" in err(ref("--prior-model", str(tmp_path / "good"),
+                                                      "--ke-vs-per-rad", "0.4"), status=2)
+        assert "--prior-name applies to --prior-model only" in err(ref("--prior-name", "brush"))
+        encoder = [a for a in ref("--prior-model", str(tmp_path / "good")) if a not in ("--reference", "ripple")]
+        encoder = [a for a in encoder if a not in ("--ripples-per-rev", "6", "--gear-ratio", "4.4")]
+        assert "--prior-model applies to --reference ripple only" in err(encoder), sub
+    # hpddo ripple spells it --model, and takes --prior-model as the others spell it
+    argv = ["ripple", str(log), "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--out", str(tmp_path / "out")]
+    assert "no such model folder" in err(argv + ["--prior-model", str(tmp_path / "nowhere")])
+
+
+@pytest.mark.slow
+def test_train_diagnose_and_evaluate_record_the_prior_model(tmp_path, capsys):
+    """End to end: each command counts the ripple with the model's M2 as the prior, says so and
+    records it (metrics.json, diagnosis.json), and train's provenance repeats the option."""
+    import json
+
+    from hpddo import cli
+
+    logs = _twin_logs(tmp_path / "logs", time_scale=0.3)
+    _model_with_brush_drop(tmp_path / "prior")
+    prior = ["--prior-model", str(tmp_path / "prior")]
+    m = tmp_path / "scored"
+    argv = _reference_argv("train", logs[0], m, "--epochs", "50", "--quiet", *prior)
+    assert cli.main(argv[:2] + [str(logs[1])] + argv[2:]) == 0
+    assert cli.main(_reference_argv("diagnose", logs[0], tmp_path / "d", "--no-hybrid", "--bootstrap", "0",
+                                    "--quiet", *prior)) == 0
+    assert cli.main(_reference_argv("evaluate", logs[1], tmp_path / "e", "--quiet", *prior)) == 0
+    printed = capsys.readouterr().out
+    assert printed.count(f"from model {tmp_path / 'prior'} (M2 with brush_drop)") == 4  # 2 + 1 + 1 recordings
+    for f in (m / "metrics.json", tmp_path / "d" / "diagnosis.json", tmp_path / "e" / "metrics.json"):
+        r = json.loads(f.read_text())["reference"]
+        assert r["prior_model"]["folder"] == str(tmp_path / "prior") and r["prior_model"]["effects"] == ["brush_drop"]
+        assert all(x["ke_from"].startswith("model ") for x in r["recordings"].values()), f
+    assert f"--prior-model {tmp_path / 'prior'}" in (m / "model_default.h").read_text()
 
 
 def test_a_span_is_scored_against_the_encoder_over_the_same_span():

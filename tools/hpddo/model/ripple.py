@@ -627,7 +627,8 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001,
 
 @dataclasses.dataclass(frozen=True)
 class ModelPrior:
-    """A trained model's identified M2 as the back-EMF prior (hpddo ripple --model): its
+    """A trained model's identified M2 as the back-EMF prior (hpddo ripple --model, --prior-model of
+    --reference ripple; cli.options.prior_model_of reads it): its
     physics (model.physics.PhysicsParams: Ra, Ke and the named effects it was trained with), and
     where it came from, for the statement."""
 
@@ -642,6 +643,11 @@ class ModelPrior:
         rows = df if "seq" in df else df.assign(seq=np.arange(len(df), dtype=np.int64))
         rec = Recording(name=str(path), source=pathlib.Path(path), meta=dict(meta), df=rows, removed=[], n_train=0)
         return np.asarray(train.physics_rpm(rec, self.physics), float)
+
+    def to_json(self) -> dict:
+        """Where the prior came from, as summary.json and metrics.json / diagnosis.json record it."""
+        return {"folder": self.source, "effects": self.physics.effect_names(),
+                "ra_ohm": float(self.physics.ra_ohm), "ke_vs_per_rad": float(self.physics.ke_vs_per_rad)}
 
     def describe(self) -> str:
         effects = self.physics.effect_names()
