@@ -251,7 +251,7 @@ def test_burst_lines_sit_where_the_shaft_puts_them():
         t0, codes, meta = g["bursts"]
         k = int(np.flatnonzero(g["log"]["duty"].to_numpy() == 1.0)[-1])  # a steady window at full duty
         x = codes[k] * float(meta["a_per_code"])
-        f = bench.ripple_per_rev * bench.gear_ratio * g["truth"]["rpm_true"][k] / 60.0
+        f = bench.ripples_per_rev * bench.gear_ratio * g["truth"]["rpm_true"][k] / 60.0
         fs = float(meta["sample_hz"])
         spec = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(len(x)))) ** 2
         top = np.fft.rfftfreq(len(x), 1 / fs)[int(np.argmax(spec))]

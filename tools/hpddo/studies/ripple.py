@@ -82,7 +82,7 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True) -> dict:
     if sc.bench:
         bench = dataclasses.replace(bench, **sc.bench)
     rparams = params.ripple_burst(**sc.ripple)
-    opts = rp.Options(bench.ripple_per_rev, sc.gear_ratio_user or bench.gear_ratio)
+    opts = rp.Options(bench.ripples_per_rev, sc.gear_ratio_user or bench.gear_ratio)
     rows = []
     for prot in sc.protocols:
         ts = sc.time_scale if prot != "long" else 0.1 * sc.time_scale
