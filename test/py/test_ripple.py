@@ -660,3 +660,24 @@ def test_standing_is_the_back_emf_of_open_terminals_with_the_drive_off():
     v = np.array([0.004, 0.05, 0.0, 0.0, np.nan])  # turning (50 mV of back-EMF); braked (current); driven; no V
     assert rp.standing(est, duty, v, rp.Options(6, 4.4)).tolist() == [True, False, False, False, False]
     assert not rp.standing(est, duty, v, rp.Options(6, 4.4, standing_V=0.0)).any()
+
+
+def test_step_position_places_each_window_in_its_step_of_duty_and_load():
+    import pandas as pd
+
+    log = pd.DataFrame({"duty": [0.3, 0.3, 0.3, 0.5, 0.5, 0.5, 0.5], "load": [0, 0, 0, 0, 0, 1, 1]})
+    assert study.step_position(log).tolist() == ["first", "within", "last", "first", "last", "first", "within"]
+    assert study.step_position(log.drop(columns=["load"])).tolist()[3:] == ["first", "within", "within", "within"]
+
+
+def test_the_unseen_quarter_breakdown_accounts_for_every_row_left(capsys):
+    """The study's breakdown of the rows above the current floor without a confident speed (docs/ripple.md,
+    Unseen at a quarter length): every such row is placed once, by its place in the step and its reason."""
+    (r,) = study.over_seeds([1], [0.25], protocols=("unseen",))
+    pos = r["uncovered_above_floor_by_position"]
+    assert sum(sum(v.values()) for v in pos.values()) == sum(r["uncovered_above_floor"].values()) > 0
+    assert "changing" in pos["first"] and "changing" not in pos["within"]  # a change inside a steady step is none
+    assert 0 < r["uncovered_above_floor_under_speed_floor"] <= sum(r["uncovered_above_floor"].values())
+    assert r["max_vs_truth_pct"] < 5.0 and r["confident_at_standstill"] == 0
+    table = study.uncovered_table([r])
+    assert table.count("\n") == 2 and table.splitlines()[2].startswith("| unseen | 0.25 | 200 |")
