@@ -549,7 +549,8 @@ def test_reference_ripple_takes_a_models_m2_as_the_prior_as_hpddo_ripple_does(tm
     for sub in ("diagnose", "evaluate"):
         assert swaps[sub][0].equals(df) and np.array_equal(swaps[sub][2], weight) and swaps[sub][3] == rec, sub
     assert rec["ke_from"] == "model " + str(tmp_path / "model") + " (M2 with brush_drop)"
-    assert rec["prior_model"]["effects"] == ["brush_drop"] and rec["prior_model"]["ke_vs_per_rad"] == pytest.approx(phys.ke_vs_per_rad)
+    assert rec["prior_model"]["effects"] == ["brush_drop"]
+    assert rec["prior_model"]["ke_vs_per_rad"] == pytest.approx(phys.ke_vs_per_rad)
     # the same figures as hpddo ripple --model: the confident counts are the rows' reference speeds
     conf = by_ripple["confident"].to_numpy()
     rpm = df["rpm_ref"].to_numpy()

@@ -70,7 +70,8 @@ def run(args) -> int:
             conf = est["confident"].to_numpy()
             above = est["i_mean_A"].to_numpy() >= opts.floor_A
             s = {"windows": len(est), "confident": int(conf.sum()), "above_floor": int(above.sum()),
-                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from, "prior_model": None if model is None else model.to_json(),
+                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from,
+                 "prior_model": None if model is None else model.to_json(),
                  "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
             if "rpm_ref" in df and np.isfinite(df["rpm_ref"].to_numpy()[rows]).any():
                 glitch, _ = dataset.glitch_mask(df)  # the glitch filter of the pipeline (docs/pipeline.md)

@@ -403,10 +403,10 @@ def count_settled_tails(bursts, duty, est, opts: Options, rpm_per_A=None):
         n = n_tail - rpm_per_A x (head share) x (I_head - I_tail)
 
     whose correction carries Ra's and Ke's errors (opts.prior_ra_rel, opts.prior_rel_sd), a share
-    of a correction of 1-3 % at the bench's inertia. The row takes that speed, the tail's confidence,
-    and `tail_start` (the head's share; NaN elsewhere). Needs rpm_per_A (Ra / Ke, RPM per A); without
-    it, or without opts.settled_tail, est is returned as it is (no `tail_start` column). est: estimate()'s DataFrame for these
-    bursts, its prior columns included. Returns a copy."""
+    of a correction of 0.2-1.4 % at the bench's inertia (unseen x0.25). The row takes that speed,
+    the tail's confidence, and `tail_start` (the head's share; NaN elsewhere). Needs rpm_per_A (Ra / Ke, RPM per A); without
+    it, or without opts.settled_tail, est is returned as it is (no `tail_start` column). est:
+    estimate()'s DataFrame for these bursts, its prior columns included. Returns a copy."""
     if not opts.settled_tail or rpm_per_A is None or not np.isfinite(rpm_per_A):
         return est
     est = est.copy()

@@ -317,7 +317,8 @@ def uncovered_table(results) -> str:
         slow = sum(r["uncovered_above_floor_under_speed_floor"] for r in rs)
         ceiling = [1 - r["uncovered_above_floor_under_speed_floor"] / r["above_floor"] for r in rs if r["above_floor"]]
         worst = [r["changing_count_max_abs_err_pct"] for r in rs if "changing_count_max_abs_err_pct" in r]
-        lines.append(f"| {prot} | {ts * (0.1 if prot == 'long' else 1):g} | {above} | {lost} | {cells[0]} | {cells[1]} | "
+        lines.append(f"| {prot} | {ts * (0.1 if prot == 'long' else 1):g} | {above} | {lost} | {cells[0]} | "
+                     f"{cells[1]} | "
                      f"{cells[2]} | {slow} | {min(ceiling):.1%}..{max(ceiling):.1%} | "
                      f"{float(np.nanmax([r['rms_vs_encoder_pct'] for r in rs])):.3f} | "
                      + (f"{max(worst):.2f} |" if worst else "– |"))
