@@ -686,9 +686,10 @@ def test_the_unseen_quarter_breakdown_accounts_for_every_row_left(capsys):
 
 def test_settled_tails_count_a_step_window_after_the_step_within_the_bound():
     """count_settled_tails (off by default): a `changing` window counted again over its tail after the
-    step, the head's speed from the back-EMF. On unseen at a quarter length (5 s steps) it lifts changing
-    windows (most of them the first of a step) and nothing else changes; the lifted speeds are the window's mean within 2 % of the
-    truth (0.46 % at most over seeds 1-6, docs/ripple.md) and a tail of fewer cycles is refused."""
+    step, the head's speed from the back-EMF. On unseen at a quarter length (5 s steps) it lifts
+    changing windows (most of them the first of a step) and nothing else changes; the lifted speeds
+    are the window's mean within 2 % of the truth (0.46 % at most over seeds 1-6, docs/ripple.md),
+    and a tail of fewer cycles is refused."""
     g = generate.generate(params.preset("default"), "unseen", 2.0, 1, time_scale=0.25, ripple=params.ripple_burst())
     t0, codes, bmeta = g["bursts"]
     log, true = g["log"], g["truth"]["rpm_true"].to_numpy()
