@@ -83,11 +83,18 @@ def dynamics(p, what: str) -> None:
                         "inductance is the effect 'inductance' in --effects")
 
 
-def ripple(p, required: bool, need: str = " (with --reference ripple)", model: bool = False) -> None:
-    """--ripples-per-rev N --gear-ratio G [--ke-vs-per-rad KE] [--floor-a A]: the speed from the
-    commutation ripple (docs/ripple.md); required by hpddo ripple, by --reference ripple elsewhere
-    (need: when they apply, in the help). model: besides, --model DIR [--name NAME], a trained
-    model's M2 as the prior, exclusive with --ke-vs-per-rad (hpddo ripple)."""
+PRIOR_MODEL_FLAGS = ("--prior-model", "--prior-name")  # where --model and --name mean something else
+
+
+def ripple(p, required: bool, need: str = " (with --reference ripple)", prior_flags: tuple | None = None) -> None:
+    """--ripples-per-rev N --gear-ratio G [--ke-vs-per-rad KE | --prior-model DIR [--prior-name NAME]]
+    [--floor-a A]: the speed from the commutation ripple (docs/ripple.md); required by hpddo ripple,
+    by --reference ripple elsewhere (need: when they apply, in the help). The back-EMF prior's Ke is
+    the user's, or a trained model's M2 with its named effects is the prior (prior_model_of), else Ke
+    is calibrated from the ripple. prior_flags: the model option's and its name's spellings, first
+    the command's own (hpddo ripple has no model of its own, so --model and --name there; train and
+    evaluate use --name, evaluate --model, for the model they write or score), then aliases; None:
+    no prior model (hpddo compare's ripple peers)."""
     need = "" if required else need
     p.add_argument("--ripples-per-rev", type=positive_int, required=required, default=None, metavar="N",
                    help=f"commutation ripples per motor revolution (2 x segments for two brushes; this bench's "
@@ -95,19 +102,44 @@ def ripple(p, required: bool, need: str = " (with --reference ripple)", model: b
     p.add_argument("--gear-ratio", type=positive_float, required=required, default=None, metavar="G",
                    help="motor revolutions per output revolution (the nameplate's; checked where there is an "
                         f"encoder){need}")
-    prior = p.add_mutually_exclusive_group() if model else p
+    prior = p.add_mutually_exclusive_group() if prior_flags else p
     prior.add_argument("--ke-vs-per-rad", type=positive_float, default=None, metavar="KE",
                        help="Ke of the ripple's back-EMF prior, V s/rad at the output shaft (default: calibrated from "
                             "the ripple)")
-    if model:
-        prior.add_argument("--model", type=pathlib.Path, default=None, metavar="DIR",
-                           help="a model folder written by hpddo train: its identified M2, with the named effects it "
-                                "was trained with, Ra and Ke its own, is the back-EMF prior (not with --ke-vs-per-rad "
-                                "or --ra-ohm)")
-        p.add_argument("--name", default=None, help="with --model: the model name, when DIR holds more than one "
-                                                    "model_<name>.h")
+    if prior_flags:
+        _prior_model(p, prior, need, prior_flags)
     p.add_argument("--floor-a", type=positive_float, default=None, metavar="A",
                    help="no ripple speed under this mean current (default 0.10 A)")
+
+
+def _prior_model(p, group, need: str, prior_flags: tuple) -> None:
+    """The prior model's options (ripple()): DIR in group (exclusive with --ke-vs-per-rad), NAME."""
+    model_flag, name_flag = prior_flags[0], prior_flags[1]
+    aliases = prior_flags[2:]
+    group.add_argument(model_flag, *aliases[0::2], dest="prior_model", type=pathlib.Path, default=None,
+                       metavar="DIR",
+                       help="a model folder written by hpddo train: its identified M2, with the named effects it "
+                            "was trained with, Ra and Ke its own, is the ripple's back-EMF prior (not with "
+                            f"--ke-vs-per-rad; the prior's Ra is the model's, not --ra-ohm){need}")
+    p.add_argument(name_flag, *aliases[1::2], dest="prior_name", default=None, metavar="NAME",
+                   help=f"with {model_flag}: the model name, when DIR holds more than one model_<name>.h")
+    p.set_defaults(prior_flags=(model_flag, name_flag))
+
+
+def prior_model_of(args):
+    """The prior model a command line gives (ripple's --model / the others' --prior-model, with its
+    name): None, else a hpddo.model.ripple.ModelPrior, read before any log is: an InputError in one
+    line naming the folder or header that is not a model of hpddo train, or the name given without
+    the folder."""
+    from ..evaluation.evaluate import model_physics
+    from ..logs.errors import InputError
+    from ..model.ripple import ModelPrior
+    model_flag, name_flag = args.prior_flags
+    if args.prior_model is None:
+        if args.prior_name is not None:
+            raise InputError(f"{name_flag} applies to {model_flag} only")
+        return None
+    return ModelPrior(model_physics(args.prior_model, args.prior_name), str(args.prior_model))
 
 
 def reference(p) -> None:
@@ -118,7 +150,7 @@ def reference(p) -> None:
                    help="the measured speed: encoder (the logs' rpm_ref, the default) or ripple (counted from the "
                         "current bursts beside each log, <condition>.ripple.csv; rows without a confident ripple "
                         "speed left out and counted; docs/ripple.md)")
-    ripple(p, required=False)
+    ripple(p, required=False, prior_flags=PRIOR_MODEL_FLAGS)
 
 
 def reference_of(args):
@@ -127,15 +159,21 @@ def reference_of(args):
     from ..logs.errors import InputError
     from ..model.reference import Ripple
     given = [f for f, v in (("--ripples-per-rev", args.ripples_per_rev), ("--gear-ratio", args.gear_ratio),
-                            ("--ke-vs-per-rad", args.ke_vs_per_rad), ("--floor-a", args.floor_a)) if v is not None]
+                            ("--ke-vs-per-rad", args.ke_vs_per_rad), ("--floor-a", args.floor_a),
+                            (args.prior_flags[0], args.prior_model), (args.prior_flags[1], args.prior_name))
+             if v is not None]
     if args.reference != "ripple":
         if given:
-            raise InputError(f"{', '.join(given)} apply to --reference ripple only (the reference is the encoder)")
+            raise InputError(f"{', '.join(given)} appl{'ies' if len(given) == 1 else 'y'} to --reference ripple only "
+                             "(the reference is the encoder)")
         return None
     if args.ripples_per_rev is None or args.gear_ratio is None:
         raise InputError("--reference ripple needs --ripples-per-rev N and --gear-ratio G (docs/ripple.md)")
+    model = prior_model_of(args)
+    # with a prior model the prior's Ra is the model's; --ra-ohm (train, diagnose) stays the Ra of
+    # the model they identify
     return Ripple(args.ripples_per_rev, args.gear_ratio, args.ke_vs_per_rad, args.floor_a,
-                  getattr(args, "ra_ohm", None))
+                  None if model is not None else getattr(args, "ra_ohm", None), model)
 
 
 def reference_words(args) -> list:
@@ -148,6 +186,9 @@ def reference_words(args) -> list:
     for flag, v in (("--ke-vs-per-rad", args.ke_vs_per_rad), ("--floor-a", args.floor_a)):
         if v is not None:
             words += [flag, repr(v)]
+    for flag, v in zip(args.prior_flags, (args.prior_model, args.prior_name)):
+        if v is not None:
+            words += [flag, str(v)]
     return words
 
 

@@ -4,6 +4,9 @@ confidence and the reason where there is none (docs/ripple.md).
 
     hpddo ripple LOG... --ripples-per-rev N --gear-ratio G --out OUT [--ke-vs-per-rad KE | --model DIR]
 
+(--prior-model DIR, --prior-name NAME: the same as --model, --name, as hpddo train, diagnose and evaluate
+spell them with --reference ripple)
+
 The back-EMF prior that picks the main line among its sub-harmonics is M2, (V - I Ra) / Ke:
 with --ke-vs-per-rad, that Ke; with --model, the identified M2 of a model folder written by
 hpddo train, with the named effects it was trained with (its own Ra and Ke); without either,
@@ -27,7 +30,8 @@ TOOL = "ripple"
 def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     p = options.new_parser(prog, __doc__)
     options.logs(p, help="bench logs (CSV, docs/bench-log.md), each with its <condition>.ripple.csv beside it")
-    options.ripple(p, required=True, model=True)
+    # the prior model as --model (this command scores no model of its own), --prior-model as the others spell it
+    options.ripple(p, required=True, prior_flags=("--model", "--name") + options.PRIOR_MODEL_FLAGS)
     options.ra_ohm(p)
     options.out(p, "output folder: new, empty, or a previous output of hpddo ripple")
     options.quiet(p)
@@ -46,14 +50,9 @@ def run(args) -> int:
     opts = rp.Options(args.ripples_per_rev, args.gear_ratio)
     if args.floor_a is not None:
         opts = dataclasses.replace(opts, floor_A=args.floor_a)
-    model = None
-    if args.model is None and args.name is not None:
-        raise InputError("--name applies to --model only")
-    if args.model is not None:  # refused before any work: a bad folder, or Ra given beside the model's own
-        from ..evaluation.evaluate import model_physics
-        if args.ra_ohm is not None:
-            raise InputError("--ra-ohm does not apply with --model: the model's M2 has its own Ra")
-        model = rp.ModelPrior(model_physics(args.model, args.name), str(args.model))
+    if args.prior_model is not None and args.ra_ohm is not None:  # refused before any work
+        raise InputError("--ra-ohm does not apply with --model: the model's M2 has its own Ra")
+    model = options.prior_model_of(args)  # a bad folder refused before any log is read
     summary = {}
     with outdir.staged(args.out, TOOL) as stage:
         for path in args.logs:
@@ -71,9 +70,8 @@ def run(args) -> int:
             conf = est["confident"].to_numpy()
             above = est["i_mean_A"].to_numpy() >= opts.floor_A
             s = {"windows": len(est), "confident": int(conf.sum()), "above_floor": int(above.sum()),
-                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from, "prior_model": None if model is None else {
-                     "folder": str(args.model), "effects": model.physics.effect_names(),
-                     "ra_ohm": float(model.physics.ra_ohm)},
+                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from,
+                 "prior_model": None if model is None else model.to_json(),
                  "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
             if "rpm_ref" in df and np.isfinite(df["rpm_ref"].to_numpy()[rows]).any():
                 glitch, _ = dataset.glitch_mask(df)  # the glitch filter of the pipeline (docs/pipeline.md)

@@ -41,13 +41,15 @@ WEIGHTS_NOTE = ("the ripple's confidence weights each kept row in Ke (eq. 20 or 
 class Ripple:
     """The ripple as the reference: the user's ripples per motor revolution and gear ratio,
     and optionally the prior's Ke (else calibrated from the ripple), the current floor and Ra
-    (else the log's ra_ohm metadata)."""
+    (else the log's ra_ohm metadata), or instead of Ke and Ra a trained model's M2 with its named
+    effects as the prior (model: ripple.ModelPrior, as hpddo ripple --model takes it)."""
 
     ripples_per_rev: int
     gear_ratio: float
     ke_vs_per_rad: float | None = None
     floor_A: float | None = None
     ra_ohm: float | None = None
+    model: rp.ModelPrior | None = None
 
     def options(self) -> rp.Options:
         o = rp.Options(self.ripples_per_rev, self.gear_ratio)
@@ -62,12 +64,13 @@ class Ripple:
 
     def to_json(self) -> dict:
         return {"reference": "ripple", "ripples_per_rev": self.ripples_per_rev, "gear_ratio": self.gear_ratio,
-                "ke_vs_per_rad": self.ke_vs_per_rad, "floor_A": self.options().floor_A}
+                "ke_vs_per_rad": self.ke_vs_per_rad, "floor_A": self.options().floor_A,
+                "prior_model": None if self.model is None else self.model.to_json()}
 
 
 def swap(path, df, meta: dict, ref: Ripple):
     """See Ripple.__call__."""
-    est, ke, ke_from = rp.speed_of_log(path, df, meta, ref.options(), ref.ra_ohm, ref.ke_vs_per_rad)
+    est, ke, ke_from = rp.speed_of_log(path, df, meta, ref.options(), ref.ra_ohm, ref.ke_vs_per_rad, model=ref.model)
     n = len(df)
     rpm = np.full(n, np.nan)
     weight = np.zeros(n)
@@ -110,7 +113,8 @@ def pooled(records: dict) -> dict | None:
         for k, c in r["left_out_by_reason"].items():
             left[k] = left.get(k, 0) + c
     first = next(iter(records.values()))
-    return {**{k: first[k] for k in ("reference", "ripples_per_rev", "gear_ratio", "ke_vs_per_rad", "floor_A")},
+    return {**{k: first[k] for k in ("reference", "ripples_per_rev", "gear_ratio", "ke_vs_per_rad", "floor_A",
+                                          "prior_model")},
             "rows": sum(r["rows"] for r in records.values()), "kept": sum(r["kept"] for r in records.values()),
             "standing_labelled": sum(r.get("standing_labelled", 0) for r in records.values()),
             "left_out": sum(r["left_out"] for r in records.values()), "left_out_by_reason": dict(sorted(left.items())),

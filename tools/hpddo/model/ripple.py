@@ -82,6 +82,13 @@ class Options:
     standing_V: float = 0.010     # standing(): with the drive off and no current the open terminals show the
     #                               back-EMF; under this |V| the shaft stands (|n| < standing_V / Ke, 0.25 RPM at
     #                               0.38 V s/rad); 0 turns the label off
+    settled_tail: bool = False    # count_settled_tails: a `changing` window counted again over its part after the
+    #                               step (the tail), its head's speed from the back-EMF; off by default (the
+    #                               figures of docs/ripple.md are without it, but the one section that measures it)
+    tail_starts: tuple = (0.1, 0.2, 0.3, 0.4)   # count_settled_tails: where the tail may begin, shares of the window
+    tail_min_cycles: float = 10.0  # count_settled_tails: ripple cycles a tail must hold; a tail has no margins, so
+    #                               its count leaves a tenth out at each end and reads the phase at filter edges
+    #                               (4 % off on a steady tail of 5.2 cycles, unseen x0.25 seed 2; docs/ripple.md)
 
 
 def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
@@ -381,6 +388,60 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
     return df
 
 
+def count_settled_tails(bursts, duty, est, opts: Options, rpm_per_A=None):
+    """A window whose speed changed inside it (`changing`: a step of duty or load, the inrush after
+    it) counted again over the part after the step has settled (opts.settled_tail; docs/ripple.md,
+    "Unseen at a quarter length"). The tail, the burst from opts.tail_starts[j] of the window on (the
+    earliest that passes), is counted as its own window (estimate_window) with every check of one:
+    the prior, `far`, `ambiguous`, the line above the noise, at least opts.tail_min_cycles cycles in
+    the tail, its counted quarters and its current's quarters steady within opts.max_spread. The speed
+    of the head (the transient) comes from the back-EMF: at the window's constant duty the speed
+    moves by -Ra dI / Ke when the current moves by dI, so over the head the speed lies rpm_per_A x
+    (mean current of the head - that of the tail) below the tail's. The window's mean speed, which
+    the encoder counts, is then
+
+        n = n_tail - rpm_per_A x (head share) x (I_head - I_tail)
+
+    whose correction carries Ra's and Ke's errors (opts.prior_ra_rel, opts.prior_rel_sd), a share
+    of a correction of 0.2-1.4 % at the bench's inertia (unseen x0.25). The row takes that speed,
+    the tail's confidence, and `tail_start` (the head's share; NaN elsewhere). Needs rpm_per_A (Ra / Ke, RPM per A); without
+    it, or without opts.settled_tail, est is returned as it is (no `tail_start` column). est:
+    estimate()'s DataFrame for these bursts, its prior columns included. Returns a copy."""
+    if not opts.settled_tail or rpm_per_A is None or not np.isfinite(rpm_per_A):
+        return est
+    est = est.copy()
+    est["tail_start"] = np.nan
+    prior = est["rpm_prior_used"].to_numpy(float)
+    sd = est[["prior_sd_below", "prior_sd_above"]].to_numpy(float)
+    for k in np.flatnonzero(est["key"].to_numpy() == "changing"):
+        d = None if duty is None else float(np.asarray(duty, float)[k])
+        if not np.isfinite(prior[k]):
+            continue
+        x = bursts.current_A(k)
+        n = len(x)
+        for share in opts.tail_starts:
+            i0 = int(round(share * n))
+            if not 0 < i0 < n:
+                continue
+            tail = type(bursts)(meta=bursts.meta, sample_hz=bursts.sample_hz, a_per_code=bursts.a_per_code,
+                                seq=bursts.seq[k:k + 1], t_s=bursts.t_s[k:k + 1] + i0 / bursts.sample_hz,
+                                codes=[np.asarray(bursts.codes[k])[i0:]])
+            r = estimate_window(tail, 0, d, float(prior[k]), opts, None, sd[k], rpm_per_A)
+            if r["key"] or not r["cycles"] >= opts.tail_min_cycles:
+                continue
+            head = i0 / n
+            rpm = r["rpm"] - rpm_per_A * head * (float(x[:i0].mean()) - float(x[i0:].mean()))
+            per_rev_out = opts.ripples_per_rev * opts.gear_ratio
+            est.loc[est.index[k], ["rpm", "f_Hz", "cycles", "snr", "spread", "spread_current", "confidence"]] = [
+                rpm, rpm * per_rev_out / 60.0, r["cycles"], r["snr"], r["spread"], r["spread_current"],
+                r["confidence"]]
+            est.loc[est.index[k], ["key", "reason"]] = ""
+            est.loc[est.index[k], "confident"] = True
+            est.loc[est.index[k], "tail_start"] = head
+            break
+    return est
+
+
 #: the single-window reasons that a count over several steady windows may lift: the window held too few
 #: cycles or too little evidence for its line; not `changing` (the speed moved), `far`, `floor`, `coasting`
 SPAN_KEYS = ("few_cycles", "not_found", "ambiguous")
@@ -627,7 +688,8 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001,
 
 @dataclasses.dataclass(frozen=True)
 class ModelPrior:
-    """A trained model's identified M2 as the back-EMF prior (hpddo ripple --model): its
+    """A trained model's identified M2 as the back-EMF prior (hpddo ripple --model, --prior-model of
+    --reference ripple; cli.options.prior_model_of reads it): its
     physics (model.physics.PhysicsParams: Ra, Ke and the named effects it was trained with), and
     where it came from, for the statement."""
 
@@ -642,6 +704,11 @@ class ModelPrior:
         rows = df if "seq" in df else df.assign(seq=np.arange(len(df), dtype=np.int64))
         rec = Recording(name=str(path), source=pathlib.Path(path), meta=dict(meta), df=rows, removed=[], n_train=0)
         return np.asarray(train.physics_rpm(rec, self.physics), float)
+
+    def to_json(self) -> dict:
+        """Where the prior came from, as summary.json and metrics.json / diagnosis.json record it."""
+        return {"folder": self.source, "effects": self.physics.effect_names(),
+                "ra_ohm": float(self.physics.ra_ohm), "ke_vs_per_rad": float(self.physics.ke_vs_per_rad)}
 
     def describe(self) -> str:
         effects = self.physics.effect_names()
@@ -693,6 +760,7 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
     per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) else None
     est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None, per_A)
+    est = count_settled_tails(b, duty, est, opts, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior

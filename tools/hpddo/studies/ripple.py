@@ -5,6 +5,8 @@ itself), then scored against the encoder and the twin's truth.
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple            # every scenario, ~1 min
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple --json F   # and the figures as JSON
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple --seeds 1,2,3,4,5,6   # every protocol over seeds, ~10 min
+    PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple --seeds 1,2,3,4,5,6 --time-scales 0.25 --protocols unseen
+        # one protocol and length over seeds, with where its rows without a confident speed lie, ~15 s
 
 Scored rows: the confident ones; the encoder's own glitches (the twin's truth lists them; the
 pipeline's glitch filter removes them) and rows where the encoder reads 0 are left out of the
@@ -74,7 +76,7 @@ SCENARIOS = (
 )
 
 
-def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True) -> dict:
+def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True, settled_tail: bool = False) -> dict:
     seed = sc.seed if seed is None else seed
     bench = params.preset(sc.preset)
     if sc.effects:
@@ -82,7 +84,7 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True) -> dict:
     if sc.bench:
         bench = dataclasses.replace(bench, **sc.bench)
     rparams = params.ripple_burst(**sc.ripple)
-    opts = rp.Options(bench.ripple_per_rev, sc.gear_ratio_user or bench.gear_ratio)
+    opts = rp.Options(bench.ripples_per_rev, sc.gear_ratio_user or bench.gear_ratio, settled_tail=settled_tail)
     rows = []
     for prot in sc.protocols:
         ts = sc.time_scale if prot != "long" else 0.1 * sc.time_scale
@@ -102,6 +104,7 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True) -> dict:
         df["encoder_glitch"] = np.isin(np.arange(len(df)), [gl["row"] for gl in g["info"]["glitches"]
                                                             if gl["column"] == "rpm_ref"])
         df["ke_prior"] = ke
+        df["step_position"] = step_position(log)
         rows.append(df)
         if not quiet:
             print(f"  {sc.name}/{prot}: {len(df)} windows, Ke for the prior {ke:.4f} V s/rad from {ke_from}",
@@ -109,6 +112,20 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True) -> dict:
     import pandas as pd
 
     return score(sc, pd.concat(rows, ignore_index=True), opts)
+
+
+def step_position(log) -> np.ndarray:
+    """Each window's place in its step of the operating point, the duty and (where the log has the
+    column) the load relay: "first" after a change (the recording's first window too), "last" before
+    one, else "within"."""
+    change = np.zeros(len(log), bool)
+    change[0] = True
+    for c in ("duty", "load"):
+        if c in log:
+            x = log[c].to_numpy()
+            change[1:] |= x[1:] != x[:-1]
+    last = np.r_[change[1:], False]
+    return np.where(change, "first", np.where(last, "last", "within"))
 
 
 def score(sc: Scenario, df, opts: rp.Options) -> dict:
@@ -159,6 +176,10 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
         "uncovered_above_both_floors": _reasons(df[above & fast & ~conf]),
         # of them, where the shaft stands (the truth 0 RPM): no commutation, so no ripple to count
         "uncovered_above_floor_at_standstill": _reasons(df[above & ~conf & (true <= 0)]),
+        # of them, by their place in the step of duty and load (step_position), and under the speed floor
+        "uncovered_above_floor_by_position": {pos: _reasons(df[above & ~conf & (df["step_position"] == pos)])
+                                              for pos in ("first", "last", "within")},
+        "uncovered_above_floor_under_speed_floor": int((above & ~conf & ~fast).sum()),
         "confident_in_spans": int((conf & (df["span"].to_numpy() > 1)).sum()) if "span" in df else 0,
     }
     if changing.any():
@@ -167,6 +188,8 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
         e_fft = 100 * (df["rpm_fft"].to_numpy()[changing] / true[changing] - 1)
         out["changing_count_median_abs_err_pct"] = float(np.median(np.abs(e_count)))
         out["changing_fft_median_abs_err_pct"] = float(np.median(np.abs(e_fft)))
+        # what the given (not confident) counts of those windows would cost if they were taken as confident
+        out["changing_count_max_abs_err_pct"] = float(np.max(np.abs(e_count)))
         up = changing & (np.gradient(true) > 0)  # spin-up windows (the speed rising through them)
         if up.any():
             out["spinup_windows"] = int(up.sum())
@@ -229,16 +252,17 @@ def table(results) -> str:
 PROTOCOLS = ("sweep", "load", "long", "unseen", "hot")
 
 
-def over_seeds(seeds, time_scales, quiet: bool = True) -> list:
-    """Every twin protocol on the default bench, per seed and time scale (the long run at a tenth
-    of it): one scored result each (run_scenario), for the worst confident error over them."""
+def over_seeds(seeds, time_scales, quiet: bool = True, protocols=PROTOCOLS, settled_tail: bool = False) -> list:
+    """Every twin protocol on the default bench (or those of protocols), per seed and time scale (the
+    long run at a tenth of it): one scored result each (run_scenario), for the worst confident error
+    over them."""
     out = []
-    for prot in PROTOCOLS:
+    for prot in protocols:
         for ts in time_scales:
             for seed in seeds:
                 sc = dataclasses.replace(SCENARIOS[0], name=f"{prot} seed {seed} x{ts:g}", protocols=(prot,),
                                          time_scale=ts, seed=seed)
-                r = run_scenario(sc, quiet=quiet)
+                r = run_scenario(sc, quiet=quiet, settled_tail=settled_tail)
                 r.update(protocol=prot, seed=seed, time_scale=ts)
                 out.append(r)
     return out
@@ -265,6 +289,42 @@ def over_seeds_table(results) -> str:
     return "\n".join(lines)
 
 
+def uncovered_table(results) -> str:
+    """Per protocol and time scale, summed over the seeds: the rows above the current floor without a
+    confident speed, by their place in the step of duty and load and by reason, how many of them are
+    under the speed floor (min_cycles ripples a window, the truth), the coverage if every row above
+    both floors were confident (min..max over the seeds), the RMS against the encoder (max over the
+    seeds), and the worst error of the counts given without confidence where the speed changed."""
+    lines = ["| protocol | time scale | above the floor | not confident | first window of a step | last window "
+             "before a change | within a step | of them under the speed floor | coverage with every row above "
+             "the speed floor confident (min..max) | RMS vs encoder % (max) | changing windows' counts, worst "
+             "vs truth % |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    keys = []
+    for r in results:
+        if (r["protocol"], r["time_scale"]) not in keys:
+            keys.append((r["protocol"], r["time_scale"]))
+    for prot, ts in keys:
+        rs = [r for r in results if r["protocol"] == prot and r["time_scale"] == ts]
+        above = sum(r["above_floor"] for r in rs)
+        pos = {}
+        for r in rs:
+            for p, why in r["uncovered_above_floor_by_position"].items():
+                for k, n in why.items():
+                    pos.setdefault(p, {})[k] = pos.setdefault(p, {}).get(k, 0) + n
+        cells = [", ".join(f"{k} {n}" for k, n in sorted(pos.get(p, {}).items())) or "none"
+                 for p in ("first", "last", "within")]
+        lost = sum(sum(v.values()) for v in pos.values())
+        slow = sum(r["uncovered_above_floor_under_speed_floor"] for r in rs)
+        ceiling = [1 - r["uncovered_above_floor_under_speed_floor"] / r["above_floor"] for r in rs if r["above_floor"]]
+        worst = [r["changing_count_max_abs_err_pct"] for r in rs if "changing_count_max_abs_err_pct" in r]
+        lines.append(f"| {prot} | {ts * (0.1 if prot == 'long' else 1):g} | {above} | {lost} | {cells[0]} | "
+                     f"{cells[1]} | "
+                     f"{cells[2]} | {slow} | {min(ceiling):.1%}..{max(ceiling):.1%} | "
+                     f"{float(np.nanmax([r['rms_vs_encoder_pct'] for r in rs])):.3f} | "
+                     + (f"{max(worst):.2f} |" if worst else "– |"))
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = parser("ripple", __doc__)
     ap.add_argument("--only", metavar="NAME", help="one scenario")
@@ -272,11 +332,22 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", metavar="S,S,..", help="instead of the scenarios: every protocol on the default "
                     "bench over these seeds, at --time-scales, and the worst confident error")
     ap.add_argument("--time-scales", metavar="X,X,..", default="1,0.25", help="with --seeds (default 1,0.25)")
+    ap.add_argument("--protocols", metavar="P,P,..", default=",".join(PROTOCOLS),
+                    help=f"with --seeds: these protocols only (default {','.join(PROTOCOLS)})")
+    ap.add_argument("--settled-tail", action="store_true",
+                    help="count a changing window again over its part after the step (ripple.count_settled_tails, "
+                         "off in the product; docs/ripple.md, Unseen at a quarter length)")
     a = ap.parse_args(argv)
     if a.seeds:
+        protocols = tuple(a.protocols.split(","))
+        unknown = sorted(set(protocols) - set(PROTOCOLS))
+        if unknown:
+            ap.error(f"--protocols: unknown {', '.join(unknown)} (known: {', '.join(PROTOCOLS)})")
         res = over_seeds([int(x) for x in a.seeds.split(",")], [float(x) for x in a.time_scales.split(",")],
-                         quiet=a.quiet)
+                         quiet=a.quiet, protocols=protocols, settled_tail=a.settled_tail)
         print(over_seeds_table(res), flush=True)
+        print("\nThe rows above the current floor without a confident speed, where they lie:\n", flush=True)
+        print(uncovered_table(res), flush=True)
         worst = worst_confident(res)
         print(f"worst confident error over {len(res)} recordings: {worst['vs_encoder_pct']:.2f} % against the "
               f"encoder ({worst['vs_encoder_scenario']}), {worst['vs_truth_pct']:.2f} % against the truth "
@@ -291,7 +362,7 @@ def main(argv=None) -> int:
     for sc in SCENARIOS:
         if a.only and sc.name != a.only:
             continue
-        res.append(run_scenario(sc, quiet=a.quiet))
+        res.append(run_scenario(sc, quiet=a.quiet, settled_tail=a.settled_tail))
     print(table(res), flush=True)
     worst = worst_confident(res)
     if worst:

@@ -152,7 +152,7 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
     }
     if ripple is not None:
         info["ripple"] = {k: _r(v, 9) for k, v in ripple.items()}
-        info["ripple"]["ripples_per_rev"] = int(bench.ripple_per_rev)
+        info["ripple"]["ripples_per_rev"] = int(bench.ripples_per_rev)
         info["ripple"]["gear_ratio"] = _r(bench.gear_ratio, 9)
     paths = {}
     if out_dir is not None:

@@ -287,7 +287,7 @@ class Bench:
     encoder_ppr: int = _HW.encoder_ppr  # pulses per motor revolution, quadrature -> 44 counts
     temp_step_C: float = 0.0625  # DS18B20 12-bit
     temp_period_s: float = 0.75  # DS18B20 12-bit conversion time: a new reading each 750 ms
-    ripple_per_rev: int = _HW.ripples_per_rev  # commutation events per motor revolution (3 slots, 2 brushes)
+    ripples_per_rev: int = _HW.ripples_per_rev  # commutation events per motor revolution (3 slots, 2 brushes)
     noise: bool = True  # ADC noise / PWM aliasing / sensor noise on or off
     glitches: int = 0  # rare single-sample sensor glitches per recording
     # --- effects: magnitude in the unit of EFFECTS[name], 0 = off ---

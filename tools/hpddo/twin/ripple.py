@@ -69,7 +69,7 @@ def synthesise(bench: Bench, res, duty, params: dict, rng):
     lsb_V = bench.adc_vref_V / (2 ** bench.adc_bits)
     full = 2 ** bench.adc_bits - 1
     a_per_code = lsb_V / bench.i_gain_V_per_A
-    N = bench.ripple_per_rev
+    N = bench.ripples_per_rev
     G = bench.gear_ratio
     la = bench.effect_si("inductance")
     brush = bench.effect_si("ripple")

@@ -105,7 +105,7 @@ def measure(bench: Bench, res, duty, load, rng):
     i_true = res.i_mean.copy()
     i_var = res.i_var.copy()
     if a_rip > 0:
-        nr = bench.ripple_per_rev
+        nr = bench.ripples_per_rev
         phase0 = rng.uniform(0, 2 * math.pi)
         x1 = nr * theta_m[:-1] + phase0
         x2 = nr * theta_m[1:] + phase0
