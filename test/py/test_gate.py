@@ -116,6 +116,29 @@ def test_fit_refuses_bad_rules():
         gate.fit(np.full((5, 3), np.nan))
 
 
+def test_isolated_rows_take_no_prototype_and_leave_the_radius():
+    """A few duty-step rows (the lags still at the previous operating point; 5 of 905 rows, under
+    the 1 % the radius leaves out) get no prototype, so the radius stays that of the rest (within
+    the shift of centre and scale they bring); with every row a candidate (core_quantile 1.0, the
+    gate before) each takes one of the 16 and the radius of every other row triples."""
+    g = training_rows()
+    points = [g[k * 150] for k in range(6)]
+    steps = np.array([np.r_[points[k][:3], points[k - 1][3:5], points[k][5]] for k in range(1, 6)])
+    with_steps = np.concatenate([g, steps])
+    alone, core, every = gate.fit(g, k=16), gate.fit(with_steps, k=16), gate.fit(with_steps, k=16, core_quantile=1.0)
+
+    def prototypes_on(gd, rows):
+        return sum(bool(np.any(np.all(gd.prototypes == z, axis=1))) for z in gate.scaled(gd, rows))
+
+    assert prototypes_on(core, steps) == 0 and prototypes_on(every, steps) == len(steps)
+    assert abs(float(core.r_in_sq) / float(alone.r_in_sq) - 1.0) < 0.1
+    assert float(every.r_in_sq) > 3.0 * float(alone.r_in_sq)
+    assert np.mean(gate.weight(core, g) == 1.0) >= gate.IN_QUANTILE - 1e-9
+    assert f"of {len(with_steps)} training rows" in core.rule  # the header's banner says how many were candidates
+    with pytest.raises(ValueError):
+        gate.fit(g, core_quantile=0.0)
+
+
 def test_constant_rows_keep_a_minimum_radius():
     gd = gate.fit(np.ones((50, 3)), k=4)
     # one distinct row: one prototype, repeated to the k a model header declares

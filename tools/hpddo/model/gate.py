@@ -22,7 +22,17 @@ is OUT_FACTOR**2 r_in_sq (the weight reaches 0 at OUT_FACTOR times that distance
 
 The prototypes are the first K of a deterministic farthest-point sampling of the training
 rows (started at the row nearest the centre; ties go to the lowest row index), optionally
-moved by KMEANS_ITERATIONS Lloyd steps ("kmeans"). No BLAS, no random numbers: every
+moved by KMEANS_ITERATIONS Lloyd steps ("kmeans"). The sampling runs over the core of the
+training rows: those whose distance to their nearest other training row lies within the
+core_quantile quantile (IN_QUANTILE by default, the same 99 % the radius describes). The 1 %
+most isolated rows (a duty step's first window, whose lagged features still hold the old
+operating point) receive no prototype: farthest-point sampling would put one on each, every
+one of them taken from the K that cover the rest, so the radius of the gate (and so its
+weight everywhere) depended on how many such rows a bench holds. Measured on the default twin
+(docs/ripple.md, "Why plain M3 from the ripple missed before"): 8 more duty-step rows out of 6759
+(the encoder labels them, the ripple leaves them out as `changing`) took 6 more prototypes
+and doubled r_in_sq, 0.108 -> 0.201; with the core, 0.058 and 0.060. core_quantile = 1.0 is
+the gate before (every row a candidate). No BLAS, no random numbers: every
 distance is the float32 arithmetic of gate.h in its order, so the prototypes, the
 thresholds and the weights are the same bytes on every CPU.
 
@@ -165,14 +175,36 @@ def open_gate(dims: int, k: int = DEFAULT_PROTOTYPES) -> GateData:
                     r_in_sq=F32(big), r_out_sq=F32(big), rule="open: no novelty gate (w = 1)")
 
 
+def nearest_other_sq(z: np.ndarray) -> np.ndarray:
+    """Each row's squared distance to its nearest other row (float32, gate.h's order of the
+    sum; inf for a single row). N^2 D operations: 0.5 s for the default bench's 6759 rows."""
+    out = np.empty(len(z), F32)
+    for i in range(len(z)):
+        d = _sq_dist(z, z[i])
+        d[i] = np.inf
+        out[i] = d.min() if len(z) > 1 else np.inf
+    return out
+
+
+def core_rows(z: np.ndarray, core_quantile: float) -> np.ndarray:
+    """Indices (ascending) of the rows whose nearest-other-row distance lies within the
+    core_quantile quantile: the candidates for a prototype (every row at 1.0)."""
+    if core_quantile >= 1.0 or len(z) < 2:
+        return np.arange(len(z))
+    nn = nearest_other_sq(z).astype(np.float64)
+    return np.flatnonzero(nn <= np.quantile(nn, core_quantile))
+
+
 def fit(g_train, k: int = DEFAULT_PROTOTYPES, method: str = "fps", in_quantile: float = IN_QUANTILE,
-        out_factor: float = OUT_FACTOR) -> GateData:
-    """The gate of the training rows g_train (N, D): scaling, k prototypes, thresholds by
-    the rule of the module text. Rows with a NaN or infinity are left out."""
+        out_factor: float = OUT_FACTOR, core_quantile: float | None = None) -> GateData:
+    """The gate of the training rows g_train (N, D): scaling, k prototypes placed on the core
+    of the rows (core_quantile, in_quantile by default; 1.0: every row), thresholds by the
+    rule of the module text over every row. Rows with a NaN or infinity are left out."""
     if method not in METHODS:
         raise ValueError(f"unknown placement {method!r} (known: {', '.join(METHODS)})")
-    if not (0.0 < in_quantile <= 1.0 and out_factor > 1.0 and k >= 1):
-        raise ValueError("need 0 < in_quantile <= 1, out_factor > 1, k >= 1")
+    core_quantile = in_quantile if core_quantile is None else core_quantile
+    if not (0.0 < in_quantile <= 1.0 and 0.0 < core_quantile <= 1.0 and out_factor > 1.0 and k >= 1):
+        raise ValueError("need 0 < in_quantile <= 1, 0 < core_quantile <= 1, out_factor > 1, k >= 1")
     g = np.asarray(g_train, np.float64)
     g = g[np.isfinite(g).all(axis=1)]
     if len(g) == 0:
@@ -183,9 +215,10 @@ def fit(g_train, k: int = DEFAULT_PROTOTYPES, method: str = "fps", in_quantile: 
     gd = GateData(centre=mean.astype(F32), scale=scale.astype(F32), prototypes=np.zeros((0, g.shape[1]), F32),
                   r_in_sq=F32(0), r_out_sq=F32(np.inf))
     z = scaled(gd, g)
-    protos = z[_farthest_points(z, k)]
+    core = z[core_rows(z, core_quantile)]
+    protos = core[_farthest_points(core, k)]
     if method == "kmeans":
-        protos = _kmeans(z, protos, KMEANS_ITERATIONS)
+        protos = _kmeans(core, protos, KMEANS_ITERATIONS)
     # Fewer distinct rows than k: the prototypes repeat (a repeat changes no distance), so
     # that a model always carries the k its header declares.
     protos = protos[np.arange(k) % len(protos)]
@@ -194,7 +227,8 @@ def fit(g_train, k: int = DEFAULT_PROTOTYPES, method: str = "fps", in_quantile: 
     r_in_sq = max(float(np.quantile(d_train.astype(np.float64), in_quantile)), MIN_RADIUS ** 2)
     gd.r_in_sq = F32(r_in_sq)
     gd.r_out_sq = F32(out_factor * out_factor * float(gd.r_in_sq))
-    gd.rule = (f"{gd.count} prototypes by {method} over {len(g)} training rows; r_in = "
+    gd.rule = (f"{gd.count} prototypes by {method} over {len(core)} of {len(g)} training rows (nearest-row "
+               f"distance within the {core_quantile:g} quantile); r_in = "
                f"{in_quantile:g} quantile of their distances (at least {MIN_RADIUS:g}), r_out = {out_factor:g} r_in")
     return gd
 

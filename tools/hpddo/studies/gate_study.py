@@ -37,7 +37,7 @@ TWINS = {
     "thermal": ("ideal", {"thermal_ra": 0.393, "magnet_thermal": -0.2, "current_offset": 8.0}),
     "hidden": ("ideal", {"brush_drop": 0.5, "saturation": 4.0, "v_gain": 0.8}),
 }
-VARIANTS = [  # (name, dims with temperature?, prototypes, placement, in-quantile)
+VARIANTS = [  # (name, dims with temperature?, prototypes, placement, in-quantile[, core quantile, default the in-quantile])
     ("x/fps16/q99", False, 16, "fps", 0.99),
     ("x/fps32/q99", False, 32, "fps", 0.99),
     ("x/fps64/q99", False, 64, "fps", 0.99),
@@ -48,6 +48,7 @@ VARIANTS = [  # (name, dims with temperature?, prototypes, placement, in-quantil
     ("xT/fps32/max", True, 32, "fps", 1.0),
     ("xT/km32/q99", True, 32, "kmeans", 0.99),
     ("x/km32/q99", False, 32, "kmeans", 0.99),
+    ("x/fps32/q99/all", False, 32, "fps", 0.99, 1.0),  # prototypes on every row: the gate before the core
 ]
 
 
@@ -166,7 +167,8 @@ def measure(out, progress: bool = True, max_iter: int | None = None) -> dict:
             splits = {"chrono": [(r, slice(r.n_train, r.n)) for r in recs],
                       "unseen": [(r, slice(0, r.n)) for r in evals["unseen"]],
                       "hot": [(r, slice(int(HOT_PREHEAT_S * RATE_HZ), r.n)) for r in evals["hot"]]}
-            gates = {v[0]: fit(g_train[v[1]], k=v[2], method=v[3], in_quantile=v[4]) for v in VARIANTS}
+            gates = {v[0]: fit(g_train[v[1]], k=v[2], method=v[3], in_quantile=v[4], core_quantile=(v[5:] or (None,))[0])
+                     for v in VARIANTS}
             row = {}
             for split, parts in splits.items():
                 ref, est = [], {"lookup": [], "M2": [], "M3": []}

@@ -17,6 +17,17 @@ the commands of that section, run in one go, and their figures printed as its ta
 
 Every figure is read back from the commands' own metrics.json / diagnosis.json; the costs are
 wall-clock seconds of each command (a process of its own) in this run, ripple against encoder.
+
+    PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple_reference --explain DIR [--json F]
+
+reads the models of a finished `--work DIR` run back (no training) and says where M3 from the
+ripple and from the encoder part (`explain`): the rows each trains on, each model's novelty gate
+(its radius, the prototypes that serve at most 3 training rows) and, on the never-seen
+recordings' no-load rows at duty 1.0, the gate's weight and the network's clamped residual; then
+every model scored again with the gate fitted to the encoder's rows and to the ripple's, by the
+gate's rule and by the rule before the core (every row a candidate for a prototype,
+gate.fit(core_quantile=1.0)). M3 is recomputed in numpy (the header's network in float64, its
+clamp and envelope, gate.weight as gate.h): with the header's own gate it gives the replay's RMSE.
 """
 from __future__ import annotations
 
@@ -28,6 +39,8 @@ import subprocess
 import sys
 import tempfile
 import time
+
+import numpy as np
 
 from .. import bench as bench_hw
 from . import parser
@@ -225,6 +238,111 @@ def tables(r: dict) -> str:
     return "\n".join([*lines, "", f"{costs}; the whole study {r['total_s']:.0f} s"])
 
 
+EXPLAIN_POINT = (1.0, 0)  # (duty, load) of the never-seen rows where the two M3 parted (docs/ripple.md)
+
+
+def _m3(md, gd, x: np.ndarray, n2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """n_M3 of a model header's network (float64) with the gate gd: n_M2 + w clamp(MLP), w = 0 outside
+    the envelope (observer.h's rules); (n_M3, w, clamped residual) per row."""
+    from ..model import gate as gate_mod
+    h = (x - md.scaler_mean.astype(float)) / md.scaler_scale.astype(float)
+    for k, (w_, b_) in enumerate(md.layers):
+        h = h @ w_.astype(float).T + b_.astype(float)
+        if k < len(md.layers) - 1:
+            h = np.maximum(h, 0.0)
+    r = np.clip(np.nan_to_num(h[:, 0]), -md.clamp_rpm, md.clamp_rpm)
+    inside = np.isfinite(x).all(axis=1) & np.all((x >= md.env_lo) & (x <= md.env_hi), axis=1)
+    w = np.zeros(len(x))
+    if inside.any():
+        w[inside] = gate_mod.weight(gd, x[inside])
+    return n2 + w * r, w, r
+
+
+def explain(work: pathlib.Path) -> dict:
+    """Why M3 from the ripple and from the encoder part on the never-seen recordings, from the models of
+    a finished run (see the module text)."""
+    from ..logs import dataset
+    from ..model import export, gate as gate_mod, train
+    from ..model.reference import Ripple
+
+    work = pathlib.Path(work)
+    logs, val = [work / "bench" / f"{p}.csv" for p in BENCH], [work / "val" / f"{p}.csv" for p in VAL]
+    recs = {"encoder": dataset.load_recordings(logs),
+            "ripple": dataset.load_recordings(logs, reference=Ripple(bench_hw.HARDWARE.ripples_per_rev,
+                                                                     bench_hw.HARDWARE.gear_ratio))}
+    vrecs = [dataset.load_recording(v, train_fraction=0.0) for v in val]
+    # the training rows each reference labels, by seq: those only the encoder labels, and how many are
+    # the first window after a change of duty
+    only = {}
+    for re_, rr in zip(recs["encoder"], recs["ripple"]):
+        def labelled(r):
+            d = r.df.iloc[: r.n_train]
+            return set(d["seq"][np.isfinite(d["rpm_ref"].to_numpy(float))])
+        e_only = sorted(labelled(re_) - labelled(rr))
+        duty = re_.df.set_index("seq")["duty"]
+        step = [int(s) for s in e_only if s == duty.index[0] or duty.get(s) != duty.shift(1).get(s)]
+        only[re_.name] = {"encoder_only": len(e_only), "first_after_duty_change": len(step),
+                          "ripple_only": len(labelled(rr) - labelled(re_))}
+    out = {"point": {"duty": EXPLAIN_POINT[0], "load": EXPLAIN_POINT[1]}, "rows_only_one_labels": only, "models": {}}
+    models = {f"{label}_{ref}_s{seed}": (label, ref) for label, ref, _, seed in MODELS}
+    hdr = {n: export.read_model_header((work / f"M_{n}" / "model_default.h").read_text()) for n in models}
+    for label in dict.fromkeys(lab for lab, _ in models.values()):
+        first = {ref: next(n for n, (lab, r) in models.items() if lab == label and r == ref) for ref in ("encoder", "ripple")}
+        xs = {ref: train.labelled_rows(recs[ref], hdr[first[ref]].physics)[0] for ref in first}
+        gates = {f"{rule} on the {ref}'s rows": gate_mod.fit(xs[ref], core_quantile=cq)
+                 for rule, cq in (("core", None), ("every row", 1.0)) for ref in first}
+        for n, (lab, ref) in models.items():
+            if lab != label:
+                continue
+            md = hdr[n]
+            z = gate_mod.scaled(md.gate, xs[ref])
+            near = np.argmin(np.stack([gate_mod._sq_dist(z, p) for p in md.gate.prototypes], axis=1), axis=1)
+            rec = {"train_rows": int(len(xs[ref])), "r_in_sq": float(md.gate.r_in_sq),
+                   "prototypes_serving_at_most_3_rows": int((np.bincount(near, minlength=md.gate.count) <= 3).sum()),
+                   "rmse": {}}
+            for gname, gd in {"own": md.gate, **gates}.items():
+                cell, at = {}, {}
+                for v, vr in zip(VAL, vrecs):
+                    x, n2 = train.features(vr, md.physics)
+                    est, w, r = _m3(md, gd, x, n2)
+                    err = est - vr.df["rpm_ref"].to_numpy(float)
+                    cell[v] = float(np.sqrt(np.nanmean(err ** 2)))
+                    sel = ((vr.df["duty"] == EXPLAIN_POINT[0]) & (vr.df["load"] == EXPLAIN_POINT[1])).to_numpy()
+                    if sel.any():
+                        at[v] = {"rows": int(sel.sum()), "rmse": float(np.sqrt(np.nanmean(err[sel] ** 2))),
+                                 "w_mean": float(w[sel].mean()), "clamped_residual_rpm": float(r[sel].mean())}
+                cell["average"] = float(np.mean([cell[v] for v in VAL]))
+                rec["rmse"][gname] = {**cell, "r_in_sq": float(gd.r_in_sq), "at_point": at}
+            out["models"][n] = rec
+    return out
+
+
+def explain_text(r: dict) -> str:
+    pt = r["point"]
+    lines = ["training rows the encoder labels and the ripple leaves out: " + "; ".join(
+        f"{k} {v['encoder_only']} ({v['first_after_duty_change']} the first window of the recording or after a change of duty; "
+        f"{v['ripple_only']} the other way)" for k, v in r["rows_only_one_labels"].items())]
+    for n, m in r["models"].items():
+        lines.append(f"{n}: {m['train_rows']} rows, gate r_in_sq {m['r_in_sq']:.4f}, "
+                     f"{m['prototypes_serving_at_most_3_rows']} of its prototypes serve at most 3 training rows")
+        for g, c in m["rmse"].items():
+            at = "; ".join(f"{v} {a['rows']} rows at duty {pt['duty']:g} load {pt['load']}: RMSE {a['rmse']:.2f}, "
+                           f"w {a['w_mean']:.3f}, clamped residual {a['clamped_residual_rpm']:+.2f} RPM"
+                           for v, a in c["at_point"].items())
+            lines.append(f"  gate {g} (r_in_sq {c['r_in_sq']:.4f}): M3 unseen {c['unseen']:.2f}, hot {c['hot']:.2f}, "
+                         f"average {c['average']:.2f}; {at}")
+    pairs = sorted({n.replace("ripple", "encoder") for n in r["models"] if "ripple" in n})
+    for e in pairs:
+        rp = e.replace("encoder", "ripple")
+        if rp not in r["models"] or e not in r["models"]:
+            continue
+        cells = ", ".join(f"{g} {r['models'][rp]['rmse'][g]['average'] / r['models'][e]['rmse'][g]['average'] - 1:+.1%}"
+                          for g in r["models"][e]["rmse"] if g != "own")
+        own = r["models"][rp]["rmse"]["own"]["average"] / r["models"][e]["rmse"]["own"]["average"] - 1
+        lines.append(f"{rp} / {e}: own gates {own:+.1%}; both with the gate {cells}")
+    return "\n".join(lines)
+
+
 def main(argv=None) -> int:
     ap = parser("ripple_reference", __doc__)
     ap.add_argument("--work", type=pathlib.Path, help="keep the benches, models and reports here (new or empty); "
@@ -234,7 +352,15 @@ def main(argv=None) -> int:
                     "(default 1: the doc's figures)")
     ap.add_argument("--epochs", type=int, default=None, help="M3's epochs (default hpddo train's), for a quick check")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--explain", type=pathlib.Path, metavar="DIR", help="read the models of a finished --work DIR "
+                    "back and say where M3 from the ripple and from the encoder part (no training)")
     args = ap.parse_args(argv)
+    if args.explain:
+        r = explain(args.explain)
+        print(explain_text(r))
+        if args.json:
+            args.json.write_text(json.dumps(r, indent=1))
+        return 0
     work = args.work or pathlib.Path(tempfile.mkdtemp(prefix="hpddo-ripple-reference-"))
     work.mkdir(parents=True, exist_ok=True)
     try:
