@@ -19,6 +19,19 @@ ROOT = pathlib.Path(__file__).resolve().parents[2]
 SCENARIOS = {s.name: s for s in study.SCENARIOS}
 
 
+
+def _refused(argv, status, capsys) -> str:
+    """Runs the command line, which must end with status (2: argparse's usage error, a
+    SystemExit), and returns the last line it wrote to stderr."""
+    from hpddo import cli
+    if status == 2:
+        with pytest.raises(SystemExit) as exc:
+            cli.main(argv)
+        assert exc.value.code == 2
+    else:
+        assert cli.main(argv) == status
+    return capsys.readouterr().err.strip().splitlines()[-1]
+
 def _scenario(name, **changes):
     return study.run_scenario(dataclasses.replace(SCENARIOS[name], **changes))
 
@@ -482,16 +495,9 @@ def test_hpddo_ripple_model_option_refuses_a_bad_folder_in_one_line(tmp_path, ca
 
     def err(*extra, status=1):
         out = tmp_path / f"out{len(list(tmp_path.iterdir()))}"
-        argv = ["ripple"] + base + ["--out", str(out)] + list(extra)
-        if status == 2:  # argparse's usage error
-            with pytest.raises(SystemExit) as exc:
-                cli.main(argv)
-            assert exc.value.code == 2
-        else:
-            assert cli.main(argv) == status
-        e = capsys.readouterr().err.strip()
+        line = _refused(["ripple"] + base + ["--out", str(out)] + list(extra), status, capsys)
         assert not out.exists() or not any(out.iterdir()), "no partial output"
-        return e.splitlines()[-1]
+        return line
 
     assert "no such model folder" in err("--model", str(tmp_path / "nowhere"))
     (tmp_path / "empty").mkdir()
@@ -582,15 +588,9 @@ def test_reference_ripple_prior_model_refused_in_one_line_before_any_work(tmp_pa
     (bad / "model_x.h").write_text("// not a model\nstatic const uint32_t kChecksum = 0x12345678u;\n")
 
     def err(argv, status=1):
-        if status == 2:  # argparse's usage error
-            with pytest.raises(SystemExit) as exc:
-                cli.main(argv)
-            assert exc.value.code == 2
-        else:
-            assert cli.main(argv) == status
-        e = capsys.readouterr().err.strip().splitlines()
+        line = _refused(argv, status, capsys)
         assert not (tmp_path / "out").exists(), "no output"
-        return e[-1]
+        return line
 
     for sub in REFERENCE_COMMANDS:
         def ref(*extra):

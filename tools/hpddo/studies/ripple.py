@@ -268,18 +268,21 @@ def over_seeds(seeds, time_scales, quiet: bool = True, protocols=PROTOCOLS, sett
     return out
 
 
+def _by_protocol_and_scale(results) -> list:
+    """The results grouped by (protocol, time scale), in the order they first appear."""
+    groups = {}
+    for r in results:
+        groups.setdefault((r["protocol"], r["time_scale"]), []).append(r)
+    return list(groups.items())
+
+
 def over_seeds_table(results) -> str:
     """Per protocol and time scale, over the seeds: windows, the confident share above the
     current floor (min..max), the worst confident error against the encoder and the truth, and
     confident windows where the shaft stands."""
     lines = ["| protocol | time scale | seeds | windows | confident above the floor (min..max) | "
              "worst vs encoder % | worst vs truth % | confident at a standstill |", "|---|---|---|---|---|---|---|---|"]
-    keys = []
-    for r in results:
-        if (r["protocol"], r["time_scale"]) not in keys:
-            keys.append((r["protocol"], r["time_scale"]))
-    for prot, ts in keys:
-        rs = [r for r in results if r["protocol"] == prot and r["time_scale"] == ts]
+    for (prot, ts), rs in _by_protocol_and_scale(results):
         share = [r["confident_share_above_floor"] for r in rs]
         enc = float(np.nanmax([r["max_vs_encoder_pct"] for r in rs]))
         tru = float(np.nanmax([r["max_vs_truth_pct"] for r in rs]))
@@ -299,12 +302,7 @@ def uncovered_table(results) -> str:
              "before a change | within a step | of them under the speed floor | coverage with every row above "
              "the speed floor confident (min..max) | RMS vs encoder % (max) | changing windows' counts, worst "
              "vs truth % |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-    keys = []
-    for r in results:
-        if (r["protocol"], r["time_scale"]) not in keys:
-            keys.append((r["protocol"], r["time_scale"]))
-    for prot, ts in keys:
-        rs = [r for r in results if r["protocol"] == prot and r["time_scale"] == ts]
+    for (prot, ts), rs in _by_protocol_and_scale(results):
         above = sum(r["above_floor"] for r in rs)
         pos = {}
         for r in rs:
