@@ -39,6 +39,11 @@ class Bursts:
     def current_A(self, k: int) -> np.ndarray:
         return self.codes[k].astype(float) * self.a_per_code
 
+    def one(self, k: int, codes, t_offset_s: float = 0.0) -> "Bursts":
+        """The bursts of window k alone, holding codes (a part of its burst, or several bursts
+        joined), starting t_offset_s after the window's burst."""
+        return dataclasses.replace(self, seq=self.seq[k:k + 1], t_s=self.t_s[k:k + 1] + t_offset_s, codes=[codes])
+
     def __len__(self) -> int:
         return len(self.codes)
 

@@ -423,9 +423,7 @@ def count_settled_tails(bursts, duty, est, opts: Options, rpm_per_A=None):
             i0 = int(round(share * n))
             if not 0 < i0 < n:
                 continue
-            tail = type(bursts)(meta=bursts.meta, sample_hz=bursts.sample_hz, a_per_code=bursts.a_per_code,
-                                seq=bursts.seq[k:k + 1], t_s=bursts.t_s[k:k + 1] + i0 / bursts.sample_hz,
-                                codes=[np.asarray(bursts.codes[k])[i0:]])
+            tail = bursts.one(k, np.asarray(bursts.codes[k])[i0:], i0 / bursts.sample_hz)
             r = estimate_window(tail, 0, d, float(prior[k]), opts, None, sd[k], rpm_per_A)
             if r["key"] or not r["cycles"] >= opts.tail_min_cycles:
                 continue
@@ -501,9 +499,7 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
     prior = est["rpm_prior_used"].to_numpy(float)
     sd = est[["prior_sd_below", "prior_sd_above"]].to_numpy(float)
     for a, e in steady_spans(bursts, duty, keys, opts):
-        joined = type(bursts)(meta=bursts.meta, sample_hz=bursts.sample_hz, a_per_code=bursts.a_per_code,
-                              seq=bursts.seq[a:a + 1], t_s=bursts.t_s[a:a + 1],
-                              codes=[np.concatenate(bursts.codes[a:e])])
+        joined = bursts.one(a, np.concatenate(bursts.codes[a:e]))
         has_prior = bool(np.isfinite(prior[a:e]).any())
         pr = float(np.nanmedian(prior[a:e])) if has_prior else None
         psd = np.nanmedian(sd[a:e], axis=0) if has_prior else None

@@ -194,11 +194,13 @@ def confident(f_hz: float, f_prior_hz: float) -> bool:
 
 class RaTracker:
     """acq_ripple_count.h RippleRa and ripple_ra_step (float64: the board's float32 differs in
-    the last bits). p: the model's PhysicsParams (hpddo.model.physics)."""
+    the last bits). p: the model's PhysicsParams (hpddo.model.physics). ke_fixed: a Ke (V s/rad)
+    put in place of the calibrated one once the calibration ends (the host's error budget,
+    studies.ripple_board; the board has none)."""
 
-    def __init__(self, p):
+    def __init__(self, p, ke_fixed: float | None = None):
         from . import physics
-        self.p, self.physics = p, physics
+        self.p, self.physics, self.ke_fixed = p, physics, ke_fixed
         self.ke_sum, self.ke_cal, self.ra_ohm, self.tw_C, self.n_cal, self.have = 0.0, 0.0, 0.0, 0.0, 0, False
         self.n_glitch = 0  # windows left out as a glitch (the host's count only: the board keeps none)
 
@@ -217,7 +219,7 @@ class RaTracker:
             self.ke_sum += (v - vb - i * p.ra_ohm) / (w * sat)
             self.n_cal += 1
             if self.n_cal == n_cal:
-                self.ke_cal = self.ke_sum / n_cal
+                self.ke_cal = self.ke_sum / n_cal if self.ke_fixed is None else self.ke_fixed
                 self.ra_ohm, self.tw_C, self.have = p.ra_ohm, p.t_ref_C, True
             return self.have
         ke = self.ke_cal * sat
@@ -237,7 +239,7 @@ class RaTracker:
 
 
 def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per_output_rev: float,
-          gap_periods: int):
+          gap_periods: int, ra: RaTracker | None = None):
     """What the board computes over a recording (acq_ripple_board.h on_window, the counter reset
     at the first window): bursts are the windows' current codes in order (each the window's
     last periods, gap_periods after the previous burst's end), v_V, i_A their means, rpm_prior
@@ -262,7 +264,7 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
     two ripple periods as one). Float32 as on the board, operation for operation."""
     f32 = np.float32
     c = Counter()
-    ra = RaTracker(p)
+    ra = RaTracker(p) if ra is None else ra  # a caller's tracker, to read its state afterwards
     lag = band_lag(gap_periods, fs_hz)
     bands = {}  # burst index -> (k, t_exp) from the prior band_lag windows before
     zero = f32(0)

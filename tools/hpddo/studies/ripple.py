@@ -14,6 +14,7 @@ comparison with the encoder and counted.
 """
 from __future__ import annotations
 
+import collections
 import dataclasses
 import json
 import math
@@ -304,11 +305,10 @@ def uncovered_table(results) -> str:
              "vs truth % |", "|---|---|---|---|---|---|---|---|---|---|---|"]
     for (prot, ts), rs in _by_protocol_and_scale(results):
         above = sum(r["above_floor"] for r in rs)
-        pos = {}
+        pos = {p: collections.Counter() for p in ("first", "last", "within")}
         for r in rs:
             for p, why in r["uncovered_above_floor_by_position"].items():
-                for k, n in why.items():
-                    pos.setdefault(p, {})[k] = pos.setdefault(p, {}).get(k, 0) + n
+                pos[p].update(why)
         cells = [", ".join(f"{k} {n}" for k, n in sorted(pos.get(p, {}).items())) or "none"
                  for p in ("first", "last", "within")]
         lost = sum(sum(v.values()) for v in pos.values())

@@ -66,28 +66,9 @@ def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, b
     n = burst_n(round(10000 / rate_hz))
     codes = [np.asarray(c)[len(c) - n:] for c in burst_codes]
     per_rev = RIPPLES_PER_REV * bench.HARDWARE.gear_ratio
-    tracker = {}
-
-    class _Kept(rc.RaTracker):  # keeps the tracker for the budget: its Ke, its gate's count
-        def __init__(self, p):
-            super().__init__(p)
-            tracker["t"] = self
-            if ke_cal is not None:
-                self.step = self._fixed_ke_step
-
-        def _fixed_ke_step(self, *a):
-            had = self.have
-            out = rc.RaTracker.step(self, *a)
-            if self.have and not had:
-                self.ke_cal = ke_cal
-            return out
-
-    real, rc.RaTracker = rc.RaTracker, _Kept
-    try:
-        rows = rc.track(codes, log["v_V"].to_numpy(), log["i_A"].to_numpy(), prior, dt, model.physics, 10000.0, per_rev,
-                        round(10000 / rate_hz) - n)
-    finally:
-        rc.RaTracker = real
+    tracker = rc.RaTracker(model.physics, ke_fixed=ke_cal)  # kept for the budget: its Ke, its gate's count
+    rows = rc.track(codes, log["v_V"].to_numpy(), log["i_A"].to_numpy(), prior, dt, model.physics, 10000.0, per_rev,
+                    round(10000 / rate_hz) - n, ra=tracker)
     rpm = np.array([r["rpm"] if r["confident"] else np.nan for r in rows])
     have = np.array([r["have_ra"] for r in rows])
     ra = np.array([r["ra_ohm"] for r in rows])
@@ -104,7 +85,7 @@ def run(protocol: str = "long", time_scale: float = 0.1, rate_hz: float = 2.0, b
                    t_rms_K=float(np.sqrt(np.mean(e_t ** 2))), t_max_K=float(np.max(np.abs(e_t))),
                    t_true_start_C=float(t_true[0]), t_true_end_C=float(t_true[-1]),
                    t_est_end_C=float(tw_c[-1]), ra_true_end=float(ra_true[-1]), ra_est_end=float(ra[-1]),
-                   ke_cal=float(tracker["t"].ke_cal), ra_glitches=int(tracker["t"].n_glitch),
+                   ke_cal=float(tracker.ke_cal), ra_glitches=int(tracker.n_glitch),
                    ke_sens_K_per_pct=_ke_sensitivity(model.physics, log, truth, have))
     return figures
 

@@ -242,20 +242,17 @@ EXPLAIN_POINT = (1.0, 0)  # (duty, load) of the never-seen rows where the two M3
 
 
 def _m3(md, gd, x: np.ndarray, n2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """n_M3 of a model header's network (float64) with the gate gd: n_M2 + w clamp(MLP), w = 0 outside
-    the envelope (observer.h's rules); (n_M3, w, clamped residual) per row."""
-    from ..model import gate as gate_mod
-    h = (x - md.scaler_mean.astype(float)) / md.scaler_scale.astype(float)
-    for k, (w_, b_) in enumerate(md.layers):
-        h = h @ w_.astype(float).T + b_.astype(float)
-        if k < len(md.layers) - 1:
-            h = np.maximum(h, 0.0)
-    r = np.clip(np.nan_to_num(h[:, 0]), -md.clamp_rpm, md.clamp_rpm)
-    inside = np.isfinite(x).all(axis=1) & np.all((x >= md.env_lo) & (x <= md.env_hi), axis=1)
-    w = np.zeros(len(x))
-    if inside.any():
-        w[inside] = gate_mod.weight(gd, x[inside])
-    return n2 + w * r, w, r
+    """n_M3 of a model header's network with the gate gd, by train.correction (observer.h's rules,
+    the network in float64); (n_M3, w, the network's clamped residual on every row, gated or not)."""
+    from ..model import network, train
+    res = train.Residual(scaler=network.Scaler(mean_=md.scaler_mean.astype(float), scale_=md.scaler_scale.astype(float)),
+                         mlp=network.Network(coefs_=[w_.astype(float).T for w_, _ in md.layers],
+                                             intercepts_=[b_.astype(float) for _, b_ in md.layers]),
+                         clamp_rpm=float(md.clamp_rpm), env_lo=md.env_lo, env_hi=md.env_hi, gate=gd, n_train=0,
+                         loss_curve=[])
+    corr, w = train.correction(res, x)
+    r = np.clip(np.nan_to_num(res.mlp.predict(res.scaler.transform(x))), -res.clamp_rpm, res.clamp_rpm)
+    return n2 + corr, w, r
 
 
 def explain(work: pathlib.Path) -> dict:
