@@ -47,13 +47,14 @@ struct RippleCounter {
   uint16_t t15, t25; ///< 1.5 and 2.5 expected ripple periods, in PWM periods (from the prior)
   uint16_t cyc;      ///< ripple cycles counted since the last latch
   uint16_t span;     ///< PWM periods they took
+  uint16_t t1;       ///< running mean of the one-period intervals, PWM periods (0: none since the settling)
 };
 
 inline void ripple_counter_reset(RippleCounter* c) {
   c->l1 = c->l2 = c->b = c->amp = 0;
   c->k = kRippleLpReset;
   c->high = c->odd = c->have_last = 0;
-  c->settle = c->t = c->last_t = c->t15 = c->t25 = c->cyc = c->span = 0;
+  c->settle = c->t = c->last_t = c->t15 = c->t25 = c->cyc = c->span = c->t1 = 0;
 }
 
 /// A new burst, gap PWM periods after the last one's end, with low-pass shift k and the
@@ -72,6 +73,7 @@ __attribute__((noinline)) inline void ripple_counter_begin(RippleCounter* c, uin
   if (first_burst || gap > c->t25) {  // from zero, or after a gap longer than the count bridges
     const uint32_t settle = static_cast<uint32_t>(first_burst ? 8u : 4u) << (k + 2u);
     c->settle = static_cast<uint16_t>(settle > 60000u ? 60000u : settle);
+    c->t1 = 0;
   }
 }
 
@@ -101,10 +103,13 @@ __attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, ui
       if (!c->settle) {
         if (c->have_last) {
           const uint16_t iv = static_cast<uint16_t>(c->t - c->last_t);
+          const uint16_t t1 = c->t1;
           if (iv <= c->t15) {
             ++c->cyc;
             c->span = static_cast<uint16_t>(c->span + iv);
-          } else if (iv <= c->t25) {
+            c->t1 = t1 ? static_cast<uint16_t>(t1 + (static_cast<int16_t>(iv - t1) >> kRippleT1Shift)) : iv;
+          } else if (iv <= c->t25 && (!t1 || static_cast<uint16_t>((iv >> 1u) > t1 ? (iv >> 1u) - t1 : t1 - (iv >> 1u)) <=
+                                                   static_cast<uint16_t>(t1 >> 2u))) {
             c->cyc = static_cast<uint16_t>(c->cyc + 2u);
             c->span = static_cast<uint16_t>(c->span + iv);
           }

@@ -2,7 +2,7 @@
 // command: cd tools && ../.venv/bin/python -m hpddo.regenerate --write
 // source: tools/hpddo/model/ripple_count.py
 // generator: hpddo.schema 1
-// checksum: crc32 0x8161b22e of the text below this banner
+// checksum: crc32 0x653238a7 of the text below this banner
 #ifndef HPDDO_RIPPLE_COUNT_GEN_H
 #define HPDDO_RIPPLE_COUNT_GEN_H
 
@@ -40,6 +40,8 @@ static const float kRippleRaGate = 0.08f;
 static const float kRippleRaTauS = 10.0f;
 /// below, the winding temperature is not observable (V/K; ripple_count.py MIN_DEN)
 static const float kRippleMinDen = 0.001f;
+/// the one-period intervals' running mean, which classes a two-period one: t1 += (iv - t1) >> shift (bits; ripple_count.py T1_SHIFT)
+static const uint8_t kRippleT1Shift = 2;
 
 }  // namespace acq
 

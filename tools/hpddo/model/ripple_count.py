@@ -37,6 +37,7 @@ KE_CAL_S = 1.0            # s: confident windows over this long calibrate Ke, co
 RA_TAU_S = 10.0           # s: the Ra filter's time constant
 MIN_DEN = 1.0e-3          # V/K: below, the temperature is not observable
 RA_GATE = 0.08            # an Ra this far from the filtered one (relative) is a glitch of V or I
+T1_SHIFT = 2              # the one-period intervals' running mean: t1 += (iv - t1) >> shift
 
 #: (Python name, the board's name, C type, unit, meaning) of each constant the board takes
 BOARD_CONSTANTS = (
@@ -59,6 +60,8 @@ BOARD_CONSTANTS = (
     ("RA_GATE", "kRippleRaGate", "float", "ratio", "an Ra this far from the filtered one is a glitch of V or I"),
     ("RA_TAU_S", "kRippleRaTauS", "float", "s", "time constant of the Ra filter"),
     ("MIN_DEN", "kRippleMinDen", "float", "V/K", "below, the winding temperature is not observable"),
+    ("T1_SHIFT", "kRippleT1Shift", "uint8_t", "bits",
+     "the one-period intervals' running mean, which classes a two-period one: t1 += (iv - t1) >> shift"),
 )
 
 
@@ -101,6 +104,7 @@ class Counter:
     t25: int = 0
     cyc: int = 0
     span: int = 0
+    t1: int = 0  # running mean of the one-period intervals, PWM periods (0: none since the settling)
 
     def begin(self, k: int, t_exp: int, gap: int, first_burst: bool) -> None:
         """acq_ripple_count.h ripple_counter_begin."""
@@ -109,13 +113,14 @@ class Counter:
         self.t15, self.t25 = min(65535, 3 * t_exp // 2), min(65535, 5 * t_exp // 2)
         if first_burst or gap > self.t25:
             self.settle = min(60000, (8 if first_burst else 4) << (k + 2))
+            self.t1 = 0
 
     def run(self, codes) -> None:
         """ripple_counter_sample on each code, in order (the C++'s 32-bit states never
         overflow: h < 2^18, |y| < 2^18, amp < 2^27; the 16-bit clock wraps as there)."""
         l1, l2, b, amp, k, high, odd = self.l1, self.l2, self.b, self.amp, self.k, self.high, self.odd
         settle, t, last_t, have_last = self.settle, self.t, self.last_t, self.have_last
-        t15, t25, cyc, span = self.t15, self.t25, self.cyc, self.span
+        t15, t25, cyc, span, t1 = self.t15, self.t25, self.cyc, self.span, self.t1
         for x in codes:
             t = (t + 1) & 0xFFFF
             odd ^= 1
@@ -136,7 +141,9 @@ class Counter:
                             iv = (t - last_t) & 0xFFFF
                             if iv <= t15:
                                 cyc, span = cyc + 1, (span + iv) & 0xFFFF
-                            elif iv <= t25:
+                                d = ((iv - t1 + 0x8000) & 0xFFFF) - 0x8000  # int16 as on the board
+                                t1 = (t1 + (d >> T1_SHIFT)) & 0xFFFF if t1 else iv
+                            elif iv <= t25 and (not t1 or abs((iv >> 1) - t1) <= t1 >> 2):
                                 cyc, span = cyc + 2, (span + iv) & 0xFFFF
                         last_t, have_last = t, 1
             elif y9 < -amp:
@@ -145,6 +152,7 @@ class Counter:
                 settle -= 1
         self.l1, self.l2, self.b, self.amp, self.high, self.odd = l1, l2, b, amp, high, odd
         self.settle, self.t, self.last_t, self.have_last, self.cyc, self.span = settle, t, last_t, have_last, cyc, span
+        self.t1 = t1
 
     def latch(self) -> tuple:
         """The count since the last latch (the board's at a burst's last code), zeroed."""
