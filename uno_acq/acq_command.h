@@ -160,7 +160,7 @@ inline Command parse_command(const char* line) {
 template <uint8_t N>
 class LineBuffer {
  public:
-  LineBuffer() : len_(0), overflow_(false) { buf_[0] = '\0'; }
+  constexpr LineBuffer() : buf_(), len_(0), overflow_(false) {}  // an empty line
   /// Feeds a byte; true when a line is complete (read it with line()).
   bool push(char c) {
     if (c == '\n' || c == '\r') {

@@ -23,7 +23,7 @@ class TxQueue {
   static_assert(N && (N & (N - 1)) == 0 && N <= 128, "N must be a power of two <= 128");
 
  public:
-  TxQueue() : buf_(), head_(0), tail_(0), dropped_(0) {}
+  constexpr TxQueue() : buf_(), head_(0), tail_(0), dropped_(0) {}
 
   /// Queues all n bytes, or none (false) when they do not fit.
   bool push(const uint8_t* data, uint8_t n) {
@@ -57,7 +57,7 @@ class TxQueue {
 /// Decides the line level of each bit slot of an 8N1 stream.
 class BitShifter {
  public:
-  BitShifter() : bits_(0), left_(0) {}
+  constexpr BitShifter() : bits_(0), left_(0) {}
 
   /// Level (0 or 1) of the next bit slot, taking a byte from q when the
   /// previous one is done; 1 (idle) when there is nothing to send.

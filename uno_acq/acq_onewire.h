@@ -47,7 +47,7 @@ class TempSchedule {
 
   enum Action : uint8_t { kIdle = 0, kStartConversion = 1, kReadScratchpad = 2 };
 
-  TempSchedule() : converting_(false), started_ms_(0), have_(false), read_ms_(0), value_(0) {}
+  constexpr TempSchedule() : converting_(false), started_ms_(0), have_(false), read_ms_(0), value_(0) {}
 
   /// What to do now.
   Action poll(uint32_t now_ms) const {

@@ -38,7 +38,7 @@ struct Setpoint {
 /// A protocol with its step lengths in samples.
 class ProtocolPlan {
  public:
-  ProtocolPlan() : proto_(kProtoNone), hold_(1), long_(1) {}
+  constexpr ProtocolPlan() : proto_(kProtoNone), hold_(1), long_(1) {}
   /// hold_samples: length of each sweep/load step; long_samples: length of `long`.
   ProtocolPlan(Protocol p, uint32_t hold_samples, uint32_t long_samples)
       : proto_(p), hold_(hold_samples ? hold_samples : 1), long_(long_samples ? long_samples : 1) {}

@@ -211,7 +211,7 @@ class SampleRing {
   static_assert(N && (N & (N - 1)) == 0 && N <= 128, "N must be a power of two <= 128");
 
  public:
-  SampleRing() : buf_(), head_(0), tail_(0), peak_(0) {}
+  constexpr SampleRing() : buf_(), head_(0), tail_(0), peak_(0) {}
   /// Producer: false when full (the caller counts the loss).
   bool push(uint16_t code) {
     const uint8_t used = static_cast<uint8_t>(head_ - tail_);

@@ -82,7 +82,7 @@ static constexpr DynamicsParams kDynamicsOff = {0.0f, 0.0f, 0.0f, 0.0f};
 /// when ns itself declares no such name): `ns::kDynamics` is then the model's family either way,
 /// a constant expression (dynamics_named(ns::kDynamics) decides at compile time).
 namespace dynamics_default {
-static constexpr const DynamicsParams& kDynamics = kDynamicsOff;
+static constexpr DynamicsParams kDynamics = kDynamicsOff;
 }  // namespace dynamics_default
 #define HPDDO_DYNAMICS_DEFAULT(ns) \
   namespace ns {                   \
@@ -106,7 +106,7 @@ uint32_t model_checksum(const Model<Net>& m, const DynamicsParams& d) {
 /// Two-state observer of the output shaft's speed and load torque.
 class DynamicsObserver {
  public:
-  DynamicsObserver() : w_rad_s_(0.0f), load_nm_(0.0f), started_(false) {}
+  constexpr DynamicsObserver() : w_rad_s_(0.0f), load_nm_(0.0f), started_(false) {}
 
   /// Restarts: the next sample sets the state.
   void reset() {

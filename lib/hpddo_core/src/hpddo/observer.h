@@ -125,22 +125,27 @@ class Observer {
  public:
   /// Keeps a reference to model: pass one that outlives the observer (a generated kModel).
   /// dynamics: the model's dynamic family (its header's kDynamics; kDynamicsOff: none), kept
-  /// by reference as the model.
-  explicit Observer(const Model<Net>& model, const DynamicsParams& dynamics = kDynamicsOff)
+  /// by reference as the model. Starts in the state reset() leaves. constexpr (C++11: every
+  /// member in the list, an empty body): a global observer of a generated model is
+  /// constant-initialised, its state in the data image, no constructor code (the UNO's g_obs:
+  /// 318 bytes of constructor code there before; docs/firmware.md).
+  constexpr explicit Observer(const Model<Net>& model, const DynamicsParams& dynamics = kDynamicsOff)
       : model_(&model),
         physics_const_(physics_const(model.physics)),
         speed_limit_rpm_(speed_limit_rpm(model.physics, model.limits)),
         thermal_on_(ThermalEstimator::enabled(model.physics)),
         inductance_on_(model.physics.la_H != 0.0f),
-        dynamics_(&dynamics) {
-    reset();
-  }
+        thermal_(),
+        last_{0.0f, 0.0f, 0.0f, 0.0f, 0.0f, kStatusInvalid},  // reset()'s: Estimate(), status invalid
+        dynamics_(&dynamics),
+        dyn_() {}
 
   /// A temporary Model would leave the observer with a dangling reference.
   explicit Observer(const Model<Net>&& model) = delete;
   Observer(const Model<Net>& model, const DynamicsParams&& dynamics) = delete;
 
-  /// Forgets the lags and the held estimate; the winding restarts at its reference.
+  /// Forgets the lags and the held estimate; the winding restarts at its reference (the
+  /// state the constructor leaves: keep the two alike).
   void reset() {
     has_lag_ = false;
     has_seq_ = false;

@@ -22,7 +22,7 @@
 namespace hpddo {
 
 /// RPM per rad/s (60 / 2 pi).
-static const float kRpmPerRadS = 9.54929658551372f;
+constexpr float kRpmPerRadS = 9.54929658551372f;
 
 /// The smallest brush knee the term takes, A: the knee (brush_knee_A, the current at
 /// which the drop reaches half its full value) smooths the sign of i so that the term is
@@ -70,14 +70,14 @@ struct PhysicsConst {
   bool drift;         ///< the current channel's offset drifts with the case (i_offset_tc_A_per_K)
 };
 
-/// The reciprocals of the parameters p (two float divisions, once).
-inline PhysicsConst physics_const(const PhysicsParams& p) {
-  PhysicsConst k;
-  k.v_gain_inv = p.v_gain == 0.0f ? 1.0f : 1.0f / (1.0f + p.v_gain);
-  k.rpm_per_V = p.ke_vs_per_rad > 0.0f ? kRpmPerRadS / p.ke_vs_per_rad : 0.0f;
-  k.ke_constant = p.ke_tc_per_K == 0.0f && p.ke_sat_per_A == 0.0f;
-  k.drift = p.i_offset_tc_A_per_K != 0.0f;
-  return k;
+/// The reciprocals of the parameters p (two float divisions, once). constexpr (one return,
+/// C++11): the observer's constructor is, so a global observer of a generated model is
+/// constant-initialised (no constructor code on the boards, observer.h).
+constexpr PhysicsConst physics_const(const PhysicsParams& p) {
+  return PhysicsConst{p.v_gain == 0.0f ? 1.0f : 1.0f / (1.0f + p.v_gain),                  // v_gain_inv
+                      p.ke_vs_per_rad > 0.0f ? kRpmPerRadS / p.ke_vs_per_rad : 0.0f,       // rpm_per_V
+                      p.ke_tc_per_K == 0.0f && p.ke_sat_per_A == 0.0f,                     // ke_constant
+                      p.i_offset_tc_A_per_K != 0.0f};                                      // drift
 }
 
 /// Terminal voltage with the voltage channel's offset and gain error removed, V:
@@ -165,10 +165,10 @@ inline bool physics_rpm(const PhysicsParams& p, const PhysicsInput& in, float* r
 /// Edge of the model's physical speed range, RPM: kSpeedLimitFactor times the speed at
 /// which the back-EMF would balance the largest voltage the channel reports plus the
 /// largest resistive drop, (v_max + i_max Ra) / Ke; 0 when Ke is not positive.
-inline float speed_limit_rpm(const PhysicsParams& p, const InputLimits& lim) {
-  if (!(p.ke_vs_per_rad > 0.0f)) return 0.0f;
-  const float emf_V = lim.v_max_V + lim.i_max_A * p.ra_ohm;
-  return kSpeedLimitFactor * emf_V / p.ke_vs_per_rad * kRpmPerRadS;
+/// constexpr (one return, C++11) as physics_const(); emf_V = v_max + i_max Ra.
+constexpr float speed_limit_rpm(const PhysicsParams& p, const InputLimits& lim) {
+  return !(p.ke_vs_per_rad > 0.0f) ? 0.0f
+                                   : kSpeedLimitFactor * (lim.v_max_V + lim.i_max_A * p.ra_ohm) / p.ke_vs_per_rad * kRpmPerRadS;
 }
 
 /// Nameplate back-EMF constant (M1): rated voltage over rated no-load speed,

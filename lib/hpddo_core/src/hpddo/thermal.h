@@ -26,10 +26,10 @@ namespace hpddo {
 /// First-order thermal rise of the winding above its reference, K.
 class ThermalEstimator {
  public:
-  ThermalEstimator() : rise_K_(0.0f), decay_dt_s_(0.0f), decay_tau_s_(0.0f), decay_(1.0f) {}
+  constexpr ThermalEstimator() : rise_K_(0.0f), decay_dt_s_(0.0f), decay_tau_s_(0.0f), decay_(1.0f) {}
 
   /// True when the model has a thermal network to run.
-  static bool enabled(const PhysicsParams& p) { return p.th_r_K_per_W > 0.0f && p.th_tau_s > 0.0f; }
+  static constexpr bool enabled(const PhysicsParams& p) { return p.th_r_K_per_W > 0.0f && p.th_tau_s > 0.0f; }
 
   /// Current rise of the winding above its reference, K.
   float rise_K() const { return rise_K_; }
