@@ -563,41 +563,37 @@ void meta(const __FlashStringHelper* key, const char* value) {
   Serial.write('\n');
 }
 
+// One "# key=value" line of a number (compact: up to 4 decimals; u32: a whole number), out of
+// line: each metadata line a call of a few instructions, not the writer inlined at each (154
+// bytes of flash less in the counting build, 78 in the normal one, than each line written in
+// begin_recording; the same lines).
+__attribute__((noinline)) void meta_compact(const __FlashStringHelper* key, float value) {
+  LineWriter w(g_line, sizeof g_line);
+  w.compact(value);
+  meta(key, g_line);
+}
+
+__attribute__((noinline)) void meta_u32(const __FlashStringHelper* key, uint32_t value) {
+  LineWriter w(g_line, sizeof g_line);
+  w.u32(value);
+  meta(key, g_line);
+}
+
 void begin_recording(const char* condition, uint32_t first_seq) {
   meta(F("condition"), condition);
-  LineWriter w(g_line, sizeof g_line);
-  w.compact(actual_rate_hz());
-  meta(F("sample_rate_hz"), g_line);
-  w = LineWriter(g_line, sizeof g_line);
-  w.str(kMotor);
-  meta(F("motor"), g_line);
+  meta_compact(F("sample_rate_hz"), actual_rate_hz());
+  meta(F("motor"), kMotor);
   meta(F("firmware"), kVersion);
-  w = LineWriter(g_line, sizeof g_line);
-  w.u32(g_pwm_hz);
-  meta(F("pwm_hz"), g_line);
-  w = LineWriter(g_line, sizeof g_line);
-  w.compact(kCalibration.divider_ratio);
-  meta(F("divider_ratio"), g_line);
-  w = LineWriter(g_line, sizeof g_line);
-  w.compact(kCalibration.shunt_ohm);
-  meta(F("shunt_ohm"), g_line);
-  w = LineWriter(g_line, sizeof g_line);
-  w.compact(kCalibration.adc_ref_V);
-  meta(F("adc_ref_V"), g_line);
-  w = LineWriter(g_line, sizeof g_line);
-  w.compact(kEncoderCountsPerRev);
-  meta(F("encoder_cpr"), g_line);
+  meta_u32(F("pwm_hz"), g_pwm_hz);
+  meta_compact(F("divider_ratio"), kCalibration.divider_ratio);
+  meta_compact(F("shunt_ohm"), kCalibration.shunt_ohm);
+  meta_compact(F("adc_ref_V"), kCalibration.adc_ref_V);
+  meta_compact(F("encoder_cpr"), kEncoderCountsPerRev);
 #if defined(ACQ_RIPPLE_HZ)
   // The bursts ("~" lines): hpddo capture writes them to <condition>.ripple.csv.
-  w = LineWriter(g_line, sizeof g_line);
-  w.u32(g_pwm_hz);
-  meta(F("ripple_hz"), g_line);
-  w = LineWriter(g_line, sizeof g_line);
-  w.u32(ripple::g.burst_n);
-  meta(F("ripple_n"), g_line);
-  w = LineWriter(g_line, sizeof g_line);
-  w.compact(kCalibration.shunt_gain);
-  meta(F("shunt_gain"), g_line);
+  meta_u32(F("ripple_hz"), g_pwm_hz);
+  meta_u32(F("ripple_n"), ripple::g.burst_n);
+  meta_compact(F("shunt_gain"), kCalibration.shunt_gain);
 #endif
   Serial.print(reinterpret_cast<const __FlashStringHelper*>(kLogHeader));
 #if !defined(ACQ_NO_OBSERVER)

@@ -43,6 +43,15 @@ hpddo::Model<hpddo_model_tiny::Net> without_thermal_state() {
   return m;
 }
 
+/// The constructor is a constant expression (constexpr, C++11): with a constexpr model the
+/// observer is one too, so a global observer of a generated model is constant-initialised, no
+/// constructor code (the UNO's g_obs; docs/firmware.md, "Flash room"). This does not compile
+/// if a member leaves the constructor's constant expression.
+constexpr hpddo::Model<hpddo_model_tiny::Net> kConstModel = {
+    {4.5f, 0.4f, 25.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.05f, 0.0f, 0.0f, 0.0f, 0.02f, 1.0f, 0.0f, 6.0f, 900.0f, 25.0f, 0},
+    {}, {}, {}, {}, 100.0f, {40.0f, 10.0f, -55.0f, 125.0f}};
+constexpr hpddo::Observer<hpddo_model_tiny::Net> kConstObserver(kConstModel);
+
 }  // namespace
 
 TEST(Observer, TwoLayerModelMatchesGoldenStream) {
@@ -168,4 +177,51 @@ TEST(Observer, ResidualNeverExceedsTheClamp) {
       }
     }
   }
+}
+
+TEST(Observer, ConstantInitialisedAsConstructedAtRunTime) {
+  using Net = hpddo_model_tiny::Net;
+  const hpddo::Model<Net> runtime_model = kConstModel;
+  const hpddo::Observer<Net> at_run_time(runtime_model);
+  EXPECT_EQ(kConstObserver.speed_limit(), at_run_time.speed_limit());
+  EXPECT_EQ(kConstObserver.speed_limit(), hpddo::speed_limit_rpm(runtime_model.physics, runtime_model.limits));
+  EXPECT_EQ(kConstObserver.seq_gaps(), 0u);
+  EXPECT_EQ(kConstObserver.period_breaks(), 0u);
+}
+
+TEST(Observer, ConstructedInTheStateResetLeaves) {
+  // The constructor sets every member itself (constexpr: no reset() call in it): a fresh
+  // observer and one reset after a stream (thermal rise, lags, a held estimate, a seq gap and
+  // a period break behind it) give the same estimates, bit for bit, from then on.
+  using Net = hpddo_model_tiny::Net;
+  hpddo::Observer<Net> used(hpddo_model_tiny::kModel);
+  uint16_t seq = 100;
+  for (float k = 0.0f; k < 40.0f; k += 1.0f) used.step(sample(9.0f + 0.05f * k, 0.8f + 0.01f * k, seq++, 45.0f));
+  used.step(sample(NAN, 0.8f, seq++, 45.0f));
+  used.step(sample(9.0f, 0.8f, static_cast<uint16_t>(seq + 5), 45.0f));
+  hpddo::Sample slow = sample(9.0f, 0.8f, static_cast<uint16_t>(seq + 6), 45.0f);
+  slow.dt_s = 1.0e4f;  // beyond kPeriodMax_s: a period break
+  used.step(slow);
+  ASSERT_GT(used.seq_gaps(), 0u);
+  ASSERT_GT(used.period_breaks(), 0u);
+  used.reset();
+  hpddo::Observer<Net> fresh(hpddo_model_tiny::kModel);
+  EXPECT_EQ(used.seq_gaps(), fresh.seq_gaps());
+  EXPECT_EQ(used.period_breaks(), fresh.period_breaks());
+  // First an invalid sample: it holds the estimate the constructor / reset() left.
+  const hpddo::Sample samples[] = {sample(NAN, 0.8f, 7, 40.0f), sample(9.0f, 0.8f, 8, 40.0f),
+                                   sample(9.5f, 0.85f, 9, NAN), sample(10.0f, 0.9f, 12, 40.0f),
+                                   sample(11.0f, 1.2f, 13, 40.0f), sample(3.0f, 0.3f, 14, 40.0f)};
+  for (const hpddo::Sample& s : samples) {
+    const hpddo::Estimate a = used.step(s);
+    const hpddo::Estimate b = fresh.step(s);
+    EXPECT_EQ(static_cast<int>(a.status), static_cast<int>(b.status)) << "seq " << s.seq;
+    EXPECT_EQ(a.rpm, b.rpm) << "seq " << s.seq;
+    EXPECT_EQ(a.rpm_m2, b.rpm_m2) << "seq " << s.seq;
+    EXPECT_EQ(a.residual_rpm, b.residual_rpm) << "seq " << s.seq;
+    EXPECT_EQ(a.temp_C, b.temp_C) << "seq " << s.seq;
+    EXPECT_EQ(a.confidence, b.confidence) << "seq " << s.seq;
+  }
+  EXPECT_EQ(used.seq_gaps(), fresh.seq_gaps());
+  EXPECT_EQ(used.period_breaks(), fresh.period_breaks());
 }

@@ -80,7 +80,10 @@ static constexpr DynamicsParams kDynamicsOff = {0.0f, 0.0f, 0.0f, 0.0f};
 /// whose namespace is ns, HPDDO_DYNAMICS_DEFAULT(ns) gives ns::kDynamics = kDynamicsOff where
 /// the header declares none (qualified lookup looks into a using-directive's namespace only
 /// when ns itself declares no such name): `ns::kDynamics` is then the model's family either way,
-/// a constant expression (dynamics_named(ns::kDynamics) decides at compile time).
+/// a constant expression (dynamics_named(ns::kDynamics) decides at compile time). A copy of
+/// kDynamicsOff, not a reference to it: avr-gcc 5.4 cannot fold a constexpr reference's address
+/// into a static initialiser, so a global Observer given it was built by constructor code (the
+/// UNO's g_obs; observer.h, docs/firmware.md "Flash room").
 namespace dynamics_default {
 static constexpr DynamicsParams kDynamics = kDynamicsOff;
 }  // namespace dynamics_default
