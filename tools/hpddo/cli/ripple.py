@@ -20,7 +20,6 @@ import argparse
 import json
 import math
 import sys
-import types
 
 from . import options
 
@@ -87,7 +86,7 @@ def run(args) -> int:
                 window_s = float(np.median(np.diff(df["t_s"].to_numpy()))) if len(df) > 1 else math.nan
                 # one encoder count per window where the header declares the encoder (docs/bench-log.md),
                 # else check_ratio reads it from the readings
-                sensors = dataset.sensor_meta(types.SimpleNamespace(source=path, meta=log.meta))
+                sensors = dataset.sensor_meta(log.meta, path)
                 s["ratio_check"] = rp.check_ratio(est, ref, window_s, opts,
                                                   encoder_step_rpm=dataset.encoder_count_rpm(sensors, window_s))
             summary[name] = s

@@ -55,7 +55,7 @@ def _faults(rec, r, sigma2: float) -> list:
     if driven.sum() < SATURATED_MIN_ROWS:
         return []
     out = []
-    meta = dataset.sensor_meta(rec)
+    meta = dataset.sensor_meta(rec.meta, rec.source)
     duties = len(np.unique(r.duty[driven]))
     for name, col, lsb_key in CHANNELS:
         x = rec.df[col].to_numpy(float)[driven]

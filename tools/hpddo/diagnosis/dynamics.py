@@ -141,7 +141,7 @@ def speed_rad_s(rec: dataset.Recording) -> tuple[np.ndarray, str]:
     df = rec.df
     counts = (df["rpm_ref"].to_numpy(float) / RPM_PER_RAD_S) if "rpm_ref" in df else np.full(rec.n, np.nan)
     per = dataset.enc_period_s(rec)
-    cpr = dataset.sensor_meta(rec).get("encoder_counts_per_rev")
+    cpr = dataset.sensor_meta(rec.meta, rec.source).get("encoder_counts_per_rev")
     if per is None or cpr is None:
         return counts, "encoder counts"
     w_end = np.where(np.isfinite(per), 2 * math.pi / (cpr * np.where(np.isfinite(per), per, 1.0)), 0.0)

@@ -119,7 +119,7 @@ def step_rpm(rec, r) -> float | None:
     the window is encoder_window_s, else the sample period (1 / sample_rate_hz, else the
     median spacing of the rows; not the time since the previous row, which a removed glitch
     row doubles)."""
-    meta = dataset.sensor_meta(rec)
+    meta = dataset.sensor_meta(rec.meta, rec.source)
     period = None
     if "encoder_counts_per_rev" in meta and "encoder_window_s" not in meta:  # the window is the sample period
         try:
@@ -155,7 +155,7 @@ def sensors(recs, rows, p) -> dict:
         if not k:
             continue
         n += k
-        meta = dataset.sensor_meta(rec)
+        meta = dataset.sensor_meta(rec.meta, rec.source)
         parts = {}
         q = step_rpm(rec, r)
         if q is not None:

@@ -290,12 +290,12 @@ def enc_period_s(rec: Recording) -> np.ndarray | None:
     return x
 
 
-def _meta_error(rec, key: str, fault: str) -> benchlog.BenchLogError:
-    """A fault of metadata `key` of rec (a Recording, or a log's benchlog read with its path as
-    .source), naming its file and line."""
+def _meta_error(meta: dict, source, key: str, fault: str) -> benchlog.BenchLogError:
+    """A fault of metadata `key` (meta: a log's metadata, source: its path), naming its file and
+    line."""
     line = None
     try:
-        for k, text in enumerate(pathlib.Path(rec.source).read_text(encoding="utf-8-sig").splitlines(), 1):
+        for k, text in enumerate(pathlib.Path(source).read_text(encoding="utf-8-sig").splitlines(), 1):
             if not text.startswith("#"):
                 break
             if re.match(rf"#[ \t]*{re.escape(key)}[ \t]*=", text):
@@ -303,7 +303,7 @@ def _meta_error(rec, key: str, fault: str) -> benchlog.BenchLogError:
                 break
     except OSError:
         pass
-    return benchlog.BenchLogError(rec.source, line, f"metadata {key}={rec.meta.get(key)!r} {fault}")
+    return benchlog.BenchLogError(source, line, f"metadata {key}={meta.get(key)!r} {fault}")
 
 
 def kind(rec: Recording) -> tuple[str, str]:
@@ -315,7 +315,7 @@ def kind(rec: Recording) -> tuple[str, str]:
     declared = rec.meta.get("kind")
     if declared is not None:
         if declared not in KINDS:
-            raise _meta_error(rec, "kind", f"is not one of {', '.join(KINDS)}")
+            raise _meta_error(rec.meta, rec.source, "kind", f"is not one of {', '.join(KINDS)}")
         return declared, "declared"
     duty = rec.df["duty"].to_numpy(float)
     if ("sample_rate_hz" not in rec.meta and rec.n <= STEADY_MAX_ROWS and len(np.unique(duty)) > 1
@@ -327,19 +327,19 @@ def kind(rec: Recording) -> tuple[str, str]:
 STEADY_MAX_ROWS = 1000
 
 
-def sensor_meta(rec) -> dict:
-    """{key: value} of the SENSOR_KEYS the recording declares, each a positive number (rec: a
-    Recording, or anything with .source, the log's path, and .meta, its metadata)."""
+def sensor_meta(meta: dict, source) -> dict:
+    """{key: value} of the SENSOR_KEYS a log's metadata declares, each a positive number (meta:
+    the metadata, source: the log's path, named in an error)."""
     out = {}
     for key in SENSOR_KEYS:
-        if key not in rec.meta:
+        if key not in meta:
             continue
         try:
-            v = float(rec.meta[key])
+            v = float(meta[key])
         except ValueError:
-            raise _meta_error(rec, key, "is not a number") from None
+            raise _meta_error(meta, source, key, "is not a number") from None
         if not (np.isfinite(v) and v > 0):
-            raise _meta_error(rec, key, "is not a positive number")
+            raise _meta_error(meta, source, key, "is not a positive number")
         out[key] = v
     return out
 
