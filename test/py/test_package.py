@@ -135,15 +135,16 @@ def test_train_builds_the_native_replay_from_the_installed_sources(installed):
 
 # In process, against the tree: one set of flag names and one error convention.
 
-REFERENCE = {"--reference", "--ripples-per-rev", "--gear-ratio", "--ke-vs-per-rad", "--floor-a"}  # options.reference
+RIPPLE = {"--ripples-per-rev", "--gear-ratio", "--ke-vs-per-rad", "--floor-a", "--prior-model", "--prior-name"}
+REFERENCE = {"--reference"} | RIPPLE  # options.reference
 SHARED = {  # subcommand -> the shared options it takes
     "train": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter", "--epochs"}
     | REFERENCE,
     "diagnose": {"--out", "--quiet", "--seed", "--ra-ohm", "--ke-fit", "--effects", "--no-glitch-filter", "--epochs"}
     | REFERENCE,
     "evaluate": {"--out", "--no-glitch-filter", "--quiet"} | REFERENCE,
-    "ripple": {"--out", "--quiet", "--ra-ohm"} | REFERENCE - {"--reference"},
-    "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter", "--epochs"},
+    "ripple": {"--out", "--quiet", "--ra-ohm"} | RIPPLE,
+    "compare": {"--out", "--quiet", "--seed", "--ra-ohm", "--effects", "--no-glitch-filter", "--epochs"} | RIPPLE,
     "twin": {"--out", "--quiet", "--seed", "--effects", "--rate-hz"},
     "capture": {"--out", "--quiet", "--rate-hz"},
     "live": {"--out", "--quiet", "--rate-hz"},

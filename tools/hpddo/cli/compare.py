@@ -4,7 +4,7 @@ one tuned on the training rows only; Tables 7-10 and the out-of-distribution str
 of section 4.10 (docs/compare.md).
 
     hpddo compare LOG... --out DIR [--validation LOG...] [--effects NAME,...] [--quick]
-                  [--ripples-per-rev N --gear-ratio G]
+                  [--ripples-per-rev N --gear-ratio G [--ke-vs-per-rad KE | --prior-model DIR]]
 
 Writes DIR/table7.json, table8.json, table9.json, table10.json, ood.json, summary.txt,
 report/index.html and work/ (tuning logs, model headers, replays, estimates) together,
@@ -42,7 +42,8 @@ def parser(prog: str = "hpddo compare") -> argparse.ArgumentParser:
     p.add_argument("--workers", type=options.positive_int, default=2,
                    help="processes training networks at once (default 2)")
     options.ripple(p, False, " (both given: ripple counting as a peer, alone and fused with M2, from the current "
-                             "bursts beside every log, <condition>.ripple.csv)")
+                             "bursts beside every log, <condition>.ripple.csv)",
+                   prior_flags=options.PRIOR_MODEL_FLAGS)
     options.ra_ohm(p)
     options.seed(p, "the networks and the cross-validation folds")
     options.glitch_filter(p)
@@ -54,6 +55,7 @@ def run(args) -> int:
     from ..studies.compare import CompareConfig, command_line, run as run_compare, text_summary
 
     t0 = time.perf_counter()
+    prior_model = options.prior_model_of(args)  # a bad folder refused before any log is read
     argv = [*map(str, args.logs), "--out", str(args.out)]
     if args.validation:
         argv += ["--validation", *map(str, args.validation)]
@@ -71,19 +73,13 @@ def run(args) -> int:
         argv += ["--ra-ohm", repr(args.ra_ohm)]
     if args.no_glitch_filter:
         argv.append("--no-glitch-filter")
-    if args.ripples_per_rev is not None:
-        argv += ["--ripples-per-rev", str(args.ripples_per_rev)]
-    if args.gear_ratio is not None:
-        argv += ["--gear-ratio", repr(args.gear_ratio)]
-    if args.ke_vs_per_rad is not None:
-        argv += ["--ke-vs-per-rad", repr(args.ke_vs_per_rad)]
-    if args.floor_a is not None:
-        argv += ["--floor-a", repr(args.floor_a)]
+    argv += options.ripple_words(args)
     cfg = CompareConfig(hidden=tuple(args.hidden), effects=tuple(args.effects), ra_ohm=args.ra_ohm, seed=args.seed,
                         quick=args.quick, workers=args.workers, glitch_filter=not args.no_glitch_filter,
                         progress=not args.quiet, command=command_line(argv),
                         epochs_given=args.epochs, ripples_per_rev=args.ripples_per_rev, gear_ratio=args.gear_ratio,
-                        ripple_ke_vs_per_rad=args.ke_vs_per_rad, ripple_floor_A=args.floor_a)
+                        ripple_ke_vs_per_rad=args.ke_vs_per_rad, ripple_floor_A=args.floor_a,
+                        ripple_prior_model=prior_model)
     res = run_compare(args.logs, args.out, cfg, args.validation)
     print(text_summary(res.tables), end="")
     print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")

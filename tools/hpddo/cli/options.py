@@ -93,8 +93,8 @@ def ripple(p, required: bool, need: str = " (with --reference ripple)", prior_fl
     the user's, or a trained model's M2 with its named effects is the prior (prior_model_of), else Ke
     is calibrated from the ripple. prior_flags: the model option's and its name's spellings, first
     the command's own (hpddo ripple has no model of its own, so --model and --name there; train and
-    evaluate use --name, evaluate --model, for the model they write or score), then aliases; None:
-    no prior model (hpddo compare's ripple peers)."""
+    evaluate use --name, evaluate --model, for the model they write or score; hpddo compare's ripple
+    peers too), then aliases; None: no prior model."""
     need = "" if required else need
     p.add_argument("--ripples-per-rev", type=positive_int, required=required, default=None, metavar="N",
                    help=f"commutation ripples per motor revolution (2 x segments for two brushes; this bench's "
@@ -181,9 +181,14 @@ def reference_words(args) -> list:
     [] for the encoder."""
     if args.reference != "ripple":
         return []
-    words = ["--reference", "ripple", "--ripples-per-rev", str(args.ripples_per_rev), "--gear-ratio",
-             repr(args.gear_ratio)]
-    for flag, v in (("--ke-vs-per-rad", args.ke_vs_per_rad), ("--floor-a", args.floor_a)):
+    return ["--reference", "ripple", *ripple_words(args)]
+
+
+def ripple_words(args) -> list:
+    """The ripple's options (ripple()) as a command line repeats them, each one given."""
+    words = []
+    for flag, v in (("--ripples-per-rev", args.ripples_per_rev), ("--gear-ratio", args.gear_ratio),
+                    ("--ke-vs-per-rad", args.ke_vs_per_rad), ("--floor-a", args.floor_a)):
         if v is not None:
             words += [flag, repr(v)]
     for flag, v in zip(args.prior_flags, (args.prior_model, args.prior_name)):

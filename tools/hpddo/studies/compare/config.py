@@ -76,12 +76,14 @@ class CompareConfig:
     command: str = "hpddo compare"
     epochs_given: int | None = None  # --epochs; None: QUICK_EPOCHS with --quick, else network's default
     # ripple counting as a peer (issue 23 item 6): the motor's ripples per revolution and gear
-    # ratio; None: no ripple rows. The alone row's prior Ke (None: calibrated from the ripple)
-    # and the current floor (None: hpddo.model.ripple's default)
+    # ratio; None: no ripple rows. The alone row's prior: Ke (None: calibrated from the ripple),
+    # or a trained model's M2 (hpddo.model.ripple.ModelPrior, --prior-model); the current floor
+    # (None: hpddo.model.ripple's default)
     ripples_per_rev: int | None = None
     gear_ratio: float | None = None
     ripple_ke_vs_per_rad: float | None = None
     ripple_floor_A: float | None = None
+    ripple_prior_model: object | None = None
 
     @property
     def epochs(self) -> int:

@@ -5,9 +5,10 @@ gear ratio.
 
 * "ripple": alone, as a user without an encoder has it: the back-EMF prior that resolves the
   octave and sub-harmonic ambiguity is (V - I Ra) / Ke with Ke calibrated from the ripple
-  itself (no encoder reading used). A row without a confident count has no estimate: its
-  RMSE is over the confident rows, and the coverage (the share of rows with an estimate) is
-  reported beside it.
+  itself (no encoder reading used), or the user's Ke (--ke-vs-per-rad), or a trained model's
+  M2 with its named effects, its own Ra and Ke (--prior-model, as hpddo ripple --model). A row
+  without a confident count has no estimate: its RMSE is over the confident rows, and the
+  coverage (the share of rows with an estimate) is reported beside it.
 * "ripple + M2": fused with the physics: the prior is the comparison's M2 (Ke from the
   training rows), and a row without a confident count takes M2's estimate, so every row is
   scored.
@@ -38,13 +39,14 @@ METHODS = (ALONE, FUSED, EKF)
 @dataclasses.dataclass(frozen=True)
 class RippleSpeeds:
     """Per cleaned row of one recording: the ripple speed alone and with M2's prior (NaN where
-    the count is not confident), the latter's standard uncertainty, and the Ke its own prior
-    took."""
+    the count is not confident), the latter's standard uncertainty, and the Ke the alone count's
+    prior took and where it came from (hpddo.model.ripple.speed_of_log)."""
 
     alone_rpm: np.ndarray
     with_m2_prior_rpm: np.ndarray
     ke_alone_vs_per_rad: float
     with_m2_prior_sd_rpm: np.ndarray
+    alone_ke_from: str
 
 
 def has_bursts(rec) -> bool:
@@ -52,11 +54,12 @@ def has_bursts(rec) -> bool:
 
 
 def speeds(rec, opts: rp.Options, ra_ohm: float, ke_m2_vs_per_rad: float,
-           ke_alone_vs_per_rad: float | None = None) -> RippleSpeeds:
+           ke_alone_vs_per_rad: float | None = None, prior_model: rp.ModelPrior | None = None) -> RippleSpeeds:
     """The ripple speeds of one recording (hpddo.logs.dataset.Recording), counted on the log's
     own rows (before the glitch filter, as the bursts are) and mapped onto the cleaned rows by
     seq. ke_alone_vs_per_rad: the alone count's prior Ke as the user gives it (None: calibrated
-    from the ripple)."""
+    from the ripple); prior_model: a trained model's M2 as the alone count's prior instead, with
+    its own Ra (ra_ohm, the comparison's, stays M2's of the fused count)."""
     log = benchlog.read_log(rec.source)
     raw = log.df
     if "seq" not in raw:
@@ -74,9 +77,19 @@ def speeds(rec, opts: rp.Options, ra_ohm: float, ke_m2_vs_per_rad: float,
         return out
 
     bursts = ripple_file.read(ripple_file.path_for(rec.source))  # read once, counted with either prior
-    alone, ke_alone, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_alone_vs_per_rad, bursts)
+    alone, ke_alone, ke_from = rp.speed_of_log(rec.source, raw, log.meta, opts,
+                                               None if prior_model is not None else ra_ohm, ke_alone_vs_per_rad,
+                                               bursts, model=prior_model)
     fused, _, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_m2_vs_per_rad, bursts)
-    return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone), on_rows(fused, rp.count_sd_rpm(fused)))
+    return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone), on_rows(fused, rp.count_sd_rpm(fused)),
+                        ke_from)
+
+
+def priors(all_speeds: dict) -> dict:
+    """{recording: {"ke_prior_vs_per_rad", "ke_from"}}: the alone count's prior on each
+    recording, as hpddo ripple's summary.json names it."""
+    return {name: {"ke_prior_vs_per_rad": s.ke_alone_vs_per_rad, "ke_from": s.alone_ke_from}
+            for name, s in all_speeds.items()}
 
 
 def estimates(s: RippleSpeeds, m2_rpm: np.ndarray) -> dict:
@@ -131,13 +144,13 @@ def coverage_note(cov: dict | None) -> str | None:
 
 
 def check_options(ripples_per_rev, gear_ratio, recs, floor_A: float | None = None,
-                  ke_vs_per_rad: float | None = None) -> rp.Options | None:
+                  ke_vs_per_rad: float | None = None, prior_model: rp.ModelPrior | None = None) -> rp.Options | None:
     """The ripple options of a comparison: None where not asked for; an InputError where asked
     for and a recording has no bursts beside it, or where only part of them is given."""
     if ripples_per_rev is None and gear_ratio is None:
-        if floor_A is not None or ke_vs_per_rad is not None:
-            raise InputError("--floor-a and --ke-vs-per-rad apply to the ripple peer only: give --ripples-per-rev N "
-                             "and --gear-ratio G too (docs/ripple.md)")
+        if floor_A is not None or ke_vs_per_rad is not None or prior_model is not None:
+            raise InputError("--floor-a, --ke-vs-per-rad and --prior-model apply to the ripple peer only: give "
+                             "--ripples-per-rev N and --gear-ratio G too (docs/ripple.md)")
         return None
     if ripples_per_rev is None or gear_ratio is None:
         raise InputError("ripple counting as a peer needs both --ripples-per-rev N and --gear-ratio G "

@@ -45,7 +45,7 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
     whole = dataset.load_recordings(log_paths, 0.0, cfg.glitch_filter)   # every row a test row
     vrecs = dataset.load_recordings(validation_paths, 0.0, cfg.glitch_filter) if validation_paths else []
     ropts = ripple_peer.check_options(cfg.ripples_per_rev, cfg.gear_ratio, recs + vrecs, cfg.ripple_floor_A,
-                                      cfg.ripple_ke_vs_per_rad)
+                                      cfg.ripple_ke_vs_per_rad, cfg.ripple_prior_model)
     ra, _ = identify.ra_from_logs(recs, cfg.ra_ohm)
     m1 = ph.nameplate_params(ra)
     m2 = _m2(recs, ra)
@@ -103,7 +103,8 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
                 jobs_.update({f"leave out {name}": (v[0], v[1]) for name, v in loro.items()})
                 observers_exe()
                 if ripple is not None:  # the counts first: the EKF that takes them is tuned with them
-                    ripple.update({r.name: ripple_peer.speeds(r, ropts, ra, m2.ke_vs_per_rad, cfg.ripple_ke_vs_per_rad)
+                    ripple.update({r.name: ripple_peer.speeds(r, ropts, ra, m2.ke_vs_per_rad, cfg.ripple_ke_vs_per_rad,
+                                                              cfg.ripple_prior_model)
                                    for r in recs + vrecs})
                     say("ripple counted")
                 t = tune_observers(jobs_, work / "tuning", coarse=cfg.quick, ripple=ripple)
@@ -142,6 +143,8 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
             table7["leave_one_out"] = table7_loro(whole, loro, tuned_loro, trainer, m1, m2e, cfg, work, ra, ripple)
             table7["tuned"] = {"chronological": tuned, "leave_one_out": tuned_loro}
             table7["checks"] = native
+            if ripple is not None:
+                table7["ripple_prior"] = ripple_peer.priors(ripple)
 
             # ---- Table 8, 9, 10, ood
             table8 = make_table8(recs, cv, trainer, fit, m2, cfg)
@@ -166,7 +169,9 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
 def settings(cfg: CompareConfig, recs, vrecs) -> dict:
     return {"hidden": list(cfg.hidden), "epochs": cfg.epochs, "seed": cfg.seed, "quick": cfg.quick,
             "effects": list(cfg.effects),
-            "ripple": ({"ripples_per_rev": cfg.ripples_per_rev, "gear_ratio": cfg.gear_ratio}
+            "ripple": ({"ripples_per_rev": cfg.ripples_per_rev, "gear_ratio": cfg.gear_ratio,
+                        "ke_vs_per_rad": cfg.ripple_ke_vs_per_rad,
+                        "prior_model": None if cfg.ripple_prior_model is None else cfg.ripple_prior_model.to_json()}
                        if cfg.ripples_per_rev is not None else None),
             "recordings": [r.source.name for r in recs],
             "validation": [r.source.name for r in vrecs], "train_fraction": dataset.TRAIN_FRACTION,
