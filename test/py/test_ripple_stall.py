@@ -124,3 +124,34 @@ def test_the_stiff_gearbox_stall_is_named_and_unseen_slow_turn_is_not():
     # unseen at a quarter length: duty 0.2 turns the shaft at 3.1-3.7 RPM (0.7 ripple cycles a window)
     u = study.run_scenario(dataclasses.replace(study.SCENARIOS[0], protocols=("unseen",), time_scale=0.25, seed=1))
     assert u["stalls"] == 0 and u["false_stalls"] == 0
+
+
+@pytest.mark.slow
+def test_the_ripple_reference_labels_a_stall_zero_rpm_weighted_by_its_confidence(tmp_path):
+    from hpddo.logs import benchlog
+    from hpddo.model import reference
+    from hpddo.twin import generate, params
+
+    bench = dataclasses.replace(params.preset("default"), tc_gen_nm=0.12)  # the stiff gearbox: stands at duty 0.2
+    g = generate.generate(bench, "sweep", 2.0, 1, out_dir=tmp_path, ripple=params.ripple_burst(),
+                          preset_name="default")
+    path = tmp_path / "sweep.csv"
+    log = benchlog.read_log(path)
+    ref = reference.Ripple(6, 4.4)
+    df, _, weight, rec = ref(path, log.df, log.meta)
+    est, _, _ = rp.speed_of_log(path, log.df, log.meta, ref.options())
+    rows = est["row"].to_numpy()
+    stall = est["stall"].to_numpy()
+    assert stall.sum() >= 50 and rec["stall_labelled"] == int(stall.sum())
+    got = df["rpm_ref"].to_numpy()
+    assert (got[rows[stall]] == 0).all()
+    assert np.array_equal(weight[rows[stall]], est["confidence"].to_numpy()[stall])
+    assert (weight[rows[stall]] > 0.5).all() and (weight[rows[stall]] <= 1).all()
+    assert (g["truth"]["rpm_true"].to_numpy()[rows[stall]] == 0).all()  # the shaft stands there
+    assert (log.df["rpm_ref"].to_numpy()[rows[stall]] == 0).all()      # and the encoder reads 0, as the label
+    assert "stall" not in rec["left_out_by_reason"]
+    assert rec["kept"] == int(est["confident"].sum() + stall.sum()
+                              + rp.standing(est, log.df["duty"].to_numpy()[rows], log.df["v_V"].to_numpy()[rows],
+                                            ref.options()).sum())
+    assert "a stall" in reference.line("sweep", rec)
+    assert reference.pooled({"sweep": rec})["stall_labelled"] == rec["stall_labelled"]
