@@ -28,6 +28,11 @@ The steps, per window:
    follows it instead (`_tracked_phase`: the line tracked through 50 ms spectra, the current
    demodulated along the track), and is given but not confident.
 
+speed_of_log then counts the windows that failed for want of cycles over spans of steady windows
+(count_steady_spans), and names a stall where the drive is on, the current flows and the shaft
+stands (count_stalls: no ripple line over a span, a back-EMF prior too low for a count), 0 RPM
+with the bound the data give.
+
 Gear ratio and ripples per motor revolution come from the user (`Options`); where an
 encoder is there, `check_ratio` measures the ripples per output revolution and says when
 the ratio is not the nameplate's.
@@ -833,7 +838,9 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     the log's bursts already read (logs.ripple.read), for a caller that counts them twice.
     model: a trained model's M2 with its named effects as the prior instead (ModelPrior; its Ra and
     Ke give the prior's spread, m2_prior_sd_rpm, and the speed a change of current means); not with
-    ra_ohm or ke_vs_per_rad."""
+    ra_ohm or ke_vs_per_rad. The windows are counted one at a time (estimate), over spans of steady
+    windows (count_steady_spans), with the settled tails where opts.settled_tail, and the stalls named
+    (count_stalls: columns `stall` and `rpm_bound`)."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
 
