@@ -127,7 +127,8 @@ def test_the_stiff_gearbox_stall_is_named_and_unseen_slow_turn_is_not():
 
 
 @pytest.mark.slow
-def test_the_ripple_reference_labels_a_stall_zero_rpm_weighted_by_its_confidence(tmp_path):
+def test_the_ripple_reference_labels_a_stall_zero_rpm_weighted_by_its_confidence(tmp_path, capsys):
+    from hpddo import cli
     from hpddo.logs import benchlog
     from hpddo.model import reference
     from hpddo.twin import generate, params
@@ -155,3 +156,12 @@ def test_the_ripple_reference_labels_a_stall_zero_rpm_weighted_by_its_confidence
                                             ref.options()).sum())
     assert "a stall" in reference.line("sweep", rec)
     assert reference.pooled({"sweep": rec})["stall_labelled"] == rec["stall_labelled"]
+    # hpddo ripple writes the stall and its bound, and says how many
+    assert cli.main(["ripple", str(path), "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--out",
+                     str(tmp_path / "out"), "--quiet"]) == 0
+    assert f"a stall (0 RPM within its bound) on {int(stall.sum())}" in capsys.readouterr().out
+    written = pd.read_csv(tmp_path / "out" / "sweep.ripple_speed.csv")
+    assert np.array_equal(written["stall"].to_numpy(bool), stall)
+    assert (written["rpm_ripple"].to_numpy()[stall] == 0).all()
+    assert np.allclose(written["rpm_bound"].to_numpy()[stall], est["rpm_bound"].to_numpy()[stall], rtol=1e-5)
+    assert written["rpm_bound"].isna().to_numpy()[~stall].all()

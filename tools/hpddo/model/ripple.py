@@ -99,13 +99,14 @@ class Options:
     stall_max_rpm: float = 1.0    # count_stalls: the largest bound on |n| (RPM, output shaft) the data must give
     #                               for a stall (the drive on, current above the floor, the shaft standing);
     #                               0 turns the stall off
-    stall_cycles: float = 3.0     # count_stalls: the ripple cycles a line must hold over a span to stand out in the
-    #                               span's spectrum (Hann window, trend removed); fewer are not seen, so a span of
-    #                               S s bounds |n| to stall_cycles / (N G S) revolutions per second
+    stall_cycles: float = 3.0     # count_stalls: the ripple cycles a line is taken to need over a span to stand
+    #                               out in its spectrum (Hann window, trend removed), so a span of S s bounds |n| to
+    #                               stall_cycles / (N G S) revolutions per second; a margin: on synthetic bursts 1-2
+    #                               cycles stood out too, a real current's slow drifts fill the lowest bins
     stall_snr: float = 30.0       # count_stalls: a bin of the span's spectrum this many times the band's median
     #                               power is a line; noise alone (exponential power per bin, median ln 2 of the
-    #                               mean) reaches it with probability 2^-30 ~ 1e-9 a bin, a ripple of 3 cycles
-    #                               over 10 s far above it (docs/ripple.md, "Stall")
+    #                               mean) reaches it with probability 2^-30 ~ 1e-9 a bin, a ripple of 1.5 mA at 3
+    #                               cycles over 9.5 s stood 153x over it at the least (docs/ripple.md, step 6)
     stall_prior_z: float = 1.0    # count_stalls: the back-EMF prior plus this many of its upper sd must lie under
     #                               the speed floor (min_cycles ripples per window)
 
