@@ -63,12 +63,13 @@ def run(args) -> int:
             est.insert(1, "t_s", df["t_s"].to_numpy()[rows])
             name = log.condition
             cols = ["seq", "t_s", "rpm", "confidence", "confident", "reason", "f_Hz", "cycles", "i_mean_A",
-                    "rpm_prior", "rpm_fft"]
+                    "rpm_prior", "rpm_fft", "stall", "rpm_bound"]
             est[cols].rename(columns={"rpm": "rpm_ripple"}).to_csv(stage / f"{name}.ripple_speed.csv", index=False,
                                                                     float_format="%.6g")
             conf = est["confident"].to_numpy()
             above = est["i_mean_A"].to_numpy() >= opts.floor_A
             s = {"windows": len(est), "confident": int(conf.sum()), "above_floor": int(above.sum()),
+                 "stalls": int(est["stall"].sum()),
                  "ke_prior_vs_per_rad": ke, "ke_from": ke_from,
                  "prior_model": None if model is None else model.to_json(),
                  "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
@@ -92,7 +93,8 @@ def run(args) -> int:
             summary[name] = s
             share = f"{(conf & above).sum() / above.sum():.1%}" if above.sum() else "-"
             line = (f"{name}: {len(est)} windows, confident {conf.sum()} ({share} of the {above.sum()} above "
-                    f"{opts.floor_A:g} A); prior Ke {ke:.4f} V s/rad from {s['ke_from']}")
+                    f"{opts.floor_A:g} A)" + (f", a stall (0 RPM within its bound) on {s['stalls']}"
+                                              if s["stalls"] else "") + f"; prior Ke {ke:.4f} V s/rad from {s['ke_from']}")
             if "rms_vs_encoder_pct" in s:
                 line += f"; against the encoder RMS {s['rms_vs_encoder_pct']:.3f} %, max {s['max_vs_encoder_pct']:.2f} %"
             print(line)

@@ -19,7 +19,9 @@ train.labelled_rows, network.train). The rows without a confident speed are left
 counted over a span of steady windows (ripple.count_steady_spans). Where the drive is off, no
 current flows and the terminal voltage (then the back-EMF) is under a few mV, the shaft stands:
 those rows take 0 RPM from the back-EMF with ripple.STANDING_CONFIDENCE (ripple.standing), counted
-as `standing_labelled`; the other coasting rows are left out.
+as `standing_labelled`; the other coasting rows are left out. Where the drive is on and current
+flows but the shaft stands (ripple.count_stalls: no ripple line over a span, a prior too low for a
+count), the rows take 0 RPM weighted by the stall's confidence, counted as `stall_labelled`.
 """
 from __future__ import annotations
 
@@ -85,6 +87,12 @@ def swap(path, df, meta: dict, ref: Ripple):
     still = rp.standing(est, df["duty"].to_numpy()[rows], df["v_V"].to_numpy()[rows], ref.options())
     rpm[rows[still]] = 0.0
     weight[rows[still]] = rp.STANDING_CONFIDENCE
+    # a stall (ripple.count_stalls: the drive on, current flowing, no ripple over a span and a prior too low
+    # for a count): 0 RPM, weighted by its confidence (1 - bound / (2 stall_max_rpm)), as the encoder of a
+    # jammed shaft reads it; at 0 RPM identification leaves it out (identify.MIN_RPM), the effect fits and M3 take it
+    stall = est["stall"].to_numpy(bool) if "stall" in est else np.zeros(len(est), bool)
+    rpm[rows[stall]] = 0.0
+    weight[rows[stall]] = est["confidence"].to_numpy(float)[stall]
     kept = np.isfinite(rpm)
     out = df.copy()
     had_encoder = "rpm_ref" in out and bool(np.isfinite(out["rpm_ref"].to_numpy(float)).any())
@@ -94,6 +102,7 @@ def swap(path, df, meta: dict, ref: Ripple):
     record = {**ref.to_json(), "bursts": path_for(path).name,
               "ke_prior_vs_per_rad": ke, "ke_from": ke_from, "rows": n, "kept": int(kept.sum()),
               "standing_labelled": int(still.sum()), "standing_V": ref.options().standing_V,
+              "stall_labelled": int(stall.sum()),
               "left_out": int((~kept).sum()), "left_out_by_reason": left,
               "confidence_kept": {"min": float(w.min()), "median": float(np.median(w))} if w.size else None,
               "encoder_set_aside": had_encoder}
@@ -117,6 +126,7 @@ def pooled(records: dict) -> dict | None:
                                           "prior_model")},
             "rows": sum(r["rows"] for r in records.values()), "kept": sum(r["kept"] for r in records.values()),
             "standing_labelled": sum(r.get("standing_labelled", 0) for r in records.values()),
+            "stall_labelled": sum(r.get("stall_labelled", 0) for r in records.values()),
             "left_out": sum(r["left_out"] for r in records.values()), "left_out_by_reason": dict(sorted(left.items())),
             "weights": WEIGHTS_NOTE, "recordings": records}
 
@@ -129,5 +139,7 @@ def line(name: str, record: dict) -> str:
             f"{record['kept']} of {record['rows']} rows kept"
             + (f" ({record['standing_labelled']} of them standing: 0 RPM from the back-EMF, drive off, no "
                f"current, |V| < {1000 * record['standing_V']:g} mV)" if record.get("standing_labelled") else "")
+            + (f" ({record['stall_labelled']} of them a stall: 0 RPM, the drive on, no ripple over a span)"
+               if record.get("stall_labelled") else "")
             + f", {record['left_out']} left out"
             + (f" ({why})" if why else ""))

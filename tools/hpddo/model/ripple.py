@@ -28,6 +28,11 @@ The steps, per window:
    follows it instead (`_tracked_phase`: the line tracked through 50 ms spectra, the current
    demodulated along the track), and is given but not confident.
 
+speed_of_log then counts the windows that failed for want of cycles over spans of steady windows
+(count_steady_spans), and names a stall where the drive is on, the current flows and the shaft
+stands (count_stalls: no ripple line over a span, a back-EMF prior too low for a count), 0 RPM
+with the bound the data give.
+
 Gear ratio and ripples per motor revolution come from the user (`Options`); where an
 encoder is there, `check_ratio` measures the ripples per output revolution and says when
 the ratio is not the nameplate's.
@@ -51,6 +56,8 @@ REASONS = {
     "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
                  "and the back-EMF prior cannot tell them apart",
     "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
+    "stall": "stall: the drive on and current flowing, but no ripple line over a span of steady windows, and the "
+             "back-EMF prior too low for a window's count: the shaft stands (0 RPM within rpm_bound)",
 }
 FAMILY = (2, 3, 6)  # the sub-harmonics f/2, f/3, f/6 of rotor asymmetry
 ALTERNATIVES = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
@@ -89,6 +96,19 @@ class Options:
     tail_min_cycles: float = 10.0  # count_settled_tails: ripple cycles a tail must hold; a tail has no margins, so
     #                               its count leaves a tenth out at each end and reads the phase at filter edges
     #                               (4 % off on a steady tail of 5.2 cycles, unseen x0.25 seed 2; docs/ripple.md)
+    stall_max_rpm: float = 1.0    # count_stalls: the largest bound on |n| (RPM, output shaft) the data must give
+    #                               for a stall (the drive on, current above the floor, the shaft standing);
+    #                               0 turns the stall off
+    stall_cycles: float = 3.0     # count_stalls: the ripple cycles a line is taken to need over a span to stand
+    #                               out in its spectrum (Hann window, trend removed), so a span of S s bounds |n| to
+    #                               stall_cycles / (N G S) revolutions per second; a margin: on synthetic bursts 1-2
+    #                               cycles stood out too, a real current's slow drifts fill the lowest bins
+    stall_snr: float = 30.0       # count_stalls: a bin of the span's spectrum this many times the band's median
+    #                               power is a line; noise alone (exponential power per bin, median ln 2 of the
+    #                               mean) reaches it with probability 2^-30 ~ 1e-9 a bin, a ripple of 1.5 mA at 3
+    #                               cycles over 9.5 s stood 153x over it at the least (docs/ripple.md, step 6)
+    stall_prior_z: float = 1.0    # count_stalls: the back-EMF prior plus this many of its upper sd must lie under
+    #                               the speed floor (min_cycles ripples per window)
 
 
 def m2_prior_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float):
@@ -451,9 +471,10 @@ def _contiguous(bursts, k) -> bool:
     return abs(bursts.t_s[k] + len(bursts.codes[k]) / fs - bursts.t_s[k + 1]) < 1.5 / fs
 
 
-def steady_spans(bursts, duty, keys, opts: Options) -> list:
+def steady_spans(bursts, duty, keys, opts: Options, span_keys=SPAN_KEYS) -> list:
     """The spans (first, end) of consecutive windows that count_steady_spans counts as one: runs of
-    windows at the same nonzero duty whose own count failed for a reason in SPAN_KEYS, each burst
+    windows at the same nonzero duty whose own count failed for a reason in span_keys (SPAN_KEYS;
+    count_stalls: STALL_KEYS), each burst
     contiguous with the next (so the current is one record over the span), not the first window
     after a change of duty (the inrush); a run longer than opts.span_max_s is cut into equal spans
     no longer than it, each of two windows at least. A run of one window is no span."""
@@ -462,7 +483,7 @@ def steady_spans(bursts, duty, keys, opts: Options) -> list:
         return []
     duty = np.asarray(duty, float)
     lengths = np.array([len(c) for c in bursts.codes]) / bursts.sample_hz
-    ok = np.array([keys[k] in SPAN_KEYS and np.isfinite(duty[k]) and duty[k] > 0
+    ok = np.array([keys[k] in span_keys and np.isfinite(duty[k]) and duty[k] > 0
                    and (k > 0 and duty[k - 1] == duty[k]) for k in range(n)])
     spans, k = [], 0
     while k < n:
@@ -515,6 +536,102 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
         est.loc[idx, "confident"] = True
         est.loc[idx, "span"] = e - a
         est.loc[idx, "span_first"] = a
+    return est
+
+
+#: the reasons after the spans under which a shaft may stand: no line, too few cycles, a rival line, or a
+#: fixed line far from the prior (interference while the shaft stands)
+STALL_KEYS = ("few_cycles", "not_found", "ambiguous", "far")
+
+
+def _upper_speed(prior_rpm: float, sd_above_rpm: float, rel_sd: float, z: float) -> float:
+    """The speed n above the prior p that lies z of the prior's sd from it, where that sd grows with
+    n as in _prior_like: (n - p)^2 = z^2 (sd_above^2 + (rel_sd n)^2), the larger root; inf where
+    Ke's relative error alone lets every speed within z sd (z rel_sd >= 1)."""
+    a = 1.0 - (z * rel_sd) ** 2
+    if a <= 0:
+        return math.inf
+    p = prior_rpm
+    disc = p * p - a * (p * p - (z * sd_above_rpm) ** 2)
+    return (p + math.sqrt(max(disc, 0.0))) / a
+
+
+def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
+    """A stall where the data determine it: the drive on, the current above the floor, and the
+    shaft standing (a jammed pump or gear). A standing rotor commutates nothing, so there is no
+    ripple to count; these windows fail their count (STALL_KEYS) one at a time and over a span.
+    Over each span of steady windows (steady_spans with STALL_KEYS: the same nonzero duty, bursts
+    contiguous, not the first window after a change of duty), two facts of physics, both required:
+
+    1. the back-EMF prior cannot turn the shaft fast enough for a window's count: the span's
+       prior (the median of its windows' priors) plus opts.stall_prior_z of its upper sd
+       (sqrt(sd_above^2 + (prior_rel_sd n)^2), m2_prior_sd_rpm) lies under the speed floor, the
+       speed at which a window holds opts.min_cycles ripples (22.7 RPM for 0.5 s windows and 26.4
+       ripples per output revolution);
+    2. the span's current holds no ripple line: in its spectrum (trend removed, Hann window) the
+       strongest bin from stall_cycles / S (S the span's length, s) to the ripple frequency of the
+       highest speed the prior allows (max_prior_z sd above it, at least the speed floor) is under
+       opts.stall_snr times the band's median power. A shaft turning at n makes a line at
+       N G n / 60 Hz with N G n S / 60 cycles over the span; one of stall_cycles or more would
+       stand out, so the span's mean speed is |n| < 60 stall_cycles / (N G S).
+
+    A window's own speed may differ from the span's mean; at the span's constant duty a change
+    of the speed is a change of the back-EMF, -Ra dI, so the windows' mean currents bound it:
+    the bound adds rpm_per_A x (max - min of the windows' mean currents). A span is a stall
+    where that bound (`rpm_bound`, RPM) is at most opts.stall_max_rpm: each of its windows takes
+    rpm 0, `stall` True, key "stall", the bound, a reason that says what was seen, and the
+    confidence 1 - bound / (2 stall_max_rpm) (0.5..1). `confident` stays False: a stall is not a
+    count of the ripple (the consumers of counted speeds, check_ratio, count_sd_rpm, span_reference,
+    are unchanged); the ripple reference labels it (reference.swap). Needs a prior and rpm_per_A
+    (Ra / Ke); without them, or with opts.stall_max_rpm 0, est is returned with `stall` False and
+    `rpm_bound` NaN everywhere. est: estimate()'s DataFrame (after count_steady_spans). Returns a copy."""
+    est = est.copy()
+    est["stall"] = False
+    est["rpm_bound"] = np.nan
+    if not opts.stall_max_rpm > 0 or rpm_per_A is None or not np.isfinite(rpm_per_A) or duty is None:
+        return est
+    fs = bursts.sample_hz
+    per_rev_out = opts.ripples_per_rev * opts.gear_ratio
+    keys = est["key"].to_numpy()
+    prior = est["rpm_prior_used"].to_numpy(float)
+    sd_above = est["prior_sd_above"].to_numpy(float)
+    i_mean = est["i_mean_A"].to_numpy(float)
+    duty = np.asarray(duty, float)
+    for a, e in steady_spans(bursts, duty, keys, opts, STALL_KEYS):
+        if not (np.isfinite(prior[a:e]).all() and np.isfinite(i_mean[a:e]).all() and (i_mean[a:e] >= opts.floor_A).all()):
+            continue
+        lengths = np.array([len(c) for c in bursts.codes[a:e]])
+        S = float(lengths.sum()) / fs
+        rpm_floor = opts.min_cycles / (float(np.median(lengths)) / fs) * 60.0 / per_rev_out
+        pr, sa = float(np.median(prior[a:e])), float(np.median(sd_above[a:e]))
+        n_up = pr + opts.stall_prior_z * math.hypot(sa, opts.prior_rel_sd * max(pr, 0.0))
+        if not n_up < rpm_floor:  # 1. the prior lets the shaft turn fast enough for a window's count
+            continue
+        n_hi = max(_upper_speed(pr, sa, opts.prior_rel_sd, opts.max_prior_z), rpm_floor)
+        f_min, f_max = opts.stall_cycles / S, min(n_hi * per_rev_out / 60.0, 0.45 * fs)
+        f, p = _spectrum(np.concatenate([bursts.current_A(k) for k in range(a, e)]), fs, pad=4)
+        band = (f >= f_min) & (f <= f_max)
+        if band.sum() < 16:
+            continue
+        snr = float(p[band].max() / max(float(np.median(p[band])), 1e-30))
+        if snr >= opts.stall_snr:  # 2. a line in the band: something turns
+            continue
+        bound = 60.0 * opts.stall_cycles / (per_rev_out * S) + rpm_per_A * float(i_mean[a:e].max() - i_mean[a:e].min())
+        if bound > opts.stall_max_rpm:
+            continue
+        idx = est.index[a:e]
+        reason = (f"{REASONS['stall']}: at duty {duty[a]:g} with {1000 * float(i_mean[a:e].mean()):.0f} mA over "
+                  f"{S:.1f} s ({e - a} windows) the strongest line from {f_min:.2f} to {f_max:.1f} Hz is "
+                  f"{snr:.1f}x the band's median power (under {opts.stall_snr:g}); the prior {pr:.1f} RPM + "
+                  f"{opts.stall_prior_z:g} sd = {n_up:.1f} RPM, under the speed floor {rpm_floor:.1f} RPM; "
+                  f"|n| < {bound:.2f} RPM")
+        est.loc[idx, ["rpm", "f_Hz", "cycles"]] = 0.0
+        est.loc[idx, "snr"] = snr
+        est.loc[idx, "confidence"] = 1.0 - bound / (2.0 * opts.stall_max_rpm)
+        est.loc[idx, "key"] = "stall"
+        est.loc[idx, "reason"] = reason
+        est.loc[idx, "stall"] = True
+        est.loc[idx, "rpm_bound"] = bound
     return est
 
 
@@ -722,7 +839,9 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     the log's bursts already read (logs.ripple.read), for a caller that counts them twice.
     model: a trained model's M2 with its named effects as the prior instead (ModelPrior; its Ra and
     Ke give the prior's spread, m2_prior_sd_rpm, and the speed a change of current means); not with
-    ra_ohm or ke_vs_per_rad."""
+    ra_ohm or ke_vs_per_rad. The windows are counted one at a time (estimate), over spans of steady
+    windows (count_steady_spans), with the settled tails where opts.settled_tail, and the stalls named
+    (count_stalls: columns `stall` and `rpm_bound`)."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
 
@@ -758,6 +877,7 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None, per_A)
     est = count_settled_tails(b, duty, est, opts, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)
+    est = count_stalls(b, duty, est, opts, per_A if prior is not None else None)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from

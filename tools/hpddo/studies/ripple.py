@@ -131,6 +131,10 @@ def step_position(log) -> np.ndarray:
 
 def score(sc: Scenario, df, opts: rp.Options) -> dict:
     conf = df["confident"].to_numpy()
+    # a stall (ripple.count_stalls): 0 RPM within the stated bound, scored as an absolute speed against
+    # it (a relative error on 0 RPM means nothing) and counted apart from the counted speeds
+    stall = df["stall"].to_numpy(bool) if "stall" in df else np.zeros(len(df), bool)
+    bound = df["rpm_bound"].to_numpy(float) if "rpm_bound" in df else np.full(len(df), np.nan)
     above = df["i_mean_A"].to_numpy() >= opts.floor_A
     # the speed floor of the window length: min_cycles ripples per window
     rpm_floor = opts.min_cycles / WINDOW_S / (opts.ripples_per_rev * opts.gear_ratio) * 60.0
@@ -151,7 +155,8 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
     e_true = rpm[cmp_true] / true[cmp_true] - 1.0
     changing = (df["key"].to_numpy() == "changing") & (true > 0)
     f_count, f_top = df["f_Hz"].to_numpy(), df["f_strongest_Hz"].to_numpy()
-    top_not_main = conf & (np.abs(np.log(f_top / f_count)) > math.log(1.2))
+    with np.errstate(divide="ignore", invalid="ignore"):  # a stall's f_Hz is 0 (no count), and not confident
+        top_not_main = conf & (np.abs(np.log(f_top / f_count)) > math.log(1.2))
     out = {
         "scenario": sc.name, "statement": sc.what, "protocols": list(sc.protocols), "windows": int(len(df)),
         "floor_A": opts.floor_A, "rpm_floor": rpm_floor,
@@ -160,6 +165,16 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
         "confident_share_above_floor": float((conf & above).sum() / above.sum()) if above.sum() else math.nan,
         "confident_share_above_both_floors": (float((conf & above & fast).sum() / (above & fast).sum())
                                               if (above & fast).sum() else math.nan),
+        # the rows with a confident speed or a stall, over the rows above the current floor
+        "covered_share_above_floor": float(((conf | stall) & above).sum() / above.sum()) if above.sum() else math.nan,
+        "stalls": int(stall.sum()),
+        "stalls_above_floor": int((stall & above).sum()),
+        # a stall whose truth is not within its bound (|n_true| >= rpm_bound): a false stall
+        "false_stalls": int((stall & ~(np.abs(true) < bound)).sum()),
+        "stall_max_abs_true_rpm": float(np.max(np.abs(true[stall]))) if stall.any() else math.nan,
+        "stall_bound_rpm_min": float(np.min(bound[stall])) if stall.any() else math.nan,
+        "stall_bound_rpm_max": float(np.max(bound[stall])) if stall.any() else math.nan,
+        "stall_where_shaft_stands": int((stall & (true <= 0)).sum()),
         "compared_with_encoder": int(cmp_enc.sum()),
         "rms_vs_encoder_pct": float(100 * np.sqrt(np.mean(e_enc ** 2))) if e_enc.size else math.nan,
         "max_vs_encoder_pct": float(100 * np.max(np.abs(e_enc))) if e_enc.size else math.nan,
@@ -173,14 +188,14 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
         "reasons": {k or "confident": int(v) for k, v in df["key"].value_counts().sort_index().items()},
         # the rows above the current floor without a confident count, by reason: all of them, and those
         # above the speed floor too (the window's count is possible there)
-        "uncovered_above_floor": _reasons(df[above & ~conf]),
-        "uncovered_above_both_floors": _reasons(df[above & fast & ~conf]),
+        "uncovered_above_floor": _reasons(df[above & ~conf & ~stall]),
+        "uncovered_above_both_floors": _reasons(df[above & fast & ~conf & ~stall]),
         # of them, where the shaft stands (the truth 0 RPM): no commutation, so no ripple to count
-        "uncovered_above_floor_at_standstill": _reasons(df[above & ~conf & (true <= 0)]),
+        "uncovered_above_floor_at_standstill": _reasons(df[above & ~conf & ~stall & (true <= 0)]),
         # of them, by their place in the step of duty and load (step_position), and under the speed floor
-        "uncovered_above_floor_by_position": {pos: _reasons(df[above & ~conf & (df["step_position"] == pos)])
+        "uncovered_above_floor_by_position": {pos: _reasons(df[above & ~conf & ~stall & (df["step_position"] == pos)])
                                               for pos in ("first", "last", "within")},
-        "uncovered_above_floor_under_speed_floor": int((above & ~conf & ~fast).sum()),
+        "uncovered_above_floor_under_speed_floor": int((above & ~conf & ~stall & ~fast).sum()),
         "confident_in_spans": int((conf & (df["span"].to_numpy() > 1)).sum()) if "span" in df else 0,
     }
     if changing.any():
@@ -201,7 +216,7 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
     prior = df["rpm_prior"].to_numpy()
     rows = ~df["encoder_glitch"].to_numpy() & np.isfinite(ref) & np.isfinite(prior)
     if rows.any():
-        fused = np.where(conf, rpm, prior)
+        fused = np.where(conf | stall, np.where(stall, 0.0, rpm), prior)
         out["m2_rmse_rpm"] = float(np.sqrt(np.mean((prior[rows] - ref[rows]) ** 2)))
         out["fused_rmse_rpm"] = float(np.sqrt(np.mean((fused[rows] - ref[rows]) ** 2)))
         out["fused_rows"] = int(rows.sum())
@@ -229,10 +244,11 @@ def worst_confident(results) -> dict:
 
 
 def table(results) -> str:
-    lines = ["| scenario | windows | above floor | confident there | of them in spans | RMS vs encoder % | "
+    lines = ["| scenario | windows | above floor | confident there | of them in spans | stalls there (false; "
+             "bound RPM) | with the stalls | RMS vs encoder % | "
              "max vs encoder % | RMS vs truth % | max vs truth % | above the current floor, not confident, why "
              "(of them above the speed floor / where the shaft stands) |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     def pct(x, nd):
         return "–" if not np.isfinite(x) else f"{x:.{nd}f}"
 
@@ -244,8 +260,11 @@ def table(results) -> str:
         share = ("–" if not np.isfinite(r["confident_share_above_floor"]) else
                  f"{r['confident_share_above_floor']:.1%} ({r['confident_share_above_both_floors']:.1%} above "
                  f"{r['rpm_floor']:.1f} RPM)")
+        stalls = (f"{r['stalls_above_floor']} ({r['false_stalls']}; {r['stall_bound_rpm_min']:.2f}.."
+                  f"{r['stall_bound_rpm_max']:.2f})" if r["stalls"] else f"0 ({r['false_stalls']})")
+        cover = "–" if not np.isfinite(r["covered_share_above_floor"]) else f"{r['covered_share_above_floor']:.1%}"
         lines.append(f"| {r['scenario']} | {r['windows']} | {r['above_floor']} | "
-                     f"{share} | {r['confident_in_spans']} | {pct(r['rms_vs_encoder_pct'], 3)} | {pct(r['max_vs_encoder_pct'], 2)} | "
+                     f"{share} | {r['confident_in_spans']} | {stalls} | {cover} | {pct(r['rms_vs_encoder_pct'], 3)} | {pct(r['max_vs_encoder_pct'], 2)} | "
                      f"{pct(r['rms_vs_truth_pct'], 3)} | {pct(r['max_vs_truth_pct'], 2)} | {why} |")
     return "\n".join(lines)
 
@@ -282,14 +301,16 @@ def over_seeds_table(results) -> str:
     current floor (min..max), the worst confident error against the encoder and the truth, and
     confident windows where the shaft stands."""
     lines = ["| protocol | time scale | seeds | windows | confident above the floor (min..max) | "
-             "worst vs encoder % | worst vs truth % | confident at a standstill |", "|---|---|---|---|---|---|---|---|"]
+             "worst vs encoder % | worst vs truth % | confident at a standstill | stalls (false) |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for (prot, ts), rs in _by_protocol_and_scale(results):
         share = [r["confident_share_above_floor"] for r in rs]
         enc = float(np.nanmax([r["max_vs_encoder_pct"] for r in rs]))
         tru = float(np.nanmax([r["max_vs_truth_pct"] for r in rs]))
         lines.append(f"| {prot} | {ts * (0.1 if prot == 'long' else 1):g} | {','.join(str(r['seed']) for r in rs)} | "
                      f"{sum(r['windows'] for r in rs)} | {min(share):.1%}..{max(share):.1%} | {enc:.2f} | {tru:.2f} | "
-                     f"{sum(r['confident_at_standstill'] for r in rs)} |")
+                     f"{sum(r['confident_at_standstill'] for r in rs)} | {sum(r['stalls'] for r in rs)} "
+                     f"({sum(r['false_stalls'] for r in rs)}) |")
     return "\n".join(lines)
 
 
@@ -351,6 +372,8 @@ def main(argv=None) -> int:
               f"encoder ({worst['vs_encoder_scenario']}), {worst['vs_truth_pct']:.2f} % against the truth "
               f"({worst['vs_truth_scenario']}); {sum(r['confident_at_standstill'] for r in res)} confident windows "
               "where the shaft stands; the target is 5 %", flush=True)
+        print(f"stalls: {sum(r['stalls'] for r in res)} rows, {sum(r['false_stalls'] for r in res)} false (the "
+              "truth not within the stated bound)", flush=True)
         if a.json:
             with open(a.json, "w", encoding="utf-8") as fh:
                 json.dump(res, fh, indent=1, sort_keys=True, default=float)
@@ -369,8 +392,15 @@ def main(argv=None) -> int:
               f"({worst['vs_encoder_scenario']}), {worst['vs_truth_pct']:.2f} % against the truth "
               f"({worst['vs_truth_scenario']}); {still} confident windows where the shaft stands; the target is 5 %",
               flush=True)
+    print(f"stalls: {sum(r['stalls'] for r in res)} rows, {sum(r['false_stalls'] for r in res)} false (the truth "
+          "not within the stated bound)", flush=True)
     for r in res:
         print(f"{r['scenario']}: {r['ratio_check']['statement']}", flush=True)
+        if r["stalls"]:
+            print(f"{r['scenario']}: {r['stalls']} stall rows (0 RPM), bound {r['stall_bound_rpm_min']:.2f}.."
+                  f"{r['stall_bound_rpm_max']:.2f} RPM, the truth at most {r['stall_max_abs_true_rpm']:.3f} RPM there, "
+                  f"{r['false_stalls']} false; confident {r['confident_share_above_floor']:.1%} of the rows above "
+                  f"the floor without the stalls, {r['covered_share_above_floor']:.1%} with them")
         if np.isfinite(r["max_vs_encoder_own_window_pct"]):
             print(f"{r['scenario']}: each confident window against its own encoder reading (a span's too): RMS "
                   f"{r['rms_vs_encoder_own_window_pct']:.3f} %, max {r['max_vs_encoder_own_window_pct']:.2f} %")

@@ -90,6 +90,7 @@ def _ref_record(metrics: dict) -> dict | None:
         return None
     return {"rows": r["rows"], "kept": r["kept"], "left_out": r["left_out"],
             "left_out_by_reason": r["left_out_by_reason"], "standing_labelled": r.get("standing_labelled", 0),
+            "stall_labelled": r.get("stall_labelled", 0),
             "per_recording": {k: {"rows": v["rows"], "left_out_by_reason": v["left_out_by_reason"],
                                   "standing_labelled": v.get("standing_labelled", 0),
                                   "ke_prior_vs_per_rad": v["ke_prior_vs_per_rad"],
