@@ -187,7 +187,7 @@ __attribute__((noinline)) void begin_count(uint32_t seq) {
     k = g_counter.k;
     g.counted_burst = false;
   }
-  ripple_counter_begin(&g_counter, k, t_exp, g.burst_period, !g.counted_burst);
+  ripple_counter_begin(&g_counter, k, t_exp, g.burst_period, !g.counted_burst, g.burst_n);
 }
 #endif
 

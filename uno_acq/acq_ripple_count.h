@@ -57,13 +57,18 @@ inline void ripple_counter_reset(RippleCounter* c) {
   c->settle = c->t = c->last_t = c->t15 = c->t25 = c->cyc = c->span = c->t1 = 0;
 }
 
-/// A new burst, gap PWM periods after the last one's end, with low-pass shift k and the
-/// expected ripple period t_exp (PWM periods; 0: no prior, nothing counted). The filter states
-/// carry over (the mean current changes little between bursts); after a reset the first
+/// A new burst of burst_n codes, gap PWM periods after the last one's end, with low-pass shift k
+/// and the expected ripple period t_exp (PWM periods; 0: no prior, nothing counted). The filter
+/// states carry over (the mean current changes little between bursts); after a reset the first
 /// 8 x 2^(k+2) filtered codes settle them, across bursts, and after a gap longer than the count
-/// bridges (2.5 expected periods: the 2 Hz windows' 103 ms) the first 4 x 2^(k+2).
+/// bridges (2.5 expected periods: the 2 Hz windows' 103 ms) the first 4 x 2^(k+2). After a gap
+/// the count bridges, a burst that holds kRippleMinCycles expected periods (counted alone: the
+/// 10 Hz windows') lets the band's slowest pole, the high-pass, settle first (2^(k+2) codes): its
+/// state, frozen over the gap, moved the first crossing after it by up to 0.3 period (a 10 Hz
+/// window 6 % off on the load-steps twin); a shorter burst (100 Hz windows) needs that crossing
+/// to bridge the gap.
 __attribute__((noinline)) inline void ripple_counter_begin(RippleCounter* c, uint8_t k, uint16_t t_exp, uint16_t gap,
-                                                            bool first_burst) {
+                                                            bool first_burst, uint16_t burst_n = 0) {
   c->k = k;
   c->odd = 0;
   c->t = static_cast<uint16_t>(c->t + gap);
@@ -74,6 +79,8 @@ __attribute__((noinline)) inline void ripple_counter_begin(RippleCounter* c, uin
     const uint32_t settle = static_cast<uint32_t>(first_burst ? 8u : 4u) << (k + 2u);
     c->settle = static_cast<uint16_t>(settle > 60000u ? 60000u : settle);
     c->t1 = 0;
+  } else if (gap && burst_n >= static_cast<uint32_t>(kRippleMinCycles) * t_exp) {
+    c->settle = static_cast<uint16_t>(1u << (k + 2u));
   }
 }
 

@@ -191,6 +191,25 @@ TEST(AcqRippleCount, CountsAcrossGapsShorterThanAPeriod) {
   EXPECT_GT(cyc, 200.0f);  // most of the 237 cycles of the 3 s
 }
 
+// After a gap the count bridges, a burst that holds kRippleMinCycles expected periods (counted
+// alone) lets the band's high-pass settle, 2^(k+2) filtered codes, before a crossing counts; a
+// shorter one (100 Hz windows) needs its first crossing to bridge the gap; a gap longer than the
+// count bridges settles 4 x 2^(k+2) as before. (ripple_count.py begin, the same rule.)
+TEST(AcqRippleCount, ALongBurstSettlesItsHighPassAfterAGap) {
+  acq::RippleCounter c;
+  acq::ripple_counter_reset(&c);
+  const uint8_t k = 3;
+  acq::ripple_counter_begin(&c, k, 127, 0, true, 768);
+  c.settle = 0;
+  acq::ripple_counter_begin(&c, k, 127, 232, false, 768);  // 10 Hz windows: 768 >= 5 x 127
+  EXPECT_EQ(c.settle, 1u << (k + 2));
+  c.settle = 0;
+  acq::ripple_counter_begin(&c, k, 127, 36, false, 64);  // 100 Hz windows: a burst under a period
+  EXPECT_EQ(c.settle, 0u);
+  acq::ripple_counter_begin(&c, k, 127, 400, false, 768);  // beyond 2.5 expected periods
+  EXPECT_EQ(c.settle, 4u << (k + 2));
+}
+
 // Ra from exact inputs: the calibrated Ke, then the copper's rise through Ra(T).
 TEST(AcqRippleCount, RaAndTemperatureFromExactInputs) {
   hpddo::PhysicsParams p = {};

@@ -49,6 +49,26 @@ def test_a_gap_of_three_periods_is_not_counted_as_two(monkeypatch):
     assert now["confident"] > 0.98 * before["confident"]
 
 
+def test_a_long_burst_settles_its_high_pass_after_a_gap():
+    """acq_ripple_count.h ripple_counter_begin (host test
+    AcqRippleCount.ALongBurstSettlesItsHighPassAfterAGap): after a gap the count bridges, a burst
+    holding MIN_CYCLES expected periods lets the band's high-pass settle (2^(k+2) codes) before a
+    crossing counts: its state, frozen over the gap, moved the first crossing after it, and one
+    10 Hz window of the load-steps twin (time scale 0.05, seed 1) counted 5 cycles 6.1 % slow."""
+    c = rc.Counter()
+    c.begin(3, 127, 0, True, 768)
+    c.settle = 0
+    c.begin(3, 127, 232, False, 768)
+    assert c.settle == 1 << 5
+    c.settle = 0
+    c.begin(3, 127, 36, False, 64)
+    assert c.settle == 0
+    c.begin(3, 127, 400, False, 768)
+    assert c.settle == 4 << 5
+    from hpddo.studies import ripple_board
+    assert ripple_board.run(protocol="load", rate_hz=10.0, time_scale=0.05, seed=1)["rpm_max_pct"] < 2.0
+
+
 def test_copper_coefficient_comes_from_the_schema():
     assert rc.ALPHA_CU == next(e.material for e in schema.EFFECTS if e.name == "thermal_ra") == 0.00393
 

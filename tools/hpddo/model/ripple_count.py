@@ -106,14 +106,16 @@ class Counter:
     span: int = 0
     t1: int = 0  # running mean of the one-period intervals, PWM periods (0: none since the settling)
 
-    def begin(self, k: int, t_exp: int, gap: int, first_burst: bool) -> None:
-        """acq_ripple_count.h ripple_counter_begin."""
+    def begin(self, k: int, t_exp: int, gap: int, first_burst: bool, burst_n: int = 0) -> None:
+        """acq_ripple_count.h ripple_counter_begin (burst_n: the burst's codes)."""
         self.k, self.odd = k, 0
         self.t = (self.t + gap) & 0xFFFF
         self.t15, self.t25 = min(65535, 3 * t_exp // 2), min(65535, 5 * t_exp // 2)
         if first_burst or gap > self.t25:
             self.settle = min(60000, (8 if first_burst else 4) << (k + 2))
             self.t1 = 0
+        elif gap and burst_n >= int(MIN_CYCLES) * t_exp:  # a burst counted alone: its high-pass settles first
+            self.settle = 1 << (k + 2)
 
     def run(self, codes) -> None:
         """ripple_counter_sample on each code, in order (the C++'s 32-bit states never
@@ -285,7 +287,7 @@ def track(bursts, v_V, i_A, rpm_prior, dt_s: float, p, fs_hz: float, ripples_per
     out = []
     for n, codes in enumerate(bursts):
         k, t_exp = bands.pop(n, (LP_RESET, 0))
-        c.begin(k, t_exp, gap_periods, n == 0)
+        c.begin(k, t_exp, gap_periods, n == 0, len(codes))
         c.run(codes)
         cyc, span = c.latch()
         own = cyc
