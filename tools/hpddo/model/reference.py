@@ -90,7 +90,7 @@ def swap(path, df, meta: dict, ref: Ripple):
     # a stall (ripple.count_stalls: the drive on, current flowing, no ripple over a span and a prior too low
     # for a count): 0 RPM, weighted by its confidence (1 - bound / (2 stall_max_rpm)), as the encoder of a
     # jammed shaft reads it; at 0 RPM identification leaves it out (identify.MIN_RPM), the effect fits and M3 take it
-    stall = est["stall"].to_numpy(bool) if "stall" in est else np.zeros(len(est), bool)
+    stall = est["stall"].to_numpy(bool)
     rpm[rows[stall]] = 0.0
     weight[rows[stall]] = est["confidence"].to_numpy(float)[stall]
     kept = np.isfinite(rpm)

@@ -556,6 +556,13 @@ def _upper_speed(prior_rpm: float, sd_above_rpm: float, rel_sd: float, z: float)
     return (p + math.sqrt(max(disc, 0.0))) / a
 
 
+def speed_floor_rpm(window_s: float, opts: Options) -> float:
+    """The output speed at which window_s seconds of current hold opts.min_cycles ripples, RPM:
+    under it a window's own count cannot be confident (22.7 RPM for 0.5 s windows and 26.4
+    ripples per output revolution)."""
+    return opts.min_cycles / window_s / (opts.ripples_per_rev * opts.gear_ratio) * 60.0
+
+
 def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
     """A stall where the data determine it: the drive on, the current above the floor, and the
     shaft standing (a jammed pump or gear). A standing rotor commutates nothing, so there is no
@@ -565,9 +572,8 @@ def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
 
     1. the back-EMF prior cannot turn the shaft fast enough for a window's count: the span's
        prior (the median of its windows' priors) plus opts.stall_prior_z of its upper sd
-       (sqrt(sd_above^2 + (prior_rel_sd n)^2), m2_prior_sd_rpm) lies under the speed floor, the
-       speed at which a window holds opts.min_cycles ripples (22.7 RPM for 0.5 s windows and 26.4
-       ripples per output revolution);
+       (sqrt(sd_above^2 + (prior_rel_sd n)^2), m2_prior_sd_rpm) lies under the speed floor
+       (speed_floor_rpm of the span's median burst);
     2. the span's current holds no ripple line: in its spectrum (trend removed, Hann window) the
        strongest bin from stall_cycles / S (S the span's length, s) to the ripple frequency of the
        highest speed the prior allows (max_prior_z sd above it, at least the speed floor) is under
@@ -602,7 +608,7 @@ def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
             continue
         lengths = np.array([len(c) for c in bursts.codes[a:e]])
         S = float(lengths.sum()) / fs
-        rpm_floor = opts.min_cycles / (float(np.median(lengths)) / fs) * 60.0 / per_rev_out
+        rpm_floor = speed_floor_rpm(float(np.median(lengths)) / fs, opts)
         pr, sa = float(np.median(prior[a:e])), float(np.median(sd_above[a:e]))
         n_up = pr + opts.stall_prior_z * math.hypot(sa, opts.prior_rel_sd * max(pr, 0.0))
         if not n_up < rpm_floor:  # 1. the prior lets the shaft turn fast enough for a window's count

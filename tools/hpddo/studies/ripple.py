@@ -133,11 +133,11 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
     conf = df["confident"].to_numpy()
     # a stall (ripple.count_stalls): 0 RPM within the stated bound, scored as an absolute speed against
     # it (a relative error on 0 RPM means nothing) and counted apart from the counted speeds
-    stall = df["stall"].to_numpy(bool) if "stall" in df else np.zeros(len(df), bool)
-    bound = df["rpm_bound"].to_numpy(float) if "rpm_bound" in df else np.full(len(df), np.nan)
+    stall = df["stall"].to_numpy(bool)
+    bound = df["rpm_bound"].to_numpy(float)
     above = df["i_mean_A"].to_numpy() >= opts.floor_A
-    # the speed floor of the window length: min_cycles ripples per window
-    rpm_floor = opts.min_cycles / WINDOW_S / (opts.ripples_per_rev * opts.gear_ratio) * 60.0
+    uncovered = above & ~conf & ~stall  # above the current floor, neither a confident speed nor a stall
+    rpm_floor = rp.speed_floor_rpm(WINDOW_S, opts)
     fast = df["rpm_true"].to_numpy() >= rpm_floor
     ref = df["rpm_ref"].to_numpy()
     true = df["rpm_true"].to_numpy()
@@ -188,14 +188,14 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
         "reasons": {k or "confident": int(v) for k, v in df["key"].value_counts().sort_index().items()},
         # the rows above the current floor without a confident count, by reason: all of them, and those
         # above the speed floor too (the window's count is possible there)
-        "uncovered_above_floor": _reasons(df[above & ~conf & ~stall]),
-        "uncovered_above_both_floors": _reasons(df[above & fast & ~conf & ~stall]),
+        "uncovered_above_floor": _reasons(df[uncovered]),
+        "uncovered_above_both_floors": _reasons(df[uncovered & fast]),
         # of them, where the shaft stands (the truth 0 RPM): no commutation, so no ripple to count
-        "uncovered_above_floor_at_standstill": _reasons(df[above & ~conf & ~stall & (true <= 0)]),
+        "uncovered_above_floor_at_standstill": _reasons(df[uncovered & (true <= 0)]),
         # of them, by their place in the step of duty and load (step_position), and under the speed floor
-        "uncovered_above_floor_by_position": {pos: _reasons(df[above & ~conf & ~stall & (df["step_position"] == pos)])
+        "uncovered_above_floor_by_position": {pos: _reasons(df[uncovered & (df["step_position"] == pos)])
                                               for pos in ("first", "last", "within")},
-        "uncovered_above_floor_under_speed_floor": int((above & ~conf & ~stall & ~fast).sum()),
+        "uncovered_above_floor_under_speed_floor": int((uncovered & ~fast).sum()),
         "confident_in_spans": int((conf & (df["span"].to_numpy() > 1)).sum()) if "span" in df else 0,
     }
     if changing.any():
@@ -344,6 +344,12 @@ def uncovered_table(results) -> str:
     return "\n".join(lines)
 
 
+def stall_line(results) -> str:
+    """The stalls over the results, and how many were false (the truth outside the stated bound)."""
+    return (f"stalls: {sum(r['stalls'] for r in results)} rows, {sum(r['false_stalls'] for r in results)} false "
+            "(the truth not within the stated bound)")
+
+
 def main(argv=None) -> int:
     ap = parser("ripple", __doc__)
     ap.add_argument("--only", metavar="NAME", help="one scenario")
@@ -372,8 +378,7 @@ def main(argv=None) -> int:
               f"encoder ({worst['vs_encoder_scenario']}), {worst['vs_truth_pct']:.2f} % against the truth "
               f"({worst['vs_truth_scenario']}); {sum(r['confident_at_standstill'] for r in res)} confident windows "
               "where the shaft stands; the target is 5 %", flush=True)
-        print(f"stalls: {sum(r['stalls'] for r in res)} rows, {sum(r['false_stalls'] for r in res)} false (the "
-              "truth not within the stated bound)", flush=True)
+        print(stall_line(res), flush=True)
         if a.json:
             with open(a.json, "w", encoding="utf-8") as fh:
                 json.dump(res, fh, indent=1, sort_keys=True, default=float)
@@ -392,8 +397,7 @@ def main(argv=None) -> int:
               f"({worst['vs_encoder_scenario']}), {worst['vs_truth_pct']:.2f} % against the truth "
               f"({worst['vs_truth_scenario']}); {still} confident windows where the shaft stands; the target is 5 %",
               flush=True)
-    print(f"stalls: {sum(r['stalls'] for r in res)} rows, {sum(r['false_stalls'] for r in res)} false (the truth "
-          "not within the stated bound)", flush=True)
+    print(stall_line(res), flush=True)
     for r in res:
         print(f"{r['scenario']}: {r['ratio_check']['statement']}", flush=True)
         if r["stalls"]:
