@@ -102,9 +102,15 @@ def summary(d) -> str:
             break
     if res.get("noise_floor"):
         lines.append(f"  {res['noise_floor']['text']}")
-    kinds = [f"{r['name']} ({r['kind_source']})" for r in res.get("recordings", []) if r.get("kind") == "steady_state"]
-    if kinds:
-        lines.append("  steady-state tables, no lag, dI/dt or whiteness statistics: " + ", ".join(kinds))
+    for kind, what in (("steady_state", "steady-state tables, no lag, dI/dt or whiteness statistics"),
+                       ("time_series", "read as time series")):
+        recs = [r for r in res.get("recordings", []) if r.get("kind") == kind
+                and (kind == "steady_state" or r.get("kind_source") != "declared")]
+        by_source = {}  # how each kind is known (an undeclared one with the line that declares the other)
+        for r in recs:
+            by_source.setdefault(r["kind_source"], []).append(r["name"])
+        for how, names in by_source.items():
+            lines.append(f"  {what}: {', '.join(names)} ({how})")
     if (res.get("thresholds") or {}).get("held_out"):
         lines.append(f"  held out: {res['thresholds']['held_out']}")
     if (res.get("dynamics") or {}).get("text"):

@@ -14,6 +14,10 @@ from ..logs import dataset
 
 SATURATED_SHARE = 0.02   # driven rows at the channel's extreme value, exactly: saturated
 SATURATED_MIN_ROWS = 5
+# ... and over at least this many different commands (duty for the voltage; duty and load for the
+# current): one value at one command is what the protocol holds (a fixed supply, the top duty of a
+# sweep), not a channel at the end of its range
+SATURATED_COMMANDS = 2
 STUCK_LEVELS = 2         # at most this many distinct values while the duty takes STUCK_DUTIES or more
 STUCK_DUTIES = 3
 COARSE_LEVELS = 20       # fewer steps than this over the range of the driven rows: too coarse
@@ -57,6 +61,7 @@ def _faults(rec, r, sigma2: float) -> list:
     out = []
     meta = dataset.sensor_meta(rec.meta, rec.source)
     duties = len(np.unique(r.duty[driven]))
+    load = rec.df["load"].to_numpy() if "load" in rec.df else np.zeros(rec.n)
     for name, col, lsb_key in CHANNELS:
         x = rec.df[col].to_numpy(float)[driven]
         levels = np.unique(x)
@@ -64,6 +69,8 @@ def _faults(rec, r, sigma2: float) -> list:
             out.append(ChannelFault(rec.name, name, "stuck", f"{len(levels)} distinct values over {len(x)} driven "
                                     f"rows at {duties} duties"))
             continue
+        if len(levels) < 2:
+            continue  # one value and one command: the protocol holds it (a supply per log), no fault to name
         # its step: the declared resolution, else the smallest step between the values it logs
         step = meta.get(lsb_key) or float(np.min(np.diff(levels)))
         span = float(np.ptp(x))
@@ -71,11 +78,15 @@ def _faults(rec, r, sigma2: float) -> list:
             out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
                                     f"{span / step:.0f} levels"))
             continue  # a coarse channel repeats its extremes as it repeats every level
+        # the commands that move the channel: the duty moves the voltage; the duty and the load the current
+        command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
         for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
-            n = int(np.sum(x == edge))
-            if n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)):
+            at = x == edge
+            n = int(np.sum(at))
+            held = len(np.unique(command[at], axis=0))
+            if n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)) and held >= SATURATED_COMMANDS:
                 out.append(ChannelFault(rec.name, name, "saturated", f"{n} of {len(x)} driven rows read exactly "
-                                        f"{edge:.4g} ({which} of its range)"))
+                                        f"{edge:.4g} ({which} of its range) over {held} different commands"))
                 break
     # the current and the load: what the current explains of the speed beyond the voltage
     # (a recording whose load column holds one state has no load to explain: its speed varies

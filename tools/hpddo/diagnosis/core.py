@@ -271,7 +271,7 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
             (g for a, g, z, phy in (st.alternatives if st else []) if a == RA), None)
         others = [a for a, g, z, phy in (st.alternatives if st else []) if ra_gain is not None and ra_gain > 0
                   and a != RA and a not in chosen and phy and g >= ranking.CONFOUND_GAIN * ra_gain]
-        robust_ra(inp, ra_fit, given + chosen, others)
+        robust_ra(inp, ra_fit, given + chosen, others, sigma2)
     if RA in chosen and (not ra_fit.determined or ra_fit.reading_inside):
         # the held-out gain of a moving Ra is no mismatch where the data alone do not determine
         # Ra, or do with another effect alongside and then hold the reading: the reading is kept
@@ -325,16 +325,16 @@ def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, i
     given = inp.m2.ra_ohm
     return RaFit(given_ohm=given, supported_ohm=float(final.ra_ohm), tolerance=ranking.RA_TOLERANCE,
                  sigmas=float(ranking.ra_sigmas(inp.m2, final.ra_ohm)), mismatch=named, inclusion=inclusion,
-                 data=ra_alone(inp, names))
+                 data=ra_alone(inp, names, sigma2))
 
 
-def robust_ra(inp: Inputs, ra_fit: RaFit, names, others) -> None:
+def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = None) -> None:
     """ra_fit.data with each of `others` fitted alongside `names` in turn: the first with
     which the data determine Ra and hold the reading replaces it, and that effect joins
     ra_fit.confounded_with and ra_fit.alongside. (One with which Ra is not determined says
     nothing either way: v_gain rescales Ke and Ra together, a flat objective.)"""
     for c in others:
-        alt = ra_alone(inp, list(names) + [c])
+        alt = ra_alone(inp, list(names) + [c], sigma2)
         if alt is None:
             continue
         probe = dataclasses.replace(ra_fit, data=alt)
@@ -346,7 +346,7 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others) -> None:
             return
 
 
-def ra_alone(inp: Inputs, names) -> intervals.Interval | None:
+def ra_alone(inp: Inputs, names, sigma2: float | None = None) -> intervals.Interval | None:
     """Ra as the data alone determine it, with Ke and the effects in names fitted alongside
     (no prior around the reading): its Interval; None when the fit fails."""
     names = [n for n in names if n != ranking.RA_MISMATCH]
@@ -355,7 +355,8 @@ def ra_alone(inp: Inputs, names) -> intervals.Interval | None:
     except Exception:
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
-    return next(iv for iv in ivs if iv.field == "ra_ohm")
+    iv = next(iv for iv in ivs if iv.field == "ra_ohm")
+    return intervals.with_budget(iv, calibration(inp.recs), birge(inp, p, sigma2) if sigma2 else 1.0)
 
 
 def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
@@ -555,9 +556,10 @@ def diagnose(paths, opt: Options) -> Diagnosis:
         # the verdict without it (no bootstrap): the user sees both and what the one recording changes
         try:
             w = physics(without(inp, odd, opt), dataclasses.replace(opt, bootstrap=0))
-        except Exception as exc:  # too little left without it
+        except InputError as exc:  # too little left without it: the data cannot support the step
             without_it = {"unit": odd.name, "verdict": None, "why": str(exc)}
-            text += f" Checked before ranking: {odd.text()}; without it too little is left to diagnose ({exc})."
+            text += (f" Checked before ranking: {odd.text()}; without it too few labelled rows are left to "
+                     "diagnose the rest apart.")
         else:
             without_it = {"unit": odd.name, "verdict": w[6], "missing_effects": w[3].missing,
                           "ra_fit": w[3].ra_fit.to_json() if w[3].ra_fit is not None else None}
@@ -725,6 +727,7 @@ def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None =
             if ra_fit.mismatch:  # the reading is kept: a biased fit names no mismatch
                 ra_fit.mismatch = False
             sel = dataclasses.replace(sel, ra_fit=ra_fit)
+    ivs = budgeted(inp, sel.final, names, ivs, hold, floor.var_rpm2 if floor is not None else None)
     by_field = {iv.field: iv for iv in ivs}
     table = []
     for e in sel.ranking:
@@ -734,6 +737,51 @@ def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None =
                                                   if f in by_field])
         table.append(e)
     return dataclasses.replace(sel, ranking=table, intervals=ivs)
+
+
+def calibration(recs) -> dict:
+    """{v_cal_rel, i_cal_rel}: the channels' calibration tolerances, the largest any recording
+    declares, else intervals.DEFAULT_CAL_REL; and "declared": which were declared."""
+    out, declared = dict(intervals.DEFAULT_CAL_REL), []
+    for key in intervals.DEFAULT_CAL_REL:
+        vals = [dataset.sensor_meta(r.meta, r.source).get(key) for r in recs]
+        vals = [v for v in vals if v is not None]
+        if vals:
+            out[key] = max(vals)
+            declared.append(key)
+    return out
+
+
+def birge(inp: Inputs, p: ph.PhysicsParams, sigma2: float) -> float:
+    """sqrt(held-out MSE of p / the noise floor), at least 1: how far the model's held-out error
+    stands above what the noise explains."""
+    mse = ranking.held_out_mse(inp.data, ranking.residuals(inp.data, p))
+    return math.sqrt(max(mse / sigma2, 1.0)) if sigma2 > 0 and math.isfinite(mse) else 1.0
+
+
+RA_SENS_REL = 0.01  # Ra moved by this share to take each fitted quantity's sensitivity to it
+
+
+def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigma2: float | None = None) -> list:
+    """ivs (intervals.of_fit of p, fitted with Ra held at inp.m2's) with their uncertainty
+    budgets (intervals.with_budget): the channels' calibration, the model's held-out excess,
+    and the doubt of the Ra held (the reading's tolerance, rectangular), through each
+    quantity's sensitivity to Ra (a refit at Ra moved by RA_SENS_REL)."""
+    cal = calibration(inp.recs)
+    b = birge(inp, p, sigma2) if sigma2 else 1.0
+    ra = inp.m2.ra_ohm
+    sens = {}
+    try:
+        moved = fx.fit(inp.rows, dataclasses.replace(inp.m2, ra_ohm=ra * (1 + RA_SENS_REL)), names, hold=hold,
+                       start=dataclasses.replace(p, ra_ohm=ra * (1 + RA_SENS_REL)))
+        sens = {iv.field: (float(getattr(moved, iv.field)) - iv.value) / (ra * RA_SENS_REL) for iv in ivs
+                if iv.field != "ra_ohm"}
+    except Exception:  # noqa: BLE001 (a refit that fails leaves the Ra part out, said in its given)
+        sens = {}
+    ra_u = ranking.RA_TOLERANCE * ra / math.sqrt(3.0)
+    given = f"Ra = {ra:.4g} ohm held, its {ranking.RA_TOLERANCE:.0%} tolerance in the budget"
+    return [intervals.with_budget(iv, cal, b, ra_u, sens.get(iv.field, 0.0),
+                                  given if iv.field in sens else "") for iv in ivs]
 
 
 def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) -> Diagnosis:

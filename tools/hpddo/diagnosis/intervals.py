@@ -69,12 +69,16 @@ class Interval:
     method: str = ""
     show_scale: float = 1.0
     show_unit: str = ""
+    # the uncertainty budget (GUM): the standard uncertainty of each part, SI, and what the interval
+    # is conditional on ("" where nothing); lo and hi are the value -+ the expanded combination
+    budget: dict = dataclasses.field(default_factory=dict)
+    given: str = ""
 
     def to_json(self) -> dict:
         return {"quantity": self.quantity, "field": self.field, "unit": self.unit, "value": self.value,
                 "lo": self.lo, "hi": self.hi, "level": LEVEL, "determined": bool(self.determined),
                 "why": self.why, "needs": self.needs, "clusters": self.clusters, "method": self.method,
-                "text": self.text()}
+                "budget": dict(self.budget), "given": self.given, "text": self.text()}
 
     def text(self) -> str:
         """The quantity in words: its value with the interval, or that it is not determined."""
@@ -82,8 +86,14 @@ class Interval:
         if not self.determined:
             return (f"{self.quantity} not determined by these recordings ({self.why}); "
                     f"what would determine it: {self.needs}")
-        return (f"{self.quantity} = {self.value * s:.4g} {u} "
-                f"({100 * LEVEL:.0f} % interval {self.lo * s:.4g}..{self.hi * s:.4g} {u})")
+        text = (f"{self.quantity} = {self.value * s:.4g} {u} "
+                f"({100 * LEVEL:.0f} % interval {self.lo * s:.4g}..{self.hi * s:.4g} {u}")
+        parts = [f"{k} {v * s:.2g}" for k, v in self.budget.items() if k != "expanded" and v > 0]
+        if parts:
+            text += "; standard uncertainties: " + ", ".join(parts) + f" {u}"
+        if self.given:
+            text += f"; given {self.given}"
+        return text + ")"
 
 
 def _describe(field: str) -> tuple:
@@ -211,7 +221,8 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
                    f"{_rng(phys, scale, unit)}")
         out.append(Interval(q, f, si, v, lo if math.isfinite(se) else None, hi if math.isfinite(se) else None,
                             determined=not why, why=why, needs=needs, clusters=len(np.unique(np.concatenate(groups))),
-                            method=method, show_scale=scale, show_unit=unit))
+                            method=method, show_scale=scale, show_unit=unit,
+                            budget={"statistical": se} if math.isfinite(se) else {}))
     return _sizes_of_unfixed_forms(out, p, bounds)
 
 
@@ -306,3 +317,63 @@ def ke_two_ways(data, ra_ohm: float) -> dict:
         out[key] = (k, k - t * se, k + t * se)
     out["apart"] = bool(out["eq20"][1] > out["lsq"][2] or out["lsq"][1] > out["eq20"][2])
     return out
+
+
+# ---------------------------------------------------------------------------------------
+# The uncertainty budget (GUM): what the data's scatter gives (the statistical part above) is
+# conditional on the model being right and on perfect sensors. Each interval the diagnosis
+# reports adds, in quadrature, as standard uncertainties:
+#   * the sensors' part: the channels' calibration, a rectangular tolerance of half-width
+#     v_cal_rel / i_cal_rel (log header, docs/bench-log.md; else the defaults below), through the
+#     quantity's relative sensitivity to each channel's gain (SENSOR_GAIN);
+#   * the model's part: the held-out residual beyond the noise floor (the Birge ratio
+#     R = sqrt(held-out MSE / floor)): where the model leaves structure, its statistical part is
+#     scaled by R (u_model = u_stat sqrt(R^2 - 1));
+#   * for a quantity fitted with Ra held at the reading (Ke, the effects): the reading's own
+#     doubt, its tolerance as a rectangular half-width, through the quantity's sensitivity to Ra.
+# The expanded interval is value -+ sqrt((t u_stat)^2 + (k (u_sensor^2 + u_model^2 + u_ra^2))),
+# k = 1.96 for the parts that are not the data's (a normal approximation).
+K_OTHER = 1.959963984540054
+# Calibration tolerances assumed where the log declares none: a voltage divider of 1 % resistors
+# read by a 10-bit ADC against its supply; a shunt and amplifier of 2 %.
+DEFAULT_CAL_REL = {"v_cal_rel": 0.01, "i_cal_rel": 0.02}
+# field -> {tolerance key: exponent}: the quantity scales as gain_v^a gain_i^b under the channels'
+# gains (Ke w = V - I Ra: Ke with the voltage's gain; Ra = V / I with the voltage's over the
+# current's; a brush drop is a voltage; an offset of the current and the saturation per ampere
+# with the current's)
+SENSOR_GAIN = {
+    "ke_vs_per_rad": {"v_cal_rel": 1.0},
+    "ra_ohm": {"v_cal_rel": 1.0, "i_cal_rel": -1.0},
+    "brush_V": {"v_cal_rel": 1.0},
+    "v_offset_V": {"v_cal_rel": 1.0},
+    "i_offset_A": {"i_cal_rel": 1.0},
+    "ke_sat_per_A": {"i_cal_rel": -1.0},
+    "la_H": {"v_cal_rel": 1.0, "i_cal_rel": -1.0},
+}
+
+
+def sensor_u(field: str, value: float, cal: dict) -> float:
+    """Standard uncertainty of a quantity from the channels' calibration tolerances cal
+    ({key: relative half-width}), rectangular: |value| sqrt(sum (a tol / sqrt 3)^2)."""
+    rel2 = sum((a * cal.get(k, 0.0)) ** 2 / 3.0 for k, a in SENSOR_GAIN.get(field, {}).items())
+    return abs(value) * math.sqrt(rel2)
+
+
+def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_sens: float = 0.0,
+                given: str = "") -> "Interval":
+    """iv with its uncertainty budget and the expanded interval (above); ra_u: the standard
+    uncertainty of the Ra the fit held, ra_sens: d value / d Ra; given: what it is conditional on."""
+    if iv.lo is None or iv.hi is None or not (math.isfinite(iv.lo) and math.isfinite(iv.hi)):
+        return iv
+    if "statistical" not in iv.budget:
+        return iv
+    t_stat = (iv.hi - iv.lo) / 2.0  # t u_stat
+    u_stat = iv.budget["statistical"]
+    u_sens = sensor_u(iv.field, iv.value, cal)
+    u_model = u_stat * math.sqrt(max(birge * birge - 1.0, 0.0))
+    u_ra = abs(ra_sens) * ra_u
+    half = math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_model ** 2 + u_ra ** 2))
+    budget = {"statistical": u_stat, "sensors": u_sens, "model": u_model}
+    if ra_u > 0 and ra_sens:
+        budget["Ra given"] = u_ra
+    return dataclasses.replace(iv, lo=iv.value - half, hi=iv.value + half, budget=budget, given=given)

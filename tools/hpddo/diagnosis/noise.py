@@ -79,11 +79,12 @@ class NoiseFloor:
         return head + ": " + "; ".join(parts)
 
 
-def repeats(rows, res) -> np.ndarray:
-    """Differences of the residual res between rows of a steady-state table that repeat one
-    operating point (the same duty and load, currents within REPEAT_I_REL / REPEAT_I_A),
-    taking consecutive repeats pairwise, labelled rows only."""
-    out = []
+def repeats(rows, res) -> tuple[np.ndarray, list]:
+    """(differences, where) of the residual res between rows of a steady-state table that repeat
+    one operating point (the same duty and load, currents within REPEAT_I_REL / REPEAT_I_A),
+    taking consecutive repeats pairwise, labelled rows only; where: "recording rows a and b" of
+    each pair (1-based data rows)."""
+    out, where = [], []
     for r, e in zip(rows, res):
         if not r.steady:
             continue
@@ -95,19 +96,36 @@ def repeats(rows, res) -> np.ndarray:
             if (r.duty[a] == r.duty[b] and load[a] == load[b]
                     and abs(r.i[a] - r.i[b]) <= max(REPEAT_I_A, REPEAT_I_REL * abs(r.i[a]))):
                 out.append(e[a] - e[b])
-    return np.asarray(out, float)
+                where.append(f"{r.rec.name} rows {min(a, b) + 1} and {max(a, b) + 1}")
+    return np.asarray(out, float), where
+
+
+# A repeated pair further apart than REPEAT_OUTLIER robust standard deviations of the pairs'
+# differences is an outlier: named, and left out of the floor (the floor is the pairs' robust
+# spread, so one or two wild pairs cannot make "consistent with measurement noise" true).
+REPEAT_OUTLIER = 5.0
 
 
 def measured(data, res, mse_out_of_fold: float) -> tuple[float, str, bool]:
     """(variance RPM^2, how, from the model) of the noise measured on the held-out residual res:
     first differences where the rows are a time series; on steady-state tables the repeated
-    operating points, else the model's out-of-fold mean squared error mse_out_of_fold."""
+    operating points (their robust spread, the outlying pairs named), else the model's
+    out-of-fold mean squared error mse_out_of_fold."""
     rows = data.rows
     if not any(r.steady for r in rows):
         return (analysis.robust_noise_var(analysis.parts(rows, res)),
                 "the white part of the held-out residual, from row-to-row differences", False)
-    d = repeats(rows, res)
+    d, where = repeats(rows, res)
     if len(d) >= REPEAT_MIN:
+        sd = analysis.MAD_NORMAL * float(np.median(np.abs(d)))  # a pair's difference is centred on zero
+        far = np.flatnonzero(np.abs(d) > REPEAT_OUTLIER * sd) if sd > 0 else np.zeros(0, int)
+        how = f"the robust spread of {len(d)} repeated operating points of the table"
+        if len(far):
+            how += (f"; {len(far)} outlying pair(s) left out ({REPEAT_OUTLIER:g} robust sd or more apart: "
+                    + ", ".join(f"{where[k]}, {abs(d[k]):.3g} RPM" for k in far[:5])
+                    + (", ..." if len(far) > 5 else "") + ")")
+        if sd > 0:
+            return sd * sd / 2.0, how, False
         return float(np.mean(d * d) / 2.0), f"{len(d)} repeated operating points of the table", False
     return (float(mse_out_of_fold),
             "the model's own out-of-fold residual: the table repeats no operating point (repeat a few to "

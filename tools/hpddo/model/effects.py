@@ -392,13 +392,20 @@ def _fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", w
     sw = [np.sqrt(wi) for wi in w]
     fixed_temp = [None if (spec.thermal_state or r.needs_state) else r.temp for r in rows]
 
+    # every recording's fitted rows in one set of arrays: one evaluation of the model per step of
+    # the solver, not one per recording (the same values, row for row, in the same order)
+    v_all = np.concatenate([r.v[m] for r, m in zip(rows, sel)])
+    i_all = np.concatenate([r.i[m] for r, m in zip(rows, sel)])
+    di_all = np.concatenate([r.di_dt[m] for r, m in zip(rows, sel)])
+    ref_all, sw_all = np.concatenate(refs), np.concatenate(sw)
+    t_fixed = _cat_temps([t[m] for t, m in zip(fixed_temp, sel)]) if all(t is not None for t in fixed_temp) else None
+
     def resid(x):
         p = _params(base, spec, x)
-        out = []
-        for r, m, ref, s, t in zip(rows, sel, refs, sw, fixed_temp):
-            tt = temperature(r, p) if t is None else t
-            n = ph.physics_rpm(p, r.v[m], r.i[m], r.di_dt[m], tt[m])
-            out.append(s * np.where(np.isfinite(n), ref - n, 1e4))
+        tt = t_fixed if t_fixed is not None else _cat_temps(
+            [(temperature(r, p) if t is None else t)[m] for r, m, t in zip(rows, sel, fixed_temp)])
+        n = ph.physics_rpm(p, v_all, i_all, di_all, tt)
+        out = [sw_all * np.where(np.isfinite(n), ref_all - n, 1e4)]
         if ra_prior is not None:
             out.append(np.array([ra_prior[2] * (p.ra_ohm - ra_prior[0]) / ra_prior[1]]))
         return np.concatenate(out)
@@ -425,6 +432,16 @@ def _fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", w
     for n in spec.names:
         bits |= LIBRARY[n].bit
     return dataclasses.replace(p, effects=bits), float(res.cost)
+
+
+def _cat_temps(parts):
+    """The temperatures of several recordings' rows end to end: a Temps where any part is one
+    (the winding and the magnets apart), else one array."""
+    if not any(isinstance(t, ph.Temps) for t in parts):
+        return np.concatenate(parts)
+    both = [t if isinstance(t, ph.Temps) else ph.Temps(t, t) for t in parts]
+    return ph.Temps(np.concatenate([np.asarray(t.winding_C, float) for t in both]),
+                    np.concatenate([np.asarray(t.magnet_C, float) for t in both]))
 
 
 FIT_DIGITS = 7  # significant digits kept of a fitted coefficient
