@@ -197,7 +197,7 @@ def test_stages_on_the_bundled_recordings(default_stages):
     assert sel2.missing[-1] == "magnet_thermal" and ["thermal_ra", "magnet_thermal"] in conf2.groups
     assert sel2.final.ra_tc_per_K == pytest.approx(fx.COPPER_TC_PER_K)
     assert sel.missing[-1] != "magnet_thermal"  # the stage returns new values, its inputs stay
-    sel2 = core.with_intervals(inp, sel2)
+    sel2 = core.through_zero(inp, core.with_intervals(inp, sel2, mf.noise), mf.noise)
     assert {iv.quantity for iv in sel2.intervals} >= {"Ke", "brush_drop", "magnet_thermal"}
     resid = core.residuals(inp, mf, sel2)
     text = core.verdict(sel2, conf2, resid, mf.sigma2)

@@ -277,7 +277,7 @@ CURRENT_CANNOT = "Ra and every effect that acts through the current"
 
 @pytest.mark.parametrize("fault, value, figure", [
     ("stuck", lambda x, c: "0.15", "1 distinct values over 30 driven rows at 6 duties"),
-    ("saturated", lambda x, c: f"{min(float(x), 0.16):.4f}", "8 of 30 driven rows read exactly 0.16 (top of its range)"),
+    ("saturated", lambda x, c: f"{min(float(x), 0.16):.4f}", "8 of 30 driven rows read exactly 0.16 (top of its range) over 6 different commands"),
     ("too coarse", lambda x, c: f"{round(float(x) / 0.05) * 0.05:.4f}", "steps of 0.05 over a range of 0.1: 2 levels"),
 ])
 def test_a_faulty_current_channel_of_a_table_is_named_with_what_cannot_be_concluded(tmp_path, fault, value, figure):

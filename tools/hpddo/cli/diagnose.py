@@ -94,11 +94,17 @@ def summary(d) -> str:
         if iv["field"] == "ke_vs_per_rad":
             lines.append(f"  {iv['text']}")
     node = getattr(d, "thermal_node", None) or res.get("thermal_node") or {}
+    fitted = {iv["field"]: iv for iv in res.get("intervals", [])}
     for which, lab in (("after_model", "with the missing effects"), ("model", "model under test")):
         if node.get(which):
             lines.append(f"  winding node ({node['path']} path, {lab}):")
-            for q in node[which]:
-                lines.append(f"    {q['field']:13s} {q['shown']:>14s}  {q['plausibility']}")
+            for q in node[which]:  # a value is a result only where the data determine it
+                iv = fitted.get(q["field"])
+                if iv is not None and iv["determined"]:
+                    lines.append(f"    {q['field']:13s} {q['shown']:>14s}  {q['plausibility']}")
+                else:
+                    lines.append(f"    {q['field']:13s} not determined by these recordings"
+                                 + (f" ({iv['why']})" if iv is not None else " (not fitted)"))
             break
     if res.get("noise_floor"):
         lines.append(f"  {res['noise_floor']['text']}")

@@ -71,15 +71,17 @@ def _faults(rec, r, sigma2: float) -> list:
             continue
         if len(levels) < 2:
             continue  # one value and one command: the protocol holds it (a supply per log), no fault to name
+        # the commands that move the channel: the duty moves the voltage; the duty and the load the current
+        command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
+        commands = len(np.unique(command, axis=0))
         # its step: the declared resolution, else the smallest step between the values it logs
         step = meta.get(lsb_key) or float(np.min(np.diff(levels)))
         span = float(np.ptp(x))
-        if step > 0 and span > 0 and span / step < COARSE_LEVELS:
+        # too coarse for the range its commands move it over (one command: its range is its noise)
+        if commands >= SATURATED_COMMANDS and step > 0 and span > 0 and span / step < COARSE_LEVELS:
             out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
                                     f"{span / step:.0f} levels"))
             continue  # a coarse channel repeats its extremes as it repeats every level
-        # the commands that move the channel: the duty moves the voltage; the duty and the load the current
-        command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
         for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
             at = x == edge
             n = int(np.sum(at))

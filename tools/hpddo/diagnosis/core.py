@@ -111,14 +111,14 @@ class Unit:
                 f"{self.others_rpm:.3g} RPM (median)")
 
 
-def _units(rows) -> list:
+def _units(rows, recordings: bool = False) -> list:
     """(name, kind, per-recording row masks) of the units the consistency check leaves out:
     the recordings of a time series, the operating groups (duty, load) of each steady-state
-    table."""
+    table (recordings: every recording whole)."""
     out = []
     labelled = [r.train | r.test for r in rows]
     for k, r in enumerate(rows):
-        if r.steady:
+        if r.steady and not recordings:
             df = r.rec.df
             load = df["load"].to_numpy() if "load" in df else np.zeros(len(r.i))
             for duty, ld in sorted({(float(a), int(b)) for a, b in zip(r.duty[labelled[k]], load[labelled[k]])}):
@@ -132,10 +132,10 @@ def _units(rows) -> list:
     return out
 
 
-def consistency(inp: Inputs, sigma2: float) -> list:
+def consistency(inp: Inputs, sigma2: float, recordings: bool = False) -> list:
     """Each unit (_units) against the model (M2 with the effects under test: Ke refitted) identified
     on every labelled row but its own: [Unit], empty with fewer than CONSIST_MIN_UNITS units."""
-    units = _units(inp.rows)
+    units = _units(inp.rows, recordings)
     if len(units) < CONSIST_MIN_UNITS:
         return []
     scored = []
@@ -161,6 +161,62 @@ def consistency(inp: Inputs, sigma2: float) -> list:
         beyond_noise = mse - max(sigma2, 0.0) > CONSIST_Z * max(sigma2, 1e-12) * math.sqrt(2.0 / n)
         bad = mse > CONSIST_X ** 2 * max(med, sigma2) and beyond_noise
         out.append(Unit(name, kind, n, math.sqrt(mse), math.sqrt(med), bool(bad), masks))
+    return out
+
+
+# Another motor (or the same motor through another sensor scale): a recording that the model
+# identified on the others misses (consistency, recordings whole), where its own Ke, the others'
+# times a factor at least OTHER_MOTOR_REL away from 1, removes at least OTHER_MOTOR_SHARE of that
+# miss (its mean squared error): a scale, not an effect, sets it apart.
+OTHER_MOTOR_REL = 0.05
+OTHER_MOTOR_SHARE = 0.8
+
+
+@dataclasses.dataclass
+class OtherMotor:
+    """A recording that behaves as another motor: the others' model's miss, and with its own Ke."""
+
+    unit: Unit
+    ke_ratio: float      # its own Ke over the others'
+    rmse_own_rpm: float  # its rows with its own Ke
+
+    def to_json(self) -> dict:
+        return {"recording": self.unit.name, "rmse_rpm": self.unit.rmse_rpm, "others_rpm": self.unit.others_rpm,
+                "ke_ratio": self.ke_ratio, "rmse_own_ke_rpm": self.rmse_own_rpm, "text": self.text()}
+
+    def text(self) -> str:
+        return (f"recording {self.unit.name} behaves as another motor, or as this one through another voltage or "
+                f"speed scale: the model identified on the others misses its {self.unit.rows} rows by "
+                f"{self.unit.rmse_rpm:.3g} RPM RMS (the others, each left out in turn: {self.unit.others_rpm:.3g}), "
+                f"and its own Ke, {self.ke_ratio:.3g} times theirs, brings that to {self.rmse_own_rpm:.3g} RPM; it is "
+                "left out of the ranking below (diagnose it alone, or check the motor and the channels' scales)")
+
+
+def other_motors(inp: Inputs, sigma2: float) -> list:
+    """[OtherMotor] among the recordings (at least CONSIST_MIN_UNITS of them), before any effect
+    is ranked."""
+    if len(inp.rows) < CONSIST_MIN_UNITS:
+        return []
+    out = []
+    for u in consistency(inp, sigma2, recordings=True):
+        if not u.inconsistent:
+            continue
+        k = next(j for j, m in enumerate(u.masks) if m.any())
+        rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, u.masks)]
+        own = [dataclasses.replace(inp.rows[k], train=u.masks[k], test=u.masks[k])]
+        try:
+            p_rest = fx.fit(rest, inp.m2, inp.given)
+            p_own = fx.fit(own, p_rest, [], start=p_rest)  # Ke alone moves: the others' effects held
+        except Exception:  # noqa: BLE001 (a unit too small to fit its own Ke says nothing)
+            continue
+        e = (inp.rows[k].ref - fx.predict(inp.rows[k], p_own))[u.masks[k]]
+        e = e[np.isfinite(e)]
+        if not len(e):
+            continue
+        ratio = p_own.ke_vs_per_rad / p_rest.ke_vs_per_rad
+        mse_own = float(np.mean(e * e))
+        if abs(ratio - 1.0) >= OTHER_MOTOR_REL and mse_own <= (1.0 - OTHER_MOTOR_SHARE) * u.rmse_rpm ** 2:
+            out.append(OtherMotor(u, float(ratio), math.sqrt(mse_own)))
     return out
 
 
@@ -271,6 +327,10 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
             (g for a, g, z, phy in (st.alternatives if st else []) if a == RA), None)
         others = [a for a, g, z, phy in (st.alternatives if st else []) if ra_gain is not None and ra_gain > 0
                   and a != RA and a not in chosen and phy and g >= ranking.CONFOUND_GAIN * ra_gain]
+        # ... and then every other identifiable candidate: an instruction to use another Ra must hold
+        # whichever effect is fitted alongside (a brush drop the selection did not name moves the
+        # data-alone Ra by the drop over the mean current)
+        others += [c for c in candidates if c != RA and c not in chosen and c not in others]
         robust_ra(inp, ra_fit, given + chosen, others, sigma2)
     if RA in chosen and (not ra_fit.determined or ra_fit.reading_inside):
         # the held-out gain of a moving Ra is no mismatch where the data alone do not determine
@@ -334,7 +394,7 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
     ra_fit.confounded_with and ra_fit.alongside. (One with which Ra is not determined says
     nothing either way: v_gain rescales Ke and Ra together, a flat objective.)"""
     for c in others:
-        alt = ra_alone(inp, list(names) + [c], sigma2)
+        alt = ra_alone(inp, list(names) + [c], sigma2, physical=True)
         if alt is None:
             continue
         probe = dataclasses.replace(ra_fit, data=alt)
@@ -346,13 +406,17 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
             return
 
 
-def ra_alone(inp: Inputs, names, sigma2: float | None = None) -> intervals.Interval | None:
+def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = False) -> intervals.Interval | None:
     """Ra as the data alone determine it, with Ke and the effects in names fitted alongside
-    (no prior around the reading): its Interval; None when the fit fails."""
+    (no prior around the reading): its Interval; None when the fit fails (physical: or when an
+    effect's fitted coefficient is not physical: an alternative that explains the data only with
+    a drop of the wrong sign is no alternative)."""
     names = [n for n in names if n != ranking.RA_MISMATCH]
     try:
         p = ranking.fit_ra_free(inp.rows, inp.m2, names)
     except Exception:
+        return None
+    if physical and not all(fx.LIBRARY[n].is_physical(getattr(p, fx.LIBRARY[n].field)) for n in names):
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")
@@ -548,7 +612,18 @@ def leave_one_out(inp: Inputs, missing: list) -> dict:
 def diagnose(paths, opt: Options) -> Diagnosis:
     t0 = time.perf_counter()
     inp = load(paths, opt)
-    inp, mf, ident, sel, conf, resid, text = physics(inp, opt)
+    # another motor, or another sensor scale, named before any effect is ranked, and left out
+    mf0 = fit_model(inp)
+    others = other_motors(inp, mf0.sigma2) if opt.consistency else []
+    for o in others:
+        try:
+            inp = without(inp, o.unit, opt)
+        except InputError:  # too little left without it: the diagnosis of all goes on, said below
+            others = []
+            break
+    inp, mf, ident, sel, conf, resid, text = physics(inp, opt, None if others else mf0)
+    if others:
+        text = "Checked before ranking: " + "; ".join(o.text() for o in others) + ". " + text
     units = consistency(inp, mf.sigma2) if opt.consistency else []
     odd = max((u for u in units if u.inconsistent), key=lambda u: u.rmse_rpm / max(u.others_rpm, 1e-9), default=None)
     without_it = None
@@ -567,7 +642,8 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     changed = bool(sel.missing) or sel.ra_fit.mismatch
     hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt) if opt.hybrid else (None, [])
     d = _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
-    d.consistency = {"units": [u.to_json() for u in units], "without": without_it}
+    d.consistency = {"units": [u.to_json() for u in units], "without": without_it,
+                     "other_motors": [o.to_json() for o in others]}
     if opt.leave_one_out:
         if len(inp.recs) < 2:
             raise InputError("leave-one-out needs at least two recordings (one to leave out, one to fit on)")
@@ -674,10 +750,11 @@ def ke_check(inp: Inputs, mf: ModelFit, ke_fit: str) -> dict:
             "text": text}
 
 
-def physics(inp: Inputs, opt: Options) -> tuple:
-    """The physics stages from fit_model to verdict: (inputs (Ra moved where it is a
-    mismatch), ModelFit, identifiability, Selection, Confounding, Residuals, verdict text)."""
-    mf = fit_model(inp)
+def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
+    """The physics stages from fit_model (mf: its result on inp, where already taken) to verdict:
+    (inputs (Ra moved where it is a mismatch), ModelFit, identifiability, Selection, Confounding,
+    Residuals, verdict text)."""
+    mf = fit_model(inp) if mf is None else mf
     ident = identifiability(inp, mf)
     sel = select(inp, mf, ident, opt)
     mf, moved = refloor(inp, mf, sel)
@@ -689,6 +766,7 @@ def physics(inp: Inputs, opt: Options) -> tuple:
         inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
     sel, conf = material_check(inp, mf, sel, conf)
     sel = with_intervals(inp, sel, mf.noise)
+    sel = through_zero(inp, sel, mf.noise)
     resid = residuals(inp, mf, sel)
     # the dynamic family (issue 21, item 8): identified from the fast recordings, the observer on the
     # model under test's speed for the held-out figure
@@ -711,6 +789,29 @@ def physics(inp: Inputs, opt: Options) -> tuple:
     return inp, mf, ident, sel, conf, resid, text
 
 
+def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
+    """sel without the named effects whose coefficient's interval (with its whole budget) holds
+    zero: the data do not tell such an effect from its absence, so it is not named (its row in the
+    ranking table a candidate with the reason), and the final model is fitted again without it."""
+    field = {fx.LIBRARY[e].field: e for e in sel.missing}
+    zero = [field[iv.field] for iv in sel.intervals if iv.field in field and iv.determined
+            and iv.lo is not None and iv.lo <= 0.0 <= iv.hi]
+    if not zero:
+        return sel
+    missing = [m for m in sel.missing if m not in zero]
+    names = inp.given + missing
+    hold = ranking.material_holds(names) if sel.ra_fit is not None and sel.ra_fit.mismatch else None
+    try:
+        final = fx.fit(inp.rows, inp.m2, names, hold=hold, start=sel.final)
+    except Exception:  # noqa: BLE001 (the refit failed: the selection stands as it was)
+        return sel
+    table = [dataclasses.replace(e, kind="candidate", note=(
+        f"fitted, but its {100 * intervals.LEVEL:.0f} % interval holds zero: not named")) if e.effect in zero else e
+             for e in sel.ranking]
+    out = dataclasses.replace(sel, final=final, missing=missing, ranking=table)
+    return with_intervals(inp, out, floor)
+
+
 def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
     """sel with the Interval of every quantity its final model fitted: on the selection (its
     `intervals`) and on the named rows of its ranking table (their coefficient and shapes).
@@ -727,7 +828,7 @@ def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None =
             if ra_fit.mismatch:  # the reading is kept: a biased fit names no mismatch
                 ra_fit.mismatch = False
             sel = dataclasses.replace(sel, ra_fit=ra_fit)
-    ivs = budgeted(inp, sel.final, names, ivs, hold, floor.var_rpm2 if floor is not None else None)
+    ivs = budgeted(inp, sel.final, names, ivs, hold, floor.var_rpm2 if floor is not None else None, sel.ra_fit)
     by_field = {iv.field: iv for iv in ivs}
     table = []
     for e in sel.ranking:
@@ -762,11 +863,23 @@ def birge(inp: Inputs, p: ph.PhysicsParams, sigma2: float) -> float:
 RA_SENS_REL = 0.01  # Ra moved by this share to take each fitted quantity's sensitivity to it
 
 
-def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigma2: float | None = None) -> list:
+def ra_doubt_ohm(ra_held: float, ra_fit: RaFit | None) -> float:
+    """The half-width of the rectangular doubt of the Ra a fit held: the reading's tolerance, and
+    as far as the data alone leave Ra open (their interval, where they determine it): a reading
+    can be further off than its tolerance, and only the data bound how far."""
+    a = ranking.RA_TOLERANCE * ra_held
+    d = ra_fit.data if ra_fit is not None else None
+    if d is not None and d.determined and d.lo is not None:
+        a = max(a, abs(d.lo - ra_held), abs(d.hi - ra_held))
+    return a
+
+
+def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigma2: float | None = None,
+             ra_fit: RaFit | None = None) -> list:
     """ivs (intervals.of_fit of p, fitted with Ra held at inp.m2's) with their uncertainty
     budgets (intervals.with_budget): the channels' calibration, the model's held-out excess,
-    and the doubt of the Ra held (the reading's tolerance, rectangular), through each
-    quantity's sensitivity to Ra (a refit at Ra moved by RA_SENS_REL)."""
+    and the doubt of the Ra held (ra_doubt_ohm, rectangular), through each quantity's
+    sensitivity to Ra (a refit at Ra moved by RA_SENS_REL)."""
     cal = calibration(inp.recs)
     b = birge(inp, p, sigma2) if sigma2 else 1.0
     ra = inp.m2.ra_ohm
@@ -778,8 +891,9 @@ def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigm
                 if iv.field != "ra_ohm"}
     except Exception:  # noqa: BLE001 (a refit that fails leaves the Ra part out, said in its given)
         sens = {}
-    ra_u = ranking.RA_TOLERANCE * ra / math.sqrt(3.0)
-    given = f"Ra = {ra:.4g} ohm held, its {ranking.RA_TOLERANCE:.0%} tolerance in the budget"
+    doubt = ra_doubt_ohm(ra, ra_fit)
+    ra_u = doubt / math.sqrt(3.0)
+    given = f"Ra = {ra:.4g} ohm held, within {doubt:.3g} ohm in the budget"
     return [intervals.with_budget(iv, cal, b, ra_u, sens.get(iv.field, 0.0),
                                   given if iv.field in sens else "") for iv in ivs]
 

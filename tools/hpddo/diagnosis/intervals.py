@@ -213,7 +213,9 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
         why = ""
         b = bounds.get(f)
         if b is not None and _on_edge(v, b):
-            why = f"the fit stopped at the edge of the range allowed, {_rng(b, scale, unit)}: the data pull it further"
+            why = f"{EDGE_WHY} of the range allowed, {_rng(b, scale, unit)}: the data pull it further"
+        elif f == "th_tau_s" and all(r.steady for r in rows):
+            why = "steady-state tables have no clock: the winding's time constant is not in their rows"
         elif not math.isfinite(se):
             why = "the objective is flat along it: these rows do not move the speed estimate with it"
         elif lo <= phys[0] or hi >= phys[1]:
@@ -223,7 +225,25 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
                             determined=not why, why=why, needs=needs, clusters=len(np.unique(np.concatenate(groups))),
                             method=method, show_scale=scale, show_unit=unit,
                             budget={"statistical": se} if math.isfinite(se) else {}))
-    return _sizes_of_unfixed_forms(out, p, bounds)
+    return _thermal_needs_its_node(_sizes_of_unfixed_forms(out, p, bounds))
+
+
+EDGE_WHY = "the fit stopped at the edge"
+
+
+def _thermal_needs_its_node(ivs: list) -> list:
+    """ivs with a thermal effect's coefficient not determined where the winding node's thermal
+    resistance it is fitted through stopped at the edge of its range: the winding's rise over the
+    case is then not what the data say but the range's end, and the coefficient (the copper's
+    change per kelvin of that rise) would be a value that was not fitted."""
+    node = [iv for iv in ivs if iv.field == "th_r_K_per_W" and not iv.determined and iv.why.startswith(EDGE_WHY)]
+    if not node:
+        return ivs
+    thermal = {e.field for e in schema.EFFECTS if e.thermal}
+    why = (f"the winding node it is fitted through is not determined ({node[0].field}: {node[0].why}), and the "
+           "coefficient depends on the winding temperature the node gives")
+    return [dataclasses.replace(iv, determined=False, why=why, needs=THERMAL_NEEDS)
+            if iv.field in thermal and iv.determined else iv for iv in ivs]
 
 
 def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> list:

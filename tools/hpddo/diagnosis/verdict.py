@@ -78,6 +78,10 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
     """The verdict's text; family: the dynamic family from the fast recordings (dynamics.Dynamics)."""
     ra = ra_verdict(sel.ra_fit)
     text = _verdict(sel, conf, resid, sigma2, floor)
+    for e in sel.ranking:  # selected by its held-out gain, but its interval holds zero (core.through_zero)
+        if e.kind == "candidate" and e.note and "holds zero" in e.note:
+            text += (f" {e.effect} was selected ({e.shown}), but its {100 * intervals.LEVEL:.0f} % interval holds zero, "
+                     "so these recordings do not tell it from its absence: not named.")
     dyn = dynamics(resid.before, resid.dt_s, family)
     if dyn and family is not None and family.fast:  # the dynamics are named: no "no library effect explains it"
         for said, say in (("No library effect explains the residual", "Apart from the dynamics (above), no library "

@@ -1,0 +1,51 @@
+"""The calibration study in small (issue 31, item 7): its benches are what they say (the truth in
+the library's parametrisation: a bench without effects, read through perfect channels, is the plain
+model exactly), and on a few of them the diagnosis states nothing false: no absent effect named,
+no wrong instruction, another motor's recording named before the ranking. The whole study
+(python -m hpddo.studies.calibration, 200 benches) is in docs/diagnosis.md."""
+import dataclasses
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from hpddo.model import physics as ph
+from hpddo.studies import calibration as cal
+
+pytestmark = pytest.mark.slow
+
+
+def test_a_bench_without_effects_through_perfect_channels_is_the_plain_law(tmp_path):
+    b = dataclasses.replace(cal.draw(3), effects={}, gains={k: 0.0 for k in cal.TOL}, v_lsb_V=1e-6, i_lsb_A=1e-6,
+                            other_motor=False, table=True)
+    for path in cal.write(b, tmp_path):
+        df = pd.read_csv(path, comment="#")
+        w = df["rpm_ref"] / ph.RPM_PER_RAD_S
+        ke = (df["v_V"] - df["i_A"] * b.ra_ohm) / w
+        # the readings' noise (10 mV, 2 mA, 1 RPM) is all that separates them from V = Ra I + Ke w
+        assert np.median(ke) == pytest.approx(b.ke_vs_per_rad, rel=0.02)
+
+
+@pytest.mark.parametrize("seed", [2, 20])
+def test_a_few_benches_state_nothing_false(seed):
+    r = cal.run_one(seed)
+    assert "score" in r, r
+    s = r["score"]
+    assert not s["false"]["effect named that is absent"], s
+    assert not s["false"]["a wrong instruction"], s
+    assert not s["false"]["a recording called inconsistent that is not"], s
+    if r["bench"]["other_motor"]:
+        assert s["other motor named"], s
+    # (an interval's coverage is a rate over many benches: the study's, not one bench's)
+
+
+def test_the_summary_counts_each_kind():
+    results = [{"bench": {}, "score": {"covered": {"Ke": True, "Ra (data alone)": None},
+                                       "false": {"x": False}, "other motor named": None}},
+               {"bench": {}, "score": {"covered": {"Ke": False}, "false": {"x": True}, "other motor named": True}},
+               {"bench": {}, "refused": "too few rows"}]
+    s = cal.summarise(results)
+    assert s["coverage"]["Ke"] == {"n": 2, "covered": 1, "share": 0.5}
+    assert "Ra (data alone)" not in s["coverage"]
+    assert s["false"]["x"]["count"] == 1 and s["refused"] == 1
+    assert s["other motor named"] == {"n": 1, "count": 1}
