@@ -120,3 +120,21 @@ def test_platformio_pins_the_vendored_core_and_arduinojson():
     assert f"| `ArduinoJson-{aj}/src` | bblanchon/ArduinoJson | tag v{aj} |" in readme
     for env in ("env:esp8266", "env:native"):
         assert _ini_value(env, "lib_deps") == f"bblanchon/ArduinoJson@{aj}", env
+
+
+def test_littlefs_is_mounted_without_formatting_and_serial_is_never_waited_for():
+    """The core's LittleFSConfig formats by default (autoFormat true): LittleFS.begin() then wipes
+    a file system that does not mount, the stored model with it. The glue turns that off and lets
+    infer::App mount through the store (the result in the ready line); and its lines go to USB
+    only through infer_tx.h's ring, pumped with what the UART's FIFO takes (no Serial.write that spins)."""
+    vendor, _ = _vendor()
+    lfs = (vendor / "esp8266-arduino" / "libraries" / "LittleFS" / "src" / "LittleFS.h").read_text()
+    assert "LittleFSConfig(bool autoFormat = true)" in lfs and "if (!_cfg._autoFormat || !format())" in lfs
+    code = "\n".join(line for line in GLUE.splitlines() if not line.lstrip().startswith("//"))
+    mount = code[code.index("bool mount() override"):]
+    mount = mount[:mount.index("}")]
+    assert mount.index("LittleFS.setConfig(LittleFSConfig(false));") < mount.index("return LittleFS.begin();"), mount
+    assert code.count("LittleFS.begin()") == 2 and "format() override { return LittleFS.format() && LittleFS.begin(); }" in code
+    assert "g_app.begin(g_out);" in code
+    assert "Serial.write" not in code and "Serial.print" not in code
+    assert "infer::TxQueue<infer::kTxRing> g_out;" in code and "g_out.pump(Serial);" in code
