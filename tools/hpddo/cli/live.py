@@ -50,7 +50,7 @@ def parser(prog: str = "hpddo live") -> argparse.ArgumentParser:
 class EspReader:
     """Reads the ESP8266's telemetry into the feed in a thread until stop()."""
 
-    def __init__(self, port, name: str, feed: page.Feed):
+    def __init__(self, port, name: str, feed: page.Server):
         self.port, self.name, self.feed = port, name, feed
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="hpddo-live-esp", daemon=True)
@@ -83,13 +83,12 @@ class EspReader:
 def run(a: argparse.Namespace) -> int:
     """Starts the page, reads the ESP8266 if asked, records the UNO; the exit status is capture's."""
     address = EVERY_ADDRESS if a.open_to_network else LOCAL
-    feed = page.Feed()
     esp_port = esp = server = None
     try:
         if a.esp_port:
             esp_port = capture.open_port(a.esp_port, a.esp_baud, timeout=0.2, hold_reset=True)
         title = f"hpddo live: {a.port}" + (f" + {a.esp_port}" if a.esp_port else "") + f" -> {a.out}"
-        server = page.Server(feed, address, a.http_port, title, with_esp=bool(a.esp_port))
+        server = page.Server(address, a.http_port, title, with_esp=bool(a.esp_port))
         try:
             http_port = server.start()
         except OSError as exc:
@@ -102,9 +101,9 @@ def run(a: argparse.Namespace) -> int:
                   f"to the network: anyone who reaches this machine sees the bench's data (no password)",
                   file=sys.stderr, flush=True)
         if esp_port is not None:
-            esp = EspReader(esp_port, a.esp_port, feed)
+            esp = EspReader(esp_port, a.esp_port, server)
             esp.start()
-        return capture.record(a, on_row=feed.add_row, prog="hpddo live")
+        return capture.record(a, on_row=server.add_row, prog="hpddo live")
     except KeyboardInterrupt as exc:  # before the recording started (record reports its own)
         print(f"hpddo live: {'stopped by ' + exc.args[0] if getattr(exc, 'status', None) else 'interrupted'} "
               f"before recording started on {a.port}: nothing written to {a.out}", file=sys.stderr)
