@@ -57,6 +57,7 @@ class EspReader:
 
     def _run(self):
         pending = b""
+        first = True  # opening the port discards what it held: the first line may be a line's tail
         while not self._stop.is_set():
             try:
                 raw = self.port.readline()
@@ -69,6 +70,10 @@ class EspReader:
                 pending += raw  # a read timeout cut the line
                 continue
             line, pending = (pending + raw).decode("utf-8", errors="replace").strip(), b""
+            if first and line:
+                first = False
+                if not line.startswith("{"):
+                    continue  # the tail of a line cut by the opening: not the board's garbage
             if line:
                 self.feed.add_esp(line)
 
