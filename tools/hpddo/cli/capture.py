@@ -10,7 +10,8 @@ with "!" are its replies and are shown, not logged. Every line is checked as it
 arrives (metadata form, field count, numbers, t_s increasing, duty in 0..1); a
 garbled line is counted, reported with its stream line number and not written.
 
-The rows go to OUT.partial as they arrive. At the end the log is written
+The rows go to OUT.partial as they arrive (flushed whenever the port has nothing more
+waiting, and at least every 100 ms). At the end the log is written
 to OUT atomically with the capture's own metadata first:
 "# complete=true" when the board ended the recording ("! end") and no line was
 garbled, else "# complete=false" with "# cut=--rows N" or "# cut=--seconds S"

@@ -11,7 +11,8 @@ from the UNO's rows the estimate (rpm_est, the observer the UNO runs) against th
 (rpm, rpm_m2, the network's residual, confidence, status), joined to the rows on the low
 16 bits of seq. The ESP8266's lines are shown, not recorded: they have no t_s or duty.
 
-The page listens on 127.0.0.1 only; --open-to-network listens on every address (a warning
+The page runs in a process of its own, fed through a pipe: the serial readers here never wait
+for it (hpddo.reports.live.Server). The page listens on 127.0.0.1 only; --open-to-network listens on every address (a warning
 says so: anyone who reaches this machine sees the page). Both serial ports are opened
 exclusively and closed on every way out; the page ends with the recording.
 """
