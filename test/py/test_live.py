@@ -486,11 +486,14 @@ def test_esp_lines_join_rows_on_the_low_16_bits_of_seq_in_either_order():
     invalid.update(rpm=None, residual=None, status="invalid")  # a non-finite number is written null
     feed.add_esp(json.dumps(invalid))
     assert not feed.add_esp('{"event":"ready","model":"compiled"}')
+    assert not feed.add_esp('{"event":"ready","model_crc_ok":true,"model":"compiled","model_crc":1,"fs":"unmounted"}')
+    assert not feed.add_esp('{"event":"tx_dropped","lines":3}')
     assert not feed.add_esp("{garbled") and feed.esp_bad == 1
     uno, esp, counts = feed.take(0, 0)
     assert uno["t_s"] == [0.07, 0.08] and uno["est_status"] == [0.0, 2.0] and uno["error"] == [5.0, 5.0]
     assert esp["t_s"] == [0.07, 0.08] and esp["status"] == [0.0, 0.0] and counts["esp_joined"] == 2
     assert counts["esp_lines"] == 3  # the null line is telemetry, waiting for its row
+    assert counts["esp_fs"] == "unmounted" and counts["esp_tx_dropped"] == 3 and counts["esp_bad"] == 1
     assert feed.take(2, 2)[:2] == (None, None)
 
 

@@ -57,6 +57,8 @@ class Feed:
         self.esp_lines = 0  # telemetry lines read
         self.esp_joined = 0
         self.esp_bad = 0  # lines that are not telemetry JSON (events excluded)
+        self.esp_fs = None  # the board's file system as its ready line says: "mounted", "unmounted"
+        self.esp_tx_dropped = 0  # lines the board dropped for a full USB ring (its tx_dropped events)
         self.rows = 0
         self.lost = 0
         self.garbled = 0
@@ -91,6 +93,13 @@ class Feed:
         except ValueError:
             with self._lock:
                 self.esp_bad += 1
+            return False
+        if isinstance(obj, dict) and obj.get("event") in ("ready", "tx_dropped"):
+            with self._lock:
+                if obj["event"] == "ready" and isinstance(obj.get("fs"), str):
+                    self.esp_fs = obj["fs"]
+                elif isinstance(obj.get("lines"), int):
+                    self.esp_tx_dropped = obj["lines"]
             return False
         if not isinstance(obj, dict) or "event" in obj:
             return False
@@ -127,7 +136,8 @@ class Feed:
             uno = [p for p in self._uno if p[0] >= uno_from]
             esp = [p for p in self._esp if p[0] >= esp_from]
             counts = dict(rows=self.rows, lost=self.lost, garbled=self.garbled, esp_lines=self.esp_lines,
-                          esp_joined=self.esp_joined, esp_bad=self.esp_bad, n_uno=self.n_uno, n_esp=self.n_esp)
+                          esp_joined=self.esp_joined, esp_bad=self.esp_bad, n_uno=self.n_uno, n_esp=self.n_esp,
+                          esp_fs=self.esp_fs, esp_tx_dropped=self.esp_tx_dropped)
         return (dict(zip(UNO_COLUMNS, map(list, zip(*uno)))) if uno else None,
                 dict(zip(ESP_COLUMNS, map(list, zip(*esp)))) if esp else None, counts)
 
@@ -187,7 +197,11 @@ def make_document(feed: Feed, title: str, with_esp: bool):
                 cursor["esp"] = new_esp["n"][-1] + 1
                 esp.stream({k: np.asarray(v, dtype=float) for k, v in new_esp.items()}, rollover=KEEP)
             esp_text = (f"; ESP8266: {c['esp_lines']} lines, {c['esp_joined']} joined on seq, "
-                        f"{c['esp_bad']} not telemetry") if with_esp else ""
+                        f"{c['esp_bad']} not telemetry"
+                        + (f", {c['esp_tx_dropped']} dropped by the board (its USB line full)"
+                           if c["esp_tx_dropped"] else "")
+                        + (", its file system did not mount (compiled model)" if c["esp_fs"] == "unmounted"
+                           else "")) if with_esp else ""
             head.text = (f"<b>{shown}</b>: {c['rows']} rows recorded, {c['lost']} samples lost, "
                          f"{c['garbled']} garbled{esp_text}")
 
