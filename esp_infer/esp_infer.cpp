@@ -13,6 +13,7 @@
 #include "hpddo_core.h"
 #include "infer_app.h"
 #include "infer_model.h"
+#include "infer_tx.h"
 
 namespace {
 
@@ -20,9 +21,16 @@ const uint8_t kPinLinkRx = 14;  // D5, from the UNO's D11 through a 1k/2k divide
 const uint32_t kLinkBaud = 38400;
 const size_t kHostRxBuffer = 1024;  // two whole command lines (infer::kCommandMax)
 
-/// The board's files: LittleFS (formatted on first use).
+/// The board's files: LittleFS. Mounted without the core's autoFormat (LittleFSConfig's default
+/// is true: LittleFS.begin() formats a file system that does not mount, the stored model lost
+/// silently); a new board's blank flash is formatted by the format command (docs/firmware.md).
 class FsStore : public infer::Store {
  public:
+  bool mount() override {
+    LittleFS.setConfig(LittleFSConfig(false));
+    return LittleFS.begin();
+  }
+  bool format() override { return LittleFS.format() && LittleFS.begin(); }
   bool begin_write(const char* path) override {
     w_ = LittleFS.open(path, "w");
     return static_cast<bool>(w_);
@@ -53,11 +61,8 @@ SoftwareSerial g_link(kPinLinkRx, -1);
 FsStore g_store;
 infer::App<infer::model::Net> g_app(infer::model::kModel, infer::model::kChecksum, g_store, infer::model::kDynamics);
 
-class SerialSink : public infer::LineSink {
- public:
-  void line(const char* text, size_t n) override { Serial.write(reinterpret_cast<const uint8_t*>(text), n); }
-};
-SerialSink g_out;
+// Lines to USB through a ring: Serial.write() never waits for the UART (infer_tx.h).
+infer::TxQueue<infer::kTxRing> g_out;
 
 uint32_t now_us() { return micros(); }
 
@@ -67,13 +72,13 @@ void setup() {
   Serial.setRxBufferSize(kHostRxBuffer);
   Serial.begin(infer::kHostBaud);
   g_link.begin(kLinkBaud);
-  LittleFS.begin();
-  g_app.begin(g_out);
+  g_app.begin(g_out);  // mounts LittleFS through g_store, never formatting it
 }
 
 void loop() {
   while (g_link.available() > 0) g_app.link_byte(static_cast<uint8_t>(g_link.read()), millis(), now_us, g_out);
   while (Serial.available() > 0) g_app.host_byte(static_cast<uint8_t>(Serial.read()), millis(), g_out);
   g_app.poll(millis(), g_out);
+  g_out.pump(Serial);
   yield();
 }

@@ -7,6 +7,10 @@
 //   {"cmd":"commit"}                          checks it whole; stores it and puts it in force
 //   {"cmd":"abort"}                           drops an upload
 //   {"cmd":"use_compiled"}                    forgets the stored model: the firmware's again
+//   {"cmd":"format"}                          erases and mounts a file system that did not mount
+// At start-up the file system is mounted as it is, never formatted: when the mount fails the
+// compiled model runs, the ready line and the status say "fs":"unmounted", uploads are
+// refused, and only the format command (refused while the file system is mounted) erases it.
 // An upload that is interrupted (no chunk for kUploadIdle_ms, a chunk out of order, a
 // byte count or CRC-32 that differs) or whose model is refused leaves the model in force
 // running and says why in an error line. The sketch (esp_infer.cpp) feeds it bytes and
@@ -44,23 +48,28 @@ class App {
       : compiled_(compiled), compiled_crc_(compiled_crc), store_(store), model_(&compiled), model_crc_(compiled_crc),
         compiled_dynamics_(compiled_dynamics), dynamics_(&compiled_dynamics),
         active_slot_(-1), limits_(compiled.limits), rx_(&limits_), observer_(compiled, compiled_dynamics),
-        console_(*this), now_ms_(0),
+        console_(*this), out_(nullptr), now_ms_(0), fs_mounted_(false),
         receiving_(false), expect_bytes_(0), got_bytes_(0), expect_crc_(0), running_crc_(0), next_seq_(0),
         last_chunk_ms_(0) {}
 
-  /// At start-up: puts the stored model in force when there is one and it passes every
-  /// check (else says why and keeps the compiled one), then writes the ready line.
+  /// At start-up: mounts the store (never formatting it), puts the stored model in force
+  /// when there is one and it passes every check (else says why and keeps the compiled one),
+  /// then writes the ready line, "fs" saying whether the store mounted.
   void begin(LineSink& out) {
-    if (store_.exists(kModelNewPath)) store_.remove(kModelNewPath);  // an upload cut by a reset
-    if (store_.exists(kModelPath)) {
-      ModelError why;
-      if (!load(kModelPath, &why)) send_error(out, "stored_model", why);
+    fs_mounted_ = store_.mount();
+    if (fs_mounted_) {
+      if (store_.exists(kModelNewPath)) store_.remove(kModelNewPath);  // an upload cut by a reset
+      if (store_.exists(kModelPath)) {
+        ModelError why;
+        if (!load(kModelPath, &why)) send_error(out, "stored_model", why);
+      }
     }
     ArduinoJson::JsonDocument doc(&scratch_);
     doc["event"] = "ready";
     doc["model_crc_ok"] = hpddo::model_checksum(*model_, *dynamics_) == model_crc_;
     doc["model"] = source();
     doc["model_crc"] = model_crc_;
+    doc["fs"] = fs_state();
     send_json(doc, out);
   }
 
@@ -84,7 +93,9 @@ class App {
   /// One byte from the host (commands) at now_ms.
   void host_byte(uint8_t byte, uint32_t now_ms, LineSink& out) {
     now_ms_ = now_ms;
+    out_ = &out;
     console_.push(byte, now_ms, out);
+    out_ = nullptr;
   }
 
   /// Call often: drops a stale partial command line and an upload that stopped.
@@ -110,6 +121,8 @@ class App {
       reply["commands"] = console_.lines();
       reply["command_errors"] = console_.errors();
       reply["uploading"] = receiving_;
+      reply["fs"] = fs_state();
+      reply["tx_dropped"] = out_ ? out_->lines_dropped() : 0u;
       return true;
     }
     if (strcmp(cmd, "upload") == 0) return upload(args, reply);
@@ -128,6 +141,13 @@ class App {
       reply["model_crc"] = model_crc_;
       return true;
     }
+    if (strcmp(cmd, "format") == 0) {
+      if (fs_mounted_) return fail(reply, "fs_mounted", "the file system is mounted: format erases only one that did not mount");
+      fs_mounted_ = store_.format();
+      if (!fs_mounted_) return fail(reply, "store", "format failed: the file system is still not mounted");
+      reply["fs"] = fs_state();
+      return true;
+    }
     return false;
   }
 
@@ -136,6 +156,7 @@ class App {
   const hpddo::DynamicsParams& dynamics() const { return *dynamics_; }
   uint32_t model_crc() const { return model_crc_; }
   bool uploaded() const { return active_slot_ >= 0; }
+  bool fs_mounted() const { return fs_mounted_; }
   ObserverT& observer() { return observer_; }
   const LinkReceiver& link() const { return rx_; }
   const Console<App>& console() const { return console_; }
@@ -143,6 +164,7 @@ class App {
 
  private:
   const char* source() const { return active_slot_ < 0 ? "compiled" : "uploaded"; }
+  const char* fs_state() const { return fs_mounted_ ? "mounted" : "unmounted"; }
 
   static bool fail(ArduinoJson::JsonDocument& reply, const char* code, const char* detail) {
     reply["error"] = code;
@@ -156,6 +178,7 @@ class App {
     doc["error"] = code;
     doc["reason"] = why.code;
     doc["detail"] = why.detail;
+    console_.count_error();
     send_json(doc, out);
   }
 
@@ -174,6 +197,8 @@ class App {
 
   bool upload(ArduinoJson::JsonObjectConst args, ArduinoJson::JsonDocument& reply) {
     drop_upload();
+    if (!fs_mounted_)
+      return fail(reply, "fs_unmounted", "the file system did not mount (ready line): {\"cmd\":\"format\"} erases it");
     if (!args["bytes"].is<uint32_t>() || !args["crc32"].is<uint32_t>())
       return fail(reply, "bad_args", "upload needs \"bytes\" and \"crc32\" (unsigned integers)");
     const uint32_t bytes = args["bytes"];
@@ -294,9 +319,11 @@ class App {
   ObserverT observer_;
   LineWriter line_;
   Console<App> console_;
+  LineSink* out_;  ///< where the command being handled replies (its lines_dropped for the status)
   ArenaAllocator<kLineArena> scratch_;
   ArenaAllocator<kUploadArena> upload_arena_;
   uint32_t now_ms_;
+  bool fs_mounted_;  ///< the store mounted at begin() or by the format command
   bool receiving_;
   uint32_t expect_bytes_;
   uint32_t got_bytes_;

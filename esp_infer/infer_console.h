@@ -45,6 +45,8 @@ static const size_t kConsoleArena = 3 * ARDUINOJSON_POOL_CAPACITY * 2 * sizeof(v
 class LineSink {
  public:
   virtual void line(const char* text, size_t n) = 0;
+  /// Lines this sink could not pass on (infer_tx.h's ring when full); 0 for a sink that never drops.
+  virtual uint32_t lines_dropped() const { return 0; }
 
  protected:
   ~LineSink() {}
@@ -130,7 +132,9 @@ class Console {
   }
 
   uint32_t lines() const { return lines_; }    ///< command lines handled
-  uint32_t errors() const { return errors_; }  ///< error lines sent
+  uint32_t errors() const { return errors_; }  ///< error lines sent (the console's and the app's: count_error)
+  /// Counts an error line the app sent outside a command's reply (an upload that timed out).
+  void count_error() { ++errors_; }
   size_t arena_peak() const { return arena_.peak(); }
 
  private:

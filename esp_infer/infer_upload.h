@@ -52,6 +52,11 @@ static const char kModelNewPath[] = "/model.new";
 /// is written and one read at a time.
 class Store {
  public:
+  /// Mounts the file system as it is, never formatting it (a damaged one and the model in it
+  /// stay for a person to decide); true when mounted. Until then the other calls fail.
+  virtual bool mount() = 0;
+  /// Erases the file system (the stored model with it) and mounts it empty; true when mounted.
+  virtual bool format() = 0;
   virtual bool begin_write(const char* path) = 0;  ///< creates or truncates
   virtual bool append(const uint8_t* data, size_t n) = 0;
   virtual bool end_write() = 0;

@@ -4,9 +4,12 @@
 // this does with a pseudo-terminal (or stdin/stdout), a bench log and a folder, so the
 // host tools (`hpddo upload`) can be tested against it without a board.
 //
-//   esp_host --store DIR [--pty] [--baud N] [--frames LOG.csv [--rate HZ] [--on-signal]] [--golden-csv FILE]
+//   esp_host --store DIR [--fs-unmountable] [--pty] [--baud N] [--frames LOG.csv [--rate HZ] [--on-signal]]
+//            [--golden-csv FILE]
 //
 //   --store DIR       the board's files (model.json, model.new); created if missing
+//   --fs-unmountable  the store plays a LittleFS that does not mount: its files are kept and
+//                     none is read or written, until the format command erases them
 //   --pty             serve the host side on a new pseudo-terminal: prints "pty PATH" on
 //                     stdout, then runs until killed (SIGTERM, SIGINT)
 //   (no --pty)        host bytes from stdin, lines to stdout, until stdin ends
@@ -51,9 +54,17 @@ typedef infer::App<hpddo_model_default::Net> App;
 /// infer::Store over a folder: "/model.json" is DIR/model.json.
 class DirStore final : public infer::Store {
  public:
-  explicit DirStore(const std::string& dir) : dir_(dir) {}
+  DirStore(const std::string& dir, bool unmountable) : dir_(dir), unmountable_(unmountable) {}
+  bool mount() override { return mounted_ = !unmountable_; }
+  bool format() override {
+    std::remove(full(infer::kModelPath).c_str());
+    std::remove(full(infer::kModelNewPath).c_str());
+    unmountable_ = false;
+    return mounted_ = true;
+  }
   bool begin_write(const char* path) override {
     end_write();
+    if (!mounted_) return false;
     w_ = std::fopen(full(path).c_str(), "wb");
     return w_ != nullptr;
   }
@@ -67,6 +78,7 @@ class DirStore final : public infer::Store {
   }
   bool open_read(const char* path) override {
     close_read();
+    if (!mounted_) return false;
     r_ = std::fopen(full(path).c_str(), "rb");
     return r_ != nullptr;
   }
@@ -77,14 +89,16 @@ class DirStore final : public infer::Store {
     r_ = nullptr;
   }
   bool rename(const char* from, const char* to) override {
-    return std::rename(full(from).c_str(), full(to).c_str()) == 0;
+    return mounted_ && std::rename(full(from).c_str(), full(to).c_str()) == 0;
   }
-  bool remove(const char* path) override { return std::remove(full(path).c_str()) == 0; }
-  bool exists(const char* path) override { return access(full(path).c_str(), F_OK) == 0; }
+  bool remove(const char* path) override { return mounted_ && std::remove(full(path).c_str()) == 0; }
+  bool exists(const char* path) override { return mounted_ && access(full(path).c_str(), F_OK) == 0; }
 
  private:
   std::string full(const char* path) const { return dir_ + path; }
   std::string dir_;
+  bool unmountable_;
+  bool mounted_ = false;
   FILE* w_ = nullptr;
   FILE* r_ = nullptr;
 };
@@ -228,12 +242,14 @@ int golden_check(App& app, const std::string& path) {
 
 int main(int argc, char** argv) {
   std::string store_dir, frames_path, golden_path;
-  bool use_pty = false, on_play_signal = false;
+  bool use_pty = false, on_play_signal = false, unmountable = false;
   double rate_hz = 0;
   for (int k = 1; k < argc; ++k) {
     const std::string a = argv[k];
     if (a == "--store" && k + 1 < argc) {
       store_dir = argv[++k];
+    } else if (a == "--fs-unmountable") {
+      unmountable = true;
     } else if (a == "--pty") {
       use_pty = true;
     } else if (a == "--frames" && k + 1 < argc) {
@@ -248,7 +264,7 @@ int main(int argc, char** argv) {
       golden_path = argv[++k];
     } else {
       std::fprintf(stderr,
-                   "usage: esp_host --store DIR [--pty] [--baud N] [--frames LOG.csv [--rate HZ] [--on-signal]] "
+                   "usage: esp_host --store DIR [--fs-unmountable] [--pty] [--baud N] [--frames LOG.csv [--rate HZ] [--on-signal]] "
                    "[--golden-csv FILE]\n");
       return 2;
     }
@@ -258,7 +274,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   mkdir(store_dir.c_str(), 0777);
-  static DirStore store(store_dir);
+  static DirStore store(store_dir, unmountable);
   static App app(hpddo_model_default::kModel, hpddo_model_default::kChecksum, store);
 
   if (!golden_path.empty()) {

@@ -11,6 +11,8 @@ namespace {
 extern "C" int hpddo_esp_store(int op, const char* path, uint8_t* data, size_t n);
 class Store : public infer::Store {
  public:
+  bool mount() override { return hpddo_esp_store(10, nullptr, nullptr, 0) == 0; }
+  bool format() override { return hpddo_esp_store(11, nullptr, nullptr, 0) == 0; }
   bool begin_write(const char* path) override { return hpddo_esp_store(0, path, nullptr, 0) == 0; }
   bool append(const uint8_t* data, size_t n) override {
     return hpddo_esp_store(1, nullptr, const_cast<uint8_t*>(data), n) == 0;

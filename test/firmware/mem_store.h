@@ -1,5 +1,7 @@
 // infer::Store in memory, for the host tests and fuzzers of the inference board: files
-// are strings; a fault can be injected on the n-th append (fail_append_at) or on rename.
+// are strings; a fault can be injected on the n-th append (fail_append_at), on rename, or on
+// the mount (mount_fails: a damaged file system, which only format() makes usable, emptied).
+// As LittleFS, every file call fails until mount() or format() succeeded.
 #ifndef HPDDO_TEST_MEM_STORE_H
 #define HPDDO_TEST_MEM_STORE_H
 
@@ -13,8 +15,19 @@ class MemStore final : public infer::Store {
   std::map<std::string, std::string> files;
   long fail_append_at = -1;  ///< the append (counted from 0, see appends()) that fails; -1: none
   bool fail_rename = false;
+  bool mount_fails = false;
+  bool mounted = false;
+  int formats = 0;  ///< format() calls
 
+  bool mount() override { return mounted = !mount_fails; }
+  bool format() override {
+    ++formats;
+    files.clear();
+    mount_fails = false;
+    return mounted = true;
+  }
   bool begin_write(const char* path) override {
+    if (!mounted) return false;
     writing_ = path;
     files[writing_].clear();
     return true;
@@ -29,6 +42,7 @@ class MemStore final : public infer::Store {
     return true;
   }
   bool open_read(const char* path) override {
+    if (!mounted) return false;
     auto it = files.find(path);
     if (it == files.end()) return false;
     reading_ = it->second;
@@ -44,13 +58,13 @@ class MemStore final : public infer::Store {
   void close_read() override { reading_.clear(); }
   bool rename(const char* from, const char* to) override {
     auto it = files.find(from);
-    if (fail_rename || it == files.end()) return false;
+    if (!mounted || fail_rename || it == files.end()) return false;
     files[to] = it->second;
     files.erase(from);
     return true;
   }
-  bool remove(const char* path) override { return files.erase(path) > 0; }
-  bool exists(const char* path) override { return files.count(path) > 0; }
+  bool remove(const char* path) override { return mounted && files.erase(path) > 0; }
+  bool exists(const char* path) override { return mounted && files.count(path) > 0; }
   long appends() const { return appends_; }
 
  private:

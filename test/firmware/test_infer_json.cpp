@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 
@@ -17,6 +18,7 @@
 #include "acq_config.h"
 #include "infer_app.h"
 #include "infer_line.h"
+#include "infer_tx.h"
 #include "golden.h"
 #include "infer_model.h"
 #include "mem_store.h"
@@ -190,6 +192,8 @@ App& fresh_app() {
   delete store;
   store = new MemStore;
   app = new App(infer::model::kModel, infer::model::kChecksum, *store);
+  Lines boot;
+  app->begin(boot);
   return *app;
 }
 
@@ -203,7 +207,8 @@ TEST(InferConsole, StatusReportsTheModelAndCounters) {
   std::snprintf(want, sizeof want, "{\"event\":\"status\",\"model\":\"compiled\",\"model_crc\":%u,\"model_crc_ok\":true,",
                 static_cast<unsigned>(infer::model::kChecksum));
   EXPECT_EQ(r[0].compare(0, std::strlen(want), want), 0) << r[0];
-  EXPECT_NE(r[0].find("\"commands\":1,\"command_errors\":0,\"uploading\":false}\n"), std::string::npos) << r[0];
+  EXPECT_NE(r[0].find("\"commands\":1,\"command_errors\":0,\"uploading\":false,\"fs\":\"mounted\",\"tx_dropped\":0}\n"),
+            std::string::npos) << r[0];
   // CR LF line ends, members in any order, and members the filter drops change nothing.
   const std::vector<std::string> r2 = send(app, "{\"x\":1.5,\"cmd\":\"status\",\"z\":\"w\"}\r\n");
   ASSERT_EQ(r2.size(), 1u);
@@ -451,6 +456,8 @@ TEST(InferUpload, AnotherModelIsPutInForceAndAChangedParameterShows) {
   // (hpddo::model_checksum over the parsed model): the board runs the new physics.
   MemStore store;
   App app(infer::model::kModel, infer::model::kChecksum, store);
+  Lines boot;
+  app.begin(boot);
   const std::string compiled = estimates(app);
   ArduinoJson::JsonDocument d;
   ASSERT_FALSE(ArduinoJson::deserializeJson(d, default_document()));
@@ -476,6 +483,8 @@ TEST(InferUpload, AnotherModelIsPutInForceAndAChangedParameterShows) {
 TEST(InferUpload, FuzzedUploadsNeverChangeTheModelInForce) {
   MemStore store;
   App app(infer::model::kModel, infer::model::kChecksum, store);
+  Lines boot;
+  app.begin(boot);
   const std::string& doc = default_document();
   // In force: the default model, uploaded (so a damaged upload would have a RAM copy to spoil).
   ASSERT_TRUE(committed(upload(app, doc)));
@@ -645,4 +654,203 @@ TEST(InferUpload, FuzzedUploadsNeverChangeTheModelInForce) {
   ASSERT_TRUE(committed(upload(app, "\r\n " + doc + " \n")));  // JSON's whitespace around it
   EXPECT_EQ(app.model_crc(), crc_before);
   EXPECT_EQ(estimates(app), before);
+}
+
+TEST(InferUpload, AnUploadThatTimesOutCountsAsACommandError) {
+  App& app = fresh_app();
+  Lines out;
+  send(app, upload_line(default_document().size(), crc32_of(default_document())), 100);
+  app.poll(101 + infer::kUploadIdle_ms, out);
+  ASSERT_EQ(out.got.size(), 1u);
+  EXPECT_EQ(error_of(out.got[0]), "upload_timeout");
+  const std::vector<std::string> r = send(app, "{\"cmd\":\"status\"}\n", 6000);
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_NE(r[0].find("\"commands\":2,\"command_errors\":1,"), std::string::npos) << r[0];
+}
+
+// ---- the file system: mounted as it is, never formatted behind the user's back
+
+namespace {
+std::string status_of(App& app) {
+  const std::vector<std::string> r = send(app, "{\"cmd\":\"status\"}\n");
+  return r.size() == 1 ? r[0] : "";
+}
+}  // namespace
+
+TEST(InferStore, AFileSystemThatDoesNotMountIsKeptTheCompiledModelRunsAndTheReadyLineSaysSo) {
+  MemStore store;
+  {  // a board with an uploaded model
+    App app(infer::model::kModel, infer::model::kChecksum, store);
+    Lines boot;
+    app.begin(boot);
+    ASSERT_EQ(boot.got.size(), 1u);
+    EXPECT_NE(boot.got[0].find("\"fs\":\"mounted\""), std::string::npos) << boot.got[0];
+    ASSERT_TRUE(committed(upload(app, default_document())));
+  }
+  const std::map<std::string, std::string> files = store.files;
+  ASSERT_EQ(files.at(infer::kModelPath), default_document());
+  // A reset, and the file system does not mount (damaged flash, a half-written block).
+  store.mount_fails = true;
+  App app(infer::model::kModel, infer::model::kChecksum, store);
+  Lines boot;
+  app.begin(boot);
+  ASSERT_EQ(boot.got.size(), 1u);
+  std::printf("ready line, the file system not mounted: %s", boot.got[0].c_str());
+  EXPECT_NE(boot.got[0].find("\"model\":\"compiled\""), std::string::npos) << boot.got[0];
+  EXPECT_NE(boot.got[0].find("\"fs\":\"unmounted\""), std::string::npos) << boot.got[0];
+  EXPECT_FALSE(app.fs_mounted());
+  EXPECT_EQ(&app.model(), &infer::model::kModel);  // the compiled model runs
+  EXPECT_EQ(store.formats, 0);                     // never formatted
+  EXPECT_EQ(store.files, files);                   // the stored model is still there
+  EXPECT_NE(status_of(app).find("\"fs\":\"unmounted\""), std::string::npos) << status_of(app);
+  // Uploads are refused, saying how to go on; nothing is written.
+  std::vector<std::string> r = send(app, upload_line(default_document().size(), crc32_of(default_document())));
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(error_of(r[0]), "fs_unmounted") << r[0];
+  EXPECT_NE(r[0].find("format"), std::string::npos) << r[0];
+  EXPECT_EQ(store.files, files);
+  // The telemetry runs on: a frame gives its line.
+  hpddo::SampleFrame f;
+  std::memset(&f, 0, sizeof f);
+  f.seq = 1;
+  f.v_mV = 9000;
+  f.i_mA = 500;
+  f.period_us = 10000;
+  uint8_t buf[hpddo::kFrameSize];
+  hpddo::encode_frame(f, buf);
+  Lines tele;
+  uint32_t clock = 0;
+  for (uint8_t b : buf) app.link_byte(b, 0, [&clock]() { return clock += 10u; }, tele);
+  ASSERT_EQ(tele.got.size(), 1u);
+  EXPECT_EQ(tele.got[0].compare(0, 8, "{\"seq\":1"), 0) << tele.got[0];
+  // Only the format command erases it; then uploads work again.
+  r = send(app, "{\"cmd\":\"format\"}\n");
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(r[0], "{\"event\":\"format\",\"fs\":\"mounted\"}\n");
+  EXPECT_EQ(store.formats, 1);
+  EXPECT_TRUE(store.files.empty());
+  EXPECT_TRUE(committed(upload(app, default_document())));
+  // A mounted file system is not formatted: its model stays.
+  r = send(app, "{\"cmd\":\"format\"}\n");
+  ASSERT_EQ(r.size(), 1u);
+  EXPECT_EQ(error_of(r[0]), "fs_mounted") << r[0];
+  EXPECT_EQ(store.formats, 1);
+  EXPECT_EQ(store.files.at(infer::kModelPath), default_document());
+}
+
+// ---- the host's UART: never waited for (infer_tx.h)
+
+namespace {
+
+/// HardwareSerial's transmit side as the ESP8266 has it: a FIFO of `fifo` bytes that the UART
+/// empties at its baud (drain()); write() of more than availableForWrite() would spin on the
+/// board, so here it is counted as a wait.
+struct FakeSerial {
+  size_t fifo;
+  size_t used = 0;
+  size_t waits = 0;  ///< writes that would have blocked
+  std::string sent;  ///< what went into the FIFO, in order
+  explicit FakeSerial(size_t fifo_bytes) : fifo(fifo_bytes) {}
+  int availableForWrite() const { return static_cast<int>(fifo - used); }
+  size_t write(const uint8_t* p, size_t n) {
+    if (n > fifo - used) ++waits;
+    used += n;
+    sent.append(reinterpret_cast<const char*>(p), n);
+    return n;
+  }
+  void drain(size_t n) { used -= n < used ? n : used; }
+};
+
+std::vector<std::string> split_lines(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string l; std::getline(in, l);) out.push_back(l + "\n");
+  return out;
+}
+
+}  // namespace
+
+TEST(InferTx, ALineThatDoesNotFitIsDroppedWholeAndCountedAndNothingWaits) {
+  infer::TxQueue<256> q;
+  FakeSerial uart(128);  // the ESP8266's UART FIFO
+  std::vector<std::string> queued;
+  for (int k = 0; k < 10; ++k) {  // 10 lines of 60 bytes, the UART not draining: 4 fit
+    std::string line = "{\"seq\":" + std::to_string(k) + ",\"pad\":\"" + std::string(60 - 19, 'x') + "\"}\n";
+    line.resize(60 - 1);
+    line += "\n";
+    if (q.queued() + line.size() <= 256) queued.push_back(line);
+    q.line(line.data(), line.size());
+    q.pump(uart);
+  }
+  EXPECT_EQ(uart.waits, 0u);
+  EXPECT_EQ(uart.used, 128u);       // the FIFO full, no more was handed over
+  EXPECT_EQ(q.lines_dropped(), 4u);  // 128 bytes in the FIFO + 256 in the ring: 6 lines of 60 kept
+  for (int k = 0; k < 40; ++k) {
+    uart.drain(50);
+    q.pump(uart);
+  }
+  EXPECT_EQ(uart.waits, 0u);
+  EXPECT_EQ(q.queued(), 0u);
+  std::vector<std::string> got = split_lines(uart.sent);
+  ASSERT_EQ(got.size(), queued.size() + 1) << uart.sent;
+  for (size_t k = 0; k < queued.size(); ++k) EXPECT_EQ(got[k], queued[k]);  // whole, in order
+  EXPECT_EQ(got.back(), "{\"event\":\"tx_dropped\",\"lines\":4}\n");
+  std::printf("ring of 256 bytes, UART FIFO 128 bytes not draining: %zu lines of 60 bytes kept, %u dropped\n",
+              queued.size(), static_cast<unsigned>(q.lines_dropped()));
+}
+
+TEST(InferTx, TelemetryAt100HzNeverWaitsNorDropsAndTheStatusReportsDrops) {
+  // The golden rows' telemetry at 100 frames/s through the board's ring to a 128-byte FIFO
+  // drained at 460800 baud (46.08 bytes/ms), pumped once a millisecond as loop() does at least.
+  namespace gold = ::HPDDO_GOLDEN_NS;
+  App& app = fresh_app();
+  infer::TxQueue<infer::kTxRing> q;
+  FakeSerial uart(128);
+  uint32_t clock = 0;
+  size_t bytes = 0, lines = 0;
+  for (uint16_t r = 0; r < gold::kCount; ++r) {
+    const hpddo::Sample s = gold::sample(r);
+    hpddo::SampleFrame f;
+    std::memset(&f, 0, sizeof f);
+    f.seq = static_cast<uint16_t>(r + 1u);
+    f.v_mV = static_cast<uint16_t>(s.v_V * 1000.0f + 0.5f);
+    f.i_mA = static_cast<int16_t>(std::lround(s.i_A * 1000.0f));
+    f.period_us = 10000u;
+    uint8_t buf[hpddo::kFrameSize];
+    hpddo::encode_frame(f, buf);
+    for (uint8_t b : buf) app.link_byte(b, r * 10u, [&clock]() { return clock += 100u; }, q);
+    for (int ms = 0; ms < 10; ++ms) {
+      q.pump(uart);
+      uart.drain(46);
+    }
+  }
+  for (int ms = 0; ms < 100; ++ms, uart.drain(46)) q.pump(uart);
+  bytes = uart.sent.size();
+  lines = split_lines(uart.sent).size();
+  EXPECT_EQ(uart.waits, 0u);
+  EXPECT_EQ(q.lines_dropped(), 0u);
+  EXPECT_EQ(lines, static_cast<size_t>(gold::kCount));
+  std::printf("%zu telemetry lines (%zu bytes) at 100 Hz: no write waited, 0 dropped, ring peak %zu of %zu bytes\n",
+              lines, bytes, q.peak(), infer::kTxRing);
+  // A host line that stops (the UART not drained) fills the ring: lines are dropped, the
+  // status says how many, and the stream says so once there is room.
+  for (int k = 0; k < 40; ++k) {
+    char line[64];
+    const int n = std::snprintf(line, sizeof line, "{\"seq\":%d,\"filler\":\"%040d\"}\n", k, 0);
+    q.line(line, static_cast<size_t>(n));
+    q.pump(uart);
+  }
+  EXPECT_EQ(uart.waits, 0u);
+  ASSERT_GT(q.lines_dropped(), 0u);
+  std::vector<std::string> r;
+  for (char c : std::string("{\"cmd\":\"status\"}\n")) app.host_byte(static_cast<uint8_t>(c), 0, q);
+  const uint32_t dropped = q.lines_dropped();  // the status reply itself did not fit either
+  for (int ms = 0; ms < 200; ++ms, uart.drain(46)) q.pump(uart);
+  r = split_lines(uart.sent);
+  EXPECT_EQ(r.back(), "{\"event\":\"tx_dropped\",\"lines\":" + std::to_string(dropped) + "}\n");
+  // With room again, the status reports the count.
+  for (char c : std::string("{\"cmd\":\"status\"}\n")) app.host_byte(static_cast<uint8_t>(c), 0, q);
+  for (int ms = 0; ms < 20; ++ms, uart.drain(46)) q.pump(uart);
+  r = split_lines(uart.sent);
+  EXPECT_NE(r.back().find("\"tx_dropped\":" + std::to_string(dropped) + "}"), std::string::npos) << r.back();
 }

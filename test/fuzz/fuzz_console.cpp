@@ -34,6 +34,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   typedef infer::App<infer::model::Net> App;
   MemStore store;
   App* app = new App(infer::model::kModel, infer::model::kChecksum, store);
+  Lines boot;
+  app->begin(boot);  // mounts the store: uploads reach it
   Lines out;
   uint32_t now = 0;
   size_t events = 0;  // newlines and idle jumps: each may give one reply

@@ -68,3 +68,73 @@ def test_every_argument_a_command_reads_passes_the_parsers_filter():
     keys = set(re.findall(r'"(\w+)"', re.search(r"kCommandKeys\[\] = \{([^}]*)\}", console).group(1)))
     used = set(re.findall(r'args\["(\w+)"\]', APP))
     assert used and used <= keys, used - keys
+
+
+#: what each pinned release of PlatformIO's espressif8266 platform asks for, from its platform.json
+#: ("framework-arduinoespressif8266": "~3.30102.0" in v4.2.0 and v4.2.1)
+PLATFORM_FRAMEWORK = {"4.2.0": "3.30102.0", "4.2.1": "3.30102.0"}
+
+
+def _vendor():
+    """../shared/vendor's README, or a skip saying why (a failure with CI=true, as ctest's)."""
+    import os
+
+    import pytest
+
+    readme = ROOT.parent / "shared" / "vendor" / "README.md"
+    if not readme.is_file():
+        why = f"the vendored libraries' README is not at {readme}"
+        if os.environ.get("CI") == "true":
+            pytest.fail(why)
+        pytest.skip(why)
+    return readme.parent, readme.read_text()
+
+
+def _ini_value(section: str, key: str) -> str:
+    body = INI[INI.index(f"[{section}]"):]
+    body = body[:body.index("\n[", 1)] if "\n[" in body[1:] else body
+    m = re.search(rf"^{key}\s*=\s*(.+)$", body, re.M)
+    assert m, f"{key} missing in [{section}]"
+    return m.group(1).strip()
+
+
+def test_platformio_pins_the_vendored_core_and_arduinojson():
+    """Users build against the ESP8266 core and the ArduinoJson the compile check and the host
+    tests use: the platform and its framework package pinned exactly, the framework's version
+    the vendored core's release, ArduinoJson's the vendored headers' version macro."""
+    vendor, readme = _vendor()
+    core = re.search(r"^\| `esp8266-arduino/` \| esp8266/Arduino \| (\d+)\.(\d+)\.(\d+)[-\w]* ", readme, re.M)
+    assert core, "the core's version row in the vendor README"
+    x, y, z = map(int, core.groups())
+    platform = _ini_value("env:esp8266", "platform")
+    m = re.fullmatch(r"platformio/espressif8266@(\d+\.\d+\.\d+)", platform)
+    assert m, f"platform not pinned to one release: {platform!r}"
+    assert m.group(1) in PLATFORM_FRAMEWORK, f"espressif8266 {m.group(1)}: which core it bundles is not known here"
+    framework = _ini_value("env:esp8266", "platform_packages")
+    f = re.fullmatch(r"platformio/framework-arduinoespressif8266@(\d+)\.(\d+)\.(\d+)", framework)
+    assert f, f"the framework package not pinned exactly: {framework!r}"
+    assert int(f.group(2)) == x * 10000 + y * 100 + z, (framework, core.group(0))
+    assert ".".join(f.groups()) == PLATFORM_FRAMEWORK[m.group(1)], "the platform bundles another framework"
+    version_hpp = (vendor / "ArduinoJson-7.2.0" / "src" / "ArduinoJson" / "version.hpp").read_text()
+    aj = re.search(r'#define ARDUINOJSON_VERSION "([\d.]+)"', version_hpp).group(1)
+    assert f"| `ArduinoJson-{aj}/src` | bblanchon/ArduinoJson | tag v{aj} |" in readme
+    for env in ("env:esp8266", "env:native"):
+        assert _ini_value(env, "lib_deps") == f"bblanchon/ArduinoJson@{aj}", env
+
+
+def test_littlefs_is_mounted_without_formatting_and_serial_is_never_waited_for():
+    """The core's LittleFSConfig formats by default (autoFormat true): LittleFS.begin() then wipes
+    a file system that does not mount, the stored model with it. The glue turns that off and lets
+    infer::App mount through the store (the result in the ready line); and its lines go to USB
+    only through infer_tx.h's ring, pumped with what the UART's FIFO takes (no Serial.write that spins)."""
+    vendor, _ = _vendor()
+    lfs = (vendor / "esp8266-arduino" / "libraries" / "LittleFS" / "src" / "LittleFS.h").read_text()
+    assert "LittleFSConfig(bool autoFormat = true)" in lfs and "if (!_cfg._autoFormat || !format())" in lfs
+    code = "\n".join(line for line in GLUE.splitlines() if not line.lstrip().startswith("//"))
+    mount = code[code.index("bool mount() override"):]
+    mount = mount[:mount.index("}")]
+    assert mount.index("LittleFS.setConfig(LittleFSConfig(false));") < mount.index("return LittleFS.begin();"), mount
+    assert code.count("LittleFS.begin()") == 2 and "format() override { return LittleFS.format() && LittleFS.begin(); }" in code
+    assert "g_app.begin(g_out);" in code
+    assert "Serial.write" not in code and "Serial.print" not in code
+    assert "infer::TxQueue<infer::kTxRing> g_out;" in code and "g_out.pump(Serial);" in code

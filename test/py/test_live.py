@@ -8,13 +8,16 @@ recording command; a second pair plays the ESP8266's telemetry.
 from __future__ import annotations
 
 import argparse
+import bisect
 import contextlib
+import itertools
 import json
 import os
 import pathlib
 import re
 import select
 import signal
+import struct
 import subprocess
 import sys
 import threading
@@ -27,6 +30,8 @@ try:
 except ImportError:  # run as a script (--measure)
     ROOT = pathlib.Path(__file__).resolve().parents[2]
     sys.path.insert(0, str(ROOT / "tools"))
+
+from hpddo.reports import live as live_page  # noqa: E402
 
 SWEEP = ROOT / "data" / "default" / "sweep.csv"
 END = "! end done overruns=0"
@@ -78,6 +83,7 @@ class Board:
         self.release = threading.Event()
         self.stopped = threading.Event()
         self.sent = 0
+        self.sent_at: list[float] = []  # time.monotonic() of each line written
         self.late_s = 0.0  # the most a line was written after its time (a reader that does not keep up)
         self.elapsed_s = None
         self.received = b""
@@ -109,6 +115,7 @@ class Board:
             else:
                 self.late_s = max(self.late_s, now - due)
             os.write(self.master, line)
+            self.sent_at.append(time.monotonic())
             self.sent += 1
         self.elapsed_s = time.monotonic() - t0
         while not self.release.wait(0.1):
@@ -348,7 +355,8 @@ def test_bind_address_and_warning(tmp_path, open_to_network):
     proc = start_live(tmp_path, uno, *(["--open-to-network"] if open_to_network else []))
     with session(proc, uno):
         page_url(proc)
-        listening = {c.laddr.ip for c in psutil.Process(proc.pid).net_connections(kind="tcp")
+        tool = psutil.Process(proc.pid)  # the page listens in a process of the tool's own
+        listening = {c.laddr.ip for p in [tool, *tool.children(recursive=True)] for c in p.net_connections(kind="tcp")
                      if c.status == psutil.CONN_LISTEN}
         stdout, stderr = finish(proc, uno)
     assert proc.returncode == 0, stderr
@@ -389,6 +397,78 @@ def test_a_signal_ends_it_with_one_line_and_releases_the_port(tmp_path, signum):
     assert not (tmp_path / "live.csv").exists() and (tmp_path / "live.csv.partial").is_file()
 
 
+@pytest.mark.slow
+def test_a_page_that_holds_its_process_does_not_stop_the_recording_and_the_partial_keeps_up(tmp_path):
+    """The page's session build made to spin 4 s holding its interpreter (reports/live.py's
+    BUSY_ENV hook: a page built on a busy machine; with the reader in the same process its
+    byte-at-a-time reads then waited for the lock, and rows stopped for about 4 s). Meanwhile
+    the rows keep arriving in OUT.partial, which is never more than FLUSH_S (plus a margin for
+    a shared machine) behind the lines the tool has read (the board's lines less those still
+    unread in the pseudo-terminal, FIONREAD)."""
+    import fcntl
+    import termios
+    import urllib.request
+
+    from hpddo.cli import capture
+
+    lines = uno_stream(100.0)  # 660 rows, 6.6 s
+    ends = list(itertools.accumulate(len(ln) + 1 for ln in lines))  # byte offset after each line
+    uno = Board(lines, 100.0)
+    os.environ[live_page.BUSY_ENV] = "4"
+    try:
+        proc = start_live(tmp_path, uno)
+    finally:
+        del os.environ[live_page.BUSY_ENV]
+    partial = tmp_path / "live.csv.partial"
+    samples = []  # (time, whole lines the tool has read, lines in OUT.partial)
+    with session(proc, uno):
+        url = page_url(proc)
+        while uno.sent < 100 and proc.poll() is None:
+            time.sleep(0.01)
+        opened = {}
+
+        def browse():  # the page's request: its session is built (and spins) before the reply
+            t0 = time.monotonic()
+            with urllib.request.urlopen(url, timeout=60) as r:
+                r.read()
+            opened["s"] = (t0, time.monotonic())
+
+        viewer = threading.Thread(target=browse, daemon=True)
+        viewer.start()
+        while uno.elapsed_s is None and proc.poll() is None:
+            sent = uno.sent
+            unread = struct.unpack("i", fcntl.ioctl(uno.slave, termios.FIONREAD, b"\0" * 4))[0]
+            read = bisect.bisect_right(ends, (ends[sent - 1] if sent else 0) - unread)
+            try:
+                samples.append((time.monotonic(), read, partial.read_bytes().count(b"\n")))
+            except FileNotFoundError:
+                pass
+            time.sleep(0.01)
+        viewer.join(60)
+        stdout, stderr = finish(proc, uno)
+    assert proc.returncode == 0, stderr
+    n_rows = len(lines) - sum(ln.startswith("#") for ln in lines) - 1
+    assert f"{n_rows} rows, 0 seq gaps, 0 samples lost" in stdout, stdout
+    t0, t1 = opened["s"]
+    assert t1 - t0 >= 4.0, (t0, t1)  # the page did spin
+    during = [n for t, _, n in samples if t0 + 0.5 <= t <= t0 + 3.5]
+    assert during[-1] - during[0] >= 250, (during[0], during[-1])  # 3 s of rows at 100 rows/s, recorded meanwhile
+    # at each sample, how long ago the tool had read the oldest line not yet in OUT.partial
+    lag, board_lag = [], []
+    for t, _, n in samples:
+        first = next((s for s, r, _ in samples if r > n), None)
+        if first is not None and first <= t:
+            lag.append(t - first)
+        if n < len(uno.sent_at) and uno.sent_at[n] <= t:
+            board_lag.append(t - uno.sent_at[n])
+    lag, board_lag = sorted(lag) or [0.0], sorted(board_lag) or [0.0]
+    print(f"OUT.partial behind the lines read: at most {lag[-1] * 1000:.0f} ms, median "
+          f"{lag[len(lag) // 2] * 1000:.0f} ms over {len(samples)} samples; behind the board's writes at most "
+          f"{board_lag[-1] * 1000:.0f} ms (median {board_lag[len(board_lag) // 2] * 1000:.0f}); the page's "
+          f"request took {t1 - t0:.1f} s; load average {os.getloadavg()[0]:.1f}")
+    assert lag[-1] <= capture.FLUSH_S + 0.1, f"OUT.partial fell {lag[-1]:.3f} s behind the lines read"
+
+
 def test_esp_lines_join_rows_on_the_low_16_bits_of_seq_in_either_order():
     from hpddo.reports.live import Feed
 
@@ -406,11 +486,14 @@ def test_esp_lines_join_rows_on_the_low_16_bits_of_seq_in_either_order():
     invalid.update(rpm=None, residual=None, status="invalid")  # a non-finite number is written null
     feed.add_esp(json.dumps(invalid))
     assert not feed.add_esp('{"event":"ready","model":"compiled"}')
+    assert not feed.add_esp('{"event":"ready","model_crc_ok":true,"model":"compiled","model_crc":1,"fs":"unmounted"}')
+    assert not feed.add_esp('{"event":"tx_dropped","lines":3}')
     assert not feed.add_esp("{garbled") and feed.esp_bad == 1
     uno, esp, counts = feed.take(0, 0)
     assert uno["t_s"] == [0.07, 0.08] and uno["est_status"] == [0.0, 2.0] and uno["error"] == [5.0, 5.0]
     assert esp["t_s"] == [0.07, 0.08] and esp["status"] == [0.0, 0.0] and counts["esp_joined"] == 2
     assert counts["esp_lines"] == 3  # the null line is telemetry, waiting for its row
+    assert counts["esp_fs"] == "unmounted" and counts["esp_tx_dropped"] == 3 and counts["esp_bad"] == 1
     assert feed.take(2, 2)[:2] == (None, None)
 
 

@@ -66,9 +66,9 @@ def esp_host() -> pathlib.Path:
 class Board:
     """esp_host serving a pseudo-terminal, its files in store."""
 
-    def __init__(self, store: pathlib.Path):
+    def __init__(self, store: pathlib.Path, *args: str):
         self.store = store
-        self.proc = subprocess.Popen([str(esp_host()), "--store", str(store), "--pty"], stdout=subprocess.PIPE,
+        self.proc = subprocess.Popen([str(esp_host()), "--store", str(store), "--pty", *args], stdout=subprocess.PIPE,
                                      text=True)
         line = self.proc.stdout.readline()
         assert line.startswith("pty "), line
@@ -237,3 +237,32 @@ def test_an_upload_cut_short_leaves_the_model_in_force(board):
     assert status["model"] == "uploaded" and status["model_crc"] == crc and status["uploading"] is False
     assert (board.store / "model.json").read_bytes() == before
     assert not (board.store / "model.new").exists()
+
+
+def test_a_file_system_that_does_not_mount_is_reported_kept_and_formatted_only_when_asked(tmp_path, capsys):
+    """esp_host's store playing a LittleFS that does not mount, a model stored in it: the ready
+    line and the status say "fs":"unmounted", the compiled model runs, hpddo upload says why it
+    does not upload and the stored file stays; the format command erases it and uploads work."""
+    import serial
+    store = tmp_path / "littlefs"
+    store.mkdir()
+    (store / "model.json").write_bytes(FIXTURE.read_bytes())
+    # the board on stdin/stdout: its whole output from start-up (a port's opening discards what it held)
+    res = subprocess.run([str(esp_host()), "--store", str(store), "--fs-unmountable"], input='{"cmd":"status"}\n',
+                         capture_output=True, text=True, timeout=60)
+    ready, status = (json.loads(line) for line in res.stdout.splitlines())
+    assert ready["event"] == "ready" and ready["fs"] == "unmounted" and ready["model"] == "compiled", ready
+    assert status["fs"] == "unmounted" and status["model"] == "compiled", status
+    b = Board(store, "--fs-unmountable")
+    try:
+        assert upload_cli.main(["--port", b.port, str(DEFAULT)]) == 1
+        err = capsys.readouterr().err
+        assert "file system did not mount" in err and '{"cmd":"format"}' in err and err.count("\n") == 1, err
+        assert (store / "model.json").read_bytes() == FIXTURE.read_bytes()
+        with serial.Serial(b.port, upload.BAUD, timeout=2.0, exclusive=True) as port:
+            assert upload.Link(port).ask(b'{"cmd":"format"}', "format")["fs"] == "mounted"
+        assert not (store / "model.json").exists()
+        assert upload_cli.main(["--port", b.port, str(DEFAULT)]) == 0
+        assert (store / "model.json").read_bytes() == FIXTURE.read_bytes()
+    finally:
+        b.close()

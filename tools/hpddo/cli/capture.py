@@ -10,7 +10,8 @@ with "!" are its replies and are shown, not logged. Every line is checked as it
 arrives (metadata form, field count, numbers, t_s increasing, duty in 0..1); a
 garbled line is counted, reported with its stream line number and not written.
 
-The rows go to OUT.partial as they arrive. At the end the log is written
+The rows go to OUT.partial as they arrive (flushed whenever the port has nothing more
+waiting, and at least every 100 ms). At the end the log is written
 to OUT atomically with the capture's own metadata first:
 "# complete=true" when the board ended the recording ("! end") and no line was
 garbled, else "# complete=false" with "# cut=--rows N" or "# cut=--seconds S"
@@ -58,6 +59,10 @@ PORT_ERRORS = (serial.SerialException, OSError) if serial is not None else (OSEr
 
 #: Seconds to wait after opening the port: the UNO resets when the port opens.
 BOARD_RESET_S = 2.0
+
+#: OUT.partial is at most this far behind the lines read (s): it is flushed when this long has
+#: passed since the last flush, and whenever the port has nothing more waiting (the next read may wait).
+FLUSH_S = 0.1
 
 #: Garbled lines reported one by one; the rest are only counted.
 MAX_GARBLED_SHOWN = 20
@@ -208,6 +213,14 @@ def read_line(port, port_name: str, partial: pathlib.Path) -> bytes:
                         f"rows so far kept in {partial} (not a complete log)") from None
 
 
+def waiting(port) -> int:
+    """Bytes the port holds unread (0 for a port that cannot say, or fails: its read says why)."""
+    try:
+        return int(getattr(port, "in_waiting", 0))
+    except PORT_ERRORS:
+        return 0
+
+
 def write_final(partial: pathlib.Path, out: pathlib.Path, meta_lines: list[str]) -> None:
     """Writes meta_lines then the partial capture to out atomically (benchlog.write_bytes_atomic:
     temporary file, fsync, rename)."""
@@ -250,9 +263,14 @@ def capture(port, out: pathlib.Path, command: str | None = None, rows: int | Non
     start = time.monotonic()
     bar = tqdm(total=rows, unit="row", disable=None if progress else True) if tqdm else None  # None: off a terminal
     pending = b""  # the start of a line that a read timeout cut
+    flushed_at = time.monotonic()
     try:
         with f:
             while True:
+                now = time.monotonic()
+                if now - flushed_at >= FLUSH_S or not waiting(port):
+                    f.flush()  # what was read is in the file before this read can wait
+                    flushed_at = now
                 raw = read_line(port, port_name, partial)
                 if raw and not raw.endswith(b"\n"):
                     pending += raw

@@ -11,7 +11,8 @@ from the UNO's rows the estimate (rpm_est, the observer the UNO runs) against th
 (rpm, rpm_m2, the network's residual, confidence, status), joined to the rows on the low
 16 bits of seq. The ESP8266's lines are shown, not recorded: they have no t_s or duty.
 
-The page listens on 127.0.0.1 only; --open-to-network listens on every address (a warning
+The page runs in a process of its own, fed through a pipe: the serial readers here never wait
+for it (hpddo.reports.live.Server). The page listens on 127.0.0.1 only; --open-to-network listens on every address (a warning
 says so: anyone who reaches this machine sees the page). Both serial ports are opened
 exclusively and closed on every way out; the page ends with the recording.
 """
@@ -50,13 +51,14 @@ def parser(prog: str = "hpddo live") -> argparse.ArgumentParser:
 class EspReader:
     """Reads the ESP8266's telemetry into the feed in a thread until stop()."""
 
-    def __init__(self, port, name: str, feed: page.Feed):
+    def __init__(self, port, name: str, feed: page.Server):
         self.port, self.name, self.feed = port, name, feed
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="hpddo-live-esp", daemon=True)
 
     def _run(self):
         pending = b""
+        first = True  # opening the port discards what it held: the first line may be a line's tail
         while not self._stop.is_set():
             try:
                 raw = self.port.readline()
@@ -69,6 +71,10 @@ class EspReader:
                 pending += raw  # a read timeout cut the line
                 continue
             line, pending = (pending + raw).decode("utf-8", errors="replace").strip(), b""
+            if first and line:
+                first = False
+                if not line.startswith("{"):
+                    continue  # the tail of a line cut by the opening: not the board's garbage
             if line:
                 self.feed.add_esp(line)
 
@@ -83,13 +89,12 @@ class EspReader:
 def run(a: argparse.Namespace) -> int:
     """Starts the page, reads the ESP8266 if asked, records the UNO; the exit status is capture's."""
     address = EVERY_ADDRESS if a.open_to_network else LOCAL
-    feed = page.Feed()
     esp_port = esp = server = None
     try:
         if a.esp_port:
             esp_port = capture.open_port(a.esp_port, a.esp_baud, timeout=0.2, hold_reset=True)
         title = f"hpddo live: {a.port}" + (f" + {a.esp_port}" if a.esp_port else "") + f" -> {a.out}"
-        server = page.Server(feed, address, a.http_port, title, with_esp=bool(a.esp_port))
+        server = page.Server(address, a.http_port, title, with_esp=bool(a.esp_port))
         try:
             http_port = server.start()
         except OSError as exc:
@@ -102,9 +107,9 @@ def run(a: argparse.Namespace) -> int:
                   f"to the network: anyone who reaches this machine sees the bench's data (no password)",
                   file=sys.stderr, flush=True)
         if esp_port is not None:
-            esp = EspReader(esp_port, a.esp_port, feed)
+            esp = EspReader(esp_port, a.esp_port, server)
             esp.start()
-        return capture.record(a, on_row=feed.add_row, prog="hpddo live")
+        return capture.record(a, on_row=server.add_row, prog="hpddo live")
     except KeyboardInterrupt as exc:  # before the recording started (record reports its own)
         print(f"hpddo live: {'stopped by ' + exc.args[0] if getattr(exc, 'status', None) else 'interrupted'} "
               f"before recording started on {a.port}: nothing written to {a.out}", file=sys.stderr)

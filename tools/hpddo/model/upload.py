@@ -150,11 +150,16 @@ def send(port, doc: bytes, timeout_s: float = 3.0, log=print) -> dict:
     t0 = time.monotonic()
     for attempt in range(3):
         try:
-            Link(port, 1.0).ask(b'{"cmd":"status"}', "status")
+            status = Link(port, 1.0).ask(b'{"cmd":"status"}', "status")
             break
         except UploadError:
             if attempt == 2:
                 raise
+    if status.get("fs") == "unmounted":  # (a firmware before the member: no "fs", go on)
+        raise UploadError('the board\'s file system did not mount ("fs":"unmounted" in its ready line and '
+                          'status): nothing uploaded, its flash left as it is, the compiled model in force; '
+                          '{"cmd":"format"} on the port erases the file system (a stored model with it), '
+                          'then upload again (docs/firmware.md)')
     link = Link(port, timeout_s)
     crc = zlib.crc32(doc) & 0xFFFFFFFF
     ready = link.ask(json.dumps({"cmd": "upload", "bytes": len(doc), "crc32": crc},

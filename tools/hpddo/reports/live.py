@@ -3,9 +3,10 @@
 `Feed` holds what the page shows, filled from two threads: the UNO's bench log rows
 (`add_row`, the recording's reader: t_s, the encoder's rpm_ref, the UNO's own estimate
 rpm_est and est_status) and, optionally, the ESP8266's telemetry lines (`add_esp`), joined
-to the rows on the low 16 bits of seq (the link frame's seq). `serve` runs the Bokeh server
-in a thread of its own; each browser session polls the feed and streams the new points into
-its plots. Nothing here writes a file: the recording is hpddo.cli.capture's.
+to the rows on the low 16 bits of seq (the link frame's seq). `Server` runs the page (`serve`:
+the Bokeh server and the Feed) in a process of its own, fed through a pipe by the recording's
+process, which never waits for it; each browser session polls the feed and streams the new points
+into its plots. Nothing here writes a file: the recording is hpddo.cli.capture's.
 """
 from __future__ import annotations
 
@@ -13,8 +14,10 @@ import collections
 import html
 import json
 import math
+import pathlib
 import socket
 import threading
+import time
 
 #: points kept per series (and shown): 60 s at 100 samples/s
 KEEP = 6000
@@ -54,6 +57,8 @@ class Feed:
         self.esp_lines = 0  # telemetry lines read
         self.esp_joined = 0
         self.esp_bad = 0  # lines that are not telemetry JSON (events excluded)
+        self.esp_fs = None  # the board's file system as its ready line says: "mounted", "unmounted"
+        self.esp_tx_dropped = 0  # lines the board dropped for a full USB ring (its tx_dropped events)
         self.rows = 0
         self.lost = 0
         self.garbled = 0
@@ -88,6 +93,13 @@ class Feed:
         except ValueError:
             with self._lock:
                 self.esp_bad += 1
+            return False
+        if isinstance(obj, dict) and obj.get("event") in ("ready", "tx_dropped"):
+            with self._lock:
+                if obj["event"] == "ready" and isinstance(obj.get("fs"), str):
+                    self.esp_fs = obj["fs"]
+                elif isinstance(obj.get("lines"), int):
+                    self.esp_tx_dropped = obj["lines"]
             return False
         if not isinstance(obj, dict) or "event" in obj:
             return False
@@ -124,7 +136,8 @@ class Feed:
             uno = [p for p in self._uno if p[0] >= uno_from]
             esp = [p for p in self._esp if p[0] >= esp_from]
             counts = dict(rows=self.rows, lost=self.lost, garbled=self.garbled, esp_lines=self.esp_lines,
-                          esp_joined=self.esp_joined, esp_bad=self.esp_bad, n_uno=self.n_uno, n_esp=self.n_esp)
+                          esp_joined=self.esp_joined, esp_bad=self.esp_bad, n_uno=self.n_uno, n_esp=self.n_esp,
+                          esp_fs=self.esp_fs, esp_tx_dropped=self.esp_tx_dropped)
         return (dict(zip(UNO_COLUMNS, map(list, zip(*uno)))) if uno else None,
                 dict(zip(ESP_COLUMNS, map(list, zip(*esp)))) if esp else None, counts)
 
@@ -132,7 +145,13 @@ class Feed:
 def make_document(feed: Feed, title: str, with_esp: bool):
     """Returns the function that builds one browser session's document."""
     def build(doc):
+        import os
+
         import numpy as np
+
+        busy_until = time.monotonic() + float(os.environ.get(BUSY_ENV) or 0)
+        while time.monotonic() < busy_until:  # the test hook (BUSY_ENV): spins, holding the lock
+            pass
         from bokeh.layouts import column
         from bokeh.models import ColumnDataSource, Div, FixedTicker, Legend
         from bokeh.plotting import figure
@@ -178,7 +197,11 @@ def make_document(feed: Feed, title: str, with_esp: bool):
                 cursor["esp"] = new_esp["n"][-1] + 1
                 esp.stream({k: np.asarray(v, dtype=float) for k, v in new_esp.items()}, rollover=KEEP)
             esp_text = (f"; ESP8266: {c['esp_lines']} lines, {c['esp_joined']} joined on seq, "
-                        f"{c['esp_bad']} not telemetry") if with_esp else ""
+                        f"{c['esp_bad']} not telemetry"
+                        + (f", {c['esp_tx_dropped']} dropped by the board (its USB line full)"
+                           if c["esp_tx_dropped"] else "")
+                        + (", its file system did not mount (compiled model)" if c["esp_fs"] == "unmounted"
+                           else "")) if with_esp else ""
             head.text = (f"<b>{shown}</b>: {c['rows']} rows recorded, {c['lost']} samples lost, "
                          f"{c['garbled']} garbled{esp_text}")
 
@@ -188,68 +211,167 @@ def make_document(feed: Feed, title: str, with_esp: bool):
     return build
 
 
+#: what the recording side keeps for a page that does not take it (about 4 minutes at 100 rows/s):
+#: older points are dropped for the page, never for the recording
+FORWARD_KEEP = 24000
+#: how often the recording side hands the page its new points (s)
+FORWARD_S = 0.05
+#: a test hook: each browser session's document spins this long first (s), holding its
+#: process's interpreter lock, as a page being built on a busy machine does
+BUSY_ENV = "HPDDO_LIVE_PAGE_BUSY_S"
+
+
 class Server:
-    """The Bokeh server of the page in a thread of its own; stop() ends it."""
+    """The page in a process of its own (`python -m hpddo.reports.live`), so that nothing the
+    page does (Bokeh building a session, serialising a document, a slow browser) ever holds the
+    recording's interpreter: the serial reader stays in the calling process and hands each row
+    and ESP8266 line to add_row/add_esp, which only append to a bounded queue; a thread of ours
+    writes the queue to the page's stdin. A page that falls behind loses old points (counted in
+    `dropped`), never the recording. stop() ends the page; so does the end of the caller."""
 
-    def __init__(self, feed: Feed, address: str, port: int, title: str, with_esp: bool):
-        self._ready = threading.Event()
-        self._error: BaseException | None = None
-        self._args = (feed, address, port, title, with_esp)
-        self.server = None
+    def __init__(self, address: str, port: int, title: str, with_esp: bool):
+        self._args = {"address": address, "port": port, "title": title, "with_esp": with_esp}
+        self._queue = collections.deque()
+        self._wake = threading.Event()
+        self._stop = threading.Event()
+        self._proc = None
+        self._thread = threading.Thread(target=self._forward, name="hpddo-live-forward", daemon=True)
         self.port = None
-        self._thread = threading.Thread(target=self._run, name="hpddo-live-page", daemon=True)
+        self.dropped = 0  # messages the page never got: it fell FORWARD_KEEP behind
 
-    def _run(self):
-        import asyncio
-        import logging
+    def start(self, timeout: float = 60.0) -> int:
+        """Starts the page's process; returns its port, or raises OSError when it cannot listen."""
+        import os
+        import select
+        import subprocess
+        import sys
 
-        from bokeh.application import Application
-        from bokeh.application.handlers.function import FunctionHandler
-        from bokeh.server.server import Server as BokehServer
-        from tornado.ioloop import IOLoop
-
-        feed, address, port, title, with_esp = self._args
-        for name in ("bokeh", "tornado"):  # a browser closing its page is no news: the tool's own lines only
-            logging.getLogger(name).setLevel(logging.ERROR)
-        asyncio.set_event_loop(asyncio.new_event_loop())
-        try:
-            if port == 0:  # a free port, known before the server starts (its websocket origins name it)
-                with socket.socket() as s:
-                    s.bind((address, 0))
-                    port = s.getsockname()[1]
-            app = Application(FunctionHandler(make_document(feed, title, with_esp)))
-            # a page open to the network is reached by any host name; on 127.0.0.1 only by the local ones
-            origins = ["*"] if address != "127.0.0.1" else [f"127.0.0.1:{port}", f"localhost:{port}"]
-            self.server = BokehServer({"/": app}, io_loop=IOLoop.current(), address=address, port=port,
-                                      allow_websocket_origin=origins)
-            self.server.start()
-            self.port = self.server.port
-        except BaseException as exc:  # the port is taken, an address that is not ours
-            self._error = exc
-            self._ready.set()
-            return
-        self._ready.set()
-        self.server.io_loop.start()
-        self.server.stop()
-
-    def start(self, timeout: float = 30.0) -> int:
-        """Starts the server; returns its port, or raises OSError when it cannot listen."""
+        env = dict(os.environ)
+        tools = str(pathlib.Path(__file__).resolve().parents[2])
+        env["PYTHONPATH"] = tools + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+        # its own session: a Ctrl-C at the terminal reaches the recording, which then ends the page
+        self._proc = subprocess.Popen([sys.executable, "-m", "hpddo.reports.live", json.dumps(self._args)],
+                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, env=env,
+                                      start_new_session=True)
+        ready = select.select([self._proc.stdout], [], [], timeout)[0]
+        line = self._proc.stdout.readline().decode(errors="replace").strip() if ready else ""
+        if not line.startswith("listening "):
+            self.stop()
+            raise OSError(line[len("error "):] if line.startswith("error ") else "the page's server did not start")
+        self.port = int(line.split()[1])
         self._thread.start()
-        self._ready.wait(timeout)
-        if self._error is not None:
-            raise OSError(str(self._error)) from None
-        if self.port is None:
-            raise OSError("the page's server did not start")
         return self.port
 
-    def stop(self) -> None:
-        if self.server is not None and self._thread.is_alive():
-            loop = self.server.io_loop
-            loop.add_callback(loop.stop)
-            self._thread.join(5.0)
+    # ------------------------------------------------------------------ the recording's side
+    def _put(self, message: list) -> None:
+        if len(self._queue) >= FORWARD_KEEP:
+            self._queue.popleft()
+            self.dropped += 1
+        self._queue.append(message)
 
-    def sessions(self) -> list:
-        """The documents of the browser sessions open now (the tests look into them)."""
-        if self.server is None:
-            return []
-        return [s.document for s in self.server.get_sessions("/")]
+    def add_row(self, line: str, cap) -> None:
+        """capture's on_row hook: never waits (the page's process takes it when it can)."""
+        self._put(["row", line, cap.columns, cap.rows, cap.lost, len(cap.garbled)])
+
+    def add_esp(self, line: str) -> None:
+        self._put(["esp", line])
+
+    def _forward(self):
+        while not self._stop.is_set():
+            self._wake.wait(FORWARD_S)
+            batch = []
+            while self._queue:
+                batch.append(json.dumps(self._queue.popleft(), separators=(",", ":")))
+            if not batch:
+                continue
+            try:
+                self._proc.stdin.write(("\n".join(batch) + "\n").encode())
+                self._proc.stdin.flush()
+            except (OSError, ValueError):  # the page's process has gone: the recording goes on
+                return
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._wake.set()
+        if self._thread.is_alive():
+            self._thread.join(5.0)
+        if self._proc is not None:
+            try:
+                self._proc.stdin.close()  # the page ends at the end of its input
+            except OSError:
+                pass
+            try:
+                self._proc.wait(10.0)
+            except Exception:  # noqa: BLE001 (subprocess.TimeoutExpired): it did not end by itself
+                self._proc.kill()
+                self._proc.wait()
+            self._proc.stdout.close()
+
+
+class _Counts:
+    """A capture's counters as the recording's side sent them (Feed.add_row reads these)."""
+
+    def __init__(self, columns, rows, lost, garbled):
+        self.columns, self.rows, self.lost, self.garbled = columns, rows, lost, range(garbled)
+
+
+def serve(address: str, port: int, title: str, with_esp: bool) -> int:
+    """The page's process: a Bokeh server on (address, port) over a Feed filled from stdin (the
+    recording's messages, one JSON array a line) until stdin ends; prints "listening PORT" or
+    "error WHY" first. Exit status 0, or 1 when it could not listen."""
+    import asyncio
+    import logging
+    import os
+    import signal
+    import sys
+
+    from bokeh.application import Application
+    from bokeh.application.handlers.function import FunctionHandler
+    from bokeh.server.server import Server as BokehServer
+    from tornado.ioloop import IOLoop
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the recording decides when the page ends
+    for name in ("bokeh", "tornado"):  # a browser closing its page is no news: the tool's own lines only
+        logging.getLogger(name).setLevel(logging.ERROR)
+    asyncio.set_event_loop(asyncio.new_event_loop())
+    feed = Feed()
+    try:
+        if port == 0:  # a free port, known before the server starts (its websocket origins name it)
+            with socket.socket() as s:
+                s.bind((address, 0))
+                port = s.getsockname()[1]
+        app = Application(FunctionHandler(make_document(feed, title, with_esp)))
+        # a page open to the network is reached by any host name; on 127.0.0.1 only by the local ones
+        origins = ["*"] if address != "127.0.0.1" else [f"127.0.0.1:{port}", f"localhost:{port}"]
+        server = BokehServer({"/": app}, io_loop=IOLoop.current(), address=address, port=port,
+                             allow_websocket_origin=origins)
+        server.start()
+    except BaseException as exc:  # the port is taken, an address that is not ours
+        print(f"error {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}", flush=True)
+        return 1
+    loop = server.io_loop
+
+    def read_input():
+        for raw in sys.stdin.buffer:
+            try:
+                msg = json.loads(raw)
+                if msg[0] == "row":
+                    feed.add_row(msg[1], _Counts(*msg[2:]))
+                elif msg[0] == "esp":
+                    feed.add_esp(msg[1])
+            except (ValueError, IndexError, TypeError):
+                continue
+        loop.add_callback(loop.stop)  # the recording has ended
+
+    print(f"listening {server.port}", flush=True)
+    threading.Thread(target=read_input, name="hpddo-live-input", daemon=True).start()
+    loop.start()
+    server.stop()
+    os._exit(0)  # Bokeh's and tornado's threads need no goodbye
+
+
+if __name__ == "__main__":
+    import sys as _sys
+
+    _a = json.loads(_sys.argv[1])
+    _sys.exit(serve(_a["address"], _a["port"], _a["title"], _a["with_esp"]))
