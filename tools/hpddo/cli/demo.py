@@ -87,13 +87,15 @@ def run(args) -> int:
 def score_validation(res, validation, out: pathlib.Path, shown: pathlib.Path, label: str, args):
     """Scores the model of a pipeline result on the validation recordings (hpddo evaluate)
     into out/validation (metrics.json, report/, work/); the metrics, or None without
-    validation recordings."""
+    validation recordings. metrics.json names the model by the folder it will be in once the
+    demo's output is in place (shown / "model"), not by the staging folder it was scored in."""
     from ..evaluation.evaluate import evaluate
     from ..reports.training import write_evaluation as write
 
     if not validation:
         return None
     ev = evaluate(res.out, validation, out / "validation" / "work", glitch_filter=not args.no_glitch_filter)
+    ev.metrics["model"]["folder"] = str(shown / "model")
     write(ev, out / "validation", f"hpddo: {label} on recordings it never saw",
           ["Every row of recordings no training protocol covers, replayed natively through the board "
            "observer; lookup: the mean training speed of the nearest training operating point."])
