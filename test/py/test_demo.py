@@ -47,7 +47,7 @@ def test_the_demo_prints_and_writes_readme_table_with_the_ungated_row():
                "after_nogate": table["effects_nogate"]["chrono"],
                "validation_after_nogate": table["effects_nogate"]["validation"]}
     text = demo.rmse_table(summary, [16, 8])
-    assert text == validation.rmse_table(table)
+    assert text == validation.rmse_table(table, [16, 8])
     assert "| the same M3 without the novelty gate | 1.58 | 0.86 | 0.34 | 0.93 | 7.15 | 1.87 |" in text
 
 
@@ -61,7 +61,8 @@ def test_the_whole_demo_writes_the_committed_figures_and_no_staging_path(tmp_pat
     assert demo.main(["--out", str(out), "--quiet"]) == 0
     printed = capsys.readouterr().out
     summary = json.loads((out / "summary.json").read_text())
-    committed = validation.rmse_table(json.loads((ROOT / "docs" / "figures" / "validation_table.json").read_text()))
+    committed = validation.rmse_table(json.loads((ROOT / "docs" / "figures" / "validation_table.json").read_text()),
+                                      [16, 8])
     assert demo.rmse_table(summary, [16, 8]) == committed
     assert "   " + committed.replace("\n", "\n   ").rstrip() in printed
     for p in _text_files(out):

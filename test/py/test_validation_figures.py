@@ -50,18 +50,19 @@ def test_the_gate_meets_the_goals_on_the_bundled_recordings():
 README = (ROOT / "README.md").read_text()
 
 
-@pytest.mark.parametrize("name", sorted(readme.BLOCKS))
-def test_readme_block_is_generated_from_the_committed_json(name):
-    """python -m hpddo.studies.readme --write writes it; a figure typed in, or a JSON changed
+def test_readme_blocks_are_generated_from_the_committed_json():
+    """python -m hpddo.studies.readme --write writes them; a figure typed in, or a JSON changed
     without the README, fails here."""
-    assert readme.block(name) in README, f"README.md's {name} table: run python -m hpddo.studies.readme --write"
+    for name in readme.BLOCKS:
+        assert readme.marked(name) in README, f"README.md's {readme.BLOCKS[name][0]}: run {readme.COMMAND}"
+    assert readme.generated(README) == README
 
 
 def test_every_readme_table_is_generated_or_quotes_no_figure():
     """A table of README.md outside the generated blocks must be declared in
     readme.PROSE_TABLES, and hold no number but the versions declared there: a new table of
     hand-typed figures fails."""
-    blocks = [readme.block(name) for name in readme.BLOCKS]
+    blocks = [readme.marked(name) for name in readme.BLOCKS]
     found = set()
     for table in readme.tables(README):
         text = "\n".join(table) + "\n"
@@ -78,7 +79,7 @@ def test_readme_tables_type_no_number_outside_the_mapping():
     """The rows of a generated table carry no number of their own: each is a {field} of
     readme.FIELDS, from one of the block's declared sources."""
     import string
-    for name, (sources, templates, _) in readme.BLOCKS.items():
+    for name, (_, sources, templates, _) in readme.BLOCKS.items():
         for t in templates:
             parts = list(string.Formatter().parse(t))
             literal = "".join(lit for lit, _, _, _ in parts)
@@ -116,4 +117,4 @@ def test_committed_uno_sizes_are_the_builds(tmp_path):
     flash, flash_max, ram, ram_max = map(int, (tmp_path / "uno" / "uno_acq.size").read_text().split())
     u = readme.load("bench")["uno_loop"]
     assert (flash, flash_max, ram, ram_max) == (u["flash_B"], u["flash_max_B"], u["ram_B"], u["ram_max_B"]), \
-        "rerun hpddo bench --observer --write-docs, then python -m hpddo.studies.readme --write"
+        f"rerun hpddo bench --observer --write-docs, then {readme.COMMAND}"

@@ -137,7 +137,7 @@ def rmse_table(summary: dict, hidden) -> str:
     from ..studies.validation import rmse_table as table
     variants = {v: {"chrono": summary[c], "validation": summary[n]} for v, (c, n) in SUMMARY_KEYS.items()
                 if c in summary}
-    return table(variants, summary["missing_effects"], hidden)
+    return table(variants, hidden, summary["missing_effects"])
 
 
 def write_summary(stage: pathlib.Path, summary: dict, hidden, shown: pathlib.Path) -> None:

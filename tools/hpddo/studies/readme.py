@@ -1,7 +1,10 @@
-"""README.md's tables of figures, generated from the committed JSON they come from (issue 32).
+"""README.md's tables of figures, generated from the committed JSON they come from (issue 32),
+between the markers of hpddo.regenerate's generated blocks:
 
-    python -m hpddo.studies.readme            prints each generated block
-    python -m hpddo.studies.readme --write    writes them into README.md between their markers
+    cd tools && ../.venv/bin/python -m hpddo.studies.readme --write      # or --check
+
+(hpddo.regenerate writes what the declarations generate; these come from measurements, a
+room above it.)
 
 SOURCES names each committed JSON and the command that writes it; FIELDS maps each figure a
 README table quotes to one value of one source (the declared mapping); BLOCKS declares each
@@ -18,17 +21,21 @@ import argparse
 import hashlib
 import json
 import re
+import sys
 
-from .. import resource_root
+from .. import regenerate, resource_root
 from . import validation
 
 ROOT = resource_root()
+COMMAND = "cd tools && ../.venv/bin/python -m hpddo.studies.readme --write"
 
-#: name: (committed JSON, the command that writes it)
+#: name: (committed JSON, the command that writes it; None: the JSON's own "command")
 SOURCES = {
     "validation": ("docs/figures/validation_table.json", "python -m hpddo.studies.validation --out DIR"),
-    "compare": ("docs/figures/compare_table7.json", "hpddo compare ... (docs/compare.md)"),
-    "bench": ("docs/figures/bench_observer.json", "hpddo bench --observer --write-docs"),
+    "compare": ("docs/figures/compare_table7.json", None),
+    "bench": ("docs/figures/bench_observer.json", None),
+    "model": ("models/default/metrics.json", "tools/gen_weights.py data/default/load.csv data/default/long.csv "
+              "data/default/sweep.csv --name default --seed 1 --out models/default"),
 }
 
 
@@ -42,7 +49,7 @@ def _thousand(v: float) -> float:
 
 #: figure: (source, value of the source's JSON, format). One entry per figure quoted.
 FIELDS = {
-    "hidden": ("compare", lambda j: "(" + ", ".join(map(str, j["settings"]["hidden"])) + ")", "{}"),
+    "hidden": ("model", lambda j: "(" + ", ".join(map(str, j["identification"]["hidden"])) + ")", "{}"),
     "test_pct": ("compare", lambda j: 100.0 * (1.0 - j["settings"]["train_fraction"]), "{:.0f}"),
     "chrono_m1": ("validation", lambda j: j["plain_gate"]["chrono"]["M1"]["average"], "{:.1f}"),
     "chrono_m2": ("validation", lambda j: j["plain_gate"]["chrono"]["M2"]["average"], "{:.2f}"),
@@ -136,13 +143,13 @@ def measured_table(fields: dict) -> str:
 
 
 def rmse_table(fields: dict) -> str:
-    return validation.rmse_table(load("validation"))
+    return validation.rmse_table(load("validation"), load("model")["identification"]["hidden"])
 
 
-#: name: (the sources, the row templates the test checks for typed-in numbers, the renderer)
+#: name: (what, the sources, the row templates the test checks for typed-in numbers, the renderer)
 BLOCKS = {
-    "rmse": (("validation",), [label for label, _, _ in validation.RMSE_ROWS], rmse_table),
-    "measured": (("validation", "compare", "bench"),
+    "rmse": ("the RMSE table", ("validation", "model"), [label for label, _, _ in validation.RMSE_ROWS], rmse_table),
+    "measured": ("the measured figures", ("validation", "compare", "bench", "model"),
                  [t for label, value, _ in MEASURED for t in (label, value)], measured_table),
 }
 
@@ -167,33 +174,42 @@ def fields() -> dict:
     return {k: fmt.format(get(data[src])) for k, (src, get, fmt) in FIELDS.items()}
 
 
-def markers(name: str) -> tuple[str, str]:
-    return f"<!-- figures:{name} begin (generated) -->", f"<!-- figures:{name} end -->"
-
-
 def block(name: str, values: dict | None = None) -> str:
-    """The block of README.md between the markers: whence and how, then the table."""
-    srcs, _, render = BLOCKS[name]
-    whence = "; ".join(f"`{SOURCES[s][0]}` (sha256 {_sha(SOURCES[s][0])}, written by `{SOURCES[s][1]}`)"
-                       for s in srcs)
+    """The text of a README.md block: whence (each source's checksum and command), then the table."""
+    _, srcs, _, render = BLOCKS[name]
+    whence = "; ".join(f"`{SOURCES[s][0]}` (sha256 {_sha(SOURCES[s][0])}, written by "
+                       f"`{SOURCES[s][1] or load(s)['command']}`)" for s in srcs)
+    return f"Generated from {whence}.\n\n{render(values if values is not None else fields())}"
+
+
+def markers(name: str) -> tuple[str, str]:
+    """A block's BEGIN and END lines (hpddo.regenerate's, with this command)."""
+    what, srcs, _, _ = BLOCKS[name]
+    return (regenerate.DOC_BEGIN.format(what=what, source=", ".join(SOURCES[s][0] for s in srcs), command=COMMAND),
+            regenerate.DOC_END.format(what=what))
+
+
+def marked(name: str, values: dict | None = None) -> str:
+    """A block as README.md holds it, between its markers."""
     begin, end = markers(name)
-    return (f"{begin}\n<!-- by `python -m hpddo.studies.readme --write` from {whence} -->\n\n"
-            f"{render(values if values is not None else fields())}{end}")
+    return f"{begin}\n{block(name, values)}{end}"
+
+
+def generated(text: str) -> str:
+    """README.md's text with each block as the committed JSON gives it; ValueError where a
+    block's markers are missing."""
+    values = fields()
+    for name in BLOCKS:
+        begin, end = markers(name)
+        i, j = text.find(begin), text.find(end)
+        if i < 0 or j < i:
+            raise ValueError(f"README.md: the markers of {BLOCKS[name][0]} are missing")
+        text = text[:i] + marked(name, values) + text[j + len(end):]
+    return text
 
 
 def _sha(path: str) -> str:
     return hashlib.sha256((ROOT / path).read_bytes()).hexdigest()[:16]
-
-
-def write(text: str) -> str:
-    """README.md's text with every block regenerated; a block without its markers raises."""
-    values = fields()
-    for name in BLOCKS:
-        begin, end = markers(name)
-        if begin not in text or end not in text:
-            raise ValueError(f"README.md has no {begin} ... {end}")
-        text = text[:text.index(begin)] + block(name, values) + text[text.index(end) + len(end):]
-    return text
 
 
 def tables(text: str) -> list[list[str]]:
@@ -213,15 +229,21 @@ def tables(text: str) -> list[list[str]]:
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hpddo.studies.readme", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--write", action="store_true", help="write the blocks into README.md")
+    g = ap.add_mutually_exclusive_group(required=True)
+    g.add_argument("--write", action="store_true", help="write README.md's blocks")
+    g.add_argument("--check", action="store_true", help="exit 1 when a block is out of date")
     args = ap.parse_args(argv)
-    readme = ROOT / "README.md"
-    if args.write:
-        readme.write_text(write(readme.read_text()))
-        print(f"wrote {', '.join(BLOCKS)} into {readme}")
+    path = ROOT / "README.md"
+    old = path.read_text(encoding="utf-8")
+    new = generated(old)
+    if new == old:
+        print("README.md's tables of figures up to date")
+    elif args.write:
+        path.write_text(new, encoding="utf-8")
+        print(f"wrote {', '.join(BLOCKS)} into {path}")
     else:
-        for name in BLOCKS:
-            print(block(name) + "\n")
+        print(f"README.md's tables of figures out of date (run: {COMMAND})", file=sys.stderr)
+        return 1
     return 0
 
 

@@ -72,11 +72,11 @@ RMSE_COLUMNS = (("sweep", "chrono", "sweep"), ("load", "chrono", "load"), ("long
                 ("unseen pairs (never seen)", "validation", "unseen"), ("hot motor (never seen)", "validation", "hot"))
 
 
-def rmse_table(results: dict, effects=NAMED_EFFECTS, hidden=(16, 8)) -> str:
+def rmse_table(results: dict, hidden, effects=NAMED_EFFECTS) -> str:
     """The markdown RMSE table of README.md, which hpddo demo prints too: a row per model of
     RMSE_ROWS whose variant results holds ({variant: {"chrono": rmse_rpm, "validation":
     rmse_rpm or None}}, validation_table.json's shape), a column per condition of
-    RMSE_COLUMNS ("-" where the results have none)."""
+    RMSE_COLUMNS ("-" where the results have none); hidden: M3's hidden layers."""
     lines = ["| | " + " | ".join(c for c, _, _ in RMSE_COLUMNS) + " |", "|---" * (len(RMSE_COLUMNS) + 1) + "|"]
     for label, variant, model in RMSE_ROWS:
         if variant not in results:
