@@ -4,11 +4,13 @@
      through the board observer, print the RMSE table, write an HTML report;
   2. diagnose which physical effects the physics model misses (hpddo diagnose);
   3. add the named effects (hpddo train --effects), retrain M3 on top, replay natively, and
-     show the error fall, for the physics model and for the hybrid;
+     show the error fall, for the physics model and for the hybrid; and the same hybrid
+     without its novelty gate;
   4. validate both models on recordings no training protocol covers (hpddo evaluate on
      data/validation: duty/load pairs absent from training, a hot motor), beside the lookup
      baseline (mean training speed of the nearest training operating point), so that
-     memory and estimation show side by side.
+     memory and estimation show side by side; and the RMSE table of README.md
+     (hpddo.studies.validation.rmse_table), written into OUT/summary.json.
 
     hpddo demo [--out out] [--data data/default] [--validation data/validation]
                                                       (tools/demo.py is the same command)
@@ -42,17 +44,19 @@ def parser(prog: str = "hpddo demo") -> argparse.ArgumentParser:
     return p
 
 
-def pipeline(logs, out: pathlib.Path, shown: pathlib.Path, effects, args, title: str, physics=None):
+def pipeline(logs, out: pathlib.Path, shown: pathlib.Path, effects, args, title: str, physics=None,
+             gate: bool = True):
     """Runs the train pipeline into out/model and writes the report into out/report;
     `shown` is where out will be once the demo's output is in place; physics: M2 with the
-    effects as the diagnosis fitted it (not identified again)."""
+    effects as the diagnosis fitted it (not identified again); gate: False for an open
+    novelty gate (the same network, its whole correction everywhere inside the envelope)."""
     from ..reports import training as report
     from ..pipeline import PipelineConfig, run as run_pipeline
     from ..model.train import TrainConfig
 
     res = run_pipeline(logs, out / "model", PipelineConfig(effects=tuple(effects), physics=physics, ra_ohm=args.ra_ohm,
                                                            glitch_filter=not args.no_glitch_filter,
-                                                           train=TrainConfig(seed=args.seed,
+                                                           train=TrainConfig(seed=args.seed, gate=gate,
                                                                              progress=not args.quiet)))
     report.write(res.metrics, out / "model" / "work" / "estimates", out / "report", title,
                  [f"Model header: {shown / 'model' / 'model_default.h'}. Effects in the physics model: "
@@ -87,13 +91,15 @@ def run(args) -> int:
 def score_validation(res, validation, out: pathlib.Path, shown: pathlib.Path, label: str, args):
     """Scores the model of a pipeline result on the validation recordings (hpddo evaluate)
     into out/validation (metrics.json, report/, work/); the metrics, or None without
-    validation recordings."""
+    validation recordings. metrics.json names the model by the folder it will be in once the
+    demo's output is in place (shown / "model"), not by the staging folder it was scored in."""
     from ..evaluation.evaluate import evaluate
     from ..reports.training import write_evaluation as write
 
     if not validation:
         return None
     ev = evaluate(res.out, validation, out / "validation" / "work", glitch_filter=not args.no_glitch_filter)
+    ev.metrics["model"]["folder"] = str(shown / "model")
     write(ev, out / "validation", f"hpddo: {label} on recordings it never saw",
           ["Every row of recordings no training protocol covers, replayed natively through the board "
            "observer; lookup: the mean training speed of the nearest training operating point."])
@@ -118,6 +124,28 @@ def print_side_by_side(title: str, table: dict) -> None:
     for fig, row in table.items():
         print("   " + f"{fig:28s}" + "".join(f"{row[m]:10.2f}" if row.get(m) is not None else f"{'-':>10s}"
                                            for m in models))
+
+
+#: summary.json's keys of each variant of the RMSE table (hpddo.studies.validation's names):
+#: {variant: (held-out 20 %, every row of the validation recordings)}.
+SUMMARY_KEYS = {"plain_gate": ("before", "validation_before"), "effects_gate": ("after", "validation_after"),
+                "effects_nogate": ("after_nogate", "validation_after_nogate")}
+
+
+def rmse_table(summary: dict, hidden) -> str:
+    """README.md's RMSE table of a summary.json (hpddo.studies.validation.rmse_table)."""
+    from ..studies.validation import rmse_table as table
+    variants = {v: {"chrono": summary[c], "validation": summary[n]} for v, (c, n) in SUMMARY_KEYS.items()
+                if c in summary}
+    return table(variants, hidden, summary["missing_effects"])
+
+
+def write_summary(stage: pathlib.Path, summary: dict, hidden, shown: pathlib.Path) -> None:
+    """Prints README.md's RMSE table of the summary and writes summary.json."""
+    print("   the RMSE table of README.md (RPM; average: of the chronological held-out 20 %):")
+    print("   " + rmse_table(summary, hidden).replace("\n", "\n   ").rstrip())
+    (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    print(f"   summary in {shown}")
 
 
 def demo(logs, validation, stage: pathlib.Path, args) -> None:
@@ -151,12 +179,13 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
         print(note)
     print(f"   diagnosis took {time.perf_counter() - t1:.1f} s; report: {args.out / 'diagnosis' / 'index.html'}")
     missing = list(d.missing_effects)
+    hidden = base.metrics["identification"]["hidden"]
     summary = {"missing_effects": missing, "before": base.metrics["rmse_rpm"],
                "validation_before": base_valid["rmse_rpm"] if base_valid else None}
     if not missing:
         print("== 3. nothing missing: the physics model stays as it is")
         print_side_by_side("memory against estimation (RMSE, RPM):", side_by_side(base.metrics, base_valid))
-        (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+        write_summary(stage, summary, hidden, args.out / "summary.json")
         return
 
     print(f"== 3. add {', '.join(missing)} to the physics model, retrain M3 on top, replay natively")
@@ -175,7 +204,18 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
     print(f"   report: {page}")
     after_valid = score_validation(after, validation, stage / "with_effects", args.out / "with_effects",
                            f"M2 + {', '.join(missing)} and M3", args)
+    print("   the same M3 without its novelty gate (trained again with an open gate), replayed natively")
+    nogate, page = pipeline(logs, stage / "with_effects_nogate", args.out / "with_effects_nogate", missing, args,
+                            f"hpddo: M2 + {', '.join(missing)} and M3 without its novelty gate on the bundled "
+                            "recordings", physics=d.after_model, gate=False)
+    print(nogate.table, end="")
+    print(f"   report: {page}")
+    nogate_valid = score_validation(nogate, validation, stage / "with_effects_nogate",
+                                    args.out / "with_effects_nogate",
+                                    f"M2 + {', '.join(missing)} and M3 without its novelty gate", args)
     summary.update(after=a, validation_after=after_valid["rmse_rpm"] if after_valid else None,
+                   after_nogate=nogate.metrics["rmse_rpm"],
+                   validation_after_nogate=nogate_valid["rmse_rpm"] if nogate_valid else None,
                    effects=after.metrics["identification"]["effects"])
     print("== 4. memory against estimation: the chronological split (rows from the training runs) and "
           "recordings no training covers (RMSE, RPM)")
@@ -185,8 +225,7 @@ def demo(logs, validation, stage: pathlib.Path, args) -> None:
               "(recordings at other duty/load pairs or temperatures)")
     print_side_by_side("physics as identified, M3 on top:", side_by_side(base.metrics, base_valid))
     print_side_by_side(f"with {', '.join(missing)}, M3 on top:", side_by_side(after.metrics, after_valid))
-    (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    print(f"   summary in {args.out / 'summary.json'}")
+    write_summary(stage, summary, hidden, args.out / "summary.json")
 
 
 def main(argv=None) -> int:

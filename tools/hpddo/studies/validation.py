@@ -60,6 +60,36 @@ def table(results: dict) -> str:
     return "\n".join(lines) + "\n"
 
 
+#: The RMSE table of README.md and of hpddo demo: (row label, variant, model); the label's
+#: {effects} and {hidden} filled in by rmse_table.
+RMSE_ROWS = (("lookup (memory alone)", "plain_gate", "lookup"), ("M1 nameplate", "plain_gate", "M1"),
+             ("M2 physics", "plain_gate", "M2"), ("M3 hybrid {hidden}, gated", "plain_gate", "M3"),
+             ("M2 + {effects} (named by the diagnosis)", "effects_gate", "M2"),
+             ("M3 on top of it, gated", "effects_gate", "M3"),
+             ("the same M3 without the novelty gate", "effects_nogate", "M3"))
+RMSE_COLUMNS = (("sweep", "chrono", "sweep"), ("load", "chrono", "load"), ("long", "chrono", "long"),
+                ("average (chronological)", "chrono", "average"),
+                ("unseen pairs (never seen)", "validation", "unseen"), ("hot motor (never seen)", "validation", "hot"))
+
+
+def rmse_table(results: dict, hidden, effects=NAMED_EFFECTS) -> str:
+    """The markdown RMSE table of README.md, which hpddo demo prints too: a row per model of
+    RMSE_ROWS whose variant results holds ({variant: {"chrono": rmse_rpm, "validation":
+    rmse_rpm or None}}, validation_table.json's shape), a column per condition of
+    RMSE_COLUMNS ("-" where the results have none); hidden: M3's hidden layers."""
+    lines = ["| | " + " | ".join(c for c, _, _ in RMSE_COLUMNS) + " |", "|---" * (len(RMSE_COLUMNS) + 1) + "|"]
+    for label, variant, model in RMSE_ROWS:
+        if variant not in results:
+            continue
+        cells = []
+        for _, part, cond in RMSE_COLUMNS:
+            v = ((results[variant].get(part) or {}).get(model) or {}).get(cond)
+            cells.append("-" if v is None else f"{v:.2f}")
+        text = label.format(effects=", ".join(effects), hidden=f"({', '.join(map(str, hidden))})")
+        lines.append(f"| {text} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hpddo.studies.validation", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
