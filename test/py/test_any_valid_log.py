@@ -168,3 +168,15 @@ def test_a_dyno_table_of_one_supply_per_log_is_read_as_tables_without_a_saturate
     assert not [c for c in js["channels"] if c["fault"] == "saturated"], js["channels"]
     assert "saturated" not in res.verdict
     assert "read as time series" not in diagnose_cli.summary(res)
+
+
+def test_the_bundled_time_series_are_not_taken_for_tables():
+    """The twin's 2 Hz recordings hold their operating points for many rows: read as time series
+    (most of their consecutive rows hold their point), the line that would declare a table said."""
+    from conftest import ROOT
+    for folder, names in (("default", ("sweep", "load", "long")), ("validation", ("hot", "unseen"))):
+        for name in names:
+            rec = dataset.load_recordings([ROOT / "data" / folder / f"{name}.csv"])[0]
+            kind, how = dataset.kind(rec)
+            assert kind == "time_series" and "# kind=steady_state" in how, (name, how)
+            assert dataset.hold_share(rec) > 0.6, name

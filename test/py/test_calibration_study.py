@@ -49,3 +49,14 @@ def test_the_summary_counts_each_kind():
     assert "Ra (data alone)" not in s["coverage"]
     assert s["false"]["x"]["count"] == 1 and s["refused"] == 1
     assert s["other motor named"] == {"n": 1, "count": 1}
+
+
+def test_the_docs_quote_the_committed_study():
+    """docs/diagnosis.md's block of the study's figures is the rendering of the committed JSON
+    (python -m hpddo.studies.calibration --write-docs)."""
+    import json
+    from conftest import ROOT
+    doc = (ROOT / cal.DOC).read_text()
+    figures = json.loads((ROOT / cal.FIGURES).read_text())
+    assert cal.docs_text(doc, figures) == doc
+    assert figures["summary"]["benches"] >= 1 and figures["command"].startswith("python -m hpddo.studies.calibration")

@@ -19,8 +19,15 @@ def _each(fn, x) -> np.ndarray:
 
 
 def exp(x) -> np.ndarray:
-    """e**x, float64, element by element."""
-    return _each(math.exp, x)
+    """e**x, float64, element by element: once per distinct value (a thermal node's steps share a
+    few sample periods), which gives the same bits (exp(-0.0) = exp(0.0) = 1)."""
+    a = np.asarray(x, float)
+    if a.size < 64:
+        return _each(math.exp, a)
+    u, inv = np.unique(a, return_inverse=True)
+    if len(u) > a.size // 2:
+        return _each(math.exp, a)
+    return _each(math.exp, u)[inv].reshape(a.shape)
 
 
 def sin(x) -> np.ndarray:

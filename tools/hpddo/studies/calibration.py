@@ -277,27 +277,67 @@ def table(summary: dict) -> str:
     return "\n".join(lines)
 
 
+FIGURES = "docs/figures/calibration.json"   # the committed run (--json), its command inside
+DOC = "docs/diagnosis.md"
+WHAT = "the calibration study's figures"
+
+
+def doc_markers() -> tuple[str, str]:
+    from .. import regenerate
+    return (regenerate.DOC_BEGIN.format(what=WHAT, source=FIGURES,
+                                        command="python -m hpddo.studies.calibration --write-docs"),
+            regenerate.DOC_END.format(what=WHAT))
+
+
+def docs_text(doc: str, figures: dict) -> str:
+    """doc (docs/diagnosis.md's text) with its block of the study's figures rendered from figures
+    (the committed JSON)."""
+    begin, end = doc_markers()
+    i, j = doc.find(begin), doc.find(end)
+    if i < 0 or j < i:
+        raise ValueError(f"{DOC}: the markers of {WHAT} are missing")
+    block = f"Measured by `{figures['command']}`:\n\n{table(figures['summary'])}\n"
+    return doc[: i + len(begin)] + "\n" + block + doc[j:]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m hpddo.studies.calibration", description=__doc__.split("\n\n")[0])
+    ap.add_argument("--write-docs", action="store_true",
+                    help=f"only write {DOC}'s block of figures from the committed {FIGURES}")
     ap.add_argument("--benches", type=int, default=200)
     ap.add_argument("--seed", type=int, default=1, help="the first bench's seed (the others follow)")
     ap.add_argument("--jobs", type=int, default=1, help="benches diagnosed at once (processes)")
     ap.add_argument("--json", type=pathlib.Path, help="write every bench's result and the summary here")
     args = ap.parse_args(argv)
+    if args.write_docs:
+        from .. import resource_root
+        root = resource_root()
+        doc = root / DOC
+        doc.write_text(docs_text(doc.read_text(), json.loads((root / FIGURES).read_text())))
+        return 0
     seeds = list(range(args.seed, args.seed + args.benches))
+    command = "python -m hpddo.studies.calibration " + " ".join(argv if argv is not None else sys.argv[1:])
     from tqdm import tqdm
+
+    def save(results):  # after every bench: a long run stopped early keeps what it measured
+        if args.json:
+            tmp = args.json.with_name(args.json.name + ".partial")
+            tmp.write_text(json.dumps({"command": command, "summary": summarise(results), "results": results},
+                                      indent=1, default=float) + "\n")
+            tmp.replace(args.json)
+
+    results = []
     if args.jobs > 1:
         import multiprocessing as mp
         with mp.get_context("fork").Pool(args.jobs) as pool:
-            results = list(tqdm(pool.imap(run_one, seeds), total=len(seeds), file=sys.stderr, disable=None))
+            for r in tqdm(pool.imap(run_one, seeds), total=len(seeds), file=sys.stderr, disable=None):
+                results.append(r)
+                save(results)
     else:
-        results = [run_one(s) for s in tqdm(seeds, file=sys.stderr, disable=None)]
-    summary = summarise(results)
-    print(table(summary))
-    if args.json:
-        args.json.write_text(json.dumps({"command": "python -m hpddo.studies.calibration "
-                                         + " ".join(argv if argv is not None else sys.argv[1:]),
-                                         "summary": summary, "results": results}, indent=1, default=float) + "\n")
+        for s in tqdm(seeds, file=sys.stderr, disable=None):
+            results.append(run_one(s))
+            save(results)
+    print(table(summarise(results)))
     return 0
 
 
