@@ -163,7 +163,8 @@ def read_log(path) -> BenchLog:
 
 def _parse_bytes(raw: bytes):
     """Parses the bytes of a bench log into (meta, df, lines); raises _Fault on a format fault."""
-    if raw[:3] == b"\xef\xbb\xbf":
+    bom = raw[:3] == b"\xef\xbb\xbf"
+    if bom:
         raw = raw[3:]
     if not raw:
         raise _Fault(1, "empty file", "empty file")
@@ -174,6 +175,7 @@ def _parse_bytes(raw: bytes):
         raise _Fault(line, "not UTF-8", f"not UTF-8 text (byte 0x{raw[exc.start]:02x})") from None
 
     cr_line = None  # the first line with a CR that does not end it (checked first on its line)
+    crlf = "\r\n" in text
     if "\r" in text:
         text = text.replace("\r\n", "\n")
         k = text.find("\r")
@@ -211,7 +213,7 @@ def _parse_bytes(raw: bytes):
         fault(n, "no header", "no header row after the metadata")
 
     hline = i + 1
-    problem = header_fault(lines[i])
+    problem = header_fault(lines[i], lines[i + 1] if i + 1 < n else None, bom, crlf)
     if problem is not None:
         fault(hline, *problem)
     columns = [c.strip(_PAD) for c in lines[i].split(",")]
@@ -296,8 +298,10 @@ def parse_meta_line(line: str):
     return m.group(1), m.group(2).strip(_PAD)
 
 
-def header_fault(line: str):
-    """(fault keyword, message) of a header line that the format refuses, else None."""
+def header_fault(line: str, row: str | None = None, bom: bool = False, crlf: bool = False):
+    """(fault keyword, message) of a header line that the format refuses, else None. row: the
+    line after it, if any, bom and crlf: whether the file started with a BOM and has CR LF line
+    ends (they name a spreadsheet's export in the message where the header is refused)."""
     seen = set()
     for c in (c.strip(_PAD) for c in line.split(",")):
         if c == "":
@@ -308,23 +312,56 @@ def header_fault(line: str):
     missing = [c for c in REQUIRED_COLUMNS if c not in seen]
     if missing:
         return "missing required column", (f"missing required column(s) {', '.join(missing)} in header"
-                                           + _export_hint(line))
+                                           + _export_hint(line, row, bom, crlf))
     return None
 
 
-def _export_hint(header: str) -> str:
+#: Separators a spreadsheet writes instead of the format's ',' (name of each, for the message).
+_OTHER_SEPARATORS = ((";", "semicolons"), ("\t", "tabs"), ("|", "bars"))
+
+
+def _export_hint(header: str, row: str | None = None, bom: bool = False, crlf: bool = False) -> str:
     """What a spreadsheet's export did to a header whose required columns are all there in
-    another dress: another separator (and with it, often, decimal commas), or quotes."""
-    for sep, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")):
-        cells = [c.strip(_PAD + "\"'") for c in header.split(sep)]
-        if sep in header and all(c in cells for c in REQUIRED_COLUMNS):
-            return (f": the columns are separated by {name}, the format takes commas and decimal points "
-                    "(docs/bench-log.md); export the file as CSV with ',' between columns and '.' in numbers "
-                    "(a spreadsheet set to a locale with decimal commas writes ';' and '0,5')")
-    cells = [c.strip(_PAD) for c in header.split(",")]
-    if any(c[:1] in "\"'" for c in cells) and all(c in [x.strip("\"'") for x in cells] for c in REQUIRED_COLUMNS):
-        return ": the column names are in quotes; the format takes them bare (t_s,duty,v_V,i_A; docs/bench-log.md)"
-    return ""
+    another dress, each named with its fix: another separator (and with it, often, decimal
+    commas in the row after it), quotes around the names, names in another case. "" where the
+    required columns are not there in any dress (a header that really lacks them)."""
+    sep, sep_name = ",", None
+    for s, name in _OTHER_SEPARATORS:
+        if s in header and len(header.split(s)) > len(header.split(",")):
+            sep, sep_name = s, name
+            break
+    cells = [c.strip(_PAD) for c in header.split(sep)]
+    quoted = any(c[:1] in "\"'" for c in cells)
+    bare = [c.strip("\"'").strip(_PAD) for c in cells]
+    by_lower = {}
+    for c in bare:
+        by_lower.setdefault(c.lower(), c)
+    if not all(c.lower() in by_lower for c in REQUIRED_COLUMNS):
+        return ""
+    want = [c for c in REQUIRED_COLUMNS if c not in bare]
+    other_case = [by_lower[c.lower()] for c in want]
+    faults, fixes = [], []
+    if sep_name:
+        faults.append(f"the columns are separated by {sep_name}")
+        comma = None if row is None else next((c.strip(_PAD + "\"'") for c in row.split(sep)
+                                               if re.search(r"\d,\d", c)), None)
+        if comma is not None:
+            faults.append(f"the numbers have decimal commas ({comma!r} on the next line)")
+        fixes.append("export the file as CSV with ',' between columns and '.' in numbers (a spreadsheet set to a "
+                     "locale with decimal commas writes ';' and '0,5')")
+    if quoted:
+        faults.append("the column names are in quotes")
+        fixes.append("write the names bare")
+    if other_case:
+        faults.append(f"column(s) {', '.join(want)} are there in another case, as {', '.join(other_case)} "
+                      "(names are case-sensitive)")
+        fixes.append(f"rename {', '.join(other_case)} to {', '.join(want)}")
+    if not faults:
+        return ""
+    export = [w for w, on in (("a UTF-8 byte order mark", bom), ("CR LF line ends", crlf)) if on]
+    if export:
+        faults.append(f"(its {' and '.join(export)} the format accepts)")
+    return f": {'; '.join(faults)}; fix: {'; '.join(fixes)} (docs/bench-log.md)"
 
 
 def parse_row(header: str, row: str) -> dict:
