@@ -182,7 +182,11 @@ def load_recordings(paths, train_fraction: float = TRAIN_FRACTION, glitch_filter
                     reference=None) -> list[Recording]:
     """load_recording for each path; refuses two recordings with the same name (condition
     metadata, else file name), which would be counted as one."""
-    recs = [load_recording(p, train_fraction, glitch_filter, reference) for p in paths]
+    from .. import progress
+    paths = list(paths)
+    progress.stage(f"reading {len(paths)} log(s) ({progress.size(paths)})")
+    recs = [load_recording(p, train_fraction, glitch_filter, reference)
+            for p in progress.bar(paths, "reading", unit="log")]
     seen = {}
     for r in recs:
         key = r.file_stem.lower()
