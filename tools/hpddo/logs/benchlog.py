@@ -150,7 +150,7 @@ class BenchLog:
 #: The reader takes a file this many bytes at a time (cut at a line end): its memory is the
 #: rows' values (8 bytes a cell) and one chunk's text and cells, not the whole file's, and
 #: a fault is refused when its chunk is read, not after the whole file.
-CHUNK_BYTES = 4 << 20
+CHUNK_BYTES = 1 << 20
 _BOM = b"\xef\xbb\xbf"
 
 
@@ -167,9 +167,11 @@ def read_log(path) -> BenchLog:
     return BenchLog(path=path, meta=meta, df=df, lines=lines)
 
 
-def _blocks(fh, size: int = CHUNK_BYTES):
-    """The bytes of a binary file in blocks of about size bytes, each cut after a LF (so no
-    line, no CR LF and no UTF-8 sequence is split; the last block: the rest of the file)."""
+def _blocks(fh, size: int | None = None):
+    """The bytes of a binary file in blocks of about size bytes (default CHUNK_BYTES), each cut
+    after a LF (so no line, no CR LF and no UTF-8 sequence is split; the last block: the rest of
+    the file)."""
+    size = size or CHUNK_BYTES
     rest = b""
     while True:
         b = fh.read(size)

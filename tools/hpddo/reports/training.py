@@ -12,6 +12,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from ..evaluation.metrics import read_estimates  # noqa: E402
 from ..logs import benchlog  # noqa: E402
 from . import png, render  # noqa: E402
 
@@ -42,19 +43,23 @@ BINS = 400
 
 def binned(t, x, bins: int = BINS):
     """(time, mean, 10th percentile, 90th percentile) of x over `bins` equal stretches of time t
-    (the stretches without a finite value left out); x itself (band: itself) where it has at
-    most MAX_POINTS rows."""
+    (increasing, as t_s is; the stretches without a finite value left out), one stretch at a time
+    (no copy of the whole series); x itself (band: itself) where it has at most MAX_POINTS rows."""
     import numpy as np
 
     t, x = np.asarray(t, float), np.asarray(x, float)
     if len(t) <= MAX_POINTS:
         return t, x, x, x
     edges = np.linspace(t[0], t[-1], bins + 1)
-    k = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, bins - 1)
-    frame = pd.DataFrame({"k": k, "t": t, "x": x}).dropna()
-    g = frame.groupby("k")
-    q = g["x"].quantile([0.1, 0.9]).unstack()
-    return g["t"].mean().to_numpy(), g["x"].mean().to_numpy(), q[0.1].to_numpy(), q[0.9].to_numpy()
+    cut = np.searchsorted(t, edges[1:-1], side="right")
+    rows = []
+    for a, b in zip(np.r_[0, cut], np.r_[cut, len(t)]):
+        xs = x[a:b]
+        xs = xs[np.isfinite(xs)]
+        if len(xs):
+            rows.append((t[a:b].mean(), xs.mean(), *np.percentile(xs, [10, 90])))
+    tb, mean, lo, hi = np.array(rows).T if rows else (np.zeros(0),) * 4
+    return tb, mean, lo, hi
 
 
 def binned_rms(t, e, bins: int = BINS):
@@ -137,7 +142,7 @@ def write(metrics: dict, estimates_dir: pathlib.Path, out: pathlib.Path, title: 
     recordings = []
     for f in sorted(pathlib.Path(estimates_dir).glob("*.estimates.csv")):
         name = f.name.replace(".estimates.csv", "")
-        recordings.append({"name": name, "figure": overlay_figure(pd.read_csv(f), name)})
+        recordings.append({"name": name, "figure": overlay_figure(read_estimates(f), name)})
     return benchlog.write_text_atomic(pathlib.Path(out) / "index.html", page(metrics, recordings, title, notes, caption))
 
 
