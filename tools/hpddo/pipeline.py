@@ -10,7 +10,7 @@ import pathlib
 
 import numpy as np
 
-from . import schema
+from . import progress, schema
 from .evaluation import baseline
 from .evaluation.evaluate import recordings_record, replay_natively, score_recordings
 from .logs import dataset, outdir
@@ -170,6 +170,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     if cfg.leave_one_out:
         _check_leave_one_out(log_paths)  # before the work
     recs = dataset.load_recordings(log_paths, cfg.train_fraction, cfg.glitch_filter, cfg.reference)
+    progress.stage("identifying M1 and M2" + (f" with {', '.join(cfg.effects)}" if cfg.effects else ""))
     ra, ra_source = identify.ra_from_logs(recs, cfg.ra_ohm)
     m1 = ph.nameplate_params(ra, cfg.rated_V, cfg.rated_rpm)
     if cfg.physics is not None:
@@ -180,7 +181,10 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
             from .model import effects
             m2 = effects.identify(recs, m2, cfg.effects)
             check_physical(recs, m2, cfg.effects)
+    if cfg.dynamics:
+        progress.stage("identifying the dynamic family (J, B, Tc)")
     fam, dyn = identify_dynamics(recs, m2) if cfg.dynamics else (None, None)
+    progress.stage(f"training M3 {cfg.train.hidden}, {cfg.train.max_iter} epochs")
     res = residual_or_physics_only(recs, m2, cfg.train, dyn)  # physics only below one batch of rows
     model = model_data(m1, m2, res, dyn)
 
@@ -198,6 +202,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         if dyn is not None:
             prov["dynamics"] = ", ".join(f"{d.field} {float(dyn[d.field]):.6g} {d.unit}" for d in schema.DYNAMICS)
         name = cfg.name
+        progress.stage("exporting the model headers and golden vectors (float, fixed point, int8)")
         (stage / f"model_{name}.h").write_text(export.model_header(model, name, prov))
         samples = golden_samples(recs)
         rows = export.golden_rows(model, samples)
@@ -208,6 +213,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         export.write_int8(stage, model, name, prov, samples, training_rows(recs, m2)[0] if res.trained else None)
         work = stage / "work"  # cleaned logs, the replay built for this model, its estimates
         est = replay_natively(recs, stage, name, work)
+        progress.stage("scoring the estimates")
         lookup = baseline.Lookup.fit(recs)
         (stage / baseline.FILE).write_text(lookup.to_json())
         metrics = score_recordings(recs, est, export.model_checksum(model), lookup)
@@ -233,6 +239,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         (work / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
         if cfg.report:
             from .reports import training as report
+            progress.stage("writing the report")
             report.write(metrics, work / "estimates", stage / "report", f"hpddo train: {out}",
                          [f"Model header: {out / f'model_{name}.h'}. Effects in the physics model: "
                           f"{', '.join(m2.effect_names()) or 'none'}. RMSE of the held-out "
@@ -262,6 +269,7 @@ def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
     for k, held in enumerate(paths):
         others = paths[:k] + paths[k + 1:]
         stem = held.stem
+        progress.stage(f"leave one out {k + 1}/{len(paths)}: trained without {held.name}, scored on it")
         res = run(others, out / stem / "model", dataclasses.replace(cfg, command=f"{cfg.command} (leave out {held.name})"))
         ev = evaluate(res.out, [held], out / stem / "evaluation", glitch_filter=cfg.glitch_filter,
                       reference=cfg.reference)

@@ -9,7 +9,8 @@ One convention for every subcommand: the same flag names for the same things
 (--out, --quiet, --seed, --ra-ohm, --effects NAME[,NAME...], --no-glitch-filter); a user
 error (hpddo.logs.errors.USER_ERRORS: a bad log, a refused output folder, an input the
 pipeline cannot use, a failed capture) is one line `hpddo SUBCOMMAND: message` on
-stderr and exit status 1; a bad command line is argparse's usage message and status 2;
+stderr and exit status 1; progress (hpddo.progress: a stage line on stderr as each long step
+starts, a bar on a terminal) unless --quiet; a bad command line is argparse's usage message and status 2;
 Ctrl-C (SIGINT) or SIGTERM is one line and status 130 or 143, with no process of the tool
 left running and nothing half-written (hpddo.interrupt).
 """
@@ -62,7 +63,7 @@ def report(name: str, message) -> None:
 def run(name: str, argv=None) -> int:
     """Parses argv for subcommand NAME and runs it; returns its exit status (a user error:
     its one line on stderr and 1; a bad command line: SystemExit(2) from argparse)."""
-    from .. import interrupt
+    from .. import interrupt, progress
 
     try:
         with interrupt.handling():
@@ -74,7 +75,8 @@ def run(name: str, argv=None) -> int:
             if hasattr(mod, "validate"):  # checks across options: a usage error, status 2
                 mod.validate(args, p)
             try:
-                return mod.run(args)
+                with progress.reporting(name, not getattr(args, "quiet", False)):
+                    return mod.run(args)
             except USER_ERRORS as exc:
                 report(name, exc)
                 return 1

@@ -16,6 +16,14 @@ instead measures the observer on the boards and the host, float against fixed po
 (tools/hpddo/studies/perf.py: AVR cycle-exact in simavr with emlearn as the peer, host samples/s
 against scikit-learn) and prints the table; with --write-docs it also writes the table
 into docs/performance.md and the figures into docs/figures/bench_observer.json.
+
+    hpddo bench --large-log [--rows 2000000]
+
+instead writes a large synthetic bench log in a temporary folder and prints what reading it
+costs, each in a fresh process (tools/hpddo/studies/large_log.py): read_log's peak RSS against
+the file's size, the time and peak RSS to refuse a fault at line 7207 against the whole read,
+and hpddo evaluate of the whole file with models/default (target: peak RSS at most 3 x the
+file + 300 MB).
 """
 from __future__ import annotations
 
@@ -48,6 +56,11 @@ def parser(prog: str = "hpddo bench") -> argparse.ArgumentParser:
     p.add_argument("--peer-python", type=pathlib.Path, default=None, metavar="PY",
                    help="--observer: a Python with emlearn 0.23.2 and scikit-learn, for the peer "
                         "(default .venv-bench/bin/python of the source tree)")
+    p.add_argument("--large-log", action="store_true",
+                   help="measure reading a large bench log and hpddo evaluate on it (peak RSS against the file's "
+                        "size, time to refuse an early fault against the whole read) instead of the pipeline")
+    p.add_argument("--rows", type=options.positive_int, default=2_000_000, metavar="N",
+                   help="--large-log: rows of the synthetic log (default 2000000, about 98 MB)")
     return p
 
 
@@ -63,6 +76,11 @@ def sklearn_peer(net):
 
 
 def run(args) -> int:
+    if args.large_log:
+        from ..studies import large_log
+        with tempfile.TemporaryDirectory(prefix="hpddo-bench-large-") as tmp:
+            large_log.measure(tmp, args.rows, resource_root() / "models" / "default")
+        return 0
     if args.observer:
         from ..studies import perf
         # absolute: emlearn's converter runs inside the build folder (a relative --build failed there)

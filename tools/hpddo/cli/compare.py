@@ -82,7 +82,8 @@ def run(args) -> int:
                         ripple_prior_model=prior_model)
     res = run_compare(args.logs, args.out, cfg, args.validation)
     print(text_summary(res.tables), end="")
-    print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
+    if not args.quiet:
+        print(f"wrote {args.out}/ in {time.perf_counter() - t0:.1f} s")
     sys.stdout.flush()
     return 0
 

@@ -60,9 +60,11 @@ def diagnose_into(logs, opt, out: pathlib.Path):
     from ..logs import outdir
     from ..diagnosis import core
     from ..reports import diagnosis as report
+    from .. import progress
 
     outdir.check(out, "diagnose")  # before the work: a refused folder costs nothing
     d = core.diagnose(logs, opt)
+    progress.stage("writing the report")
     with outdir.staged(out, "diagnose") as stage:
         report.write(stage, d.to_json(), d.plot())
     return d

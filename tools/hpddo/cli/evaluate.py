@@ -41,6 +41,7 @@ def run(args) -> int:
     from ..evaluation.evaluate import evaluate, model_header
     from ..model import reference
     from ..reports.training import write_evaluation as write
+    from .. import progress
 
     t0 = time.perf_counter()
     ref = options.reference_of(args)
@@ -48,6 +49,7 @@ def run(args) -> int:
     outdir.check(args.out, TOOL)
     with outdir.staged(args.out, TOOL) as stage:
         ev = evaluate(args.model, args.logs, stage / "work", args.name, not args.no_glitch_filter, ref)
+        progress.stage("writing the report")
         write(ev, stage, f"hpddo evaluate: {args.model}",
               [f"Model {args.model} (effects in its physics model: {', '.join(ev.metrics['model']['effects']) or 'none'}), "
                "replayed natively through the board observer on every row of recordings it was not trained on "

@@ -42,6 +42,7 @@ def run(args) -> int:
 
     import numpy as np
 
+    from .. import progress
     from ..logs import benchlog, dataset, outdir
     from ..logs.errors import InputError
     from ..model import ripple as rp
@@ -54,7 +55,8 @@ def run(args) -> int:
     model = options.prior_model_of(args)  # a bad folder refused before any log is read
     summary = {}
     with outdir.staged(args.out, TOOL) as stage:
-        for path in args.logs:
+        for k, path in enumerate(args.logs):
+            progress.stage(f"{path}: reading the log, counting the ripple of its bursts ({k + 1}/{len(args.logs)})")
             log = benchlog.read_log(path)
             df = log.df
             est, ke, ke_from = rp.speed_of_log(path, df, log.meta, opts, args.ra_ohm, args.ke_vs_per_rad,

@@ -26,6 +26,7 @@ import math
 import time
 import numpy as np
 from scipy import stats
+from .. import progress
 from ..logs import dataset
 from ..model import identify
 from ..logs.errors import InputError
@@ -288,6 +289,8 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
     steps, final = ranking.forward_select(d, m2, given, candidates, sigma2)
     chosen = [s.name for s in steps if s.name]
     missing = [c for c in chosen if c != RA]
+    if opt.bootstrap:
+        progress.stage(f"the forward selection again on {opt.bootstrap} bootstrap resamples")
     boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed)
     # An effect named at a step where a wrong Ra passed every test too is told apart from it
     # only when its held-out gain over the wrong-Ra model is Z_MIN standard errors or more;
@@ -613,7 +616,9 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     t0 = time.perf_counter()
     inp = load(paths, opt)
     # another motor, or another sensor scale, named before any effect is ranked, and left out
+    progress.stage("fitting the physics model with every effect of the library")
     mf0 = fit_model(inp)
+    progress.stage("checking each recording for another motor or another sensor scale")
     others = other_motors(inp, mf0.sigma2) if opt.consistency else []
     for o in others:
         try:
@@ -624,11 +629,13 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     inp, mf, ident, sel, conf, resid, text = physics(inp, opt, None if others else mf0)
     if others:
         text = "Checked before ranking: " + "; ".join(o.text() for o in others) + ". " + text
+    progress.stage("checking the recordings against each other")
     units = consistency(inp, mf.sigma2) if opt.consistency else []
     odd = max((u for u in units if u.inconsistent), key=lambda u: u.rmse_rpm / max(u.others_rpm, 1e-9), default=None)
     without_it = None
     if odd is not None:
         # the verdict without it (no bootstrap): the user sees both and what the one recording changes
+        progress.stage(f"the verdict without {odd.name}")
         try:
             w = physics(without(inp, odd, opt), dataclasses.replace(opt, bootstrap=0))
         except InputError as exc:  # too little left without it: the data cannot support the step
@@ -640,6 +647,8 @@ def diagnose(paths, opt: Options) -> Diagnosis:
                           "ra_fit": w[3].ra_fit.to_json() if w[3].ra_fit is not None else None}
             text += f" Checked before ranking: {odd.text()}. Without it: {w[6]}"
     changed = bool(sel.missing) or sel.ra_fit.mismatch
+    if opt.hybrid:
+        progress.stage(f"retraining the hybrid before and after ({opt.hybrid_iter} epochs each)")
     hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt) if opt.hybrid else (None, [])
     d = _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
     d.consistency = {"units": [u.to_json() for u in units], "without": without_it,
@@ -647,6 +656,7 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     if opt.leave_one_out:
         if len(inp.recs) < 2:
             raise InputError("leave-one-out needs at least two recordings (one to leave out, one to fit on)")
+        progress.stage(f"leave one out over {len(inp.recs)} recordings")
         d.leave_one_out = leave_one_out(inp, sel.missing)
     d.runtime_s = time.perf_counter() - t0
     return d
@@ -754,13 +764,18 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
     """The physics stages from fit_model (mf: its result on inp, where already taken) to verdict:
     (inputs (Ra moved where it is a mismatch), ModelFit, identifiability, Selection, Confounding,
     Residuals, verdict text)."""
-    mf = fit_model(inp) if mf is None else mf
+    if mf is None:
+        progress.stage("fitting the physics model with every effect of the library")
+        mf = fit_model(inp)
+    progress.stage("what these recordings can show of each effect (identifiability)")
     ident = identifiability(inp, mf)
+    progress.stage("ranking the effects: forward selection on the held-out rows")
     sel = select(inp, mf, ident, opt)
     mf, moved = refloor(inp, mf, sel)
     if moved:  # a table with no repeated point: selected again against what the model leaves
         ident = identifiability(inp, mf)
         sel = select(inp, mf, ident, opt)
+    progress.stage("confounded pairs, intervals and the residuals before and after")
     conf = confounding(inp, mf, sel)
     if sel.ra_fit.mismatch:  # from here on, Ra is held at the value the data support
         inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
@@ -770,6 +785,7 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
     resid = residuals(inp, mf, sel)
     # the dynamic family (issue 21, item 8): identified from the fast recordings, the observer on the
     # model under test's speed for the held-out figure
+    progress.stage("the dynamic family, Ke and the channels' health")
     mf.dynamics = dynamics_family.identify([r.rec for r in inp.rows], mf.model.ra_ohm, mf.model.ke_vs_per_rad,
                                            [r.ref - e for r, e in zip(inp.rows, mf.res_model)],
                                            la_given_H=mf.model.la_H)

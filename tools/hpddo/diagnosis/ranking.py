@@ -37,7 +37,7 @@ import os
 import numpy as np
 
 from ..model import effects as fx
-from .. import interrupt
+from .. import interrupt, progress
 from ..model import physics as ph
 from .. import schema
 from . import analysis
@@ -555,9 +555,9 @@ def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int =
     if workers > 1:
         with concurrent.futures.ProcessPoolExecutor(max_workers=workers, initializer=interrupt.worker_init,
                                                     mp_context=multiprocessing.get_context("fork")) as pool:
-            chosen = list(pool.map(_select_names, jobs))
+            chosen = list(progress.bar(pool.map(_select_names, jobs), "bootstrap", total=n, unit="resample"))
     else:
-        chosen = [_select_names(j) for j in jobs]
+        chosen = [_select_names(j) for j in progress.bar(jobs, "bootstrap", unit="resample")]
     for names in chosen:
         for c in names:
             counts[c] += 1

@@ -17,6 +17,7 @@ import tempfile
 import numpy as np
 
 from . import baseline, replay
+from .. import progress
 from ..logs import dataset
 from . import metrics as metrics_mod
 from ..logs.errors import InputError
@@ -64,8 +65,11 @@ def replay_natively(recs, model_dir: pathlib.Path, name: str, work: pathlib.Path
     model_dir into work/replay and replays them into work/estimates; their estimates."""
     (work / "logs").mkdir(parents=True, exist_ok=True)
     (work / "estimates").mkdir(exist_ok=True)
+    progress.stage(f"writing the cleaned logs ({sum(r.n for r in recs)} rows)")
     clean = [dataset.write_clean(r, work / "logs" / f"{r.file_stem}.csv") for r in recs]
+    progress.stage("building the native replay (CMake, C++)")
     exe = replay.build(pathlib.Path(model_dir), name, work / "replay")
+    progress.stage(f"replaying {len(recs)} recording(s) through the board observer")
     return replay.run(exe, clean, work / "estimates", split)
 
 
@@ -153,6 +157,7 @@ def _replay_and_score(model_dir, model_name, checksum, lookup, recs, work: pathl
         if w:
             r.warnings.append(w)
     est = replay_natively(recs, model_dir, model_name, work, split=0.0)
+    progress.stage("scoring the estimates")
     m = score_recordings(recs, est, checksum, lookup, part="all")
     m["source"] = SOURCE
     m["model"] = {"folder": str(model_dir), "name": model_name, "effects": physics.effect_names()}

@@ -59,7 +59,7 @@ def score(scored: list, source: str, checksum: int | None = None) -> dict:
         labelled = np.isfinite(ref)
         for m, col in models.items():
             err[cond][m].append((est[col].to_numpy(float)[mask] - ref)[labelled])
-        status[cond].append(est["status"].to_numpy(str)[mask])
+        status[cond].append(est["status"].to_numpy(object)[mask])  # (references to a few words)
     out: dict = {"rmse_rpm": {}}
     for m in models:
         per = {c: rmse(np.concatenate(err[c][m])) for c in order}
@@ -100,6 +100,25 @@ def table(metrics: dict, title: str = "RMSE on the test parts (RPM)") -> str:
     return "\n".join(lines) + "\n"
 
 
+#: read_estimates parses this many rows at a time (its memory: the values, not the parser's
+#: buffers over the whole file).
+ESTIMATES_CHUNK_ROWS = 250_000
+_TEXT_COLUMNS = ("status", "part")  # a handful of words each, over millions of rows: categories
+
+
 def read_estimates(path) -> pd.DataFrame:
-    """One estimates file of the replay (host/replay.cpp, --out-dir)."""
-    return pd.read_csv(path, dtype={"status": str, "part": str})
+    """One estimates file of the replay (host/replay.cpp, --out-dir); status and part as
+    categories (one copy of each word, not one per row)."""
+    frames = []
+    for f in pd.read_csv(path, dtype={c: str for c in _TEXT_COLUMNS}, chunksize=ESTIMATES_CHUNK_ROWS):
+        frames.append(f.astype({c: "category" for c in _TEXT_COLUMNS if c in f}))
+    if len(frames) == 1:
+        return frames[0]
+    columns = list(frames[0].columns)
+    text = {c: pd.api.types.union_categoricals([f[c] for f in frames], ignore_order=True)
+            for c in _TEXT_COLUMNS if c in frames[0]}
+    out = pd.concat([f.drop(columns=list(text)) for f in frames], ignore_index=True)
+    del frames
+    for c, v in text.items():
+        out[c] = pd.Categorical(v)
+    return out[columns]

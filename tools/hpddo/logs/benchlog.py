@@ -147,79 +147,193 @@ class BenchLog:
 # ----------------------------------------------------------------------------- reading
 
 
+#: The reader takes a file this many bytes at a time (cut at a line end): its memory is the
+#: rows' values (8 bytes a cell) and one chunk's text and cells, not the whole file's, and
+#: a fault is refused when its chunk is read, not after the whole file.
+CHUNK_BYTES = 1 << 20
+_BOM = b"\xef\xbb\xbf"
+
+
 def read_log(path) -> BenchLog:
     """Read and validate a bench log; raise `BenchLogError` on any format fault."""
     path = pathlib.Path(path)
     try:
-        raw = path.read_bytes()
+        with open(path, "rb") as fh:
+            meta, df, lines = _parse_stream(_blocks(fh))
     except OSError as exc:
         raise BenchLogError(path, None, f"cannot read file: {exc.strerror or exc}") from None
-    try:
-        meta, df, lines = _parse_bytes(raw)
     except _Fault as f:
         raise BenchLogError(path, f.line, f.message, f.kind) from None
     return BenchLog(path=path, meta=meta, df=df, lines=lines)
 
 
+def _blocks(fh, size: int | None = None):
+    """The bytes of a binary file in blocks of about size bytes (default CHUNK_BYTES), each cut
+    after a LF (so no line, no CR LF and no UTF-8 sequence is split; the last block: the rest of
+    the file)."""
+    size = size or CHUNK_BYTES
+    rest = b""
+    while True:
+        b = fh.read(size)
+        if not b:
+            if rest:
+                yield rest
+            return
+        k = b.rfind(b"\n")
+        if k < 0:
+            rest += b
+            continue
+        yield rest + b[:k + 1]
+        rest = b[k + 1:]
+
+
 def _parse_bytes(raw: bytes):
     """Parses the bytes of a bench log into (meta, df, lines); raises _Fault on a format fault."""
-    if raw[:3] == b"\xef\xbb\xbf":
-        raw = raw[3:]
-    if not raw:
-        raise _Fault(1, "empty file", "empty file")
+    import io
+    return _parse_stream(_blocks(io.BytesIO(raw)))
+
+
+class _Text:
+    """The lines of a stream of blocks (_blocks), decoded block by block: the BOM dropped, CR LF
+    read as LF, the first stray CR of the block noted (cr_line), file lines counted from 1."""
+
+    def __init__(self, blocks):
+        self.blocks = iter(blocks)
+        self.line = 1  # file line of the next block's first line
+        self.bom = False
+        self.crlf = False
+        self.started = False
+
+    def next(self):
+        """(lines, file line of lines[0], cr_line or None) of the next block, None at the end."""
+        block = next(self.blocks, None)
+        if block is None:
+            return None
+        if not self.started:
+            self.started = True
+            self.bom = block[:3] == _BOM
+            if self.bom:
+                block = block[3:]
+        text = self._decode(block)
+        cr_line = None
+        if "\r" in text:
+            self.crlf = self.crlf or "\r\n" in text
+            text = text.replace("\r\n", "\n")
+            k = text.find("\r")
+            if k >= 0:
+                cr_line = self.line + text.count("\n", 0, k)
+        lines = text.split("\n")
+        if lines[-1] == "":
+            lines.pop()  # the line end of the block's last line
+        first = self.line
+        self.line += len(lines)
+        return lines, first, cr_line
+
+    def _decode(self, block: bytes) -> str:
+        try:
+            return block.decode("utf-8")
+        except UnicodeDecodeError as exc:
+            line = self.line + block.count(b"\n", 0, exc.start)
+            raise _Fault(line, "not UTF-8", f"not UTF-8 text (byte 0x{block[exc.start]:02x})") from None
+
+    def check_rest(self) -> None:
+        """The encoding is checked over the whole file first (docs/bench-log.md, Faults): before a
+        format fault is raised, the blocks not yet read are decoded (and dropped)."""
+        for block in self.blocks:
+            self._decode(block)
+            self.line += block.count(b"\n")
+
+
+def _parse_stream(blocks):
+    """(meta, df, lines) of a bench log given as blocks of bytes (_blocks); raises _Fault on the
+    file's first format fault as soon as the block that holds it is read."""
+    text = _Text(blocks)
     try:
-        text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        line = raw.count(b"\n", 0, exc.start) + 1
-        raise _Fault(line, "not UTF-8", f"not UTF-8 text (byte 0x{raw[exc.start]:02x})") from None
+        return _parse_text(text)
+    except _Fault as f:
+        if f.kind != "not UTF-8":
+            text.check_rest()
+        raise
 
-    cr_line = None  # the first line with a CR that does not end it (checked first on its line)
-    if "\r" in text:
-        text = text.replace("\r\n", "\n")
-        k = text.find("\r")
-        if k >= 0:
-            cr_line = text.count("\n", 0, k) + 1
-    lines = text.split("\n")
-    if lines[-1] == "":
-        lines.pop()  # the line end of the last line
-    n = len(lines)
 
-    def fault(line, kind, message):
-        if cr_line is not None and cr_line <= line:
-            raise _Fault(cr_line, "carriage return",
-                         "carriage return inside a line (only CR LF ends a line)")
-        raise _Fault(line, kind, message)
+def _fault(cr_line, line, kind, message):
+    """Raises the fault on line, or the stray CR's where it comes first (on or before line)."""
+    if cr_line is not None and cr_line <= line:
+        raise _Fault(cr_line, "carriage return", "carriage return inside a line (only CR LF ends a line)")
+    raise _Fault(line, kind, message)
 
+
+def _parse_text(text: _Text):
+    got = text.next()
+    if got is None or not got[0]:  # (a block before the last has a line: it ends with LF)
+        raise _Fault(1, "empty file", "empty file")
+    lines, _, cr_line = got
     meta: dict = {}
     i = 0
-    while i < n:
+    while True:  # the metadata, then the header (a block at a time: the metadata may be long)
+        while i >= len(lines):
+            more = text.next()
+            if more is None:
+                _fault(cr_line, max(len(lines), 1), "no header", "no header row after the metadata")
+            lines += more[0]
+            cr_line = cr_line if cr_line is not None else more[2]
         ln = lines[i]
         if not ln.strip(_PAD):
-            fault(i + 1, "blank line", "blank line")
+            _fault(cr_line, i + 1, "blank line", "blank line")
         if not ln.startswith("#"):
             break
         kv = parse_meta_line(ln)
         if kv is None:
-            fault(i + 1, "malformed metadata",
-                  f"malformed metadata line {ln!r} (expected '# key=value', key of A-Z a-z 0-9 _ . -)")
+            _fault(cr_line, i + 1, "malformed metadata",
+                   f"malformed metadata line {ln!r} (expected '# key=value', key of A-Z a-z 0-9 _ . -)")
         key = kv[0]
         if key in meta:
-            fault(i + 1, "duplicate metadata key", f"duplicate metadata key {key!r}")
+            _fault(cr_line, i + 1, "duplicate metadata key", f"duplicate metadata key {key!r}")
         meta[key] = kv[1]
         i += 1
-    if i >= n:
-        fault(n, "no header", "no header row after the metadata")
 
     hline = i + 1
-    problem = header_fault(lines[i])
-    if problem is not None:
-        fault(hline, *problem)
-    columns = [c.strip(_PAD) for c in lines[i].split(",")]
     data = lines[i + 1:]
-    if not data:
-        fault(hline, "no rows", "header with no rows")
     first = hline + 1  # file line of data[0]
+    if not data:  # the rows may begin in the next block
+        more = text.next()
+        if more is not None:
+            data = more[0]
+            cr_line = cr_line if cr_line is not None else more[2]
+    problem = header_fault(lines[i], data[0] if data else None, text.bom, text.crlf)
+    if problem is not None:
+        _fault(cr_line, hline, *problem)
+    columns = [c.strip(_PAD) for c in lines[i].split(",")]
+    if not data:
+        _fault(cr_line, hline, "no rows", "header with no rows")
+    del lines
 
+    parts = {c: [] for c in columns}
+    prev = None  # (value, text) of the last t_s read
+    nrows = 0
+    while True:
+        out, prev = _parse_rows(columns, data, first, cr_line, prev)
+        for c, x in out.items():
+            parts[c].append(x)
+        nrows += len(data)
+        more = text.next()
+        if more is None:
+            break
+        data, first, cr_line = more
+    out = {}
+    for c in columns:
+        x = parts.pop(c)
+        x = x[0] if len(x) == 1 else np.concatenate(x)
+        out[c] = _extra(x) if c not in KNOWN_COLUMNS else x
+        del x
+    df = pd.DataFrame(out, columns=columns, copy=False)
+    return meta, df, np.arange(hline + 1, hline + 1 + nrows, dtype=np.int64)
+
+
+def _parse_rows(columns, data, first, cr_line, prev):
+    """The values of the row lines data (data[0] on file line first) under columns: ({column:
+    values}, (value, text) of the last t_s); extra columns as their text. Raises _Fault on the
+    first fault among them (a stray CR on cr_line counted); prev: the last t_s before them."""
     # Structure of the row lines: the first line that is blank, metadata or of the wrong
     # field count ends what the cells are read from (a cell fault before it comes first).
     ncomma = len(columns) - 1
@@ -251,6 +365,7 @@ def _parse_bytes(raw: bytes):
     else:
         cells = np.empty((0, len(columns)), dtype=object)
     padded = " " in joined or "\t" in joined
+    del joined
 
     out = {}
     best = None  # (row, column index, kind, message) of the first cell fault
@@ -260,11 +375,14 @@ def _parse_bytes(raw: bytes):
             vals = pd.Series(vals, dtype=object).str.strip(_PAD).to_numpy(dtype=object)
         if col in REQUIRED_COLUMNS or col in OPTIONAL_FLOAT_COLUMNS:
             x, bad = _parse_numbers(vals, col, required=col in REQUIRED_COLUMNS)
-            if col == "t_s" and nrows > 1:
+            if col == "t_s" and nrows:
                 inc = np.zeros(nrows, bool)
                 inc[1:] = ~(x[1:] > x[:-1])
+                if prev is not None:
+                    inc[0] = not x[0] > prev[0]
                 bad = _merge(bad, inc, "t_s not increasing",
-                             lambda r: f"t_s not increasing: {vals[r]} after {vals[r - 1]}")
+                             lambda r: f"t_s not increasing: {vals[r]} after {vals[r - 1] if r else prev[1]}")
+                t_last = (x[-1], vals[-1])
             elif col == "duty":
                 bad = _merge(bad, (x < 0) | (x > 1), "duty outside 0..1",
                              lambda r: f"duty outside 0..1: {vals[r]}")
@@ -273,19 +391,17 @@ def _parse_bytes(raw: bytes):
             x, bad = _parse_ints(vals, col)
             out[col] = x
         else:
-            out[col] = _extra(vals)
+            out[col] = vals  # text; read_log makes it numbers where the whole column is
             bad = None
         if bad is not None and (best is None or bad[0] < best[0]):
             best = (bad[0], j, bad[1], bad[2])
     if best is not None:
-        fault(first + best[0], best[2], best[3])
+        _fault(cr_line, first + best[0], best[2], best[3])
     if struct is not None:
-        fault(first + bad_row, *struct)
+        _fault(cr_line, first + bad_row, *struct)
     if cr_line is not None:
-        fault(cr_line, "", "")
-
-    df = pd.DataFrame(out, columns=columns)
-    return meta, df, np.arange(first, first + nrows, dtype=np.int64)
+        _fault(cr_line, cr_line, "", "")
+    return out, (t_last if nrows else prev)
 
 
 def parse_meta_line(line: str):
@@ -296,8 +412,10 @@ def parse_meta_line(line: str):
     return m.group(1), m.group(2).strip(_PAD)
 
 
-def header_fault(line: str):
-    """(fault keyword, message) of a header line that the format refuses, else None."""
+def header_fault(line: str, row: str | None = None, bom: bool = False, crlf: bool = False):
+    """(fault keyword, message) of a header line that the format refuses, else None. row: the
+    line after it, if any, bom and crlf: whether the file started with a BOM and has CR LF line
+    ends (they name a spreadsheet's export in the message where the header is refused)."""
     seen = set()
     for c in (c.strip(_PAD) for c in line.split(",")):
         if c == "":
@@ -308,23 +426,56 @@ def header_fault(line: str):
     missing = [c for c in REQUIRED_COLUMNS if c not in seen]
     if missing:
         return "missing required column", (f"missing required column(s) {', '.join(missing)} in header"
-                                           + _export_hint(line))
+                                           + _export_hint(line, row, bom, crlf))
     return None
 
 
-def _export_hint(header: str) -> str:
+#: Separators a spreadsheet writes instead of the format's ',' (name of each, for the message).
+_OTHER_SEPARATORS = ((";", "semicolons"), ("\t", "tabs"), ("|", "bars"))
+
+
+def _export_hint(header: str, row: str | None = None, bom: bool = False, crlf: bool = False) -> str:
     """What a spreadsheet's export did to a header whose required columns are all there in
-    another dress: another separator (and with it, often, decimal commas), or quotes."""
-    for sep, name in ((";", "semicolons"), ("\t", "tabs"), ("|", "bars")):
-        cells = [c.strip(_PAD + "\"'") for c in header.split(sep)]
-        if sep in header and all(c in cells for c in REQUIRED_COLUMNS):
-            return (f": the columns are separated by {name}, the format takes commas and decimal points "
-                    "(docs/bench-log.md); export the file as CSV with ',' between columns and '.' in numbers "
-                    "(a spreadsheet set to a locale with decimal commas writes ';' and '0,5')")
-    cells = [c.strip(_PAD) for c in header.split(",")]
-    if any(c[:1] in "\"'" for c in cells) and all(c in [x.strip("\"'") for x in cells] for c in REQUIRED_COLUMNS):
-        return ": the column names are in quotes; the format takes them bare (t_s,duty,v_V,i_A; docs/bench-log.md)"
-    return ""
+    another dress, each named with its fix: another separator (and with it, often, decimal
+    commas in the row after it), quotes around the names, names in another case. "" where the
+    required columns are not there in any dress (a header that really lacks them)."""
+    sep, sep_name = ",", None
+    for s, name in _OTHER_SEPARATORS:
+        if s in header and len(header.split(s)) > len(header.split(",")):
+            sep, sep_name = s, name
+            break
+    cells = [c.strip(_PAD) for c in header.split(sep)]
+    quoted = any(c[:1] in "\"'" for c in cells)
+    bare = [c.strip("\"'").strip(_PAD) for c in cells]
+    by_lower = {}
+    for c in bare:
+        by_lower.setdefault(c.lower(), c)
+    if not all(c.lower() in by_lower for c in REQUIRED_COLUMNS):
+        return ""
+    want = [c for c in REQUIRED_COLUMNS if c not in bare]
+    other_case = [by_lower[c.lower()] for c in want]
+    faults, fixes = [], []
+    if sep_name:
+        faults.append(f"the columns are separated by {sep_name}")
+        comma = None if row is None else next((c.strip(_PAD + "\"'") for c in row.split(sep)
+                                               if re.search(r"\d,\d", c)), None)
+        if comma is not None:
+            faults.append(f"the numbers have decimal commas ({comma!r} on the next line)")
+        fixes.append("export the file as CSV with ',' between columns and '.' in numbers (a spreadsheet set to a "
+                     "locale with decimal commas writes ';' and '0,5')")
+    if quoted:
+        faults.append("the column names are in quotes")
+        fixes.append("write the names bare")
+    if other_case:
+        faults.append(f"column(s) {', '.join(want)} are there in another case, as {', '.join(other_case)} "
+                      "(names are case-sensitive)")
+        fixes.append(f"rename {', '.join(other_case)} to {', '.join(want)}")
+    if not faults:
+        return ""
+    export = [w for w, on in (("a UTF-8 byte order mark", bom), ("CR LF line ends", crlf)) if on]
+    if export:
+        faults.append(f"(its {' and '.join(export)} the format accepts)")
+    return f": {'; '.join(faults)}; fix: {'; '.join(fixes)} (docs/bench-log.md)"
 
 
 def parse_row(header: str, row: str) -> dict:
@@ -510,19 +661,46 @@ def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
             raise ValueError(f"bad column name {c!r}")
     if len(set(names)) != len(names):
         raise ValueError("two columns have the same name")
-    formatted = [_format_column(c, df[c]) for c in cols]
+    head = "".join(f"# {k}={v}\n" for k, v in meta.items()) + ",".join(names) + "\n"
+    chunks = [(a, min(a + WRITE_CHUNK_ROWS, len(df))) for a in range(0, len(df), WRITE_CHUNK_ROWS)]
+    # the first chunk is formatted and read back before the file is opened (a refusal of small
+    # data costs no file); each chunk is read back, after the last row of the one before it (t_s
+    # increasing across the cut), before it is written: what is written reads back
+    first_text = _checked_chunk(df, cols, head, *chunks[0], head.count("\n"), None)
 
-    parts = [f"# {k}={v}\n" for k, v in meta.items()]
-    parts.append(",".join(names) + "\n")
-    body = "\n".join(",".join(row) for row in zip(*formatted))
-    parts.append(body + "\n")
-    text = "".join(parts)
+    def write(fh):
+        fh.write(head.encode("utf-8"))
+        fh.write(first_text[0].encode("utf-8"))
+        last = first_text[1]
+        for a, b in chunks[1:]:
+            text, last = _checked_chunk(df, cols, head, a, b, head.count("\n") + a, last)
+            fh.write(text.encode("utf-8"))
+
+    return write_bytes_atomic(path, write)
+
+
+#: write_log formats and checks this many rows at a time (its memory: a chunk's text).
+WRITE_CHUNK_ROWS = 100_000
+
+
+def _checked_chunk(df, cols, head: str, a: int, b: int, line0: int, last: str | None):
+    """The text of rows a..b of df (their file lines from line0 + 1) and its last line, read
+    back as a bench log (after the last line of the chunk before, if any); a ValueError naming
+    the file line where the text would not be a valid bench log."""
+    formatted = [_format_column(c, df[c].iloc[a:b]) for c in cols]
+    rows = [",".join(row) for row in zip(*formatted)]
+    del formatted
+    text = "\n".join(rows) + "\n"
+    if last is None:
+        check, shift = head + text, 0
+    else:
+        check = head.splitlines()[-1] + "\n" + last + "\n" + text
+        shift = line0 - 1 - 1  # line 2 of check is file line line0 (the last row of the chunk before)
     try:
-        _parse_bytes(text.encode("utf-8"))
+        _parse_bytes(check.encode("utf-8"))
     except _Fault as f:
-        raise ValueError(f"the text would not be a valid bench log (line {f.line}: {f.message})") from None
-
-    return write_text_atomic(path, text)
+        raise ValueError(f"the text would not be a valid bench log (line {f.line + shift}: {f.message})") from None
+    return text, rows[-1]
 
 
 def write_text_atomic(path, text: str) -> pathlib.Path:

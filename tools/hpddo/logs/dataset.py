@@ -133,7 +133,8 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
     rpm_ref replaced, meta, per-row weight, record) applied before the glitch filter
     (hpddo.model.reference.Ripple)."""
     log = benchlog.read_log(path)
-    df, meta = log.df.copy(), dict(log.meta)
+    df, meta = log.df, dict(log.meta)  # (the log's own frame: read_log made it, nobody else holds it)
+    rows_in_file = len(df)
     weight, ref_record = None, None
     if reference is not None:
         df, meta, weight, ref_record = reference(path, df, meta)
@@ -152,12 +153,13 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
         for k, why in outside.items():
             bad[k], reasons[k] = True, why
         removed = [(int(lines[k]), reasons[k]) for k in np.flatnonzero(bad)]
-        df = df.loc[~bad].reset_index(drop=True)
+        if bad.any():
+            df = df.loc[~bad].reset_index(drop=True)
         if weight is not None:
             weight = weight[~bad]
-        share = len(removed) / max(len(log.df), 1)
+        share = len(removed) / max(rows_in_file, 1)
         if share > GLITCH_WARN_SHARE:
-            warnings.append(f"{path}: the glitch filter removed {len(removed)} of {len(log.df)} rows "
+            warnings.append(f"{path}: the glitch filter removed {len(removed)} of {rows_in_file} rows "
                             f"({100 * share:.1f} %), more than glitches should be; look at the rows it names, "
                             "or keep every row with --no-glitch-filter")
     if "temp_C" in df:
@@ -172,7 +174,7 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
                                      + f": at least {MIN_ROWS} are needed to split train/test")
     n_train = int(np.floor(train_fraction * len(df)))
     return Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df,
-                     removed=removed, n_train=n_train, rows_in_file=len(log.df), warnings=warnings,
+                     removed=removed, n_train=n_train, rows_in_file=rows_in_file, warnings=warnings,
                      reference=ref_record, weight=weight)
 
 
@@ -180,7 +182,11 @@ def load_recordings(paths, train_fraction: float = TRAIN_FRACTION, glitch_filter
                     reference=None) -> list[Recording]:
     """load_recording for each path; refuses two recordings with the same name (condition
     metadata, else file name), which would be counted as one."""
-    recs = [load_recording(p, train_fraction, glitch_filter, reference) for p in paths]
+    from .. import progress
+    paths = list(paths)
+    progress.stage(f"reading {len(paths)} log(s) ({progress.size(paths)})")
+    recs = [load_recording(p, train_fraction, glitch_filter, reference)
+            for p in progress.bar(paths, "reading", unit="log")]
     seen = {}
     for r in recs:
         key = r.file_stem.lower()

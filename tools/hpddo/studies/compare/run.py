@@ -5,11 +5,11 @@ import concurrent.futures as cf
 import dataclasses
 import json
 import pathlib
-import sys
 import threading
 import time
 import numpy as np
 
+from ... import progress
 from ...logs import dataset, outdir
 from ...model import identify
 from ...model import physics as ph
@@ -53,8 +53,7 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
     if cfg.effects:
         from ...model import effects
         m2e = effects.identify(recs, m2, cfg.effects)
-    say = (lambda s: print(f"[{time.perf_counter() - t0:6.1f} s] {s}", file=sys.stderr, flush=True)) \
-        if cfg.progress else (lambda s: None)
+    say = progress.stage if cfg.progress else (lambda s: None)
     h, ep, seed = tuple(cfg.hidden), cfg.epochs, cfg.seed
     trainer = Trainer(cfg.workers, cfg.progress)
     try:
