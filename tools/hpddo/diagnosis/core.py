@@ -133,9 +133,11 @@ def _units(rows, recordings: bool = False) -> list:
     return out
 
 
-def consistency(inp: Inputs, sigma2: float, recordings: bool = False) -> list:
-    """Each unit (_units) against the model (M2 with the effects under test: Ke refitted) identified
-    on every labelled row but its own: [Unit], empty with fewer than CONSIST_MIN_UNITS units."""
+def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None) -> list:
+    """Each unit (_units) against the model (M2 with the effects under test: Ke and Ra refitted, Ra
+    without a prior; names: the effects, default the model under test's) identified on every
+    labelled row but its own: [Unit], empty with fewer than CONSIST_MIN_UNITS units."""
+    names = inp.given if names is None else list(names)
     units = _units(inp.rows, recordings)
     if len(units) < CONSIST_MIN_UNITS:
         return []
@@ -145,8 +147,8 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False) -> list:
         if n < CONSIST_MIN_ROWS:
             continue
         rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, masks)]
-        try:
-            p = fx.fit(rest, inp.m2, inp.given)
+        try:  # Ra as the data put it too: a wrong reading is no disagreement between recordings
+            p = ranking.fit_ra_free(rest, inp.m2, names)
         except Exception:
             continue
         e = np.concatenate([(r.ref - fx.predict(r, p))[m] for r, m in zip(rest, masks)])
@@ -206,7 +208,7 @@ def other_motors(inp: Inputs, sigma2: float) -> list:
         rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, u.masks)]
         own = [dataclasses.replace(inp.rows[k], train=u.masks[k], test=u.masks[k])]
         try:
-            p_rest = fx.fit(rest, inp.m2, inp.given)
+            p_rest = ranking.fit_ra_free(rest, inp.m2, inp.given)
             p_own = fx.fit(own, p_rest, [], start=p_rest)  # Ke alone moves: the others' effects held
         except Exception:  # noqa: BLE001 (a unit too small to fit its own Ke says nothing)
             continue
@@ -630,7 +632,9 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     if others:
         text = "Checked before ranking: " + "; ".join(o.text() for o in others) + ". " + text
     progress.stage("checking the recordings against each other")
-    units = consistency(inp, mf.sigma2) if opt.consistency else []
+    # under the model the ranking arrived at: a unit that an effect the recordings show explains is
+    # no disagreement
+    units = consistency(inp, mf.sigma2, names=inp.given + sel.missing) if opt.consistency else []
     odd = max((u for u in units if u.inconsistent), key=lambda u: u.rmse_rpm / max(u.others_rpm, 1e-9), default=None)
     without_it = None
     if odd is not None:

@@ -217,6 +217,7 @@ def score(b: Bench, js: dict, paths) -> dict:
     ra_said = [float(x.rstrip(".")) for x in re.findall(r"--ra-ohm ([0-9.eE+-]+)", verdict)]
     units = (js.get("consistency") or {}).get("units", [])
     odd = [u["name"] for u in units if u.get("inconsistent")]
+    odd += [o["recording"] for o in (js.get("consistency") or {}).get("other_motors", [])]
     out["false"]["effect named that is absent"] = bool(absent_named)
     out["false"]["'consistent with noise' with an effect above the floor"] = bool(
         NOTHING in verdict and effect_rms_rpm(b) > 2.0 * max(floor, NOISE["rpm"]))
