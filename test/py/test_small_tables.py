@@ -143,7 +143,11 @@ def test_the_diagnosis_of_a_dyno_table_names_no_effect_and_finds_a_wrong_ra(tmp_
         # interval from the data alone holds the true Ra and reaches the reading's band
         alone = res["ra_fit"]["data_alone"]
         assert alone["lo"] <= RA_OHM <= alone["hi"] and alone["hi"] >= ra * (1 - ranking.RA_TOLERANCE), alone
-        assert "consistent with the reading" in res["ra_fit"]["statement"], res["ra_fit"]
+        # (or, where a physical brush drop alongside holds the reading too, that the two are not told
+        # apart: either way no wrong instruction)
+        assert ("consistent with the reading" in res["ra_fit"]["statement"]
+                or "not told apart from" in res["ra_fit"]["statement"]), res["ra_fit"]
+        assert "--ra-ohm" not in res["verdict"], res["verdict"]
         return
     assert res["ra_fit"]["mismatch"] == (ra != RA_OHM), res["ra_fit"]
     if ra != RA_OHM:

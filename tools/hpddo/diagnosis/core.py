@@ -232,7 +232,10 @@ def without(inp: Inputs, unit: Unit, opt: Options) -> Inputs:
             recs.append(r)
         elif unit.kind == "operating group":
             df = r.df.loc[~m].reset_index(drop=True)
-            recs.append(dataclasses.replace(r, df=df, n_train=int(np.floor(dataset.TRAIN_FRACTION * len(df)))))
+            if len(df):  # a table that was all that group is left out whole
+                recs.append(dataclasses.replace(r, df=df, n_train=int(np.floor(dataset.TRAIN_FRACTION * len(df)))))
+    if not recs:
+        raise InputError(f"nothing is left without {unit.kind} {unit.name}")
     return inputs_of(recs, dataclasses.replace(opt, ra_ohm=inp.ra))
 
 
@@ -634,7 +637,13 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     progress.stage("checking the recordings against each other")
     # under the model the ranking arrived at: a unit that an effect the recordings show explains is
     # no disagreement
-    units = consistency(inp, mf.sigma2, names=inp.given + sel.missing) if opt.consistency else []
+    # ... and the effects the recordings could not tell from the named ones or from a wrong Ra: a unit
+    # is inconsistent only where no description the data leave open reconciles it
+    open_ = ([c for g in conf.groups for c in g] + (sel.ra_fit.confounded_with if sel.ra_fit is not None else [])
+             + [e.effect for e in sel.ranking if e.identifiable and (e.z or 0) >= ranking.Z_MIN and e.params
+                and fx.LIBRARY[e.effect].is_physical(e.params.get(fx.LIBRARY[e.effect].field, math.nan))])
+    names = list(dict.fromkeys(inp.given + sel.missing + [c for c in open_ if c in fx.LIBRARY]))
+    units = consistency(inp, mf.sigma2, names=names) if opt.consistency else []
     odd = max((u for u in units if u.inconsistent), key=lambda u: u.rmse_rpm / max(u.others_rpm, 1e-9), default=None)
     without_it = None
     if odd is not None:
