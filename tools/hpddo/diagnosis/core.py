@@ -134,9 +134,9 @@ def _units(rows, recordings: bool = False) -> list:
 
 
 def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None) -> list:
-    """Each unit (_units) against the model (M2 with the effects under test: Ke and Ra refitted, Ra
-    without a prior; names: the effects, default the model under test's) identified on every
-    labelled row but its own: [Unit], empty with fewer than CONSIST_MIN_UNITS units."""
+    """Each unit (_units) against the model (M2 with the effects in names, default the model under
+    test's: Ke refitted) identified on every labelled row but its own: [Unit], empty with fewer
+    than CONSIST_MIN_UNITS units."""
     names = inp.given if names is None else list(names)
     units = _units(inp.rows, recordings)
     if len(units) < CONSIST_MIN_UNITS:
@@ -147,8 +147,8 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
         if n < CONSIST_MIN_ROWS:
             continue
         rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, masks)]
-        try:  # Ra as the data put it too: a wrong reading is no disagreement between recordings
-            p = ranking.fit_ra_free(rest, inp.m2, names)
+        try:
+            p = fx.fit(rest, inp.m2, names)
         except Exception:
             continue
         e = np.concatenate([(r.ref - fx.predict(r, p))[m] for r, m in zip(rest, masks)])
@@ -635,15 +635,7 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     if others:
         text = "Checked before ranking: " + "; ".join(o.text() for o in others) + ". " + text
     progress.stage("checking the recordings against each other")
-    # under the model the ranking arrived at: a unit that an effect the recordings show explains is
-    # no disagreement
-    # ... and the effects the recordings could not tell from the named ones or from a wrong Ra: a unit
-    # is inconsistent only where no description the data leave open reconciles it
-    open_ = ([c for g in conf.groups for c in g] + (sel.ra_fit.confounded_with if sel.ra_fit is not None else [])
-             + [e.effect for e in sel.ranking if e.identifiable and (e.z or 0) >= ranking.Z_MIN and e.params
-                and fx.LIBRARY[e.effect].is_physical(e.params.get(fx.LIBRARY[e.effect].field, math.nan))])
-    names = list(dict.fromkeys(inp.given + sel.missing + [c for c in open_ if c in fx.LIBRARY]))
-    units = consistency(inp, mf.sigma2, names=names) if opt.consistency else []
+    units = consistency(inp, mf.sigma2) if opt.consistency else []
     odd = max((u for u in units if u.inconsistent), key=lambda u: u.rmse_rpm / max(u.others_rpm, 1e-9), default=None)
     without_it = None
     if odd is not None:
