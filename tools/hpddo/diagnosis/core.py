@@ -335,10 +335,12 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
             (g for a, g, z, phy in (st.alternatives if st else []) if a == RA), None)
         others = [a for a, g, z, phy in (st.alternatives if st else []) if ra_gain is not None and ra_gain > 0
                   and a != RA and a not in chosen and phy and g >= ranking.CONFOUND_GAIN * ra_gain]
-        # ... and then every other identifiable candidate: an instruction to use another Ra must hold
-        # whichever effect is fitted alongside (a brush drop the selection did not name moves the
-        # data-alone Ra by the drop over the mean current)
-        others += [c for c in candidates if c != RA and c not in chosen and c not in others]
+        # ... and then every other identifiable candidate that acts on the rows as they are (not through
+        # the temperature): an instruction to use another Ra must hold whichever of them is fitted
+        # alongside (a brush drop the selection did not name moves the data-alone Ra by the drop over
+        # the mean current)
+        others += [c for c in candidates if c != RA and c not in chosen and c not in others
+                   and not fx.LIBRARY[c].thermal and not fx.LIBRARY[c].case_temperature]
         robust_ra(inp, ra_fit, given + chosen, others, sigma2)
     if RA in chosen and (not ra_fit.determined or ra_fit.reading_inside):
         # the held-out gain of a moving Ra is no mismatch where the data alone do not determine
@@ -417,14 +419,15 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
 def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = False) -> intervals.Interval | None:
     """Ra as the data alone determine it, with Ke and the effects in names fitted alongside
     (no prior around the reading): its Interval; None when the fit fails (physical: or when an
-    effect's fitted coefficient is not physical: an alternative that explains the data only with
-    a drop of the wrong sign is no alternative)."""
+    effect's fitted coefficient is not plausible (schema: its plausible range): an alternative
+    that explains the data only with a drop of the wrong sign, or magnets five times ferrite's, is
+    no alternative)."""
     names = [n for n in names if n != ranking.RA_MISMATCH]
     try:
         p = ranking.fit_ra_free(inp.rows, inp.m2, names)
     except Exception:
         return None
-    if physical and not all(fx.LIBRARY[n].is_physical(getattr(p, fx.LIBRARY[n].field)) for n in names):
+    if physical and not all(fx.LIBRARY[n].plausibility(getattr(p, fx.LIBRARY[n].field))[0] for n in names):
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")

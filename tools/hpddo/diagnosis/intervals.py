@@ -396,4 +396,11 @@ def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_s
     budget = {"statistical": u_stat, "sensors": u_sens, "model": u_model}
     if ra_u > 0 and ra_sens:
         budget["Ra given"] = u_ra
-    return dataclasses.replace(iv, lo=iv.value - half, hi=iv.value + half, budget=budget, given=given)
+    lo, hi = iv.value - half, iv.value + half
+    out = dataclasses.replace(iv, lo=lo, hi=hi, budget=budget, given=given)
+    _, unit, scale, phys, _, _ = _describe(iv.field)
+    if iv.determined and (lo <= phys[0] or hi >= phys[1]):  # the whole budget leaves what is physical
+        out = dataclasses.replace(out, determined=False, why=(
+            f"with its whole uncertainty budget its interval {lo * scale:.3g}..{hi * scale:.3g} {unit} reaches "
+            f"outside the physical {_rng(phys, scale, unit)}"))
+    return out
