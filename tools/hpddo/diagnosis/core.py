@@ -638,7 +638,9 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     if others:
         text = "Checked before ranking: " + "; ".join(o.text() for o in others) + ". " + text
     progress.stage("checking the recordings against each other")
-    units = consistency(inp, mf.sigma2) if opt.consistency else []
+    # under the model the ranking arrived at: a recording that shows an effect the others do not (the
+    # warm-up, the winding's heating) is no disagreement once that effect is named
+    units = consistency(inp, mf.sigma2, names=inp.given + sel.missing) if opt.consistency else []
     odd = max((u for u in units if u.inconsistent), key=lambda u: u.rmse_rpm / max(u.others_rpm, 1e-9), default=None)
     without_it = None
     if odd is not None:
