@@ -39,8 +39,8 @@ def test_committed_lx106_counts_had_no_golden_miss():
 
 
 def test_lx106_step_in_qemu_matches_the_goldens(tmp_path):
-    """The lx106 harness itself, where QEMU and GCC's sources are installed (the benchmark
-    installs them on demand; this test does not): the fixed-point (16, 8) step on every
+    """The lx106 harness itself, where QEMU and GCC's sources are installed (scripts/bootstrap.sh
+    --tests installs them): the fixed-point (16, 8) step on every
     golden row in QEMU, no miss, and the same instruction counts as committed (QEMU's
     instruction counting is exact)."""
     import glob
