@@ -92,7 +92,7 @@ def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
 _held = {"depth": 0, "pending": None}  # held(): how deeply, and the signal that came meanwhile
 #: the process's stop handler: armed (by a tool's entry, arm()), its phase ("start": loading and parsing,
 #: nothing started yet; "run": the subcommand runs; "end": it returned), the main process, the label of its line
-_state = {"armed": False, "phase": None, "pid": None, "label": "hpddo", "status": 0}
+_state = {"armed": False, "phase": None, "pid": None, "label": "hpddo", "depth": 0}
 
 
 def _exit_now(signum: int) -> None:
@@ -183,18 +183,21 @@ class handling:
 
         _psutil = psutil
         _state["label"] = self.label
-        if not _state["armed"]:
+        if not _state["armed"] and not _state["depth"]:
             _state["pid"] = os.getpid()
             self.old = {s: _signal.signal(s, _handle) for s in SIGNALS}
+        _state["depth"] += 1
         _state["phase"] = "run"
         return self
 
     def __exit__(self, *exc):
-        _state["phase"] = "end"
+        _state["depth"] -= 1
+        if _state["depth"]:  # an outer block still runs
+            return False
+        _state["phase"] = "end" if _state["armed"] else None
         if self.old is not None:
             for s, h in self.old.items():
                 _signal.signal(s, h)
-            _state["phase"] = None
         return False
 
 
