@@ -98,6 +98,8 @@ _state = {"armed": False, "phase": None, "pid": None, "label": "hpddo", "depth":
 def _exit_now(signum: int) -> None:
     """Outside a subcommand's run (loading, parsing, exiting): no output folder is open, so the
     process ends here: its processes ended, one line, the signal's status."""
+    for s in SIGNALS:  # a second signal meanwhile changes nothing (and prints no second line)
+        _signal.signal(s, _signal.SIG_IGN)
     stop_descendants()
     try:
         sys.stdout.flush()
