@@ -167,7 +167,8 @@ def _stop_at(cmd, signum, delay_s, tmp_path):
     for p in left:
         p.kill()
     assert not left, f"processes left running after a signal at {delay_s:.3f} s: {[p.info for p in left]}"
-    _check_output(out, tmp_path, finished=pr.returncode == 0)
+    if "gen_fixtures.py" not in cmd[1]:  # hpddo fixtures writes into --out in place (test/fixtures holds
+        _check_output(out, tmp_path, finished=pr.returncode == 0)  # hand-written files too), not staged
     return armed, pr.returncode, stderr
 
 

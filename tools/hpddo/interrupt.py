@@ -4,10 +4,12 @@ and nothing half-written.
 
 How. A tool's entry (hpddo.__main__ for the `hpddo` command and `python -m hpddo`, each
 tools/*.py wrapper) calls `arm()` as its first statement, before anything heavy is imported:
-one handler for both signals in the tool's main process, from then until it exits. While
-the tool loads and parses its command line (and after its subcommand returned) no output
-folder is open and no process started, so a signal ends the process at once with the line:
-nothing is raised into a half-done import, whatever module it is. Within `handling()`, where
+one handler for both signals in the tool's main process. While the tool loads and parses
+its command line no output folder is open and no process started, so a signal ends the
+process at once with the line: nothing is raised into a half-done import, whatever module
+it is. Once its subcommand returned, both signals are ignored: the process is exiting with
+its status (Python's finalisation would put back the default, death by the signal with no
+line, in place of a handler). Within `handling()`, where
 the subcommand runs (hpddo.cli.run), the first signal ends every process the tool started
 (pool workers, compilers, the native replay, the observers' tuners: all descendants, SIGTERM
 then SIGKILL) and raises
@@ -91,12 +93,12 @@ def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
 
 _held = {"depth": 0, "pending": None}  # held(): how deeply, and the signal that came meanwhile
 #: the process's stop handler: armed (by a tool's entry, arm()), its phase ("start": loading and parsing,
-#: nothing started yet; "run": the subcommand runs; "end": it returned), the main process, the label of its line
+#: nothing started yet; "run": the subcommand runs), the main process, the label of its line, handling()'s depth
 _state = {"armed": False, "phase": None, "pid": None, "label": "hpddo", "depth": 0}
 
 
 def _exit_now(signum: int) -> None:
-    """Outside a subcommand's run (loading, parsing, exiting): no output folder is open, so the
+    """Before a subcommand's run (loading, parsing): no output folder is open, so the
     process ends here: its processes ended, one line, the signal's status."""
     for s in SIGNALS:  # a second signal meanwhile changes nothing (and prints no second line)
         _signal.signal(s, _signal.SIG_IGN)
@@ -196,7 +198,10 @@ class handling:
         _state["depth"] -= 1
         if _state["depth"]:  # an outer block still runs
             return False
-        _state["phase"] = "end" if _state["armed"] else None
+        _state["phase"] = None
+        if _state["armed"]:  # the tool is done: what is left is its return and the interpreter's exit, which a
+            for s in SIGNALS:  # signal would only cut short (Python's finalisation puts back the default,
+                _signal.signal(s, _signal.SIG_IGN)  # death by the signal, for a handler; an ignored one stays)
         if self.old is not None:
             for s, h in self.old.items():
                 _signal.signal(s, h)
