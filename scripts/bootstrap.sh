@@ -18,7 +18,8 @@ case "${1:-}" in
                       gcc-avr avr-libc arduino-core-avr simavr libsimavr-dev
                       gcc-xtensa-lx106 binutils-xtensa-lx106 picolibc-xtensa-lx106-elf
                       clang libclang-rt-14-dev chromium
-                      libstdc++-arm-none-eabi-dev) ;;  # its C++ headers: the ESP8266 sketch's compile check
+                      libstdc++-arm-none-eabi-dev  # its C++ headers: the ESP8266 sketch's compile check
+                      qemu-system-misc gcc-12-source) ;;  # the lx106 in QEMU, its ROM's helpers from GCC's sources
   "") ;;
   *) echo "usage: scripts/bootstrap.sh [--tests]" >&2; exit 2 ;;
 esac

@@ -9,7 +9,12 @@ runs, installed or not; the dependencies come from .venv (scripts/bootstrap.sh).
 """
 import sys
 
-from hpddo.cli.twin import main, parser  # noqa: F401 (parser: for the tests)
+if __name__ == "__main__":  # the stop handler first, before the tool loads (hpddo.interrupt)
+    from hpddo import interrupt
+
+    interrupt.arm("hpddo twin")
+
+from hpddo.cli.twin import main, parser  # noqa: E402,F401 (parser: for the tests)
 
 if __name__ == "__main__":
     sys.exit(main())

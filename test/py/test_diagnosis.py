@@ -208,3 +208,30 @@ def test_the_diagnosis_prints_the_train_command_that_adds_what_it_named(tmp_path
         assert args.ra_ohm == pytest.approx(res["ra_fit"]["supported_ohm"], rel=1e-3)
     else:  # (since the widened brush family: the brush drop, the reading kept)
         assert args.ra_ohm is None and args.effects
+
+
+@pytest.mark.parametrize("given", [
+    ["--ra-ohm", "4.5", "--rated-v", "12", "--rated-rpm", "240"],
+    ["--rated-v", "24.5", "--ke-fit", "lsq", "--no-glitch-filter", "--effects", "brush_drop"],
+    ["--reference", "ripple", "--ripples-per-rev", "12", "--gear-ratio", "30", "--rated-rpm", "110"]])
+def test_the_printed_next_command_carries_the_options_train_needs(given):
+    """Issue 32: the next command dropped --rated-v and --rated-rpm. Every option given to the diagnosis
+    that hpddo train also takes, and that shapes the model, is in the command it prints, with the same value."""
+    import shlex
+    from types import SimpleNamespace
+
+    from hpddo import cli
+    logs = ["a.csv", "b.csv"]
+    args = cli.parser("diagnose").parse_args([*logs, "--out", "d", "--bootstrap", "3", "--seed", "4", *given])
+    res = {"missing_effects": ["thermal_ra"], "ra_fit": {"mismatch": False}, "verdict": ""}
+    from hpddo.cli.diagnose import next_steps
+    lines = next_steps(SimpleNamespace(to_json=lambda: res), args).splitlines()
+    words = shlex.split(lines[1])
+    assert words[:2] == ["hpddo", "train"] and words[2:4] == logs
+    trained = cli.parser("train").parse_args(words[2:])  # a command train takes, as printed
+    for key in ("ra_ohm", "rated_v", "rated_rpm", "ke_fit", "no_glitch_filter", "reference", "ripples_per_rev",
+                "gear_ratio"):
+        assert getattr(trained, key) == getattr(args, key), (key, lines[1])
+    assert list(trained.effects) == [*args.effects, *(e for e in res["missing_effects"] if e not in args.effects)]
+    for own in ("--bootstrap", "--seed"):  # the diagnosis' own options are not train's to repeat
+        assert own not in words

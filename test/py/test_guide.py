@@ -1,7 +1,9 @@
 """docs/your-motor.md, walked as typed: every `sh` block of the guide runs in a new folder
-with the hpddo command on the PATH (the `board` blocks need hardware and are skipped), on
-the bench twin; then the figures the guide quotes are checked against what the walk wrote,
-and the diagnosis' printed next command against the one the guide gives."""
+laid out as a clone after the README's setup (its `.venv`), in a shell without the venv on
+the PATH, so the guide's own `. .venv/bin/activate` is what makes `hpddo` a command (the
+`board` blocks need hardware and are skipped), on the bench twin; then the figures the
+guide quotes are checked against what the walk wrote, and the diagnosis' printed next
+steps against the guide's printout of them."""
 import json
 import os
 import pathlib
@@ -25,39 +27,74 @@ def blocks(kind: str) -> list:
             if ln.strip()]
 
 
+SETUP = re.compile(r"^(\.|source)\s")  # a line that changes the shell the later lines run in
+
+
+def _clone_like(cwd: pathlib.Path) -> dict:
+    """cwd with this venv as its .venv, and an environment whose PATH holds no venv (a new shell)."""
+    if sys.prefix == sys.base_prefix or not (pathlib.Path(sys.prefix) / "bin" / "activate").is_file():
+        pytest.skip(f"the tests do not run in a venv ({sys.prefix}; scripts/bootstrap.sh makes .venv)")
+    (cwd / ".venv").symlink_to(sys.prefix, target_is_directory=True)
+    bin_dir = str(pathlib.Path(sys.prefix) / "bin")
+    path = [d for d in os.environ.get("PATH", "").split(os.pathsep) if d and os.path.realpath(d) != os.path.realpath(bin_dir)]
+    env = {k: v for k, v in os.environ.items() if k not in ("VIRTUAL_ENV", "PYTHONHOME")}
+    env["PATH"] = os.pathsep.join(path)
+    return env
+
+
+def _run(line: str, setup: list, cwd, env):
+    script = "\n".join(["set -e", *setup, line])
+    return subprocess.run(["bash", "-c", script], cwd=cwd, env=env, capture_output=True, text=True, timeout=900)
+
+
 @pytest.fixture(scope="module")
 def walked(tmp_path_factory):
-    bin_dir = pathlib.Path(sys.executable).parent
-    if not (bin_dir / "hpddo").exists():
-        pytest.skip(f"no hpddo command beside {sys.executable} (scripts/bootstrap.sh installs it)")
     cwd = tmp_path_factory.mktemp("guide")
-    env = dict(os.environ, PATH=f"{bin_dir}{os.pathsep}{os.environ.get('PATH', '')}")
-    outputs = []
+    env = _clone_like(cwd)
+    outputs, setup = [], []
     for line in blocks("sh"):
-        res = subprocess.run(["bash", "-c", line], cwd=cwd, env=env, capture_output=True, text=True, timeout=900)
+        res = _run(line, setup, cwd, env)
         assert res.returncode == 0, f"the guide's command failed: {line}\n{res.stdout}\n{res.stderr}"
         assert "Traceback" not in res.stderr, res.stderr
-        outputs.append((line, res.stdout, res.stderr))
+        if SETUP.match(line):
+            setup.append(line)
+        else:
+            outputs.append((line, res.stdout, res.stderr))
     return cwd, outputs
 
 
+def test_the_guide_activates_the_venv_before_its_first_command(tmp_path):
+    """Issue 32: after the README's setup the guide's first `hpddo twin` gave `hpddo: command not found`."""
+    sh = blocks("sh")
+    assert sh[0] == ". .venv/bin/activate", sh[0]
+    env = _clone_like(tmp_path)
+    assert _run("command -v hpddo", [], tmp_path, env).returncode != 0  # a new shell: not a command yet
+    res = _run("command -v hpddo", [sh[0]], tmp_path, env)
+    assert res.returncode == 0 and res.stdout.strip().endswith("/bin/hpddo"), res.stdout + res.stderr
+    for line in sh[1:] + blocks("board"):  # one way of writing the command throughout
+        assert not line.startswith(".venv/bin/"), line
+
+
 def test_the_guide_has_commands_for_each_step():
-    sh, board = blocks("sh"), blocks("board")
+    sh, board = [c for c in blocks("sh") if not SETUP.match(c)], blocks("board")
     assert [shlex.split(c)[1] for c in sh] == ["twin", "train", "diagnose", "train", "twin", "evaluate", "evaluate"]
     assert any("capture" in c for c in board) and any("esp8266" in c for c in board)
 
 
-def test_the_diagnosis_prints_the_command_the_guide_gives(walked):
+def test_the_diagnosis_prints_what_the_guide_shows(walked):
+    """The guide's printout of the diagnosis' next steps is what it printed, line for line, and the guide's
+    next command is that one with the folder named (issue 32: the printed one had no nameplate)."""
     cwd, outputs = walked
-    out = next(o for line, o, _ in outputs if shlex.split(line)[1] == "diagnose")
-    printed = shlex.split(out.splitlines()[next(i for i, ln in enumerate(out.splitlines()) if ln.startswith("next ("))
-                                        + 1])
-    given = shlex.split(blocks("sh")[3])
-    opt = lambda words, flag: words[words.index(flag) + 1] if flag in words else None
-    for flag in ("--effects", "--ra-ohm"):
-        assert opt(printed, flag) == opt(given, flag), (flag, printed, given)
+    out = next(o for line, o, _ in outputs if shlex.split(line)[1] == "diagnose").splitlines()
+    k = next(i for i, ln in enumerate(out) if ln.startswith("next ("))
+    shown = blocks("text")
+    start = next(i for i, ln in enumerate(shown) if ln.startswith("next ("))
+    assert shown[start:start + 4] == out[k:k + 4]
+    given = [c for c in blocks("sh") if not SETUP.match(c)][3]
+    assert shlex.split(given) == [w.replace("MODEL", "my_model_fx") for w in shlex.split(out[k + 1])]
     named = json.loads((cwd / "my_diagnosis" / "diagnosis.json").read_text())["missing_effects"]
-    assert opt(given, "--effects").split(",") == named
+    words = shlex.split(given)
+    assert words[words.index("--effects") + 1].split(",") == named
 
 
 def _avg(path: pathlib.Path, model: str) -> float:

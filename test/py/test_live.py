@@ -198,7 +198,7 @@ def test_live_records_what_capture_would_and_the_page_shows_the_points(tmp_path)
     from hpddo.reports import browser
 
     if browser.chromium() is None:
-        pytest.skip("chromium is not installed (scripts/bootstrap.sh --with-browser)")
+        pytest.skip("chromium is not installed (scripts/bootstrap.sh --tests installs it)")
     lines = uno_stream(100.0)
     n_rows = len(lines) - sum(ln.startswith("#") for ln in lines) - 1
     uno = Board(lines, 100.0)
@@ -272,7 +272,7 @@ def test_the_esp8266_logic_host_build_joins_the_page_on_seq(tmp_path):
     from hpddo.reports import browser
 
     if browser.chromium() is None:
-        pytest.skip("chromium is not installed (scripts/bootstrap.sh --with-browser)")
+        pytest.skip("chromium is not installed (scripts/bootstrap.sh --tests installs it)")
     exe = esp_host()
     # two sweeps (13.2 s): the frames start with esp_host, before the tool has opened its port
     lines = uno_stream(100.0, repeat=2)

@@ -105,7 +105,7 @@ def test_a_model_trained_with_new_effects_reaches_the_running_esp8266_and_its_er
     from hpddo.reports import browser
 
     if browser.chromium() is None:
-        pytest.skip("chromium is not installed (scripts/bootstrap.sh --with-browser)")
+        pytest.skip("chromium is not installed (scripts/bootstrap.sh --tests installs it)")
     exe = esp_host()
     lines = uno_stream(100.0, source=HOT)
     n_rows = len(lines) - sum(ln.startswith("#") for ln in lines) - 1

@@ -39,8 +39,8 @@ def test_committed_lx106_counts_had_no_golden_miss():
 
 
 def test_lx106_step_in_qemu_matches_the_goldens(tmp_path):
-    """The lx106 harness itself, where QEMU and GCC's sources are installed (the benchmark
-    installs them on demand; this test does not): the fixed-point (16, 8) step on every
+    """The lx106 harness itself, where QEMU and GCC's sources are installed (scripts/bootstrap.sh
+    --tests installs them): the fixed-point (16, 8) step on every
     golden row in QEMU, no miss, and the same instruction counts as committed (QEMU's
     instruction counting is exact)."""
     import glob
@@ -48,7 +48,7 @@ def test_lx106_step_in_qemu_matches_the_goldens(tmp_path):
 
     import pytest
     if not (shutil.which("qemu-system-xtensa") and glob.glob(perf.GCC_SOURCE_GLOB) and shutil.which(perf.LX_CXX)):
-        pytest.skip("qemu-system-misc, gcc-12-source or the lx106 GCC not installed (hpddo bench --observer installs them)")
+        pytest.skip("qemu-system-misc, gcc-12-source or the lx106 GCC not installed (scripts/bootstrap.sh --tests installs them)")
     libsoft = perf._lx106_libgcc(tmp_path)
     inc = perf.bench_model_h("model_default_q", "golden_default_q")
     got = perf._lx106_run(tmp_path, "fixed_16_8", inc, [ROOT / "models" / "default"], libsoft)
@@ -76,7 +76,7 @@ def test_lx106_line_in_qemu_gives_the_committed_counts(tmp_path):
 
     import pytest
     if not (shutil.which("qemu-system-xtensa") and glob.glob(perf.GCC_SOURCE_GLOB) and shutil.which(perf.LX_CXX)):
-        pytest.skip("qemu-system-misc, gcc-12-source or the lx106 GCC not installed (hpddo bench --observer installs them)")
+        pytest.skip("qemu-system-misc, gcc-12-source or the lx106 GCC not installed (scripts/bootstrap.sh --tests installs them)")
     got = perf.lx106_line(tmp_path, perf._lx106_libgcc(tmp_path))
     if got["status"] != "run":
         pytest.skip(got["status"])

@@ -101,8 +101,8 @@ def test_the_diagnosis_next_command_names_the_family_only_when_it_is_named():
     q = [{"field": f, "determined": True} for f in ("j_kgm2", "b_nms_per_rad", "tc_nm")]
     named = {"verdict": "The residual follows dV/dt ... Named: dynamics (inertia and friction ...", "dynamics":
              {"quantities": q + [{"field": "la_H", "determined": False}]}, "missing_effects": [], "ra_fit": {}}
-    args = types.SimpleNamespace(effects=(), logs=["FAST/sweep.csv"], ra_ohm=None, no_glitch_filter=False,
-                                 reference="encoder")
+    args = types.SimpleNamespace(effects=(), logs=["FAST/sweep.csv"], ra_ohm=None, rated_v=None, rated_rpm=None,
+                                 ke_fit="eq20", no_glitch_filter=False, reference="encoder")
     text = diagnose_cli.next_steps(types.SimpleNamespace(to_json=lambda: named), args)
     assert "hpddo train FAST/sweep.csv --out MODEL --dynamics" in text and "add what the diagnosis named" in text
     for res in (dict(named, verdict="Nothing missing."),

@@ -2,9 +2,17 @@
 one line and exit status 130 (SIGINT) or 143 (SIGTERM), no process of its own left running
 and nothing half-written.
 
-How. `handling()` installs one handler for both signals in the tool's main process. On the
-first signal it ends every process the tool started (pool workers, compilers, the native
-replay, the observers' tuners: all descendants, SIGTERM then SIGKILL) and raises
+How. A tool's entry (hpddo.__main__ for the `hpddo` command and `python -m hpddo`, each
+tools/*.py wrapper) calls `arm()` as its first statement, before anything heavy is imported:
+one handler for both signals in the tool's main process. While the tool loads and parses
+its command line no output folder is open and no process started, so a signal ends the
+process at once with the line: nothing is raised into a half-done import, whatever module
+it is. Once its subcommand returned, both signals are ignored: the process is exiting with
+its status (Python's finalisation would put back the default, death by the signal with no
+line, in place of a handler). Within `handling()`, where
+the subcommand runs (hpddo.cli.run), the first signal ends every process the tool started
+(pool workers, compilers, the native replay, the observers' tuners: all descendants, SIGTERM
+then SIGKILL) and raises
 `Interrupted` in the main thread. The exception unwinds through the tools' `outdir.staged`
 blocks, which remove their staging folders, so an output folder is either untouched or
 complete; `outdir.commit` runs under `held()`, so a signal never falls between two of its
@@ -14,14 +22,17 @@ group; the main process stops the workers) and dies on SIGTERM as a process does
 """
 from __future__ import annotations
 
-import contextlib
+import _signal  # the builtin under `signal` (which imports enum): this module loads nothing heavy, since a
+import _thread  # tool's entry imports it first and arms it before anything else (arm)
 import os
-import signal
+import sys
 import time
 
+SIGINT, SIGTERM = _signal.SIGINT, _signal.SIGTERM
+SIGNALS = (SIGINT, SIGTERM)
+NAMES = {_signal.SIGINT: "SIGINT", _signal.SIGTERM: "SIGTERM"}
 #: exit status of a tool stopped by each signal (128 + the signal's number, as a shell reports it)
-STATUS = {signal.SIGINT: 128 + signal.SIGINT, signal.SIGTERM: 128 + signal.SIGTERM}
-SIGNALS = tuple(STATUS)
+STATUS = {s: 128 + s for s in SIGNALS}
 KILL_GRACE_S = 2.0  # how long a descendant has to end after SIGTERM before SIGKILL
 
 
@@ -29,18 +40,31 @@ class Interrupted(KeyboardInterrupt):
     """The tool was stopped by a signal; `status` is its exit status."""
 
     def __init__(self, signum: int):
-        super().__init__(signal.Signals(signum).name)
+        super().__init__(NAMES[signum])
         self.signum = signum
         self.status = STATUS[signum]
+
+
+def stopped_line(label: str, signame: str) -> str:
+    """The one line a stopped tool prints (label: `hpddo NAME`)."""
+    return (f"{label}: stopped by {signame}: its processes ended, nothing half-written (an output folder is as "
+            "it was, or complete)")
+
+
+#: psutil once imported whole (handling() imports it before a tool starts any process): the handler never
+#: imports it, so a signal landing while the main thread is importing psutil never meets it half-initialised
+_psutil = None
 
 
 def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
     """Ends every process this one started, and theirs (SIGTERM, then SIGKILL after
     grace_s); returns how many there were. It waits for them without reaping them: the
     zombie of a child is left for its owner (multiprocessing, subprocess) to collect, which
-    would otherwise take a reaped worker for alive and wait for it forever."""
-    import psutil
-
+    would otherwise take a reaped worker for alive and wait for it forever. Before psutil is
+    loaded (handling() loads it before the tool starts anything) there is nothing to end."""
+    psutil = _psutil
+    if psutil is None:
+        return 0
     try:
         kids = psutil.Process().children(recursive=True)
     except psutil.Error:
@@ -55,8 +79,10 @@ def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
     for sig in ("terminate", "kill"):
         for p in kids:
             if not gone(p):
-                with contextlib.suppress(psutil.Error):
+                try:
                     getattr(p, sig)()
+                except psutil.Error:
+                    pass
         deadline = time.monotonic() + grace_s
         while not all(gone(p) for p in kids) and time.monotonic() < deadline:
             time.sleep(0.02)
@@ -66,59 +92,138 @@ def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
 
 
 _held = {"depth": 0, "pending": None}  # held(): how deeply, and the signal that came meanwhile
+#: the process's stop handler: armed (by a tool's entry, arm()), its phase ("start": loading and parsing,
+#: nothing started yet; "run": the subcommand runs), the main process, the label of its line, handling()'s depth
+_state = {"armed": False, "phase": None, "pid": None, "label": "hpddo", "depth": 0}
 
 
-def _handler(main_pid: int):
-    def handle(signum, frame):
-        if os.getpid() != main_pid:  # a forked worker: the main process stops it
-            if signum == signal.SIGTERM:
-                signal.signal(signum, signal.SIG_DFL)
-                os.kill(os.getpid(), signum)
-            return
-        if _held["depth"]:
-            _held["pending"] = _held["pending"] or signum
-            return
-        for s in SIGNALS:  # a second signal while the first unwinds changes nothing
-            signal.signal(s, signal.SIG_IGN)
+def _exit_now(signum: int) -> None:
+    """Before a subcommand's run (loading, parsing): no output folder is open, so the
+    process ends here: its processes ended, one line, the signal's status."""
+    for s in SIGNALS:  # a second signal meanwhile changes nothing (and prints no second line)
+        _signal.signal(s, _signal.SIG_IGN)
+    stop_descendants()
+    try:
+        sys.stdout.flush()
+    except Exception:  # noqa: BLE001 (a stream cut mid-write by the signal: what it held is lost either way)
+        pass
+    os.write(2, (stopped_line(_state["label"], NAMES[signum]) + "\n").encode())
+    os._exit(STATUS[signum])
+
+
+REDELIVER_S = 0.05  # a signal that came during an import is sent again this much later
+
+
+def _importing(frame) -> bool:
+    """Whether the main thread is executing a module's import: an exception raised there can come
+    out of it as another error (numpy's C extension turns it into an ImportError), so the handler
+    ends the processes at once and raises once the import is done (_again)."""
+    while frame is not None:
+        if frame.f_code.co_filename.startswith("<frozen importlib._bootstrap"):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _again(signum: int) -> None:
+    time.sleep(REDELIVER_S)
+    os.kill(os.getpid(), signum)
+
+
+def _handle(signum, frame):
+    if os.getpid() != _state["pid"]:  # a forked worker: the main process stops it
+        if signum == _signal.SIGTERM:
+            _signal.signal(signum, _signal.SIG_DFL)
+            os.kill(os.getpid(), signum)
+        return
+    if _state["phase"] != "run":
+        _exit_now(signum)
+    if _held["depth"]:
+        _held["pending"] = _held["pending"] or signum
+        return
+    if _importing(frame):
         stop_descendants()
-        raise Interrupted(signum)
-    return handle
+        _thread.start_new_thread(_again, (signum,))
+        return
+    for s in SIGNALS:  # a second signal while the first unwinds changes nothing
+        _signal.signal(s, _signal.SIG_IGN)
+    stop_descendants()
+    raise Interrupted(signum)
+
+
+def arm(label: str | None = None) -> None:
+    """A tool's entry calls this first (hpddo.__main__, tools/*.py): from here on, SIGINT or
+    SIGTERM at any moment ends the process with one line and 130 or 143, with no traceback,
+    whatever is loading; inside handling() by unwinding (Interrupted), elsewhere at once.
+    label: `hpddo NAME` for the line (default: `hpddo` and the command line's first word)."""
+    if label is None:
+        word = sys.argv[1] if len(sys.argv) > 1 else ""
+        label = f"hpddo {word}" if word.isidentifier() else "hpddo"
+    _state.update(armed=True, phase="start", pid=os.getpid(), label=label)
+    _signal.signal(_signal.SIGINT, _handle)
+    _signal.signal(_signal.SIGTERM, _handle)  # last: a caught SIGTERM means both are in place
 
 
 def worker_init() -> None:
     """A pool worker's initializer: SIGINT ignored (the main process stops its workers),
     SIGTERM ends it, whatever the start method."""
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    _signal.signal(_signal.SIGINT, _signal.SIG_IGN)
+    _signal.signal(_signal.SIGTERM, _signal.SIG_DFL)
 
 
-@contextlib.contextmanager
-def handling():
+class handling:
     """Within: SIGINT and SIGTERM raise Interrupted in the main thread after the tool's
-    processes are ended. The previous handlers come back on exit."""
-    handle = _handler(os.getpid())
-    old = {s: signal.signal(s, handle) for s in SIGNALS}
-    try:
-        yield
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
+    processes are ended (`with handling(label):`). In an armed process the handler stays
+    after the block (a signal then ends the process at once); otherwise (a tool called from
+    Python) the previous handlers come back on exit."""
+
+    def __init__(self, label: str = "hpddo"):
+        self.label = label
+        self.old = None
+
+    def __enter__(self):
+        global _psutil
+        import psutil  # whole, before the block starts any process (under arm(), a signal meanwhile exits)
+
+        _psutil = psutil
+        _state["label"] = self.label
+        if not _state["armed"] and not _state["depth"]:
+            _state["pid"] = os.getpid()
+            self.old = {s: _signal.signal(s, _handle) for s in SIGNALS}
+        _state["depth"] += 1
+        _state["phase"] = "run"
+        return self
+
+    def __exit__(self, *exc):
+        _state["depth"] -= 1
+        if _state["depth"]:  # an outer block still runs
+            return False
+        _state["phase"] = None
+        if _state["armed"]:  # the tool is done: what is left is its return and the interpreter's exit, which a
+            for s in SIGNALS:  # signal would only cut short (Python's finalisation puts back the default,
+                _signal.signal(s, _signal.SIG_IGN)  # death by the signal, for a handler; an ignored one stays)
+        if self.old is not None:
+            for s, h in self.old.items():
+                _signal.signal(s, h)
+        return False
 
 
-@contextlib.contextmanager
-def held():
+class held:
     """Within: a SIGINT or SIGTERM waits, and takes effect on exit: for the few steps that
     must not be cut in two (moving a finished output into place). (Python runs signal
     handlers in the main thread, so a flag suffices where a signal mask would miss a signal
     delivered to another thread.)"""
-    _held["depth"] += 1
-    try:
-        yield
-    finally:
+
+    def __enter__(self):
+        _held["depth"] += 1
+        return self
+
+    def __exit__(self, *exc):
         _held["depth"] -= 1
         pending = _held["pending"]
         if pending and not _held["depth"]:
             _held["pending"] = None
-            handler = signal.getsignal(pending)
+            handler = _signal.getsignal(pending)
             if callable(handler):
                 handler(pending, None)
+        return False

@@ -64,28 +64,27 @@ def run(name: str, argv=None) -> int:
     """Parses argv for subcommand NAME and runs it; returns its exit status (a user error:
     its one line on stderr and 1; a bad command line: SystemExit(2) from argparse)."""
     from .. import interrupt, progress
+    from ..logs.errors import USER_ERRORS  # (here: it loads the log reader, pandas; `hpddo --help` need not)
 
+    # Loading and parsing come before the handler's run phase: a signal meanwhile ends the process at once
+    # (under interrupt.arm, as every tool's entry does), never raised into a half-done import.
+    mod = _module(name)
+    p = mod.parser(f"hpddo {name}")
+    args = p.parse_args(argv)
+    if hasattr(mod, "validate"):  # checks across options: a usage error, status 2
+        mod.validate(args, p)
     try:
-        with interrupt.handling():
-            from ..logs.errors import USER_ERRORS  # (here: it loads the log reader, pandas; `hpddo --help` need not)
-
-            mod = _module(name)
-            p = mod.parser(f"hpddo {name}")
-            args = p.parse_args(argv)
-            if hasattr(mod, "validate"):  # checks across options: a usage error, status 2
-                mod.validate(args, p)
+        with interrupt.handling(f"hpddo {name}"):
             try:
                 with progress.reporting(name, not getattr(args, "quiet", False)):
                     return mod.run(args)
             except USER_ERRORS as exc:
                 report(name, exc)
                 return 1
-    except KeyboardInterrupt as exc:  # interrupt.Interrupted, or Ctrl-C before the handler was in place
-        status = getattr(exc, "status", interrupt.STATUS[interrupt.signal.SIGINT])
-        what = exc.args[0] if isinstance(exc, interrupt.Interrupted) else "SIGINT"
-        report(name, f"stopped by {what}: its processes ended, nothing half-written (an output "
-                     "folder is as it was, or complete)")
-        return status
+    except KeyboardInterrupt as exc:  # interrupt.Interrupted, or Ctrl-C where no handler is in place
+        signum = exc.signum if isinstance(exc, interrupt.Interrupted) else interrupt.SIGINT
+        print(interrupt.stopped_line(f"hpddo {name}", interrupt.NAMES[signum]), file=sys.stderr)
+        return interrupt.STATUS[signum]
 
 
 def top_parser() -> argparse.ArgumentParser:

@@ -52,7 +52,8 @@ def parser(prog: str = "hpddo bench") -> argparse.ArgumentParser:
                    help="--observer: build folder (default build-bench in the source tree)")
     p.add_argument("--no-lx106", action="store_true",
                    help="--observer: leave out the ESP8266 instruction counts (QEMU's lx106; without this, "
-                        "qemu-system-misc and gcc-12-source are installed on demand when root, about 700 MB)")
+                        "qemu-system-misc and gcc-12-source are installed on demand when root, as scripts/bootstrap.sh "
+                        "--tests does)")
     p.add_argument("--peer-python", type=pathlib.Path, default=None, metavar="PY",
                    help="--observer: a Python with emlearn 0.23.2 and scikit-learn, for the peer "
                         "(default .venv-bench/bin/python of the source tree)")

@@ -31,6 +31,7 @@ def parser(prog: str = "hpddo diagnose") -> argparse.ArgumentParser:
                    "hpddo diagnose")
     options.effects(p, "effects already in the model under test")
     options.ra_ohm(p)
+    options.nameplate(p, "; the diagnosis does not use it: it passes it on to the hpddo train command it prints")
     options.ke_fit(p)
     p.add_argument("--bootstrap", type=options.non_negative_int, default=core.ranking.BOOTSTRAP, metavar="N",
                    help=f"block-bootstrap resamples for the inclusion frequency (default {core.ranking.BOOTSTRAP}; "
@@ -165,7 +166,10 @@ def dynamics_named(res: dict) -> bool:
 
 def next_steps(d, args) -> str:
     """What to type next: train with the named effects (and the Ra the data support, where
-    they name a mismatch), then score that model on a recording it never saw."""
+    they name a mismatch), then score that model on a recording it never saw. Each option
+    given here that hpddo train takes and that shapes the model is carried over (the nameplate, Ke's fit,
+    the glitch filter, the reference); the diagnosis' own (--bootstrap, --epochs, --seed,
+    --leave-one-out, --no-hybrid) are not train's."""
     import shlex
 
     res = d.to_json()
@@ -181,7 +185,13 @@ def next_steps(d, args) -> str:
     if ra.get("mismatch"):
         words += ["--ra-ohm", f"{ra['supported_ohm']:.4g}"]
     elif args.ra_ohm is not None:
-        words += ["--ra-ohm", repr(args.ra_ohm)]
+        words += ["--ra-ohm", options.number_word(args.ra_ohm)]
+    for flag, v in (("--rated-v", args.rated_v), ("--rated-rpm", args.rated_rpm)):
+        if v is not None:
+            words += [flag, options.number_word(v)]
+    from ..model.identify import KE_FITS
+    if args.ke_fit != KE_FITS[0]:
+        words += ["--ke-fit", args.ke_fit]
     if args.no_glitch_filter:
         words.append("--no-glitch-filter")
     words += options.reference_words(args)

@@ -50,6 +50,19 @@ def ra_ohm(p) -> None:
                    help="armature resistance, ohm (default: the logs' ra_ohm metadata)")
 
 
+def nameplate(p, what: str = "") -> None:
+    """--rated-v and --rated-rpm: the motor's nameplate, for M1 (None: not given)."""
+    p.add_argument("--rated-v", type=positive_float, default=None, metavar="V",
+                   help=f"nameplate voltage for M1, V (default 12){what}")
+    p.add_argument("--rated-rpm", type=positive_float, default=None, metavar="RPM",
+                   help=f"nameplate no-load speed for M1, RPM (default 1000){what}")
+
+
+def number_word(v: float) -> str:
+    """A number as a command line repeats it: 12 for 12.0, 4.5 for 4.5."""
+    return str(int(v)) if float(v).is_integer() else repr(v)
+
+
 def ke_fit(p) -> None:
     from ..model.identify import KE_FITS
     p.add_argument("--ke-fit", choices=list(KE_FITS), default=KE_FITS[0],

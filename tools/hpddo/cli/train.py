@@ -56,11 +56,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     p.add_argument("--name", default="default", help="model name: model_<name>.h, namespace hpddo_model_<name> "
                    "(default: default)")
     options.ra_ohm(p)
-    # None: not given, the default nameplate (pipeline.DEFAULT_RATED_V/RPM), which the run says
-    p.add_argument("--rated-v", type=options.positive_float, default=None, metavar="V",
-                   help="nameplate voltage for M1, V (default 12)")
-    p.add_argument("--rated-rpm", type=options.positive_float, default=None, metavar="RPM",
-                   help="nameplate no-load speed for M1, RPM (default 1000)")
+    options.nameplate(p)  # None: not given, the default nameplate (pipeline.DEFAULT_RATED_V/RPM), which the run says
     options.ke_fit(p)
     options.effects(p, "effect terms to add to the physics model M2")
     options.dynamics(p, "add to the model")
