@@ -234,8 +234,12 @@ def test_a_recording_whose_encoder_is_off_is_named(tmp_path):
     paths = twin_benches.recordings(tmp_path / "ideal", twin_benches.bench({}), 3)
     bad = _scaled(paths[1], tmp_path / "load.csv", "rpm_ref", 0.9)
     res = diagnose([paths[0], bad, paths[2]], RA_OHM).to_json()
-    assert [u["name"] for u in res["consistency"]["units"] if u["inconsistent"]] == ["load"], res["consistency"]
-    assert res["consistency"]["without"]["verdict"].startswith("Nothing missing"), res["consistency"]
+    # a speed scale off on one recording: named before the ranking as another motor or another scale
+    # (its own Ke 1.11 times the others'), and left out of it
+    others = res["consistency"]["other_motors"]
+    assert [o["recording"] for o in others] == ["load"], res["consistency"]
+    assert "speed scale" in others[0]["text"] and others[0]["ke_ratio"] > 1.05
+    assert "Checked before ranking: recording load behaves as another motor" in res["verdict"], res["verdict"]
 
 
 def test_the_bundled_recordings_agree_with_each_other():

@@ -155,11 +155,14 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
         e = e[np.isfinite(e)]
         if len(e):
             scored.append((name, kind, len(e), float(np.mean(e * e)), masks))
-    # ... and by the same model fitted on every labelled row, the unit's own included: a unit that alone
-    # shows an effect (the warm-up, the only heating) is missed when left out, but fits with the rest;
-    # one that disagrees (another motor, a reversed channel) is missed either way
+    # ... and, where a thermal effect is named, by the same model fitted on every labelled row, the
+    # unit's own included: a unit that alone shows the heating (the only warm-up) is missed when left
+    # out, but fits with the rest; one that disagrees (another motor, a reversed channel) is missed
+    # either way
     joint = None
     try:
+        if not any(fx.LIBRARY[n].thermal for n in names):  # (only the heating is shown by one unit alone)
+            raise ValueError("no thermal effect named")
         everything = [dataclasses.replace(r, train=r.train | r.test) for r in inp.rows]
         pj = fx.fit(everything, inp.m2, names)
         joint = [r.ref - fx.predict(r, pj) for r in inp.rows]
@@ -648,6 +651,9 @@ def diagnose(paths, opt: Options) -> Diagnosis:
     mf0 = fit_model(inp)
     progress.stage("checking each recording for another motor or another sensor scale")
     others = other_motors(inp, mf0.sigma2) if opt.consistency else []
+    # a recording with a faulty channel is explained by the channel, said under Channel health
+    faulty = {f.recording for f in channels.check(inp.recs, inp.rows, mf0.sigma2)} if others else set()
+    others = [o for o in others if o.unit.name not in faulty]
     for o in others:
         try:
             inp = without(inp, o.unit, opt)

@@ -497,18 +497,6 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
         new_mse = held_out_mse(d, rc)
         ra = [t for t in ok if t[0] == RA_MISMATCH and c != RA_MISMATCH]
         ra_z = apart_z(d, ra[0][5], rc, sigma2) if ra else None
-        if c != RA_MISMATCH and RA_MISMATCH in candidates:
-            # ... and against Ra as the data alone put it (no prior: a reading 13 % off is pulled
-            # back to within its tolerance by the prior, and its rest of error then passes for a
-            # brush drop or an offset of the current): an effect a free Ra explains as well is not
-            # told apart from a wrong reading
-            try:
-                _, rf = scored(d, lambda rows, st: fit_ra_free(rows, m2, chosen, weights=weights, start=st), start=p)
-            except Exception:  # noqa: BLE001 (a degenerate fit is no alternative)
-                rf = None
-            if rf is not None:
-                zf = apart_z(d, rf, rc, sigma2)
-                ra_z = zf if ra_z is None else min(ra_z, zf)
         apart = {t[0]: apart_z(d, t[5], rc, sigma2) for t in ok if t[0] != c}
         steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried], ra_z, apart))
         chosen.append(c)
