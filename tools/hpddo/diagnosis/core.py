@@ -842,12 +842,16 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
 
 
 def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
-    """sel without the named effects whose coefficient's interval (with its whole budget) holds
-    zero: the data do not tell such an effect from its absence, so it is not named (its row in the
-    ranking table a candidate with the reason), and the final model is fitted again without it."""
+    """sel without the named effects whose coefficient's interval (the data's, the sensors' and the
+    model's parts) holds zero: the data do not tell such an effect from its absence, so it is not
+    named (its row in the ranking table a candidate with the reason), and the final model is fitted
+    again without it."""
     field = {fx.LIBRARY[e].field: e for e in sel.missing}
+    # (the data's, the sensors' and the model's parts: an effect the held Ra's doubt alone could take
+    # is named with that doubt in its interval, and the verdict says what it is conditional on)
+    half = lambda iv: iv.half_without_ra if iv.half_without_ra is not None else (iv.hi - iv.lo) / 2.0  # noqa: E731
     zero = [field[iv.field] for iv in sel.intervals if iv.field in field and iv.determined
-            and iv.lo is not None and iv.lo <= 0.0 <= iv.hi]
+            and iv.lo is not None and abs(iv.value) <= half(iv)]
     if not zero:
         return sel
     missing = [m for m in sel.missing if m not in zero]

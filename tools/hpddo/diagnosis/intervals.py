@@ -73,6 +73,7 @@ class Interval:
     # is conditional on ("" where nothing); lo and hi are the value -+ the expanded combination
     budget: dict = dataclasses.field(default_factory=dict)
     given: str = ""
+    half_without_ra: float | None = None  # the expanded half-width without the held Ra's doubt
 
     def to_json(self) -> dict:
         return {"quantity": self.quantity, "field": self.field, "unit": self.unit, "value": self.value,
@@ -397,7 +398,8 @@ def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_s
     if ra_u > 0 and ra_sens:
         budget["Ra given"] = u_ra
     lo, hi = iv.value - half, iv.value + half
-    out = dataclasses.replace(iv, lo=lo, hi=hi, budget=budget, given=given)
+    out = dataclasses.replace(iv, lo=lo, hi=hi, budget=budget, given=given,
+                              half_without_ra=math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_model ** 2)))
     _, unit, scale, phys, _, _ = _describe(iv.field)
     if iv.determined and (lo <= phys[0] or hi >= phys[1]):  # the whole budget leaves what is physical
         out = dataclasses.replace(out, determined=False, why=(
