@@ -22,7 +22,7 @@ LEVELS = {
     "studies": 7,
     "cli": 8,
 }
-FOUNDATIONS = {"hpddo", "hpddo.schema", "hpddo.bench", "hpddo.interrupt"}
+FOUNDATIONS = {"hpddo", "hpddo.schema", "hpddo.bench", "hpddo.interrupt", "hpddo.progress"}
 
 
 def module_name(path: pathlib.Path) -> str:

@@ -156,6 +156,8 @@ BLOCKS = {
 #: README.md's tables that quote no figure: header line: the numbers they may hold (versions).
 PROSE_TABLES = {
     "| path | what |": (),
+    # the vendored libraries: their versions (and the "1" the number pattern reads in LGPL-2.1)
+    "| folder in `../shared/vendor/` | what | where to get it |": ("7.2.0", "2.6.1", "3.1.2", "1"),
     "| | proven here, in `scripts/test.sh` (no board, no PlatformIO registry) | with a board (PlatformIO, "
     "`platformio.ini`) |": ("5.4", "7.2.0", "3.1.2", "2.6.1"),
 }
