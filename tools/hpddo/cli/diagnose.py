@@ -103,11 +103,10 @@ def summary(d) -> str:
             lines.append(f"  winding node ({node['path']} path, {lab}):")
             for q in node[which]:  # a value is a result only where the data determine it
                 iv = fitted.get(q["field"])
-                if iv is not None and iv["determined"]:
+                if iv is None or iv["determined"]:  # (no interval: a result without them, as before)
                     lines.append(f"    {q['field']:13s} {q['shown']:>14s}  {q['plausibility']}")
                 else:
-                    lines.append(f"    {q['field']:13s} not determined by these recordings"
-                                 + (f" ({iv['why']})" if iv is not None else " (not fitted)"))
+                    lines.append(f"    {q['field']:13s} not determined by these recordings ({iv['why']})")
             break
     if res.get("noise_floor"):
         lines.append(f"  {res['noise_floor']['text']}")

@@ -430,9 +430,12 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
         alt = ra_alone(inp, list(names) + [c], sigma2, physical=True)
         if alt is None:
             continue
-        probe = dataclasses.replace(ra_fit, data=alt)
-        if probe.determined and probe.reading_inside:
+        # an alternative holds the reading where its interval meets the reading's band at all (the
+        # cautious test: an instruction must survive every alternative)
+        band = ranking.RA_MISMATCH_SIGMAS * ra_fit.tolerance * ra_fit.given_ohm
+        if alt.determined and alt.lo <= ra_fit.given_ohm + band and alt.hi >= ra_fit.given_ohm - band:
             ra_fit.data = alt
+            ra_fit.held = True
             ra_fit.alongside = [c]
             if c not in ra_fit.confounded_with:
                 ra_fit.confounded_with.append(c)

@@ -269,6 +269,7 @@ class RaFit:
     # interval, or that these recordings do not determine it (intervals.Interval)
     data: intervals.Interval | None = None
     alongside: list = dataclasses.field(default_factory=list)  # effects fitted with it beyond the named ones
+    held: bool = False  # an alternative alongside holds the reading (core.robust_ra)
 
     @property
     def determined(self) -> bool:
@@ -280,7 +281,7 @@ class RaFit:
         around it) and the data interval's half-width, combined in quadrature (two independent
         doubts: adding the two half-widths would call a reading 9 % off consistent with data
         that put Ra within 3.6 %): a shift within both uncertainties is no contradiction."""
-        if self.data is None or not self.data.determined:
+        if self.data is None or not self.data.determined or self.held:
             return True
         band = ranking.RA_MISMATCH_SIGMAS * self.tolerance * self.given_ohm
         half = (self.data.hi - self.data.lo) / 2.0
