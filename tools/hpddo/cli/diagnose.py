@@ -197,6 +197,9 @@ def next_steps(d, args) -> str:
     what = ("add what the diagnosis named" if effects != list(args.effects) or ra.get("mismatch") or dynamics
             else "nothing to add: train the model as it is")
     lines.append(f"next ({what}):\n  {shlex.join(words)}")
+    lines.append("then score it on a recording it never saw:\n  "
+                 + shlex.join(["hpddo", "evaluate", "--model", "MODEL", "NEW_RUN.csv", "--out", "EVAL",
+                               *options.reference_words(args)]))
     from ..model import effects as fx
     fitted = {iv["field"]: iv for iv in res.get("intervals", [])}
     loose = [e for e in res["missing_effects"] if e in fx.LIBRARY
@@ -204,9 +207,6 @@ def next_steps(d, args) -> str:
     if loose:  # named, but their size is open: said beside the command that adds them
         lines.append(f"  (the size of {', '.join(loose)} is not determined by these recordings: the model takes "
                      "what the fit finds; the diagnosis' intervals say how far it may be off)")
-    lines.append("then score it on a recording it never saw:\n  "
-                 + shlex.join(["hpddo", "evaluate", "--model", "MODEL", "NEW_RUN.csv", "--out", "EVAL",
-                               *options.reference_words(args)]))
     return "\n".join(lines)
 
 
