@@ -19,6 +19,10 @@ from hpddo.model import physics as ph
 from hpddo.twin import params as tp
 
 SEEDS = (3, 4)
+# With Ke fitted, a voltage gain g is an Ra of Ra / (1 + g): only the reading's tolerance tells a
+# gain of a few percent from a reading a few percent off, and a wrong reading may be up to
+# ranking.RA_ALTERNATIVE_SIGMAS tolerances off, so the diagnosis may say so instead of naming it.
+RA_TWINS = {"v_gain"}
 # name -> (effects (twin units), forms, bench overrides, effect that must be named)
 CASES = {
     "saturation_quadratic": ({"saturation": 8.0}, {"saturation": "quadratic"}, {}, "saturation"),
@@ -54,8 +58,14 @@ run = twin_benches.diagnosed
 @pytest.mark.parametrize("seed", SEEDS)
 @pytest.mark.parametrize("key", sorted(CASES))
 def test_an_effect_in_another_form_is_named_alone(root, key, seed):
+    """Named alone; or, for an effect that with Ke fitted is a wrong Ra (RA_TWINS), either named
+    or said not told apart from a wrong reading of Ra, with nothing else named."""
     res = run(bench_dir(root, key, seed))
     want = CASES[key][3]
+    if want in RA_TWINS and not res["missing_effects"]:
+        assert want in res["ra_fit"]["confounded_with"], res["verdict"]
+        assert "so neither is named" in res["verdict"] or "none of them" in res["verdict"], res["verdict"]
+        return
     assert res["missing_effects"] == [want], res["verdict"]
     assert not res["ra_fit"]["mismatch"], res["verdict"]
     # what it removes: the physics error falls to within 1.3x the noise floor of the bench

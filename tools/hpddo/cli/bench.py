@@ -17,6 +17,12 @@ instead measures the observer on the boards and the host, float against fixed po
 against scikit-learn) and prints the table; with --write-docs it also writes the table
 into docs/performance.md and the figures into docs/figures/bench_observer.json.
 
+    hpddo bench --diagnose [--data DIR]
+
+instead times hpddo diagnose with its defaults on the bundled recordings beside one fit of M2 with
+every library effect on the same rows, its peer (tools/hpddo/studies/diagnose_speed.py; target:
+10 s on an idle 2-core machine).
+
     hpddo bench --large-log [--rows 2000000]
 
 instead writes a large synthetic bench log in a temporary folder and prints what reading it
@@ -60,6 +66,9 @@ def parser(prog: str = "hpddo bench") -> argparse.ArgumentParser:
     p.add_argument("--large-log", action="store_true",
                    help="measure reading a large bench log and hpddo evaluate on it (peak RSS against the file's "
                         "size, time to refuse an early fault against the whole read) instead of the pipeline")
+    p.add_argument("--diagnose", action="store_true",
+                   help="time hpddo diagnose with its defaults on --data beside one full-library fit of the same "
+                        "rows, its peer (tools/hpddo/studies/diagnose_speed.py), instead of the pipeline")
     p.add_argument("--rows", type=options.positive_int, default=2_000_000, metavar="N",
                    help="--large-log: rows of the synthetic log (default 2000000, about 98 MB)")
     return p
@@ -81,6 +90,10 @@ def run(args) -> int:
         from ..studies import large_log
         with tempfile.TemporaryDirectory(prefix="hpddo-bench-large-") as tmp:
             large_log.measure(tmp, args.rows, resource_root() / "models" / "default")
+        return 0
+    if args.diagnose:
+        from ..studies import diagnose_speed
+        print(diagnose_speed.report(diagnose_speed.measure(args.data)))
         return 0
     if args.observer:
         from ..studies import perf

@@ -54,6 +54,45 @@ class ChannelFault:
                 f"{CANNOT[self.channel]}")
 
 
+def _saturated(x: np.ndarray, command: np.ndarray) -> list:
+    """[(edge value, "top"/"bottom", rows at it, commands at it)] of the ends of x (a channel's driven
+    readings) that it reads exactly in at least SATURATED_SHARE of the rows (SATURATED_MIN_ROWS) under
+    at least SATURATED_COMMANDS different commands: the ends of its range, not what it measured."""
+    out = []
+    if len(x) == 0:
+        return out
+    for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
+        at = x == edge
+        n = int(np.sum(at))
+        held = len(np.unique(command[at], axis=0))
+        if n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)) and held >= SATURATED_COMMANDS:
+            out.append((float(edge), which, n, held))
+    return out
+
+
+def clipped(rec, r) -> tuple[np.ndarray, list]:
+    """The rows of a recording (rows r) at which a saturated channel (_saturated) reads an end of its
+    range, and a sentence for each such channel: a clipped reading is no measurement of the motor, and
+    no fit may use it (a coarse or stuck channel is named by check(), its rows kept)."""
+    driven = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i)
+    mask = np.zeros(len(r.duty), bool)
+    said = []
+    if driven.sum() < SATURATED_MIN_ROWS:
+        return mask, said
+    load = rec.df["load"].to_numpy() if "load" in rec.df else np.zeros(rec.n)
+    for name, col, _ in CHANNELS:
+        x_all = rec.df[col].to_numpy(float)
+        x = x_all[driven]
+        if len(np.unique(x)) < 2:
+            continue
+        command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
+        for edge, which, n, _held in _saturated(x, command):
+            mask |= driven & (x_all == edge)
+            said.append(f"{rec.source}: {n} driven rows read the {name} channel's {which} ({edge:.4g}, saturated) "
+                        "and are left out of every fit")
+    return mask, said
+
+
 def _faults(rec, r, sigma2: float) -> list:
     driven = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i)
     if driven.sum() < SATURATED_MIN_ROWS:
@@ -82,14 +121,10 @@ def _faults(rec, r, sigma2: float) -> list:
             out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
                                     f"{span / step:.0f} levels"))
             continue  # a coarse channel repeats its extremes as it repeats every level
-        for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
-            at = x == edge
-            n = int(np.sum(at))
-            held = len(np.unique(command[at], axis=0))
-            if n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)) and held >= SATURATED_COMMANDS:
-                out.append(ChannelFault(rec.name, name, "saturated", f"{n} of {len(x)} driven rows read exactly "
-                                        f"{edge:.4g} ({which} of its range) over {held} different commands"))
-                break
+        for edge, which, n, held in _saturated(x, command):
+            out.append(ChannelFault(rec.name, name, "saturated", f"{n} of {len(x)} driven rows read exactly "
+                                    f"{edge:.4g} ({which} of its range) over {held} different commands"))
+            break
     # the current and the load: what the current explains of the speed beyond the voltage
     # (a recording whose load column holds one state has no load to explain: its speed varies
     # beyond the voltage with the temperature, not the load)

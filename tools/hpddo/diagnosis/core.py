@@ -62,7 +62,17 @@ def inputs_of(recs, opt: Options) -> Inputs:
     ra, ra_source = identify.ra_from_logs(recs, opt.ra_ohm)
     m2 = identify.m2_params(recs, ra, opt.ke_fit)
     given = list(fx.check_names(opt.effects))
-    data = ranking.make_data([fx.rows_of(r) for r in recs])
+    rows = []
+    for rec in recs:  # a saturated channel's clipped rows are no measurement: left out of every fit, said
+        r = fx.rows_of(rec)
+        cut, said = channels.clipped(rec, r)
+        if cut.any():
+            r = dataclasses.replace(r, train=r.train & ~cut, test=r.test & ~cut)
+            for w in said:
+                if w not in rec.warnings:
+                    rec.warnings.append(w)
+        rows.append(r)
+    data = ranking.make_data(rows)
     rows = data.rows  # under cross-validation (small data) every labelled row is train and test
     held_out = sum(int(r.test.sum()) for r in rows)
     if held_out < MIN_HELD_OUT_ROWS:
@@ -133,10 +143,13 @@ def _units(rows, recordings: bool = False) -> list:
     return out
 
 
-def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None) -> list:
+def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None, alternatives: bool = True) -> list:
     """Each unit (_units) against the model (M2 with the effects in names, default the model under
     test's: Ke refitted) identified on every labelled row but its own: [Unit], empty with fewer
-    than CONSIST_MIN_UNITS units."""
+    than CONSIST_MIN_UNITS units. alternatives: a unit is inconsistent only where every model that
+    explains the rest about as well misses it too (alternative_misses); other_motors asks without
+    them (a scale sets another motor apart, and a free Ra or an effect fitted on the others can
+    stand in for a scale)."""
     names = inp.given if names is None else list(names)
     units = _units(inp.rows, recordings)
     if len(units) < CONSIST_MIN_UNITS:
@@ -186,8 +199,35 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
             own = joint_mse(masks)
             rest = float(np.nanmedian([joint_mse(x[4]) for x in scored if x[0] != name]))
             bad = not (own <= CONSIST_X ** 2 * max(rest, sigma2))
+        if bad and alternatives:  # ... nor by a model that explains the rest about as well (alternative_misses)
+            bad = all(m > CONSIST_X ** 2 * max(med, sigma2) for m in alternative_misses(inp, names, masks))
         out.append(Unit(name, kind, n, math.sqrt(mse), math.sqrt(med), bool(bad), masks))
     return out
+
+
+def alternative_misses(inp: Inputs, names, masks):
+    """The mean squared miss of the unit (masks) by each model that could explain the recordings
+    about as well, identified without the unit: the effects in names with Ra moving within what a
+    wrong reading allows (ranking.ra_alternative_bounds), then with each other library effect beside
+    them, where its fitted coefficient is plausible. A unit at the edge of the operating range is
+    missed by a model that lacks an effect or holds a wrong Ra and predicted by the one that has it;
+    a unit that disagrees (another motor, a reversed channel, a group read wrong) is missed by every
+    one. A fit that fails is no alternative. A generator: the caller stops at the first that fits."""
+    rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, masks)]
+    names = [n for n in names if n != ranking.RA_MISMATCH]
+    for extra in [()] + [(c,) for c in fx.NAMES if c not in names]:
+        fitted = names + list(extra)
+        try:
+            p = fx.fit(rest, inp.m2, fitted, hold=ranking.material_holds(fitted),
+                       ra_bounds=ranking.ra_alternative_bounds(inp.m2))
+        except Exception:  # noqa: BLE001 (a degenerate fit explains nothing)
+            continue
+        if extra and not fx.LIBRARY[extra[0]].plausibility(getattr(p, fx.LIBRARY[extra[0]].field))[0]:
+            continue
+        e = np.concatenate([(r.ref - fx.predict(r, p))[m] for r, m in zip(rest, masks)])
+        e = e[np.isfinite(e)]
+        if len(e):
+            yield float(np.mean(e * e))
 
 
 # Another motor (or the same motor through another sensor scale): a recording that the model
@@ -224,7 +264,7 @@ def other_motors(inp: Inputs, sigma2: float) -> list:
     if len(inp.rows) < CONSIST_MIN_UNITS:
         return []
     out = []
-    for u in consistency(inp, sigma2, recordings=True):
+    for u in consistency(inp, sigma2, recordings=True, alternatives=False):
         if not u.inconsistent:
             continue
         k = next(j for j, m in enumerate(u.masks) if m.any())
@@ -325,6 +365,16 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
     # otherwise neither is named (RaFit.confounded_with).
     ra_confounded = [st.name for st in steps if st.name in missing and st.ra_z is not None
                      and st.ra_z < ranking.Z_MIN]
+    # ... and every effect of the final model that, with Ra moving freely within what a wrong reading
+    # allows (ranking.RA_ALTERNATIVE_SIGMAS), the recordings do not tell from the model without it
+    if [c for c in missing if c not in ra_confounded]:
+        res_named = ranking.held_out_residuals(
+            d, final, lambda rs, st: ranking.fit_names(rs, m2, given + chosen, sigma2, start=st))
+        beside = ranking.needed_beside_free_ra(d, m2, given, [c for c in missing if c not in ra_confounded],
+                                               res_named, sigma2)
+    else:
+        beside = {}
+    ra_confounded += [c for c, z in beside.items() if z < ranking.Z_MIN]
     if ra_confounded:
         chosen = [c for c in chosen if c not in ra_confounded]
         missing = [c for c in missing if c not in ra_confounded]
@@ -768,7 +818,7 @@ def ke_check(inp: Inputs, mf: ModelFit, ke_fit: str) -> dict:
     effect would leave it) or the two Ke disagree: their intervals apart, or least squares'
     held-out RMSE KE_DISAGREE_REL lower (z >= Z_MIN), or their intervals apart by KE_APART_REL. "text": what the verdict says ("" for
     nothing)."""
-    two = intervals.ke_two_ways(inp.data, inp.m2.ra_ohm)
+    two = intervals.ke_two_ways(inp.recs, inp.m2.ra_ohm)
     r0, p0 = _speed_corr(inp, mf.model, mf.res_model)
     r_ls, _ = _speed_corr(inp, mf.base, mf.res_base)
     rmse_model = math.sqrt(ranking.held_out_mse(inp.data, mf.res_model))
@@ -816,6 +866,13 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
         sel = select(inp, mf, ident, opt)
     progress.stage("confounded pairs, intervals and the residuals before and after")
     conf = confounding(inp, mf, sel)
+    current = [f for f in channels.check(inp.recs, inp.rows, mf.sigma2) if f.channel == "current"]
+    if current and sel.ra_fit is not None:  # Ra rests on the current channel: no mismatch concluded from a faulty one
+        sel.ra_fit.current_fault = f"the current channel of {current[0].recording} is {current[0].fault}"
+        if sel.ra_fit.mismatch:
+            sel.ra_fit.mismatch = False
+            sel.final = fx.fit(inp.rows, inp.m2, inp.given + sel.missing,
+                               start=dataclasses.replace(sel.final, ra_ohm=inp.m2.ra_ohm))
     if sel.ra_fit.mismatch:  # from here on, Ra is held at the value the data support
         inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
     sel, conf = material_check(inp, mf, sel, conf)

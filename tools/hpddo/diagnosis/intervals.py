@@ -306,22 +306,23 @@ def of_fit(data, p: ph.PhysicsParams, names, hold=None, ra_bounds=None) -> list[
     return intervals(data.rows, data.blocks_train, p, fields, bounds)
 
 
-def ke_two_ways(data, ra_ohm: float) -> dict:
-    """Ke on the training rows by the paper's eq. 20 (the mean of (V - I Ra) / w) and by least
-    squares (V - I Ra on w, no intercept), each with its 95 % interval (cluster-robust over the
-    bootstrap's operating-point blocks, at least the rows' own), Ra at ra_ohm:
+def ke_two_ways(recs, ra_ohm: float) -> dict:
+    """Ke by the paper's eq. 20 (the mean of (V - I Ra) / w) and by least squares (V - I Ra on w,
+    no intercept) on the rows hpddo train identifies M2's Ke on (identify.ke_rows: the training
+    rows, in windows), so that eq. 20's value here is train's, each with its 95 % interval
+    (cluster-robust over the runs of one duty, at least the rows' own), Ra at ra_ohm:
     {"eq20": (value, lo, hi), "lsq": (value, lo, hi), "apart": bool (the two intervals do not
     overlap), "clusters": int}."""
-    emf, w, groups, offset = [], [], [], 0
-    for r, g in zip(data.rows, data.blocks_train):
-        m = r.train & np.isfinite(r.ref) & (g >= 0)
-        emf.append(r.v[m] - r.i[m] * ra_ohm)
-        w.append(r.ref[m] * 2.0 * math.pi / 60.0)
-        groups.append(g[m] + offset)
-        offset += int(g.max()) + 1 if len(g) else 0
-    emf, w, groups = np.concatenate(emf), np.concatenate(w), np.concatenate(groups)
-    ok = np.isfinite(emf) & np.isfinite(w) & (w > 0) & np.isfinite(emf / np.where(w > 0, w, 1.0))
-    emf, w, groups = emf[ok], w[ok], groups[ok]
+    from ..model import identify
+    try:
+        v, i, n, _, groups = identify.ke_rows(recs)
+    except identify.IdentificationError:
+        v = i = n = groups = np.zeros(0)
+    emf, w = v - i * ra_ohm, n * 2.0 * math.pi / 60.0
+    ok = np.isfinite(emf) & np.isfinite(w) & (w > 0)
+    v, i, n, emf, w, groups = v[ok], i[ok], n[ok], emf[ok], w[ok], groups[ok]
+    # the values are train's own functions' (the same sums, to the bit); the fits give their intervals
+    value = {"eq20": identify.ke_eq20, "lsq": identify.ke_lsq}
     out = {"clusters": int(len(np.unique(groups)))}
     if len(w) < 3:  # too few rows to say either
         nan = (math.nan, math.nan, math.nan)
@@ -334,7 +335,7 @@ def ke_two_ways(data, ra_ohm: float) -> dict:
             clu = sm.OLS(y, x[:, None]).fit(cov_type="cluster", cov_kwds={"groups": groups})
             var, df = max(var, float(clu.cov_params()[0, 0])), out["clusters"] - 1
         t = float(stats.t.ppf(0.5 + LEVEL / 2, df))
-        k, se = float(fit.params[0]), math.sqrt(var)
+        k, se = value[key](v, i, n, ra_ohm), math.sqrt(var)
         out[key] = (k, k - t * se, k + t * se)
     out["apart"] = bool(out["eq20"][1] > out["lsq"][2] or out["lsq"][1] > out["eq20"][2])
     return out

@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import dataclasses
+import math
 import multiprocessing
 import os
 
@@ -77,6 +78,14 @@ RA_MISMATCH_SIGMAS = 1.0
 # that wants Ra further off is taking up an error that only looks proportional to the
 # current on these rows (a winding warm throughout the held-out rows), not the reading's.
 RA_PLAUSIBLE_SIGMAS = 3.0
+# An effect is named only where the recordings tell it from a wrong reading: the model without it
+# and with Ra moving freely (no prior) within RA_ALTERNATIVE_SIGMAS tolerances of the reading (25 %),
+# where that Ra lies beyond the reading's own band (RA_MISMATCH_SIGMAS), must miss the held-out rows
+# by Z_MIN standard errors more. A reading can be that far off (a
+# two-wire reading of a 1-ohm motor through 0.2 ohm of leads is 20 % high), and an effect whose
+# evidence is a current-proportional error that such an Ra removes is not told from it; the
+# sentence then names both and the measurement that separates them (RA_SEPARATOR).
+RA_ALTERNATIVE_SIGMAS = 5.0
 RA_SEPARATOR = ("re-measure Ra at the motor's terminals (four-wire, or the leads' resistance subtracted, "
                 "at the bench's temperature), or a recording at a known winding temperature over a wide "
                 "range of current (stall or heavy load next to light load)")
@@ -124,6 +133,49 @@ def fit_ra_free(rows, m2: ph.PhysicsParams, names, **kw) -> ph.PhysicsParams:
     names = [n for n in names if n != RA_MISMATCH]
     kw["hold"] = material_holds(names, kw.get("hold"))
     return fx.fit(rows, m2, names, ra_bounds=ra_data_bounds(m2), **kw)
+
+
+def ra_alternative_bounds(m2: ph.PhysicsParams) -> tuple:
+    """Where a wrong reading can put the true Ra (RA_ALTERNATIVE_SIGMAS tolerances either side)."""
+    a = RA_ALTERNATIVE_SIGMAS * RA_TOLERANCE * m2.ra_ohm
+    return (max(m2.ra_ohm - a, m2.ra_ohm / RA_DATA_RANGE), m2.ra_ohm + a)
+
+
+def scored_ra_alternative(d: "Data", m2: ph.PhysicsParams, names, weights=None, start=None) -> tuple:
+    """scored() of the effects in names with Ra moving freely within ra_alternative_bounds: the
+    explanation by a wrong reading that every named effect must beat."""
+    names = [n for n in names if n != RA_MISMATCH]
+    hold = material_holds(names)
+    return scored(d, lambda rows, st: fx.fit(rows, m2, names, weights=weights, start=st, hold=hold,
+                                             ra_bounds=ra_alternative_bounds(m2)), start)
+
+
+def needed_beside_free_ra(d: "Data", m2: ph.PhysicsParams, given, names, res_named, sigma2: float) -> dict:
+    """{effect: z} for each effect in names: how far the recordings tell the named model (its
+    held-out residuals res_named: every effect of given + names, Ra as the selection held it) from
+    the model without that effect and with Ra moving freely within ra_alternative_bounds
+    (apart_z). Below Z_MIN the effect is not told from a reading of Ra further off than its own
+    tolerance (an Ra within RA_MISMATCH_SIGMAS tolerances of the reading is the reading: the
+    effect's interval carries that doubt, intervals.with_budget). An offset that the rows at rest
+    measure (effects.rest_offsets, Z_MIN standard errors from zero) is read there, not traded
+    with Ra; an alternative that cannot be fitted is none: the effect keeps its name (inf)."""
+    names = [n for n in names if n != RA_MISMATCH]
+    rest = {n: abs(v) / se for n, (v, se, _) in fx.rest_offsets(d.rows).items() if se > 0}
+    out = {}
+    for n in names:
+        if rest.get(n, 0.0) >= Z_MIN:
+            out[n] = math.inf
+            continue
+        try:
+            p_n, r_n = scored_ra_alternative(d, m2, list(given) + [x for x in names if x != n])
+        except Exception:  # noqa: BLE001 (a degenerate fit is no alternative)
+            out[n] = math.inf
+            continue
+        if abs(ra_sigmas(m2, p_n.ra_ohm)) <= RA_MISMATCH_SIGMAS:
+            out[n] = math.inf
+            continue
+        out[n] = apart_z(d, r_n, res_named, sigma2)
+    return out
 
 
 def ra_sigmas(m2: ph.PhysicsParams, ra: float) -> float:

@@ -270,6 +270,7 @@ class RaFit:
     data: intervals.Interval | None = None
     alongside: list = dataclasses.field(default_factory=list)  # effects fitted with it beyond the named ones
     held: bool = False  # an alternative alongside holds the reading (core.robust_ra)
+    current_fault: str = ""  # a faulty current channel (channels.check): Ra cannot be concluded, no instruction
 
     @property
     def determined(self) -> bool:

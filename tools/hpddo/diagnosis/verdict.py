@@ -34,7 +34,18 @@ ENCODER_NEEDS = ("speed from encoder periods (the time between counts) or counts
 
 
 def ra_verdict(ra: RaFit | None) -> str:
-    """The verdict's sentence on Ra; "" when the reading fits (or the data cannot tell)."""
+    """The verdict's sentence on Ra; "" when the reading fits (or the data cannot tell). With a
+    faulty current channel, no instruction on Ra: what the recordings seem to say of it rests on
+    the readings that channel spoils."""
+    text = _ra_verdict(ra)
+    if ra is not None and ra.current_fault and text and (ra.mismatch or "--ra-ohm" in text):
+        return (f"Whether the Ra you gave ({ra.given_ohm:.3g} ohm) is right cannot be concluded from these "
+                f"recordings: {ra.current_fault} (Channel health, below), and Ra rests on it; the effects were "
+                "looked for with the reading.")
+    return text
+
+
+def _ra_verdict(ra: RaFit | None) -> str:
     if ra is None:
         return ""
     if not ra.determined:
@@ -142,6 +153,11 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
     above = after.excess > 0.5 * sigma2
     structured_left = above and after.whiteness["white"] is False
     if not sel.missing:
+        if above and sel.ra_fit is not None and sel.ra_fit.confounded_with and not sel.ra_fit.mismatch:
+            # the sentence before this one names what explains it: a wrong Ra or the effects it cannot be told from
+            return (f"With Ra held at the reading and none of them named, the residual stays "
+                    f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor: the "
+                    "measurement named above settles which of them it is.")
         if floor is not None and floor.from_model:
             return ("No library effect is named. Whether anything is missing below "
                     f"{math.sqrt(floor.measured_rpm2):.3g} RPM cannot be told: this table repeats no operating "

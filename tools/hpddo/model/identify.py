@@ -83,6 +83,13 @@ def steady_rows(recs: list[Recording]):
     """(v, i, rpm_ref, weight) of the training rows with rpm_ref > MIN_RPM, pooled; weight is
     None unless a recording's reference carries a confidence per row (Recording.weight: the
     ripple), then each row's (1 for a recording without one)."""
+    return ke_rows(recs)[:4]
+
+
+def ke_rows(recs: list[Recording]):
+    """steady_rows and, fifth, each row's operating group (a number per recording and run of one
+    duty): the rows every Ke of M2 is identified on (hpddo train, and the diagnosis' check of
+    eq. 20 against least squares, clustered by the groups)."""
     labelled = [r for r in recs if "rpm_ref" in r.df]
     if not labelled:
         raise IdentificationError(
@@ -90,27 +97,35 @@ def steady_rows(recs: list[Recording]):
             "identifying M2 and training M3 need at least one labelled recording")
     weighted = any(r.weight is not None for r in labelled)
     parts = [window_means(r.part("train"), weight=(None if not weighted else
-                                                   np.ones(r.n_train) if r.weight is None else r.weight[:r.n_train]))
+                                                   np.ones(r.n_train) if r.weight is None else r.weight[:r.n_train]),
+                          cols=("v_V", "i_A", "rpm_ref", "duty"))
              for r in labelled]
     v = np.concatenate([p[0] for p in parts])
     i = np.concatenate([p[1] for p in parts])
     n = np.concatenate([p[2] for p in parts])
-    w = np.concatenate([p[3] for p in parts]) if weighted else None
+    w = np.concatenate([p[4] for p in parts]) if weighted else None
+    group, base = [], 0
+    for p in parts:  # a new group wherever the (windowed) duty changes, numbered on across recordings
+        duty = p[3]
+        g = base + np.concatenate([[0], np.cumsum(np.abs(np.diff(duty)) > 1e-9)]) if len(duty) else np.zeros(0)
+        group.append(g)
+        base = int(g.max()) + 1 if len(g) else base
+    group = np.concatenate(group)
     keep = np.isfinite(n) & (n > MIN_RPM)
     if keep.sum() < 5:
         raise IdentificationError(f"only {int(keep.sum())} training rows with rpm_ref > {MIN_RPM} RPM in "
                                   f"{', '.join(str(r.source) for r in labelled)}: M2 needs a labelled recording "
                                   "of the motor turning")
-    return v[keep], i[keep], n[keep], (None if w is None else w[keep])
+    return v[keep], i[keep], n[keep], (None if w is None else w[keep]), group[keep]
 
 
-def window_means(part, window_s: float = IDENT_WINDOW_S, weight=None):
-    """(v, i, rpm_ref) of a recording part as means over consecutive windows of about
-    window_s (rows with no rpm_ref left out); at 2 Hz and slower, the rows themselves. With a
-    weight per row of the part, (v, i, rpm_ref, weight), the weight meaned as the rest."""
+def window_means(part, window_s: float = IDENT_WINDOW_S, weight=None, cols=("v_V", "i_A", "rpm_ref")):
+    """(v, i, rpm_ref) (the columns cols) of a recording part as means over consecutive windows
+    of about window_s (rows with no rpm_ref left out); at 2 Hz and slower, the rows themselves.
+    With a weight per row of the part, the weight last, meaned as the rest."""
     t = part["t_s"].to_numpy(float)
     keep = np.isfinite(part["rpm_ref"].to_numpy(float))
-    cols = [part[c].to_numpy(float)[keep] for c in ("v_V", "i_A", "rpm_ref")]
+    cols = [part[c].to_numpy(float)[keep] for c in cols]
     if weight is not None:
         cols.append(np.asarray(weight, float)[keep])
     dt = float(np.median(np.diff(t))) if len(t) > 1 else window_s

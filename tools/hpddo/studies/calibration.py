@@ -3,7 +3,8 @@ diagnosed with the defaults (no bootstrap, no hybrid: the physics verdict), and 
 
   * the empirical coverage of each kind of 95 % interval: Ke, Ra from the data alone, each
     named effect's coefficient (target 90-98 %);
-  * the rate of each kind of false statement: an effect named that the bench does not have;
+  * the rate of each kind of false statement: an effect named that the bench does not have (nor any
+    effect the verdict says it cannot be told from);
     "consistent with measurement noise" where an effect moves the speed by more than the floor;
     an Ra stated (--ra-ohm X) more than 10 % off; an actionable instruction that is wrong (an
     --ra-ohm further from the truth than the reading given, an effect to add that is absent, a
@@ -211,7 +212,11 @@ def score(b: Bench, js: dict, paths) -> dict:
         if e in b.effects:
             out["covered"][f"{e} coefficient"] = _covers(ivs.get(EFFECTS[e][0]), b.effects[e])
     present = set(b.effects) | {"v_gain"}  # every channel has its gain error (within its tolerance)
-    absent_named = [e for e in js.get("missing_effects", []) if e not in present]
+    # a named effect that the verdict says cannot be told from others (a confounded group: "X and Y
+    # cannot be told apart on these recordings") states one of the group: absent only when all are
+    groups = [set(g) for g in js.get("confounded", [])]
+    absent_named = [e for e in js.get("missing_effects", []) if e not in present
+                    and not any(e in g and g & present for g in groups)]
     verdict = js.get("verdict", "")
     floor = float(js.get("noise_rpm") or 0.0)
     ra_said = [float(x.rstrip(".")) for x in re.findall(r"--ra-ohm ([0-9.eE+-]+)", verdict)]

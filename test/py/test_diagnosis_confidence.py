@@ -1,0 +1,90 @@
+"""What the diagnosis may conclude from what its channels and its rows can carry: clipped
+readings left out of every fit, no instruction on Ra from a faulty current channel, and the
+same eq. 20 Ke as hpddo train on the same log and Ra (docs/diagnosis-limits.md)."""
+import math
+
+import numpy as np
+
+from hpddo.diagnosis import channels, core, intervals
+from hpddo.logs import dataset
+from hpddo.model import effects as fx
+from hpddo.model import identify
+
+RA, KE, BRUSH = 2.0, 0.3, 0.0
+
+
+def _log(path, rows, meta=(), rate=2.0):
+    lines = ["# condition=" + path.stem, f"# sample_rate_hz={rate:g}", *meta, "t_s,duty,v_V,i_A,rpm_ref,load"]
+    for k, (duty, v, i, rpm, load) in enumerate(rows):
+        lines.append(f"{k / rate:.4f},{duty:.3f},{v:.4f},{i:.4f},{rpm:.3f},{load}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _table(rng, duties=(0.3, 0.5, 0.7, 0.9), loads=(0, 1, 2), hold=8, i_top=None):
+    rows = []
+    for duty in duties:
+        for load in loads:
+            for _ in range(hold):
+                v = 12.0 * duty
+                i = 0.2 + 0.4 * load
+                rpm = (v - i * RA) / KE * 60 / (2 * math.pi) + rng.normal(0, 0.5)
+                i_read = i + rng.normal(0, 0.002)
+                if i_top is not None:
+                    i_read = min(i_read, i_top)
+                rows.append((duty, v + rng.normal(0, 0.005), i_read, rpm, load))
+    return rows
+
+
+def test_clipped_current_rows_are_left_out_of_every_fit_and_said(tmp_path):
+    """A current channel that reads its top (1.0 A) at two loads and four duties: those rows are
+    no measurement of the motor; they are left out (their train and test masks cleared) and a
+    warning names how many."""
+    rng = np.random.default_rng(1)
+    path = _log(tmp_path / "clip.csv", _table(rng, i_top=1.0))
+    rec = dataset.load_recordings([path])[0]
+    r = fx.rows_of(rec)
+    cut, said = channels.clipped(rec, r)
+    at_top = rec.df["i_A"].to_numpy() == 1.0
+    assert cut.sum() == at_top.sum() > 0 and (cut == at_top).all()
+    assert said and "saturated" in said[0] and "left out of every fit" in said[0]
+    inp = core.inputs_of([rec], core.Options(ra_ohm=RA))
+    assert not (inp.rows[0].train | inp.rows[0].test)[at_top].any()
+    assert any("left out of every fit" in w for w in rec.warnings)
+
+
+def test_a_faulty_current_channel_gives_no_ra_instruction(tmp_path):
+    """The current reading stuck at one value over every duty: Ra rests on that channel, so
+    whatever the fit makes of it, the verdict gives no --ra-ohm and says why."""
+    rng = np.random.default_rng(2)
+    rows = [(d, v, 0.5, rpm, ld) for d, v, _, rpm, ld in _table(rng)]
+    paths = [_log(tmp_path / f"stuck{k}.csv", rows) for k in range(2)]
+    d = core.diagnose(paths, core.Options(ra_ohm=RA * 1.3, bootstrap=0, hybrid=False))
+    assert "--ra-ohm" not in d.verdict, d.verdict
+    js = d.to_json()
+    assert any(c["channel"] == "current" and c["fault"] == "stuck" for c in js["channels"]), js["channels"]
+    assert not js["ra_fit"]["mismatch"]
+
+
+def test_eq20_in_the_diagnosis_is_trains(tmp_path):
+    """A 50 Hz log whose direction reverses at every step: train's eq. 20 Ke (identify.m2_params,
+    on its windows) and the one the diagnosis checks against least squares are one number."""
+    rng = np.random.default_rng(3)
+    rate, n = 50.0, 3000
+    t = np.arange(n) / rate
+    seg = (t // 2).astype(int)
+    duty = rng.uniform(0.2, 1.0, seg.max() + 1)[seg]
+    sign = np.where(seg % 2 == 1, -1.0, 1.0)
+    v, i = 12.0 * duty * sign, (0.2 + 0.1 * rng.random(n)) * sign
+    target = (v - i * RA) / KE * 60 / (2 * math.pi)
+    rpm = np.zeros(n)
+    a = 1 - math.exp(-1 / rate / 0.1)
+    for k in range(1, n):  # the shaft's lag
+        rpm[k] = rpm[k - 1] + a * (target[k] - rpm[k - 1])
+    path = _log(tmp_path / "reversing.csv", [(duty[k], v[k], i[k], round(rpm[k] / 50) * 50, 0) for k in range(n)],
+                rate=rate)
+    recs = dataset.load_recordings([path])
+    train_ke = identify.m2_params(recs, RA).ke_vs_per_rad
+    two = intervals.ke_two_ways(recs, RA)
+    assert two["eq20"][0] == train_ke
+    assert two["eq20"][1] <= train_ke <= two["eq20"][2]
