@@ -533,7 +533,7 @@ def validate() -> None:
 # with its parameters in DynamicsParams, a struct of its own beside PhysicsParams, so that a
 # model without the family keeps its layout, its kParamsSchema and its checksum bit for bit.
 # The diagnosis identifies J, B and Tc from recordings at DYNAMICS_MIN_RATE_HZ and up
-# (diagnosis/dynamics.py); the boards compute the balance when the family is named
+# (model/dynamics.py); the boards compute the balance when the family is named
 # (j_kgm2 > 0: lib/hpddo_core/src/hpddo/dynamics.h, the Python reference model/dynamics_ref.py).
 
 

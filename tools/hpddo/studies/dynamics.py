@@ -99,11 +99,11 @@ def parts(rate_hz: float = RATE_HZ) -> dict:
 
 
 def identified(seeds=range(1, 13), rate_hz: float = RATE_HZ) -> list:
-    """The dynamic family as the diagnosis identifies it (diagnosis/dynamics.py, all rows, the true Ra and
+    """The dynamic family as the diagnosis identifies it (model/dynamics.py, all rows, the true Ra and
     Ke) on the twin's sweep at rate_hz for each seed: [(seed, J, its interval, B, Tc)]."""
     import tempfile
     import pathlib
-    from ..diagnosis import dynamics
+    from ..model import dynamics
     from ..logs import dataset
     b = params.with_effects(params.preset("ideal"), inductance=2.5)
     out = []
