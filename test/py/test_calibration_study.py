@@ -2,7 +2,7 @@
 the library's parametrisation: a bench without effects, read through perfect channels, is the plain
 model exactly), and on a few of them the diagnosis states nothing false: no absent effect named,
 no wrong instruction, another motor's recording named before the ranking. The whole study
-(python -m hpddo.studies.calibration, 200 benches) is in docs/diagnosis.md."""
+(python -m hpddo.studies.calibration, 200 benches) is in docs/diagnosis-limits.md."""
 import dataclasses
 
 import numpy as np
@@ -30,7 +30,7 @@ def test_a_bench_without_effects_through_perfect_channels_is_the_plain_law(tmp_p
 def test_a_few_benches_state_nothing_false(seed):
     """Two benches the study diagnoses without a false statement, kept so (15: a table with
     saturation and a voltage offset, the reading 13 % high; 20: a table with the heating and a
-    recording of another motor). Not all do: the study's rates are in docs/diagnosis.md."""
+    recording of another motor). Not all do: the study's rates are in docs/diagnosis-limits.md."""
     r = cal.run_one(seed)
     assert "score" in r, r
     s = r["score"]
@@ -55,7 +55,7 @@ def test_the_summary_counts_each_kind():
 
 
 def test_the_docs_quote_the_committed_study():
-    """docs/diagnosis.md's block of the study's figures is the rendering of the committed JSON
+    """docs/diagnosis-limits.md's block of the study's figures is the rendering of the committed JSON
     (python -m hpddo.studies.calibration --write-docs)."""
     import json
     from conftest import ROOT

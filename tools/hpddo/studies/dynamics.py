@@ -1,6 +1,6 @@
 """Why the residual of M2 follows dV/dt on a fast recording: the parts, measured on the twin.
 
-    cd tools && python -m hpddo.studies.dynamics      # the figures of docs/diagnosis.md, Fast logs and dynamics
+    cd tools && python -m hpddo.studies.dynamics      # the figures of docs/dynamics.md
 
 On the twin's sweep (duty steps of 20 %, no load) at 100 Hz, ideal bench with the inductance on,
 the residual of M2 (n = (V - Ra I) / Ke, the true Ra and Ke) is split by switching the parts off:

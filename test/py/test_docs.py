@@ -1,0 +1,58 @@
+"""The documentation site's pages (mkdocs.yml, docs/): the command reference is the parsers'
+(hpddo.cli.reference), no user page is longer than a reader reads in one sitting, and no
+user page carries change history (issue numbers, waves, "before this change"): git keeps the
+history, the pages say what is. scripts/test.sh builds the site with mkdocs build --strict
+(broken links, pages missing from the nav)."""
+import re
+
+import pytest
+
+from conftest import ROOT
+
+MAX_LINES = 400
+# Pages another piece of work is rewriting (the ripple's guide and its captures): held to the
+# rules once that work lands; remove them from here then.
+NOT_YET = {"docs/ripple.md", "docs/ripple-captures.md"}
+HISTORY = re.compile(r"\b(issues? #?\d+|wave \d+|(before|after|since) this change|(before|after) (the|this) "
+                     r"(fix|commit)|previously|no longer)\b|(?<![\w&])#\d+\b", re.IGNORECASE)
+
+
+def user_pages():
+    pages = sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))
+    return [p for p in pages + ["README.md"] if p not in NOT_YET]
+
+
+def test_the_command_reference_is_the_parsers():
+    from hpddo.cli import reference
+    assert reference.stale(ROOT) == [], f"the command reference is out of date: {reference.COMMAND}"
+
+
+def test_the_command_reference_names_every_option():
+    from hpddo import cli
+    from hpddo.cli import reference
+    for name in cli.SUBCOMMANDS:
+        page = (ROOT / reference.FOLDER / f"{name}.md").read_text(encoding="utf-8")
+        assert page.startswith(f"# hpddo {name}\n")
+        for action in cli.parser(name)._actions:
+            for flag in action.option_strings:
+                if flag not in ("-h", "--help"):
+                    assert f"`{flag}`" in page, f"hpddo {name} {flag} missing from its page of {reference.FOLDER}/"
+
+
+@pytest.mark.parametrize("page", user_pages())
+def test_no_page_is_too_long(page):
+    n = len((ROOT / page).read_text(encoding="utf-8").splitlines())
+    assert n <= MAX_LINES, f"{page}: {n} lines (at most {MAX_LINES}: split it by what the reader needs)"
+
+
+@pytest.mark.parametrize("page", user_pages())
+def test_no_page_carries_change_history(page):
+    bad = [f"{page}:{k}: {m.group(0)!r}" for k, line in enumerate((ROOT / page).read_text(encoding="utf-8").splitlines(), 1)
+           for m in HISTORY.finditer(line)]
+    assert not bad, "change history in a user page (git keeps it):\n" + "\n".join(bad)
+
+
+def test_the_history_rule_sees_history_and_not_physics():
+    assert HISTORY.search("the brush drop (issue 21, item 7)") and HISTORY.search("since wave 3")
+    assert HISTORY.search("RMSE before this change") and HISTORY.search("see #34")
+    assert not HISTORY.search("the error before and after adding the effect; 0.5 V at 20 % duty")
