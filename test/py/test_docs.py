@@ -56,3 +56,45 @@ def test_the_history_rule_sees_history_and_not_physics():
     assert HISTORY.search("the brush drop (issue 21, item 7)") and HISTORY.search("since wave 3")
     assert HISTORY.search("RMSE before this change") and HISTORY.search("see #34")
     assert not HISTORY.search("the error before and after adding the effect; 0.5 V at 20 % duty")
+
+
+def _log_keys_read_by_the_tools() -> dict:
+    """{key: where} of every metadata key a module of hpddo reads by name: `meta["k"]`,
+    `meta.get("k")` on a name or attribute that holds "meta" (the readers' metadata dicts)."""
+    import ast
+    out = {}
+    for path in sorted((ROOT / "tools" / "hpddo").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            target, key = None, None
+            if isinstance(node, ast.Subscript) and isinstance(node.slice, ast.Constant):
+                target, key = node.value, node.slice.value
+            elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute) and node.func.attr == "get"
+                  and node.args and isinstance(node.args[0], ast.Constant)):
+                target, key = node.func.value, node.args[0].value
+            name = target.id if isinstance(target, ast.Name) else target.attr if isinstance(target, ast.Attribute) else ""
+            if isinstance(key, str) and "meta" in name.lower():
+                out.setdefault(key, f"{path.relative_to(ROOT)}:{node.lineno}")
+    return out
+
+
+def test_every_log_key_is_documented():
+    """Every column and metadata key a bench log carries, as the code declares, reads or (the
+    UNO firmware) writes it, is named in docs/bench-log.md: a new key without its line there
+    fails here."""
+    from hpddo.logs import benchlog, dataset
+    doc = (ROOT / "docs" / "bench-log.md").read_text(encoding="utf-8")
+    keys = {k: "benchlog.KNOWN_COLUMNS" for k in benchlog.KNOWN_COLUMNS}
+    keys.update({k: "dataset.SENSOR_KEYS" for k in dataset.SENSOR_KEYS})
+    keys.update({k: "dataset.SENSOR_COLUMNS" for k in dataset.SENSOR_COLUMNS})
+    keys["kind"] = "dataset.KINDS"
+    keys.update({k: f"kind {k}" for k in dataset.KINDS})
+    keys.update(_log_keys_read_by_the_tools())
+    fw = (ROOT / "uno_acq" / "uno_acq.cpp").read_text(encoding="utf-8")
+    keys.update({k: "uno_acq.cpp, begin_recording" for k in re.findall(r'meta(?:_compact|_u32)?\(F\("(\w+)"\)', fw)})
+    for header in ("acq_format.h", "acq_ripple_board.h"):
+        text = (ROOT / "uno_acq" / header).read_text(encoding="utf-8")
+        for cols in re.findall(r'kLogHeader\w*\[\] = "([^"]*)"', text):
+            keys.update({c: f"uno_acq/{header}" for c in cols.split(",") if c})
+    assert len(keys) > 30
+    missing = sorted(f"{k} ({where})" for k, where in keys.items() if f"`{k}`" not in doc)
+    assert not missing, "keys of the bench log not in docs/bench-log.md:\n" + "\n".join(missing)
