@@ -98,3 +98,19 @@ def test_every_log_key_is_documented():
     assert len(keys) > 30
     missing = sorted(f"{k} ({where})" for k, where in keys.items() if f"`{k}`" not in doc)
     assert not missing, "keys of the bench log not in docs/bench-log.md:\n" + "\n".join(missing)
+
+
+def test_the_pictures_are_what_their_code_draws():
+    """docs/figures/dataflow.svg and diagnosis_before_after.svg are what hpddo.studies.figures
+    writes now (the before/after from the committed validation table), byte for byte."""
+    from hpddo.studies import figures
+    for rel, text in figures.generated().items():
+        assert (ROOT / rel).read_text(encoding="utf-8") == text, f"{rel} is out of date: {figures.COMMAND}"
+
+
+def test_every_step_of_the_dataflow_names_a_module_that_exists():
+    from hpddo.studies import figures
+    for step, (*_, module) in figures.STEPS.items():
+        assert (ROOT / module).exists(), f"{figures.DATAFLOW}: {step} names {module}, which does not exist"
+    for a, b, _ in figures.FLOWS:
+        assert a in figures.STEPS and b in figures.STEPS
