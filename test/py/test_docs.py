@@ -114,3 +114,27 @@ def test_every_step_of_the_dataflow_names_a_module_that_exists():
         assert (ROOT / module).exists(), f"{figures.DATAFLOW}: {step} names {module}, which does not exist"
     for a, b, _ in figures.FLOWS:
         assert a in figures.STEPS and b in figures.STEPS
+
+
+def _fenced(page: str, lang: str) -> list:
+    """The text of each ```lang block of a page."""
+    return re.findall(rf"^```{lang}\n(.*?)^```$", page, re.S | re.M)
+
+
+@pytest.mark.slow
+def test_the_dyno_table_page_shows_what_its_command_prints(tmp_path):
+    """docs/diagnose-table.md: its table is a valid bench log, and `hpddo diagnose` on it prints
+    the lines the page quotes, in order, as the page types the command."""
+    import shlex
+    import subprocess
+    import sys
+    page = (ROOT / "docs" / "diagnose-table.md").read_text(encoding="utf-8")
+    (table,), (command,), (printed,) = _fenced(page, "csv"), _fenced(page, "sh"), _fenced(page, "text")
+    (tmp_path / "dyno30.csv").write_text(table, encoding="utf-8")
+    argv = shlex.split(command.strip())
+    assert argv[:2] == ["hpddo", "diagnose"]
+    run = subprocess.run([sys.executable, "-m", "hpddo", *argv[1:]], cwd=tmp_path, capture_output=True, text=True,
+                         env={**__import__("os").environ, "PYTHONPATH": str(ROOT / "tools")}, timeout=600)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.splitlines()[:len(printed.splitlines())] == printed.splitlines()
+    assert (tmp_path / "dyno-diagnosis" / "diagnosis.json").exists()
