@@ -138,3 +138,25 @@ def test_the_dyno_table_page_shows_what_its_command_prints(tmp_path):
     assert run.returncode == 0, run.stderr
     assert run.stdout.splitlines()[:len(printed.splitlines())] == printed.splitlines()
     assert (tmp_path / "dyno-diagnosis" / "diagnosis.json").exists()
+
+
+def test_the_board_commands_and_telemetry_fields_are_documented():
+    """Every command the two sketches accept and every field of the ESP8266's telemetry line, as
+    the firmware's sources spell them, is in its reference page: a new command or field without
+    its line there fails here."""
+    esp_doc = (ROOT / "docs" / "esp8266.md").read_text(encoding="utf-8")
+    app = (ROOT / "esp_infer" / "infer_app.h").read_text(encoding="utf-8")
+    commands = re.findall(r'strcmp\(cmd, "(\w+)"\) == 0', app)
+    assert len(commands) >= 7
+    assert not [c for c in commands if f'`{{"cmd":"{c}"' not in esp_doc], "ESP8266 command missing from docs/esp8266.md"
+    line = (ROOT / "esp_infer" / "infer_line.h").read_text(encoding="utf-8")
+    fields = re.findall(r'doc\["(\w+)"\]', line[line.index("class LineWriter"):])
+    assert len(fields) >= 12
+    assert not [f for f in fields if f"| `{f}` |" not in esp_doc], "telemetry field missing from docs/esp8266.md"
+    uno_doc = (ROOT / "docs" / "firmware.md").read_text(encoding="utf-8")
+    words = sorted(set(re.findall(r'word_eq\(s, e, "(\w+)"\)', (ROOT / "uno_acq" / "acq_command.h").read_text())))
+    assert len(words) >= 10
+    section = uno_doc[uno_doc.index("## Serial commands of the UNO"):]
+    section = section[:section.index("\n## ", 1)]
+    assert not [w for w in words if f"`{w}" not in section and f", `{w} " not in section], \
+        "UNO command missing from docs/firmware.md, Serial commands of the UNO"
