@@ -14,7 +14,7 @@ MAX_LINES = 400
 # rules once that work lands; remove them from here then.
 NOT_YET = {"docs/ripple.md", "docs/ripple-captures.md"}
 HISTORY = re.compile(r"\b(issues? #?\d+|wave \d+|(before|after|since) this change|(before|after) (the|this) "
-                     r"(fix|commit)|previously|no longer|as before|remeasured|first quoted|used to|today's code|"
+                     r"(fix|commit)|previously|no longer|as before|remeasured|first quoted|today's code|"
                      r"earlier main|on main)\b|\bbefore: |; now: |(?<![\w&])#\d+\b", re.IGNORECASE)
 
 
