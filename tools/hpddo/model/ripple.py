@@ -776,6 +776,12 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001,
     first = np.r_[True, group[1:] != group[:-1]]  # the median over counts, each span once
     med = np.nanmedian(per[first & ok]) if (first & ok).any() else np.nanmedian(per)
     trimmed = ok & (np.abs(per / med - 1.0) > TRIM)
+    if not (ok & ~trimmed).any():  # the windows' ratios fall into clusters: none lies near their median
+        lo, hi = float(np.nanmin(per[ok])), float(np.nanmax(per[ok]))
+        return {"windows": 0, "left_out": int(trimmed.sum()),
+                "statement": (f"the {int(ok.sum())} confident windows do not agree on the ripples per output "
+                              f"revolution ({lo:.2f} to {hi:.2f}, none within {TRIM:.0%} of their median "
+                              f"{med:.2f}): counts on different lines, so the gear ratio is not checked")}
     ok = ok & ~trimmed
     cycles = float(np.sum(f_hz[ok]) * window_s)
     revs = float(np.sum(ref[ok]) / 60.0 * window_s)
