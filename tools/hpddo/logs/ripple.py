@@ -26,7 +26,7 @@ REQUIRED_META = ("format", "sample_hz", "a_per_code")
 SAMPLING = "sampling"            # how the samples sit against the PWM
 SYNCHRONOUS, FREE = "synchronous", "free"  # one sample per PWM period at a fixed phase / free-running
 SAMPLINGS = (SYNCHRONOUS, FREE)
-PWM_HZ = "pwm_hz"                # the PWM frequency (Hz): needed where sampling is free
+PWM_HZ = "pwm_hz"                # the PWM frequency (Hz), 0 for none (a DC supply): needed where sampling is free
 MAINS_HZ = "mains_hz"            # the mains frequency (Hz) whose harmonics may be in the current: 50 or 60
 OFFSET_CODE = "offset_code"      # the code of zero current (an AC-coupled or offset channel); default 0
 COUPLING = "coupling"            # dc (the default: the mean current is in the codes) or ac (it is not)
@@ -158,11 +158,12 @@ def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = Non
     if not (fs > 0 and lsb > 0):
         raise RippleFileError(f"{path}: sample_hz and a_per_code must be > 0")
     declared = {}
-    for key in (PWM_HZ, MAINS_HZ):
+    for key, least in ((PWM_HZ, 0.0), (MAINS_HZ, None)):  # pwm_hz=0: no PWM (a DC supply)
         if key in meta:
             declared[key] = _number(path, meta, where, key)
-            if not declared[key] > 0:
-                raise RippleFileError(f"{path}: metadata {key} must be > 0 (leave the key out where it is unknown)")
+            if not (declared[key] > 0 or declared[key] == least):
+                raise RippleFileError(f"{path}:{where[key]}: metadata {key}={meta[key]} must be > 0"
+                                      + (" (0: no PWM)" if least == 0 else "") + "; leave the key out where unknown")
     offset = _number(path, meta, where, OFFSET_CODE) if OFFSET_CODE in meta else 0.0
     for key, allowed in ((SAMPLING, SAMPLINGS), (COUPLING, COUPLINGS)):
         if key in meta and meta[key] not in allowed:

@@ -76,7 +76,7 @@ def prepare(bursts, source: str = "bursts"):
     """The bursts as the count needs them: synchronous ones as they are; free-running ones with the
     PWM-synchronous average removed from each burst (codes then floats, in codes), a burst too short
     for it marked refused (Bursts.refused). InputError where a free-running file declares no pwm_hz."""
-    if bursts.sampling != rf.FREE:
+    if bursts.sampling != rf.FREE or bursts.pwm_hz == 0:  # synchronous, or no PWM at all (a DC supply)
         return bursts
     if not (math.isfinite(bursts.pwm_hz) and bursts.pwm_hz > 0):
         raise InputError(f"{source}: {rf.SAMPLING}={rf.FREE} without {rf.PWM_HZ}: the PWM's own current ripple "
@@ -100,7 +100,7 @@ def fixed_lines(bursts, f_max_hz: float) -> list:
     into the band at sample_hz), the mains frequency's multiples; where the file declares them."""
     fs = bursts.sample_hz
     out = []
-    if math.isfinite(bursts.pwm_hz):
+    if math.isfinite(bursts.pwm_hz) and bursts.pwm_hz > 0:
         for h in range(1, PWM_HARMONICS + 1):
             f = h * bursts.pwm_hz
             alias = abs((f + fs / 2) % fs - fs / 2)
