@@ -95,7 +95,7 @@ def read_csv(path, column=None, time_column=None, sample_hz=None, skip_rows: int
 
     try:
         raw = pd.read_csv(path, header=None, dtype=str, keep_default_na=False, skiprows=skip_rows,
-                          skip_blank_lines=False, sep=None, engine="python", comment=None)
+                          skip_blank_lines=True, sep=_delimiter(path, skip_rows), engine="python")
     except (OSError, UnicodeDecodeError) as exc:
         raise CaptureError(f"{path}: cannot read: {exc}") from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, IndexError) as exc:
@@ -143,6 +143,19 @@ def read_csv(path, column=None, time_column=None, sample_hz=None, skip_rows: int
         t0 = float(ts[0])
     hz, rate_from = _rate(path, rate, sample_hz, rate_from or "the file")
     return Capture(x, hz, t0, bool(np.all(x == np.round(x))), f"column {names[j]!r}", rate_from)
+
+
+def _delimiter(path, skip_rows: int) -> str:
+    """The CSV's field separator from its first line after skip_rows: a comma, a semicolon or a tab
+    where the line holds one (in that order), else runs of blanks (np.savetxt's, a DAQ's text)."""
+    with open(path, encoding="utf-8", errors="replace") as f:
+        line = ""
+        for _ in range(skip_rows + 1):
+            line = f.readline()
+    for sep in (",", ";", "\t"):
+        if sep in line:
+            return sep
+    return r"\s+"
 
 
 def _is_number(text: str) -> bool:
@@ -257,9 +270,13 @@ def to_codes(values, integer: bool):
         return x.astype(np.int64), 1.0
     u = np.unique(x)
     span = float(u[-1] - u[0]) if len(u) > 1 else max(abs(float(u[0])), 1.0)
+    fine = span / FLOAT_STEPS
     d = np.diff(u)
     step = float(d.min()) if len(d) else span
-    step = max(step, span / FLOAT_STEPS)
+    # the smallest difference is the data's own step (an instrument's LSB) where every value is a whole
+    # number of it and it is coarser than the fine step; else the fine step
+    if not (step > fine and np.abs(x / step - np.round(x / step)).max() < 1e-3):
+        step = fine
     if not (step > 0 and math.isfinite(step)):
         step = 1.0
     return np.round(x / step).astype(np.int64), step

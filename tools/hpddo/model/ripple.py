@@ -370,6 +370,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}; from the "
                    f"current, Ra dI / Ke, {spread_i:.1%})")
         return out
+    fixed = ripple_sync.fixed_line(bursts, k, f_count, res)  # the counted line, too, off the PWM and mains lines
+    if fixed:
+        out.update(key=fixed[0], reason=fixed[1])
+        return out
     out["confidence"] = float(min(1.0, (1 - math.exp(-snr / (4 * opts.min_snr)))
                                   * (1 - max(spread, spread_i) / opts.max_spread / 2)))
     return out
