@@ -27,8 +27,11 @@ import numpy as np
 from ..logs import ripple as rf
 from ..logs.errors import InputError
 
-MIN_PER_BIN = 16   # samples a phase bin must hold on average: its mean carries the commutation ripple and
-#                    the noise over sqrt(16) = 4 into the subtracted average
+MIN_PER_BIN = 32   # samples a phase bin holds on average: its mean carries the commutation ripple and the
+#                    noise over sqrt(32) into the subtracted average, where fewer, finer bins follow the PWM
+#                    current's kinks better (490 Hz at 9.6 kHz, 0.5 s, 1.4 A peak to peak and a 50 mA ripple:
+#                    8 per bin leaves 0.3 mA of PWM and 9.3 mA of leaked ripple rms, 16: 0.5 and 4.9,
+#                    32: 1.0 and 3.8, 64: 2.3 and 2.0; test_ripple_captures)
 MIN_BINS = 16      # fewer bins cannot follow the PWM current's shape (its two exponential phases)
 MAX_BINS = 512     # finer bins than this gain nothing at a kink of the PWM current (8 us at 490 Hz x 256)
 PWM_HARMONICS = 20  # the PWM harmonics whose aliases are checked: a PWM current's harmonic h falls as 1 / h^2
