@@ -875,12 +875,12 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     ra_ohm or ke_vs_per_rad. The windows are counted one at a time (estimate), over spans of steady
     windows (count_steady_spans), with the settled tails where opts.settled_tail, and the stalls named
     (count_stalls: columns `stall` and `rpm_bound`). Without Ra (no ra_ohm, no metadata, no model) there
-    is no back-EMF prior: rpm_range (lo, hi) RPM is the prior, or none (ripple_capture.range_prior), Ke
+    is no back-EMF prior: rpm_range (lo, hi) RPM is the prior, or none (ripple_range.range_prior), Ke
     NaN. Where rpm_range is given, a confident count outside it is not confident (within_range). Free-running
     bursts have their PWM-synchronous average removed first (ripple_sync.prepare)."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
-    from . import ripple_capture
+    from . import ripple_range
 
     bpath = rf.path_for(path)
     if bursts is None and not bpath.exists():
@@ -913,12 +913,12 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) and math.isfinite(ra) else None
     prior_sd = m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None
     if prior is None and rpm_range is not None:
-        prior, prior_sd = ripple_capture.range_prior(rpm_range, len(rows))
+        prior, prior_sd = ripple_range.range_prior(rpm_range, len(rows))
     est = estimate(b, duty, prior, opts, prior_sd, per_A)
     est = count_settled_tails(b, duty, est, opts, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)
     est = count_stalls(b, duty, est, opts, per_A if prior is not None else None)
-    est = ripple_capture.within_range(est, rpm_range)
+    est = ripple_range.within_range(est, rpm_range)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from

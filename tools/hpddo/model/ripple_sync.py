@@ -78,7 +78,10 @@ def remove_pwm_average(x, sample_hz: float, pwm_hz: float):
 def prepare(bursts, source: str = "bursts"):
     """The bursts as the count needs them: synchronous ones as they are; free-running ones with the
     PWM-synchronous average removed from each burst (codes then floats, in codes), a burst too short
-    for it marked refused (Bursts.refused). InputError where a free-running file declares no pwm_hz."""
+    for it marked refused (Bursts.refused). InputError where a free-running file declares no pwm_hz, or
+    where there is no burst at all."""
+    if len(bursts) == 0:
+        raise InputError(f"{source}: no bursts (the header and no rows): nothing to count")
     if bursts.sampling != rf.FREE or bursts.pwm_hz == 0:  # synchronous, or no PWM at all (a DC supply)
         return bursts
     if not (math.isfinite(bursts.pwm_hz) and bursts.pwm_hz > 0):
