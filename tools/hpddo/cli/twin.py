@@ -8,6 +8,8 @@ examples:
   hpddo twin --protocol sweep --preset ideal --effects thermal_ra,brush_drop=0.8 --out out/twin
   hpddo twin --protocol load --rate-hz 1000 --time-scale 0.05 --out out/fast
   hpddo twin --protocol load --ripple-hz 10000 --out out/ripple   # with the current bursts (docs/ripple.md)
+  hpddo twin --protocol load --ripple-hz 9600 --free-running --mains-hz 50 --out out/free
+      # the bursts free-running under the 490 Hz PWM, with mains (docs/ripple-captures.md)
   hpddo twin --list-effects
 """
 from __future__ import annotations

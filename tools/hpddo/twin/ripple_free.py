@@ -28,7 +28,7 @@ from .params import BurstParam, brush_share
 RIPPLE_FREE = {
     p.name: p
     for p in [
-        BurstParam("pwm_hz", "Hz", 0.0, (490.196, 490.196),
+        BurstParam("pwm_hz", "Hz", 0.0, (490.196, 20000.0),
                    "0: the synchronous mode (one sample per PWM period, the PWM at sample_hz); > 0: the PWM "
                    "at this frequency and the samples free-running at sample_hz (the UNO's default "
                    "analogWrite: 490.196 Hz)"),
@@ -51,6 +51,16 @@ def ripple_free(**values) -> dict:
     if not (out["pwm_hz"] >= 0 and out["mains_hz"] >= 0 and out["mains_mA"] >= 0):
         raise ValueError("pwm_hz, mains_hz and mains_mA must be >= 0")
     return out
+
+
+def ripple_free_md() -> str:
+    """The free-running parameters' table of docs/ripple-captures.md, from RIPPLE_FREE."""
+    from .. import schema
+    rows = ["| name | unit | default | typical | physics |", "|---|---|---|---|---|"]
+    for p in RIPPLE_FREE.values():
+        lo, hi = p.typical
+        rows.append(f"| `{p.name}` | {p.unit} | {p.default:g} | {lo:g}..{hi:g} | {schema.md_cell(p.physics)} |")
+    return "\n".join(rows) + "\n"
 
 
 def is_free(params: dict) -> bool:
