@@ -177,7 +177,7 @@ def test_ra_is_optional_the_speed_range_is_the_prior(tmp_path, capsys):
     c = est["confident"].to_numpy()
     e = est["rpm_ripple"].to_numpy()[c] / g["truth"]["rpm_true"].to_numpy()[c] - 1
     assert c.mean() > 0.8 and np.abs(e).max() < 0.05
-    assert "Ke" in capsys.readouterr().out
+    assert "no back-EMF prior (no Ra: the speed range given is the prior)" in capsys.readouterr().out
     assert cli.main(["ripple", str(log), "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--rpm-range", "150", "250",
                      "--out", str(tmp_path / "o2"), "--quiet"]) == 0
     est = pd.read_csv(tmp_path / "o2" / "load.ripple_speed.csv")

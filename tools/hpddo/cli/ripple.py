@@ -89,7 +89,7 @@ def run(args) -> int:
             above = est["i_mean_A"].to_numpy() >= opts.floor_A
             s = {"windows": len(est), "confident": int(conf.sum()), "above_floor": int(above.sum()),
                  "stalls": int(est["stall"].sum()),
-                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from,
+                 "ke_prior_vs_per_rad": ke if math.isfinite(ke) else None, "ke_from": ke_from,
                  "prior_model": None if model is None else model.to_json(),
                  "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
             if "rpm_ref" in df and np.isfinite(df["rpm_ref"].to_numpy()[rows]).any():
@@ -113,7 +113,8 @@ def run(args) -> int:
             share = f"{(conf & above).sum() / above.sum():.1%}" if above.sum() else "-"
             line = (f"{name}: {len(est)} windows, confident {conf.sum()} ({share} of the {above.sum()} above "
                     f"{opts.floor_A:g} A)" + (f", a stall (0 RPM within its bound) on {s['stalls']}"
-                                              if s["stalls"] else "") + f"; prior Ke {ke:.4f} V s/rad from {s['ke_from']}")
+                                              if s["stalls"] else "") + (f"; prior Ke {ke:.4f} V s/rad from {s['ke_from']}" if math.isfinite(ke)
+                                                 else f"; no back-EMF prior ({s['ke_from']})"))
             if "rms_vs_encoder_pct" in s:
                 line += f"; against the encoder RMS {s['rms_vs_encoder_pct']:.3f} %, max {s['max_vs_encoder_pct']:.2f} %"
             print(line)

@@ -903,7 +903,7 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     else:
         ra = ra_ohm if ra_ohm is not None else _number_or_nan(meta.get("ra_ohm"))
         if not math.isfinite(ra):  # no back-EMF prior: the user's speed range, or none
-            ke, ke_from = math.nan, "nowhere (no Ra: " + ("the speed range given" if rpm_range else "no prior") + ")"
+            ke, ke_from = math.nan, "no Ra: " + ("the speed range given is the prior" if rpm_range else "no prior")
         elif ke_vs_per_rad:
             ke, ke_from = float(ke_vs_per_rad), "user"
         else:

@@ -109,6 +109,16 @@ def table(summary: dict) -> str:
     return "\n".join(lines)
 
 
+def ke_line(cases: list) -> str:
+    """The prior's Ke calibrated from the ripple (no encoder), before and after, against the bench's."""
+    def span(v):
+        ke = [c[v]["ke_vs_per_rad"] for c in cases if c[v]["ke_vs_per_rad"] is not None]
+        return f"{min(ke):.4f}..{max(ke):.4f}" if ke else "none"
+    true = sorted({c["ke_true_vs_per_rad"] for c in cases})
+    return (f"Ke calibrated from the ripple (V s/rad, output shaft; the bench's {', '.join(f'{k:.4f}' for k in true)} "
+            f"at its reference temperature): before {span('before')}, after {span('after')}.")
+
+
 def doc_markers() -> tuple:
     from .. import regenerate
     return (regenerate.DOC_BEGIN.format(what=WHAT, source=FIGURES,
@@ -126,7 +136,8 @@ def docs_text(doc: str, figures: dict) -> str:
     benches = ", ".join(f"{p} x{figures['time_scale']:g}" for p in figures["protocols"])
     block = (f"Measured by `{figures['command']}` ({benches}, seeds {', '.join(map(str, figures['seeds']))}; "
              f"{figures['sample_hz']:g} S/s free-running under {figures['pwm_hz']:g} Hz PWM; "
-             "errors against the twin's true window-mean speed):\n\n" + table(figures["summary"]) + "\n")
+             "errors against the twin's true window-mean speed):\n\n" + table(figures["summary"]) + "\n\n"
+             + ke_line(figures["cases"]) + "\n")
     return doc[: i + len(begin)] + "\n" + block + doc[j:]
 
 
