@@ -241,6 +241,9 @@ def test_import_then_ripple_gives_the_speed_with_its_confidence(capture, tmp_pat
     ("i\n" + "1\n" * 40, [], "the file does not carry its sample rate: give --sample-hz"),
     ("i\n" + "1\n" * 40, ["--column", "j"], "no column 'j'"),
     ("i\n1\n2\n", ["--sample-hz", "100"], "2 samples: fewer than 16"),
+    ("t,i\n" + "".join(f"{k * 0.001:g},1\n" for k in range(20)) + "\n" + "".join(f"{k * 0.001:g},1\n" for k in
+     range(20, 40)), [], "x.csv:22: column 'i': '' is not a finite number"),  # a blank line inside: its own line
+    ("t,i\n0,1\n0.001,2,3\n", [], "not a CSV table: Error tokenizing data. C error: Expected 2 fields in line 3"),
     ("t,i\n" + "".join(f"{k * 0.001:g},1\n" for k in range(40)), ["--sample-hz", "2000"],
      "--sample-hz 2000 but its time column 't' gives 1000 Hz"),
 ])
@@ -273,6 +276,14 @@ def test_import_bad_wav_mat_and_names(tmp_path, capsys):
     assert cli.main(["import", str(tmp_path / "e.csv"), "--a-per-unit", "1", "--pwm-hz", "0", "--sample-hz", "100",
                      "--out", str(tmp_path / "o.csv")]) == 1
     assert "ends in .ripple.csv" in capsys.readouterr().err
+
+
+def test_import_reads_blank_separated_text_and_trailing_blank_lines(tmp_path):
+    t = np.arange(100) / 1000.0
+    np.savetxt(tmp_path / "daq.txt", np.c_[t, 0.2 + 0.01 * np.sin(2 * np.pi * 50 * t)])  # numpy's blank separator
+    (tmp_path / "daq.txt").write_text((tmp_path / "daq.txt").read_text() + "\n\n")
+    cap = ci.read(tmp_path / "daq.txt")
+    assert len(cap.values) == 100 and cap.sample_hz == pytest.approx(1000.0) and cap.source == "column '1'"
 
 
 def test_float_values_quantised_at_their_own_step():

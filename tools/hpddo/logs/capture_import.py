@@ -95,15 +95,19 @@ def read_csv(path, column=None, time_column=None, sample_hz=None, skip_rows: int
 
     try:
         raw = pd.read_csv(path, header=None, dtype=str, keep_default_na=False, skiprows=skip_rows,
-                          skip_blank_lines=True, sep=_delimiter(path, skip_rows), engine="python")
+                          skip_blank_lines=False, sep=_delimiter(path, skip_rows), engine="c")
     except (OSError, UnicodeDecodeError) as exc:
         raise CaptureError(f"{path}: cannot read: {exc}") from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, ValueError, IndexError) as exc:
         raise CaptureError(f"{path}: not a CSV table: {' '.join(str(exc).split())}") from None
     if raw.empty:
         raise CaptureError(f"{path}: no rows")
-    first = skip_rows + 1  # the file line of raw's first row
-    cells = raw.apply(lambda c: c.str.strip())
+    first = skip_rows + 1  # the file line of raw's first row (blank lines kept, so row k is line first + k)
+    cells = raw.fillna("").apply(lambda c: c.str.strip())
+    filled = (cells != "").any(axis=1).to_numpy()
+    if not filled.any():
+        raise CaptureError(f"{path}: no rows")
+    cells = cells.iloc[: int(np.flatnonzero(filled)[-1]) + 1]  # blank lines at the end are no rows
     header = not all(_is_number(v) for v in cells.iloc[0])
     names = [str(v) for v in cells.iloc[0]] if header else [str(j) for j in range(cells.shape[1])]
     body = cells.iloc[1:] if header else cells
