@@ -156,9 +156,15 @@ def test_bad_declarations_are_user_errors_naming_the_line(tmp_path, meta, fault)
 def test_twin_cli_free_running_writes_the_declarations(tmp_path, capsys):
     out = tmp_path / "tw"
     assert cli.main(["twin", "--protocol", "load", "--ripple-hz", "9600", "--free-running", "--mains-hz", "50",
-                     "--time-scale", "0.02", "--out", str(out), "--quiet"]) == 0
+                     "--time-scale", "0.05", "--out", str(out), "--quiet"]) == 0
     b = rf.read(out / "load.ripple.csv")
     assert (b.sampling, b.pwm_hz, b.mains_hz) == (rf.FREE, pytest.approx(490.196), 50.0)
+    # hpddo ripple on it, with the log's encoder: the nameplate's gear ratio agrees (the issue: 85.638:1 said
+    # where the nameplate's 98.777:1 was right, the PWM counted as the ripple)
+    assert cli.main(["ripple", str(out / "load.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                     "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    said = capsys.readouterr().out
+    assert "the gear ratio 4.4:1 agrees with the data" in said, said
     with pytest.raises(SystemExit):
         cli.main(["twin", "--protocol", "load", "--free-running", "--out", str(tmp_path / "x")])
     assert "--free-running applies to the ripple mode" in capsys.readouterr().err
