@@ -35,7 +35,7 @@ def _help(action: argparse.Action, prog: str) -> str:
         params = dict(vars(action), prog=prog)
         params = {k: (v.__name__ if hasattr(v, "__name__") else v) for k, v in params.items()}
         text = text % params
-    return text
+    return _portable(text)
 
 
 def _argument(action: argparse.Action) -> str:
@@ -53,7 +53,15 @@ def _default(action: argparse.Action) -> str:
     d = action.default
     if action.nargs == 0 or d is None or d is argparse.SUPPRESS or d == [] or d == "":
         return ""
-    return ",".join(map(str, d)) if isinstance(d, (list, tuple)) else str(d)
+    return _portable(",".join(map(str, d)) if isinstance(d, (list, tuple)) else str(d))
+
+
+def _portable(text: str) -> str:
+    """text with the source tree's absolute path made relative to it, as it reads in any clone:
+    the page is the same on every machine."""
+    from .. import resource_root
+    root = str(resource_root().resolve())
+    return text.replace(root + "/", "").replace(root, ".")
 
 
 def section(name: str) -> str:
