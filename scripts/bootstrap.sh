@@ -42,7 +42,7 @@ if ((${#missing[@]})); then
 fi
 
 # Project venv: the pinned dependencies (requirements.txt: runtime; requirements-test.txt:
-# pytest and the build backend) and hpddo itself, editable (pip install -e: the venv's
+# pytest, the build backend and the documentation site's MkDocs) and hpddo itself, editable (pip install -e: the venv's
 # hpddo command and package are this tree's tools/hpddo, so the tests run against the
 # tree). Refreshed only when pyproject.toml or a pin changes.
 stamp=.venv/.requirements.sha256

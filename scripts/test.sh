@@ -7,8 +7,11 @@
 #
 # Usage: scripts/test.sh            the full run (the README's test command, CI)
 #        scripts/test.sh --quick    for work in progress: the host build and its ctest
-#                                   (no fuzzing), and pytest without the tests marked slow
-#                                   (pyproject.toml, markers); no sanitizers, no benchmarks
+#                                   (no fuzzing), the documentation site, and pytest without
+#                                   the tests marked slow (pyproject.toml, markers); no
+#                                   sanitizers, no benchmarks
+# Both build the documentation site (mkdocs.yml) with mkdocs build --strict into build-docs/:
+# a broken link, a page missing from the nav or a stale anchor fails the run.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
@@ -21,6 +24,12 @@ esac
 bash scripts/bootstrap.sh --tests
 
 jobs=$(nproc)
+
+docs_site() {
+  echo "== documentation site (mkdocs build --strict)"
+  # (not --quiet: with it mkdocs 1.6 drops the warnings --strict counts, and passes)
+  NO_MKDOCS_2_WARNING=1 .venv/bin/mkdocs build --strict
+}
 gen=(); command -v ninja >/dev/null && gen=(-G Ninja)
 
 # ctest in build folder $1 (further options after it), then the tests it skipped with their reasons
@@ -39,10 +48,12 @@ cmake -S . -B build "${gen[@]}" -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build build -j "$jobs"
 if ((quick)); then
   run_ctest build -E '^firmware\.fuzz\.'
+  docs_site
   echo "== pytest (quick: not the slow tests)"
   exec .venv/bin/python -m pytest -q -rs -n "$jobs" -m "not slow" test/py
 fi
 run_ctest build
+docs_site
 
 echo "== sanitizer build (ASan + UBSan) and ctest"
 cmake -S . -B build-asan "${gen[@]}" -DCMAKE_BUILD_TYPE=Debug -DHPDDO_SANITIZE=ON -DHPDDO_CROSS_CHECKS=OFF >/dev/null

@@ -107,7 +107,7 @@ def write(folder, law: Law, seed: int, ra_given: float = RA_OHM, warm_steps: boo
     """The three recordings of the law bench (seed) in folder; their paths. warm_steps: the
     long run holds load steps (0.1..1.2 A at 8 and 12 V, 80 s) twice while the case is warm,
     after 40 and 48 min, the second in the held-out tail: what tells an offset's drift from
-    the thermal effects (docs/diagnosis.md, Offsets that drift)."""
+    the thermal effects (docs/diagnosis-forms.md, Offsets that drift)."""
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     paths = []

@@ -2,7 +2,7 @@
 the library's parametrisation: a bench without effects, read through perfect channels, is the plain
 model exactly), and on a few of them the diagnosis states nothing false: no absent effect named,
 no wrong instruction, another motor's recording named before the ranking. The whole study
-(python -m hpddo.studies.calibration, 200 benches) is in docs/diagnosis.md."""
+(python -m hpddo.studies.calibration, 200 benches) is in docs/diagnosis-limits.md."""
 import dataclasses
 
 import numpy as np
@@ -59,7 +59,7 @@ def test_the_summary_counts_each_kind():
 
 
 def test_the_docs_quote_the_committed_study():
-    """docs/diagnosis.md's block of the study's figures is the rendering of the committed JSON
+    """docs/diagnosis-limits.md's block of the study's figures is the rendering of the committed JSON
     (python -m hpddo.studies.calibration --write-docs)."""
     import json
     from conftest import ROOT

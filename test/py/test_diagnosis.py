@@ -179,7 +179,7 @@ def test_two_bundled_recordings_are_diagnosed(names):
     """The bundled sweep and load alone (no long run): the forward selection took a wrong
     Ra, then an effect that a wrong Ra cannot be told from; refitting Ra with it (once, not
     twice: it crashed with KeyError 'ra_mismatch') gave a verdict about Ra (5.0 ohm, +11 %).
-    Since the brush drop's widened family (docs/diagnosis.md, Forms outside the library) the
+    Since the brush drop's widened family (docs/diagnosis-forms.md, Forms outside the library) the
     bench's brush drop (0.5 V) is named instead, its form at the edge of those allowed and
     its size not determined (0.84 V, 0.16..1.51), and Ra is not called wrong (the bench's is
     4.5 ohm cold): held-out 2.59 RPM against 2.82 with the wrong Ra."""

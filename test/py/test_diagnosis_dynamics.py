@@ -10,7 +10,8 @@ import re
 import pytest
 
 from hpddo.cli import diagnose as diagnose_cli
-from hpddo.diagnosis import core, dynamics
+from hpddo.diagnosis import core
+from hpddo.model import dynamics
 from hpddo.logs import benchlog, dataset
 from hpddo.twin import generate, params
 

@@ -78,7 +78,7 @@ def test_the_fitted_shape_follows_the_form(root, seed):
     """saturation: q (the i^2 share) near 1 for the quadratic form, and between the linear
     and the quadratic form for an onset at 0.3 A. The brush knee of 1 - exp(-i / 50 mA) (half
     the drop at 35 mA): found, or said not to be fixed by these recordings (on 2 Hz
-    recordings the knee and Ke share the work, docs/diagnosis.md, Forms)."""
+    recordings the knee and Ke share the work, docs/diagnosis-forms.md)."""
     quad = {e["effect"]: e for e in run(bench_dir(root, "saturation_quadratic", seed))["ranking"]}
     assert quad["saturation"]["params"]["ke_sat_quad"] > 0.7
     onset = {e["effect"]: e for e in run(bench_dir(root, "saturation_onset", seed))["ranking"]}
@@ -119,7 +119,7 @@ def test_a_knee_shaped_brush_drop_is_not_named_as_something_else(root, seed):
 
 
 # ---------------------------------------------------------------------------------------
-# Forms outside the library (issue 21, item 7; docs/diagnosis.md, Forms outside the library):
+# Forms outside the library (issue 21, item 7; docs/diagnosis-forms.md, Forms outside the library):
 # benches simulated from a law of the motor the library has no form for (law_benches.py: no
 # PWM, the law exact for the means), and two of the twin's own. After naming, the physics on
 # the diagnosis' held-out rows comes within RATIO_MAX of the true model's (the law in its own
@@ -340,7 +340,7 @@ def test_saturation_from_600mA_on_the_twin_is_said_not_told_from_a_wrong_ra(root
     never a confident value. That is what the data hold, not the selection's strictness:
     even the twin's own law, with Ra at the true value, gains nothing over the wrong Ra on
     the held-out rows (apart_z below Z_MIN: 0.048 RPM^2 of 3.82, z 0.26), and on the
-    training rows the wrong Ra fits better (docs/diagnosis.md, Forms outside the library).
+    training rows the wrong Ra fits better (docs/diagnosis-forms.md, Forms outside the library).
     Either explanation forced alone comes within RATIO_MAX of the true model."""
     b = twin_benches.bench({"saturation": 8.0}, {"saturation": "onset_600mA"})
     paths = twin_benches.recordings(root / "twin_saturation_onset_600mA", b, SEEDS[0])

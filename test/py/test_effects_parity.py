@@ -39,7 +39,7 @@ def cases():
             for label, val in (("lo", lo), ("mid", 0.5 * (lo + hi)), ("hi", hi)):
                 out.append((f"{name}:{sh.field}:{label}",
                             dataclasses.replace(BASE, **{eff.field: eff.scale, sh.field: val})))
-    # a tanh-like brush drop (docs/diagnosis.md, Forms outside the library)
+    # a tanh-like brush drop (docs/diagnosis-forms.md, Forms outside the library)
     out.append(("brush_drop:tanh_like", dataclasses.replace(BASE, brush_V=0.8, brush_knee_A=0.21, brush_order=2.85)))
     out.append(("all", dataclasses.replace(BASE, **{e.field: e.scale for e in fx.LIBRARY.values()},
                                            th_r_K_per_W=12.0, th_tau_s=400.0)))

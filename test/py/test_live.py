@@ -1,9 +1,9 @@
-"""hpddo live (docs/firmware.md, "Live view") without a board: a pseudo-terminal pair plays
+"""hpddo live (docs/live.md) without a board: a pseudo-terminal pair plays
 the UNO, writing a bench log's rows (data/default/sweep.csv at 100 samples/s, with the
 rpm_est,est_status columns the UNO's own observer appends) once the tool sends its
 recording command; a second pair plays the ESP8266's telemetry.
 
-    python test/py/test_live.py --measure 100 200 400   the rows/s figure of docs/firmware.md
+    python test/py/test_live.py --measure 100 200 400   the rows/s figure of docs/live.md
 """
 from __future__ import annotations
 
@@ -497,7 +497,7 @@ def test_esp_lines_join_rows_on_the_low_16_bits_of_seq_in_either_order():
     assert feed.take(2, 2)[:2] == (None, None)
 
 
-# ---------------------------------------------------------------- the figure of docs/firmware.md
+# ---------------------------------------------------------------- the figure of docs/live.md
 
 def measure(rate_hz: float, repeat: int, tmp_path: pathlib.Path, page: bool = True) -> dict:
     """Runs hpddo live on `repeat` sweeps at rate_hz, with the page open in headless Chromium the

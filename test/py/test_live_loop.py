@@ -1,5 +1,5 @@
 """The mission's loop on the (host-built) boards, end to end, without a board (issue 25's
-last "done when"; docs/firmware.md, "Live view": the loop on the boards).
+last "done when"; docs/live.md: the loop on the boards).
 
 The ESP8266 is its own logic built for the host (host/esp_host: infer::App, the compiled
 default model, ArduinoJson 7, a folder as LittleFS) on a pseudo-terminal, fed the link
@@ -17,7 +17,7 @@ page on seq.
    and `hpddo upload --port ESP` to the same esp_host, still running (no rebuild, no restart).
 3. `hpddo live` again over the same recording; the error again, from the page.
 
-`hpddo live` holds the ESP8266's port exclusively while it runs (docs/firmware.md: a second
+`hpddo live` holds the ESP8266's port exclusively while it runs (docs/live.md: a second
 program cannot open it), and `hpddo upload` needs that port: the upload therefore goes
 between two live sessions, as it would on the bench.
 
@@ -150,7 +150,7 @@ def test_a_model_trained_with_new_effects_reaches_the_running_esp8266_and_its_er
         assert f["uno_points"] == n_rows and f["esp_points"] == n_rows and f["paired"] == n_rows, f
         assert f"{n_rows} rows recorded, 0 samples lost, 0 garbled" in f["counts"], f["counts"]
         assert f"ESP8266: {n_rows} lines, {n_rows} joined on seq, 0 not telemetry" in f["counts"], f["counts"]
-    # the error falls (docs/firmware.md: rpm 9.98 -> 4.40 RPM RMS, rpm_m2 10.55 -> 5.26, the
+    # the error falls (docs/live.md: rpm 9.98 -> 4.40 RPM RMS, rpm_m2 10.55 -> 5.26, the
     # figures of the native replay of the same rows, hpddo evaluate); asserted: by 4 RPM or more
     assert before["rms_rpm_m2"] > 8.0, before  # the compiled model's physics misses the heat
     assert after["rms_rpm"] <= before["rms_rpm"] - 4.0, (before, after)

@@ -707,3 +707,17 @@ def test_settled_tails_count_a_step_window_after_the_step_within_the_bound():
     strict, _, _ = rp.speed_of_log("unseen.csv", log, g["meta"],
                                    rp.Options(6, 4.4, settled_tail=True, tail_min_cycles=15.0), bursts=b)
     assert np.isfinite(strict["tail_start"].to_numpy()).sum() < lifted.sum()
+
+
+def test_ratio_check_with_the_windows_in_clusters_is_a_sentence_not_a_crash():
+    """Issue 33: confident windows whose ripples per encoder revolution fall into two clusters, each
+    more than TRIM from their median, left no window after the trim and raised ZeroDivisionError,
+    which aborted a multi-log run. Now the check says why it is not made."""
+    import pandas as pd
+
+    ref = np.full(8, 100.0)
+    f = np.r_[np.full(4, 0.8), np.full(4, 1.2)] * 6 * 4.4 * 100 / 60.0
+    chk = rp.check_ratio(pd.DataFrame({"confident": [True] * 8, "f_Hz": f}), ref, 0.5, rp.Options(6, 4.4))
+    assert chk["windows"] == 0 and chk["left_out"] == 8
+    assert "do not agree" in chk["statement"] and "not checked" in chk["statement"]
+    assert "21.12 to 31.68" in chk["statement"]

@@ -114,7 +114,7 @@ def test_a_fast_log_that_does_not_determine_j_is_refused_naming_it_and_why(monke
     """A fast recording whose steps do not hold J (here the identification says so): train names the
     file, the quantity, why and what would determine it, before anything is trained or written."""
     from hpddo import pipeline
-    from hpddo.diagnosis import dynamics as family
+    from hpddo.model import dynamics as family
     from hpddo.diagnosis.intervals import Interval
     from hpddo.logs.errors import InputError
     rec = types.SimpleNamespace(name="fast", source=ROOT / "x" / "fast.csv")

@@ -7,7 +7,7 @@ natively (hpddo.pipeline), compared row by row.
 Two logs: "case", the recordings as they are (the node is the winding's rise above the case
 reading); "blind", temp_C dropped from every row but the first of each recording (one
 ambient reading at the start, as noted by hand), so the node must estimate the whole rise
-above ambient. Measured (docs/diagnosis.md, "Winding temperature"); the bounds are those
+above ambient. Measured (docs/diagnosis-ra.md, "Winding temperature"); the bounds are those
 figures plus a stated margin, and the estimate must beat simply reporting the case reading
 (case) or the ambient (blind). The bench is the ideal twin with copper's thermal_ra on (seed 5):
 on data/default, where the magnets' term is on too, thermal_ra alone lets the node take the

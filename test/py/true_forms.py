@@ -1,6 +1,6 @@
 """The bench twin's own law of an effect carried in a form outside the library, as a model
 of the speed: the true model against which the physics after naming is measured
-(test_diagnosis_forms.py; docs/diagnosis.md, Forms outside the library). Ke and the
+(test_diagnosis_forms.py; docs/diagnosis-forms.md, Forms outside the library). Ke and the
 effect's size are fitted on the diagnosis' training rows in the twin's true form (the
 form's constants known), Ra at the twin's; scored on the diagnosis' held-out rows as
 core.diagnose scores the physics after naming."""

@@ -130,11 +130,11 @@ def check_physical(recs, m2: ph.PhysicsParams, names) -> None:
 
 def identify_dynamics(recs, m2: ph.PhysicsParams):
     """The dynamic family of hpddo train --dynamics: J, B, Tc from the training rows of the
-    recordings at 50 Hz and up (diagnosis/dynamics.py, with their intervals) and the observer's
+    recordings at 50 Hz and up (model/dynamics.py, with their intervals) and the observer's
     tau chosen on the training rows with M2's speed as its measurement. Returns (the
     identification, dynamics_ref.dynamics_params); an InputError naming the file(s) where the
     recordings do not determine J, B or Tc."""
-    from .diagnosis import dynamics as family
+    from .model import dynamics as family
     from .model import dynamics_ref
     from .model.train import physics_rpm
     fam = family.identify(recs, m2.ra_ohm, m2.ke_vs_per_rad, [physics_rpm(r, m2) for r in recs],

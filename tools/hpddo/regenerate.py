@@ -21,6 +21,7 @@ from . import schema
 from .schema import GENERATOR, ROOT, layout_crc
 from .model import ripple_count
 from .twin import params as twin_params
+from .twin import ripple_free
 
 COMMAND = "cd tools && ../.venv/bin/python -m hpddo.regenerate --write"
 
@@ -41,6 +42,7 @@ DOC_END = "<!-- END GENERATED: {what} -->"
 EFFECTS_DOC = "docs/core.md"
 TWIN_DOC = "docs/twin.md"
 RIPPLE_DOC = "docs/ripple.md"
+CAPTURES_DOC = "docs/ripple-captures.md"
 
 
 def with_generated_block(text: str, block: str, path: str, what: str, source: str) -> str:
@@ -56,7 +58,9 @@ def doc_blocks() -> list:
     """(document, what, source, block text) of every generated block in the documents."""
     return [(EFFECTS_DOC, "the effects table", "tools/hpddo/schema.py", schema._effects_md()),
             (TWIN_DOC, "the twin's effects table", "tools/hpddo/twin/params.py", twin_params.effects_md()),
-            (RIPPLE_DOC, "the ripple mode's parameters", "tools/hpddo/twin/params.py", twin_params.ripple_burst_md())]
+            (RIPPLE_DOC, "the ripple mode's parameters", "tools/hpddo/twin/params.py", twin_params.ripple_burst_md()),
+            (CAPTURES_DOC, "the free-running mode's parameters", "tools/hpddo/twin/ripple_free.py",
+             ripple_free.ripple_free_md())]
 
 
 def generated(root: pathlib.Path = ROOT) -> dict:

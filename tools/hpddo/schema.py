@@ -20,7 +20,7 @@ the effects' shape parameters (Shape, in the same order), then STATE, then the e
     cd tools && ../.venv/bin/python -m hpddo.regenerate --write      # or --check
 
 Adding an effect: one Effect record appended to EFFECTS (next free bit), its term in
-physics.h and physics.py, the generator above (docs/diagnosis.md, worked example).
+physics.h and physics.py, the generator above (docs/add-effect.md).
 """
 from __future__ import annotations
 
@@ -233,7 +233,7 @@ EFFECTS = (
                      widened=(0.002, 1.0)),
                # A brush drop that levels off smoothly (tanh, 1 - exp) is none of i / (|i| + knee):
                # on such a bench the base form stopped at its 300 mA knee and left the physics
-               # 1.26..1.42 x the true model's held-out error (docs/diagnosis.md, Forms outside the
+               # 1.26..1.42 x the true model's held-out error (docs/diagnosis-forms.md, Forms outside the
                # library). The widened family's order m runs from the base form (m = 1) to
                # i / sqrt(i^2 + knee^2) (m = 2), the straight blend between (one square root on
                # the boards): about 1.4 holds 1 - exp(-|i| / i0); tanh(|i| / i0) is sharper still
@@ -322,7 +322,7 @@ EFFECTS = (
     # of its own was built and measured too: the same verdicts and figures (its drift named as
     # this one's with the opposite sign, "not told apart"), and over the UNO observer build's
     # 75 % flash budget: 24 196 bytes at best of eight arrangements of the two terms, against
-    # 24 192 allowed (this one: 24 148; docs/diagnosis.md, Offsets that drift).
+    # 24 192 allowed (this one: 24 148; docs/diagnosis-forms.md, Offsets that drift).
     Effect("current_offset_drift", 8, "i_offset_tc_A_per_K", "A/K", 1000.0, "mA/K",
            "change of the current channel's offset per kelvin of the case above t_ref_C",
            "current offset drifting with the case temperature",
@@ -533,7 +533,7 @@ def validate() -> None:
 # with its parameters in DynamicsParams, a struct of its own beside PhysicsParams, so that a
 # model without the family keeps its layout, its kParamsSchema and its checksum bit for bit.
 # The diagnosis identifies J, B and Tc from recordings at DYNAMICS_MIN_RATE_HZ and up
-# (diagnosis/dynamics.py); the boards compute the balance when the family is named
+# (model/dynamics.py); the boards compute the balance when the family is named
 # (j_kgm2 > 0: lib/hpddo_core/src/hpddo/dynamics.h, the Python reference model/dynamics_ref.py).
 
 

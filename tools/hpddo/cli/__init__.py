@@ -33,6 +33,8 @@ SUBCOMMANDS = {
     "diagnose": ("diagnose", "name the physical effects the physics model misses (tools/diagnose.py)"),
     "ripple": ("ripple", "speed from the commutation ripple of the current bursts beside each log, with a "
                          "confidence and a reason; checks the gear ratio against an encoder (docs/ripple.md)"),
+    "import": ("capture_import", "import a current-only capture (scope CSV, sound-card WAV, MATLAB .mat) into the "
+                                 "burst format hpddo ripple counts (docs/ripple-captures.md)"),
     "twin": ("twin", "simulate the bench and write bench logs with ground truth (tools/twin.py)"),
     "capture": ("capture", "record the acquisition board's USB stream to a bench log (tools/capture.py)"),
     "live": ("live", "show the estimate against the encoder in a browser page while recording the bench "

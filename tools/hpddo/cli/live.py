@@ -1,4 +1,4 @@
-"""Shows the bench live in a browser page while recording it (docs/firmware.md, "Live view").
+"""Shows the bench live in a browser page while recording it (docs/live.md).
 
     hpddo live --port /dev/ttyACM0 --run sweep --out data/my/sweep.csv
     hpddo live --port /dev/ttyACM0 --esp-port /dev/ttyUSB0 --rec warmup --out warmup.csv
@@ -25,7 +25,7 @@ import threading
 from ..reports import live as page
 from . import capture, options
 
-#: The ESP8266's telemetry baud rate (esp_infer, docs/firmware.md).
+#: The ESP8266's telemetry baud rate (esp_infer, docs/esp8266.md).
 ESP_BAUD = 460800
 LOCAL = "127.0.0.1"
 EVERY_ADDRESS = "0.0.0.0"

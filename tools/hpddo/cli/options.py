@@ -89,7 +89,7 @@ def effects(p, what: str) -> None:
 
 def dynamics(p, what: str) -> None:
     """--dynamics: the dynamic family (inertia, viscous and Coulomb friction at the output shaft;
-    tools/hpddo/schema.py), from recordings at 50 Hz and up (docs/diagnosis.md, Fast logs and dynamics)."""
+    tools/hpddo/schema.py), from recordings at 50 Hz and up (docs/dynamics.md)."""
     p.add_argument("--dynamics", action="store_true",
                    help=f"{what}: the dynamic family (inertia J, viscous friction B, Coulomb friction Tc at the "
                         "output shaft), identified from recordings at 50 Hz and up with steps of duty; the "
@@ -245,6 +245,17 @@ def positive_float(text: str) -> float:
         raise argparse.ArgumentTypeError(f"a number expected, got {text!r}") from None
     if not 0 < value < float("inf"):
         raise argparse.ArgumentTypeError(f"must be > 0, got {text}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """An argparse type: a finite number >= 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a number expected, got {text!r}") from None
+    if not 0 <= value < float("inf"):
+        raise argparse.ArgumentTypeError(f"must be >= 0 and finite, got {text}")
     return value
 
 

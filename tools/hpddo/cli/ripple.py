@@ -3,6 +3,7 @@ counted from the current bursts beside it (<condition>.ripple.csv, docs/bench-lo
 confidence and the reason where there is none (docs/ripple.md).
 
     hpddo ripple LOG... --ripples-per-rev N --gear-ratio G --out OUT [--ke-vs-per-rad KE | --model DIR]
+    hpddo ripple CAPTURE.ripple.csv --ripples-per-rev N --gear-ratio G --out OUT [--rpm-range LO HI]
 
 (--prior-model DIR, --prior-name NAME: the same as --model, --name, as hpddo train, diagnose and evaluate
 spell them with --reference ripple)
@@ -12,7 +13,14 @@ with --ke-vs-per-rad, that Ke; with --model, the identified M2 of a model folder
 hpddo train, with the named effects it was trained with (its own Ra and Ke); without either,
 a Ke calibrated from the ripple itself (the windows the comb alone resolves). Where a log has encoder speeds (rpm_ref), the ripple speed is
 scored against them (rows the pipeline's glitch filter marks left out) and the gear ratio checked: the statement says when the data's ratio is
-not the one given. Writes OUT/<condition>.ripple_speed.csv and OUT/summary.json.
+not the one given. Without Ra (no --ra-ohm, no ra_ohm metadata) there is no back-EMF prior: --rpm-range
+LO HI (the output shaft's speeds the user knows it turns at) is the prior, or none (the comb alone);
+with --rpm-range a confident count outside it is not confident.
+
+A burst file given alone (CAPTURE.ripple.csv, e.g. written by hpddo import from a scope's CSV, a sound
+card's WAV or a MATLAB .mat; docs/ripple-captures.md) is a current-only capture: no voltage, duty or
+encoder; its bursts are counted with the speed range as the prior, or none.
+Writes OUT/<condition>.ripple_speed.csv and OUT/summary.json.
 """
 from __future__ import annotations
 
@@ -32,6 +40,9 @@ def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     # the prior model as --model (this command scores no model of its own), --prior-model as the others spell it
     options.ripple(p, required=True, prior_flags=("--model", "--name") + options.PRIOR_MODEL_FLAGS)
     options.ra_ohm(p)
+    p.add_argument("--rpm-range", type=options.non_negative_float, nargs=2, metavar=("LO", "HI"), default=None,
+                   help="the output shaft's speed range (RPM): the prior where there is no back-EMF one (no Ra, a "
+                        "current-only capture); a confident count outside it is not confident")
     options.out(p, "output folder: new, empty, or a previous output of hpddo ripple")
     options.quiet(p)
     return p
@@ -44,6 +55,7 @@ def run(args) -> int:
 
     from .. import progress
     from ..logs import benchlog, dataset, outdir
+    from ..logs import ripple as rf
     from ..logs.errors import InputError
     from ..model import ripple as rp
 
@@ -52,27 +64,32 @@ def run(args) -> int:
         opts = dataclasses.replace(opts, floor_A=args.floor_a)
     if args.prior_model is not None and args.ra_ohm is not None:  # refused before any work
         raise InputError("--ra-ohm does not apply with --model: the model's M2 has its own Ra")
+    if args.rpm_range is not None and not args.rpm_range[0] < args.rpm_range[1]:
+        raise InputError(f"--rpm-range {args.rpm_range[0]:g} {args.rpm_range[1]:g}: LO must be under HI")
     model = options.prior_model_of(args)  # a bad folder refused before any log is read
     summary = {}
     with outdir.staged(args.out, TOOL) as stage:
         for k, path in enumerate(args.logs):
+            if path.name.endswith(rf.SUFFIX):  # a current-only capture, no bench log
+                progress.stage(f"{path}: reading the capture, counting its ripple ({k + 1}/{len(args.logs)})")
+                name, s_cap = _capture(path, opts, args, stage)
+                summary[name] = s_cap
+                continue
             progress.stage(f"{path}: reading the log, counting the ripple of its bursts ({k + 1}/{len(args.logs)})")
             log = benchlog.read_log(path)
             df = log.df
             est, ke, ke_from = rp.speed_of_log(path, df, log.meta, opts, args.ra_ohm, args.ke_vs_per_rad,
-                                            model=model)
+                                            model=model, rpm_range=args.rpm_range)
             rows = est["row"].to_numpy()
             est.insert(1, "t_s", df["t_s"].to_numpy()[rows])
             name = log.condition
-            cols = ["seq", "t_s", "rpm", "confidence", "confident", "reason", "f_Hz", "cycles", "i_mean_A",
-                    "rpm_prior", "rpm_fft", "stall", "rpm_bound"]
-            est[cols].rename(columns={"rpm": "rpm_ripple"}).to_csv(stage / f"{name}.ripple_speed.csv", index=False,
+            est[list(COLUMNS)].rename(columns={"rpm": "rpm_ripple"}).to_csv(stage / f"{name}.ripple_speed.csv", index=False,
                                                                     float_format="%.6g")
             conf = est["confident"].to_numpy()
             above = est["i_mean_A"].to_numpy() >= opts.floor_A
             s = {"windows": len(est), "confident": int(conf.sum()), "above_floor": int(above.sum()),
                  "stalls": int(est["stall"].sum()),
-                 "ke_prior_vs_per_rad": ke, "ke_from": ke_from,
+                 "ke_prior_vs_per_rad": ke if math.isfinite(ke) else None, "ke_from": ke_from,
                  "prior_model": None if model is None else model.to_json(),
                  "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
             if "rpm_ref" in df and np.isfinite(df["rpm_ref"].to_numpy()[rows]).any():
@@ -96,7 +113,8 @@ def run(args) -> int:
             share = f"{(conf & above).sum() / above.sum():.1%}" if above.sum() else "-"
             line = (f"{name}: {len(est)} windows, confident {conf.sum()} ({share} of the {above.sum()} above "
                     f"{opts.floor_A:g} A)" + (f", a stall (0 RPM within its bound) on {s['stalls']}"
-                                              if s["stalls"] else "") + f"; prior Ke {ke:.4f} V s/rad from {s['ke_from']}")
+                                              if s["stalls"] else "") + (f"; prior Ke {ke:.4f} V s/rad from {s['ke_from']}" if math.isfinite(ke)
+                                                 else f"; no back-EMF prior ({s['ke_from']})"))
             if "rms_vs_encoder_pct" in s:
                 line += f"; against the encoder RMS {s['rms_vs_encoder_pct']:.3f} %, max {s['max_vs_encoder_pct']:.2f} %"
             print(line)
@@ -108,6 +126,48 @@ def run(args) -> int:
         benchlog.write_text_atomic(stage / "summary.json", json.dumps(summary, indent=1, sort_keys=True,
                                                                       default=float) + "\n")
     return 0
+
+
+COLUMNS = ("seq", "t_s", "rpm", "confidence", "confident", "reason", "f_Hz", "cycles", "i_mean_A", "rpm_prior",
+           "rpm_fft", "stall", "rpm_bound")  # OUT/<condition>.ripple_speed.csv, rpm written rpm_ripple
+
+
+def _capture(path, opts, args, stage):
+    """One current-only capture (a burst file without its bench log): its windows counted
+    (model.ripple_capture.speed_of_bursts), written, summed up and said; (name, summary)."""
+    import numpy as np
+
+    from ..logs import ripple as rf
+    from ..model import ripple_capture
+
+    ignored = [f for f, v in (("--ra-ohm", args.ra_ohm), ("--ke-vs-per-rad", args.ke_vs_per_rad),
+                              ("--model", args.prior_model)) if v is not None]
+    if ignored and not args.quiet:
+        print(f"hpddo ripple: note: {path}: {', '.join(ignored)} not used: a capture without a bench log has "
+              "no voltage for a back-EMF prior", file=sys.stderr)
+    b = rf.read(path)
+    est = ripple_capture.speed_of_bursts(b, opts, args.rpm_range, str(path))
+    name = b.meta.get("condition") or path.name[:-len(rf.SUFFIX)]
+    est[list(COLUMNS)].rename(columns={"rpm": "rpm_ripple"}).to_csv(stage / f"{name}.ripple_speed.csv", index=False,
+                                                                   float_format="%.6g")
+    conf = est["confident"].to_numpy()
+    rpm = est["rpm"].to_numpy()[conf]
+    s = {"windows": len(est), "confident": int(conf.sum()), "capture": True,
+         "rpm_range": None if args.rpm_range is None else list(args.rpm_range),
+         "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
+    line = f"{name}: {len(est)} windows (a capture, no bench log), confident {conf.sum()} ({conf.mean():.1%})"
+    if conf.any():
+        s["rpm_median"] = float(np.median(rpm))
+        s["confidence_median"] = float(np.median(est["confidence"].to_numpy()[conf]))
+        line += (f"; {s['rpm_median']:.4g} RPM (median of the confident; {rpm.min():.4g} to {rpm.max():.4g}), "
+                 f"confidence {s['confidence_median']:.2f}")
+    line += "; prior: " + (f"the speed range {args.rpm_range[0]:g}..{args.rpm_range[1]:g} RPM" if args.rpm_range
+                           else "none (the comb alone)")
+    print(line)
+    if not args.quiet:
+        print("  no estimate: " + ", ".join(f"{k} {n}" for k, n in s["reasons"].items() if k != "confident"),
+              file=sys.stderr)
+    return name, s
 
 
 def main(argv=None) -> int:

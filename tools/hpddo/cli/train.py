@@ -7,8 +7,8 @@ From labelled bench logs (t_s, duty, v_V, i_A, rpm_ref, ...): removes sensor gli
 20 % test), identifies M1 (nameplate Ke) and M2 (measured Ra, Ke by the paper's eq. 20 or
 least squares, plus any --effects), trains M3 on the residual e = rpm_ref - n_M2 with
 features [V, I, n_M2, I(t-1), n_M2(t-1)] (with --dynamics, n_M2 through the dynamic
-family identified from recordings at 50 Hz and up: docs/diagnosis.md, Fast logs and
-dynamics), and writes into DIR:
+family identified from recordings at 50 Hz and up: docs/dynamics.md), and
+writes into DIR:
 
   model_<name>.h      the model header for lib/hpddo_core (provenance, checksum)
   golden_<name>.h/.csv  golden vectors: inputs and every stage's float32 output

@@ -8,6 +8,8 @@ examples:
   hpddo twin --protocol sweep --preset ideal --effects thermal_ra,brush_drop=0.8 --out out/twin
   hpddo twin --protocol load --rate-hz 1000 --time-scale 0.05 --out out/fast
   hpddo twin --protocol load --ripple-hz 10000 --out out/ripple   # with the current bursts (docs/ripple.md)
+  hpddo twin --protocol load --ripple-hz 9600 --free-running --mains-hz 50 --out out/free
+      # the bursts free-running under the 490 Hz PWM, with mains (docs/ripple-captures.md)
   hpddo twin --list-effects
 """
 from __future__ import annotations
@@ -94,6 +96,15 @@ def parser(prog: str = "hpddo twin") -> argparse.ArgumentParser:
                    help="the ripple mode (docs/ripple.md): the PWM runs at HZ and the current is sampled once "
                    "per PWM period (8000-20000 typical), one burst per window into <condition>.ripple.csv "
                    "(docs/bench-log.md, Ripple bursts); off by default")
+    p.add_argument("--free-running", action="store_true",
+                   help="with --ripple-hz: the current sampled free-running at that rate, not synchronised with "
+                        "the PWM, which runs at --pwm-hz (default 490.196, the UNO's analogWrite); the PWM's own "
+                        "current ripple is then in the bursts (docs/ripple-captures.md)")
+    p.add_argument("--mains-hz", type=options.positive_float, default=None, metavar="HZ",
+                   help="with --free-running: a rectified-mains comb (lines at 2 k HZ) in the current, declared in "
+                        "the burst file")
+    p.add_argument("--mains-ma", type=options.positive_float, default=None, metavar="MA",
+                   help="with --mains-hz: the comb's first line, mA (default 20)")
     p.add_argument("--time-scale", type=options.positive_float, default=1.0, metavar="FACTOR",
                    help="scale every protocol segment duration (e.g. 0.05 for a short test run; default 1)")
     options.seed(p, "the simulation")
@@ -107,6 +118,12 @@ def parser(prog: str = "hpddo twin") -> argparse.ArgumentParser:
 def validate(args, p: argparse.ArgumentParser) -> None:
     if args.out is None and not args.list_effects:
         p.error("the following arguments are required: --out")
+    if args.free_running and args.ripple_hz is None:
+        p.error("--free-running applies to the ripple mode: give --ripple-hz HZ")
+    if args.mains_hz is not None and not args.free_running:
+        p.error("--mains-hz applies with --free-running")
+    if args.mains_ma is not None and args.mains_hz is None:
+        p.error("--mains-ma applies with --mains-hz")
 
 
 def build_bench(args):
@@ -129,7 +146,7 @@ def build_bench(args):
     if args.no_noise:
         changes["noise"] = False
     if args.pwm_hz is not None:
-        if args.ripple_hz is not None and args.pwm_hz != args.ripple_hz:
+        if args.ripple_hz is not None and not args.free_running and args.pwm_hz != args.ripple_hz:
             from ..logs.errors import InputError
             raise InputError("--pwm-hz and --ripple-hz differ: in the ripple mode the PWM runs at the sample rate")
         changes["pwm_hz"] = args.pwm_hz
@@ -152,6 +169,14 @@ def simulate(bench, prot: str, args, stage: pathlib.Path) -> None:
         cb = bar.update
     from ..twin.params import ripple_burst
     ripple = None if args.ripple_hz is None else ripple_burst(sample_hz=args.ripple_hz)
+    if args.free_running:  # twin/ripple_free.py: the PWM at the bench's frequency, the samples free-running
+        from ..twin.ripple_free import ripple_free
+        free = {"pwm_hz": bench.pwm_hz}
+        if args.mains_hz is not None:
+            free["mains_hz"] = args.mains_hz
+        if args.mains_ma is not None:
+            free["mains_mA"] = args.mains_ma
+        ripple = {**ripple, **ripple_free(**free)}
     g = generate.generate(bench, prot, args.rate_hz, args.seed, out_dir=stage,
                           preset_name=args.preset, time_scale=args.time_scale, progress=cb, ripple=ripple)
     if bar is not None:

@@ -9,7 +9,7 @@ parameter layout, the network shape against the one it was built for and the mod
 checksum, stores it in LittleFS and only then switches to it; it keeps it over a reset.
 An interrupted or refused upload leaves the model in force running: the board's reason is
 printed (a network shape the firmware was not built for: rebuild it with the model's
-header, docs/firmware.md). Nothing listens on the board's Wi-Fi: serial only.
+header, docs/esp8266.md). Nothing listens on the board's Wi-Fi: serial only.
 
 Exit status: 0 model in force, 1 refused or failed (one line "hpddo upload: ...").
 """

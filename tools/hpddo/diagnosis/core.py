@@ -34,7 +34,7 @@ from ..model import effects as fx
 from ..model import physics as ph
 from ..model.train import TrainConfig, TrainingError, hybrid_rpm, train_residual
 from . import analysis, channels, intervals, noise, ranking
-from . import dynamics as dynamics_family
+from ..model import dynamics as dynamics_family
 # The stages' values and the verdict's text live in result.py and verdict.py; core.X names
 # them too, for the callers that take them from the diagnosis as a whole.
 from .result import (  # noqa: F401 (HYBRID_ITER, as core.HYBRID_ITER)

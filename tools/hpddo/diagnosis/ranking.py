@@ -480,7 +480,7 @@ def motor_physics_first(d: Data, m2: ph.PhysicsParams, given, steps, p, candidat
     the other named effects, explains as well: the drift's held-out gain over that model
     below Z_MIN standard errors (apart_z), and the thermal coefficient physical. Both follow
     the temperature, and at one operating point during a warm-up they are the same speed
-    error (docs/diagnosis.md, Offsets that drift). Copper and magnets are in every motor,
+    error (docs/diagnosis-forms.md, Offsets that drift). Copper and magnets are in every motor,
     with material constants; a drifting offset is one bench's electronics: it is named only
     where the recordings tell it from them, and otherwise reported as not told apart, with
     the recording that would separate them. Judged on the final model, not at the drift's

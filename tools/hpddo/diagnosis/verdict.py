@@ -138,7 +138,7 @@ def dynamics(before: ResidualAnalysis, dt_s: float, family=None) -> str:
         if lag in SHARED_LAGS:
             text += (f" At a lag of {lag} rows the rate's difference holds the row's own reading (dX/dt of row k + 1 "
                      "is (X(k+1) - X(k)) / T), so the channel's noise, in the residual and in the rate, correlates "
-                     "there by itself (docs/diagnosis.md, Fast logs and dynamics).")
+                     "there by itself (docs/dynamics.md).")
         return text + (" Effects named on this recording may stand in for the dynamics: confirm them on settled "
                        "rows (a 2 Hz recording).")
     return (f"The residual follows {top['input']} (r = {top['peak']:+.2f} at a lag of {lag} rows, "

@@ -270,7 +270,7 @@ SENSOR_KEYS = {
 
 
 # A column a log may carry beside the format's (an extra column to the readers, docs/bench-log.md,
-# What the log says about itself), read by the diagnosis of fast logs (diagnosis/dynamics.py):
+# What the log says about itself), read by the identification of fast logs (model/dynamics.py):
 # the encoder's period, the speed from the time between counts rather than from the counts.
 ENC_PERIOD_COLUMN = "enc_period_s"
 SENSOR_COLUMNS = {

@@ -1,11 +1,15 @@
 """Ripple bursts: the high-rate armature current beside a bench log (docs/bench-log.md,
 "Ripple bursts"). One file per recording, `<condition>.ripple.csv`: metadata lines as in a
 bench log, the header `seq,t_s,n,codes`, one row per window of the bench log (the same
-`seq`), `codes` the window's ADC codes of the current, space separated, one per PWM period.
+`seq`), `codes` the window's ADC codes of the current, space separated (integers, signed
+where the converter is), 1 / sample_hz apart: one per PWM period where `sampling` is
+`synchronous` (the default), free-running under a PWM at `pwm_hz` where it is `free`; the
+current is (code - offset_code) x a_per_code A (docs/bench-log.md, docs/ripple-captures.md).
 """
 from __future__ import annotations
 
 import dataclasses
+import math
 import pathlib
 import re
 
@@ -18,6 +22,16 @@ SUFFIX = ".ripple.csv"
 FORMAT = "hpddo-ripple 1"
 HEADER = "seq,t_s,n,codes"
 REQUIRED_META = ("format", "sample_hz", "a_per_code")
+# the optional keys the reader interprets (any other key is kept as it is)
+SAMPLING = "sampling"            # how the samples sit against the PWM
+SYNCHRONOUS, FREE = "synchronous", "free"  # one sample per PWM period at a fixed phase / free-running
+SAMPLINGS = (SYNCHRONOUS, FREE)
+PWM_HZ = "pwm_hz"                # the PWM frequency (Hz), 0 for none (a DC supply): needed where sampling is free
+MAINS_HZ = "mains_hz"            # the mains frequency (Hz) whose harmonics may be in the current: 50 or 60
+OFFSET_CODE = "offset_code"      # the code of zero current (an AC-coupled or offset channel); default 0
+COUPLING = "coupling"            # dc (the default: the mean current is in the codes) or ac (it is not)
+DC, AC = "dc", "ac"
+COUPLINGS = (DC, AC)
 _META = re.compile(r"^#[ \t]*([A-Za-z0-9_.-]+)[ \t]*=(.*)$")
 
 
@@ -34,15 +48,26 @@ class Bursts:
     a_per_code: float
     seq: np.ndarray
     t_s: np.ndarray
-    codes: list  # one int array per window
+    codes: list  # one int array per window (float where the PWM-synchronous average is removed)
+    offset_code: float = 0.0  # the code of zero current
+    sampling: str = SYNCHRONOUS
+    pwm_hz: float = float("nan")  # NaN: not declared
+    mains_hz: float = float("nan")  # NaN: not declared
+    coupling: str = DC
+    refused: tuple = ()  # per window, why no count of it can be confident ("": none); set by the
+    #                      estimator's preparation (model/ripple_sync.py), empty as read
+
+    def refusal(self, k: int) -> str:
+        return self.refused[k] if k < len(self.refused) else ""
 
     def current_A(self, k: int) -> np.ndarray:
-        return self.codes[k].astype(float) * self.a_per_code
+        return (np.asarray(self.codes[k], float) - self.offset_code) * self.a_per_code
 
     def one(self, k: int, codes, t_offset_s: float = 0.0) -> "Bursts":
         """The bursts of window k alone, holding codes (a part of its burst, or several bursts
         joined), starting t_offset_s after the window's burst."""
-        return dataclasses.replace(self, seq=self.seq[k:k + 1], t_s=self.t_s[k:k + 1] + t_offset_s, codes=[codes])
+        return dataclasses.replace(self, seq=self.seq[k:k + 1], t_s=self.t_s[k:k + 1] + t_offset_s, codes=[codes],
+                                   refused=(self.refusal(k),))
 
     def __len__(self) -> int:
         return len(self.codes)
@@ -69,8 +94,8 @@ def write(path, meta: dict, seq, t_s, codes) -> pathlib.Path:
     lines.append(HEADER)
     for s, t, c in zip(seq, t_s, codes):
         c = np.asarray(c)
-        if c.size and (c.min() < 0 or not np.issubdtype(c.dtype, np.integer)):
-            raise ValueError("codes are non-negative integers")
+        if c.size and not np.issubdtype(c.dtype, np.integer):
+            raise ValueError("codes are integers")
         lines.append(f"{int(s)},{float(t)!r},{c.size}," + " ".join(map(str, c.tolist())))
     return write_text_atomic(path, "\n".join(lines) + "\n")
 
@@ -85,12 +110,13 @@ def read(path) -> Bursts:
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
-    meta, i = {}, 0
+    meta, where, i = {}, {}, 0
     while i < len(lines) and lines[i].startswith("#"):
         m = _META.match(lines[i])
         if not m:
             raise RippleFileError(f"{path}:{i + 1}: malformed metadata")
         meta[m.group(1)] = m.group(2).strip()
+        where[m.group(1)] = i + 1
         i += 1
     for k in REQUIRED_META:
         if k not in meta:
@@ -106,20 +132,53 @@ def read(path) -> Bursts:
             if len(parts) != 4:
                 raise ValueError("field count")
             c = np.array(parts[3].split(), dtype=np.int64) if parts[3].strip() else np.zeros(0, np.int64)
-            if c.size != int(parts[2]) or (c.size and c.min() < 0):
-                raise ValueError("n does not match the codes, or a negative code")
+            if c.size != int(parts[2]):
+                raise ValueError(f"n {parts[2].strip()} does not match the {c.size} codes")
             s, tt = int(parts[0]), float(parts[1])
-        except ValueError as exc:
+            if not math.isfinite(tt):
+                raise ValueError(f"t_s {parts[1].strip()!r} is not a finite number")
+        except (ValueError, OverflowError) as exc:
             raise RippleFileError(f"{path}:{j + 1}: {exc}") from None
         if t and tt <= t[-1]:
             raise RippleFileError(f"{path}:{j + 1}: t_s not increasing")
         seq.append(s)
         t.append(tt)
         codes.append(c)
-    try:
-        fs, lsb = float(meta["sample_hz"]), float(meta["a_per_code"])
-    except ValueError:
-        raise RippleFileError(f"{path}: sample_hz and a_per_code are numbers") from None
+    return of_meta(meta, np.array(seq, np.int64), np.array(t), codes, path, where)
+
+
+def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = None) -> Bursts:
+    """Bursts from their metadata (the file's keys, values as strings) and rows, the declared keys
+    checked and read as read() does (RippleFileError naming path and the key's line)."""
+    where = where if where is not None else {k: j + 1 for j, k in enumerate(meta)}
+    for k in REQUIRED_META[1:]:
+        if k not in meta:
+            raise RippleFileError(f"{path}: missing metadata {k}")
+    fs, lsb = _number(path, meta, where, "sample_hz"), _number(path, meta, where, "a_per_code")
     if not (fs > 0 and lsb > 0):
         raise RippleFileError(f"{path}: sample_hz and a_per_code must be > 0")
-    return Bursts(meta, fs, lsb, np.array(seq, np.int64), np.array(t), codes)
+    declared = {}
+    for key, least in ((PWM_HZ, 0.0), (MAINS_HZ, None)):  # pwm_hz=0: no PWM (a DC supply)
+        if key in meta:
+            declared[key] = _number(path, meta, where, key)
+            if not (declared[key] > 0 or declared[key] == least):
+                raise RippleFileError(f"{path}:{where[key]}: metadata {key}={meta[key]} must be > 0"
+                                      + (" (0: no PWM)" if least == 0 else "") + "; leave the key out where unknown")
+    offset = _number(path, meta, where, OFFSET_CODE) if OFFSET_CODE in meta else 0.0
+    for key, allowed in ((SAMPLING, SAMPLINGS), (COUPLING, COUPLINGS)):
+        if key in meta and meta[key] not in allowed:
+            raise RippleFileError(f"{path}: metadata {key}={meta[key]!r}, expected one of {', '.join(allowed)}")
+    return Bursts(dict(meta), fs, lsb, np.asarray(seq, np.int64), np.asarray(t_s, float), list(codes), offset_code=offset,
+                  sampling=meta.get(SAMPLING, SYNCHRONOUS), pwm_hz=declared.get(PWM_HZ, math.nan),
+                  mains_hz=declared.get(MAINS_HZ, math.nan), coupling=meta.get(COUPLING, DC))
+
+
+def _number(path, meta: dict, where: dict, key: str) -> float:
+    """A metadata value that must be a finite number; RippleFileError naming the key otherwise."""
+    try:
+        v = float(meta[key])
+    except ValueError:
+        v = math.nan
+    if not math.isfinite(v):
+        raise RippleFileError(f"{path}:{where[key]}: metadata {key}={meta[key]!r} is not a finite number")
+    return v

@@ -45,6 +45,8 @@ import pathlib
 
 import numpy as np
 
+from . import ripple_sync
+
 #: the reasons for no confident speed, by key (the texts of `Estimate.reason`)
 REASONS = {
     "coasting": "coasting: the drive is off (duty 0), no armature current to ripple",
@@ -58,6 +60,8 @@ REASONS = {
     "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
     "stall": "stall: the drive on and current flowing, but no ripple line over a span of steady windows, and the "
              "back-EMF prior too low for a window's count: the shaft stands (0 RPM within rpm_bound)",
+    ripple_sync.KEY: ripple_sync.REASON,
+    ripple_sync.KEY_FOLD: ripple_sync.REASON_FOLD,
 }
 FAMILY = (2, 3, 6)  # the sub-harmonics f/2, f/3, f/6 of rotor asymmetry
 ALTERNATIVES = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
@@ -256,7 +260,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if duty is not None and duty == 0.0:
         out.update(key="coasting", reason=REASONS["coasting"])
         return out
-    if i_mean < opts.floor_A:
+    if abs(i_mean) < opts.floor_A and ripple_sync.holds_mean(bursts):
         out.update(key="floor", reason=f"{REASONS['floor']} ({i_mean * 1000:.0f} mA < {opts.floor_A * 1000:.0f} mA)")
         return out
     T = n / fs
@@ -304,6 +308,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if abs(z[j]) > opts.max_prior_z:  # a line the back-EMF cannot hold: not the ripple
         out.update(key="far", f_Hz=f_star, reason=f"{REASONS['far']} ({f_star:.1f} Hz, {rpm_of(f_star):.1f} RPM, "
                    f"{z[j]:+.1f} sd from the prior's {rpm_prior:.1f} RPM)")
+        return out
+    fixed = ripple_sync.fixed_line(bursts, k, f_star, res)  # a PWM or mains line, or a refused fold
+    if fixed:
+        out.update(key=fixed[0], f_Hz=f_star, reason=fixed[1])
         return out
     # rivals in the family: the data's own evidence at f* x r, weighted by the prior
     alt = ALTERNATIVES
@@ -361,6 +369,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if max(spread, spread_i) > opts.max_spread:
         out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}; from the "
                    f"current, Ra dI / Ke, {spread_i:.1%})")
+        return out
+    fixed = ripple_sync.fixed_line(bursts, k, f_count, res)  # the counted line, too, off the PWM and mains lines
+    if fixed:
+        out.update(key=fixed[0], reason=fixed[1])
         return out
     out["confidence"] = float(min(1.0, (1 - math.exp(-snr / (4 * opts.min_snr)))
                                   * (1 - max(spread, spread_i) / opts.max_spread / 2)))
@@ -776,6 +788,12 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001,
     first = np.r_[True, group[1:] != group[:-1]]  # the median over counts, each span once
     med = np.nanmedian(per[first & ok]) if (first & ok).any() else np.nanmedian(per)
     trimmed = ok & (np.abs(per / med - 1.0) > TRIM)
+    if not (ok & ~trimmed).any():  # the windows' ratios fall into clusters: none lies near their median
+        lo, hi = float(np.nanmin(per[ok])), float(np.nanmax(per[ok]))
+        return {"windows": 0, "left_out": int(trimmed.sum()),
+                "statement": (f"the {int(ok.sum())} confident windows do not agree on the ripples per output "
+                              f"revolution ({lo:.2f} to {hi:.2f}, none within {TRIM:.0%} of their median "
+                              f"{med:.2f}): counts on different lines, so the gear ratio is not checked")}
     ok = ok & ~trimmed
     cycles = float(np.sum(f_hz[ok]) * window_s)
     revs = float(np.sum(ref[ok]) / 60.0 * window_s)
@@ -834,8 +852,17 @@ class ModelPrior:
         return f"model {self.source} (M2 with {', '.join(effects) if effects else 'no effects'})"
 
 
+def _number_or_nan(text) -> float:
+    """A metadata value as a number; NaN where it is missing or not one."""
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return math.nan
+
+
 def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = None,
-                 ke_vs_per_rad: float | None = None, bursts=None, model: ModelPrior | None = None):
+                 ke_vs_per_rad: float | None = None, bursts=None, model: ModelPrior | None = None,
+                 rpm_range=None):
     """The ripple speed of every window of one bench log (its rows df, metadata meta) from the
     bursts beside it (`<condition>.ripple.csv`): (estimate DataFrame, one row per burst, with
     `row`, the index of its window in df, and `rpm_prior`; Ke of the prior, where it came
@@ -847,15 +874,19 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     Ke give the prior's spread, m2_prior_sd_rpm, and the speed a change of current means); not with
     ra_ohm or ke_vs_per_rad. The windows are counted one at a time (estimate), over spans of steady
     windows (count_steady_spans), with the settled tails where opts.settled_tail, and the stalls named
-    (count_stalls: columns `stall` and `rpm_bound`)."""
+    (count_stalls: columns `stall` and `rpm_bound`). Without Ra (no ra_ohm, no metadata, no model) there
+    is no back-EMF prior: rpm_range (lo, hi) RPM is the prior, or none (ripple_range.range_prior), Ke
+    NaN. Where rpm_range is given, a confident count outside it is not confident (within_range). Free-running
+    bursts have their PWM-synchronous average removed first (ripple_sync.prepare)."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
+    from . import ripple_range
 
     bpath = rf.path_for(path)
     if bursts is None and not bpath.exists():
         raise InputError(f"{path}: no current bursts beside it ({bpath.name}); record them in the ripple "
                          "mode (hpddo twin --ripple-hz, docs/ripple.md)")
-    b = rf.read(bpath) if bursts is None else bursts
+    b = ripple_sync.prepare(rf.read(bpath) if bursts is None else bursts, str(bpath))
     seq = df["seq"].to_numpy() if "seq" in df else np.arange(len(df))
     pos = {int(s): k for k, s in enumerate(seq)}
     rows = [pos.get(int(s)) for s in b.seq]
@@ -870,20 +901,24 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
             raise InputError(f"{model.source}: the model's Ke {ke:g} V s/rad or Ra {ra:g} ohm cannot be a prior")
         prior = model.rpm(path, df, meta)[rows]
     else:
-        ra = ra_ohm if ra_ohm is not None else float(meta.get("ra_ohm", "nan"))
-        if not math.isfinite(ra):
-            raise InputError(f"{path}: no ra_ohm metadata; give --ra-ohm")
-        if ke_vs_per_rad:
+        ra = ra_ohm if ra_ohm is not None else _number_or_nan(meta.get("ra_ohm"))
+        if not math.isfinite(ra):  # no back-EMF prior: the user's speed range, or none
+            ke, ke_from = math.nan, "no Ra: " + ("the speed range given is the prior" if rpm_range else "no prior")
+        elif ke_vs_per_rad:
             ke, ke_from = float(ke_vs_per_rad), "user"
         else:
             ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
             ke_from = f"ripple ({n_ke} windows)"
         prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
-    per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) else None
-    est = estimate(b, duty, prior, opts, m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None, per_A)
+    per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) and math.isfinite(ra) else None
+    prior_sd = m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None
+    if prior is None and rpm_range is not None:
+        prior, prior_sd = ripple_range.range_prior(rpm_range, len(rows))
+    est = estimate(b, duty, prior, opts, prior_sd, per_A)
     est = count_settled_tails(b, duty, est, opts, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)
     est = count_stalls(b, duty, est, opts, per_A if prior is not None else None)
+    est = ripple_range.within_range(est, rpm_range)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from

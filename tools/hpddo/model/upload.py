@@ -159,7 +159,7 @@ def send(port, doc: bytes, timeout_s: float = 3.0, log=print) -> dict:
         raise UploadError('the board\'s file system did not mount ("fs":"unmounted" in its ready line and '
                           'status): nothing uploaded, its flash left as it is, the compiled model in force; '
                           '{"cmd":"format"} on the port erases the file system (a stored model with it), '
-                          'then upload again (docs/firmware.md)')
+                          'then upload again (docs/esp8266.md)')
     link = Link(port, timeout_s)
     crc = zlib.crc32(doc) & 0xFFFFFFFF
     ready = link.ask(json.dumps({"cmd": "upload", "bytes": len(doc), "crc32": crc},

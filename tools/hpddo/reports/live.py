@@ -1,4 +1,4 @@
-"""The live view's page: a Bokeh server application (hpddo live, docs/firmware.md "Live view").
+"""The live view's page: a Bokeh server application (hpddo live, docs/live.md).
 
 `Feed` holds what the page shows, filled from two threads: the UNO's bench log rows
 (`add_row`, the recording's reader: t_s, the encoder's rpm_ref, the UNO's own estimate

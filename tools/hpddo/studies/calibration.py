@@ -284,7 +284,7 @@ def table(summary: dict) -> str:
 
 
 FIGURES = "docs/figures/calibration.json"   # the committed run (--json), its command inside
-DOC = "docs/diagnosis.md"
+DOC = "docs/diagnosis-limits.md"
 WHAT = "the calibration study's figures"
 
 
@@ -296,7 +296,7 @@ def doc_markers() -> tuple[str, str]:
 
 
 def docs_text(doc: str, figures: dict) -> str:
-    """doc (docs/diagnosis.md's text) with its block of the study's figures rendered from figures
+    """doc (docs/diagnosis-limits.md's text) with its block of the study's figures rendered from figures
     (the committed JSON)."""
     begin, end = doc_markers()
     i, j = doc.find(begin), doc.find(end)

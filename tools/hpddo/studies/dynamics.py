@@ -1,6 +1,6 @@
 """Why the residual of M2 follows dV/dt on a fast recording: the parts, measured on the twin.
 
-    cd tools && python -m hpddo.studies.dynamics      # the figures of docs/diagnosis.md, Fast logs and dynamics
+    cd tools && python -m hpddo.studies.dynamics      # the figures of docs/dynamics.md
 
 On the twin's sweep (duty steps of 20 %, no load) at 100 Hz, ideal bench with the inductance on,
 the residual of M2 (n = (V - Ra I) / Ke, the true Ra and Ke) is split by switching the parts off:
@@ -99,11 +99,11 @@ def parts(rate_hz: float = RATE_HZ) -> dict:
 
 
 def identified(seeds=range(1, 13), rate_hz: float = RATE_HZ) -> list:
-    """The dynamic family as the diagnosis identifies it (diagnosis/dynamics.py, all rows, the true Ra and
+    """The dynamic family as the diagnosis identifies it (model/dynamics.py, all rows, the true Ra and
     Ke) on the twin's sweep at rate_hz for each seed: [(seed, J, its interval, B, Tc)]."""
     import tempfile
     import pathlib
-    from ..diagnosis import dynamics
+    from ..model import dynamics
     from ..logs import dataset
     b = params.with_effects(params.preset("ideal"), inductance=2.5)
     out = []

@@ -153,14 +153,10 @@ BLOCKS = {
                  [t for label, value, _ in MEASURED for t in (label, value)], measured_table),
 }
 
-#: README.md's tables that quote no figure: header line: the numbers they may hold (versions).
-PROSE_TABLES = {
-    "| path | what |": (),
-    # the vendored libraries: their versions (and the "1" the number pattern reads in LGPL-2.1)
-    "| folder in `../shared/vendor/` | what | where to get it |": ("7.2.0", "2.6.1", "3.1.2", "1"),
-    "| | proven here, in `scripts/test.sh` (no board, no PlatformIO registry) | with a board (PlatformIO, "
-    "`platformio.ini`) |": ("5.4", "7.2.0", "3.1.2", "2.6.1"),
-}
+#: README.md's tables that quote no figure: header line: the numbers they may hold (versions). None:
+#: the README is the front door (the vendored libraries and what runs where are in docs/testing.md,
+#: the repository's layout in docs/architecture.md).
+PROSE_TABLES: dict = {}
 
 #: A number in README text: not part of a name (ESP8266, C++11, lx106, CRC-16, v1).
 NUMBER = re.compile(r"(?<![\w.+-])\d[\d,]*(?:\.\d+)*(?![\w])")

@@ -74,7 +74,7 @@ def generate(bench: Bench, protocol: str, rate_hz: float = 2.0, seed: int = 1, o
     bench = protocols.bench_for(protocol, bench)  # the protocol's ambient, if it declares one
     if ripple is not None:  # the ripple mode: one current sample per PWM period
         import dataclasses
-        bench = dataclasses.replace(bench, pwm_hz=float(ripple["sample_hz"]))
+        bench = dataclasses.replace(bench, pwm_hz=float(ripple.get("pwm_hz") or ripple["sample_hz"]))  # free: its own
     segs = protocols.schedule(protocol, time_scale)
     duty, load = protocols.per_sample(segs, rate_hz)
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), PROTOCOL_SEED_OFFSET[protocol]]))

@@ -83,14 +83,7 @@ def pwm_cycle(d, E, vb, ra, la, b: Bench):
         vm = d * v_on + (1.0 - d) * E
         var = d * (1.0 - d) * (v_on - E) ** 2
         return (si_on / T, si2_on / T, vm, var, d, si_on / T, si2_on / T, 0.0, 0.0)
-    A_off = -b.diode_vf_V - E - vb
-    I2 = A_off / R_off  # < 0: asymptote the freewheel current heads for
-    tau_on = la / R_on
-    tau_off = la / R_off
-    a_on = math.exp(-t_on / tau_on)
-    a_off = math.exp(-t_off / tau_off)
-    den = 1.0 - a_on * a_off
-    i0 = (I2 * (1.0 - a_off) + a_off * I1 * (1.0 - a_on)) / den if den > 0 else I1
+    I2, tau_on, tau_off, i0 = _periodic_start(I1, t_on, t_off, R_on, R_off, E, vb, la, b)
     if i0 > 0.0:  # continuous conduction
         si_on, si2_on, i1 = _seg(I1, i0 - I1, tau_on, t_on)
         t_c = t_off
@@ -118,6 +111,45 @@ def pwm_cycle(d, E, vb, ra, la, b: Bench):
         si_off / T,
         si2_off / T,
     )
+
+
+def _periodic_start(I1, t_on, t_off, R_on, R_off, E, vb, la, b: Bench):
+    """The freewheel asymptote I2 (< 0), the on and off time constants, and the current at the
+    start of the on-time in the periodic steady state (<= 0: discontinuous conduction)."""
+    A_off = -b.diode_vf_V - E - vb
+    I2 = A_off / R_off  # < 0: asymptote the freewheel current heads for
+    tau_on = la / R_on
+    tau_off = la / R_off
+    a_on = math.exp(-t_on / tau_on)
+    a_off = math.exp(-t_off / tau_off)
+    den = 1.0 - a_on * a_off
+    i0 = (I2 * (1.0 - a_off) + a_off * I1 * (1.0 - a_on)) / den if den > 0 else I1
+    return I2, tau_on, tau_off, i0
+
+
+def pwm_waveform(phase, d, E, vb, ra, la, b: Bench):
+    """The armature current (A) at the PWM phases `phase` (0..1, from the start of the on-time) in
+    the periodic steady state that pwm_cycle integrates: on, the supply drives it towards
+    (Vs - E - vb) / R_on with time constant La / R_on; off, the freewheel diode towards
+    -(Vf + E + vb) / R_off with La / R_off, until it reaches zero (discontinuous conduction)."""
+    phase = np.asarray(phase, float) % 1.0
+    T = 1.0 / b.pwm_hz
+    R_on = ra + b.r_shunt_ohm + b.r_dson_ohm
+    R_off = ra + b.r_shunt_ohm + b.diode_r_ohm
+    A_on = b.supply_V - E - vb
+    if d <= 0.0 or A_on <= 0.0:
+        return np.zeros_like(phase)
+    I1 = A_on / R_on
+    t_on, t_off = d * T, T - d * T
+    s = phase * T
+    if la <= 0.0:
+        return np.where(s < t_on, I1, 0.0)
+    I2, tau_on, tau_off, i0 = _periodic_start(I1, t_on, t_off, R_on, R_off, E, vb, la, b)
+    i0 = max(i0, 0.0)
+    i1 = I1 + (i0 - I1) * math.exp(-t_on / tau_on)
+    on = I1 + (i0 - I1) * np.exp(-s / tau_on)
+    off = np.maximum(I2 + (i1 - I2) * np.exp(-(s - t_on) / tau_off), 0.0)
+    return np.where(s < t_on, on, off)
 
 
 class Result:

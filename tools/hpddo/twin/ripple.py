@@ -32,6 +32,7 @@ import math
 
 import numpy as np
 
+from . import ripple_free
 from .params import Bench, offset_share
 
 SEED_TAG = 23  # the burst stream's seed: SeedSequence([seed, protocol offset, 23])
@@ -80,10 +81,12 @@ def synthesise(bench: Bench, res, duty, params: dict, rng):
     f_int, a_int = params["interference_hz"], params["interference_mA"] / 1000.0
     jit = params["jitter_us"] * 1e-6
     ph = rng.uniform(0, 2 * math.pi, size=5)  # main, f/2, f/3, f/6, interference
+    free = ripple_free.is_free(params)  # free-running sampling (twin/ripple_free.py)
+    comb_ph = rng.uniform(0, 2 * math.pi, size=64) if free else None
     t0s, codes = [], []
     for k in range(n):
         d = float(duty[k])
-        tau = (np.arange(nb) + 0.5 * d) / fs  # the middle of the on-time of each PWM period
+        tau = ripple_free.sample_times(nb, fs, d, params)  # synchronous: the middle of each on-time
         ang, w = _angle_profile(res.w_bound[k], res.w_bound[k + 1], res.theta[k + 1] - res.theta[k], T, tau)
         theta_m = G * (res.theta[k] + ang)
         r_loop = res.ra[k] + bench.r_shunt_ohm + d * bench.r_dson_ohm
@@ -97,6 +100,7 @@ def synthesise(bench: Bench, res, duty, params: dict, rng):
             if a:
                 sig = sig + a * e_over_r * np.cos(N * theta_m / div + ph[1 + j])
         t_abs = k * T + tau
+        sig = ripple_free.added_current(bench, res, k, d, w, t_abs, sig, params, comb_ph)
         # the current channel's offset, as on the log's current (sensors.measure)
         sig = sig + bench.effect_si("current_offset") * offset_share(bench.form("current_offset"), t_abs, res.tc[k],
                                                                      bench.ambient_C)
@@ -104,14 +108,14 @@ def synthesise(bench: Bench, res, duty, params: dict, rng):
             sig = sig + a_int * np.sin(2 * math.pi * f_int * t_abs + ph[4])
         if bench.noise:
             sig = sig + bounce * res.i_mean[k] * rng.standard_normal(nb)
-            if la > 0 and d > 0:
+            if la > 0 and d > 0 and not free:  # the jitter of a sample timed within the PWM period
                 slope = (bench.supply_V - res.ke[k] * w - r_loop * i) / la
                 sig = sig + slope * jit * rng.standard_normal(nb)
         code = sig * bench.i_gain_V_per_A / lsb_V
         if bench.noise:
             code = code + bench.adc_noise_lsb * rng.standard_normal(nb)
         codes.append(np.clip(np.round(code), 0, full).astype(np.int64))
-        t0s.append(k * T + 0.5 * d / fs)
+        t0s.append(k * T + float(tau[0]))
     meta = {"sample_hz": f"{fs:g}", "a_per_code": repr(a_per_code), "pwm_hz": f"{fs:g}",
-            "sample_phase": "middle of the on-time", "burst_s": repr(nb / fs)}
+            "sample_phase": "middle of the on-time", "burst_s": repr(nb / fs), **ripple_free.meta(params)}
     return np.array(t0s), codes, meta

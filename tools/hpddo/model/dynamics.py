@@ -45,9 +45,9 @@ from scipy import stats
 
 from .. import schema
 from ..logs import dataset
-from ..model import dynamics_ref
-from ..model.physics import RPM_PER_RAD_S
-from .intervals import LEVEL, Interval
+from . import dynamics_ref
+from .physics import RPM_PER_RAD_S
+from .interval import LEVEL, Interval
 
 MIN_RATE_HZ = schema.DYNAMICS_MIN_RATE_HZ
 SETTLE_S = 0.25      # after a change of duty or load, rows this much later are settled (> 5 mechanical tau)

@@ -1,0 +1,117 @@
+"""Any valid burst file, no traceback (issue 33, item 4): Hypothesis writes burst files of every
+shape the format allows (docs/bench-log.md, Ripple bursts; docs/ripple-captures.md): no rows,
+empty bursts, one sample, constant codes, huge and tiny offsets and scales, signed codes,
+synchronous and free-running sampling with and without pwm_hz (0, the sample rate, odd ones),
+mains declared or not, AC or DC coupling, contiguous bursts or gaps. Each goes through the reader
+and `hpddo ripple`, alone (a current-only capture, with and without a speed range) and beside a
+bench log (the back-EMF prior, Ke calibrated from the ripple, the gear ratio checked against an
+encoder): every run ends in a result (status 0) or a user error (status 1, one line), never an
+exception."""
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
+
+from hpddo import cli
+from hpddo.logs import benchlog
+from hpddo.logs import ripple as rf
+from hpddo.logs.errors import USER_ERRORS
+
+pytestmark = pytest.mark.slow
+
+SHAPES = ("constant", "noise", "ripple", "ripple and pwm", "huge", "alternating")
+
+
+@st.composite
+def burst_spec(draw):
+    return {
+        "windows": draw(st.integers(min_value=0, max_value=4)),
+        "n": draw(st.sampled_from((0, 1, 2, 17, 300, 1200))),
+        "shape": draw(st.sampled_from(SHAPES)),
+        "sample_hz": draw(st.sampled_from((1.0, 100.0, 4800.0, 9600.0, 1e6))),
+        "a_per_code": draw(st.sampled_from((1e-9, 0.0097, 1.0, 1e3))),
+        "offset": draw(st.sampled_from((None, 0.0, -3.5, 1e12, 1e-9, 2048.0))),
+        "sampling": draw(st.sampled_from((None, "synchronous", "free"))),
+        "pwm_hz": draw(st.sampled_from((None, 0.0, 490.196, "fs", 1e-3, 1e9))),
+        "mains_hz": draw(st.sampled_from((None, 50.0, 60.0, 1e-3))),
+        "coupling": draw(st.sampled_from((None, "dc", "ac"))),
+        "gaps": draw(st.booleans()),
+        "varying_n": draw(st.booleans()),
+        "seed": draw(st.integers(min_value=0, max_value=2 ** 16)),
+    }
+
+
+def write_bursts(path, s):
+    rng = np.random.default_rng(s["seed"])
+    fs = s["sample_hz"]
+    meta = {"condition": "any", "sample_hz": repr(fs), "a_per_code": repr(s["a_per_code"])}
+    if s["offset"] is not None:
+        meta["offset_code"] = repr(s["offset"])
+    if s["sampling"] is not None:
+        meta["sampling"] = s["sampling"]
+    if s["pwm_hz"] is not None:
+        meta["pwm_hz"] = repr(fs if s["pwm_hz"] == "fs" else s["pwm_hz"])
+    if s["mains_hz"] is not None:
+        meta["mains_hz"] = repr(s["mains_hz"])
+    if s["coupling"] is not None:
+        meta["coupling"] = s["coupling"]
+    codes, t_s, t = [], [], 0.0
+    for k in range(s["windows"]):
+        n = int(s["n"] if not s["varying_n"] else rng.integers(0, s["n"] + 1))
+        i = np.arange(n)
+        shape = s["shape"]
+        if shape == "constant":
+            c = np.full(n, 512)
+        elif shape == "noise":
+            c = 512 + np.round(rng.normal(0, 3, n))
+        elif shape == "ripple":
+            c = 512 + np.round(40 * np.cos(2 * math.pi * 0.013 * i * (1 + 0.1 * k)) + rng.normal(0, 1, n))
+        elif shape == "ripple and pwm":
+            c = (300 + 400 * ((i * 490.196 / fs) % 1.0 < 0.3) + np.round(30 * np.cos(2 * math.pi * 0.011 * i)))
+        elif shape == "huge":
+            c = rng.integers(-2 ** 40, 2 ** 40, n)
+        else:
+            c = np.where(i % 2 == 0, -1, 1)
+        codes.append(np.asarray(c, np.int64))
+        t_s.append(t)
+        t += n / fs + (rng.uniform(0.5, 2.0) if s["gaps"] else 0.0) + (1e-3 if n == 0 else 0.0)
+    return rf.write(path, meta, range(s["windows"]), t_s, codes), t_s
+
+
+def write_log(path, s, t_s):
+    """A bench log whose rows are the bursts' windows (seq 0..), with an encoder."""
+    rng = np.random.default_rng(s["seed"] + 1)
+    n = s["windows"]
+    rows = [f"{k},{t_s[k] if k == 0 else max(t_s[k], t_s[k - 1] + 1e-6):.9g},{0.6 if k % 3 else 0.0},"
+            f"{6 + rng.normal(0, 0.1):.4f},{0.3 + rng.normal(0, 0.01):.4f},{100 + rng.normal(0, 1):.3f}"
+            for k in range(n)]
+    # t_s must increase in the log too: successive burst starts do
+    text = "# condition=any\n# ra_ohm=4.5\nseq,t_s,duty,v_V,i_A,rpm_ref\n" + "".join(r + "\n" for r in rows)
+    benchlog.write_text_atomic(path, text)
+    return path
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                                                   HealthCheck.too_slow])
+@given(s=burst_spec())
+def test_any_valid_burst_file_gives_a_result_or_a_user_error(tmp_path_factory, s):
+    d = tmp_path_factory.mktemp("burst")
+    path, t_s = write_bursts(d / "any.ripple.csv", s)
+    try:
+        b = rf.read(path)
+    except USER_ERRORS as exc:
+        event(f"refused by the reader: {str(exc).split(': ', 1)[-1][:40]}")
+        return
+    assert len(b) == s["windows"]
+    common = ["--ripples-per-rev", "6", "--gear-ratio", "4.4", "--quiet"]
+    for more in ([], ["--rpm-range", "10", "500"]):
+        status = cli.main(["ripple", str(path), *common, "--out", str(d / f"capture{len(more)}"), *more])
+        assert status in (0, 1)
+        event(f"capture: status {status}")
+    if s["windows"]:
+        log = write_log(d / "any.csv", s, t_s)
+        status = cli.main(["ripple", str(log), *common, "--out", str(d / "logged")])
+        assert status in (0, 1)
+        event(f"beside a log: status {status}")

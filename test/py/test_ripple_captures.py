@@ -1,0 +1,302 @@
+"""Issue 33, "any sampling, real captures": the burst format's sampling, offset and coupling
+declarations, the PWM-synchronous average removed from free-running bursts, no confident line
+at a PWM or mains multiple, the twin's free-running mode, Ra optional, and `hpddo import` from
+CSV, WAV and .mat into a speed with its confidence (docs/ripple-captures.md)."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from hpddo import cli
+from hpddo.logs import capture_import as ci
+from hpddo.logs import ripple as rf
+from hpddo.logs.errors import InputError
+from hpddo.model import ripple as rp
+from hpddo.model import ripple_sync
+from hpddo.twin import generate, params, plant, ripple_free
+
+BENCH = params.preset("default")
+OPTS = rp.Options(BENCH.ripples_per_rev, BENCH.gear_ratio)
+
+
+def _free_run(seed=1, mains_hz=0.0, protocol="load", time_scale=0.1, out_dir=None):
+    rpar = {**params.ripple_burst(sample_hz=9600), **ripple_free.ripple_free(pwm_hz=490.196, mains_hz=mains_hz)}
+    g = generate.generate(BENCH, protocol, 2.0, seed, time_scale=time_scale, ripple=rpar, out_dir=out_dir)
+    t0, codes, meta = g["bursts"]
+    return g, rf.of_meta(meta, g["log"]["seq"].to_numpy(), t0, codes)
+
+
+def _errors(g, b):
+    df, _, _ = rp.speed_of_log("load.csv", g["log"], g["meta"], OPTS, None, None, bursts=b)
+    c = df["confident"].to_numpy()
+    return c, df["rpm"].to_numpy()[c] / g["truth"]["rpm_true"].to_numpy()[c] - 1, df
+
+
+def test_pwm_waveform_is_the_plants_period_mean_and_its_ripple_follows_l_over_r():
+    """The free-running twin's PWM current is the plant's periodic solution: its mean over a period is
+    pwm_cycle's mean current, and its peak-to-peak grows with the period over La (halving La, the
+    ripple roughly doubles while discontinuous conduction does not set in)."""
+    la = BENCH.effect_si("inductance")
+    ph = (np.arange(20000) + 0.5) / 20000
+    for d, e in ((0.3, 2.0), (0.6, 5.0), (0.9, 6.0)):
+        w = plant.pwm_waveform(ph, d, e, 0.3, BENCH.ra_ohm, la, BENCH)
+        assert w.mean() == pytest.approx(plant.pwm_cycle(d, e, 0.3, BENCH.ra_ohm, la, BENCH)[0], rel=1e-6)
+        assert (w >= 0).all()
+    fast = dataclasses.replace(BENCH, pwm_hz=20000.0)
+    p1 = np.ptp(plant.pwm_waveform(ph, 0.9, 6.0, 0.3, BENCH.ra_ohm, la, fast))
+    p2 = np.ptp(plant.pwm_waveform(ph, 0.9, 6.0, 0.3, BENCH.ra_ohm, la / 2, fast))
+    assert p2 / p1 == pytest.approx(2.0, rel=0.05)
+
+
+def test_free_running_bursts_counted_after_the_pwm_average_is_removed_and_not_before():
+    """Free-running sampling at 9.6 kHz under the 490 Hz PWM: read as today's synchronous file (no
+    declaration), the PWM's lines are counted as the ripple, confidently and far off; declared, the
+    PWM-synchronous average is removed and no confident window is more than 5 % off."""
+    g, b = _free_run()
+    assert b.sampling == rf.FREE and b.pwm_hz == pytest.approx(490.196)
+    before = dataclasses.replace(b, sampling=rf.SYNCHRONOUS, pwm_hz=float("nan"))
+    c0, e0, _ = _errors(g, before)
+    assert c0.sum() > 10 and np.abs(e0).max() > 0.5  # the PWM counted as the ripple
+    c1, e1, _ = _errors(g, b)
+    assert c1.mean() > 0.8 and np.abs(e1).max() < 0.05 and np.sqrt(np.mean(e1 ** 2)) < 0.01
+
+
+def test_mains_comb_never_gives_a_confident_window_on_its_lines():
+    """With a rectified-mains comb (50 Hz) declared, no confident window sits at a multiple of 50 Hz,
+    those are said so, and no confident window is more than 5 % off."""
+    g, b = _free_run(seed=2, mains_hz=50.0)
+    c, e, df = _errors(g, b)
+    assert np.abs(e).max() < 0.05
+    f = df["f_Hz"].to_numpy()[c]
+    res = 1.0 / 0.5
+    assert (np.abs(f - 50.0 * np.round(f / 50.0)) > res).all()
+    assert (df["key"] == ripple_sync.KEY).any()
+    assert df.loc[df["key"] == ripple_sync.KEY, "reason"].str.contains("mains' 50 Hz").all()
+
+
+def test_fixed_line_names_pwm_harmonics_their_aliases_and_mains():
+    b = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01", "pwm_hz": "490.196", "mains_hz": "60"},
+                   [0], [0.0], [np.zeros(4800, np.int64)])
+    assert ripple_sync.fixed_line(b, 0, 980.4, 2.0)[0] == ripple_sync.KEY  # 2 x PWM
+    alias = abs(((20 * 490.196) + 4800) % 9600 - 4800)  # the 20th harmonic, folded
+    assert "aliased" in ripple_sync.fixed_line(b, 0, alias, 2.0)[1]
+    assert "mains' 60 Hz" in ripple_sync.fixed_line(b, 0, 180.5, 2.0)[1]
+    assert ripple_sync.fixed_line(b, 0, 211.0, 2.0) is None
+    plain = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01"}, [0], [0.0], [np.zeros(10, np.int64)])
+    assert ripple_sync.fixed_line(plain, 0, 150.0, 2.0) is None  # nothing declared, nothing assumed
+
+
+def test_free_running_without_pwm_hz_is_refused_and_a_short_burst_said_too_short():
+    b = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01", "sampling": "free"}, [0], [0.0],
+                   [np.arange(4800) % 7])
+    with pytest.raises(InputError, match="without pwm_hz"):
+        ripple_sync.prepare(b, "x.ripple.csv")
+    short = dataclasses.replace(b, pwm_hz=490.196, codes=[np.arange(400) % 7, np.arange(4800) % 7],
+                                seq=np.array([0, 1]), t_s=np.array([0.0, 1.0]))
+    p = ripple_sync.prepare(short)
+    assert "too short" in p.refusal(0) and p.refusal(1) == ""
+    r = rp.estimate_window(p, 0, 1.0, None, OPTS)
+    assert r["key"] != ""  # never confident on a burst whose PWM average could not be removed
+    assert ripple_sync.phase_bins(400) == 0 and ripple_sync.phase_bins(4800) == 150
+
+
+def test_remove_pwm_average_takes_out_a_pwm_waveform_and_keeps_a_ripple():
+    """A 490 Hz PWM current of 1.4 A peak to peak plus a 50 mA ripple at 87 Hz, sampled free at 9.6 kHz:
+    after the fold the ripple is what remains (the residual under 10 % of the ripple's rms)."""
+    fs, pwm, n = 9600.0, 490.196, 4800
+    t = np.arange(n) / fs
+    la = BENCH.effect_si("inductance")
+    pwm_i = plant.pwm_waveform(t * pwm, 0.3, 2.0, 0.3, BENCH.ra_ohm, la, dataclasses.replace(BENCH, pwm_hz=pwm))
+    ripple = 0.05 * np.cos(2 * np.pi * 87.3 * t)
+    rest, bins = ripple_sync.remove_pwm_average(pwm_i + ripple, fs, pwm)
+    assert bins == 150 and np.ptp(pwm_i) > 10 * np.ptp(ripple)
+    basis = np.column_stack([np.ones(n), np.cos(2 * np.pi * 87.3 * t), np.sin(2 * np.pi * 87.3 * t)])
+    coef, *_ = np.linalg.lstsq(basis, rest, rcond=None)
+    assert np.hypot(coef[1], coef[2]) == pytest.approx(0.05, rel=0.05)  # the ripple kept
+    resid = rest - basis @ coef  # what is left of the PWM: its shape's kinks, the bins' share of the ripple
+    assert np.std(resid) < 0.15 * np.std(ripple) and np.std(resid) < 0.01 * np.std(pwm_i)
+
+
+def test_offset_signed_codes_and_ac_coupling(tmp_path):
+    """An offset (offset_code) and signed codes: negative currents are read, not clipped; an
+    AC-coupled capture (coupling=ac) has no floor on its (absent) mean current."""
+    codes = [np.array([-5, -3, 0, 2], np.int64), np.array([10, 11], np.int64)]
+    p = rf.write(tmp_path / "x.ripple.csv", {"sample_hz": "1000", "a_per_code": "0.5", "offset_code": "2.5",
+                                             "coupling": "ac"}, [0, 1], [0.0, 0.004], codes)
+    b = rf.read(p)
+    assert b.current_A(0).tolist() == [-3.75, -2.75, -1.25, -0.25]
+    assert b.coupling == rf.AC and not ripple_sync.holds_mean(b)
+    t = np.arange(4800) / 9600
+    x = np.round(100 * np.cos(2 * np.pi * 80 * t)).astype(np.int64)  # zero mean: an AC-coupled ripple
+    ac = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.001", "coupling": "ac"}, [0], [0.0], [x])
+    assert rp.estimate_window(ac, 0, 1.0, None, OPTS)["key"] == ""
+    dc = dataclasses.replace(ac, coupling=rf.DC)
+    assert rp.estimate_window(dc, 0, 1.0, None, OPTS)["key"] == "floor"
+    neg = dataclasses.replace(dc, offset_code=500.0)  # -0.5 A mean: braking, the ripple still counted
+    assert rp.estimate_window(neg, 0, 1.0, None, OPTS)["key"] == ""
+
+
+@pytest.mark.parametrize("meta, fault", [
+    ({"sampling": "sometimes"}, "expected one of synchronous, free"),
+    ({"pwm_hz": "-1"}, "pwm_hz=-1 must be > 0 (0: no PWM)"),
+    ({"mains_hz": "0"}, "mains_hz=0 must be > 0"),
+    ({"offset_code": "nan"}, "offset_code='nan' is not a finite number"),
+    ({"coupling": "AC"}, "expected one of dc, ac"),
+])
+def test_bad_declarations_are_user_errors_naming_the_line(tmp_path, meta, fault):
+    p = tmp_path / "x.ripple.csv"
+    body = "".join(f"# {k}={v}\n" for k, v in meta.items())
+    p.write_text(f"# format=hpddo-ripple 1\n# sample_hz=100\n# a_per_code=1\n{body}seq,t_s,n,codes\n0,0,2,1 2\n")
+    with pytest.raises(rf.RippleFileError) as exc:
+        rf.read(p)
+    assert fault in str(exc.value) and str(p) in str(exc.value)
+    assert f"{p}:4:" in str(exc.value) or "expected one of" in str(exc.value)
+
+
+def test_twin_cli_free_running_writes_the_declarations(tmp_path, capsys):
+    out = tmp_path / "tw"
+    assert cli.main(["twin", "--protocol", "load", "--ripple-hz", "9600", "--free-running", "--mains-hz", "50",
+                     "--time-scale", "0.05", "--out", str(out), "--quiet"]) == 0
+    b = rf.read(out / "load.ripple.csv")
+    assert (b.sampling, b.pwm_hz, b.mains_hz) == (rf.FREE, pytest.approx(490.196), 50.0)
+    # hpddo ripple on it, with the log's encoder: the nameplate's gear ratio agrees (the issue: 85.638:1 said
+    # where the nameplate's 98.777:1 was right, the PWM counted as the ripple)
+    assert cli.main(["ripple", str(out / "load.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                     "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    said = capsys.readouterr().out
+    assert "the gear ratio 4.4:1 agrees with the data" in said, said
+    with pytest.raises(SystemExit):
+        cli.main(["twin", "--protocol", "load", "--free-running", "--out", str(tmp_path / "x")])
+    assert "--free-running applies to the ripple mode" in capsys.readouterr().err
+
+
+def test_ra_is_optional_the_speed_range_is_the_prior(tmp_path, capsys):
+    """hpddo ripple on a log without ra_ohm (and no --ra-ohm) counts with the speed range as the prior
+    (or none), where it refused before; a confident count outside the range is not confident."""
+    g, _ = _free_run(out_dir=tmp_path / "logs")
+    log = tmp_path / "logs" / "load.csv"
+    log.write_text("".join(l for l in log.read_text().splitlines(True) if not l.startswith("# ra_ohm=")))
+    assert cli.main(["ripple", str(log), "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--rpm-range", "80", "250",
+                     "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    import pandas as pd
+    est = pd.read_csv(tmp_path / "o" / "load.ripple_speed.csv")
+    c = est["confident"].to_numpy()
+    e = est["rpm_ripple"].to_numpy()[c] / g["truth"]["rpm_true"].to_numpy()[c] - 1
+    assert c.mean() > 0.8 and np.abs(e).max() < 0.05
+    assert "no back-EMF prior (no Ra: the speed range given is the prior)" in capsys.readouterr().out
+    assert cli.main(["ripple", str(log), "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--rpm-range", "150", "250",
+                     "--out", str(tmp_path / "o2"), "--quiet"]) == 0
+    est = pd.read_csv(tmp_path / "o2" / "load.ripple_speed.csv")
+    c = est["confident"].to_numpy()
+    rpm = est["rpm_ripple"].to_numpy()
+    assert c.any() and ((rpm[c] >= 150) & (rpm[c] <= 250)).all()  # the windows at 116-130 RPM are not confident
+    out = est["reason"].fillna("").str.startswith("the count lies outside the speed range")
+    assert out.any() and (rpm[out] < 150).all()
+    assert cli.main(["ripple", str(log), "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--rpm-range", "4", "2",
+                     "--out", str(tmp_path / "o3")]) == 1
+    assert "LO must be under HI" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def capture(tmp_path_factory):
+    """One free-running twin run (9.6 kHz, 490 Hz PWM, 50 Hz mains) written as a scope's CSV (time and
+    volts of a 0.1 V/A probe), a sound card's 16-bit WAV (an offset of -1000 codes) and a .mat with fs."""
+    from scipy.io import savemat, wavfile
+
+    d = tmp_path_factory.mktemp("capture")
+    g, b = _free_run(seed=3, mains_hz=50.0)
+    x = np.concatenate([b.current_A(k) for k in range(len(b))])
+    t = np.arange(len(x)) / 9600.0
+    np.savetxt(d / "scope.csv", np.c_[t, 0.1 * x], delimiter=",", header="Time (s),CH1 (V)", comments="",
+               fmt="%.7g")
+    wavfile.write(d / "card.wav", 9600, (np.round(x / 0.0005) - 1000).astype(np.int16))
+    savemat(d / "lab.mat", {"i_motor": x, "fs": 9600.0})
+    return d, g["truth"]["rpm_true"].to_numpy()
+
+
+@pytest.mark.parametrize("name, flags", [
+    ("scope.csv", ["--a-per-unit", "10"]),
+    ("card.wav", ["--a-per-unit", "0.0005"]),
+    ("lab.mat", ["--a-per-unit", "1"]),
+])
+def test_import_then_ripple_gives_the_speed_with_its_confidence(capture, tmp_path, capsys, name, flags):
+    d, true = capture
+    out = tmp_path / (name.split(".")[0] + ".ripple.csv")
+    assert cli.main(["import", str(d / name), *flags, "--pwm-hz", "490.196", "--mains-hz", "50",
+                     "--out", str(out), "--quiet"]) == 0
+    b = rf.read(out)
+    assert len(b) == len(true) and b.sample_hz == pytest.approx(9600, rel=1e-5)
+    assert b.meta["source"] == name and len(b.meta["source_sha256"]) == 64
+    assert cli.main(["ripple", str(out), "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--rpm-range", "80",
+                     "250", "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    said = capsys.readouterr().out
+    assert "RPM (median of the confident" in said and "confidence" in said
+    import pandas as pd
+    est = pd.read_csv(tmp_path / "o" / (out.name[:-len(rf.SUFFIX)] + ".ripple_speed.csv"))
+    c = est["confident"].to_numpy()
+    e = est["rpm_ripple"].to_numpy()[c] / true[c] - 1
+    assert c.mean() >= 0.5 and np.abs(e).max() < 0.05, (c.mean(), np.abs(e).max())
+
+
+@pytest.mark.parametrize("text, args, fault", [
+    ("t,i\n0,1\n0.001,x\n", [], "x.csv:3: column 'i': 'x' is not a finite number"),
+    ("t,i\n" + "".join(f"{k * 0.001 + (0.0005 if k == 30 else 0):g},{k}\n" for k in range(40)), [],
+     "x.csv:32: time column 't' not uniform"),
+    ("t,i\n" + "".join(f"{0.001 * (40 - k):g},{k}\n" for k in range(40)), [], "x.csv:3: time column 't' not increasing"),
+    ("a,b,c\n" + "1,2,3\n" * 40, [], "3 columns (a, b, c): give --column"),
+    ("i\n" + "1\n" * 40, [], "the file does not carry its sample rate: give --sample-hz"),
+    ("i\n" + "1\n" * 40, ["--column", "j"], "no column 'j'"),
+    ("i\n1\n2\n", ["--sample-hz", "100"], "2 samples: fewer than 16"),
+    ("t,i\n" + "".join(f"{k * 0.001:g},1\n" for k in range(20)) + "\n" + "".join(f"{k * 0.001:g},1\n" for k in
+     range(20, 40)), [], "x.csv:22: column 'i': '' is not a finite number"),  # a blank line inside: its own line
+    ("t,i\n0,1\n0.001,2,3\n", [], "not a CSV table: Error tokenizing data. C error: Expected 2 fields in line 3"),
+    ("t,i\n" + "".join(f"{k * 0.001:g},1\n" for k in range(40)), ["--sample-hz", "2000"],
+     "--sample-hz 2000 but its time column 't' gives 1000 Hz"),
+])
+def test_import_bad_csv_is_a_user_error_naming_file_line_and_fault(tmp_path, capsys, text, args, fault):
+    p = tmp_path / "x.csv"
+    p.write_text(text)
+    out = tmp_path / "x.ripple.csv"
+    assert cli.main(["import", str(p), "--a-per-unit", "1", "--pwm-hz", "0", "--out", str(out), *args]) == 1
+    err = capsys.readouterr().err
+    assert fault in err and err.startswith("hpddo import: ") and len(err.strip().splitlines()) == 1
+    assert not out.exists()
+
+
+def test_import_bad_wav_mat_and_names(tmp_path, capsys):
+    from scipy.io import savemat
+
+    (tmp_path / "a.wav").write_bytes(b"RIFF1234WAVEjunk")
+    savemat(tmp_path / "b.mat", {"u": np.ones(50), "v": np.ones(50)})
+    savemat(tmp_path / "c.mat", {"u": np.ones((5, 5))})
+    (tmp_path / "d.xyz").write_text("1\n")
+    for name, more, fault in (("a.wav", [], "not a WAV file scipy can read"),
+                              ("b.mat", ["--sample-hz", "1000"], "2 numeric vectors (u, v): give --variable"),
+                              ("c.mat", ["--variable", "u"], "'u' is not a numeric vector"),
+                              ("d.xyz", [], "unknown capture type '.xyz'"),
+                              ("none.csv", [], "no such file")):
+        assert cli.main(["import", str(tmp_path / name), "--a-per-unit", "1", "--pwm-hz", "0",
+                         "--out", str(tmp_path / "o.ripple.csv"), *more]) == 1, name
+        assert fault in capsys.readouterr().err, name
+    np.savetxt(tmp_path / "e.csv", np.arange(40.0))
+    assert cli.main(["import", str(tmp_path / "e.csv"), "--a-per-unit", "1", "--pwm-hz", "0", "--sample-hz", "100",
+                     "--out", str(tmp_path / "o.csv")]) == 1
+    assert "ends in .ripple.csv" in capsys.readouterr().err
+
+
+def test_import_reads_blank_separated_text_and_trailing_blank_lines(tmp_path):
+    t = np.arange(100) / 1000.0
+    np.savetxt(tmp_path / "daq.txt", np.c_[t, 0.2 + 0.01 * np.sin(2 * np.pi * 50 * t)])  # numpy's blank separator
+    (tmp_path / "daq.txt").write_text((tmp_path / "daq.txt").read_text() + "\n\n")
+    cap = ci.read(tmp_path / "daq.txt")
+    assert len(cap.values) == 100 and cap.sample_hz == pytest.approx(1000.0) and cap.source == "column '1'"
+
+
+def test_float_values_quantised_at_their_own_step():
+    codes, step = ci.to_codes(np.array([0.0, 0.0039, 0.0078, -0.0117]), False)
+    assert step == pytest.approx(0.0039) and codes.tolist() == [0, 1, 2, -3]
+    codes, step = ci.to_codes(np.array([3, -2, 7]), True)
+    assert step == 1.0 and codes.tolist() == [3, -2, 7]
+    x = np.random.default_rng(1).standard_normal(1000)
+    codes, step = ci.to_codes(x, False)
+    assert np.abs(codes * step - x).max() <= step / 2 + 1e-15 and step <= np.ptp(x) / 2 ** 24 * (1 + 1e-9)
