@@ -65,6 +65,8 @@ echo "== benchmark (prints its figures; the targets are judged against peers mea
 # AVR cycles in simavr, host samples/s: float against fixed point (the ESP8266's lx106 counts are left
 # out for time; QEMU is installed by bootstrap.sh --tests and ctest's embedded.lx106.* ran on it above)
 .venv/bin/hpddo bench --observer --no-lx106
+# the diagnosis with its defaults on the bundled recordings beside one full-library fit (its peer)
+.venv/bin/hpddo bench --diagnose
 
 echo "== pytest"
 .venv/bin/python -m pytest -q -rs -n "$jobs" test/py
