@@ -57,11 +57,16 @@ class ChannelFault:
 def _saturated(x: np.ndarray, command: np.ndarray) -> list:
     """[(edge value, "top"/"bottom", rows at it, commands at it)] of the ends of x (a channel's driven
     readings) that it reads exactly in at least SATURATED_SHARE of the rows (SATURATED_MIN_ROWS) under
-    at least SATURATED_COMMANDS different commands: the ends of its range, not what it measured."""
+    at least SATURATED_COMMANDS different commands: the ends of its range, not what it measured (the
+    bottom only at zero or below)."""
     out = []
     if len(x) == 0:
         return out
     for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
+        if which == "bottom" and edge > 0:
+            # a positive floor held at several commands is a motor's own (the no-load current of a sweep,
+            # its friction, at every duty), not a channel's end: a channel clips at zero or below
+            continue
         at = x == edge
         n = int(np.sum(at))
         held = len(np.unique(command[at], axis=0))

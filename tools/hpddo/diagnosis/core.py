@@ -200,14 +200,16 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
             rest = float(np.nanmedian([joint_mse(x[4]) for x in scored if x[0] != name]))
             bad = not (own <= CONSIST_X ** 2 * max(rest, sigma2))
         if bad and alternatives:  # ... nor by a model that explains the rest about as well (alternative_misses)
-            bad = all(m > CONSIST_X ** 2 * max(med, sigma2) for m in alternative_misses(inp, names, masks))
+            bad = all(own > CONSIST_X ** 2 * max(fit, sigma2) for own, fit in alternative_misses(inp, names, masks))
         out.append(Unit(name, kind, n, math.sqrt(mse), math.sqrt(med), bool(bad), masks))
     return out
 
 
 def alternative_misses(inp: Inputs, names, masks):
-    """The mean squared miss of the unit (masks) by each model that could explain the recordings
-    about as well, identified without the unit: the effects in names with Ra moving within what a
+    """(the mean squared miss of the unit (masks), the mean squared error on the rows it was
+    identified on) of each model that could explain the recordings about as well, identified
+    without the unit (its miss is judged against its own fit, not against the model under test's,
+    which may lack what the alternative has): the effects in names with Ra moving within what a
     wrong reading allows (ranking.ra_alternative_bounds), then with each other library effect beside
     them, where its fitted coefficient is plausible. A unit at the edge of the operating range is
     missed by a model that lacks an effect or holds a wrong Ra and predicted by the one that has it;
@@ -224,10 +226,13 @@ def alternative_misses(inp: Inputs, names, masks):
             continue
         if extra and not fx.LIBRARY[extra[0]].plausibility(getattr(p, fx.LIBRARY[extra[0]].field))[0]:
             continue
-        e = np.concatenate([(r.ref - fx.predict(r, p))[m] for r, m in zip(rest, masks)])
+        res = [r.ref - fx.predict(r, p) for r in rest]
+        e = np.concatenate([x[m] for x, m in zip(res, masks)])
         e = e[np.isfinite(e)]
-        if len(e):
-            yield float(np.mean(e * e))
+        f = np.concatenate([x[r.train] for x, r in zip(res, rest)])
+        f = f[np.isfinite(f)]
+        if len(e) and len(f):
+            yield float(np.mean(e * e)), float(np.mean(f * f))
 
 
 # Another motor (or the same motor through another sensor scale): a recording that the model
