@@ -77,12 +77,18 @@ def generated(root: pathlib.Path = ROOT) -> dict:
     return out
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.regenerate", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+def write_or_check(prog: str, doc: str, what: str) -> argparse.ArgumentParser:
+    """The parser of a generator's command: --write (write `what`) or --check (exit 1 when one is
+    out of date), one of them required."""
+    ap = argparse.ArgumentParser(prog=prog, description=doc, formatter_class=argparse.RawDescriptionHelpFormatter)
     g = ap.add_mutually_exclusive_group(required=True)
-    g.add_argument("--write", action="store_true", help="write the generated files")
-    g.add_argument("--check", action="store_true", help="exit 1 when a generated file is out of date")
+    g.add_argument("--write", action="store_true", help=f"write {what}")
+    g.add_argument("--check", action="store_true", help=f"exit 1 when one of {what} is out of date")
+    return ap
+
+
+def main(argv=None) -> int:
+    ap = write_or_check("python -m hpddo.regenerate", __doc__, "the generated files")
     ap.add_argument("--root", default=str(ROOT), help="repository root (default: this checkout)")
     args = ap.parse_args(argv)
     root = pathlib.Path(args.root)

@@ -22,7 +22,6 @@ on the pinned matplotlib alone.
 """
 from __future__ import annotations
 
-import argparse
 import hashlib
 import io
 import json
@@ -169,11 +168,8 @@ def generated() -> dict:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.figures", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    g = ap.add_mutually_exclusive_group(required=True)
-    g.add_argument("--write", action="store_true", help="write the pictures")
-    g.add_argument("--check", action="store_true", help="exit 1 when a picture is out of date")
+    from ..regenerate import write_or_check
+    ap = write_or_check("python -m hpddo.studies.figures", __doc__, "the pictures")
     args = ap.parse_args(argv)
     stale = [rel for rel, text in generated().items()
              if not (ROOT / rel).exists() or (ROOT / rel).read_text(encoding="utf-8") != text]

@@ -1,4 +1,4 @@
-"""README.md's tables of figures, generated from the committed JSON they come from (issue 32),
+"""README.md's tables of figures, generated from the committed JSON they come from,
 between the markers of hpddo.regenerate's generated blocks:
 
     cd tools && ../.venv/bin/python -m hpddo.studies.readme --write      # or --check
@@ -17,7 +17,6 @@ README.md that is neither a block nor a prose table fails.
 """
 from __future__ import annotations
 
-import argparse
 import hashlib
 import json
 import re
@@ -225,11 +224,8 @@ def tables(text: str) -> list[list[str]]:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.readme", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
-    g = ap.add_mutually_exclusive_group(required=True)
-    g.add_argument("--write", action="store_true", help="write README.md's blocks")
-    g.add_argument("--check", action="store_true", help="exit 1 when a block is out of date")
+    from ..regenerate import write_or_check
+    ap = write_or_check("python -m hpddo.studies.readme", __doc__, "README.md's blocks")
     args = ap.parse_args(argv)
     path = ROOT / "README.md"
     old = path.read_text(encoding="utf-8")

@@ -416,10 +416,15 @@ def ripple_burst(**values) -> dict:
     return out
 
 
-def ripple_burst_md() -> str:
-    """The ripple mode's parameters table of docs/ripple.md, from RIPPLE_BURST."""
+def params_md(params) -> str:
+    """A Markdown table of declared parameters (name, unit, default, typical range, physics)."""
     rows = ["| name | unit | default | typical | physics |", "|---|---|---|---|---|"]
-    for p in RIPPLE_BURST.values():
+    for p in params:
         lo, hi = p.typical
         rows.append(f"| `{p.name}` | {p.unit} | {p.default:g} | {lo:g}..{hi:g} | {schema.md_cell(p.physics)} |")
     return "\n".join(rows) + "\n"
+
+
+def ripple_burst_md() -> str:
+    """The ripple mode's parameters table of docs/ripple.md, from RIPPLE_BURST."""
+    return params_md(RIPPLE_BURST.values())

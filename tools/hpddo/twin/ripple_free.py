@@ -55,12 +55,8 @@ def ripple_free(**values) -> dict:
 
 def ripple_free_md() -> str:
     """The free-running parameters' table of docs/ripple-captures.md, from RIPPLE_FREE."""
-    from .. import schema
-    rows = ["| name | unit | default | typical | physics |", "|---|---|---|---|---|"]
-    for p in RIPPLE_FREE.values():
-        lo, hi = p.typical
-        rows.append(f"| `{p.name}` | {p.unit} | {p.default:g} | {lo:g}..{hi:g} | {schema.md_cell(p.physics)} |")
-    return "\n".join(rows) + "\n"
+    from .params import params_md
+    return params_md(RIPPLE_FREE.values())
 
 
 def is_free(params: dict) -> bool:
