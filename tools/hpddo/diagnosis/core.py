@@ -143,6 +143,12 @@ def _units(rows, recordings: bool = False) -> list:
     return out
 
 
+def left_out(rows, masks) -> list:
+    """rows with each recording's rows in masks held out: fitted on every other labelled row, the
+    masked rows the ones to predict (train and test masks)."""
+    return [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(rows, masks)]
+
+
 def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None, alternatives: bool = True) -> list:
     """Each unit (_units) against the model (M2 with the effects in names, default the model under
     test's: Ke refitted) identified on every labelled row but its own: [Unit], empty with fewer
@@ -159,7 +165,7 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
         n = int(sum(int(m.sum()) for m in masks))
         if n < CONSIST_MIN_ROWS:
             continue
-        rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, masks)]
+        rest = left_out(inp.rows, masks)
         try:
             p = fx.fit(rest, inp.m2, names)
         except Exception:
@@ -215,7 +221,7 @@ def alternative_misses(inp: Inputs, names, masks):
     missed by a model that lacks an effect or holds a wrong Ra and predicted by the one that has it;
     a unit that disagrees (another motor, a reversed channel, a group read wrong) is missed by every
     one. A fit that fails is no alternative. A generator: the caller stops at the first that fits."""
-    rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, masks)]
+    rest = left_out(inp.rows, masks)
     names = [n for n in names if n != ranking.RA_MISMATCH]
     for extra in [()] + [(c,) for c in fx.NAMES if c not in names]:
         fitted = names + list(extra)
@@ -273,7 +279,7 @@ def other_motors(inp: Inputs, sigma2: float) -> list:
         if not u.inconsistent:
             continue
         k = next(j for j, m in enumerate(u.masks) if m.any())
-        rest = [dataclasses.replace(r, train=(r.train | r.test) & ~m, test=m) for r, m in zip(inp.rows, u.masks)]
+        rest = left_out(inp.rows, u.masks)
         own = [dataclasses.replace(inp.rows[k], train=u.masks[k], test=u.masks[k])]
         try:
             p_rest = ranking.fit_ra_free(rest, inp.m2, inp.given)
@@ -871,7 +877,8 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
         sel = select(inp, mf, ident, opt)
     progress.stage("confounded pairs, intervals and the residuals before and after")
     conf = confounding(inp, mf, sel)
-    current = [f for f in channels.check(inp.recs, inp.rows, mf.sigma2) if f.channel == "current"]
+    mf.channels = channels.check(inp.recs, inp.rows, mf.sigma2)  # the rows and the floor stay as they are below
+    current = [f for f in mf.channels if f.channel == "current"]
     if current and sel.ra_fit is not None:  # Ra rests on the current channel: no mismatch concluded from a faulty one
         sel.ra_fit.current_fault = f"the current channel of {current[0].recording} is {current[0].fault}"
         if sel.ra_fit.mismatch:
@@ -900,7 +907,6 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
     if ke["text"]:
         text += " " + ke["text"]
     mf.ke_check = ke
-    mf.channels = channels.check(inp.recs, inp.rows, mf.sigma2)
     if mf.channels:
         text += " Channel health: " + "; ".join(f.text() for f in mf.channels) + "."
     return inp, mf, ident, sel, conf, resid, text

@@ -404,13 +404,20 @@ RIPPLE_BURST = {
 }
 
 
+def declared_values(declared: dict, values: dict, what: str) -> dict:
+    """{name: value} of the declared parameters (their defaults) with values given over them, each
+    name checked against the declaration (a ValueError names the unknown ones and the known)."""
+    unknown = sorted(set(values) - set(declared))
+    if unknown:
+        raise ValueError(f"unknown {what} parameter(s) {', '.join(unknown)} (known: {', '.join(declared)})")
+    out = {n: p.default for n, p in declared.items()}
+    out.update({k: float(v) for k, v in values.items()})
+    return out
+
+
 def ripple_burst(**values) -> dict:
     """The ripple mode's parameters (RIPPLE_BURST defaults, names checked) as {name: value}."""
-    unknown = sorted(set(values) - set(RIPPLE_BURST))
-    if unknown:
-        raise ValueError(f"unknown ripple-mode parameter(s) {', '.join(unknown)} (known: {', '.join(RIPPLE_BURST)})")
-    out = {n: p.default for n, p in RIPPLE_BURST.items()}
-    out.update({k: float(v) for k, v in values.items()})
+    out = declared_values(RIPPLE_BURST, values, "ripple-mode")
     if not out["sample_hz"] > 0:
         raise ValueError("sample_hz must be > 0")
     return out

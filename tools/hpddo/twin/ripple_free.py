@@ -23,7 +23,7 @@ import numpy as np
 
 from ..logs import ripple as rf
 from . import plant
-from .params import BurstParam, brush_share
+from .params import BurstParam, brush_share, declared_values, params_md
 
 RIPPLE_FREE = {
     p.name: p
@@ -43,11 +43,7 @@ RIPPLE_FREE = {
 def ripple_free(**values) -> dict:
     """The free-running parameters (RIPPLE_FREE defaults, names checked) as {name: value}: merged
     into params.ripple_burst()'s dict for generate(..., ripple=...)."""
-    unknown = sorted(set(values) - set(RIPPLE_FREE))
-    if unknown:
-        raise ValueError(f"unknown free-running parameter(s) {', '.join(unknown)} (known: {', '.join(RIPPLE_FREE)})")
-    out = {n: p.default for n, p in RIPPLE_FREE.items()}
-    out.update({k: float(v) for k, v in values.items()})
+    out = declared_values(RIPPLE_FREE, values, "free-running")
     if not (out["pwm_hz"] >= 0 and out["mains_hz"] >= 0 and out["mains_mA"] >= 0):
         raise ValueError("pwm_hz, mains_hz and mains_mA must be >= 0")
     return out
@@ -55,7 +51,6 @@ def ripple_free(**values) -> dict:
 
 def ripple_free_md() -> str:
     """The free-running parameters' table of docs/ripple-captures.md, from RIPPLE_FREE."""
-    from .params import params_md
     return params_md(RIPPLE_FREE.values())
 
 
