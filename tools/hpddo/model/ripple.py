@@ -690,7 +690,7 @@ def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
 
 def identity_of_recording(est, opts: Options):
     """The line's identity over a whole recording: where most of the windows whose lines form a
-    rotation comb (est's `multiple` > 0) put the strongest line at another multiple than
+    rotation comb (est's `multiple` > 0; not those named `damaged`) put the strongest line at another multiple than
     opts.ripples_per_rev, the user's figure is wrong for this motor, and a window without a comb of
     its own cannot show that its line is the ripple (its prior, (V - I Ra) / Ke with a Ke calibrated
     under the same figure, agrees with any multiple): every confident row without its own comb at
@@ -698,7 +698,7 @@ def identity_of_recording(est, opts: Options):
     est: speed_of_log's DataFrame. Returns a copy."""
     est = est.copy()
     m = est["multiple"].to_numpy(int)
-    shown = m > 0
+    shown = (m > 0) & (est["key"].to_numpy() != "damaged")  # a damaged commutator's even lines are not the comb
     other = shown & (m != opts.ripples_per_rev)
     if not shown.any() or other.sum() <= 0.5 * shown.sum():
         return est

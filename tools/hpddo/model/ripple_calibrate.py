@@ -30,6 +30,8 @@ def window_comb(bursts, k: int, opts):
 
 #: calibrate: the share of the windows that must agree on one ripples per revolution for it to be named
 CALIBRATE_AGREE = 0.8
+#: calibrate: the fewest windows a source must have to name a number
+CALIBRATE_MIN_WINDOWS = 5
 #: calibrate with an encoder: a window's line within this share of a whole number of ripples per revolution
 CALIBRATE_WHOLE = 0.03
 
@@ -43,8 +45,9 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
     an encoder or tachometer speed per window (rpm_ref, output shaft), also the strongest line
     (mains and declared PWM multiples left out) over the motor's rotation frequency,
     rpm_ref x opts.gear_ratio / 60, where it lies within CALIBRATE_WHOLE of a whole number. Each
-    source names the number that CALIBRATE_AGREE of its windows agree on, or says that they do
-    not agree. Returns a dict: per source the windows used and the counts of each number, the
+    source names the number that CALIBRATE_AGREE of its windows (at least CALIBRATE_MIN_WINDOWS)
+    agree on, or says that they do not agree; where the comb and the encoder name different
+    numbers, the encoder's (a measurement of the revolutions) is named and the disagreement said. Returns a dict: per source the windows used and the counts of each number, the
     number named (0 where none), and a statement."""
     import collections
 
@@ -79,21 +82,29 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
             continue
         used = int(sum(counts.values()))
         top, top_n = counts.most_common(1)[0] if counts else (0, 0)
-        named = int(top) if used and top_n >= CALIBRATE_AGREE * used else 0
+        named = int(top) if used >= CALIBRATE_MIN_WINDOWS and top_n >= CALIBRATE_AGREE * used else 0
         out[name] = {"windows": used, "counts": {str(m): int(c) for m, c in sorted(counts.items())},
                      "ripples_per_rev": named}
         if not used:
             said.append(f"{how}: no window shows it")
+        elif used < CALIBRATE_MIN_WINDOWS:
+            said.append(f"{how}: too few windows (" + ", ".join(f"{m} in {c}" for m, c in counts.most_common(4))
+                        + f" of {used}, under {CALIBRATE_MIN_WINDOWS})")
         elif named:
             said.append(f"{how}: {named} ripples per revolution ({top_n} of {used} windows)")
         else:
             said.append(f"{how}: the windows do not agree (" + ", ".join(
                 f"{m} in {c}" for m, c in counts.most_common(4)) + f" of {used})")
+    # the encoder measures the revolutions; the comb infers them: where both name a number and they differ,
+    # the encoder's is named and the disagreement said
     names = {out[s]["ripples_per_rev"] for s in ("comb", "encoder") if s in out and out[s]["ripples_per_rev"]}
-    out["ripples_per_rev"] = next(iter(names)) if len(names) == 1 else 0
+    enc = out.get("encoder", {}).get("ripples_per_rev", 0)
+    out["ripples_per_rev"] = enc or (next(iter(names)) if len(names) == 1 else 0)
     given = getattr(opts, "ripples_per_rev", None)
     head = (f"the ripple is {out['ripples_per_rev']} per revolution" if out["ripples_per_rev"]
-            else "the ripples per revolution are not determined" + (" (the sources disagree)" if len(names) > 1 else ""))
+            else "the ripples per revolution are not determined")
+    if len(names) > 1:
+        head += " (the comb and the encoder disagree: the encoder's is named)"
     if out["ripples_per_rev"] and given and given != out["ripples_per_rev"]:
         head += f", not the {given} given"
     out["statement"] = (f"{head}: " + "; ".join(said) + f" (of {driven} driven windows"

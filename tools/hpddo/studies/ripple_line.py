@@ -79,7 +79,7 @@ def _score(est, log, truth, bench, opts) -> dict:
             "wrong": int((err > WRONG).sum()), "max_error_pct": float(100 * err.max()) if len(err) else math.nan,
             "driven_3_cycles": int(base.sum()),
             "confident_share_driven_3_cycles": float((conf & base).sum() / base.sum()) if base.sum() else math.nan,
-            "multiple_said": int((keys == "multiple").sum()),
+            "multiple_said": int((keys == "multiple").sum()), "damaged_said": int((keys == "damaged").sum()),
             "rot1_rel": est["rot1_rel"].to_numpy(float), "rot2_rel": est["rot2_rel"].to_numpy(float)}
 
 
@@ -113,6 +113,7 @@ def _merge(case: Case, parts: list, cal: dict) -> dict:
             "driven_3_cycles": base,
             "confident_share_driven_3_cycles": float(sum(share) / base) if base else math.nan,
             "multiple_said": sum(p["multiple_said"] for p in parts),
+            "damaged_said": sum(p["damaged_said"] for p in parts),
             "health_read": int(read.sum()), "health_flagged": int((flagged & read).sum()),
             "rot2_rel_median": float(np.nanmedian(rot2)) if read.any() else math.nan,
             "rot2_rel_p99": float(np.nanpercentile(rot2, 99)) if read.any() else math.nan,
@@ -156,14 +157,14 @@ def run(quiet: bool = True) -> dict:
 def block(res: dict) -> str:
     """docs/ripple.md's table of this study (the block between its markers), from the JSON."""
     rows = ["| case | confident | more than 5 % off | worst % | confident of driven windows with >= 3 cycles | "
-            "'another multiple' said | ripples per rev named (comb / encoder), sweep; load | "
-            "damaged-commutator windows | rot2_rel 1st / 50th / 99th percentile |",
-            "|---|---|---|---|---|---|---|---|---|"]
+            "'another multiple' said | 'damaged' said | ripples per rev named (comb / encoder), sweep; load | "
+            "windows with rot2_rel over the threshold, of those read | rot2_rel 1st / 50th / 99th percentile |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
     for c in res["cases"]:
         named = "; ".join(f"{v['comb'] or '-'} / {v['encoder'] or '-'}" for v in c["calibrate"].values())
         rows.append(f"| {c['case']}: {c['what']} | {c['confident']} of {c['windows']} | {c['wrong']} | "
                     f"{c['max_error_pct']:.2f} | {100 * c['confident_share_driven_3_cycles']:.1f} % of "
-                    f"{c['driven_3_cycles']} | {c['multiple_said']} | {named} | {c['health_flagged']} of "
+                    f"{c['driven_3_cycles']} | {c['multiple_said']} | {c['damaged_said']} | {named} | {c['health_flagged']} of "
                     f"{c['health_read']} | {c['rot2_rel_p01']:.3g} / {c['rot2_rel_median']:.3g} / {c['rot2_rel_p99']:.3g} |")
     p = res["priors"]
     rows.append("")
