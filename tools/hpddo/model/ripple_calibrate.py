@@ -20,6 +20,7 @@ def window_comb(bursts, k: int, opts):
     res = fs / len(x)
     f, p = _spectrum(x, fs)
     found = rc.lines(f, p, max(2.0 * res, 0.5), fs / 2.0 / 2.2, res, opts.min_snr)
+    found = rc.without_fixed(found, bursts, res)
     comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts))
     bad = False
     if comb is not None:

@@ -194,6 +194,35 @@ def fixed_hz_of(bursts) -> tuple:
     return (pwm,) if math.isfinite(pwm) and 0 < pwm < bursts.sample_hz / 2 else ()
 
 
+# The PWM's harmonics whose aliases are left out of the comb: a PWM current's edges put harmonics
+# falling as 1 / h^2 far above the 20 the confidence check names (ripple_sync.PWM_HARMONICS), and on
+# a current cleaned of its PWM-synchronous average the 39th of 490 Hz, aliased at 9.6 kS/s to 82.4 Hz,
+# still stands at 2.6 % of the commutation line's power, beside it.
+COMB_PWM_HARMONICS = 100
+
+
+def without_fixed(found, bursts, res_hz: float) -> list:
+    """found (lines()) without the lines the burst file's declared supply puts there: the PWM's
+    harmonics up to COMB_PWM_HARMONICS where they alias into the band, the declared mains' multiples;
+    the strongest line is kept whatever it sits on (the confidence check, ripple_sync.fixed_line,
+    judges it). No rotation line, no rival."""
+    if not found:
+        return []
+    fs = bursts.sample_hz
+    fixed = []
+    pwm = getattr(bursts, "pwm_hz", float("nan"))
+    if math.isfinite(pwm) and 0 < pwm < fs / 2.0:
+        fixed += [abs((h * pwm + fs / 2.0) % fs - fs / 2.0) for h in range(1, COMB_PWM_HARMONICS + 1)]
+    mains = getattr(bursts, "mains_hz", float("nan"))
+    if math.isfinite(mains) and mains > 0:
+        fixed += [h * mains for h in range(1, int(fs / 2.0 // mains) + 1)]
+    if not fixed:
+        return list(found)
+    top = max(found, key=lambda ln: ln.power)
+    return [ln for ln in found if ln is top
+            or not any(abs(ln.hz - f) <= fixed_tol_hz(ln.hz, res_hz) for f in fixed)]
+
+
 def rivals(found, f_hz: float, res_hz: float, in_spread, share: float, exclude=()) -> list:
     """The lines that rival the chosen line at f_hz: every line (found, lines()) other than it and
     other than those in exclude (Hz: lines the comb has placed), whose frequency in_spread (a
