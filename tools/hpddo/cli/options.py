@@ -99,7 +99,8 @@ def dynamics(p, what: str) -> None:
 PRIOR_MODEL_FLAGS = ("--prior-model", "--prior-name")  # where --model and --name mean something else
 
 
-def ripple(p, required: bool, need: str = " (with --reference ripple)", prior_flags: tuple | None = None) -> None:
+def ripple(p, required: bool, need: str = " (with --reference ripple)", prior_flags: tuple | None = None,
+           n_optional: str | None = None) -> None:
     """--ripples-per-rev N --gear-ratio G [--ke-vs-per-rad KE | --prior-model DIR [--prior-name NAME]]
     [--floor-a A]: the speed from the commutation ripple (docs/ripple.md); required by hpddo ripple,
     by --reference ripple elsewhere (need: when they apply, in the help). The back-EMF prior's Ke is
@@ -107,11 +108,14 @@ def ripple(p, required: bool, need: str = " (with --reference ripple)", prior_fl
     is calibrated from the ripple. prior_flags: the model option's and its name's spellings, first
     the command's own (hpddo ripple has no model of its own, so --model and --name there; train and
     evaluate use --name, evaluate --model, for the model they write or score; hpddo compare's ripple
-    peers too), then aliases; None: no prior model."""
+    peers too), then aliases; None: no prior model. n_optional: where --ripples-per-rev may be left
+    out (hpddo ripple --calibrate finds it), said in its help; the command checks it."""
     need = "" if required else need
-    p.add_argument("--ripples-per-rev", type=positive_int, required=required, default=None, metavar="N",
+    p.add_argument("--ripples-per-rev", type=positive_int, required=required and not n_optional, default=None,
+                   metavar="N",
                    help=f"commutation ripples per motor revolution (2 x segments for two brushes; this bench's "
-                        f"motor: {bench_hw.HARDWARE.ripples_per_rev}, tools/hpddo/bench.py){need}")
+                        f"motor: {bench_hw.HARDWARE.ripples_per_rev}, tools/hpddo/bench.py){need}"
+                        + (f"; {n_optional}" if n_optional else ""))
     p.add_argument("--gear-ratio", type=positive_float, required=required, default=None, metavar="G",
                    help="motor revolutions per output revolution (the nameplate's; checked where there is an "
                         f"encoder){need}")

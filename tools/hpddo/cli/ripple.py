@@ -4,6 +4,11 @@ confidence and the reason where there is none (docs/ripple.md).
 
     hpddo ripple LOG... --ripples-per-rev N --gear-ratio G --out OUT [--ke-vs-per-rad KE | --model DIR]
     hpddo ripple CAPTURE.ripple.csv --ripples-per-rev N --gear-ratio G --out OUT [--rpm-range LO HI]
+    hpddo ripple LOG... --calibrate --gear-ratio G --out OUT [--ripples-per-rev N]
+
+--calibrate finds the ripples per motor revolution from the data (the comb of rotation lines each
+window shows, and the strongest line against the encoder or tachometer where the log has rpm_ref),
+says it against the N given, and writes OUT/summary.json; it counts no speed.
 
 (--prior-model DIR, --prior-name NAME: the same as --model, --name, as hpddo train, diagnose and evaluate
 spell them with --reference ripple)
@@ -38,7 +43,11 @@ def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     p = options.new_parser(prog, __doc__)
     options.logs(p, help="bench logs (CSV, docs/bench-log.md), each with its <condition>.ripple.csv beside it")
     # the prior model as --model (this command scores no model of its own), --prior-model as the others spell it
-    options.ripple(p, required=True, prior_flags=("--model", "--name") + options.PRIOR_MODEL_FLAGS)
+    options.ripple(p, required=True, prior_flags=("--model", "--name") + options.PRIOR_MODEL_FLAGS,
+                   n_optional="not needed with --calibrate")
+    p.add_argument("--calibrate", action="store_true",
+                   help="find the ripples per motor revolution from the data (and the encoder where there is one); "
+                        "no speed is counted")
     options.ra_ohm(p)
     p.add_argument("--rpm-range", type=options.non_negative_float, nargs=2, metavar=("LO", "HI"), default=None,
                    help="the output shaft's speed range (RPM): the prior where there is no back-EMF one (no Ra, a "
@@ -59,7 +68,11 @@ def run(args) -> int:
     from ..logs.errors import InputError
     from ..model import ripple as rp
 
-    opts = rp.Options(args.ripples_per_rev, args.gear_ratio)
+    if args.ripples_per_rev is None and not args.calibrate:
+        raise InputError("--ripples-per-rev N is required (or --calibrate, which finds it from the data)")
+    opts = rp.Options(args.ripples_per_rev or 0, args.gear_ratio)
+    if args.calibrate:
+        return _calibrate(args, opts)
     if args.floor_a is not None:
         opts = dataclasses.replace(opts, floor_A=args.floor_a)
     if args.prior_model is not None and args.ra_ohm is not None:  # refused before any work
@@ -91,7 +104,8 @@ def run(args) -> int:
                  "stalls": int(est["stall"].sum()),
                  "ke_prior_vs_per_rad": ke if math.isfinite(ke) else None, "ke_from": ke_from,
                  "prior_model": None if model is None else model.to_json(),
-                 "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()}}
+                 "reasons": {k or "confident": int(n) for k, n in est["key"].value_counts().sort_index().items()},
+                 "commutator": _commutator(est)}
             if "rpm_ref" in df and np.isfinite(df["rpm_ref"].to_numpy()[rows]).any():
                 glitch, _ = dataset.glitch_mask(df)  # the glitch filter of the pipeline (docs/pipeline.md)
                 ref = np.where(glitch, np.nan, df["rpm_ref"].to_numpy())[rows]
@@ -118,6 +132,15 @@ def run(args) -> int:
             if "rms_vs_encoder_pct" in s:
                 line += f"; against the encoder RMS {s['rms_vs_encoder_pct']:.3f} %, max {s['max_vs_encoder_pct']:.2f} %"
             print(line)
+            print(f"{name}: {s['commutator']['statement']}")
+            shown = est.loc[est["multiple"] > 0, "multiple"]
+            other = shown[shown != opts.ripples_per_rev]
+            if len(other):
+                m = int(other.mode().iloc[0])
+                print(f"{name}: the ripple is {m} per revolution, not the {opts.ripples_per_rev} given, in "
+                      f"{int((shown == m).sum())} of the {len(shown)} windows whose lines form a rotation comb "
+                      f"({int((est['key'] == 'multiple').sum())} windows not confident for it); hpddo ripple "
+                      "--calibrate finds it")
             if "ratio_check" in s:
                 print(f"{name}: {s['ratio_check']['statement']}")
             if not args.quiet:
@@ -129,7 +152,7 @@ def run(args) -> int:
 
 
 COLUMNS = ("seq", "t_s", "rpm", "confidence", "confident", "reason", "f_Hz", "cycles", "i_mean_A", "rpm_prior",
-           "rpm_fft", "stall", "rpm_bound")  # OUT/<condition>.ripple_speed.csv, rpm written rpm_ripple
+           "rpm_fft", "stall", "rpm_bound", "rot_hz", "multiple", "rot1_rel", "rot2_rel")  # OUT/<condition>.ripple_speed.csv, rpm written rpm_ripple
 
 
 def _capture(path, opts, args, stage):
@@ -168,6 +191,71 @@ def _capture(path, opts, args, stage):
         print("  no estimate: " + ", ".join(f"{k} {n}" for k, n in s["reasons"].items() if k != "confident"),
               file=sys.stderr)
     return name, s
+
+
+def _commutator(est) -> dict:
+    """The commutator's health over a log's windows (model.ripple_comb.health): the windows where
+    it was read, those named damaged, the median and largest power at twice the rotation frequency
+    relative to the commutation line, and a statement."""
+    import numpy as np
+
+    from ..model import ripple_comb as rc
+
+    r2 = est["rot2_rel"].to_numpy(float)
+    read = np.isfinite(r2)
+    bad = int((est["key"] == "damaged").sum())
+    out = {"windows_read": int(read.sum()), "windows_damaged": bad, "rot2_rel_max_allowed": rc.HEALTH_ROT2_MAX,
+           "rot2_rel_median": float(np.median(r2[read])) if read.any() else None,
+           "rot2_rel_max": float(np.max(r2[read])) if read.any() else None}
+    if not read.any():
+        out["statement"] = "the commutator's health not read (no window resolves the rotation's lines)"
+    elif bad:
+        out["statement"] = (f"the commutator looks damaged in {bad} of {read.sum()} windows read (the line at twice "
+                            f"the rotation frequency up to {out['rot2_rel_max']:.3g} of the commutation line's power, "
+                            f"over {rc.HEALTH_ROT2_MAX:g}): a worn or burnt bar, a shorted coil; those windows are "
+                            "not counted")
+    else:
+        out["statement"] = (f"the commutator looks healthy ({read.sum()} windows read, the line at twice the rotation "
+                            f"frequency at most {out['rot2_rel_max']:.3g} of the commutation line's power, under "
+                            f"{rc.HEALTH_ROT2_MAX:g})")
+    return out
+
+
+def _calibrate(args, opts) -> int:
+    """hpddo ripple --calibrate: the ripples per revolution of each log from its data
+    (ripple_comb.calibrate), printed and written to OUT/summary.json."""
+    import numpy as np
+
+    from .. import progress
+    from ..logs import benchlog, dataset, outdir
+    from ..logs import ripple as rf
+    from ..logs.errors import InputError
+    from ..model import ripple_calibrate as rcal
+
+    summary = {}
+    with outdir.staged(args.out, TOOL) as stage:
+        for k, path in enumerate(args.logs):
+            progress.stage(f"{path}: finding the ripples per revolution ({k + 1}/{len(args.logs)})")
+            log = benchlog.read_log(path)
+            bpath = rf.path_for(path)
+            if not bpath.exists():
+                raise InputError(f"{path}: no current bursts beside it ({bpath.name})")
+            b = rf.read(bpath)
+            seq = log.df["seq"].to_numpy() if "seq" in log.df else np.arange(len(log.df))
+            pos = {int(v): j for j, v in enumerate(seq)}
+            rows = [pos.get(int(v)) for v in b.seq]
+            if any(r is None for r in rows):
+                raise InputError(f"{bpath}: a burst's seq is not in {path}")
+            ref = None
+            if "rpm_ref" in log.df and np.isfinite(log.df["rpm_ref"].to_numpy(float)).any():
+                glitch, _ = dataset.glitch_mask(log.df)
+                ref = np.where(glitch, np.nan, log.df["rpm_ref"].to_numpy(float))[rows]
+            c = rcal.calibrate(b, log.df["duty"].to_numpy(float)[rows], opts, ref)
+            summary[log.condition] = c
+            print(f"{log.condition}: {c['statement']}")
+        benchlog.write_text_atomic(stage / "summary.json", json.dumps(summary, indent=1, sort_keys=True,
+                                                                      default=float) + "\n")
+    return 0
 
 
 def main(argv=None) -> int:

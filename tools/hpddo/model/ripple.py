@@ -15,7 +15,13 @@ The steps, per window:
    a line more than max_prior_z of those sd from the prior is not the ripple (`far`);
    the data's own best candidates among f x {2, 3, 3/2, 1/2, 1/3, 2/3} are checked: where
    one of them fits the data as well and the prior cannot tell them apart, the ambiguity is
-   unresolved and said so;
+   unresolved and said so; before the prior, the line's identity from the data
+   (ripple_comb): where the window's lines form a comb of the rotation frequency, the
+   commutation line is its strongest, and must sit at ripples_per_rev times it (else
+   `multiple`, the number the data show said); a damaged commutator (the line at twice the
+   rotation frequency too strong) is `damaged`; every other line inside the prior's spread as
+   strong as half the chosen one is a `rival`, compared by power alone, so a moving prior
+   cannot make it confident;
 3. counting: the current band-passed around f (scipy.signal, Butterworth, zero phase; with
    the neighbouring bursts as margins where they are contiguous), its analytic signal's
    phase unwrapped, the cycles counted over the window (phase advance / 2 pi): the mean
@@ -46,6 +52,7 @@ import pathlib
 import numpy as np
 
 from . import ripple_sync
+from . import ripple_comb as rc
 
 #: the reasons for no confident speed, by key (the texts of `Estimate.reason`)
 REASONS = {
@@ -57,6 +64,12 @@ REASONS = {
            "while the shaft stands or turns too slowly for its ripple)",
     "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
                  "and the back-EMF prior cannot tell them apart",
+    "multiple": "the data show another ripples per revolution than the one given",
+    "rival": "another line inside the back-EMF prior's spread is as strong, and the data do not place it on the "
+             "rotation comb: unresolved",
+    "damaged": "a damaged commutator: the lines at once or twice the rotation frequency are too strong against "
+               "the commutation line (a worn or burnt bar, a shorted coil, a badly eccentric rotor); the ripple is not "
+               "counted through it",
     "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
     "stall": "stall: the drive on and current flowing, but no ripple line over a span of steady windows, and the "
              "back-EMF prior too low for a window's count: the shaft stands (0 RPM within rpm_bound)",
@@ -249,7 +262,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
 
     fs = bursts.sample_hz
     out = dict(rpm=math.nan, rpm_fft=math.nan, f_Hz=math.nan, f_strongest_Hz=math.nan, cycles=math.nan, snr=math.nan,
-               spread=math.nan, spread_current=math.nan, i_mean_A=math.nan, confidence=0.0, reason="", key="")
+               spread=math.nan, spread_current=math.nan, i_mean_A=math.nan, rot_hz=math.nan, multiple=0,
+               rot1_rel=math.nan, rot2_rel=math.nan, confidence=0.0, reason="", key="")
     x0 = bursts.current_A(k)
     n = len(x0)
     if n < 16:
@@ -292,32 +306,61 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
 
     band_all = (f >= f_lo) & (f <= f_hi)
     out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
+    found = rc.lines(f, p, f_lo, f_hi, res, opts.min_snr)
+    found = rc.without_fixed(found, bursts, res)
+    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts))
+    if comb is not None:  # the line's identity from the data: the comb of rotation lines
+        out.update(rot_hz=comb.rot_hz, multiple=comb.multiple)
+        out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res)
+        if rc.damaged(out["rot1_rel"], out["rot2_rel"]):
+            out.update(key="damaged", f_Hz=comb.commutation.hz, snr=comb.commutation.snr,
+                       reason=rc.damaged_reason(REASONS["damaged"], out["rot1_rel"], out["rot2_rel"], comb.rot_hz))
+            return out
+        if comb.multiple != opts.ripples_per_rev:
+            out.update(key="multiple", f_Hz=comb.commutation.hz, snr=comb.commutation.snr,
+                       rpm=comb.rot_hz * 60.0 / opts.gear_ratio,
+                       reason=f"{REASONS['multiple']}: the ripple is {comb.multiple} per revolution, not the "
+                              f"{opts.ripples_per_rev} given (rotation lines {comb.rot_hz:.2f} Hz apart, the "
+                              f"strongest at {comb.multiple} x, {comb.commutation.hz:.1f} Hz)")
+            return out
     ev = evidence(grid)
     like, z = _prior_like(grid, f_prior, sd_lo, sd_hi, opts.prior_rel_sd)
     post = ev * like
     j = int(np.argmax(post))
-    f_star = float(grid[j])
+    f_star = float(grid[j]) if comb is None else comb.commutation.hz
+    z_star = float(z[j]) if comb is None else float(_prior_like([f_star], f_prior, sd_lo, sd_hi, opts.prior_rel_sd)[1][0])
     # the local noise floor: the median power from f*/2 to 2 f*, lines excluded by the median
     sel = (f > f_star / 2) & (f < 2 * f_star)
     floor = float(np.median(p[sel])) if sel.sum() > 8 else float(np.median(p))
     snr = _line(f, p_max, f_star) / max(floor, 1e-30)
     out["snr"] = float(snr)
-    if snr < opts.min_snr or post[j] <= 0:
+    if snr < opts.min_snr or (comb is None and post[j] <= 0):
         out.update(key="not_found", reason=REASONS["not_found"], f_Hz=f_star)
         return out
-    if abs(z[j]) > opts.max_prior_z:  # a line the back-EMF cannot hold: not the ripple
+    if abs(z_star) > opts.max_prior_z:  # a line the back-EMF cannot hold: not the ripple
         out.update(key="far", f_Hz=f_star, reason=f"{REASONS['far']} ({f_star:.1f} Hz, {rpm_of(f_star):.1f} RPM, "
-                   f"{z[j]:+.1f} sd from the prior's {rpm_prior:.1f} RPM)")
+                   f"{z_star:+.1f} sd from the prior's {rpm_prior:.1f} RPM)")
         return out
     fixed = ripple_sync.fixed_line(bursts, k, f_star, res)  # a PWM or mains line, or a refused fold
     if fixed:
         out.update(key=fixed[0], f_Hz=f_star, reason=fixed[1])
         return out
-    # rivals in the family: the data's own evidence at f* x r, weighted by the prior
+    # rivals: every line inside the prior's spread (max_prior_z of its sd) as strong as opts.ambiguity of the
+    # chosen one's power, the comb's own lines but where the comb has placed them (mains and PWM multiples,
+    # a neighbouring rotation line where no comb is seen); weighed by their power alone, so that a prior
+    # which moves cannot turn one of them into a confident answer
+    placed = [ln.hz for ln, _ in comb.lines] if comb is not None else []
+    riv = rc.rivals(found, f_star, res, lambda hz: abs(_prior_like([hz], f_prior, sd_lo, sd_hi, opts.prior_rel_sd)[1][0])
+                    <= opts.max_prior_z, opts.ambiguity, placed)
+    if riv:
+        out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz or {riv[0].hz:.1f} Hz, "
+                   f"{riv[0].power / max(_line(f, p_max, f_star), 1e-300):.2f} of its power)")
+        return out
+    # rivals in the family where no comb places the line: the data's own evidence at f* x r, weighted by the prior
     alt = ALTERNATIVES
     alt_f = np.array([f_star * r for r in alt])
     ok = (alt_f > f_lo) & (alt_f < f_hi)
-    if ok.any():
+    if comb is None and ok.any():
         alt_ev = evidence(alt_f[ok])
         alt_like, _ = _prior_like(alt_f[ok], f_prior, sd_lo, sd_hi, opts.prior_rel_sd)
         rival = float(np.max(alt_ev * alt_like / max(like[j], 1e-300)))
@@ -326,6 +369,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
             out.update(key="ambiguous", f_Hz=f_star,
                        reason=f"{REASONS['ambiguous']} ({f_star:.1f} Hz or {r:.1f} Hz)")
             return out
+    if comb is None:  # the health lines where the user's ripples per revolution put the rotation: reported, but
+        # a damaged commutator is named only where the comb shows the rotation (a wrong figure given would put
+        # these lines elsewhere)
+        out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, f_star / opts.ripples_per_rev, f_star, res)
 
     # 3. counting demodulated cycles
     xx, s0, nw = _window(bursts, k, fs)
@@ -474,7 +521,7 @@ def count_settled_tails(bursts, duty, est, opts: Options, rpm_per_A=None):
 
 #: the single-window reasons that a count over several steady windows may lift: the window held too few
 #: cycles or too little evidence for its line; not `changing` (the speed moved), `far`, `floor`, `coasting`
-SPAN_KEYS = ("few_cycles", "not_found", "ambiguous")
+SPAN_KEYS = ("few_cycles", "not_found", "ambiguous", "rival")
 
 
 def _contiguous(bursts, k) -> bool:
@@ -553,7 +600,7 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
 
 #: the reasons after the spans under which a shaft may stand: no line, too few cycles, a rival line, or a
 #: fixed line far from the prior (interference while the shaft stands)
-STALL_KEYS = ("few_cycles", "not_found", "ambiguous", "far")
+STALL_KEYS = ("few_cycles", "not_found", "ambiguous", "rival", "far")
 
 
 def _upper_speed(prior_rpm: float, sd_above_rpm: float, rel_sd: float, z: float) -> float:
@@ -650,6 +697,34 @@ def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
         est.loc[idx, "reason"] = reason
         est.loc[idx, "stall"] = True
         est.loc[idx, "rpm_bound"] = bound
+    return est
+
+
+def identity_of_recording(est, opts: Options):
+    """The line's identity over a whole recording: where most of the windows whose lines form a
+    rotation comb (est's `multiple` > 0; not those named `damaged`) put the strongest line at another multiple than
+    opts.ripples_per_rev, the user's figure is wrong for this motor, and a window without a comb of
+    its own cannot show that its line is the ripple (its prior, (V - I Ra) / Ke with a Ke calibrated
+    under the same figure, agrees with any multiple): every confident row without its own comb at
+    ripples_per_rev is then `multiple`, not confident, with the multiple the comb windows show.
+    est: speed_of_log's DataFrame. Returns a copy."""
+    est = est.copy()
+    m = est["multiple"].to_numpy(int)
+    shown = (m > 0) & (est["key"].to_numpy() != "damaged")  # a damaged commutator's even lines are not the comb
+    other = shown & (m != opts.ripples_per_rev)
+    if not shown.any() or other.sum() <= 0.5 * shown.sum():
+        return est
+    vals, counts = np.unique(m[other], return_counts=True)
+    top = int(vals[np.argmax(counts)])
+    demote = est["confident"].to_numpy(bool) & (m != opts.ripples_per_rev)
+    idx = est.index[demote]
+    est.loc[idx, "confident"] = False
+    est.loc[idx, "confidence"] = 0.0
+    est.loc[idx, "key"] = "multiple"
+    est.loc[idx, "reason"] = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the "
+                              f"{opts.ripples_per_rev} given, in {int((m == top).sum())} of the {int(shown.sum())} "
+                              "windows of this recording whose lines form a rotation comb; this window shows none "
+                              "of its own")
     return est
 
 
@@ -918,6 +993,7 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     est = count_settled_tails(b, duty, est, opts, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)
     est = count_stalls(b, duty, est, opts, per_A if prior is not None else None)
+    est = identity_of_recording(est, opts)
     est = ripple_range.within_range(est, rpm_range)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior

@@ -388,6 +388,10 @@ RIPPLE_BURST = {
         BurstParam("sub6_pct", "%", 1.2, (0.0, 10.0),
                    "rotor asymmetry: the line at f/6 (once per motor revolution for 6 ripples per "
                    "revolution), as sub2_pct"),
+        BurstParam("bar_fault_pct", "%", 0.0, (0.0, 50.0),
+                   "a damaged commutator: one segment's contact resistance raised by this % of the loop "
+                   "resistance, so the current dips while that segment carries it (under either brush, "
+                   "twice per revolution); 0 = a healthy commutator"),
         BurstParam("harmonic2_pct", "%", 30.0, (10.0, 50.0),
                    "second harmonic of the main line, in % of its amplitude (a commutation dip is not a sine)"),
         BurstParam("bounce_pct", "%", 2.0, (0.5, 5.0),

@@ -12,6 +12,9 @@ What the burst carries, per sample at time t (the middle of the on-time of its P
   each sub*_pct of E / R_loop, so it grows with speed and can overtake the main line where
   the current is small and the speed high; the EMF parts scaled by the conduction
   fraction (no current, no ripple: coasting with the drive off shows none);
+* a damaged commutator (`bar_fault_pct`): while segment 0 carries the current (under either
+  brush) the loop resistance is raised by that share, so the current is divided by 1 + share
+  there: lines at twice the rotation frequency and its multiples;
 * brush bounce (white, % of the current), an interference line at a fixed frequency, the
   sample timing jitter times the on-time slope (Vs - E - R i) / La, the ADC's noise and
   its quantisation (codes clipped to 0..full scale: the shunt channel is single ended),
@@ -60,6 +63,15 @@ def _angle_profile(w0, w1, dtheta, T, tau_s):
     return w0 * tau_s + a * tau_s ** 2 / 2 + b * tau_s ** 3 / 3, w0 + a * tau_s + b * tau_s ** 2
 
 
+def _on_segment(theta_m, ripples_per_rev: int):
+    """1 where commutator segment 0 lies under a brush at the motor angle theta_m (rad), else 0: with
+    two brushes half a turn apart and ripples_per_rev / 2 segments, each segment spans 2 pi / segments
+    and passes under brush A from angle 0 and under brush B from pi."""
+    seg = 2 * math.pi / max(1, ripples_per_rev // 2)
+    a = np.mod(theta_m, 2 * math.pi)
+    return ((a < seg) | ((a >= math.pi) & (a < math.pi + seg))).astype(float)
+
+
 def synthesise(bench: Bench, res, duty, params: dict, rng):
     """The bursts of a simulated run: (t0 per window, list of integer code arrays, meta)."""
     n = len(duty)
@@ -77,6 +89,7 @@ def synthesise(bench: Bench, res, duty, params: dict, rng):
     coil = params["coil_emf_pct"] / 100.0
     subs = ((2, params["sub2_pct"] / 100.0), (3, params["sub3_pct"] / 100.0), (6, params["sub6_pct"] / 100.0))
     h2 = params["harmonic2_pct"] / 100.0
+    bar_fault = params.get("bar_fault_pct", 0.0) / 100.0
     bounce = params["bounce_pct"] / 100.0
     f_int, a_int = params["interference_hz"], params["interference_mA"] / 1000.0
     jit = params["jitter_us"] * 1e-6
@@ -96,6 +109,8 @@ def synthesise(bench: Bench, res, duty, params: dict, rng):
         main = brush * i + coil * e_over_r
         x = N * theta_m + ph[0]
         sig = i + main * (np.cos(x) + h2 * np.cos(2 * x))
+        if bar_fault:  # the damaged segment carries the current under brush A, then under brush B
+            sig = sig / (1.0 + bar_fault * _on_segment(theta_m, N))
         for j, (div, a) in enumerate(subs):
             if a:
                 sig = sig + a * e_over_r * np.cos(N * theta_m / div + ph[1 + j])

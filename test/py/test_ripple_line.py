@@ -1,0 +1,175 @@
+"""The ripple line's identity from the data (model/ripple_comb.py, docs/ripple.md "Which line is the
+ripple"): the comb of rotation lines gives the rotation frequency, the line the user's ripples per
+revolution names must be its strongest; rival lines inside the prior's spread leave a window
+unresolved whatever the prior; a damaged commutator is named; --calibrate finds the ripples per
+revolution. The study's figures (hpddo.studies.ripple_line) are quoted by docs/ripple.md."""
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from hpddo.logs.ripple import Bursts
+from hpddo.model import ripple as rp
+from hpddo.model import ripple_calibrate as rcal
+from hpddo.model import ripple_comb as rc
+from hpddo.studies import ripple_line as study
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+FS = 20000.0
+A_PER_CODE = 1e-5
+
+
+def bursts_of(currents, fs=FS, meta=None):
+    codes = [np.round(np.asarray(x) / A_PER_CODE).astype(np.int64) for x in currents]
+    n = len(codes[0])
+    return Bursts(dict(meta or {}), fs, A_PER_CODE, np.arange(len(codes)), np.arange(len(codes)) * n / fs, codes)
+
+
+def motor_current(rot_hz, lines, seconds=0.5, i_mean=1.0, noise=0.002, seed=0, fs=FS, extra=()):
+    """A current with lines at multiples of rot_hz: lines {multiple: amplitude A}; extra: (hz, A) fixed lines."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * fs)) / fs
+    x = i_mean + noise * rng.standard_normal(len(t))
+    for m, a in lines.items():
+        x = x + a * np.cos(2 * math.pi * m * rot_hz * t + rng.uniform(0, 2 * math.pi))
+    for hz, a in extra:
+        x = x + a * np.cos(2 * math.pi * hz * t + rng.uniform(0, 2 * math.pi))
+    return x
+
+
+def one(x, n_given, prior_rpm, gear=1.0, **kw):
+    opts = rp.Options(n_given, gear, **kw)
+    return rp.estimate_window(bursts_of([x]), 0, 0.5, prior_rpm, opts)
+
+
+HEALTHY_6 = {1: 0.004, 2: 0.003, 3: 0.005, 6: 0.08, 12: 0.024}
+
+
+def test_the_comb_gives_the_rotation_and_the_line_the_given_multiple_names():
+    rot = 23.0
+    r = one(motor_current(rot, HEALTHY_6), 6, rot * 60)
+    assert r["key"] == "", r["reason"]
+    assert r["multiple"] == 6 and abs(r["rot_hz"] / rot - 1) < 0.002
+    assert abs(r["rpm"] / (rot * 60) - 1) < 0.002
+
+
+@pytest.mark.parametrize("given", [3, 12])
+def test_another_multiple_in_the_data_is_said_and_never_confident(given):
+    rot = 23.0
+    # the prior where the given figure puts the line the data show: it agrees with the wrong figure
+    r = one(motor_current(rot, HEALTHY_6), given, rot * 60 * 6 / given)
+    assert r["key"] == "multiple"
+    assert f"the ripple is 6 per revolution, not the {given} given" in r["reason"]
+
+
+def test_an_18_bar_motor_given_18_is_told_36_and_not_counted_on_a_neighbouring_rotation_line():
+    """The issue's lab motor: 18 bars, two brushes, the strongest line at 36 x f_rot, rotation lines at
+    12 x and 16 x inside the prior's spread, a weaker line at 18 x."""
+    rot = 23.7  # off the mains' multiples
+    lines = {1: 0.01, 2: 0.006, 12: 0.02, 16: 0.025, 18: 0.012, 36: 0.1, 72: 0.02}
+    for prior_scale in (0.9, 1.0, 1.12):
+        r = one(motor_current(rot, lines), 18, rot * 60 * 2 * prior_scale)
+        assert r["key"] == "multiple", (prior_scale, r["reason"])
+        assert "the ripple is 36 per revolution, not the 18 given" in r["reason"]
+    r = one(motor_current(rot, lines), 36, rot * 60 * 1.1)
+    assert r["key"] == "", r["reason"]
+    assert abs(r["rpm"] / (rot * 60) - 1) < 0.002
+
+
+def test_a_mains_comb_near_the_prior_does_not_follow_the_prior():
+    """A grinder's rectified mains: lines every 100 Hz, as strong as the ripple; the ripple alone (no
+    rotation lines): two priors 12 % apart may not give two different confident speeds."""
+    rot = 70.0  # 6 x 70 = 420 Hz, between 400 and 500 Hz
+    mains = tuple((100.0 * k, 0.06) for k in range(1, 12))
+    x = motor_current(rot, {6: 0.08, 12: 0.02}, extra=mains)
+    got = []
+    for prior in (rot * 60 * 0.95, rot * 60 * 0.95 * 1.12):
+        r = one(x, 6, prior)
+        got.append(r)
+        assert r["key"] == "" or r["key"] in rp.REASONS
+    conf = [r for r in got if r["key"] == ""]
+    for r in conf:
+        assert abs(r["rpm"] / (rot * 60) - 1) < 0.05
+    assert len({round(r["rpm"]) for r in conf}) <= 1
+
+
+def test_every_line_inside_the_spread_is_a_rival_without_a_comb():
+    rot = 30.0
+    x = motor_current(rot, {6: 0.05}, extra=((6 * rot * 1.08, 0.045),))
+    for prior in (rot * 60, rot * 60 * 1.08):
+        r = one(x, 6, prior)
+        assert r["key"] == "rival", r["reason"]
+
+
+def test_a_damaged_commutator_is_named_on_the_twin_and_a_healthy_one_is_not():
+    from hpddo.twin import generate, params
+
+    bench = params.preset("default")
+    opts = rp.Options(bench.ripples_per_rev, bench.gear_ratio)
+    keys = {}
+    for fault in (0.0, study.BAR_FAULT_PCT):
+        g = generate.generate(bench, "load", 2.0, 1, time_scale=0.1, ripple=params.ripple_burst(bar_fault_pct=fault))
+        t0, codes, meta = g["bursts"]
+        b = Bursts(meta, float(meta["sample_hz"]), float(meta["a_per_code"]), g["log"]["seq"].to_numpy(), t0, codes)
+        est = rp.estimate(b, g["log"]["duty"].to_numpy(), None, opts)
+        keys[fault] = est["key"].to_numpy()
+    assert (keys[0.0] == "damaged").sum() == 0
+    assert (keys[study.BAR_FAULT_PCT] == "damaged").mean() > 0.8
+
+
+def test_the_twin_healthy_bytes_are_those_without_the_fault_parameter():
+    from hpddo.twin import generate, params
+
+    bench = params.preset("default")
+    a = generate.generate(bench, "load", 2.0, 1, time_scale=0.05, ripple=params.ripple_burst())
+    b = generate.generate(bench, "load", 2.0, 1, time_scale=0.05, ripple=params.ripple_burst(bar_fault_pct=0.0))
+    assert all(np.array_equal(x, y) for x, y in zip(a["bursts"][1], b["bursts"][1]))
+
+
+def test_calibrate_names_the_ripples_per_revolution_from_the_comb_alone():
+    rot = 23.0  # 6 x 23 Hz off the mains' multiples (a line on one is left out of the comb and the encoder's check)
+    b = bursts_of([motor_current(rot * (1 + 0.05 * k), HEALTHY_6, seed=k) for k in range(6)])
+    c = rcal.calibrate(b, np.full(6, 0.5), rp.Options(12, 1.0))
+    assert c["comb"]["ripples_per_rev"] == 6 and c["ripples_per_rev"] == 6
+    assert c["statement"].startswith("the ripple is 6 per revolution, not the 12 given")
+    ref = np.array([rot * (1 + 0.05 * k) * 60 for k in range(6)])
+    c = rcal.calibrate(b, np.full(6, 0.5), rp.Options(12, 1.0), ref)
+    assert c["encoder"]["ripples_per_rev"] == 6
+
+
+def test_hpddo_ripple_calibrate_and_a_wrong_figure_on_twin_logs(tmp_path, capsys):
+    from hpddo.cli import main as cli_main
+
+    out = tmp_path / "tw"
+    assert cli_main(["twin", "--protocol", "load", "--ripple-hz", "10000", "--time-scale", "0.1", "--out", str(out)]) == 0
+    log = str(out / "load.csv")
+    assert cli_main(["ripple", log, "--calibrate", "--gear-ratio", "4.4", "--out", str(tmp_path / "c")]) == 0
+    said = capsys.readouterr().out
+    assert "load: the ripple is 6 per revolution" in said
+    summary = json.loads((tmp_path / "c" / "summary.json").read_text())
+    assert summary["load"]["ripples_per_rev"] == 6
+    assert cli_main(["ripple", log, "--ripples-per-rev", "12", "--gear-ratio", "4.4", "--out", str(tmp_path / "r")]) == 0
+    said = capsys.readouterr().out
+    summary = json.loads((tmp_path / "r" / "summary.json").read_text())
+    assert summary["load"]["confident"] == 0
+    assert "the ripple is 6 per revolution, not the 12 given" in said
+    assert "the commutator looks healthy" in said
+
+
+def test_hpddo_ripple_without_the_figure_and_without_calibrate_is_a_user_error(tmp_path, capsys):
+    from hpddo.cli import main as cli_main
+
+    assert cli_main(["ripple", str(tmp_path / "x.csv"), "--gear-ratio", "4.4", "--out", str(tmp_path / "o")]) != 0
+    assert "--ripples-per-rev" in capsys.readouterr().err
+
+
+def test_docs_quote_the_committed_study():
+    res = json.loads((ROOT / "docs" / "figures" / "ripple_line.json").read_text())
+    text = (ROOT / "docs" / "ripple.md").read_text()
+    assert study.block(res) in text
+    assert res["command"] in text
+    assert res["health_rot2_max"] == rc.HEALTH_ROT2_MAX

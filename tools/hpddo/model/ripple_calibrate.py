@@ -1,0 +1,114 @@
+"""The ripples per motor revolution from the data (hpddo ripple --calibrate, docs/ripple.md): the
+comb of rotation lines each window shows (ripple_comb), and the strongest line against an encoder
+or tachometer where the log has one."""
+from __future__ import annotations
+
+import numpy as np
+
+from . import ripple_comb as rc
+from .ripple import _spectrum
+
+
+def window_comb(bursts, k: int, opts):
+    """The lines and the rotation comb of window k's current (ripple_comb.lines, rotation_comb; the
+    comb None where the lines form none), the spectrum's resolution (Hz), and whether the comb's
+    health lines name a damaged commutator (ripple_comb.health, damaged). opts: ripple.Options."""
+    from scipy.ndimage import maximum_filter1d
+
+    fs = bursts.sample_hz
+    x = bursts.current_A(k)
+    res = fs / len(x)
+    f, p = _spectrum(x, fs)
+    found = rc.lines(f, p, max(2.0 * res, 0.5), fs / 2.0 / 2.2, res, opts.min_snr)
+    found = rc.without_fixed(found, bursts, res)
+    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts))
+    bad = False
+    if comb is not None:
+        p_max = maximum_filter1d(p, size=max(1, int(round(res / (f[1] - f[0])))) | 1)
+        bad = rc.damaged(*rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res))
+    return found, comb, res, bad
+
+
+#: calibrate: the share of the windows that must agree on one ripples per revolution for it to be named
+CALIBRATE_AGREE = 0.8
+#: calibrate: the fewest windows a source must have to name a number
+CALIBRATE_MIN_WINDOWS = 5
+#: calibrate with an encoder: a window's line within this share of a whole number of ripples per revolution
+CALIBRATE_WHOLE = 0.03
+
+
+def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
+    """The ripples per motor revolution from the data (hpddo ripple --calibrate): over the driven
+    windows (duty > 0, mean current at or above opts.floor_A) whose lines form a rotation comb (not
+    those whose health lines name a damaged commutator: a bar's fault puts lines at the even
+    multiples, whose spacing is twice the rotation),
+    the multiple of the rotation frequency at which the strongest line sits (ripple_comb.rotation_comb); with
+    an encoder or tachometer speed per window (rpm_ref, output shaft), also the strongest line
+    (mains and declared PWM multiples left out) over the motor's rotation frequency,
+    rpm_ref x opts.gear_ratio / 60, where it lies within CALIBRATE_WHOLE of a whole number. Each
+    source names the number that CALIBRATE_AGREE of its windows (at least CALIBRATE_MIN_WINDOWS)
+    agree on, or says that they do not agree; where the comb and the encoder name different
+    numbers, the encoder's (a measurement of the revolutions) is named and the disagreement said. Returns a dict: per source the windows used and the counts of each number, the
+    number named (0 where none), and a statement."""
+    import collections
+
+    n = len(bursts)
+    duty = np.full(n, np.nan) if duty is None else np.asarray(duty, float)
+    ref = None if rpm_ref is None else np.asarray(rpm_ref, float)
+    comb_m, enc_m = collections.Counter(), collections.Counter()
+    driven = damaged = 0
+    for k in range(n):
+        x = bursts.current_A(k)
+        if len(x) < 16 or not (np.isfinite(duty[k]) and duty[k] > 0) or x.mean() < opts.floor_A:
+            continue
+        driven += 1
+        found, comb, res, bad = window_comb(bursts, k, opts)
+        if bad:  # a damaged commutator's lines are not the rotation's comb
+            damaged += 1
+        elif comb is not None:
+            comb_m[comb.multiple] += 1
+        if ref is not None and np.isfinite(ref[k]) and ref[k] > 0:
+            fixed = tuple(rc.MAINS_HZ) + rc.fixed_hz_of(bursts)
+            strong = [ln for ln in found if not rc.near_fixed(ln.hz, fixed, rc.fixed_tol_hz(ln.hz, res))]
+            if strong:
+                per_rev = strong[0].hz / (ref[k] * opts.gear_ratio / 60.0)
+                whole = round(per_rev)
+                if whole >= 1 and abs(per_rev / whole - 1.0) <= CALIBRATE_WHOLE:
+                    enc_m[int(whole)] += 1
+    out = {"driven_windows": driven, "damaged_windows": damaged}
+    said = []
+    for name, counts, how in (("comb", comb_m, "the comb of rotation lines"),
+                              ("encoder", enc_m, "the strongest line against the encoder's speed")):
+        if name == "encoder" and ref is None:
+            continue
+        used = int(sum(counts.values()))
+        top, top_n = counts.most_common(1)[0] if counts else (0, 0)
+        named = int(top) if used >= CALIBRATE_MIN_WINDOWS and top_n >= CALIBRATE_AGREE * used else 0
+        out[name] = {"windows": used, "counts": {str(m): int(c) for m, c in sorted(counts.items())},
+                     "ripples_per_rev": named}
+        if not used:
+            said.append(f"{how}: no window shows it")
+        elif used < CALIBRATE_MIN_WINDOWS:
+            said.append(f"{how}: too few windows (" + ", ".join(f"{m} in {c}" for m, c in counts.most_common(4))
+                        + f" of {used}, under {CALIBRATE_MIN_WINDOWS})")
+        elif named:
+            said.append(f"{how}: {named} ripples per revolution ({top_n} of {used} windows)")
+        else:
+            said.append(f"{how}: the windows do not agree (" + ", ".join(
+                f"{m} in {c}" for m, c in counts.most_common(4)) + f" of {used})")
+    # the encoder measures the revolutions; the comb infers them: where both name a number and they differ,
+    # the encoder's is named and the disagreement said
+    names = {out[s]["ripples_per_rev"] for s in ("comb", "encoder") if s in out and out[s]["ripples_per_rev"]}
+    enc = out.get("encoder", {}).get("ripples_per_rev", 0)
+    out["ripples_per_rev"] = enc or (next(iter(names)) if len(names) == 1 else 0)
+    given = getattr(opts, "ripples_per_rev", None)
+    head = (f"the ripple is {out['ripples_per_rev']} per revolution" if out["ripples_per_rev"]
+            else "the ripples per revolution are not determined")
+    if len(names) > 1:
+        head += " (the comb and the encoder disagree: the encoder's is named)"
+    if out["ripples_per_rev"] and given and given != out["ripples_per_rev"]:
+        head += f", not the {given} given"
+    out["statement"] = (f"{head}: " + "; ".join(said) + f" (of {driven} driven windows"
+                        + (f"; {damaged} with a damaged commutator's lines, left out of the comb" if damaged else "")
+                        + ")")
+    return out

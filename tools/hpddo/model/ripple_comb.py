@@ -1,0 +1,266 @@
+"""The ripple line's identity from the data (docs/ripple.md, "Which line is the ripple"): the
+lines of a window's current spectrum, the comb of the rotation frequency they form, the
+multiple of it the commutation line sits at, and the rival lines around the back-EMF prior.
+
+Physics: a rotor that is not perfectly symmetric (unequal coils, eccentricity, a brush that sits
+off its axis, a worn bar) modulates the current once per revolution, so the spectrum holds lines
+at multiples m f_rot of the motor's rotation frequency f_rot, the commutation line (at
+ripples_per_rev x f_rot) among them. The comb's spacing gives f_rot from the data alone; the
+line the user's ripples per revolution names must be the strongest line of the comb, at its
+third multiple or above (the first two are the commutator's health lines: an eccentric rotor, a
+bar with a raised contact resistance). Where it is not, the data show another multiple, and the
+window says which, never confident.
+
+Lines at multiples of the mains (MAINS_HZ) are not rotation lines: left out of the comb. A line
+the acquisition puts there (a free-running PWM) is another's: `fixed_hz` takes those frequencies
+(the hook for the PWM/mains check of the burst's sampling).
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+MAINS_HZ = (50.0, 60.0)  # mains frequencies: their multiples (rectified mains, hum) are never rotation lines
+#: the first multiple of the rotation frequency that may be the commutation line; the first and the second
+#: are the commutator's health lines (commutator_health)
+COMMUTATION_MIN_MULTIPLE = 3
+MAX_MULTIPLE = 256      # the comb's multiples searched: up to 128 bars with 2 brushes
+COMB_MIN_LINES = 2      # lines of the comb under the commutation line needed to call the spacing f_rot
+COMB_REL_TOL = 0.004    # a line on the comb: within this share of its frequency (a speed steady to 0.4 %) ...
+COMB_RES_TOL = 0.35     # ... plus this share of the spectrum's resolution (1 / window) of a multiple of f_rot
+#: the comb's spacing explains at least this share of the evidence the best spacing explains: a line at the
+#: threshold (noise now and then) weighs near nothing, a resolved rotation line several times more
+COMB_EXPLAINED = 0.95
+COMB_LINE_SNR = math.e  # a comb line stands e times over the line threshold (log(snr / min_snr) >= 1): noise,
+#                         which reaches the threshold now and then, does not reach this in a window's spectrum
+COMB_SPAN = 2.2         # the comb's lines: up to the commutation line's second harmonic
+#: the commutator's health (health()): the power at twice the rotation frequency relative to the commutation
+#: line's above which a window names a damaged commutator. With two brushes a segment passes under a brush twice
+#: a revolution, so a bar with a raised contact resistance (or a shorted coil) shows at 2 f_rot and its
+#: multiples. Set on the twin, between the healthy windows' largest and a worn segment's (+10 % of the loop
+#: resistance) smallest (hpddo.studies.ripple_line, docs/figures/ripple_line.json: each case's percentiles)
+HEALTH_ROT2_MAX = 0.012
+#: the once-per-revolution line (eccentricity, a bent shaft, one brush's contact) is common in healthy motors:
+#: named only where it is as strong as the commutation line (healthy twin windows: 0.026 at the most)
+HEALTH_ROT1_MAX = 1.0
+FIXED_REL_TOL = 0.001  # the mains' frequency holds within 0.1 % (50 +- 0.05 Hz)
+LINE_FLOOR_OCTAVE = 1.5  # a line's noise floor: the median power from f / 1.5 to 1.5 f
+#: a peak this many resolutions from a stronger line is its leakage (the Hann window's side lobes, -31 dB at
+#: 2.5 resolutions, a line smeared by a speed that moves inside the window) unless LEAKAGE_SHARE of its power
+LEAKAGE_RES = 4.0
+LEAKAGE_SHARE = 0.01
+#: ... and further out, up to LEAKAGE_FAR_RES resolutions, LEAKAGE_FAR_SHARE of it (the side lobes fall ~18 dB an
+#: octave; a line 70 dB over the noise still leaks above it 4-10 resolutions away)
+LEAKAGE_FAR_RES = 10.0
+LEAKAGE_FAR_SHARE = 1e-4
+
+
+@dataclasses.dataclass(frozen=True)
+class Line:
+    hz: float
+    power: float
+    snr: float
+
+
+@dataclasses.dataclass(frozen=True)
+class Comb:
+    """The rotation comb of one window: f_rot (Hz, motor), the lines on it with their multiples,
+    the strongest line from COMMUTATION_MIN_MULTIPLE on (the commutation line the data show) and
+    its multiple."""
+
+    rot_hz: float
+    lines: tuple      # (Line, multiple) on the comb
+    commutation: Line
+    multiple: int
+
+
+def near_fixed(hz: float, fixed_hz, tol_hz: float) -> bool:
+    for f0 in fixed_hz:
+        if f0 > 0 and hz >= f0 - tol_hz:
+            k = round(hz / f0)
+            if k >= 1 and abs(hz - k * f0) <= tol_hz:
+                return True
+    return False
+
+
+def lines(f, p, f_lo: float, f_hi: float, res_hz: float, min_snr: float) -> list:
+    """The lines of a spectrum (f Hz, power p, zero-padded) from f_lo to f_hi: local maxima at least
+    one resolution (res_hz) apart whose power is min_snr times the median power around them (from
+    f / LINE_FLOOR_OCTAVE to f x LINE_FLOOR_OCTAVE), their frequency refined by a parabola through
+    the log power of the three bins at the peak. Strongest first."""
+    from scipy.signal import find_peaks
+
+    step = float(f[1] - f[0])
+    band = np.flatnonzero((f >= f_lo) & (f <= f_hi))
+    if len(band) < 5:
+        return []
+    pk, _ = find_peaks(p[band], distance=max(1, int(round(res_hz / step))))
+    pk = band[pk][np.argsort(-p[band[pk]])]  # strongest first
+    out = []
+    logp = np.log(np.maximum(p, 1e-300))
+    for j in pk:
+        hz = float(f[j])
+        if any((abs(ln.hz - hz) < LEAKAGE_RES * res_hz and p[j] < LEAKAGE_SHARE * ln.power)
+               or (abs(ln.hz - hz) < LEAKAGE_FAR_RES * res_hz and p[j] < LEAKAGE_FAR_SHARE * ln.power) for ln in out):
+            continue
+        sel = (f >= hz / LINE_FLOOR_OCTAVE) & (f <= hz * LINE_FLOOR_OCTAVE)
+        floor = float(np.median(p[sel]))
+        snr = float(p[j]) / max(floor, 1e-300)
+        if snr < min_snr:
+            continue
+        if 0 < j < len(p) - 1:
+            a, b, c = logp[j - 1], logp[j], logp[j + 1]
+            den = a - 2 * b + c
+            if den < 0:
+                hz += 0.5 * (a - c) / den * step
+        out.append(Line(hz, float(p[j]), snr))
+    return sorted(out, key=lambda ln: -ln.power)
+
+
+def tol_hz(hz: float, res_hz: float) -> float:
+    return COMB_REL_TOL * hz + COMB_RES_TOL * res_hz
+
+
+def fixed_tol_hz(hz: float, res_hz: float) -> float:
+    """How near a multiple of a fixed frequency (mains, PWM) a line must lie to be taken for it: half a
+    resolution, and FIXED_REL_TOL of the line (the mains' own drift)."""
+    return FIXED_REL_TOL * hz + 0.5 * res_hz
+
+
+def _on_comb(found, g: float, res_hz: float):
+    """The lines on the comb of spacing g: [(Line, multiple)]; one line a multiple (the strongest). A
+    line is on it within its tolerance (_tol) and within 0.15 of a multiple of g, so that a narrow
+    spacing does not collect lines by chance."""
+    best = {}
+    for ln in found:
+        k = int(round(ln.hz / g))
+        if 1 <= k <= MAX_MULTIPLE and abs(ln.hz - k * g) <= tol_hz(ln.hz, res_hz) and abs(ln.hz / g - k) <= 0.15:
+            if k not in best or ln.power > best[k].power:
+                best[k] = ln
+    return sorted(((ln, k) for k, ln in best.items()), key=lambda t: t[1])
+
+
+def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=()) -> Comb | None:
+    """The rotation comb of a window's lines (lines()), or None where the lines do not form one.
+
+    The commutation line is the strongest line (lines at multiples of the mains or of fixed_hz
+    left out); the rotation frequency one of its sub-multiples f_c / m, m from
+    COMMUTATION_MIN_MULTIPLE to MAX_MULTIPLE, no narrower than 2 resolutions (lines one spacing
+    apart must be resolved). Each spacing explains the lines up to COMB_SPAN x f_c that lie within
+    tolerance (COMB_REL_TOL, COMB_RES_TOL) of one of its multiples, each line weighing its evidence
+    log(snr / min_snr), from COMB_LINE_SNR times the threshold on (noise reaches the threshold
+    now and then); the comb is the widest spacing (the smallest m) that explains COMB_EXPLAINED of the most any
+    spacing explains: a wider one
+    leaves lines out, a narrower one (f_rot / 2) explains the same lines with more empty multiples.
+    A comb needs at least COMB_MIN_LINES lines under the commutation line: a line and its
+    harmonics alone show no rotation."""
+    use = [ln for ln in found if not near_fixed(ln.hz, tuple(MAINS_HZ) + tuple(fixed_hz), fixed_tol_hz(ln.hz, res_hz))]
+    if len(use) < COMB_MIN_LINES + 1:
+        return None
+    c = use[0]
+    use = [ln for ln in use if ln.hz <= COMB_SPAN * c.hz and ln.snr >= COMB_LINE_SNR * min_snr]
+    scored = []
+    for m in range(COMMUTATION_MIN_MULTIPLE, MAX_MULTIPLE + 1):
+        g = c.hz / m
+        if g < 2.0 * res_hz:
+            break
+        on = _on_comb(use, g, res_hz)
+        if sum(1 for _, k in on if k < m) >= COMB_MIN_LINES:
+            scored.append((sum(math.log(ln.snr / min_snr) for ln, _ in on), m, on))
+    if not scored:
+        return None
+    most = max(s[0] for s in scored)
+    _, m, on = min((s for s in scored if s[0] >= COMB_EXPLAINED * most), key=lambda s: s[1])
+    # f_rot refined: the least-squares spacing of the lines on the comb, weighted by their power
+    w = np.array([ln.power for ln, _ in on])
+    k = np.array([j for _, j in on], float)
+    hz = np.array([ln.hz for ln, _ in on])
+    g = float(np.sum(w * k * hz) / np.sum(w * k * k))
+    return Comb(g, tuple(on), c, int(m))
+
+
+def fixed_hz_of(bursts) -> tuple:
+    """The fixed lines the acquisition declares in the burst file's metadata, Hz: the PWM frequency
+    (`pwm_hz`) where it lies inside the band the samples hold (under half the sample rate: sampled
+    once per PWM period, the PWM aliases to 0 Hz and puts no line). Their multiples are left out of
+    the comb; this is the hook where a check of the sampling (free-running PWM, mains) adds its
+    own."""
+    try:
+        pwm = float(bursts.meta.get("pwm_hz", "nan"))
+    except (TypeError, ValueError):
+        return ()
+    return (pwm,) if math.isfinite(pwm) and 0 < pwm < bursts.sample_hz / 2 else ()
+
+
+# The PWM's harmonics whose aliases are left out of the comb: a PWM current's edges put harmonics
+# falling as 1 / h^2 far above the 20 the confidence check names (ripple_sync.PWM_HARMONICS), and on
+# a current cleaned of its PWM-synchronous average the 39th of 490 Hz, aliased at 9.6 kS/s to 82.4 Hz,
+# still stands at 2.6 % of the commutation line's power, beside it.
+COMB_PWM_HARMONICS = 100
+
+
+def without_fixed(found, bursts, res_hz: float) -> list:
+    """found (lines()) without the lines the burst file's declared supply puts there: the PWM's
+    harmonics up to COMB_PWM_HARMONICS where they alias into the band, the declared mains' multiples;
+    the strongest line is kept whatever it sits on (the confidence check, ripple_sync.fixed_line,
+    judges it). No rotation line, no rival."""
+    if not found:
+        return []
+    fs = bursts.sample_hz
+    fixed = []
+    pwm = getattr(bursts, "pwm_hz", float("nan"))
+    if math.isfinite(pwm) and 0 < pwm < fs / 2.0:
+        fixed += [abs((h * pwm + fs / 2.0) % fs - fs / 2.0) for h in range(1, COMB_PWM_HARMONICS + 1)]
+    mains = getattr(bursts, "mains_hz", float("nan"))
+    if math.isfinite(mains) and mains > 0:
+        fixed += [h * mains for h in range(1, int(fs / 2.0 // mains) + 1)]
+    if not fixed:
+        return list(found)
+    top = max(found, key=lambda ln: ln.power)
+    return [ln for ln in found if ln is top
+            or not any(abs(ln.hz - f) <= fixed_tol_hz(ln.hz, res_hz) for f in fixed)]
+
+
+def rivals(found, f_hz: float, res_hz: float, in_spread, share: float, exclude=()) -> list:
+    """The lines that rival the chosen line at f_hz: every line (found, lines()) other than it and
+    other than those in exclude (Hz: lines the comb has placed), whose frequency in_spread (a
+    function of Hz -> bool: inside the back-EMF prior's spread) and whose power is at least share
+    of the chosen line's. Strongest first."""
+    p0 = max((ln.power for ln in found if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz)), default=0.0)
+    if p0 <= 0:
+        return []
+    out = []
+    for ln in found:
+        if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz) or any(abs(ln.hz - e) <= tol_hz(e, res_hz) for e in exclude):
+            continue
+        if ln.power >= share * p0 and in_spread(ln.hz):
+            out.append(ln)
+    return out
+
+
+def health(f, p_max, rot_hz: float, comm_hz: float, res_hz: float) -> tuple:
+    """The commutator's health lines of one window: the power at once and twice the rotation
+    frequency (the strongest bin within half a resolution, p_max) relative to the commutation
+    line's. An eccentric rotor and a worn or damaged bar (one segment with a raised contact
+    resistance, a shorted coil) raise them; a healthy commutator's are small. NaN where the
+    rotation frequency is under 2 resolutions (res_hz): its line is not resolved from the
+    spectrum's lowest bins."""
+    pc = float(np.interp(comm_hz, f, p_max))
+    if not (pc > 0 and rot_hz >= 2.0 * res_hz):
+        return math.nan, math.nan
+    return (float(np.interp(rot_hz, f, p_max)) / pc, float(np.interp(2 * rot_hz, f, p_max)) / pc)
+
+
+def damaged(rot1_rel: float, rot2_rel: float) -> bool:
+    """Whether a window's health lines (health()) name a damaged commutator: either over its
+    threshold (HEALTH_ROT1_MAX, HEALTH_ROT2_MAX)."""
+    return bool((np.isfinite(rot1_rel) and rot1_rel > HEALTH_ROT1_MAX)
+                or (np.isfinite(rot2_rel) and rot2_rel > HEALTH_ROT2_MAX))
+
+
+def damaged_reason(head: str, rot1_rel: float, rot2_rel: float, rot_hz: float) -> str:
+    return (f"{head} (at {rot_hz:.2f} and {2 * rot_hz:.2f} Hz {rot1_rel:.3g} and {rot2_rel:.3g} of its power, "
+            f"over {HEALTH_ROT1_MAX:g} and {HEALTH_ROT2_MAX:g})")
+

@@ -1,0 +1,190 @@
+"""The ripple line's identity from the data (docs/ripple.md, "Which line is the ripple"): twin
+benches where the user gives the wrong ripples per revolution (half, double), a damaged
+commutator (one segment's contact resistance raised), and the same windows under two back-EMF
+priors 12 % apart. Each case is counted as hpddo ripple counts it (ripple.speed_of_log) and
+scored against the twin's truth; the ripples per revolution are found from the data alone and
+from the encoder (ripple_comb.calibrate), and the commutator's health lines are read per window.
+
+    cd tools && ../.venv/bin/python -m hpddo.studies.ripple_line --json ../docs/figures/ripple_line.json
+
+The figures of docs/ripple.md's block "the line's identity" are this JSON's (test_ripple_line.py
+holds the page to it).
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import sys
+
+import numpy as np
+
+from ..logs.ripple import Bursts
+from ..model import ripple as rp
+from ..model import ripple_calibrate as rcal
+from ..model import ripple_comb as rc
+from ..twin import generate, params
+from . import parser
+
+WINDOW_S = 0.5
+PROTOCOLS = ("sweep", "load")
+TIME_SCALE = 0.25
+SEED = 1
+PRIOR_APART = 1.12   # the second prior's Ke over the first's
+WRONG = 0.05         # a confident window further than this from the truth is wrong
+MIN_CYCLES = 3.0     # the driven windows whose share confident is scored hold at least this many cycles
+BAR_FAULT_PCT = 30.0  # the damaged commutator's segment: contact resistance + 30 % of the loop's
+BAR_FAULT_SMALL_PCT = 10.0  # a smaller fault, to see the health threshold's margin
+
+
+@dataclasses.dataclass(frozen=True)
+class Case:
+    name: str
+    what: str
+    given: int = None          # ripples per revolution the user gives; None: the bench's
+    ripple: dict = dataclasses.field(default_factory=dict)
+    ke_scale: float = None     # the prior's Ke: the calibrated one times this (None: calibrated as hpddo ripple)
+
+
+CASES = (
+    Case("right", "the bench's 6 ripples per revolution given"),
+    Case("half", "3 given for a 6-ripple motor", given=3),
+    Case("double", "12 given for a 6-ripple motor", given=12),
+    Case("damaged", f"a damaged commutator: one segment's contact resistance raised by {BAR_FAULT_PCT:g} % of the "
+         "loop's", ripple={"bar_fault_pct": BAR_FAULT_PCT}),
+    Case("worn", f"a worn commutator: one segment's contact resistance raised by {BAR_FAULT_SMALL_PCT:g} % of the "
+         "loop's", ripple={"bar_fault_pct": BAR_FAULT_SMALL_PCT}),
+)
+
+
+def _record(prot: str, ripple: dict):
+    bench = params.preset("default")
+    g = generate.generate(bench, prot, 1.0 / WINDOW_S, SEED, time_scale=TIME_SCALE, ripple=params.ripple_burst(**ripple))
+    t0, codes, bmeta = g["bursts"]
+    b = Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), g["log"]["seq"].to_numpy(), t0, codes)
+    return bench, g, b
+
+
+def _score(est, log, truth, bench, opts) -> dict:
+    conf = est["confident"].to_numpy(bool)
+    true = truth["rpm_true"].to_numpy(float)
+    rpm = est["rpm"].to_numpy(float)
+    ok = conf & (true > 0)
+    err = np.abs(rpm[ok] / true[ok] - 1.0)
+    cycles_true = true * bench.ripples_per_rev * bench.gear_ratio / 60.0 * WINDOW_S
+    driven = (log["duty"].to_numpy(float) > 0) & (est["i_mean_A"].to_numpy(float) >= opts.floor_A)
+    base = driven & (cycles_true >= MIN_CYCLES)
+    keys = est["key"].to_numpy()
+    return {"windows": int(len(est)), "confident": int(conf.sum()),
+            "wrong": int((err > WRONG).sum()), "max_error_pct": float(100 * err.max()) if len(err) else math.nan,
+            "driven_3_cycles": int(base.sum()),
+            "confident_share_driven_3_cycles": float((conf & base).sum() / base.sum()) if base.sum() else math.nan,
+            "multiple_said": int((keys == "multiple").sum()), "damaged_said": int((keys == "damaged").sum()),
+            "rot1_rel": est["rot1_rel"].to_numpy(float), "rot2_rel": est["rot2_rel"].to_numpy(float)}
+
+
+def run_case(case: Case, quiet: bool = True) -> dict:
+    parts, cal = [], {}
+    for prot in PROTOCOLS:
+        bench, g, b = _record(prot, case.ripple)
+        log, truth = g["log"], g["truth"]
+        opts = rp.Options(case.given or bench.ripples_per_rev, bench.gear_ratio)
+        est, ke, _ = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, None, bursts=b)
+        parts.append(_score(est, log, truth, bench, opts))
+        c = rcal.calibrate(b, log["duty"].to_numpy(), opts, log["rpm_ref"].to_numpy())
+        cal[prot] = {"comb": c["comb"]["ripples_per_rev"], "encoder": c["encoder"]["ripples_per_rev"],
+                     "named": c["ripples_per_rev"], "statement": c["statement"]}
+        if not quiet:
+            print(f"  {case.name}/{prot}: {c['statement']}", file=sys.stderr)
+    return _merge(case, parts, cal)
+
+
+def _merge(case: Case, parts: list, cal: dict) -> dict:
+    conf = sum(p["confident"] for p in parts)
+    base = sum(p["driven_3_cycles"] for p in parts)
+    share = [p["confident_share_driven_3_cycles"] * p["driven_3_cycles"] for p in parts if p["driven_3_cycles"]]
+    rot2 = np.concatenate([p["rot2_rel"] for p in parts])
+    rot1 = np.concatenate([p["rot1_rel"] for p in parts])
+    flagged = (np.nan_to_num(rot2) > rc.HEALTH_ROT2_MAX) | (np.nan_to_num(rot1) > rc.HEALTH_ROT1_MAX)
+    read = np.isfinite(rot2)
+    return {"case": case.name, "what": case.what, "windows": sum(p["windows"] for p in parts), "confident": conf,
+            "wrong": sum(p["wrong"] for p in parts),
+            "max_error_pct": float(np.nanmax([p["max_error_pct"] for p in parts] + [-np.inf])) if conf else math.nan,
+            "driven_3_cycles": base,
+            "confident_share_driven_3_cycles": float(sum(share) / base) if base else math.nan,
+            "multiple_said": sum(p["multiple_said"] for p in parts),
+            "damaged_said": sum(p["damaged_said"] for p in parts),
+            "health_read": int(read.sum()), "health_flagged": int((flagged & read).sum()),
+            "rot2_rel_median": float(np.nanmedian(rot2)) if read.any() else math.nan,
+            "rot2_rel_p99": float(np.nanpercentile(rot2, 99)) if read.any() else math.nan,
+            "rot2_rel_p01": float(np.nanpercentile(rot2, 1)) if read.any() else math.nan,
+            "calibrate": cal}
+
+
+def run_priors(quiet: bool = True) -> dict:
+    """The same windows under two priors whose Ke are PRIOR_APART apart: each window confident under both
+    must give the same speed (within WRONG), or one of them is not confident."""
+    pairs = both = disagree = 0
+    only_one = 0
+    for prot in PROTOCOLS:
+        bench, g, b = _record(prot, {})
+        log = g["log"]
+        opts = rp.Options(bench.ripples_per_rev, bench.gear_ratio)
+        _, ke, _ = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, None, bursts=b)
+        a, _, _ = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, ke, bursts=b)
+        c, _, _ = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, ke * PRIOR_APART, bursts=b)
+        ca, cc = a["confident"].to_numpy(bool), c["confident"].to_numpy(bool)
+        pairs += len(a)
+        both += int((ca & cc).sum())
+        only_one += int((ca ^ cc).sum())
+        ra, rc_ = a["rpm"].to_numpy(float), c["rpm"].to_numpy(float)
+        disagree += int((ca & cc & (np.abs(rc_ / ra - 1.0) > WRONG)).sum())
+        if not quiet:
+            print(f"  priors/{prot}: Ke {ke:.4f} and {ke * PRIOR_APART:.4f} V s/rad", file=sys.stderr)
+    return {"windows": pairs, "confident_under_both": both, "confident_under_one": only_one,
+            "disagree_over_5pct": disagree, "prior_ke_ratio": PRIOR_APART}
+
+
+def run(quiet: bool = True) -> dict:
+    cases = [run_case(c, quiet) for c in CASES]
+    return {"command": "cd tools && ../.venv/bin/python -m hpddo.studies.ripple_line --json "
+                       "../docs/figures/ripple_line.json",
+            "protocols": list(PROTOCOLS), "time_scale": TIME_SCALE, "seed": SEED, "window_s": WINDOW_S,
+            "health_rot1_max": rc.HEALTH_ROT1_MAX, "health_rot2_max": rc.HEALTH_ROT2_MAX,
+            "cases": cases, "priors": run_priors(quiet)}
+
+
+def block(res: dict) -> str:
+    """docs/ripple.md's table of this study (the block between its markers), from the JSON."""
+    rows = ["| case | confident | more than 5 % off | worst % | confident of driven windows with >= 3 cycles | "
+            "'another multiple' said | 'damaged' said | ripples per rev named (comb / encoder), sweep; load | "
+            "windows with rot2_rel over the threshold, of those read | rot2_rel 1st / 50th / 99th percentile |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
+    for c in res["cases"]:
+        named = "; ".join(f"{v['comb'] or '-'} / {v['encoder'] or '-'}" for v in c["calibrate"].values())
+        rows.append(f"| {c['case']}: {c['what']} | {c['confident']} of {c['windows']} | {c['wrong']} | "
+                    f"{c['max_error_pct']:.2f} | {100 * c['confident_share_driven_3_cycles']:.1f} % of "
+                    f"{c['driven_3_cycles']} | {c['multiple_said']} | {c['damaged_said']} | {named} | {c['health_flagged']} of "
+                    f"{c['health_read']} | {c['rot2_rel_p01']:.3g} / {c['rot2_rel_median']:.3g} / {c['rot2_rel_p99']:.3g} |")
+    p = res["priors"]
+    rows.append("")
+    rows.append(f"Two priors, Ke {p['prior_ke_ratio']:g}x apart, on the same {p['windows']} windows: confident under "
+                f"both {p['confident_under_both']}, of which {p['disagree_over_5pct']} disagree by more than 5 %; "
+                f"confident under one only {p['confident_under_one']}.")
+    return "\n".join(rows) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = parser("ripple_line", __doc__)
+    a = ap.parse_args(argv)
+    res = run(quiet=False)
+    print(block(res))
+    if a.json:
+        with open(a.json, "w", encoding="utf-8") as fh:
+            json.dump(res, fh, indent=1, sort_keys=True, default=float)
+            fh.write("\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
