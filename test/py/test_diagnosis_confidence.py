@@ -66,6 +66,34 @@ def test_a_faulty_current_channel_gives_no_ra_instruction(tmp_path):
     assert not js["ra_fit"]["mismatch"]
 
 
+def test_no_effect_is_named_through_a_channel_stuck_in_every_recording(tmp_path):
+    """A brush drop of 0.8 V under a current channel stuck at 0.5 A in both recordings: the
+    selection takes a constant drop, but an effect whose term reads the current
+    (schema.Effect.reads) is not concluded from a channel that reads the same whatever the load:
+    not named, and the verdict says it was selected and why it is not named."""
+    rng = np.random.default_rng(2)
+    rows = [(d, v + 0.8, 0.5, rpm, ld) for d, v, i, rpm, ld in _table(rng)]
+    paths = [_log(tmp_path / f"stuck{k}.csv", rows) for k in range(2)]
+    js = core.diagnose(paths, core.Options(ra_ohm=RA, bootstrap=0, hybrid=False)).to_json()
+    assert {(c["channel"], c["fault"]) for c in js["channels"]} >= {("current", "stuck")}, js["channels"]
+    assert not [e for e in js["missing_effects"] if fx.LIBRARY[e].reads == "current"], js["verdict"]
+    held = [e["effect"] for e in js["ranking"] if not e["named"] and "stuck in every recording" in (e.get("note") or "")]
+    for e in held:
+        assert f"{e} was selected" in js["verdict"] and "stuck in every recording" in js["verdict"]
+
+
+def test_what_a_faulty_channel_leaves_unconcluded_is_the_library_s():
+    """The effects a channel's fault leaves unconcluded are those whose term reads it, from their
+    declarations; a channel is faulty everywhere only when every recording has the fault."""
+    for name, channel in (("thermal_ra", "current"), ("current_offset", "current"), ("v_offset", "voltage")):
+        assert fx.LIBRARY[name].reads == channel and name in channels.CANNOT[channel]
+    assert "magnet_thermal" not in channels.CANNOT["current"] + channels.CANNOT["voltage"]
+    f = channels.ChannelFault("a", "current", "stuck", "2 values")
+    assert channels.everywhere([f], 1) == {"current"}
+    assert channels.everywhere([f], 2) == set() and channels.everywhere([], 0) == set()
+    assert channels.everywhere([channels.ChannelFault("a", "current", "too coarse", "8 levels")], 1) == set()
+
+
 def test_eq20_in_the_diagnosis_is_trains(tmp_path):
     """A 50 Hz log whose direction reverses at every step: train's eq. 20 Ke (identify.m2_params,
     on its windows) and the one the diagnosis checks against least squares are one number."""

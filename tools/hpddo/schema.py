@@ -106,6 +106,9 @@ class Effect:
     signature: str        # what the speed error of a missing effect scales with
     excited_by: str       # which recording makes the effect visible
     thermal: bool = False  # uses the temperature
+    # The measured channel its term is a function of ("current", "voltage"; "" for neither): a
+    # faulty channel (diagnosis/channels.py) leaves the effects that read it not concluded.
+    reads: str = ""
     # Its term follows the case temperature as read (the channels' electronics sit on or
     # near the motor), without the winding node: the offsets' drift. Scored only where the
     # log reads a temperature (elsewhere the term is zero, t_ref throughout).
@@ -204,7 +207,8 @@ EFFECTS = (
                 "or a check of the voltage channel against a calibrated meter"),
                ("saturation",
                 "load steps at constant temperature (short, from cold) and a slow warm-up at constant load"),
-           )),
+           ),
+           reads="current"),
     Effect("magnet_thermal", 1, "ke_tc_per_K", "1/K", 100.0, "%/K",
            "relative change of Ke per kelvin (ferrite ~ -0.002)",
            "magnet flux falls with T",
@@ -253,7 +257,8 @@ EFFECTS = (
                ("v_gain",
                 "a sweep over the full duty range at light load: a gain error grows with the voltage, "
                 "a brush drop does not"),
-           )),
+           ),
+           reads="current"),
     Effect("saturation", 3, "ke_sat_per_A", "1/A", 100.0, "%/A",
            "relative fall of Ke per ampere of |i|",
            "armature reaction, Ke falls with |i|",
@@ -270,7 +275,8 @@ EFFECTS = (
                      0.0, (0.0, 1.0), 0.3,
                      "Ke (1 - s |i| (1 - q + q |i| / 1 A)): q = 0 linear in |i|, q = 1 quadratic (the "
                      "onset of saturation above a current lies between)"),
-           )),
+           ),
+           reads="current"),
     Effect("current_offset", 4, "i_offset_A", "A", 1000.0, "mA",
            "reading minus true current",
            "offset of the current channel",
@@ -280,21 +286,24 @@ EFFECTS = (
            "rows at zero or very low current with the motor turning (coasting at duty 0)",
            separated_from=(
                ("v_gain", "a sweep over the full duty range at light load and rows at zero current"),
-           )),
+           ),
+           reads="current"),
     Effect("v_gain", 5, "v_gain", "1", 100.0, "%",
            "reading / true voltage - 1",
            "gain error of the voltage channel",
            "gain error of the voltage channel: reading / true voltage - 1",
            "|g| below about 5 % (divider tolerance, ADC reference)", (-0.05, 0.05), (-0.1, 0.1), 0.01,
            "the terminal voltage",
-           "runs at different voltages with different currents"),
+           "runs at different voltages with different currents",
+           reads="voltage"),
     Effect("inductance", 6, "la_H", "H", 1000.0, "mH",
            "armature inductance",
            "la di/dt, visible at high rates",
            "armature inductance: La di/dt in the voltage balance",
            "0.5..20 mH for small PMDC motors", (0.0005, 0.02), (0.00025, 0.04), 0.003,
            "the rate of change of the current",
-           "a recording at 1 kHz or faster with steps of duty"),
+           "a recording at 1 kHz or faster with steps of duty",
+           reads="current"),
     Effect("v_offset", 7, "v_offset_V", "V", 1000.0, "mV",
            "reading minus true voltage",
            "offset of the voltage channel",
@@ -310,7 +319,8 @@ EFFECTS = (
                ("brush_drop",
                 "rows at zero and at very low current with the motor turning (coasting): a brush drop "
                 "vanishes with the current, a voltage offset does not"),
-           )),
+           ),
+           reads="voltage"),
     # Offsets that drift (issue 21, item 7): a channel's offset following the temperature of
     # its electronics, which sit on or near the motor and warm with its case. An offset in i
     # shifts V - I Ra by Ra di whatever the current's size and sign, at standstill too, where
@@ -351,7 +361,8 @@ EFFECTS = (
                ("v_offset",
                 "rows at standstill with the supply off, cold and warm: the voltage reading there is the "
                 "voltage channel's offset, the current reading the current channel's, at each temperature"),
-           )),
+           ),
+           reads="current"),
 )
 
 STATE = (

@@ -10,6 +10,7 @@ import dataclasses
 import numpy as np
 import statsmodels.api as sm
 
+from .. import schema
 from ..logs import dataset
 
 SATURATED_SHARE = 0.02   # driven rows at the channel's extreme value, exactly: saturated
@@ -28,13 +29,29 @@ LOAD_SHARE = 0.10
 LOAD_MIN_NOISE = 4.0
 
 CHANNELS = (("current", "i_A", "i_lsb_A"), ("voltage", "v_V", "v_lsb_V"))
-# what cannot be concluded from a faulty channel
+# what cannot be concluded from a faulty channel: the effects whose term reads it (schema.Effect.reads)
+def _reading(channel: str) -> str:
+    return ", ".join(e.name for e in schema.EFFECTS if e.reads == channel)
+
+
 CANNOT = {
-    "current": ("Ra and every effect that acts through the current (brush_drop, saturation, current_offset, the "
-                "winding's heating for thermal_ra) cannot be concluded from it"),
-    "voltage": ("Ke and every effect that acts through the voltage (v_gain, v_offset) cannot be concluded from it, "
-                "nor anything that rests on the back-EMF"),
+    "current": f"Ra and every effect that acts through the current ({_reading('current')}) cannot be concluded from it",
+    "voltage": (f"Ke and every effect that acts through the voltage ({_reading('voltage')}) cannot be concluded from "
+                "it, nor anything that rests on the back-EMF"),
 }
+
+
+# The faults after which a channel carries nothing of what it measures: a stuck channel reads the
+# same value whatever the motor does. (A coarse channel still carries its steps, and a fit through it
+# carries their error in its interval; a saturated channel's clipped rows are left out, clipped.)
+BLIND = ("stuck",)
+
+
+def everywhere(faults: list, n_recordings: int) -> set:
+    """The channels that are blind (BLIND) in every one of n_recordings recordings: nothing is
+    concluded through them."""
+    return {ch for ch, _, _ in CHANNELS
+            if len({f.recording for f in faults if f.channel == ch and f.fault in BLIND}) >= n_recordings > 0}
 
 
 @dataclasses.dataclass

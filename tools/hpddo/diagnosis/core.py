@@ -378,14 +378,20 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
                      and st.ra_z < ranking.Z_MIN]
     # ... and every effect of the final model that, with Ra moving freely within what a wrong reading
     # allows (ranking.RA_ALTERNATIVE_SIGMAS), the recordings do not tell from the model without it
-    if [c for c in missing if c not in ra_confounded]:
+    # (again on what is left, with the effects set aside each tried in a survivor's place, until
+    # nothing more is set aside: a survivor may have been told from a wrong Ra only beside one of them)
+    survivors = [c for c in missing if c not in ra_confounded]
+    while survivors:
+        kept = [c for c in chosen if c not in ra_confounded]
         res_named = ranking.held_out_residuals(
-            d, final, lambda rs, st: ranking.fit_names(rs, m2, given + chosen, sigma2, start=st))
-        beside = ranking.needed_beside_free_ra(d, m2, given, [c for c in missing if c not in ra_confounded],
-                                               res_named, sigma2)
-    else:
-        beside = {}
-    ra_confounded += [c for c, z in beside.items() if z < ranking.Z_MIN]
+            d, final if kept == chosen else ranking.fit_names(rows, m2, given + kept, sigma2, start=final),
+            lambda rs, st: ranking.fit_names(rs, m2, given + kept, sigma2, start=st))
+        beside = ranking.needed_beside_free_ra(d, m2, given, survivors, res_named, sigma2, swaps=ra_confounded)
+        out = [c for c, z in beside.items() if z < ranking.Z_MIN]
+        if not out:
+            break
+        ra_confounded += out
+        survivors = [c for c in survivors if c not in out]
     if ra_confounded:
         chosen = [c for c in chosen if c not in ra_confounded]
         missing = [c for c in missing if c not in ra_confounded]
@@ -463,7 +469,18 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
                                   meaning=fx.LIBRARY[c].meaning,
                                   plausibility="not identifiable on these recordings",
                                   needs=fx.LIBRARY[c].excited_by))
-    return Selection(steps=steps, final=final, steps_final=final, missing=missing, ranking=table, ra_fit=ra_fit)
+    # every named effect against each candidate in its place, Ra as free as a wrong reading allows:
+    # one that explains the held-out rows as well is its rival, named beside it (confounding)
+    rivals = {}
+    if missing:
+        if res_final is None:
+            res_final = ranking.held_out_residuals(
+                d, final, lambda rs, st: ranking.fit_names(rs, m2, given + chosen, sigma2, start=st))
+        rivals = ranking.rivals_beside_free_ra(d, m2, given, missing,
+                                               [c for c in candidates if c not in chosen and c not in ra_confounded],
+                                               res_final, sigma2)
+    return Selection(steps=steps, final=final, steps_final=final, missing=missing, ranking=table, ra_fit=ra_fit,
+                     rivals=rivals)
 
 
 def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, inclusion) -> RaFit:
@@ -543,12 +560,14 @@ def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
                 group.append(name)
         if s.name == ranking.RA_MISMATCH:  # said in RaFit.confounded_with (select)
             continue
-        # a wrong Ra as the alternative of an effect is decided by select (named beyond Ra)
+        # a wrong Ra as the alternative of an effect is decided by select (named beyond Ra); its
+        # rivals there (another effect in its place with Ra free) join the group
         group = [g for g in group if g != ranking.RA_MISMATCH]
+        group += [r for r in sel.rivals.get(s.name, {}) if r not in group]
         if len(group) > 1:
             groups.append(group)
             for other in group[1:]:
-                za = s.told_apart.get(other)
+                za = sel.rivals.get(s.name, {}).get(other, s.told_apart.get(other))
                 pairs.append(ConfoundedPair([s.name, other], ranking.separator(s.name, other),
                                             ranking.partial_corr(inp.data, mf.base, s.name, other, inp.given),
                                             z_apart=za, more_data_x=ranking.more_data_needed(za)))
@@ -889,6 +908,7 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
         inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
     sel, conf = material_check(inp, mf, sel, conf)
     sel = with_intervals(inp, sel, mf.noise)
+    sel = through_faulty_channels(inp, sel, mf.channels, mf.noise)
     sel = through_zero(inp, sel, mf.noise)
     resid = residuals(inp, mf, sel)
     # the dynamic family (issue 21, item 8): identified from the fast recordings, the observer on the
@@ -914,26 +934,41 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
 
 def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
     """sel without the named effects whose coefficient's interval (the data's, the sensors' and the
-    model's parts) holds zero: the data do not tell such an effect from its absence, so it is not
-    named (its row in the ranking table a candidate with the reason), and the final model is fitted
-    again without it."""
+    model's parts) holds zero, determined or not (one cut by the physical range, or whose form stopped
+    at an edge, is still an interval of its size): the data do not tell such an effect from its
+    absence, so it is not named (its row in the ranking table a candidate with the reason), and the
+    final model is fitted again without it."""
     field = {fx.LIBRARY[e].field: e for e in sel.missing}
     # (the data's, the sensors' and the model's parts: an effect the held Ra's doubt alone could take
     # is named with that doubt in its interval, and the verdict says what it is conditional on)
     half = lambda iv: iv.half_without_ra if iv.half_without_ra is not None else (iv.hi - iv.lo) / 2.0  # noqa: E731
-    zero = [field[iv.field] for iv in sel.intervals if iv.field in field and iv.determined
-            and iv.lo is not None and abs(iv.value) <= half(iv)]
-    if not zero:
+    note = f"fitted, but its {100 * intervals.LEVEL:.0f} % interval holds zero: not named"
+    return not_named(inp, sel, {field[iv.field]: note for iv in sel.intervals
+                                if iv.field in field and iv.lo is not None and abs(iv.value) <= half(iv)}, floor)
+
+
+def through_faulty_channels(inp: Inputs, sel: Selection, faults: list, floor: noise.NoiseFloor | None = None) -> Selection:
+    """sel without the named effects whose term reads a channel that is stuck in every recording
+    (channels.everywhere, schema.Effect.reads): nothing concluded through it."""
+    bad = channels.everywhere(faults, len(inp.rows))
+    return not_named(inp, sel, {e: (f"acts through the {fx.LIBRARY[e].reads} channel, stuck in every recording "
+                                    "(Channel health): not named") for e in sel.missing
+                                if fx.LIBRARY[e].reads in bad}, floor)
+
+
+def not_named(inp: Inputs, sel: Selection, notes: dict, floor: noise.NoiseFloor | None = None) -> Selection:
+    """sel without the named effects of notes ({effect: why not named}): the final model fitted
+    again without them, their rows in the ranking table candidates with the reason."""
+    if not notes:
         return sel
-    missing = [m for m in sel.missing if m not in zero]
+    missing = [m for m in sel.missing if m not in notes]
     names = inp.given + missing
     hold = ranking.material_holds(names) if sel.ra_fit is not None and sel.ra_fit.mismatch else None
     try:
         final = fx.fit(inp.rows, inp.m2, names, hold=hold, start=sel.final)
     except Exception:  # noqa: BLE001 (the refit failed: the selection stands as it was)
         return sel
-    table = [dataclasses.replace(e, kind="candidate", note=(
-        f"fitted, but its {100 * intervals.LEVEL:.0f} % interval holds zero: not named")) if e.effect in zero else e
+    table = [dataclasses.replace(e, kind="candidate", note=notes[e.effect]) if e.effect in notes else e
              for e in sel.ranking]
     out = dataclasses.replace(sel, final=final, missing=missing, ranking=table)
     return with_intervals(inp, out, floor)

@@ -150,15 +150,19 @@ def scored_ra_alternative(d: "Data", m2: ph.PhysicsParams, names, weights=None, 
                                              ra_bounds=ra_alternative_bounds(m2)), start)
 
 
-def needed_beside_free_ra(d: "Data", m2: ph.PhysicsParams, given, names, res_named, sigma2: float) -> dict:
+def needed_beside_free_ra(d: "Data", m2: ph.PhysicsParams, given, names, res_named, sigma2: float,
+                          swaps=()) -> dict:
     """{effect: z} for each effect in names: how far the recordings tell the named model (its
     held-out residuals res_named: every effect of given + names, Ra as the selection held it) from
     the model without that effect and with Ra moving freely within ra_alternative_bounds
-    (apart_z). Below Z_MIN the effect is not told from a reading of Ra further off than its own
-    tolerance (an Ra within RA_MISMATCH_SIGMAS tolerances of the reading is the reading: the
-    effect's interval carries that doubt, intervals.with_budget). An offset that the rows at rest
-    measure (effects.rest_offsets, Z_MIN standard errors from zero) is read there, not traded
-    with Ra; an alternative that cannot be fitted is none: the effect keeps its name (inf)."""
+    (apart_z), and from the model with each effect of swaps in its place and Ra as free (the
+    effects already found not told from a wrong Ra: one that does the work of such an effect is no
+    better attributed than it); the smallest of these. Below Z_MIN the effect is not told from a
+    reading of Ra further off than its own tolerance (an Ra within RA_MISMATCH_SIGMAS tolerances of
+    the reading is the reading: the effect's interval carries that doubt, intervals.with_budget;
+    an effect put in its place fits at any Ra). An offset that the rows at rest measure
+    (effects.rest_offsets, Z_MIN standard errors from zero) is read there, not traded with Ra; an
+    alternative that cannot be fitted is none: the effect keeps its name (inf)."""
     names = [n for n in names if n != RA_MISMATCH]
     rest = {n: abs(v) / se for n, (v, se, _) in fx.rest_offsets(d.rows).items() if se > 0}
     out = {}
@@ -166,15 +170,46 @@ def needed_beside_free_ra(d: "Data", m2: ph.PhysicsParams, given, names, res_nam
         if rest.get(n, 0.0) >= Z_MIN:
             out[n] = math.inf
             continue
-        try:
-            p_n, r_n = scored_ra_alternative(d, m2, list(given) + [x for x in names if x != n])
-        except Exception:  # noqa: BLE001 (a degenerate fit is no alternative)
-            out[n] = math.inf
+        others = list(given) + [x for x in names if x != n]
+        zs = []
+        for alt in [None] + [s for s in swaps if s not in names and s != RA_MISMATCH]:
+            try:
+                p_n, r_n = scored_ra_alternative(d, m2, others + ([alt] if alt else []))
+            except Exception:  # noqa: BLE001 (a degenerate fit is no alternative)
+                continue
+            if alt is None and abs(ra_sigmas(m2, p_n.ra_ohm)) <= RA_MISMATCH_SIGMAS:
+                continue
+            zs.append(apart_z(d, r_n, res_named, sigma2))
+        out[n] = min(zs, default=math.inf)
+    return out
+
+
+def rivals_beside_free_ra(d: "Data", m2: ph.PhysicsParams, given, names, candidates, res_named,
+                          sigma2: float) -> dict:
+    """{effect: {rival: z}} for each effect in names: the candidates that, fitted in its place with Ra
+    moving freely within ra_alternative_bounds and a physical coefficient, the recordings do not tell
+    from the named model (res_named: its held-out residuals) by Z_MIN standard errors (apart_z). A
+    wrong reading of Ra with that candidate explains the rows as well: the two are named together
+    with what separates them (core.confounding). An offset that the rows at rest measure has none."""
+    names = [n for n in names if n != RA_MISMATCH]
+    rest = {n: abs(v) / se for n, (v, se, _) in fx.rest_offsets(d.rows).items() if se > 0}
+    out = {}
+    for n in names:
+        if rest.get(n, 0.0) >= Z_MIN:
             continue
-        if abs(ra_sigmas(m2, p_n.ra_ohm)) <= RA_MISMATCH_SIGMAS:
-            out[n] = math.inf
-            continue
-        out[n] = apart_z(d, r_n, res_named, sigma2)
+        others = list(given) + [x for x in names if x != n]
+        for c in candidates:
+            if c in names or c == RA_MISMATCH or c in given:
+                continue
+            try:
+                p_c, r_c = scored_ra_alternative(d, m2, others + [c])
+            except Exception:  # noqa: BLE001 (a degenerate fit is no rival)
+                continue
+            if not _physical(c, _value(c, p_c), m2):
+                continue
+            z = apart_z(d, r_c, res_named, sigma2)
+            if z < Z_MIN:
+                out.setdefault(n, {})[c] = z
     return out
 
 
@@ -547,9 +582,15 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
         best = max(ok, key=lambda t: t[1])
         c, g, z, _, pc, rc = best
         new_mse = held_out_mse(d, rc)
+        # Which of two effects: tested against what the chosen one still leaves (its held-out MSE,
+        # where above the floor), not the floor alone: the cross term of the gain is the change of
+        # prediction times that residual, and a residual holding effects not yet named makes two
+        # rival effects differ beyond noise by chance of where those effects fall. (A wrong Ra is
+        # tested again on the final model, select: needed_beside_free_ra.)
+        s2_left = max(sigma2, new_mse)
         ra = [t for t in ok if t[0] == RA_MISMATCH and c != RA_MISMATCH]
         ra_z = apart_z(d, ra[0][5], rc, sigma2) if ra else None
-        apart = {t[0]: apart_z(d, t[5], rc, sigma2) for t in ok if t[0] != c}
+        apart = {t[0]: apart_z(d, t[5], rc, s2_left) for t in ok if t[0] != c}
         steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried], ra_z, apart))
         chosen.append(c)
         remaining.remove(c)

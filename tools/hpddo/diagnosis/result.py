@@ -309,6 +309,9 @@ class Selection:
     ranking: list      # EffectResult
     ra_fit: RaFit | None = None
     intervals: list = dataclasses.field(default_factory=list)  # intervals.Interval of the final model's fields
+    # {named effect: {rival: z}}: another effect in its place, Ra free within a wrong reading's reach,
+    # explains the held-out rows as well (ranking.rivals_beside_free_ra)
+    rivals: dict = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass

@@ -93,6 +93,9 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
         if e.kind == "candidate" and e.note and "holds zero" in e.note:
             text += (f" {e.effect} was selected ({e.shown}), but its {100 * intervals.LEVEL:.0f} % interval holds zero, "
                      "so these recordings do not tell it from its absence: not named.")
+        elif e.kind == "candidate" and e.note and "stuck in every recording" in e.note:
+            text += (f" {e.effect} was selected ({e.shown}), but it acts through the {fx.LIBRARY[e.effect].reads} "
+                     "channel, which is stuck in every recording (Channel health, below): not named.")
     dyn = dynamics(resid.before, resid.dt_s, family)
     if dyn and family is not None and family.fast:  # the dynamics are named: no "no library effect explains it"
         for said, say in (("No library effect explains the residual", "Apart from the dynamics (above), no library "

@@ -232,6 +232,11 @@ def score(b: Bench, js: dict, paths) -> dict:
         or absent_named or [u for u in odd if not u.startswith("other")])
     out["false"]["a recording called inconsistent that is not"] = bool([u for u in odd if not u.startswith("other")])
     out["other motor named"] = (any(u.startswith("other") for u in odd)) if b.other_motor else None
+    # each effect on the bench (a channel's gain within its tolerance aside): named, or in a group the
+    # verdict states with a named effect
+    said = set(js.get("missing_effects", []))
+    said |= {e for g in groups if g & said for e in g}
+    out["found"] = {e: e in said for e in b.effects}
     out["named"], out["ra_said"], out["inconsistent"] = js.get("missing_effects", []), ra_said, odd
     return out
 
@@ -256,8 +261,10 @@ def run_one(seed: int) -> dict:
 def summarise(results: list) -> dict:
     """Coverage of each kind of interval and the rate of each false statement over the benches."""
     scored = [r["score"] for r in results if "score" in r]
-    cov, false = {}, {}
+    cov, false, found = {}, {}, {}
     for s in scored:
+        for k, v in s.get("found", {}).items():
+            found.setdefault(k, []).append(v)
         for k, v in s["covered"].items():
             if v is not None:
                 cov.setdefault(k, []).append(v)
@@ -267,6 +274,7 @@ def summarise(results: list) -> dict:
     return {"benches": len(results), "diagnosed": len(scored), "refused": len(results) - len(scored),
             "coverage": {k: {"n": len(v), "covered": int(sum(v)), "share": sum(v) / len(v)} for k, v in cov.items()},
             "false": {k: {"n": len(v), "count": int(sum(v)), "share": sum(v) / len(v)} for k, v in false.items()},
+            "found": {k: {"n": len(v), "count": int(sum(v)), "share": sum(v) / len(v)} for k, v in sorted(found.items())},
             "other motor named": {"n": len(other), "count": int(sum(other))}}
 
 
@@ -278,6 +286,11 @@ def table(summary: dict) -> str:
     lines += ["", "| false statement | benches | rate |", "|---|---|---|"]
     for k, v in summary["false"].items():
         lines.append(f"| {k} | {v['n']} | {100 * v['share']:.1f} % ({v['count']}) |")
+    if summary.get("found"):
+        lines += ["", "| effect on the bench | benches | named, or in a stated group with a named effect |",
+                  "|---|---|---|"]
+        for k, v in summary["found"].items():
+            lines.append(f"| {k} | {v['n']} | {100 * v['share']:.1f} % ({v['count']}) |")
     o = summary["other motor named"]
     lines.append(f"\nanother motor's recording named: {o['count']} of {o['n']}")
     return "\n".join(lines)
