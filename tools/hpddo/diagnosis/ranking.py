@@ -582,15 +582,9 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
         best = max(ok, key=lambda t: t[1])
         c, g, z, _, pc, rc = best
         new_mse = held_out_mse(d, rc)
-        # Which of two effects: tested against what the chosen one still leaves (its held-out MSE,
-        # where above the floor), not the floor alone: the cross term of the gain is the change of
-        # prediction times that residual, and a residual holding effects not yet named makes two
-        # rival effects differ beyond noise by chance of where those effects fall. (A wrong Ra is
-        # tested again on the final model, select: needed_beside_free_ra.)
-        s2_left = max(sigma2, new_mse)
         ra = [t for t in ok if t[0] == RA_MISMATCH and c != RA_MISMATCH]
         ra_z = apart_z(d, ra[0][5], rc, sigma2) if ra else None
-        apart = {t[0]: apart_z(d, t[5], rc, s2_left) for t in ok if t[0] != c}
+        apart = {t[0]: apart_z(d, t[5], rc, sigma2) for t in ok if t[0] != c}
         steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried], ra_z, apart))
         chosen.append(c)
         remaining.remove(c)

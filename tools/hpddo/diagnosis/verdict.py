@@ -89,6 +89,10 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
     """The verdict's text; family: the dynamic family from the fast recordings (dynamics.Dynamics)."""
     ra = ra_verdict(sel.ra_fit)
     text = _verdict(sel, conf, resid, sigma2, floor)
+    held = [e for e in sel.ranking if e.kind == "candidate" and e.note and ("holds zero" in e.note or
+                                                                         "stuck in every recording" in e.note)]
+    if held and text.startswith("No library effect explains the residual"):  # one was selected: said below
+        text = "No library effect is named for the residual" + text[len("No library effect explains the residual"):]
     for e in sel.ranking:  # selected by its held-out gain, but its interval holds zero (core.through_zero)
         if e.kind == "candidate" and e.note and "holds zero" in e.note:
             text += (f" {e.effect} was selected ({e.shown}), but its {100 * intervals.LEVEL:.0f} % interval holds zero, "
