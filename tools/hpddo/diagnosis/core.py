@@ -934,17 +934,17 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
 
 def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
     """sel without the named effects whose coefficient's interval (the data's, the sensors' and the
-    model's parts) holds zero, determined or not (one cut by the physical range, or whose form stopped
-    at an edge, is still an interval of its size): the data do not tell such an effect from its
-    absence, so it is not named (its row in the ranking table a candidate with the reason), and the
-    final model is fitted again without it."""
+    model's parts) holds zero: the data do not tell such an effect from its absence, so it is not
+    named (its row in the ranking table a candidate with the reason), and the final model is fitted
+    again without it. (One whose interval is not determined is named with it, "its size is not
+    determined", verdict._size.)"""
     field = {fx.LIBRARY[e].field: e for e in sel.missing}
     # (the data's, the sensors' and the model's parts: an effect the held Ra's doubt alone could take
     # is named with that doubt in its interval, and the verdict says what it is conditional on)
     half = lambda iv: iv.half_without_ra if iv.half_without_ra is not None else (iv.hi - iv.lo) / 2.0  # noqa: E731
     note = f"fitted, but its {100 * intervals.LEVEL:.0f} % interval holds zero: not named"
-    return not_named(inp, sel, {field[iv.field]: note for iv in sel.intervals
-                                if iv.field in field and iv.lo is not None and abs(iv.value) <= half(iv)}, floor)
+    return not_named(inp, sel, {field[iv.field]: note for iv in sel.intervals if iv.field in field and
+                                iv.determined and iv.lo is not None and abs(iv.value) <= half(iv)}, floor)
 
 
 def through_faulty_channels(inp: Inputs, sel: Selection, faults: list, floor: noise.NoiseFloor | None = None) -> Selection:
