@@ -20,3 +20,11 @@ def parser(module: str, doc: str) -> _argparse.ArgumentParser:
                                   formatter_class=_argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--json", type=_pathlib.Path, metavar="FILE", help="also write the figures as JSON")
     return ap
+
+
+def write_json(path, figures) -> None:
+    """A study's figures as --json writes them: sorted keys, one space of indent, numpy numbers as floats."""
+    import json
+    with open(path, "w", encoding="utf-8") as fh:
+        json.dump(figures, fh, indent=1, sort_keys=True, default=float)
+        fh.write("\n")

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import collections
 import dataclasses
-import json
 import math
 import sys
 
@@ -25,7 +24,7 @@ import numpy as np
 from ..logs.ripple import Bursts
 from ..model import ripple as rp
 from ..twin import generate, params
-from . import parser
+from . import parser, write_json
 
 WINDOW_S = 0.5  # 2 Hz windows, the paper's rate
 WRONG_GEAR = 4.4 * 98.777 / 99.0  # the bench's true ratio in the wrong_gear scenario
@@ -380,9 +379,7 @@ def main(argv=None) -> int:
               "where the shaft stands; the target is 5 %", flush=True)
         print(stall_line(res), flush=True)
         if a.json:
-            with open(a.json, "w", encoding="utf-8") as fh:
-                json.dump(res, fh, indent=1, sort_keys=True, default=float)
-                fh.write("\n")
+            write_json(a.json, res)
         return 0
     res = []
     for sc in SCENARIOS:
@@ -423,9 +420,7 @@ def main(argv=None) -> int:
             print(f"{r['scenario']}: {r['spinup_windows']} of them spinning up: mean error of the count "
                   f"{r['spinup_count_mean_err_pct']:+.2f} %, of one FFT peak {r['spinup_fft_mean_err_pct']:+.2f} %")
     if a.json:
-        with open(a.json, "w", encoding="utf-8") as fh:
-            json.dump(res, fh, indent=1, sort_keys=True, default=float)
-            fh.write("\n")
+        write_json(a.json, res)
     return 0
 
 

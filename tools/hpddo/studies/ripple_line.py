@@ -13,7 +13,6 @@ holds the page to it).
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import sys
 
@@ -24,7 +23,7 @@ from ..model import ripple as rp
 from ..model import ripple_calibrate as rcal
 from ..model import ripple_comb as rc
 from ..twin import generate, params
-from . import parser
+from . import parser, write_json
 
 WINDOW_S = 0.5
 PROTOCOLS = ("sweep", "load")
@@ -180,9 +179,7 @@ def main(argv=None) -> int:
     res = run(quiet=False)
     print(block(res))
     if a.json:
-        with open(a.json, "w", encoding="utf-8") as fh:
-            json.dump(res, fh, indent=1, sort_keys=True, default=float)
-            fh.write("\n")
+        write_json(a.json, res)
     return 0
 
 
