@@ -947,7 +947,8 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
                                 iv.determined and iv.lo is not None and abs(iv.value) <= half(iv)}, floor)
 
 
-def through_faulty_channels(inp: Inputs, sel: Selection, faults: list, floor: noise.NoiseFloor | None = None) -> Selection:
+def through_faulty_channels(inp: Inputs, sel: Selection, faults: list,
+                            floor: noise.NoiseFloor | None = None) -> Selection:
     """sel without the named effects whose term reads a channel that is stuck in every recording
     (channels.everywhere, schema.Effect.reads): nothing concluded through it."""
     bad = channels.everywhere(faults, len(inp.rows))
