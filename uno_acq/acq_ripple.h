@@ -1,7 +1,7 @@
 // The ripple acquisition mode (issue 23, item 2): the armature current sampled once per
 // PWM period at a fixed phase, the middle of the on-time, and sent to the host in framed,
 // checked chunks beside each window's V and I means. Pure logic (timing, burst length,
-// chunk encoding); the registers are in acq_ripple_board.h. docs/ripple.md, "The UNO's
+// chunk encoding); the registers are in acq_ripple_board.h. docs/ripple-board.md, "The UNO's
 // ripple mode", says why the PWM runs at the sample rate and gives the measured figures.
 //
 // Why the PWM frequency changes in this mode: one sample per PWM period at the middle of the

@@ -1,6 +1,6 @@
 // The ripple mode on the ATmega328P (registers, interrupt hooks, the main loop's sender);
 // built only with -DACQ_RIPPLE_HZ=<Hz> (8000..20000), included by uno_acq.cpp. The timing,
-// the burst length and the chunk format are in acq_ripple.h (host-tested); docs/ripple.md,
+// the burst length and the chunk format are in acq_ripple.h (host-tested); docs/ripple-board.md,
 // "The UNO's ripple mode".
 //
 // Per window: the free-running V/I conversions of the normal mode (the window's V and I

@@ -4,7 +4,7 @@
 // confident the armature resistance Ra = (V - brush drop - Ke w) / I and the winding
 // temperature from copper's coefficient (RippleRa). Host reference, the same integer
 // arithmetic: tools/hpddo/model/ripple_count.py; simavr proves the two equal
-// (check_uno_ripple.py --count). docs/ripple.md, "The ripple counter on the board".
+// (check_uno_ripple.py --count). docs/ripple-board-count.md, "The ripple counter on the board".
 //
 // Per filtered code x (every other one, 10-bit), all integers, shifts arithmetic, 32 bits (Q8: a shift by 8 is
 // a byte move on the AVR; a pole shifted by s does not move for a difference under 2^s
@@ -84,9 +84,9 @@ __attribute__((noinline)) inline void ripple_counter_begin(RippleCounter* c, uin
   }
 }
 
-/// One current code (the ADC interrupt; docs/ripple.md has its cycles on the AVR). Every
-/// other code is filtered (5 kHz at 10 kHz: 45 codes a cycle at the fastest ripple, 110 Hz),
-/// which halves the cost. A rise 1 to 1.5 expected periods after the last counts one cycle,
+/// One current code (the ADC interrupt; docs/ripple-board-count.md, "CPU", has its cycles on the
+/// AVR). Every other code is filtered (5 kHz at 10 kHz: 45 codes a cycle at the fastest ripple,
+/// 110 Hz), which halves the cost. A rise 1 to 1.5 expected periods after the last counts one cycle,
 /// 1.5 to 2.5 two (one fell in a gap between bursts, or its crossing was lost), a longer one
 /// none (the gap of a long window): so the count runs across bursts whose gaps are shorter
 /// than a ripple period, as at 100 Hz windows.
@@ -133,7 +133,7 @@ __attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, ui
 
 // kRippleBandLeadCycles: the main loop's work on a window ends this many cycles after the
 // window's close at most (with margin): 85 600 measured at 100 Hz windows (simavr, the counting
-// build; docs/ripple.md).
+// build; docs/ripple-board-count.md, "The ripple counter on the board").
 
 /// Windows between the one whose prior sets a burst's band (on_window, in the main loop after
 /// the observer's step) and the burst's window. 1 when the burst opens surely after that work

@@ -25,7 +25,7 @@
 #if defined(ACQ_RIPPLE_HZ)
 // The ripple mode (issue 23): the current once per PWM period at the middle of the on-time,
 // sent in chunks beside each window's V and I, and counted on the board (Ra, winding
-// temperature); acq_ripple_board.h, docs/ripple.md.
+// temperature); acq_ripple_board.h, docs/ripple-board.md and docs/ripple-board-count.md.
 #if defined(ACQ_NO_OBSERVER)
 #error "the ripple build counts with the observer's estimate as the prior: build it with the observer"
 #endif

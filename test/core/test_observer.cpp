@@ -45,7 +45,7 @@ hpddo::Model<hpddo_model_tiny::Net> without_thermal_state() {
 
 /// The constructor is a constant expression (constexpr, C++11): with a constexpr model the
 /// observer is one too, so a global observer of a generated model is constant-initialised, no
-/// constructor code (the UNO's g_obs; docs/firmware.md, "Flash room"). This does not compile
+/// constructor code (the UNO's g_obs; docs/firmware-internals.md, "Flash room"). This does not compile
 /// if a member leaves the constructor's constant expression.
 constexpr hpddo::Model<hpddo_model_tiny::Net> kConstModel = {
     {4.5f, 0.4f, 25.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 0.05f, 0.0f, 0.0f, 0.0f, 0.02f, 1.0f, 0.0f, 6.0f, 900.0f, 25.0f, 0},

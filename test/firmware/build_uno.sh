@@ -39,8 +39,8 @@ fi
 # it was 95 % until the physics library gained current_offset_drift (issue 21 item 7, 234
 # bytes, in every build since a model may name it), which took the counting build to 95.7 %
 # (30 884 bytes); 96 % leaves 1.3 KB below the bootloader. Since the globals are constant-initialised
-# (no constructor code, docs/firmware.md "Flash room") it was 93.9 % (30 290 bytes), and with the
-# counter's one-period intervals' mean and a long burst's settling (docs/ripple.md) 94.6 % (30 512
+# (no constructor code, docs/firmware-internals.md "Flash room") it was 93.9 % (30 290 bytes), and with the
+# counter's one-period intervals' mean and a long burst's settling (docs/ripple-board-count.md) 94.6 % (30 512
 # bytes): 453 bytes of room
 # within the budget.
 case "${ACQ_DEFINES:-}" in *ACQ_RIPPLE_HZ*) flash_budget=92; budget=75 ;; esac

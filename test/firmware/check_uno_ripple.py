@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """Runs uno_acq's ripple build (-DACQ_RIPPLE_HZ) in simavr and checks the ripple mode
-(issue 23, item 2; docs/ripple.md, "The UNO's ripple mode").
+(issue 23, item 2; docs/ripple-board.md, "The UNO's ripple mode"; with --count, docs/ripple-board-count.md,
+"The ripple counter on the board").
 
 The harness (uno_sim.c with uno_sim_ripple.h) feeds the current channel one value per
 triggered conversion from a feed file (one line per window), plays V, I and speed per

@@ -1,4 +1,4 @@
-"""Ripple counting as a peer of hpddo compare (issue 23 item 6, docs/ripple.md): alone and
+"""Ripple counting as a peer of hpddo compare (issue 23 item 6, docs/ripple-compare.md): alone and
 fused with M2, on twin recordings in the ripple mode; the rows it is scored on stated; the
 options refused where they cannot apply."""
 import json

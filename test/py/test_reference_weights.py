@@ -1,4 +1,4 @@
-"""The ripple reference's confidence weights its rows (issue 23 item 4, docs/ripple.md): in
+"""The ripple reference's confidence weights its rows (issue 23 item 4, docs/ripple-training.md): in
 M2's Ke (eq. 20 as a weighted mean, least squares weighted) and in the effect fits, times any
 weights the caller gives (the diagnosis' bootstrap); a recording without a confidence (the
 encoder) is fitted as before, to the bit."""

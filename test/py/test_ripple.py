@@ -1,6 +1,7 @@
 """Issue 23: the twin's ripple mode (off by default, the same bytes) and the host's speed from
 the commutation ripple, each twin recording with the statement the estimator must make
-(docs/ripple.md). The figures themselves come from `python -m hpddo.studies.ripple`."""
+(docs/ripple-counting.md). The figures themselves come from `python -m hpddo.studies.ripple`
+(docs/ripple-accuracy.md)."""
 import dataclasses
 import pathlib
 import subprocess
@@ -96,7 +97,7 @@ def test_default_bench_confident_speeds_within_one_percent_and_coasting_said():
 def test_subharmonics_overtaking_the_main_line_with_the_prior():
     """The f/2 line (3 x the rotation) outgrows the commutation line: where a window's lines form the rotation
     comb, the data show 3 ripples per revolution, not the 6 given, and the window says so, never confident
-    (docs/ripple.md, Limits); no confident window is more than 5 % off."""
+    (docs/ripple.md, "Which line is the ripple", its Limits); no confident window is more than 5 % off."""
     r = _scenario("subharmonics", time_scale=0.3)
     assert r["reasons"].get("multiple", 0) > 0
     assert r["confident"] == 0 or r["max_vs_truth_pct"] < 5.0
@@ -350,7 +351,7 @@ def test_reference_ripple_without_bursts_is_a_user_error(tmp_path, capsys):
 def test_train_from_the_ripple_alone_scores_against_the_encoder_like_a_model_from_the_encoder(tmp_path, capsys):
     """M2 and M3 trained with --reference ripple, evaluated against the encoder on a recording
     neither saw: within 10 % of the same models trained from the encoder (the issue's target;
-    the figures on the full benches are in docs/ripple.md)."""
+    the figures on the full benches are in docs/ripple-training.md, "Figures")."""
     import json
 
     from hpddo import cli
@@ -675,8 +676,9 @@ def test_step_position_places_each_window_in_its_step_of_duty_and_load():
 
 
 def test_the_unseen_quarter_breakdown_accounts_for_every_row_left(capsys):
-    """The study's breakdown of the rows above the current floor without a confident speed (docs/ripple.md,
-    Unseen at a quarter length): every such row is placed once, by its place in the step and its reason."""
+    """The study's breakdown of the rows above the current floor without a confident speed
+    (docs/ripple-step-windows.md, "Unseen at a quarter length, the rows lost"): every such row is
+    placed once, by its place in the step and its reason."""
     (r,) = study.over_seeds([1], [0.25], protocols=("unseen",))
     pos = r["uncovered_above_floor_by_position"]
     assert sum(sum(v.values()) for v in pos.values()) == sum(r["uncovered_above_floor"].values()) > 0
@@ -691,7 +693,8 @@ def test_settled_tails_count_a_step_window_after_the_step_within_the_bound():
     """count_settled_tails (off by default): a `changing` window counted again over its tail after the
     step, the head's speed from the back-EMF. On unseen at a quarter length (5 s steps) it lifts
     changing windows (most of them the first of a step) and nothing else changes; the lifted speeds
-    are the window's mean within 2 % of the truth (0.46 % at most over seeds 1-6, docs/ripple.md),
+    are the window's mean within 2 % of the truth (0.46 % at most over seeds 1-6,
+    docs/ripple-step-windows.md, "Settled tails (off by default)"),
     and a tail of fewer cycles is refused."""
     g = generate.generate(params.preset("default"), "unseen", 2.0, 1, time_scale=0.25, ripple=params.ripple_burst())
     t0, codes, bmeta = g["bursts"]

@@ -104,7 +104,7 @@ def _load_step_run(seed=3):
     window's mean current moving with it at constant voltage (Ra dI = -Ke dw, with a ripple's
     aliasing in each short window's mean), the prior 12 % noisy around the truth. The current is
     the whole window's mean, as the simavr harness drives it (the board's own V and I means
-    cover the window's first 20 %: docs/ripple.md, what is left)."""
+    cover the window's first 20 %: docs/ripple-board.md, "The UNO's ripple mode", its Limits)."""
     rng = np.random.default_rng(seed)
     fs, per_rev, dt = 1e4, 6 * 4.4, 0.01
     ke, ra, v = 0.4, 4.5, 9.0

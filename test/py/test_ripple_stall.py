@@ -1,6 +1,6 @@
-"""Issue 23: a stall (ripple.count_stalls, docs/ripple.md "Stall"): the drive on, the current above
-the floor and the shaft standing, named with the bound the data give; a slowly turning shaft is not
-called one."""
+"""Issue 23: a stall (ripple.count_stalls; docs/ripple-counting.md, "Speed from the ripple", step 6;
+its figures docs/ripple-accuracy.md, "Stall"): the drive on, the current above the floor and the
+shaft standing, named with the bound the data give; a slowly turning shaft is not called one."""
 import dataclasses
 import math
 

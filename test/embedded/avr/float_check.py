@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """avr-libc's float on the ATmega328P against IEEE single rounded to nearest (numpy float32) and
 its expf against the correctly rounded e^x (float32 of math.exp), and hpddo::exp_neg's Python twin
-against the same: the measurement behind hpddo/dynamics.h's exp_neg (docs/firmware.md, "The
+against the same: the measurement behind hpddo/dynamics.h's exp_neg (docs/firmware-internals.md, "The
 dynamic family on the UNO"). Builds float_check.c with avr-gcc, runs it in simavr with the Unity
 harness (test/embedded/avr/unity_sim.c, built by ctest as build/test/embedded/unity_sim) and prints
 how many results differ and by how many ulp. A measurement, not a test.

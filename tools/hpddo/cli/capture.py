@@ -22,7 +22,7 @@ received so far for inspection.
 
 The UNO's ripple build (uno_acq with -DACQ_RIPPLE_HZ, 500000 baud: --baud 500000) also sends
 the current of each window in bursts, "~" lines of framed, CRC-checked chunks
-(docs/ripple.md, "The UNO's ripple mode"). They are collected and, with the log, written to
+(docs/ripple-board.md, "The UNO's ripple mode"). They are collected and, with the log, written to
 OUT's <condition>.ripple.csv beside it (the file the twin writes, which `hpddo ripple` reads);
 a burst that did not arrive whole is left out and counted, a damaged chunk line counted.
 

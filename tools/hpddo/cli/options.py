@@ -166,7 +166,7 @@ def reference(p) -> None:
     p.add_argument("--reference", choices=list(REFERENCES), default=REFERENCES[0],
                    help="the measured speed: encoder (the logs' rpm_ref, the default) or ripple (counted from the "
                         "current bursts beside each log, <condition>.ripple.csv; rows without a confident ripple "
-                        "speed left out and counted; docs/ripple.md)")
+                        "speed left out and counted; docs/ripple-training.md)")
     ripple(p, required=False, prior_flags=PRIOR_MODEL_FLAGS)
 
 
@@ -185,7 +185,7 @@ def reference_of(args):
                              "(the reference is the encoder)")
         return None
     if args.ripples_per_rev is None or args.gear_ratio is None:
-        raise InputError("--reference ripple needs --ripples-per-rev N and --gear-ratio G (docs/ripple.md)")
+        raise InputError("--reference ripple needs --ripples-per-rev N and --gear-ratio G (docs/ripple-training.md)")
     model = prior_model_of(args)
     # with a prior model the prior's Ra is the model's; --ra-ohm (train, diagnose) stays the Ra of
     # the model they identify

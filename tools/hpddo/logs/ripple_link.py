@@ -1,5 +1,5 @@
 """The UNO's ripple bursts as they arrive on the USB serial (uno_acq built with
--DACQ_RIPPLE_HZ; docs/ripple.md, "The UNO's ripple mode"): lines "~<base64>", each one
+-DACQ_RIPPLE_HZ; docs/ripple-board.md, "The UNO's ripple mode"): lines "~<base64>", each one
 chunk of up to 32 current codes, framed and checked like the link's sample frames (sync,
 length, CRC-16/CCITT-FALSE; uno_acq/acq_ripple.h gives the layout). `Assembler` collects
 the chunks of a recording into whole bursts, one per window, and leaves out (and counts)

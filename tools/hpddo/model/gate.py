@@ -29,7 +29,7 @@ most isolated rows (a duty step's first window, whose lagged features still hold
 operating point) receive no prototype: farthest-point sampling would put one on each, every
 one of them taken from the K that cover the rest, so the radius of the gate (and so its
 weight everywhere) depended on how many such rows a bench holds. Measured on the default twin
-(docs/ripple.md, "Why plain M3 from the ripple missed before"): 8 more duty-step rows out of 6759
+(docs/gate.md, "Design", the core): 8 more duty-step rows out of 6759
 (the encoder labels them, the ripple leaves them out as `changing`) took 6 more prototypes
 and doubled r_in_sq, 0.108 -> 0.201; with the core, 0.058 and 0.060. core_quantile = 1.0 is
 the gate before (every row a candidate). No BLAS, no random numbers: every

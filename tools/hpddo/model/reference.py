@@ -1,5 +1,5 @@
 """The speed measurement that identification, training, diagnosis and scoring take as
-`rpm_ref` (issue 23 item 4, docs/ripple.md), chosen in this one place.
+`rpm_ref` (issue 23 item 4, docs/ripple-training.md), chosen in this one place.
 
 * "encoder" (the default): the log's own rpm_ref column, as it is.
 * "ripple": the speed counted from the commutation ripple in the current bursts beside each

@@ -1,6 +1,6 @@
-"""Speed from the commutation ripple (issue 23, docs/ripple.md): per window of a bench log,
-the output-shaft speed counted from the ripple of the armature current in its burst
-(hpddo.logs.ripple), with a confidence, and a reason where there is no confident speed.
+"""Speed from the commutation ripple (issue 23, docs/ripple-counting.md, "Speed from the ripple"):
+per window of a bench log, the output-shaft speed counted from the ripple of the armature current
+in its burst (hpddo.logs.ripple), with a confidence, and a reason where there is no confident speed.
 
 The steps, per window:
 
@@ -108,11 +108,13 @@ class Options:
     #                               0.38 V s/rad); 0 turns the label off
     settled_tail: bool = False    # count_settled_tails: a `changing` window counted again over its part after the
     #                               step (the tail), its head's speed from the back-EMF; off by default (the
-    #                               figures of docs/ripple.md are without it, but the one section that measures it)
+    #                               ripple pages' figures are without it, but docs/ripple-step-windows.md, "Settled
+    #                               tails (off by default)", which measures it)
     tail_starts: tuple = (0.1, 0.2, 0.3, 0.4)   # count_settled_tails: where the tail may begin, shares of the window
     tail_min_cycles: float = 10.0  # count_settled_tails: ripple cycles a tail must hold; a tail has no margins, so
     #                               its count leaves a tenth out at each end and reads the phase at filter edges
-    #                               (4 % off on a steady tail of 5.2 cycles, unseen x0.25 seed 2; docs/ripple.md)
+    #                               (4 % off on a steady tail of 5.2 cycles, unseen x0.25 seed 2;
+    #                               docs/ripple-step-windows.md, "Settled tails (off by default)")
     stall_max_rpm: float = 1.0    # count_stalls: the largest bound on |n| (RPM, output shaft) the data must give
     #                               for a stall (the drive on, current above the floor, the shaft standing);
     #                               0 turns the stall off
@@ -123,7 +125,8 @@ class Options:
     stall_snr: float = 30.0       # count_stalls: a bin of the span's spectrum this many times the band's median
     #                               power is a line; noise alone (exponential power per bin, median ln 2 of the
     #                               mean) reaches it with probability 2^-30 ~ 1e-9 a bin, a ripple of 1.5 mA at 3
-    #                               cycles over 9.5 s stood 153x over it at the least (docs/ripple.md, step 6)
+    #                               cycles over 9.5 s stood 153x over it at the least (docs/ripple-counting.md,
+    #                               "Speed from the ripple", step 6)
     stall_prior_z: float = 1.0    # count_stalls: the back-EMF prior plus this many of its upper sd must lie under
     #                               the speed floor (min_cycles ripples per window)
 
@@ -469,9 +472,9 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
 
 def count_settled_tails(bursts, duty, est, opts: Options, rpm_per_A=None):
     """A window whose speed changed inside it (`changing`: a step of duty or load, the inrush after
-    it) counted again over the part after the step has settled (opts.settled_tail; docs/ripple.md,
-    "Unseen at a quarter length"). The tail, the burst from opts.tail_starts[j] of the window on (the
-    earliest that passes), is counted as its own window (estimate_window) with every check of one:
+    it) counted again over the part after the step has settled (opts.settled_tail;
+    docs/ripple-step-windows.md, "Settled tails (off by default)"). The tail, the burst from
+    opts.tail_starts[j] of the window on (the earliest that passes), is counted as its own window (estimate_window) with every check of one:
     the prior, `far`, `ambiguous`, the line above the noise, at least opts.tail_min_cycles cycles in
     the tail, its counted quarters and its current's quarters steady within opts.max_spread. The speed
     of the head (the transient) comes from the back-EMF: at the window's constant duty the speed
@@ -779,9 +782,10 @@ def count_sd_rpm(est) -> np.ndarray:
     whose standard deviation is range / sqrt(12) for a speed anywhere within it), and the
     count's resolution: the phase at each end of the counted cycles known to 1 / sqrt(snr) rad
     (the line's amplitude over the noise's), sqrt(2) / (2 pi cycles sqrt(snr)) of the speed, the
-    cycles of the whole span where windows were counted together. On the twin (docs/ripple.md)
-    the errors against the true window-mean speed are 0.4-0.6 of this in RMS (sweep, load, long,
-    unseen, hot), at most 1.9 of it in 99 % of the rows: the weight errs on the side of caution."""
+    cycles of the whole span where windows were counted together. On the twin (docs/ripple-compare.md,
+    "Ripple counting as a peer in `hpddo compare`") the errors against the true window-mean speed
+    are 0.4-0.6 of this in RMS (sweep, load, long, unseen, hot), at most 1.9 of it in 99 % of the
+    rows: the weight errs on the side of caution."""
     rpm = est["rpm"].to_numpy(float)
     move = np.fmax(est["spread"].to_numpy(float), np.nan_to_num(est["spread_current"].to_numpy(float)))
     span = est["span"].to_numpy(float) if "span" in est else np.ones(len(est))

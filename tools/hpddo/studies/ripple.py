@@ -1,6 +1,6 @@
-"""The ripple speed's figures (issue 23, docs/ripple.md): twin recordings in the ripple mode,
-each estimated without its encoder (the back-EMF prior's Ke calibrated from the ripple
-itself), then scored against the encoder and the twin's truth.
+"""The ripple speed's figures (issue 23, docs/ripple-accuracy.md and docs/ripple-step-windows.md):
+twin recordings in the ripple mode, each estimated without its encoder (the back-EMF prior's Ke
+calibrated from the ripple itself), then scored against the encoder and the twin's truth.
 
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple            # every scenario, ~1 min
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple --json F   # and the figures as JSON
@@ -360,7 +360,7 @@ def main(argv=None) -> int:
                     help=f"with --seeds: these protocols only (default {','.join(PROTOCOLS)})")
     ap.add_argument("--settled-tail", action="store_true",
                     help="count a changing window again over its part after the step (ripple.count_settled_tails, "
-                         "off in the product; docs/ripple.md, Unseen at a quarter length)")
+                         "off in the product; docs/ripple-step-windows.md, Settled tails)")
     a = ap.parse_args(argv)
     if a.seeds:
         protocols = tuple(a.protocols.split(","))

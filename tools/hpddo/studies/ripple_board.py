@@ -1,5 +1,5 @@
-"""What the board's ripple counter gives through a warm-up (issue 23 item 5, docs/ripple.md,
-"The ripple counter on the board"): a twin run in the ripple mode replayed through the host's
+"""What the board's ripple counter gives through a warm-up (issue 23 item 5, docs/ripple-board-count.md,
+"Figures through a warm-up"): a twin run in the ripple mode replayed through the host's
 reference of the counting build (hpddo.model.ripple_count.track, which the simavr test
 firmware.uno.sim_ripple_count holds the AVR build equal to), with the board's observer (the
 fixed-point default model) as the prior, scored against the twin's truth: the ripple speed,

@@ -7,7 +7,7 @@ from the encoder (ripple_comb.calibrate), and the commutator's health lines are 
 
     cd tools && ../.venv/bin/python -m hpddo.studies.ripple_line --json ../docs/figures/ripple_line.json
 
-The figures of docs/ripple.md's block "the line's identity" are this JSON's (test_ripple_line.py
+The figures of docs/ripple.md, "Measured: the line's identity" are this JSON's (test_ripple_line.py
 holds the page to it).
 """
 from __future__ import annotations
@@ -154,7 +154,7 @@ def run(quiet: bool = True) -> dict:
 
 
 def block(res: dict) -> str:
-    """docs/ripple.md's table of this study (the block between its markers), from the JSON."""
+    """docs/ripple.md's table of this study (under "Measured: the line's identity"), from the JSON."""
     rows = ["| case | confident | more than 5 % off | worst % | confident of driven windows with >= 3 cycles | "
             "'another multiple' said | 'damaged' said | ripples per rev named (comb / encoder), sweep; load | "
             "windows with rot2_rel over the threshold, of those read | rot2_rel 1st / 50th / 99th percentile |",

@@ -1,5 +1,5 @@
 """Training, diagnosis and evaluation from the ripple alone against the same from the encoder
-(issue 23 item 4, docs/ripple.md "Training, diagnosis and evaluation from the ripple alone"):
+(issue 23 item 4, docs/ripple-training.md "Training, diagnosis and evaluation from the ripple alone"):
 the commands of that section, run in one go, and their figures printed as its tables.
 
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple_reference --json F [--work DIR]
@@ -239,7 +239,9 @@ def tables(r: dict) -> str:
     return "\n".join([*lines, "", f"{costs}; the whole study {r['total_s']:.0f} s"])
 
 
-EXPLAIN_POINT = (1.0, 0)  # (duty, load) of the never-seen rows where the two M3 parted (docs/ripple.md)
+# (duty, load) of hot's never-seen rows that no training row resembles, where the two M3's gates decide
+# (docs/ripple-training.md, "Why the two gates agree")
+EXPLAIN_POINT = (1.0, 0)
 
 
 def _m3(md, gd, x: np.ndarray, n2: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -358,7 +358,8 @@ def with_effects(bench: Bench, **magnitudes) -> Bench:
 # ---------------------------------------------------------------------------------------
 # The ripple acquisition mode (issue 23): a high-rate current burst per window, off by
 # default (hpddo twin --ripple-hz, generate(..., ripple=...)); twin/ripple.py synthesises it,
-# docs/bench-log.md ("Ripple bursts") gives its file, docs/ripple.md the estimator.
+# docs/bench-log.md ("Ripple bursts") gives its file, docs/ripple.md the guide and
+# docs/ripple-counting.md ("Speed from the ripple") the estimator.
 
 @dataclasses.dataclass(frozen=True)
 class BurstParam:

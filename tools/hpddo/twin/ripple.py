@@ -1,5 +1,5 @@
-"""The ripple acquisition mode of the twin (issue 23, docs/ripple.md): the armature current
-sampled once per PWM period at a fixed phase, in one burst per window of the bench log.
+"""The ripple acquisition mode of the twin (issue 23, docs/ripple-counting.md, "The twin's ripple
+mode"): the armature current sampled once per PWM period at a fixed phase, in one burst per window of the bench log.
 
 What the burst carries, per sample at time t (the middle of the on-time of its PWM period):
 

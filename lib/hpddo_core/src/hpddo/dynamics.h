@@ -83,7 +83,7 @@ static constexpr DynamicsParams kDynamicsOff = {0.0f, 0.0f, 0.0f, 0.0f};
 /// a constant expression (dynamics_named(ns::kDynamics) decides at compile time). A copy of
 /// kDynamicsOff, not a reference to it: avr-gcc 5.4 cannot fold a constexpr reference's address
 /// into a static initialiser, so a global Observer given it was built by constructor code (the
-/// UNO's g_obs; observer.h, docs/firmware.md "Flash room").
+/// UNO's g_obs; observer.h, docs/firmware-internals.md "Flash room").
 namespace dynamics_default {
 static constexpr DynamicsParams kDynamics = kDynamicsOff;
 }  // namespace dynamics_default

@@ -1,4 +1,4 @@
-"""Ripple counting as a peer of the comparison (issue 23 item 6, docs/ripple.md): the speed
+"""Ripple counting as a peer of the comparison (issue 23 item 6, docs/ripple-compare.md): the speed
 counted from the commutation ripple of the current bursts beside each log
 (`<condition>.ripple.csv`, hpddo.model.ripple), given the motor's ripples per revolution and
 gear ratio.
@@ -150,11 +150,11 @@ def check_options(ripples_per_rev, gear_ratio, recs, floor_A: float | None = Non
     if ripples_per_rev is None and gear_ratio is None:
         if floor_A is not None or ke_vs_per_rad is not None or prior_model is not None:
             raise InputError("--floor-a, --ke-vs-per-rad and --prior-model apply to the ripple peer only: give "
-                             "--ripples-per-rev N and --gear-ratio G too (docs/ripple.md)")
+                             "--ripples-per-rev N and --gear-ratio G too (docs/ripple-compare.md)")
         return None
     if ripples_per_rev is None or gear_ratio is None:
         raise InputError("ripple counting as a peer needs both --ripples-per-rev N and --gear-ratio G "
-                         "(docs/ripple.md)")
+                         "(docs/ripple-compare.md)")
     missing = [str(r.source) for r in recs if not has_bursts(r)]
     if missing:
         raise InputError(f"{missing[0]}: no current bursts beside it ({ripple_file.path_for(missing[0]).name}); "
