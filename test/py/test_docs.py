@@ -159,3 +159,55 @@ def test_the_board_commands_and_telemetry_fields_are_documented():
     section = section[:section.index("\n## ", 1)]
     assert not [w for w in words if f"`{w}" not in section and f", `{w} " not in section], \
         "UNO command missing from docs/firmware.md, Serial commands of the UNO"
+
+
+# `docs/NAME.md, "Section"`, `docs/NAME.md "Section"` or `docs/NAME.md ("Section")` in a comment, docstring or
+# help string; the quote may begin on the next comment line and run over a line break
+DOC_CITATION = re.compile(r'docs/([\w/-]+\.md),?[ \t]*(?:\n[ \t]*(?://+|#+)?[ \t]*)?\(?\\?"(\w[^"\\]{0,150})\\?"')
+CITING_FOLDERS = ("tools", "lib", "host", "uno_acq", "esp_infer", "test", "scripts")
+CITING_SUFFIXES = (".py", ".h", ".cpp", ".ino", ".sh")
+
+
+def _doc_citations() -> list:
+    """(where, page, section) of every section of a docs page cited by name in the source tree."""
+    out = []
+    for folder in CITING_FOLDERS:
+        for path in sorted((ROOT / folder).rglob("*")):
+            if path.suffix not in CITING_SUFFIXES or not path.is_file() or path.name == "test_docs.py":
+                continue  # this file's citations are the pattern's own examples
+            text = path.read_text(encoding="utf-8", errors="replace")
+            for m in DOC_CITATION.finditer(text):
+                section = " ".join(re.sub(r"\n\s*(?://+|#+|\*)?", " ", m.group(2)).split())
+                where = f"{path.relative_to(ROOT)}:{text.count(chr(10), 0, m.start()) + 1}"
+                out.append((where, m.group(1), section))
+    return out
+
+
+def _headings(page: str) -> list:
+    text = re.sub(r"^```.*?^```", "", page, flags=re.S | re.M)
+    return [" ".join(h.split()).lower() for h in re.findall(r"^#+\s+(.*)$", text, re.M)]
+
+
+def test_the_citation_pattern_reads_every_form():
+    found = lambda s: [(m.group(1), m.group(2)) for m in DOC_CITATION.finditer(s)]  # noqa: E731
+    assert found('(docs/ripple.md, "Which line is the ripple")') == [("ripple.md", "Which line is the ripple")]
+    assert found('docs/ripple-accuracy.md "Stall": the') == [("ripple-accuracy.md", "Stall")]
+    assert found('docs/bench-log.md ("Ripple bursts") gives') == [("bench-log.md", "Ripple bursts")]
+    assert found('in acq_ripple.h; docs/ripple-board.md,\n// "The UNO\'s ripple mode".')[0][1] == "The UNO's ripple mode"
+    assert found('(docs/ripple.md)") and "next string"') == []
+
+
+def test_every_cited_section_of_a_page_exists():
+    """Every `docs/NAME.md, "Section"` a comment, docstring or help string of the source tree cites
+    names a heading of that page (one that starts with the quoted words): a page split or a section
+    renamed without its citations fails here."""
+    cites = _doc_citations()
+    assert len(cites) > 20, cites
+    bad = []
+    for where, name, section in cites:
+        page = ROOT / "docs" / name
+        if not page.is_file():
+            bad.append(f"{where}: docs/{name} does not exist")
+        elif not any(h.startswith(section.lower()) for h in _headings(page.read_text(encoding="utf-8"))):
+            bad.append(f"{where}: docs/{name} has no heading \"{section}\"")
+    assert not bad, "citations of a docs section that is not there:\n" + "\n".join(bad)
