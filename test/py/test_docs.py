@@ -211,3 +211,32 @@ def test_every_cited_section_of_a_page_exists():
         elif not any(h.startswith(section.lower()) for h in _headings(page.read_text(encoding="utf-8"))):
             bad.append(f"{where}: docs/{name} has no heading \"{section}\"")
     assert not bad, "citations of a docs section that is not there:\n" + "\n".join(bad)
+
+
+def test_the_pages_quote_the_uno_loop_as_measured():
+    """The UNO's 100 Hz main loop, with and without the ripple counter, is quoted by docs/firmware.md,
+    performance-cycles.md and ripple-board-count.md as the committed run of `hpddo bench --observer
+    --write-docs` measured it (docs/figures/bench_observer.json, the table of docs/performance.md):
+    a run that moves the figures fails here until the prose follows it."""
+    import json
+    fig = json.loads((ROOT / "docs" / "figures" / "bench_observer.json").read_text(encoding="utf-8"))
+    loop, rip = fig["uno_loop"], fig["uno_ripple_loop"]
+    quoted = {
+        "firmware.md": [(loop, "window", "max"), (loop, "observer", "max"), (rip, "window", "max")],
+        "performance-cycles.md": [(r, part, stat) for r, part in ((loop, "window"), (loop, "observer"), (rip, "window"),
+                                                                   (rip, "ripple")) for stat in ("median", "max")],
+        "ripple-board-count.md": [(rip, part, stat) for part in ("window", "observer", "ripple")
+                                  for stat in ("median", "max")],
+    }
+    bad = []
+    for name, figures in quoted.items():
+        text = " ".join((ROOT / "docs" / name).read_text(encoding="utf-8").split())
+        for r, part, stat in figures:
+            n, what = r[part][stat], f"docs/{name}: the {'counting build' if r is rip else 'loop'}'s {part} {stat}"
+            cycles = f"{n:,}".replace(",", " ")
+            if cycles not in text:
+                bad.append(f"{what}, {cycles} cycles")
+            pct = f"{100.0 * n / r['window_cycles']:.1f} %"
+            if (part, stat) == ("window", "max") and pct not in text:
+                bad.append(f"{what}, {pct} of the window")
+    assert not bad, "not as docs/figures/bench_observer.json measured:\n" + "\n".join(bad)
