@@ -111,6 +111,13 @@ def test_a_signal_stops_the_tool_cleanly(tool, signum, group, tmp_path):
 # interpreter's own behaviour stands; those cases are counted, and they may not reach ARMED_BY_S.
 DELAYS_S = [i * 0.015 for i in range(21)] + [0.45, 0.6]  # 0 to 300 ms, and two where every tool has started
 ARMED_BY_S = 1.0  # every tool has armed its handler by then (seen: 391 ms at most, load average 11 on 2 cores)
+# A SIGINT in the interpreter's start can be printed and dropped by CPython itself: a KeyboardInterrupt in
+# importlib's module-lock weakref callback ("Exception ignored in: ... _get_module_lock.<locals>.cb"). Seen in
+# 4 of 600 SIGINTs sent 11-16 ms after the start beside a CPU hog; the one other place that drops it (checking
+# whether argv[0] is an import path entry) is caught by arm() (interrupt.swallowed_at_start). A tool still
+# running this long after a signal sent before it armed was left running by the interpreter: the case is
+# counted as before-the-start, and a second signal, as a user's second Ctrl-C, must give the line.
+DROPPED_S = 8.0
 BIN = os.path.dirname(sys.executable)
 LOG_ARGS = [*LOGS, "--out", "OUT"]
 ENTRIES = {  # name -> (command line, label of its line)
@@ -156,12 +163,23 @@ def _stop_at(cmd, signum, delay_s, tmp_path):
         armed = None
     if pr.poll() is None:
         os.kill(pr.pid, signum)
+    again = False
     try:
-        _, stderr = pr.communicate(timeout=EXIT_S)
+        try:
+            _, stderr = pr.communicate(timeout=EXIT_S if armed else DROPPED_S)
+        except subprocess.TimeoutExpired:
+            if armed:
+                raise
+            # sent in the interpreter's own start, and it went on: CPython dropped it (see DROPPED_S); the
+            # user's second Ctrl-C, now with the handler in place, must stop the tool as any signal does
+            again = True
+            os.kill(pr.pid, signum)
+            _, stderr = pr.communicate(timeout=EXIT_S)
     except subprocess.TimeoutExpired:
         os.killpg(pr.pid, signal.SIGKILL)
         pr.communicate()
-        pytest.fail(f"{args[:3]} still running {EXIT_S} s after {signal.Signals(signum).name} at {delay_s:.3f} s")
+        pytest.fail(f"{args[:3]} still running {EXIT_S} s after {signal.Signals(signum).name} at {delay_s:.3f} s"
+                    + (" (sent twice)" if again else ""))
     time.sleep(0.2)
     left = _session_procs(pr.pid)
     for p in left:
@@ -169,7 +187,7 @@ def _stop_at(cmd, signum, delay_s, tmp_path):
     assert not left, f"processes left running after a signal at {delay_s:.3f} s: {[p.info for p in left]}"
     if "gen_fixtures.py" not in cmd[1]:  # hpddo fixtures writes into --out in place (test/fixtures holds
         _check_output(out, tmp_path, finished=pr.returncode == 0)  # hand-written files too), not staged
-    return armed, pr.returncode, stderr
+    return armed, pr.returncode, stderr, again
 
 
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=lambda s: signal.Signals(s).name)
@@ -179,7 +197,11 @@ def test_a_signal_from_the_first_instruction_gives_one_line(entry, signum, tmp_p
     name = signal.Signals(signum).name
     before = []
     for delay_s in DELAYS_S:
-        armed, status, stderr = _stop_at(cmd, signum, delay_s, tmp_path)
+        armed, status, stderr, again = _stop_at(cmd, signum, delay_s, tmp_path)
+        if again:  # the interpreter dropped the first: the second gave the line
+            lines = [ln for ln in stderr.replace("\r", "\n").splitlines() if ln.strip()]
+            assert status == 128 + signum and lines[-1].startswith(f"{label}: stopped by {name}: "), lines[-3:]
+            print(f"{entry}: {name} at {delay_s:.3f} s dropped in the interpreter's start; the second stopped it")
         if not armed:
             assert delay_s < ARMED_BY_S, f"{entry} had not armed its handler {delay_s:.3f} s after its start"
             before.append(delay_s)
@@ -214,3 +236,23 @@ def test_a_signal_during_an_import_is_raised_after_it(tmp_path, monkeypatch):
     assert caught.value.status == 143
     assert sys.modules["hpddo_sig_probe"].DONE
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL  # handling() gave the previous handler back
+
+
+def test_a_ctrl_c_the_interpreter_dropped_at_its_start_ends_the_tool_at_arm(tmp_path):
+    """Seen in CI (hpddo diagnose, SIGINT 30 ms after its start, still running 60 s later): CPython, checking
+    whether the script's path is an import path entry before running it, prints a KeyboardInterrupt raised
+    meanwhile ("Failed checking if argv[0] is an import path entry") and goes on. What it printed stays in
+    sys.last_value; arm() ends the tool there with the line, as a Ctrl-C after it would."""
+    code = ("import sys\n"
+            "sys.last_value = KeyboardInterrupt()\n"  # as PyErr_Print leaves it
+            "from hpddo import interrupt\n"
+            "interrupt.arm('hpddo probe')\n"
+            "print('ran on')\n")
+    pr = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=EXIT_S, cwd=tmp_path)
+    assert pr.returncode == 130, (pr.returncode, pr.stderr)
+    assert "ran on" not in pr.stdout
+    assert pr.stderr.strip().splitlines()[-1].startswith("hpddo probe: stopped by SIGINT: ")
+    # an earlier exception of another kind is no request to stop
+    pr = subprocess.run([sys.executable, "-c", code.replace("KeyboardInterrupt()", "ValueError()")],
+                        capture_output=True, text=True, timeout=EXIT_S, cwd=tmp_path)
+    assert pr.returncode == 0 and "ran on" in pr.stdout, pr.stderr

@@ -154,7 +154,8 @@ def _handle(signum, frame):
 def arm(label: str | None = None) -> None:
     """A tool's entry calls this first (hpddo.__main__, tools/*.py): from here on, SIGINT or
     SIGTERM at any moment ends the process with one line and 130 or 143, with no traceback,
-    whatever is loading; inside handling() by unwinding (Interrupted), elsewhere at once.
+    whatever is loading; inside handling() by unwinding (Interrupted), elsewhere at once. A
+    Ctrl-C that the interpreter's start printed and dropped ends it here (swallowed_at_start).
     label: `hpddo NAME` for the line (default: `hpddo` and the command line's first word)."""
     if label is None:
         word = sys.argv[1] if len(sys.argv) > 1 else ""
@@ -162,6 +163,19 @@ def arm(label: str | None = None) -> None:
     _state.update(armed=True, phase="start", pid=os.getpid(), label=label)
     _signal.signal(_signal.SIGINT, _handle)
     _signal.signal(_signal.SIGTERM, _handle)  # last: a caught SIGTERM means both are in place
+    if swallowed_at_start():
+        _exit_now(_signal.SIGINT)
+
+
+def swallowed_at_start() -> bool:
+    """Whether a Ctrl-C came during the interpreter's own start and was printed and dropped
+    there: CPython, checking whether a script's path is an import path entry (zipimport) before
+    it runs the script, prints any exception raised meanwhile ("Failed checking if argv[0] is an
+    import path entry") and goes on, the KeyboardInterrupt with it; the tool would then run its
+    whole course after the user asked it to stop. What PyErr_Print printed stays in
+    sys.last_value (sys.last_exc from 3.12): a KeyboardInterrupt there is that lost request."""
+    lost = getattr(sys, "last_exc", None) or getattr(sys, "last_value", None)
+    return isinstance(lost, KeyboardInterrupt)
 
 
 def worker_init() -> None:
