@@ -1024,10 +1024,10 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
 
 def through_faulty_channels(inp: Inputs, sel: Selection, faults: list,
                             floor: noise.NoiseFloor | None = None) -> Selection:
-    """sel without the named effects whose term reads a channel that is stuck in every recording
-    (channels.everywhere, schema.Effect.reads): nothing concluded through it."""
+    """sel without the named effects whose term reads a channel that is blind in every recording
+    (stuck, or flat within one step: channels.BLIND, channels.everywhere, schema.Effect.reads): nothing concluded through it."""
     bad = channels.everywhere(faults, len(inp.rows))
-    return not_named(inp, sel, {e: (f"acts through the {fx.LIBRARY[e].reads} channel, stuck in every recording "
+    return not_named(inp, sel, {e: (f"acts through the {fx.LIBRARY[e].reads} {channels.BLIND_NOTE} "
                                     "(Channel health): not named") for e in sel.missing
                                 if fx.LIBRARY[e].reads in bad}, floor)
 
