@@ -77,9 +77,25 @@ def test_no_effect_is_named_through_a_channel_stuck_in_every_recording(tmp_path)
     js = core.diagnose(paths, core.Options(ra_ohm=RA, bootstrap=0, hybrid=False)).to_json()
     assert {(c["channel"], c["fault"]) for c in js["channels"]} >= {("current", "stuck")}, js["channels"]
     assert not [e for e in js["missing_effects"] if fx.LIBRARY[e].reads == "current"], js["verdict"]
-    held = [e["effect"] for e in js["ranking"] if not e["named"] and "stuck in every recording" in (e.get("note") or "")]
+    held = [e["effect"] for e in js["ranking"] if not e["named"] and channels.BLIND_NOTE in (e.get("note") or "")]
     for e in held:
-        assert f"{e} was selected" in js["verdict"] and "stuck in every recording" in js["verdict"]
+        assert f"{e} was selected" in js["verdict"] and "flat within one step, in every recording" in js["verdict"]
+
+
+def test_a_current_channel_of_two_values_is_not_called_stuck(tmp_path):
+    """Seen in the calibration study (bench 74): a no-load sweep whose current moves less than the
+    channel's 20 mA step reads two values over ten duties. The rows cannot tell a stuck channel
+    toggling its last bit from a current that stays within a step: the fault says so ("flat within
+    one step"), and nothing is concluded through it, as for a stuck one."""
+    rng = np.random.default_rng(4)
+    rows = [(d, v, 0.50 if k % 3 else 0.52, rpm, ld) for k, (d, v, _, rpm, ld) in enumerate(_table(rng))]
+    path = _log(tmp_path / "flat.csv", rows)
+    js = core.diagnose([path], core.Options(ra_ohm=RA, bootstrap=0, hybrid=False)).to_json()
+    flat = [c for c in js["channels"] if c["channel"] == "current"]
+    assert [c["fault"] for c in flat] == [channels.FLAT], js["channels"]
+    assert "0.02 apart: stuck, or the current moves less than a step here" in flat[0]["figure"], flat
+    assert "is stuck" not in js["verdict"]
+    assert channels.everywhere([channels.ChannelFault("a", "current", channels.FLAT, "")], 1) == {"current"}
 
 
 def test_what_a_faulty_channel_leaves_unconcluded_is_the_library_s():

@@ -44,7 +44,13 @@ CANNOT = {
 # The faults after which a channel carries nothing of what it measures: a stuck channel reads the
 # same value whatever the motor does. (A coarse channel still carries its steps, and a fit through it
 # carries their error in its interval; a saturated channel's clipped rows are left out, clipped.)
-BLIND = ("stuck",)
+# A channel reading two values over many duties may be stuck with its last bit toggling, or be
+# following a quantity that moves less than one step there: the rows cannot tell, and either way
+# nothing is concluded through it ("flat within one step").
+FLAT = "flat within one step"
+BLIND = ("stuck", FLAT)
+#: what a selected effect's note says when its channel is blind in every recording (core, verdict)
+BLIND_NOTE = "channel, stuck or flat within one step in every recording"
 
 
 def everywhere(faults: list, n_recordings: int) -> set:
@@ -127,8 +133,12 @@ def _faults(rec, r, sigma2: float) -> list:
         x = rec.df[col].to_numpy(float)[driven]
         levels = np.unique(x)
         if len(levels) <= STUCK_LEVELS and duties >= STUCK_DUTIES:
-            out.append(ChannelFault(rec.name, name, "stuck", f"{len(levels)} distinct values over {len(x)} driven "
-                                    f"rows at {duties} duties"))
+            figure = f"{len(levels)} distinct values over {len(x)} driven rows at {duties} duties"
+            if len(levels) == 1:
+                out.append(ChannelFault(rec.name, name, "stuck", figure))
+            else:
+                out.append(ChannelFault(rec.name, name, FLAT, f"{figure}, {np.ptp(levels):.3g} apart: stuck, or the "
+                                        f"{name} moves less than a step here; the rows cannot tell"))
             continue
         if len(levels) < 2:
             continue  # one value and one command: the protocol holds it (a supply per log), no fault to name
@@ -153,7 +163,7 @@ def _faults(rec, r, sigma2: float) -> list:
     lab = driven & (r.train | r.test) & np.isfinite(r.ref)
     loads = rec.df["load"].to_numpy()[lab] if "load" in rec.df else None
     varied = loads is None or len(np.unique(loads)) > 1
-    if varied and lab.sum() > 10 and not any(f.channel == "current" and f.fault == "stuck" for f in out):
+    if varied and lab.sum() > 10 and not any(f.channel == "current" and f.fault in BLIND for f in out):
         y = r.ref[lab]
         xv = sm.add_constant(r.v[lab])
         sse_v = float(np.sum(sm.OLS(y, xv).fit().resid ** 2))

@@ -173,7 +173,11 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
         e = np.concatenate([(r.ref - fx.predict(r, p))[m] for r, m in zip(rest, masks)])
         e = e[np.isfinite(e)]
         if len(e):
-            scored.append((name, kind, len(e), float(np.mean(e * e)), masks))
+            try:
+                pv = prediction_var(rest, masks, p, names) if alternatives else 0.0
+            except Exception:  # noqa: BLE001 (a degenerate covariance: the miss is judged without it)
+                pv = 0.0
+            scored.append((name, kind, len(e), float(np.mean(e * e)), masks, pv))
     # ... and, where a thermal effect is named, by the same model fitted on every labelled row, the
     # unit's own included: a unit that alone shows the heating (the only warm-up) is missed when left
     # out, but fits with the rest; one that disagrees (another motor, a reversed channel) is missed
@@ -194,13 +198,13 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
         return float(np.mean(e * e)) if len(e) else math.nan
 
     out = []
-    for name, kind, n, mse, masks in scored:
+    for name, kind, n, mse, masks, pv in scored:
         others = [x[3] for x in scored if x[0] != name]
         if not others:
             continue
         med = float(np.median(others))
         beyond_noise = mse - max(sigma2, 0.0) > CONSIST_Z * max(sigma2, 1e-12) * math.sqrt(2.0 / n)
-        bad = mse > CONSIST_X ** 2 * max(med, sigma2) and beyond_noise
+        bad = mse > CONSIST_X ** 2 * max(med, sigma2 + pv) and beyond_noise
         if bad and joint is not None:
             own = joint_mse(masks)
             rest = float(np.nanmedian([joint_mse(x[4]) for x in scored if x[0] != name]))
@@ -209,6 +213,37 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
             bad = all(own > CONSIST_X ** 2 * max(fit, sigma2) for own, fit in alternative_misses(inp, names, masks))
         out.append(Unit(name, kind, n, math.sqrt(mse), math.sqrt(med), bool(bad), masks))
     return out
+
+
+def prediction_var(rest, masks, p: ph.PhysicsParams, names) -> float:
+    """The mean variance, over a unit's rows (masks), of the speed that model p (fitted on the
+    training rows of rest, the unit left out) predicts there, from its fitted quantities'
+    uncertainty (intervals.covariance: cluster-robust over the operating points of the rest): what
+    the extrapolation to the unit can be off by with no fault in the unit. A unit at the edge of
+    the operating range (the one warm-up, the highest current) lies where the others constrain the
+    model least. Infinite where the rest leaves a quantity the prediction moves with undetermined."""
+    fields, bounds = intervals.fitted_fields(rest, names)
+    free = [f for f in fields if not (f in bounds and intervals.on_edge(float(getattr(p, f)), bounds[f]))]
+    train, groups, ref, offset = [], [], [], 0
+    for r in rest:
+        blocks = ranking.op_blocks(r, r.train, ranking.TRAIN_BLOCK_S)
+        m = r.train & np.isfinite(r.ref) & np.isfinite(fx.predict(r, p)) & (blocks >= 0)
+        train.append(m)
+        groups.append(blocks[m] + offset)
+        ref.append(r.ref[m])
+        offset += int(blocks.max()) + 1 if len(blocks) else 0
+    if not free or not sum(int(m.sum()) for m in train):
+        return 0.0
+    cov, _, _ = intervals.covariance(intervals.jacobian(rest, train, p, free),
+                                     np.concatenate(ref) - intervals.predict_all(rest, train, p), np.concatenate(groups))
+    j_unit = intervals.jacobian(rest, masks, p, free)
+    moves = np.any(np.abs(j_unit) > 0, axis=0)
+    if not np.all(np.isfinite(cov[np.ix_(moves, moves)])):
+        return math.inf
+    jm = j_unit[:, moves]
+    pv = np.einsum("ij,jk,ik->i", jm, cov[np.ix_(moves, moves)], jm)
+    pv = pv[np.isfinite(pv)]
+    return float(np.mean(pv)) if len(pv) else 0.0
 
 
 def alternative_misses(inp: Inputs, names, masks):
@@ -292,9 +327,49 @@ def other_motors(inp: Inputs, sigma2: float) -> list:
             continue
         ratio = p_own.ke_vs_per_rad / p_rest.ke_vs_per_rad
         mse_own = float(np.mean(e * e))
-        if abs(ratio - 1.0) >= OTHER_MOTOR_REL and mse_own <= (1.0 - OTHER_MOTOR_SHARE) * u.rmse_rpm ** 2:
+        if not (abs(ratio - 1.0) >= OTHER_MOTOR_REL and mse_own <= (1.0 - OTHER_MOTOR_SHARE) * u.rmse_rpm ** 2):
+            continue
+        # ... and so where it runs as the others do: its rows within their operating range (a warm-up
+        # at the highest current and temperature is missed by an extrapolation that lacks an effect,
+        # which its own Ke also takes up; another motor is missed where the conditions are the same)
+        inside = within_others(inp.rows, k, u.masks[k])
+        if inside.sum() < max(CONSIST_MIN_ROWS, OTHER_MOTOR_INSIDE * u.masks[k].sum()):
+            continue
+        miss_in = _mse(inp.rows[k], p_rest, inside)
+        if miss_in > CONSIST_X ** 2 * max(u.others_rpm ** 2, sigma2) and \
+                _mse(inp.rows[k], p_own, inside) <= (1.0 - OTHER_MOTOR_SHARE) * miss_in:
             out.append(OtherMotor(u, float(ratio), math.sqrt(mse_own)))
     return out
+
+
+# The share of a recording's rows that must lie within the others' operating range for it to be
+# named another motor there (within_others).
+OTHER_MOTOR_INSIDE = 0.25
+
+
+def _mse(r, p: ph.PhysicsParams, mask: np.ndarray) -> float:
+    e = (r.ref - fx.predict(r, p))[mask]
+    e = e[np.isfinite(e)]
+    return float(np.mean(e * e)) if len(e) else math.nan
+
+
+def within_others(rows, k: int, mask: np.ndarray) -> np.ndarray:
+    """mask's rows of recording k that lie within the range the other recordings' labelled rows
+    cover: the current's size, the voltage and, where every recording reads it, the case
+    temperature (each its own range: a box around the others' operating points)."""
+    others = [r for j, r in enumerate(rows) if j != k]
+    r, m = rows[k], mask.copy()
+    channels_ = [lambda x: np.abs(x.i), lambda x: x.v]
+    if all(bool(x.has_temp.all()) for x in rows):
+        channels_.append(lambda x: x.temp)
+    for get in channels_:
+        vals = np.concatenate([get(o)[o.train | o.test] for o in others])
+        vals = vals[np.isfinite(vals)]
+        if not len(vals):
+            return np.zeros_like(m)
+        x = get(r)
+        m &= (x >= vals.min()) & (x <= vals.max())
+    return m
 
 
 def without(inp: Inputs, unit: Unit, opt: Options) -> Inputs:
@@ -949,10 +1024,10 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
 
 def through_faulty_channels(inp: Inputs, sel: Selection, faults: list,
                             floor: noise.NoiseFloor | None = None) -> Selection:
-    """sel without the named effects whose term reads a channel that is stuck in every recording
-    (channels.everywhere, schema.Effect.reads): nothing concluded through it."""
+    """sel without the named effects whose term reads a channel that is blind in every recording
+    (stuck, or flat within one step: channels.BLIND, channels.everywhere, schema.Effect.reads): nothing concluded through it."""
     bad = channels.everywhere(faults, len(inp.rows))
-    return not_named(inp, sel, {e: (f"acts through the {fx.LIBRARY[e].reads} channel, stuck in every recording "
+    return not_named(inp, sel, {e: (f"acts through the {fx.LIBRARY[e].reads} {channels.BLIND_NOTE} "
                                     "(Channel health): not named") for e in sel.missing
                                 if fx.LIBRARY[e].reads in bad}, floor)
 

@@ -70,7 +70,7 @@ def _describe(field: str) -> tuple:
     return field, "", 1.0, (-math.inf, math.inf), "", ""
 
 
-def _predict_all(rows, masks, p: ph.PhysicsParams) -> np.ndarray:
+def predict_all(rows, masks, p: ph.PhysicsParams) -> np.ndarray:
     """n_M2 of p at the masked rows of every recording (temperatures recomputed at p)."""
     return np.concatenate([fx.predict(r, p)[m] for r, m in zip(rows, masks)])
 
@@ -82,8 +82,8 @@ def jacobian(rows, masks, p: ph.PhysicsParams, fields) -> np.ndarray:
     for f in fields:
         c = float(getattr(p, f))
         h = STEP_REL * max(abs(c), _scale(f))
-        up = _predict_all(rows, masks, dataclasses.replace(p, **{f: c + h}))
-        dn = _predict_all(rows, masks, dataclasses.replace(p, **{f: c - h}))
+        up = predict_all(rows, masks, dataclasses.replace(p, **{f: c + h}))
+        dn = predict_all(rows, masks, dataclasses.replace(p, **{f: c - h}))
         cols.append((up - dn) / (2 * h))
     return np.column_stack(cols) if cols else np.zeros((0, 0))
 
@@ -150,9 +150,9 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
         groups.append(g[m] + offset)
         offset += int(g.max()) + 1 if len(g) else 0
     ref = np.concatenate([r.ref[m] for r, m in zip(rows, masks)])
-    e = ref - _predict_all(rows, masks, p)
+    e = ref - predict_all(rows, masks, p)
     # a field on an edge of its bounds is held there (an active constraint): out of the covariance
-    edge = [f in bounds and _on_edge(float(getattr(p, f)), bounds[f]) for f in fields]
+    edge = [f in bounds and on_edge(float(getattr(p, f)), bounds[f]) for f in fields]
     free = [f for f, on in zip(fields, edge) if not on]
     jac = jacobian(rows, masks, p, free)
     cov, df, method = covariance(jac, e, np.concatenate(groups))
@@ -167,7 +167,7 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
         lo, hi = v - t * se, v + t * se
         why = ""
         b = bounds.get(f)
-        if b is not None and _on_edge(v, b):
+        if b is not None and on_edge(v, b):
             why = f"{EDGE_WHY} of the range allowed, {_rng(b, scale, unit)}: the data pull it further"
         elif f == "th_tau_s" and all(r.steady for r in rows):
             why = "steady-state tables have no clock: the winding's time constant is not in their rows"
@@ -212,7 +212,7 @@ def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> lis
             continue
         for sh in e.shapes:
             v = float(getattr(p, sh.field))
-            if sh.field not in bounds or v == sh.default or not _on_edge(v, bounds[sh.field]):
+            if sh.field not in bounds or v == sh.default or not on_edge(v, bounds[sh.field]):
                 continue
             k = by_field[e.field]
             if ivs[k].determined:
@@ -225,7 +225,7 @@ def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> lis
     return ivs
 
 
-def _on_edge(v: float, b: tuple) -> bool:
+def on_edge(v: float, b: tuple) -> bool:
     lo, hi = b
     span = (hi - lo) if math.isfinite(hi - lo) else max(abs(v), 1.0)
     return abs(v - lo) <= EDGE_REL * span or abs(v - hi) <= EDGE_REL * span

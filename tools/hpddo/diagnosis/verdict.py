@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 
 from ..model import effects as fx
-from . import intervals, noise, ranking
+from . import channels, intervals, noise, ranking
 from .result import (ConfoundedPair, Confounding, EffectResult, RaFit, ResidualAnalysis, Residuals, Selection,
                      _alone, _with)
 
@@ -90,16 +90,17 @@ def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
     ra = ra_verdict(sel.ra_fit)
     text = _verdict(sel, conf, resid, sigma2, floor)
     held = [e for e in sel.ranking if e.kind == "candidate" and e.note and ("holds zero" in e.note or
-                                                                         "stuck in every recording" in e.note)]
+                                                                         channels.BLIND_NOTE in e.note)]
     if held and text.startswith("No library effect explains the residual"):  # one was selected: said below
         text = "No library effect is named for the residual" + text[len("No library effect explains the residual"):]
     for e in sel.ranking:  # selected by its held-out gain, but its interval holds zero (core.through_zero)
         if e.kind == "candidate" and e.note and "holds zero" in e.note:
             text += (f" {e.effect} was selected ({e.shown}), but its {100 * intervals.LEVEL:.0f} % interval holds zero, "
                      "so these recordings do not tell it from its absence: not named.")
-        elif e.kind == "candidate" and e.note and "stuck in every recording" in e.note:
+        elif e.kind == "candidate" and e.note and channels.BLIND_NOTE in e.note:
             text += (f" {e.effect} was selected ({e.shown}), but it acts through the {fx.LIBRARY[e.effect].reads} "
-                     "channel, which is stuck in every recording (Channel health, below): not named.")
+                     "channel, which is stuck, or flat within one step, in every recording (Channel health, below): "
+                     "not named.")
     dyn = dynamics(resid.before, resid.dt_s, family)
     if dyn and family is not None and family.fast:  # the dynamics are named: no "no library effect explains it"
         for said, say in (("No library effect explains the residual", "Apart from the dynamics (above), no library "
