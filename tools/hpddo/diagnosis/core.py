@@ -223,19 +223,13 @@ def prediction_var(rest, masks, p: ph.PhysicsParams, names) -> float:
     the operating range (the one warm-up, the highest current) lies where the others constrain the
     model least. Infinite where the rest leaves a quantity the prediction moves with undetermined."""
     fields, bounds = intervals.fitted_fields(rest, names)
-    free = [f for f in fields if not (f in bounds and intervals.on_edge(float(getattr(p, f)), bounds[f]))]
-    train, groups, ref, offset = [], [], [], 0
-    for r in rest:
-        blocks = ranking.op_blocks(r, r.train, ranking.TRAIN_BLOCK_S)
-        m = r.train & np.isfinite(r.ref) & np.isfinite(fx.predict(r, p)) & (blocks >= 0)
-        train.append(m)
-        groups.append(blocks[m] + offset)
-        ref.append(r.ref[m])
-        offset += int(blocks.max()) + 1 if len(blocks) else 0
-    if not free or not sum(int(m.sum()) for m in train):
+    blocks = [ranking.op_blocks(r, r.train, ranking.TRAIN_BLOCK_S) for r in rest]
+    if not any((r.train & np.isfinite(r.ref) & np.isfinite(fx.predict(r, p)) & (b >= 0)).any()
+               for r, b in zip(rest, blocks)):  # no training row left to fit on
         return 0.0
-    cov, _, _ = intervals.covariance(intervals.jacobian(rest, train, p, free),
-                                     np.concatenate(ref) - intervals.predict_all(rest, train, p), np.concatenate(groups))
+    free, cov, _, _, _ = intervals.free_covariance(rest, blocks, p, fields, bounds)
+    if not free:
+        return 0.0
     j_unit = intervals.jacobian(rest, masks, p, free)
     moves = np.any(np.abs(j_unit) > 0, axis=0)
     if not np.all(np.isfinite(cov[np.ix_(moves, moves)])):

@@ -135,11 +135,11 @@ def covariance(jac: np.ndarray, e: np.ndarray, groups: np.ndarray) -> tuple[np.n
     return cov, df, method
 
 
-def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | None = None) -> list[Interval]:
-    """The Interval of every field of p fitted on the training rows of `rows` (groups_per_rec:
-    the operating-point block id per row of each recording, -1 outside the training rows;
-    bounds: {field: (lo, hi)} the fit was held within)."""
-    bounds = dict(bounds or {})
+def free_covariance(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict) -> tuple:
+    """(the fields not held on an edge of their bounds, their covariance, its degrees of freedom,
+    its method, the number of blocks) of p fitted on the training rows of `rows` (groups_per_rec: the operating-point
+    block id per row of each recording, -1 outside the training rows), cluster-robust over the
+    blocks (covariance)."""
     masks = []
     groups = []
     offset = 0
@@ -154,8 +154,17 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
     # a field on an edge of its bounds is held there (an active constraint): out of the covariance
     edge = [f in bounds and on_edge(float(getattr(p, f)), bounds[f]) for f in fields]
     free = [f for f, on in zip(fields, edge) if not on]
-    jac = jacobian(rows, masks, p, free)
-    cov, df, method = covariance(jac, e, np.concatenate(groups))
+    groups = np.concatenate(groups)
+    cov, df, method = covariance(jacobian(rows, masks, p, free), e, groups)
+    return free, cov, df, method, len(np.unique(groups))
+
+
+def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | None = None) -> list[Interval]:
+    """The Interval of every field of p fitted on the training rows of `rows` (groups_per_rec:
+    the operating-point block id per row of each recording, -1 outside the training rows;
+    bounds: {field: (lo, hi)} the fit was held within)."""
+    bounds = dict(bounds or {})
+    free, cov, df, method, clusters = free_covariance(rows, groups_per_rec, p, fields, bounds)
     t = float(stats.t.ppf(0.5 + LEVEL / 2, df))
     var = dict(zip(free, np.diag(cov)))
     out = []
@@ -177,7 +186,7 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
             why = (f"its interval {lo * scale:.3g}..{hi * scale:.3g} {unit} reaches outside the physical "
                    f"{_rng(phys, scale, unit)}")
         out.append(Interval(q, f, si, v, lo if math.isfinite(se) else None, hi if math.isfinite(se) else None,
-                            determined=not why, why=why, needs=needs, clusters=len(np.unique(np.concatenate(groups))),
+                            determined=not why, why=why, needs=needs, clusters=clusters,
                             method=method, show_scale=scale, show_unit=unit,
                             budget={"statistical": se} if math.isfinite(se) else {}))
     return _thermal_needs_its_node(_sizes_of_unfixed_forms(out, p, bounds))
