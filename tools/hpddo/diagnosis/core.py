@@ -178,14 +178,14 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
             except Exception:  # noqa: BLE001 (a degenerate covariance: the miss is judged without it)
                 pv = 0.0
             scored.append((name, kind, len(e), float(np.mean(e * e)), masks, pv))
-    # ... and, where a thermal effect is named, by the same model fitted on every labelled row, the
-    # unit's own included: a unit that alone shows the heating (the only warm-up) is missed when left
-    # out, but fits with the rest; one that disagrees (another motor, a reversed channel) is missed
-    # either way
+    # ... and, where an effect is named, by the same model fitted on every labelled row, the unit's
+    # own included: a unit that alone shows an effect (the only warm-up shows the heating, the only
+    # recording at 3 A the saturation) is missed when left out, but fits with the rest; one that
+    # disagrees (another motor, a reversed channel) is missed either way
     joint = None
     try:
-        if not any(fx.LIBRARY[n].thermal for n in names):  # (only the heating is shown by one unit alone)
-            raise ValueError("no thermal effect named")
+        if not names:
+            raise ValueError("no effect named")
         everything = [dataclasses.replace(r, train=r.train | r.test) for r in inp.rows]
         pj = fx.fit(everything, inp.m2, names)
         joint = [r.ref - fx.predict(r, pj) for r in inp.rows]
