@@ -36,20 +36,27 @@ def _table(rng, duties=(0.3, 0.5, 0.7, 0.9), loads=(0, 1, 2), hold=8, i_top=None
     return rows
 
 
-def test_clipped_current_rows_are_left_out_of_every_fit_and_said(tmp_path):
+def test_clipped_current_rows_and_their_commands_are_left_out_of_every_fit_and_said(tmp_path):
     """A current channel that reads its top (1.0 A) at two loads and four duties: those rows are
-    no measurement of the motor; they are left out (their train and test masks cleared) and a
-    warning names how many."""
+    no measurement of the motor, and the rows of the same commands that read below the top do so
+    because their noise did (a truncated sample, its mean biased low): all of them are left out
+    (their train and test masks cleared) and a warning names how many."""
     rng = np.random.default_rng(1)
     path = _log(tmp_path / "clip.csv", _table(rng, i_top=1.0))
     rec = dataset.load_recordings([path])[0]
     r = fx.rows_of(rec)
     cut, said = channels.clipped(rec, r)
-    at_top = rec.df["i_A"].to_numpy() == 1.0
-    assert cut.sum() == at_top.sum() > 0 and (cut == at_top).all()
+    i_read = rec.df["i_A"].to_numpy()
+    at_top = i_read == 1.0
+    command = rec.df["duty"].astype(str) + "/" + rec.df["load"].astype(str)
+    clipping = command.isin(command[at_top]).to_numpy()
+    kept_there = clipping & ~at_top
+    # the kept rows of a clipping command read low: a mean of them would bias the fit
+    assert kept_there.any() and i_read[kept_there].mean() < 1.0 - 0.001
+    assert at_top.sum() > 0 and (cut == clipping).all()
     assert said and "saturated" in said[0] and "left out of every fit" in said[0]
     inp = core.inputs_of([rec], core.Options(ra_ohm=RA))
-    assert not (inp.rows[0].train | inp.rows[0].test)[at_top].any()
+    assert not (inp.rows[0].train | inp.rows[0].test)[clipping].any()
     assert any("left out of every fit" in w for w in rec.warnings)
 
 

@@ -98,6 +98,12 @@ def _saturated(x: np.ndarray, command: np.ndarray) -> list:
     return out
 
 
+def _keys(command: np.ndarray) -> np.ndarray:
+    """One value per row of command (a vector, or a matrix of one command per row) naming the command."""
+    c = np.asarray(command, float)
+    return c if c.ndim == 1 else np.array([hash(tuple(row)) for row in c])
+
+
 def clipped(rec, r) -> tuple[np.ndarray, list]:
     """The rows of a recording (rows r) at which a saturated channel (_saturated) reads an end of its
     range, and a sentence for each such channel: a clipped reading is no measurement of the motor, and
@@ -115,9 +121,15 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
             continue
         command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
         for edge, which, n, _held in _saturated(x, command):
-            mask |= driven & (x_all == edge)
-            said.append(f"{rec.source}: {n} driven rows read the {name} channel's {which} ({edge:.4g}, saturated) "
-                        "and are left out of every fit")
+            at = x == edge
+            # every row of a command at which the channel clips: the rows it kept read below the edge
+            # because their noise did, a truncated sample whose mean is biased away from the edge
+            hit = np.isin(_keys(command), _keys(command[at]))
+            rows = np.flatnonzero(driven)[hit]
+            mask[rows] = True
+            said.append(f"{rec.source}: {n} driven rows read the {name} channel's {which} ({edge:.4g}, saturated); "
+                        f"they and the other {int(hit.sum()) - n} rows of the {len(np.unique(_keys(command[at])))} "
+                        "commands at which it clips are left out of every fit")
     return mask, said
 
 

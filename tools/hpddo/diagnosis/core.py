@@ -42,7 +42,7 @@ from .result import (  # noqa: F401 (HYBRID_ITER, as core.HYBRID_ITER)
     MaterialCheck, ModelFit, Options, RaFit, RankingStep, ResidualAnalysis, Residuals, Selection,
     _described, _score)
 from .verdict import (  # noqa: F401 (DYNAMICS_R and NOTHING, as core.X)
-    DYNAMICS_R, ENCODER_NEEDS, NOTHING, RATES, verdict)
+    DYNAMICS_R, ENCODER_NEEDS, NOTHING, RATES, RESTS_ON, BEYOND, UNPHYSICAL, verdict)
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
 
@@ -812,15 +812,13 @@ def diagnose(paths, opt: Options) -> Diagnosis:
         except InputError:  # too little left without it: the diagnosis of all goes on, said below
             others = []
             break
-    inp, mf, ident, sel, conf, resid, text = physics(inp, opt, None if others else mf0)
-    if others:
-        text = "Checked before ranking: " + "; ".join(o.text() for o in others) + ". " + text
+    inp, mf, ident, sel, conf = physics_selection(inp, opt, None if others else mf0)
     progress.stage("checking the recordings against each other")
     # under the model the ranking arrived at: a recording that shows an effect the others do not (the
     # warm-up, the winding's heating) is no disagreement once that effect is named
     units = consistency(inp, mf.sigma2, names=inp.given + sel.missing) if opt.consistency else []
     odd = max((u for u in units if u.inconsistent), key=lambda u: u.rmse_rpm / max(u.others_rpm, 1e-9), default=None)
-    without_it = None
+    without_it, after = None, ""
     if odd is not None:
         # the verdict without it (no bootstrap): the user sees both and what the one recording changes
         progress.stage(f"the verdict without {odd.name}")
@@ -828,12 +826,17 @@ def diagnose(paths, opt: Options) -> Diagnosis:
             w = physics(without(inp, odd, opt), dataclasses.replace(opt, bootstrap=0))
         except InputError as exc:  # too little left without it: the data cannot support the step
             without_it = {"unit": odd.name, "verdict": None, "why": str(exc)}
-            text += (f" Checked before ranking: {odd.text()}; without it too few labelled rows are left to "
+            after = (f" Checked before ranking: {odd.text()}; without it too few labelled rows are left to "
                      "diagnose the rest apart.")
         else:
             without_it = {"unit": odd.name, "verdict": w[6], "missing_effects": w[3].missing,
                           "ra_fit": w[3].ra_fit.to_json() if w[3].ra_fit is not None else None}
-            text += f" Checked before ranking: {odd.text()}. Without it: {w[6]}"
+            after = f" Checked before ranking: {odd.text()}. Without it: {w[6]}"
+            sel = resting_on(inp, sel, odd.name, w[3].missing, mf.noise)
+    resid, text = physics_verdict(inp, opt, mf, ident, sel, conf)
+    if others:
+        text = "Checked before ranking: " + "; ".join(o.text() for o in others) + ". " + text
+    text += after
     changed = bool(sel.missing) or sel.ra_fit.mismatch
     if opt.hybrid:
         progress.stage(f"retraining the hybrid before and after ({opt.hybrid_iter} epochs each)")
@@ -952,6 +955,14 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
     """The physics stages from fit_model (mf: its result on inp, where already taken) to verdict:
     (inputs (Ra moved where it is a mismatch), ModelFit, identifiability, Selection, Confounding,
     Residuals, verdict text)."""
+    inp, mf, ident, sel, conf = physics_selection(inp, opt, mf)
+    resid, text = physics_verdict(inp, opt, mf, ident, sel, conf)
+    return inp, mf, ident, sel, conf, resid, text
+
+
+def physics_selection(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
+    """physics' stages up to the named effects and their intervals: (inputs, ModelFit,
+    identifiability, Selection, Confounding)."""
     if mf is None:
         progress.stage("fitting the physics model with every effect of the library")
         mf = fit_model(inp)
@@ -978,7 +989,13 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
     sel, conf = material_check(inp, mf, sel, conf)
     sel = with_intervals(inp, sel, mf.noise)
     sel = through_faulty_channels(inp, sel, mf.channels, mf.noise)
-    sel = through_zero(inp, sel, mf.noise)
+    sel = through_zero(inp, unphysical(inp, sel, mf.noise), mf.noise)
+    sel = beyond_plausible(inp, sel, mf.noise)
+    return inp, mf, ident, sel, conf
+
+
+def physics_verdict(inp: Inputs, opt: Options, mf: ModelFit, ident, sel: Selection, conf) -> tuple:
+    """physics' stages from the named effects to the verdict: (Residuals, verdict text)."""
     resid = residuals(inp, mf, sel)
     # the dynamic family (issue 21, item 8): identified from the fast recordings, the observer on the
     # model under test's speed for the held-out figure
@@ -998,7 +1015,18 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
     mf.ke_check = ke
     if mf.channels:
         text += " Channel health: " + "; ".join(f.text() for f in mf.channels) + "."
-    return inp, mf, ident, sel, conf, resid, text
+    return resid, text
+
+
+def resting_on(inp: Inputs, sel: Selection, unit: str, named_without: list,
+               floor: noise.NoiseFloor | None = None) -> Selection:
+    """sel without the named effects that the diagnosis without unit (a recording or group that
+    disagrees with the rest) does not name: such an effect rests on the one recording that
+    disagrees, so naming it is no instruction that holds (what is named without it is said in
+    the verdict's "Without it")."""
+    return not_named(inp, sel, {e: f"{RESTS_ON} ({unit}): not named" for e in sel.missing
+                                if e not in named_without}, floor)
+
 
 
 def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
@@ -1014,6 +1042,36 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
     note = f"fitted, but its {100 * intervals.LEVEL:.0f} % interval holds zero: not named"
     return not_named(inp, sel, {field[iv.field]: note for iv in sel.intervals if iv.field in field and
                                 iv.determined and iv.lo is not None and abs(iv.value) <= half(iv)}, floor)
+
+
+def unphysical(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
+    """sel without the named effects whose coefficient in the final fit (every named effect
+    alongside) sits on or beyond an edge of the range the effect can take at all
+    (schema.Effect.physical): each was physical when the selection added it, but the later ones
+    moved it there; two that cancel (a voltage offset of +0.66 V against a current offset of
+    +0.1 A through Ra) explain together what neither is."""
+    notes = {}
+    for e in sel.missing:
+        eff = fx.LIBRARY[e]
+        v = float(getattr(sel.final, eff.field))
+        if not eff.is_physical(v) or intervals.on_edge(v, eff.physical):
+            notes[e] = f"fitted {eff.show(v)}, which {UNPHYSICAL}: not named"
+    return not_named(inp, sel, notes, floor)
+
+
+def beyond_plausible(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:
+    """sel without the named effects whose whole interval lies outside the range the effect takes on
+    a motor (schema.Effect.plausible): the fit used its term for something else these recordings
+    hold (a magnet_thermal of -0.03 %/K at most, where magnets lose 0.03-0.35 %/K, standing in for
+    a winding that heats on another time course), so naming it would be no instruction that holds."""
+    field = {fx.LIBRARY[e].field: e for e in sel.missing}
+    notes = {}
+    for iv in sel.intervals:
+        if iv.field in field and iv.lo is not None:
+            lo, hi = fx.LIBRARY[field[iv.field]].plausible
+            if iv.hi < lo or iv.lo > hi:
+                notes[field[iv.field]] = f"fitted, but its {100 * intervals.LEVEL:.0f} % interval {BEYOND}: not named"
+    return not_named(inp, sel, notes, floor)
 
 
 def through_faulty_channels(inp: Inputs, sel: Selection, faults: list,
@@ -1038,8 +1096,10 @@ def not_named(inp: Inputs, sel: Selection, notes: dict, floor: noise.NoiseFloor 
         final = fx.fit(inp.rows, inp.m2, names, hold=hold, start=sel.final)
     except Exception:  # noqa: BLE001 (the refit failed: the selection stands as it was)
         return sel
-    table = [dataclasses.replace(e, kind="candidate", note=notes[e.effect]) if e.effect in notes else e
-             for e in sel.ranking]
+    # the rows left named read their coefficients from the new fit (the value shown is the one its
+    # interval is about)
+    table = [dataclasses.replace(e, kind="candidate", note=notes[e.effect]) if e.effect in notes
+             else e.at(final, inp.blind) if e.named else e for e in sel.ranking]
     out = dataclasses.replace(sel, final=final, missing=missing, ranking=table)
     return with_intervals(inp, out, floor)
 

@@ -83,20 +83,44 @@ def _ra_verdict(ra: RaFit | None) -> str:
              f"{ra.supported_ohm:.3g} if you trust these recordings.")
     return text
 
+# the note of an effect named only with a recording that disagrees with the rest (core.resting_on)
+RESTS_ON = "named only with the recording that disagrees with the rest"
+
+
+# the note of an effect whose final coefficient is on or beyond its physical range (core.unphysical)
+UNPHYSICAL = "with the other named effects fitted alongside reaches the end of what the effect can be"
+# the note of an effect whose whole interval lies outside its plausible range (core.beyond_plausible)
+BEYOND = "lies outside the range the effect takes on a motor"
+
 
 def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
             floor: noise.NoiseFloor | None = None, family=None) -> str:
     """The verdict's text; family: the dynamic family from the fast recordings (dynamics.Dynamics)."""
     ra = ra_verdict(sel.ra_fit)
     text = _verdict(sel, conf, resid, sigma2, floor)
-    held = [e for e in sel.ranking if e.kind == "candidate" and e.note and ("holds zero" in e.note or
-                                                                         channels.BLIND_NOTE in e.note)]
+    held = [e for e in sel.ranking if e.kind == "candidate" and e.note and ("holds zero" in e.note or RESTS_ON in e.note or BEYOND in e.note or UNPHYSICAL in e.note
+                                                                         or channels.BLIND_NOTE in e.note)]
     if held and text.startswith("No library effect explains the residual"):  # one was selected: said below
         text = "No library effect is named for the residual" + text[len("No library effect explains the residual"):]
     for e in sel.ranking:  # selected by its held-out gain, but its interval holds zero (core.through_zero)
         if e.kind == "candidate" and e.note and "holds zero" in e.note:
             text += (f" {e.effect} was selected ({e.shown}), but its {100 * intervals.LEVEL:.0f} % interval holds zero, "
                      "so these recordings do not tell it from its absence: not named.")
+        elif e.kind == "candidate" and e.note and UNPHYSICAL in e.note:
+            lo, hi = fx.LIBRARY[e.effect].physical
+            sc, unit = fx.LIBRARY[e.effect].show_scale, fx.LIBRARY[e.effect].show_unit
+            text += (f" {e.effect} was selected ({e.shown}), but with the other named effects fitted alongside it "
+                     f"reaches the end of the {lo * sc:.3g}..{hi * sc:.3g} {unit} it can take, or goes beyond: the fit "
+                     "traded it against them, so it is not named.")
+        elif e.kind == "candidate" and e.note and BEYOND in e.note:
+            lo, hi = fx.LIBRARY[e.effect].plausible
+            sc, unit = fx.LIBRARY[e.effect].show_scale, fx.LIBRARY[e.effect].show_unit
+            text += (f" {e.effect} was selected ({e.shown}), but its {100 * intervals.LEVEL:.0f} % interval lies "
+                     f"outside the {lo * sc:.3g}..{hi * sc:.3g} {unit} it takes on a motor: its term stands for "
+                     "something else these recordings hold: not named.")
+        elif e.kind == "candidate" and e.note and RESTS_ON in e.note:
+            text += (f" {e.effect} was selected ({e.shown}), but only with the recording that disagrees with the "
+                     "rest (below); without it, it is not: not named.")
         elif e.kind == "candidate" and e.note and channels.BLIND_NOTE in e.note:
             text += (f" {e.effect} was selected ({e.shown}), but it acts through the {fx.LIBRARY[e.effect].reads} "
                      "channel, which is stuck, or flat within one step, in every recording (Channel health, below): "
