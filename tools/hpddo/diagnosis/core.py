@@ -469,7 +469,8 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
             chosen.append(RA)
         elif RA not in chosen:
             final = fx.fit(rows, m2, given + chosen, start=final)
-    ra_fit = _ra_fit(inp, final if RA in chosen else None, given + chosen, sigma2, boot.get(RA))
+    ra_fit = _ra_fit(inp, final if RA in chosen else None, given + chosen, sigma2, boot.get(RA),
+                     alternatives=[c for c in candidates if c != RA and c not in chosen])
     # the effects a wrong Ra cannot be told from: not named at the wrong Ra's step though they
     # explained nearly as much (as confounding() groups effects), or named but not told apart
     for st in steps:
@@ -552,10 +553,12 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
                      rivals=rivals)
 
 
-def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, inclusion) -> RaFit:
+def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, inclusion,
+            alternatives=()) -> RaFit:
     """Ra as the data support it. final: the selection's model when it named RA_MISMATCH;
     otherwise the selection's model is refitted once with Ra moving (prior around the
-    reading) to say what the data support."""
+    reading) to say what the data support. alternatives: the candidate effects not named, whose
+    models the data-alone Ra's interval carries in its model part (ra_alone)."""
     named = final is not None
     if final is None:
         try:
@@ -565,7 +568,7 @@ def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, i
     given = inp.m2.ra_ohm
     return RaFit(given_ohm=given, supported_ohm=float(final.ra_ohm), tolerance=ranking.RA_TOLERANCE,
                  sigmas=float(ranking.ra_sigmas(inp.m2, final.ra_ohm)), mismatch=named, inclusion=inclusion,
-                 data=ra_alone(inp, names, sigma2))
+                 data=ra_alone(inp, names, sigma2, alternatives=alternatives))
 
 
 def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = None) -> None:
@@ -573,10 +576,16 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
     which the data determine Ra and hold the reading replaces it, and that effect joins
     ra_fit.confounded_with and ra_fit.alongside. (One with which Ra is not determined says
     nothing either way: v_gain rescales Ke and Ra together, a flat objective.)"""
+    base = ra_fit.data
     for c in others:
         alt = ra_alone(inp, list(names) + [c], sigma2, physical=True)
         if alt is None:
             continue
+        if alt.determined and base is not None and base.determined:
+            # its interval with the spread of the models about it: the one without it (the named
+            # effects' own), and each other candidate beside it
+            alt = ra_alone(inp, list(names) + [c], sigma2, physical=True,
+                           alternatives=[o for o in others if o != c], rivals_ohm=[base.value]) or alt
         # an alternative holds the reading where its interval meets the reading's band at all (the
         # cautious test: an instruction must survive every alternative)
         band = ranking.RA_MISMATCH_SIGMAS * ra_fit.tolerance * ra_fit.given_ohm
@@ -589,12 +598,18 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
             return
 
 
-def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = False) -> intervals.Interval | None:
+def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = False,
+             alternatives=(), rivals_ohm=()) -> intervals.Interval | None:
     """Ra as the data alone determine it, with Ke and the effects in names fitted alongside
     (no prior around the reading): its Interval; None when the fit fails (physical: or when an
     effect's fitted coefficient is not plausible (schema: its plausible range): an alternative
     that explains the data only with a drop of the wrong sign, or magnets five times ferrite's, is
-    no alternative)."""
+    no alternative).
+    alternatives: candidate effects the selection did not name. Each, fitted beside names with a
+    plausible coefficient and Ra determined, is a model that explains the rows at least as well
+    (it holds the named one) and that the data did not exclude: the spread of their Ra about this
+    one is in the model part of the budget (intervals.spread_u), beside the held-out excess;
+    rivals_ohm: the Ra of such models already fitted (the one without an effect of names)."""
     names = [n for n in names if n != ranking.RA_MISMATCH]
     try:
         p = ranking.fit_ra_free(inp.rows, inp.m2, names)
@@ -604,7 +619,12 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")
-    return intervals.with_budget(iv, calibration(inp.recs), birge(inp, p, sigma2) if sigma2 else 1.0)
+    alts = [ra_alone(inp, list(names) + [c], physical=True) for c in alternatives
+            if c not in names and c != ranking.RA_MISMATCH]
+    spread = intervals.spread_u(iv.value, [a.value for a in alts if a is not None and a.determined]
+                                + list(rivals_ohm))
+    return intervals.with_budget(iv, calibration(inp.recs), birge(inp, p, sigma2) if sigma2 else 1.0,
+                                 u_models=spread)
 
 
 def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
@@ -687,7 +707,8 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
     ra_fit = sel.ra_fit
     if ra_fit is not None and not ra_fit.mismatch and missing != sel.missing:
         # the Ra the data support with the effects the material check added
-        sup = _ra_fit(inp, None, given + missing, sigma2, ra_fit.inclusion)
+        sup = _ra_fit(inp, None, given + missing, sigma2, ra_fit.inclusion,
+                      alternatives=[e.effect for e in table if e.kind == "candidate" and e.effect not in missing])
         # (an effect it could not be told from, now named, is no longer the alternative)
         ra_fit = dataclasses.replace(ra_fit, supported_ohm=sup.supported_ohm, sigmas=sup.sigmas, data=sup.data,
                                      confounded_with=[c for c in ra_fit.confounded_with if c not in missing],
@@ -1100,7 +1121,13 @@ def not_named(inp: Inputs, sel: Selection, notes: dict, floor: noise.NoiseFloor 
     # interval is about)
     table = [dataclasses.replace(e, kind="candidate", note=notes[e.effect]) if e.effect in notes
              else e.at(final, inp.blind) if e.named else e for e in sel.ranking]
-    out = dataclasses.replace(sel, final=final, missing=missing, ranking=table)
+    ra_fit = sel.ra_fit
+    if ra_fit is not None and not ra_fit.mismatch and not ra_fit.held:
+        # the data-alone Ra with the effects still named alongside (it was taken with these too)
+        data = ra_alone(inp, names, floor.var_rpm2 if floor is not None else None,
+                        alternatives=[e.effect for e in table if e.kind == "candidate"])
+        ra_fit = dataclasses.replace(ra_fit, data=data)
+    out = dataclasses.replace(sel, final=final, missing=missing, ranking=table, ra_fit=ra_fit)
     return with_intervals(inp, out, floor)
 
 

@@ -344,10 +344,20 @@ def sensor_u(field: str, value: float, cal: dict) -> float:
     return abs(value) * math.sqrt(rel2)
 
 
+def spread_u(value: float, alternatives) -> float:
+    """The standard uncertainty of a quantity from the models that explain the data about as
+    well as the one it was fitted with (their values of it, alternatives): the largest distance
+    from value, read as the half-width of a rectangular distribution (GUM type B), 0 without any."""
+    d = [abs(a - value) for a in alternatives if math.isfinite(a)]
+    return max(d, default=0.0) / math.sqrt(3.0)
+
+
 def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_sens: float = 0.0,
-                given: str = "") -> "Interval":
+                given: str = "", u_models: float = 0.0) -> "Interval":
     """iv with its uncertainty budget and the expanded interval (above); ra_u: the standard
-    uncertainty of the Ra the fit held, ra_sens: d value / d Ra; given: what it is conditional on."""
+    uncertainty of the Ra the fit held, ra_sens: d value / d Ra; given: what it is conditional on;
+    u_models: the spread of the candidate models that explain the data about as well (spread_u),
+    joined to the model part."""
     if iv.lo is None or iv.hi is None or not (math.isfinite(iv.lo) and math.isfinite(iv.hi)):
         return iv
     if "statistical" not in iv.budget:
@@ -355,7 +365,7 @@ def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_s
     t_stat = (iv.hi - iv.lo) / 2.0  # t u_stat
     u_stat = iv.budget["statistical"]
     u_sens = sensor_u(iv.field, iv.value, cal)
-    u_model = u_stat * math.sqrt(max(birge * birge - 1.0, 0.0))
+    u_model = math.hypot(u_stat * math.sqrt(max(birge * birge - 1.0, 0.0)), u_models)
     u_ra = abs(ra_sens) * ra_u
     half = math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_model ** 2 + u_ra ** 2))
     budget = {"statistical": u_stat, "sensors": u_sens, "model": u_model}
