@@ -98,6 +98,9 @@ def _saturated(x: np.ndarray, command: np.ndarray) -> list:
     return out
 
 
+TRUNCATED_SD = 3.0  # rows this many noise standard deviations from a clipping edge are its truncated sample
+
+
 def _keys(command: np.ndarray) -> np.ndarray:
     """One value per row of command (a vector, or a matrix of one command per row) naming the command."""
     c = np.asarray(command, float)
@@ -114,22 +117,36 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
     if driven.sum() < SATURATED_MIN_ROWS:
         return mask, said
     load = rec.df["load"].to_numpy() if "load" in rec.df else np.zeros(rec.n)
-    for name, col, _ in CHANNELS:
+    meta = dataset.sensor_meta(rec.meta, rec.source)
+    for name, col, lsb_key in CHANNELS:
         x_all = rec.df[col].to_numpy(float)
         x = x_all[driven]
-        if len(np.unique(x)) < 2:
+        levels = np.unique(x)
+        if len(levels) < 2:
             continue
         command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
+        fine = np.ptp(x) / (meta.get(lsb_key) or float(np.min(np.diff(levels)))) >= COARSE_LEVELS
+        # the holds: runs of consecutive rows at one command (in a time series, one operating point)
+        keys = _keys(command)
+        hold = np.cumsum(np.r_[True, keys[1:] != keys[:-1]])
+        # the channel's noise: the robust spread of its row-to-row changes (steps of load or duty
+        # are outliers to it), at least one step
+        step = meta.get(lsb_key) or float(np.min(np.diff(levels)))
+        noise = max(1.4826 * float(np.median(np.abs(np.diff(x) - np.median(np.diff(x))))) / np.sqrt(2.0), step) \
+            if len(x) > 2 else step
         for edge, which, n, _held in _saturated(x, command):
             at = x == edge
-            # every row of a command at which the channel clips: the rows it kept read below the edge
-            # because their noise did, a truncated sample whose mean is biased away from the edge
-            hit = np.isin(_keys(command), _keys(command[at]))
+            # the rows of a hold in which a fine channel clips that read within TRUNCATED_SD of its
+            # noise below the edge: they read below it because their noise did, a truncated sample
+            # whose mean is biased away from the edge (a table's row is its own operating point, and
+            # a coarse channel's last step is one of its few levels: their rows at the edge only)
+            near = np.abs(x - edge) <= TRUNCATED_SD * noise
+            hit = (np.isin(hold, hold[at]) & near) | at if fine and not r.steady else at
             rows = np.flatnonzero(driven)[hit]
             mask[rows] = True
             said.append(f"{rec.source}: {n} driven rows read the {name} channel's {which} ({edge:.4g}, saturated); "
-                        f"they and the other {int(hit.sum()) - n} rows of the {len(np.unique(_keys(command[at])))} "
-                        "commands at which it clips are left out of every fit")
+                        f"they and the other {int(hit.sum()) - n} rows of the holds in which it clips are left "
+                        "out of every fit")
     return mask, said
 
 

@@ -484,7 +484,7 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
         if st.name in ra_confounded:
             ra_fit.confounded_with += [a for a, z in st.told_apart.items()
                                        if a != RA and z < ranking.Z_MIN and a not in ra_fit.confounded_with]
-    if ra_fit.determined and not (ra_fit.reading_inside and RA not in chosen):
+    if ra_fit.determined and not (ra_fit.reading_inside_one_model and RA not in chosen):
         # Before saying the reading is wrong: does it still hold with any one identifiable
         # candidate fitted alongside? A constant drop absorbed by Ra I on a table of one current
         # sign moves Ra by the drop over the mean current, with a narrow interval.
@@ -581,15 +581,15 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
         alt = ra_alone(inp, list(names) + [c], sigma2, physical=True)
         if alt is None:
             continue
-        if alt.determined and base is not None and base.determined:
-            # its interval with the spread of the models about it: the one without it (the named
-            # effects' own), and each other candidate beside it
-            alt = ra_alone(inp, list(names) + [c], sigma2, physical=True,
-                           alternatives=[o for o in others if o != c], rivals_ohm=[base.value]) or alt
         # an alternative holds the reading where its interval meets the reading's band at all (the
         # cautious test: an instruction must survive every alternative)
         band = ranking.RA_MISMATCH_SIGMAS * ra_fit.tolerance * ra_fit.given_ohm
         if alt.determined and alt.lo <= ra_fit.given_ohm + band and alt.hi >= ra_fit.given_ohm - band:
+            if base is not None and base.determined:
+                # its interval reaching over the models about it: the one without it (the named
+                # effects' own), and each other candidate beside it
+                alt = ra_alone(inp, list(names) + [c], sigma2, physical=True,
+                               alternatives=[o for o in others if o != c], rivals_ohm=[base.value]) or alt
             ra_fit.data = alt
             ra_fit.held = True
             ra_fit.alongside = [c]
@@ -599,17 +599,21 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
 
 
 def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = False,
-             alternatives=(), rivals_ohm=()) -> intervals.Interval | None:
+             alternatives=(), rivals_ohm=(), whole: bool = False) -> intervals.Interval | None:
     """Ra as the data alone determine it, with Ke and the effects in names fitted alongside
     (no prior around the reading): its Interval; None when the fit fails (physical: or when an
     effect's fitted coefficient is not plausible (schema: its plausible range): an alternative
     that explains the data only with a drop of the wrong sign, or magnets five times ferrite's, is
     no alternative).
-    alternatives: candidate effects the selection did not name. Each, fitted beside names with a
-    plausible coefficient and Ra determined, is a model that explains the rows at least as well
-    (it holds the named one) and that the data did not exclude: the spread of their Ra about this
-    one is in the model part of the budget (intervals.spread_u), beside the held-out excess;
-    rivals_ohm: the Ra of such models already fitted (the one without an effect of names)."""
+    alternatives: candidate effects the selection did not name. Each that acts on the rows as
+    they are (not through a temperature: a thermal effect is fitted with its material's coefficient
+    held, a model that insists on a heating, not one that holds the named one), fitted beside names
+    with a plausible coefficient and every quantity of the fit determined, is a model that explains
+    the rows at least as well and that the data did not exclude: the spread of their Ra about this
+    one is in the interval (intervals.with_budget: from the lowest to the highest, each with its own
+    doubt) and in the model part of the budget shown;
+    rivals_ohm: the Ra of such models already fitted (the one without an effect of names).
+    whole: None unless every quantity the fit moves is determined."""
     names = [n for n in names if n != ranking.RA_MISMATCH]
     try:
         p = ranking.fit_ra_free(inp.rows, inp.m2, names)
@@ -618,13 +622,15 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
     if physical and not all(fx.LIBRARY[n].plausibility(getattr(p, fx.LIBRARY[n].field))[0] for n in names):
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
+    if whole and not all(iv.determined for iv in ivs):
+        return None
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")
-    alts = [ra_alone(inp, list(names) + [c], physical=True) for c in alternatives
-            if c not in names and c != ranking.RA_MISMATCH]
-    spread = intervals.spread_u(iv.value, [a.value for a in alts if a is not None and a.determined]
-                                + list(rivals_ohm))
+    alts = [ra_alone(inp, list(names) + [c], physical=True, whole=True) for c in alternatives
+            if c not in names and c != ranking.RA_MISMATCH and not fx.LIBRARY[c].thermal
+            and not fx.LIBRARY[c].case_temperature]
+    models = [a.value for a in alts if a is not None and a.determined] + list(rivals_ohm)
     return intervals.with_budget(iv, calibration(inp.recs), birge(inp, p, sigma2) if sigma2 else 1.0,
-                                 u_models=spread)
+                                 models=models)
 
 
 def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:

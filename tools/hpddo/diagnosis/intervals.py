@@ -353,11 +353,13 @@ def spread_u(value: float, alternatives) -> float:
 
 
 def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_sens: float = 0.0,
-                given: str = "", u_models: float = 0.0) -> "Interval":
+                given: str = "", models=()) -> "Interval":
     """iv with its uncertainty budget and the expanded interval (above); ra_u: the standard
     uncertainty of the Ra the fit held, ra_sens: d value / d Ra; given: what it is conditional on;
-    u_models: the spread of the candidate models that explain the data about as well (spread_u),
-    joined to the model part."""
+    models: the quantity's values in the candidate models the data did not exclude: the interval
+    reaches from the lowest of them and iv.value, less the expanded half-width of one model, to the
+    highest, plus it (every model with its own doubt), and their spread (spread_u) joins the model
+    part of the budget shown."""
     if iv.lo is None or iv.hi is None or not (math.isfinite(iv.lo) and math.isfinite(iv.hi)):
         return iv
     if "statistical" not in iv.budget:
@@ -365,15 +367,18 @@ def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_s
     t_stat = (iv.hi - iv.lo) / 2.0  # t u_stat
     u_stat = iv.budget["statistical"]
     u_sens = sensor_u(iv.field, iv.value, cal)
-    u_model = math.hypot(u_stat * math.sqrt(max(birge * birge - 1.0, 0.0)), u_models)
+    u_birge = u_stat * math.sqrt(max(birge * birge - 1.0, 0.0))
+    models = [m for m in models if math.isfinite(m)]
+    u_model = math.hypot(u_birge, spread_u(iv.value, models))
     u_ra = abs(ra_sens) * ra_u
-    half = math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_model ** 2 + u_ra ** 2))
+    half = math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_birge ** 2 + u_ra ** 2))
     budget = {"statistical": u_stat, "sensors": u_sens, "model": u_model}
     if ra_u > 0 and ra_sens:
         budget["Ra given"] = u_ra
-    lo, hi = iv.value - half, iv.value + half
+    lo, hi = min([iv.value] + models) - half, max([iv.value] + models) + half
     out = dataclasses.replace(iv, lo=lo, hi=hi, budget=budget, given=given,
-                              half_without_ra=math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_model ** 2)))
+                              half_without_ra=math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_birge ** 2)),
+                              half_without_models=half)
     _, unit, scale, phys, _, _ = _describe(iv.field)
     if iv.determined and (lo <= phys[0] or hi >= phys[1]):  # the whole budget leaves what is physical
         out = dataclasses.replace(out, determined=False, why=(

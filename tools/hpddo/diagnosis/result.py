@@ -285,7 +285,24 @@ class RaFit:
         if self.data is None or not self.data.determined or self.held:
             return True
         band = ranking.RA_MISMATCH_SIGMAS * self.tolerance * self.given_ohm
-        half = (self.data.hi - self.data.lo) / 2.0
+        d = self.data
+        if d.half_without_models is None:
+            half = (d.hi - d.lo) / 2.0
+            return abs(d.value - self.given_ohm) <= (band * band + half * half) ** 0.5
+        # an interval reaching over several models (intervals.with_budget): the reading within the
+        # same distance of the nearest of them
+        reach = (band * band + d.half_without_models ** 2) ** 0.5
+        return d.lo + d.half_without_models - reach <= self.given_ohm <= d.hi - d.half_without_models + reach
+
+    @property
+    def reading_inside_one_model(self) -> bool:
+        """reading_inside with the data interval of the named model alone (without the spread of
+        the candidate models): where it is False but reading_inside True, a model the data did not
+        exclude may hold the reading (core.robust_ra asks which)."""
+        if self.data is None or not self.data.determined or self.held or self.data.half_without_models is None:
+            return self.reading_inside
+        band = ranking.RA_MISMATCH_SIGMAS * self.tolerance * self.given_ohm
+        half = self.data.half_without_models
         return abs(self.data.value - self.given_ohm) <= (band * band + half * half) ** 0.5
 
     def to_json(self) -> dict:

@@ -31,6 +31,8 @@ class Interval:
     budget: dict = dataclasses.field(default_factory=dict)
     given: str = ""
     half_without_ra: float | None = None  # the expanded half-width without the held Ra's doubt
+    # the expanded half-width without the spread of the candidate models (intervals.spread_u)
+    half_without_models: float | None = None
 
     def to_json(self) -> dict:
         return {"quantity": self.quantity, "field": self.field, "unit": self.unit, "value": self.value,
