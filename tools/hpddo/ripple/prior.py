@@ -27,7 +27,7 @@ def m2_prior_sd_rpm(v_V, i_A, ra_ohm: float, ke_vs_per_rad: float, opts: Options
     winding, so it only puts the speed below the prior; Ra's error times I (opts.prior_ra_rel)
     goes either way (a winding warmer or colder than when Ra was measured). Beside it the
     likelihood takes Ke's own relative error (opts.prior_rel_sd) times the candidate's speed
-    (`_prior_like`). Against the back-EMF E = V - I Ra these voltages are small at high speed
+    (`prior_like`). Against the back-EMF E = V - I Ra these voltages are small at high speed
     (a strong prior) and a large share of E at low speed and high current (a weak one)."""
     i = np.abs(np.asarray(i_A, float))
     u_ra = opts.prior_ra_rel * ra_ohm * i

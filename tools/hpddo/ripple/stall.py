@@ -19,7 +19,7 @@ STALL_KEYS = ("few_cycles", "not_found", "ambiguous", "rival", "far")
 
 def _upper_speed(prior_rpm: float, sd_above_rpm: float, rel_sd: float, z: float) -> float:
     """The speed n above the prior p that lies z of the prior's sd from it, where that sd grows with
-    n as in _prior_like: (n - p)^2 = z^2 (sd_above^2 + (rel_sd n)^2), the larger root; inf where
+    n as in prior.prior_like: (n - p)^2 = z^2 (sd_above^2 + (rel_sd n)^2), the larger root; inf where
     Ke's relative error alone lets every speed within z sd (z rel_sd >= 1)."""
     a = 1.0 - (z * rel_sd) ** 2
     if a <= 0:
