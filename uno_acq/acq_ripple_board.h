@@ -316,7 +316,7 @@ inline void on_recording(uint32_t first_seq) {
 /// Main loop, after the observer's step on window seq (v_V, i_A its means, dt_s its length,
 /// rpm_prior the observer's estimate, the back-EMF prior): the window's ripple speed, whether
 /// it is the prior's line, Ra and the winding temperature; sets a later burst's band. The
-/// host's reference, step for step: ripple_count.py track.
+/// host's reference, step for step: ripple/board.py track.
 __attribute__((noinline)) WindowRipple on_window(const hpddo::PhysicsParams& p, uint32_t seq, float v_V, float i_A,
                                                  float dt_s, float rpm_prior) {
   WindowRipple out;

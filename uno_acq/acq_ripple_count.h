@@ -3,7 +3,7 @@
 // main loop, per window, the ripple frequency, the output speed, and where the count is
 // confident the armature resistance Ra = (V - brush drop - Ke w) / I and the winding
 // temperature from copper's coefficient (RippleRa). Host reference, the same integer
-// arithmetic: tools/hpddo/model/ripple_count.py; simavr proves the two equal
+// arithmetic: tools/hpddo/ripple/board.py; simavr proves the two equal
 // (check_uno_ripple.py --count). docs/ripple-board-count.md, "The ripple counter on the board".
 //
 // Per filtered code x (every other one, 10-bit), all integers, shifts arithmetic, 32 bits (Q8: a shift by 8 is
@@ -30,7 +30,7 @@
 
 #include "hpddo/params_gen.h"
 #include "hpddo/physics.h"
-#include "ripple_count_gen.h"  // the constants (kRipple...), generated from tools/hpddo/model/ripple_count.py
+#include "ripple_count_gen.h"  // the constants (kRipple...), generated from tools/hpddo/ripple/board.py
 
 namespace acq {
 
@@ -142,7 +142,7 @@ __attribute__((noinline)) inline void ripple_counter_sample(RippleCounter* c, ui
 /// close, while the main loop's work on the window before may still run, up to 85 600 cycles
 /// in simavr): the band then comes from the prior of the window before the last, whose work
 /// ended in the window before, so which prior counts a burst never depends on the main loop's
-/// timing, and the host's reference (ripple_count.py band_lag) counts the same.
+/// timing, and the host's reference (ripple/board.py band_lag) counts the same.
 inline uint8_t ripple_band_lag(uint16_t burst_period, uint32_t period_cycles) {
   return static_cast<uint32_t>(burst_period) * period_cycles >= kRippleBandLeadCycles ? 1u : 2u;
 }
@@ -163,7 +163,7 @@ inline bool ripple_counter_hz(float cyc, float span, float fs_hz, float* f_hz) {
   return true;
 }
 
-/// The count's span (acq_ripple_board.h on_window; ripple_count.py track): the cycles, their PWM
+/// The count's span (acq_ripple_board.h on_window; ripple/board.py track): the cycles, their PWM
 /// periods, the windows, their two-window current sums (A: the window's current plus the window
 /// before's; one short window's mean current aliases the ripple, in opposite sense from one
 /// window to the next) and the observer's priors (RPM) of the windows since the last load or

@@ -88,7 +88,7 @@ class Ekf {
   }
 
   /// A second measurement of the speed itself (the count of the commutation ripple,
-  /// hpddo.model.ripple), w_rad_s with variance var_rad2_s2, after step(): the same Joseph
+  /// hpddo.ripple), w_rad_s with variance var_rad2_s2, after step(): the same Joseph
   /// update with H = [1 0]. Returns the speed estimate, rad/s.
   double update_speed(double w_rad_s, double var_rad2_s2) {
     const Eigen::RowVector2d H(1.0, 0.0);

@@ -31,13 +31,13 @@ period's start, whether the ADC started, and every ADC interrupt. Then:
 
 With --count (uno_acq built with -DACQ_RIPPLE_COUNT=1, item 5: the bursts counted on the
 board, not sent), every row's rpm_rip, ra_ohm and tw_C must equal the host's reference
-(hpddo.model.ripple_count.track: the same integer counter, the same Ra tracker) run on the
+(hpddo.ripple.board.track: the same integer counter, the same Ra tracker) run on the
 codes fed and the window's V and I, and the count, Ra and winding temperature are compared
 with the twin's truth. Without --twin it makes one (`hpddo twin --protocol load`).
 
 With --twin LOG (a twin bench log with its <condition>.ripple.csv, `hpddo twin --ripple-hz
 10000`), the board is driven with the twin's V, I and speed and fed the twin's current codes,
-and the speed from the board's bursts (hpddo.model.ripple, as `hpddo ripple`) is compared with
+and the speed from the board's bursts (hpddo.ripple, as `hpddo ripple`) is compared with
 the twin's encoder and with the speed from the twin's own whole-window bursts.
 """
 import argparse
@@ -105,13 +105,14 @@ def expected_ocr1b(top, duty):
 
 def compare_with_twin(a, twin, path, df, windows):
     """The ripple speed from the board's bursts against the twin's encoder and against the
-    speed from the twin's own whole-window bursts (the same estimator, hpddo.model.ripple)."""
+    speed from the twin's own whole-window bursts (the same estimator, hpddo.ripple)."""
     import numpy as np
-    from hpddo.model import ripple as rp
-    opts = rp.Options(ripples_per_rev=bench.HARDWARE.ripples_per_rev, gear_ratio=bench.HARDWARE.gear_ratio)
+    from hpddo.ripple.log import speed_of_log
+    from hpddo.ripple.options import Options
+    opts = Options(ripples_per_rev=bench.HARDWARE.ripples_per_rev, gear_ratio=bench.HARDWARE.gear_ratio)
     ra = float(twin.meta["ra_ohm"])
-    board, _, _ = rp.speed_of_log(path.with_name("ripple.csv"), df, {"ra_ohm": ra}, opts)
-    own, _, _ = rp.speed_of_log(a.twin, twin.df, twin.meta, opts)
+    board, _, _ = speed_of_log(path.with_name("ripple.csv"), df, {"ra_ohm": ra}, opts)
+    own, _, _ = speed_of_log(a.twin, twin.df, twin.meta, opts)
     idx = [windows[int(s)]["index"] % len(twin.df) for s in df["seq"]]
     enc = twin.df["rpm_ref"].to_numpy()[idx]
     own_rpm = own.set_index("row")["rpm"].reindex(idx).to_numpy()
@@ -210,7 +211,7 @@ def check_count(a, twin, df, windows, feed_codes, n_feed_windows, win_periods, n
     means, then against the twin's truth."""
     import numpy as np
     from hpddo.model import export
-    from hpddo.model import ripple_count as rc
+    from hpddo.ripple import board as rc
     for col in ("rpm_rip", "ra_ohm", "tw_C"):
         if col not in df:
             fail(f"no {col} column: not the counting build")

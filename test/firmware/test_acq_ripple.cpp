@@ -194,7 +194,7 @@ TEST(AcqRippleCount, CountsAcrossGapsShorterThanAPeriod) {
 // After a gap the count bridges, a burst that holds kRippleMinCycles expected periods (counted
 // alone) lets the band's high-pass settle, 2^(k+2) filtered codes, before a crossing counts; a
 // shorter one (100 Hz windows) needs its first crossing to bridge the gap; a gap longer than the
-// count bridges settles 4 x 2^(k+2) as before. (ripple_count.py begin, the same rule.)
+// count bridges settles 4 x 2^(k+2) as before. (ripple/board.py begin, the same rule.)
 TEST(AcqRippleCount, ALongBurstSettlesItsHighPassAfterAGap) {
   acq::RippleCounter c;
   acq::ripple_counter_reset(&c);
@@ -236,7 +236,7 @@ TEST(AcqRippleCount, RaAndTemperatureFromExactInputs) {
 
 // The window whose prior sets a burst's band: the one before at 2 and 10 Hz windows (the burst
 // opens 1032 and 232 periods after the close), the one before that at 100 Hz (36 periods,
-// while the main loop may still work on the window before). ripple_count.band_lag agrees
+// while the main loop may still work on the window before). board.band_lag agrees
 // (test/py/test_ripple_count.py).
 TEST(AcqRippleCount, BandLagFollowsTheBurstsLead) {
   acq::RippleTiming rt;

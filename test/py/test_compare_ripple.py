@@ -14,7 +14,7 @@ from hpddo.cli import compare, options
 from hpddo.logs import dataset
 from hpddo.model import identify
 from hpddo.bench import HARDWARE
-from hpddo.model import ripple as rp
+from hpddo.ripple.options import Options
 from hpddo.studies.compare import ripple_peer
 
 pytestmark = pytest.mark.slow  # runs the twin and hpddo compare: not in scripts/test.sh --quick
@@ -44,7 +44,7 @@ def test_alone_and_fused_speeds_per_row(bench):
     recs = dataset.load_recordings([bench / "sweep.csv", bench / "load.csv"])
     ra, _ = identify.ra_from_logs(recs, None)
     m2 = identify.m2_params(recs, ra)
-    opts = rp.Options(int(RIPPLES_PER_REV), float(GEAR))
+    opts = Options(int(RIPPLES_PER_REV), float(GEAR))
     for rec in recs:
         s = ripple_peer.speeds(rec, opts, ra, m2.ke_vs_per_rad)
         assert s.alone_rpm.shape == (rec.n,) and s.with_m2_prior_rpm.shape == (rec.n,)
@@ -171,7 +171,7 @@ def test_the_alone_peer_takes_a_models_m2_as_the_prior_as_hpddo_ripple_does(benc
     vrecs = dataset.load_recordings([logs["unseen"]], 0.0)
     ra, _ = identify.ra_from_logs(recs, None)
     m2 = identify.m2_params(recs, ra)
-    opts = rp.Options(int(RIPPLES_PER_REV), float(GEAR))
+    opts = Options(int(RIPPLES_PER_REV), float(GEAR))
     prior = options.prior_model_of(compare.parser().parse_args(
         [str(logs["sweep"]), "--out", str(out), "--prior-model", str(tmp_path / "prior")]))
     for part, rs in (("chronological", recs), ("validation", vrecs)):

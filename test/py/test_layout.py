@@ -13,14 +13,16 @@ LEVELS = {
     "foundations": 0,   # hpddo (resource_root), schema, bench, interrupt: the declarations
     "logs": 1,
     "model": 2,
-    "evaluation": 3,
-    "twin": 3,
-    "diagnosis": 4,
-    "reports": 5,
-    "pipeline": 6,
-    "regenerate": 6,
-    "studies": 7,
-    "cli": 8,
+    "ripple": 3,        # above model: the board counter's Ra tracker runs the model's physics, and a
+    #                     trained model's M2 may be the prior; below evaluation, which scores against it
+    "evaluation": 4,
+    "twin": 4,
+    "diagnosis": 5,
+    "reports": 6,
+    "pipeline": 7,
+    "regenerate": 7,
+    "studies": 8,
+    "cli": 9,
 }
 FOUNDATIONS = {"hpddo", "hpddo.schema", "hpddo.bench", "hpddo.interrupt", "hpddo.progress"}
 

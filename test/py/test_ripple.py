@@ -12,7 +12,13 @@ import pytest
 
 from hpddo.logs import ripple as rf
 from hpddo.logs.errors import USER_ERRORS
-from hpddo.model import ripple as rp
+from hpddo.ripple.count import _current_spread
+from hpddo.ripple.encoder import check_ratio, span_reference
+from hpddo.ripple.log import speed_of_log
+from hpddo.ripple.options import Options
+from hpddo.ripple.prior import m2_prior_rpm, m2_prior_sd_rpm, rpm_per_amp
+from hpddo.ripple.spans import steady_spans
+from hpddo.ripple.stall import STANDING_CONFIDENCE, standing
 from hpddo.studies import ripple as study
 from hpddo.twin import generate, params
 
@@ -157,11 +163,11 @@ def test_no_confident_estimate_more_than_five_percent_off_on_each_protocol(case)
 
 
 def test_the_prior_is_weak_at_low_speed_and_high_current_and_strong_at_high_speed():
-    opts = rp.Options(6, 4.4)
+    opts = Options(6, 4.4)
     ke = 0.39
     v, i = np.array([3.4, 9.4]), np.array([0.39, 0.5])  # duty 0.3 under load, duty 0.8 free
-    sd = rp.m2_prior_sd_rpm(v, i, 4.5, ke, opts)
-    rel = sd / rp.m2_prior_rpm(v, i, 4.5, ke)[:, None]
+    sd = m2_prior_sd_rpm(v, i, 4.5, ke, opts)
+    rel = sd / m2_prior_rpm(v, i, 4.5, ke)[:, None]
     assert np.all(sd[:, 0] > sd[:, 1])  # a brush drop only puts the speed below the prior
     assert rel[0, 0] > 0.3 and rel[1, 0] < 0.15  # over a third of the prior at duty 0.3 loaded, a tenth at 0.8 free
 
@@ -175,18 +181,18 @@ def test_the_current_shows_a_speed_change_that_the_fixed_band_cannot():
     ripple = (0.05 * np.sin(2 * np.pi * f * t) + 0.015 * np.sin(2 * np.pi * 2 * f * t)
               + 0.03 * np.sin(2 * np.pi * f / 2 * t) + 0.03 * np.sin(2 * np.pi * f / 6 * t))
     noise = np.random.default_rng(1).normal(0.0, 0.01, n)
-    per_a = rp.rpm_per_amp(4.5, 0.38)
+    per_a = rpm_per_amp(4.5, 0.38)
     steady = 0.55 + ripple + noise
-    assert rp._current_spread(steady, fs, f, 34.0, per_a) < 0.01
+    assert _current_spread(steady, fs, f, 34.0, per_a) < 0.01
     step = steady - 0.3 * (t < 0.03)  # the current low while the shaft still turns fast
-    assert rp._current_spread(step, fs, f, 34.0, per_a) > 0.03
+    assert _current_spread(step, fs, f, 34.0, per_a) > 0.03
 
 
 def test_ratio_check_names_the_ripples_per_revolution_when_off_by_a_family_factor():
     import pandas as pd
 
     df = pd.DataFrame({"confident": [True] * 4, "f_Hz": [2 * 26.4 * 100 / 60.0] * 4})  # twice 6 x 4.4 per rev
-    chk = rp.check_ratio(df, np.full(4, 100.0), 0.5, rp.Options(6, 4.4))
+    chk = check_ratio(df, np.full(4, 100.0), 0.5, Options(6, 4.4))
     assert "ripples per motor revolution" in chk["statement"]
 
 
@@ -203,7 +209,7 @@ def test_ratio_check_weighs_the_encoders_resolution():
         true = rng.uniform(lo, hi, n)
         reading = np.round(true / step) * step  # whole counts per window
         df = pd.DataFrame({"confident": [True] * n, "f_Hz": true * 6 * 4.4 * (1 + gear_error) / 60.0})
-        chk = rp.check_ratio(df, reading, 0.5, rp.Options(6, 4.4))
+        chk = check_ratio(df, reading, 0.5, Options(6, 4.4))
         assert abs(chk["encoder_step_rpm"] - step) < 1e-6  # read from the readings
         assert ("agrees with the data" in chk["statement"]) == agrees, chk["statement"]
         if agrees:
@@ -211,7 +217,7 @@ def test_ratio_check_weighs_the_encoders_resolution():
         else:
             assert "not the nameplate's 4.4:1" in chk["statement"]
     # the header's step, where given, is the one used
-    chk = rp.check_ratio(df, reading, 0.5, rp.Options(6, 4.4), encoder_step_rpm=0.05)
+    chk = check_ratio(df, reading, 0.5, Options(6, 4.4), encoder_step_rpm=0.05)
     assert chk["encoder_step_rpm"] == 0.05
 
 
@@ -276,7 +282,7 @@ def test_burst_lines_sit_where_the_shaft_puts_them():
         assert (_line_power(x, fs, f) > _line_power(x, fs, f / 2)) == main_wins
 
 
-# --- item 4: the ripple as the reference of train, diagnose and evaluate (hpddo.model.reference)
+# --- item 4: the ripple as the reference of train, diagnose and evaluate (hpddo.ripple.reference)
 
 def _twin_logs(out, protocols=("sweep", "load"), time_scale=0.2, seed=1):
     for prot in protocols:
@@ -288,20 +294,20 @@ def _twin_logs(out, protocols=("sweep", "load"), time_scale=0.2, seed=1):
 @pytest.mark.slow
 def test_reference_swap_puts_the_confident_ripple_speed_in_rpm_ref_and_counts_the_rest(tmp_path):
     from hpddo.logs import benchlog, dataset
-    from hpddo.model import reference
+    from hpddo.ripple import reference
 
     (path,) = _twin_logs(tmp_path, ("sweep",))
     log = benchlog.read_log(path)
     ref = reference.Ripple(6, 4.4)
     df, meta, weight, rec = ref(path, log.df, {**log.meta, "encoder_counts_per_rev": "48.4"})
     assert "encoder_counts_per_rev" not in meta and meta["ra_ohm"] == log.meta["ra_ohm"]  # rpm_ref is no encoder
-    est, _, _ = rp.speed_of_log(path, log.df, log.meta, ref.options())
+    est, _, _ = speed_of_log(path, log.df, log.meta, ref.options())
     conf = est["confident"].to_numpy()
     rows = est["row"].to_numpy()
     got = df["rpm_ref"].to_numpy()
-    still = rp.standing(est, log.df["duty"].to_numpy()[rows], log.df["v_V"].to_numpy()[rows], ref.options())
+    still = standing(est, log.df["duty"].to_numpy()[rows], log.df["v_V"].to_numpy()[rows], ref.options())
     assert np.array_equal(got[rows[conf]], est["rpm"].to_numpy()[conf])  # the ripple speed where confident
-    assert (got[rows[still]] == 0).all() and (weight[rows[still]] == rp.STANDING_CONFIDENCE).all()  # standing: 0
+    assert (got[rows[still]] == 0).all() and (weight[rows[still]] == STANDING_CONFIDENCE).all()  # standing: 0
     assert np.isnan(got[rows[~conf & ~still]]).all()                     # and NaN elsewhere
     assert np.array_equal(weight[rows[conf]], est["confidence"].to_numpy()[conf])
     assert (weight[rows[~conf & ~still]] == 0).all()
@@ -391,7 +397,7 @@ def _span_run(tmp_path, protocol, time_scale, seed=1, **bench_changes):
                           ripple=params.ripple_burst(), preset_name="default")
     path = tmp_path / f"{protocol}.csv"
     df = pd.read_csv(path, comment="#")
-    est, _, _ = rp.speed_of_log(path, df, {"ra_ohm": "4.50"}, rp.Options(6, 4.4), ke_vs_per_rad=0.3757)
+    est, _, _ = speed_of_log(path, df, {"ra_ohm": "4.50"}, Options(6, 4.4), ke_vs_per_rad=0.3757)
     rows = est["row"].to_numpy()
     return est, df.iloc[rows].reset_index(drop=True), g["truth"]["rpm_true"].to_numpy()[rows]
 
@@ -436,12 +442,12 @@ def test_steady_spans_stay_within_one_duty_and_leave_the_first_window_after_a_ch
     keys[5] = "changing"
     duty = np.array([0.2] * 8 + [0.3] * 4)
     b = rf.Bursts({}, fs, 0.01, np.arange(12), np.arange(12) * n / fs, [np.zeros(n, int)] * 12)
-    spans = rp.steady_spans(b, duty, keys, rp.Options(6, 4.4))
+    spans = steady_spans(b, duty, keys, Options(6, 4.4))
     assert spans == [(1, 5), (6, 8), (9, 12)]  # not row 0 or 8 (a duty change), not across the changing row 5
-    assert rp.steady_spans(b, duty, keys, rp.Options(6, 4.4, span_max_s=1.0)) == [(1, 3), (3, 5), (6, 8), (9, 12)]
-    assert rp.steady_spans(b, duty, keys, rp.Options(6, 4.4, span_max_s=0.0)) == []
+    assert steady_spans(b, duty, keys, Options(6, 4.4, span_max_s=1.0)) == [(1, 3), (3, 5), (6, 8), (9, 12)]
+    assert steady_spans(b, duty, keys, Options(6, 4.4, span_max_s=0.0)) == []
     gap = rf.Bursts({}, fs, 0.01, np.arange(12), np.arange(12) * 2 * n / fs, [np.zeros(n, int)] * 12)
-    assert rp.steady_spans(gap, duty, keys, rp.Options(6, 4.4)) == []  # bursts not contiguous: no span
+    assert steady_spans(gap, duty, keys, Options(6, 4.4)) == []  # bursts not contiguous: no span
 
 
 def _model_with_brush_drop(folder):
@@ -485,7 +491,7 @@ def test_hpddo_ripple_takes_a_trained_models_m2_with_its_effects_as_the_prior(tm
     v, i = log["v_V"].to_numpy(), log["i_A"].to_numpy()
     want = ph.physics_rpm(phys, v, i, np.zeros_like(i), phys.t_ref_C)
     assert np.allclose(est["rpm_prior"].to_numpy(), want, rtol=1e-5, equal_nan=True)
-    plain = rp.m2_prior_rpm(v, i, phys.ra_ohm, phys.ke_vs_per_rad)
+    plain = m2_prior_rpm(v, i, phys.ra_ohm, phys.ke_vs_per_rad)
     assert np.nanmax(plain - want) > 3.0  # 0.3 V over Ke: 6.9 RPM where the drive is on
 
 
@@ -647,10 +653,10 @@ def test_a_span_is_scored_against_the_encoder_over_the_same_span():
     est = pd.DataFrame({"span": [1, 3, 3, 3, 1], "span_first": [0, 1, 1, 1, 4], "confident": True,
                         "f_Hz": [10.0, 2.2, 2.2, 2.2, 10.0]})
     ref = np.array([22.7, 4.96, np.nan, 5.58, 22.7])  # a glitch left out of the span's mean
-    assert np.allclose(rp.span_reference(est, ref), [22.7, 5.27, 5.27, 5.27, 22.7])
-    assert np.allclose(rp.span_reference(est.drop(columns=["span_first"]), ref), ref, equal_nan=True)
+    assert np.allclose(span_reference(est, ref), [22.7, 5.27, 5.27, 5.27, 22.7])
+    assert np.allclose(span_reference(est.drop(columns=["span_first"]), ref), ref, equal_nan=True)
     # the ratio check takes the span as one count: its windows' own encoder steps do not trim it
-    chk = rp.check_ratio(est, np.array([22.7, 4.96, 4.96, 5.58, 22.7]), 0.5, rp.Options(6, 4.4))
+    chk = check_ratio(est, np.array([22.7, 4.96, 4.96, 5.58, 22.7]), 0.5, Options(6, 4.4))
     assert chk["left_out"] == 0 and chk["windows"] == 5
 
 
@@ -663,8 +669,8 @@ def test_standing_is_the_back_emf_of_open_terminals_with_the_drive_off():
                         "i_mean_A": [0.008, 0.008, 0.30, 0.4, 0.008]})
     duty = np.array([0.0, 0.0, 0.0, 0.2, 0.0])
     v = np.array([0.004, 0.05, 0.0, 0.0, np.nan])  # turning (50 mV of back-EMF); braked (current); driven; no V
-    assert rp.standing(est, duty, v, rp.Options(6, 4.4)).tolist() == [True, False, False, False, False]
-    assert not rp.standing(est, duty, v, rp.Options(6, 4.4, standing_V=0.0)).any()
+    assert standing(est, duty, v, Options(6, 4.4)).tolist() == [True, False, False, False, False]
+    assert not standing(est, duty, v, Options(6, 4.4, standing_V=0.0)).any()
 
 
 def test_step_position_places_each_window_in_its_step_of_duty_and_load():
@@ -700,8 +706,8 @@ def test_settled_tails_count_a_step_window_after_the_step_within_the_bound():
     t0, codes, bmeta = g["bursts"]
     log, true = g["log"], g["truth"]["rpm_true"].to_numpy()
     b = rf.Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), log["seq"].to_numpy(), t0, codes)
-    off, ke, _ = rp.speed_of_log("unseen.csv", log, g["meta"], rp.Options(6, 4.4), bursts=b)
-    on, ke_on, _ = rp.speed_of_log("unseen.csv", log, g["meta"], rp.Options(6, 4.4, settled_tail=True), bursts=b)
+    off, ke, _ = speed_of_log("unseen.csv", log, g["meta"], Options(6, 4.4), bursts=b)
+    on, ke_on, _ = speed_of_log("unseen.csv", log, g["meta"], Options(6, 4.4, settled_tail=True), bursts=b)
     assert "tail_start" not in off and ke_on == ke
     lifted = np.isfinite(on["tail_start"].to_numpy())
     assert lifted.sum() >= 5 and (off["key"].to_numpy()[lifted] == "changing").all()
@@ -710,8 +716,8 @@ def test_settled_tails_count_a_step_window_after_the_step_within_the_bound():
     err = np.abs(on["rpm"].to_numpy()[lifted] / true[lifted] - 1)
     assert err.max() < 0.02, err
     # the tail's cycles: at least tail_min_cycles, so a higher bar lifts fewer rows
-    strict, _, _ = rp.speed_of_log("unseen.csv", log, g["meta"],
-                                   rp.Options(6, 4.4, settled_tail=True, tail_min_cycles=15.0), bursts=b)
+    strict, _, _ = speed_of_log("unseen.csv", log, g["meta"],
+                                   Options(6, 4.4, settled_tail=True, tail_min_cycles=15.0), bursts=b)
     assert np.isfinite(strict["tail_start"].to_numpy()).sum() < lifted.sum()
 
 
@@ -723,7 +729,7 @@ def test_ratio_check_with_the_windows_in_clusters_is_a_sentence_not_a_crash():
 
     ref = np.full(8, 100.0)
     f = np.r_[np.full(4, 0.8), np.full(4, 1.2)] * 6 * 4.4 * 100 / 60.0
-    chk = rp.check_ratio(pd.DataFrame({"confident": [True] * 8, "f_Hz": f}), ref, 0.5, rp.Options(6, 4.4))
+    chk = check_ratio(pd.DataFrame({"confident": [True] * 8, "f_Hz": f}), ref, 0.5, Options(6, 4.4))
     assert chk["windows"] == 0 and chk["left_out"] == 8
     assert "do not agree" in chk["statement"] and "not checked" in chk["statement"]
     assert "21.12 to 31.68" in chk["statement"]

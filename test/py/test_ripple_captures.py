@@ -11,12 +11,14 @@ from hpddo import cli
 from hpddo.logs import capture_import as ci
 from hpddo.logs import ripple as rf
 from hpddo.logs.errors import InputError
-from hpddo.model import ripple as rp
-from hpddo.model import ripple_sync
+from hpddo.ripple.count import estimate_window
+from hpddo.ripple.log import speed_of_log
+from hpddo.ripple.options import Options
+from hpddo.ripple import sync
 from hpddo.twin import generate, params, plant, ripple_free
 
 BENCH = params.preset("default")
-OPTS = rp.Options(BENCH.ripples_per_rev, BENCH.gear_ratio)
+OPTS = Options(BENCH.ripples_per_rev, BENCH.gear_ratio)
 
 
 def _free_run(seed=1, mains_hz=0.0, protocol="load", time_scale=0.1, out_dir=None):
@@ -27,7 +29,7 @@ def _free_run(seed=1, mains_hz=0.0, protocol="load", time_scale=0.1, out_dir=Non
 
 
 def _errors(g, b):
-    df, _, _ = rp.speed_of_log("load.csv", g["log"], g["meta"], OPTS, None, None, bursts=b)
+    df, _, _ = speed_of_log("load.csv", g["log"], g["meta"], OPTS, None, None, bursts=b)
     c = df["confident"].to_numpy()
     return c, df["rpm"].to_numpy()[c] / g["truth"]["rpm_true"].to_numpy()[c] - 1, df
 
@@ -70,34 +72,34 @@ def test_mains_comb_never_gives_a_confident_window_on_its_lines():
     f = df["f_Hz"].to_numpy()[c]
     res = 1.0 / 0.5
     assert (np.abs(f - 50.0 * np.round(f / 50.0)) > res).all()
-    assert (df["key"] == ripple_sync.KEY).any()
-    assert df.loc[df["key"] == ripple_sync.KEY, "reason"].str.contains("mains' 50 Hz").all()
+    assert (df["key"] == sync.KEY).any()
+    assert df.loc[df["key"] == sync.KEY, "reason"].str.contains("mains' 50 Hz").all()
 
 
 def test_fixed_line_names_pwm_harmonics_their_aliases_and_mains():
     b = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01", "pwm_hz": "490.196", "mains_hz": "60"},
                    [0], [0.0], [np.zeros(4800, np.int64)])
-    assert ripple_sync.fixed_line(b, 0, 980.4, 2.0)[0] == ripple_sync.KEY  # 2 x PWM
+    assert sync.fixed_line(b, 0, 980.4, 2.0)[0] == sync.KEY  # 2 x PWM
     alias = abs(((20 * 490.196) + 4800) % 9600 - 4800)  # the 20th harmonic, folded
-    assert "aliased" in ripple_sync.fixed_line(b, 0, alias, 2.0)[1]
-    assert "mains' 60 Hz" in ripple_sync.fixed_line(b, 0, 180.5, 2.0)[1]
-    assert ripple_sync.fixed_line(b, 0, 211.0, 2.0) is None
+    assert "aliased" in sync.fixed_line(b, 0, alias, 2.0)[1]
+    assert "mains' 60 Hz" in sync.fixed_line(b, 0, 180.5, 2.0)[1]
+    assert sync.fixed_line(b, 0, 211.0, 2.0) is None
     plain = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01"}, [0], [0.0], [np.zeros(10, np.int64)])
-    assert ripple_sync.fixed_line(plain, 0, 150.0, 2.0) is None  # nothing declared, nothing assumed
+    assert sync.fixed_line(plain, 0, 150.0, 2.0) is None  # nothing declared, nothing assumed
 
 
 def test_free_running_without_pwm_hz_is_refused_and_a_short_burst_said_too_short():
     b = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01", "sampling": "free"}, [0], [0.0],
                    [np.arange(4800) % 7])
     with pytest.raises(InputError, match="without pwm_hz"):
-        ripple_sync.prepare(b, "x.ripple.csv")
+        sync.prepare(b, "x.ripple.csv")
     short = dataclasses.replace(b, pwm_hz=490.196, codes=[np.arange(400) % 7, np.arange(4800) % 7],
                                 seq=np.array([0, 1]), t_s=np.array([0.0, 1.0]))
-    p = ripple_sync.prepare(short)
+    p = sync.prepare(short)
     assert "too short" in p.refusal(0) and p.refusal(1) == ""
-    r = rp.estimate_window(p, 0, 1.0, None, OPTS)
+    r = estimate_window(p, 0, 1.0, None, OPTS)
     assert r["key"] != ""  # never confident on a burst whose PWM average could not be removed
-    assert ripple_sync.phase_bins(400) == 0 and ripple_sync.phase_bins(4800) == 150
+    assert sync.phase_bins(400) == 0 and sync.phase_bins(4800) == 150
 
 
 def test_remove_pwm_average_takes_out_a_pwm_waveform_and_keeps_a_ripple():
@@ -108,7 +110,7 @@ def test_remove_pwm_average_takes_out_a_pwm_waveform_and_keeps_a_ripple():
     la = BENCH.effect_si("inductance")
     pwm_i = plant.pwm_waveform(t * pwm, 0.3, 2.0, 0.3, BENCH.ra_ohm, la, dataclasses.replace(BENCH, pwm_hz=pwm))
     ripple = 0.05 * np.cos(2 * np.pi * 87.3 * t)
-    rest, bins = ripple_sync.remove_pwm_average(pwm_i + ripple, fs, pwm)
+    rest, bins = sync.remove_pwm_average(pwm_i + ripple, fs, pwm)
     assert bins == 150 and np.ptp(pwm_i) > 10 * np.ptp(ripple)
     basis = np.column_stack([np.ones(n), np.cos(2 * np.pi * 87.3 * t), np.sin(2 * np.pi * 87.3 * t)])
     coef, *_ = np.linalg.lstsq(basis, rest, rcond=None)
@@ -125,15 +127,15 @@ def test_offset_signed_codes_and_ac_coupling(tmp_path):
                                              "coupling": "ac"}, [0, 1], [0.0, 0.004], codes)
     b = rf.read(p)
     assert b.current_A(0).tolist() == [-3.75, -2.75, -1.25, -0.25]
-    assert b.coupling == rf.AC and not ripple_sync.holds_mean(b)
+    assert b.coupling == rf.AC and not sync.holds_mean(b)
     t = np.arange(4800) / 9600
     x = np.round(100 * np.cos(2 * np.pi * 80 * t)).astype(np.int64)  # zero mean: an AC-coupled ripple
     ac = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.001", "coupling": "ac"}, [0], [0.0], [x])
-    assert rp.estimate_window(ac, 0, 1.0, None, OPTS)["key"] == ""
+    assert estimate_window(ac, 0, 1.0, None, OPTS)["key"] == ""
     dc = dataclasses.replace(ac, coupling=rf.DC)
-    assert rp.estimate_window(dc, 0, 1.0, None, OPTS)["key"] == "floor"
+    assert estimate_window(dc, 0, 1.0, None, OPTS)["key"] == "floor"
     neg = dataclasses.replace(dc, offset_code=500.0)  # -0.5 A mean: braking, the ripple still counted
-    assert rp.estimate_window(neg, 0, 1.0, None, OPTS)["key"] == ""
+    assert estimate_window(neg, 0, 1.0, None, OPTS)["key"] == ""
 
 
 @pytest.mark.parametrize("meta, fault", [

@@ -1,4 +1,4 @@
-"""The host's reference of the board's ripple counter (hpddo.model.ripple_count, issue 23 item 5):
+"""The host's reference of the board's ripple counter (hpddo.ripple.board, issue 23 item 5):
 it counts a line of known frequency, refuses the octave below, and the Ra tracker recovers the
 copper's rise from exact inputs. (The board's build against this reference, code for code: the
 simavr test firmware.uno.sim_ripple_count, test/firmware/check_uno_ripple.py --count.)"""
@@ -9,7 +9,7 @@ import pytest
 
 from hpddo import schema
 from hpddo.model import physics as ph
-from hpddo.model import ripple_count as rc
+from hpddo.ripple import board as rc
 
 
 @pytest.mark.parametrize("f", [30.0, 79.0, 110.0])

@@ -1,4 +1,4 @@
-"""The ripple line's identity from the data (model/ripple_comb.py, docs/ripple.md "Which line is the
+"""The ripple line's identity from the data (ripple/comb.py, docs/ripple.md "Which line is the
 ripple"): the comb of rotation lines gives the rotation frequency, the line the user's ripples per
 revolution names must be its strongest; rival lines inside the prior's spread leave a window
 unresolved whatever the prior; a damaged commutator is named; --calibrate finds the ripples per
@@ -13,9 +13,10 @@ import numpy as np
 import pytest
 
 from hpddo.logs.ripple import Bursts
-from hpddo.model import ripple as rp
-from hpddo.model import ripple_calibrate as rcal
-from hpddo.model import ripple_comb as rc
+from hpddo.ripple.count import estimate, estimate_window
+from hpddo.ripple.options import Options, REASONS
+from hpddo.ripple import calibrate as rcal
+from hpddo.ripple import comb as rc
 from hpddo.studies import ripple_line as study
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -42,8 +43,8 @@ def motor_current(rot_hz, lines, seconds=0.5, i_mean=1.0, noise=0.002, seed=0, f
 
 
 def one(x, n_given, prior_rpm, gear=1.0, **kw):
-    opts = rp.Options(n_given, gear, **kw)
-    return rp.estimate_window(bursts_of([x]), 0, 0.5, prior_rpm, opts)
+    opts = Options(n_given, gear, **kw)
+    return estimate_window(bursts_of([x]), 0, 0.5, prior_rpm, opts)
 
 
 HEALTHY_6 = {1: 0.004, 2: 0.003, 3: 0.005, 6: 0.08, 12: 0.024}
@@ -90,7 +91,7 @@ def test_a_mains_comb_near_the_prior_does_not_follow_the_prior():
     for prior in (rot * 60 * 0.95, rot * 60 * 0.95 * 1.12):
         r = one(x, 6, prior)
         got.append(r)
-        assert r["key"] == "" or r["key"] in rp.REASONS
+        assert r["key"] == "" or r["key"] in REASONS
     conf = [r for r in got if r["key"] == ""]
     for r in conf:
         assert abs(r["rpm"] / (rot * 60) - 1) < 0.05
@@ -109,13 +110,13 @@ def test_a_damaged_commutator_is_named_on_the_twin_and_a_healthy_one_is_not():
     from hpddo.twin import generate, params
 
     bench = params.preset("default")
-    opts = rp.Options(bench.ripples_per_rev, bench.gear_ratio)
+    opts = Options(bench.ripples_per_rev, bench.gear_ratio)
     keys = {}
     for fault in (0.0, study.BAR_FAULT_PCT):
         g = generate.generate(bench, "load", 2.0, 1, time_scale=0.1, ripple=params.ripple_burst(bar_fault_pct=fault))
         t0, codes, meta = g["bursts"]
         b = Bursts(meta, float(meta["sample_hz"]), float(meta["a_per_code"]), g["log"]["seq"].to_numpy(), t0, codes)
-        est = rp.estimate(b, g["log"]["duty"].to_numpy(), None, opts)
+        est = estimate(b, g["log"]["duty"].to_numpy(), None, opts)
         keys[fault] = est["key"].to_numpy()
     assert (keys[0.0] == "damaged").sum() == 0
     assert (keys[study.BAR_FAULT_PCT] == "damaged").mean() > 0.8
@@ -133,11 +134,11 @@ def test_the_twin_healthy_bytes_are_those_without_the_fault_parameter():
 def test_calibrate_names_the_ripples_per_revolution_from_the_comb_alone():
     rot = 23.0  # 6 x 23 Hz off the mains' multiples (a line on one is left out of the comb and the encoder's check)
     b = bursts_of([motor_current(rot * (1 + 0.05 * k), HEALTHY_6, seed=k) for k in range(6)])
-    c = rcal.calibrate(b, np.full(6, 0.5), rp.Options(12, 1.0))
+    c = rcal.calibrate(b, np.full(6, 0.5), Options(12, 1.0))
     assert c["comb"]["ripples_per_rev"] == 6 and c["ripples_per_rev"] == 6
     assert c["statement"].startswith("the ripple is 6 per revolution, not the 12 given")
     ref = np.array([rot * (1 + 0.05 * k) * 60 for k in range(6)])
-    c = rcal.calibrate(b, np.full(6, 0.5), rp.Options(12, 1.0), ref)
+    c = rcal.calibrate(b, np.full(6, 0.5), Options(12, 1.0), ref)
     assert c["encoder"]["ripples_per_rev"] == 6
 
 

@@ -9,12 +9,14 @@ import pandas as pd
 import pytest
 
 from hpddo.logs import ripple as rf
-from hpddo.model import ripple as rp
+from hpddo.ripple.log import speed_of_log
+from hpddo.ripple.options import Options, REASONS
+from hpddo.ripple.stall import count_stalls, standing
 from hpddo.studies import ripple as study
 
 FS = 2000.0        # samples per second of the synthetic bursts
 WINDOW_S = 0.5
-OPTS = rp.Options(6, 4.4)
+OPTS = Options(6, 4.4)
 PER_REV_OUT = 6 * 4.4   # ripples per output revolution
 RPM_PER_A = 116.0       # Ra / Ke of the bench (4.5 ohm, 0.37 V s/rad) in RPM per A
 
@@ -41,14 +43,14 @@ def _est(b, prior_rpm=8.0, sd_above_rpm=8.4, key="not_found"):
     its upper sd as the stiff gearbox's at duty 0.2 (m2_prior_sd_rpm)."""
     n = len(b)
     return pd.DataFrame({"seq": b.seq, "rpm": np.nan, "rpm_fft": np.nan, "f_Hz": np.nan, "cycles": np.nan,
-                         "snr": 1.0, "confidence": 0.0, "reason": rp.REASONS.get(key, ""), "key": key,
+                         "snr": 1.0, "confidence": 0.0, "reason": REASONS.get(key, ""), "key": key,
                          "confident": False, "i_mean_A": [b.current_A(k).mean() for k in range(n)],
                          "rpm_prior_used": prior_rpm, "prior_sd_below": 15.0, "prior_sd_above": sd_above_rpm})
 
 
 def test_a_stall_is_named_with_the_bound_the_data_give():
     b, duty = _bursts(0.0)
-    est = rp.count_stalls(b, duty, _est(b), OPTS, RPM_PER_A)
+    est = count_stalls(b, duty, _est(b), OPTS, RPM_PER_A)
     stall = est["stall"].to_numpy()
     # the first window (after the duty changed) is no part of a span; the 19 others, 9.5 s, are one span
     assert not stall[0] and stall[1:].all()
@@ -63,9 +65,9 @@ def test_a_stall_is_named_with_the_bound_the_data_give():
     assert reason.startswith("stall:") and f"|n| < {bound:.2f} RPM" in reason and "9.5 s (19 windows)" in reason
     assert np.isnan(est["rpm_bound"].to_numpy()[0])
     # off: no stall, the columns there
-    off = rp.count_stalls(b, duty, _est(b), dataclasses.replace(OPTS, stall_max_rpm=0.0), RPM_PER_A)
+    off = count_stalls(b, duty, _est(b), dataclasses.replace(OPTS, stall_max_rpm=0.0), RPM_PER_A)
     assert not off["stall"].any() and off["rpm_bound"].isna().all()
-    assert not rp.count_stalls(b, duty, _est(b), OPTS, None)["stall"].any()  # no Ra / Ke: no bound
+    assert not count_stalls(b, duty, _est(b), OPTS, None)["stall"].any()  # no Ra / Ke: no bound
 
 
 @pytest.mark.parametrize("rpm", [3.0, 1.5, 1.0])
@@ -73,7 +75,7 @@ def test_a_slow_turn_is_not_called_a_stall(rpm):
     # 3 RPM: unseen x0.25 at duty 0.2 (0.7 ripple cycles a window); 1 RPM: 4.2 cycles over the span,
     # just over the 3 the bound allows for (0.72 RPM)
     b, duty = _bursts(rpm)
-    est = rp.count_stalls(b, duty, _est(b), OPTS, RPM_PER_A)
+    est = count_stalls(b, duty, _est(b), OPTS, RPM_PER_A)
     assert not est["stall"].any()
 
 
@@ -82,24 +84,24 @@ def test_the_bound_is_right_a_shaft_at_the_bound_shows_its_line():
     rpm = 60.0 * OPTS.stall_cycles / (PER_REV_OUT * 19 * WINDOW_S)
     for seed in (1, 2, 3):
         b, duty = _bursts(rpm, seed=seed)
-        assert not rp.count_stalls(b, duty, _est(b), OPTS, RPM_PER_A)["stall"].any(), seed
+        assert not count_stalls(b, duty, _est(b), OPTS, RPM_PER_A)["stall"].any(), seed
 
 
 def test_no_stall_where_the_prior_lets_the_shaft_turn_fast_enough_for_a_count():
     b, duty = _bursts(0.0)
     # the prior 18 RPM + 1 sd (hypot(6.4, 0.15 x 18) = 6.9) = 24.9 RPM, over the speed floor 22.7 RPM
-    assert not rp.count_stalls(b, duty, _est(b, prior_rpm=18.0, sd_above_rpm=6.4), OPTS, RPM_PER_A)["stall"].any()
+    assert not count_stalls(b, duty, _est(b, prior_rpm=18.0, sd_above_rpm=6.4), OPTS, RPM_PER_A)["stall"].any()
     # the same with the prior's weight halved: a stall
     opts = dataclasses.replace(OPTS, stall_prior_z=0.5)
-    assert rp.count_stalls(b, duty, _est(b, prior_rpm=18.0, sd_above_rpm=6.4), opts, RPM_PER_A)["stall"][1:].all()
+    assert count_stalls(b, duty, _est(b, prior_rpm=18.0, sd_above_rpm=6.4), opts, RPM_PER_A)["stall"][1:].all()
     # no prior: no stall
-    assert not rp.count_stalls(b, duty, _est(b, prior_rpm=np.nan), OPTS, RPM_PER_A)["stall"].any()
+    assert not count_stalls(b, duty, _est(b, prior_rpm=np.nan), OPTS, RPM_PER_A)["stall"].any()
 
 
 def test_a_current_step_inside_the_span_widens_the_bound_past_a_stall():
     # a 10 mA step of the current at constant duty: the back-EMF moved by Ra dI, 1.2 RPM of speed
     b, duty = _bursts(0.0, step_A=0.010)
-    est = rp.count_stalls(b, duty, _est(b), OPTS, RPM_PER_A)
+    est = count_stalls(b, duty, _est(b), OPTS, RPM_PER_A)
     assert not est["stall"].any()
 
 
@@ -107,7 +109,7 @@ def test_a_window_with_a_count_is_no_part_of_a_stall_span():
     b, duty = _bursts(0.0)
     est = _est(b)
     est.loc[10, ["key", "confident"]] = ["", True]  # a confident count in the middle: two runs of 9 windows
-    out = rp.count_stalls(b, duty, est, OPTS, RPM_PER_A)
+    out = count_stalls(b, duty, est, OPTS, RPM_PER_A)
     assert not out["stall"][10]
     # 9 windows (4.5 s) bound the mean speed to 3 cycles / (26.4 x 4.5 s) = 1.5 RPM: over stall_max_rpm
     assert not out["stall"].any()
@@ -118,7 +120,7 @@ def test_the_stiff_gearbox_stall_is_named_and_unseen_slow_turn_is_not():
     r = study.run_scenario(dataclasses.replace({s.name: s for s in study.SCENARIOS}["low_speed_high_load"],
                                                protocols=("sweep",)))
     assert r["stalls"] >= 50 and r["false_stalls"] == 0 and r["stall_where_shaft_stands"] == r["stalls"]
-    assert r["stall_bound_rpm_max"] <= rp.Options(6, 4.4).stall_max_rpm
+    assert r["stall_bound_rpm_max"] <= Options(6, 4.4).stall_max_rpm
     assert r["covered_share_above_floor"] > r["confident_share_above_floor"]
     assert r["confident_at_standstill"] == 0
     # unseen at a quarter length: duty 0.2 turns the shaft at 3.1-3.7 RPM (0.7 ripple cycles a window)
@@ -130,7 +132,7 @@ def test_the_stiff_gearbox_stall_is_named_and_unseen_slow_turn_is_not():
 def test_the_ripple_reference_labels_a_stall_zero_rpm_weighted_by_its_confidence(tmp_path, capsys):
     from hpddo import cli
     from hpddo.logs import benchlog
-    from hpddo.model import reference
+    from hpddo.ripple import reference
     from hpddo.twin import generate, params
 
     bench = dataclasses.replace(params.preset("default"), tc_gen_nm=0.12)  # the stiff gearbox: stands at duty 0.2
@@ -140,7 +142,7 @@ def test_the_ripple_reference_labels_a_stall_zero_rpm_weighted_by_its_confidence
     log = benchlog.read_log(path)
     ref = reference.Ripple(6, 4.4)
     df, _, weight, rec = ref(path, log.df, log.meta)
-    est, _, _ = rp.speed_of_log(path, log.df, log.meta, ref.options())
+    est, _, _ = speed_of_log(path, log.df, log.meta, ref.options())
     rows = est["row"].to_numpy()
     stall = est["stall"].to_numpy()
     assert stall.sum() >= 50 and rec["stall_labelled"] == int(stall.sum())
@@ -152,7 +154,7 @@ def test_the_ripple_reference_labels_a_stall_zero_rpm_weighted_by_its_confidence
     assert (log.df["rpm_ref"].to_numpy()[rows[stall]] == 0).all()      # and the encoder reads 0, as the label
     assert "stall" not in rec["left_out_by_reason"]
     assert rec["kept"] == int(est["confident"].sum() + stall.sum()
-                              + rp.standing(est, log.df["duty"].to_numpy()[rows], log.df["v_V"].to_numpy()[rows],
+                              + standing(est, log.df["duty"].to_numpy()[rows], log.df["v_V"].to_numpy()[rows],
                                             ref.options()).sum())
     assert "a stall" in reference.line("sweep", rec)
     assert reference.pooled({"sweep": rec})["stall_labelled"] == rec["stall_labelled"]

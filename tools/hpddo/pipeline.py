@@ -48,7 +48,7 @@ class PipelineConfig:
     train_fraction: float = dataset.TRAIN_FRACTION
     glitch_filter: bool = True
     leave_one_out: bool = False  # also train on all recordings but one and score it, for each
-    # the speed taken as rpm_ref (hpddo.model.reference.Ripple); None: the encoder, the log's column
+    # the speed taken as rpm_ref (hpddo.ripple.reference.Ripple); None: the encoder, the log's column
     reference: object | None = None
     command: str = "tools/gen_weights.py"
     report: bool = False  # also write report/index.html (estimate against encoder, the RMSE table)

@@ -1,6 +1,6 @@
 """Every file generated from the declarations, written by one command: the C++ parameter
 struct (lib/hpddo_core/src/hpddo/params_gen.h, from hpddo/schema.py), the board's ripple
-counter constants (uno_acq/ripple_count_gen.h, from hpddo/model/ripple_count.py) and the generated
+counter constants (uno_acq/ripple_count_gen.h, from hpddo/ripple/board.py) and the generated
 tables of the documents (the effects table of docs/core.md, from the schema; the twin's
 effects table of docs/twin.md, from hpddo/twin/params.py). A pytest compares each with
 what this writes, byte for byte:
@@ -19,7 +19,7 @@ import zlib
 
 from . import schema
 from .schema import GENERATOR, ROOT, layout_crc
-from .model import ripple_count
+from .ripple import board as ripple_board
 from .twin import params as twin_params
 from .twin import ripple_free
 
@@ -68,8 +68,8 @@ def generated(root: pathlib.Path = ROOT) -> dict:
     (whole files, and the documents with a generated block, as they should read)."""
     body = schema._params_h_body()
     out = {"lib/hpddo_core/src/hpddo/params_gen.h": _banner("parameter schema", body, "tools/hpddo/schema.py") + body}
-    body = ripple_count.header_body()
-    out["uno_acq/ripple_count_gen.h"] = _banner("ripple counter constants", body, "tools/hpddo/model/ripple_count.py",
+    body = ripple_board.header_body()
+    out["uno_acq/ripple_count_gen.h"] = _banner("ripple counter constants", body, "tools/hpddo/ripple/board.py",
                                                 layout=False) + body
     for doc, what, source, block in doc_blocks():
         text = out.get(doc) or (pathlib.Path(root) / doc).read_text(encoding="utf-8")

@@ -75,7 +75,7 @@ def summary(d) -> str:
     """The verdict, the named effects and the RMSE table, as the command prints them."""
     from ..diagnosis.ranking import FEW_BLOCKS
 
-    from ..model import reference
+    from ..ripple import reference
 
     res = d.to_json()
     lines = [reference.line(r["name"], r["reference"]) for r in res.get("recordings", ()) if "reference" in r]

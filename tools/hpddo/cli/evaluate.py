@@ -39,7 +39,7 @@ def parser(prog: str = "hpddo evaluate") -> argparse.ArgumentParser:
 def run(args) -> int:
     from ..logs import outdir
     from ..evaluation.evaluate import evaluate, model_header
-    from ..model import reference
+    from ..ripple import reference
     from ..reports.training import write_evaluation as write
     from .. import progress
 

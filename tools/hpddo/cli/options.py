@@ -145,12 +145,12 @@ def _prior_model(p, group, need: str, prior_flags: tuple) -> None:
 
 def prior_model_of(args):
     """The prior model a command line gives (ripple's --model / the others' --prior-model, with its
-    name): None, else a hpddo.model.ripple.ModelPrior, read before any log is: an InputError in one
+    name): None, else a hpddo.ripple.prior.ModelPrior, read before any log is: an InputError in one
     line naming the folder or header that is not a model of hpddo train, or the name given without
     the folder."""
     from ..evaluation.evaluate import model_physics
     from ..logs.errors import InputError
-    from ..model.ripple import ModelPrior
+    from ..ripple.prior import ModelPrior
     model_flag, name_flag = args.prior_flags
     if args.prior_model is None:
         if args.prior_name is not None:
@@ -161,8 +161,8 @@ def prior_model_of(args):
 
 def reference(p) -> None:
     """--reference {encoder,ripple} and the ripple's options: the speed the models are fitted to
-    and scored against (hpddo.model.reference)."""
-    from ..model.reference import REFERENCES
+    and scored against (hpddo.ripple.reference)."""
+    from ..ripple.reference import REFERENCES
     p.add_argument("--reference", choices=list(REFERENCES), default=REFERENCES[0],
                    help="the measured speed: encoder (the logs' rpm_ref, the default) or ripple (counted from the "
                         "current bursts beside each log, <condition>.ripple.csv; rows without a confident ripple "
@@ -172,9 +172,9 @@ def reference(p) -> None:
 
 def reference_of(args):
     """The reference a command line gives: None for the encoder, else a
-    hpddo.model.reference.Ripple; an InputError where the ripple's options do not fit."""
+    hpddo.ripple.reference.Ripple; an InputError where the ripple's options do not fit."""
     from ..logs.errors import InputError
-    from ..model.reference import Ripple
+    from ..ripple.reference import Ripple
     given = [f for f, v in (("--ripples-per-rev", args.ripples_per_rev), ("--gear-ratio", args.gear_ratio),
                             ("--ke-vs-per-rad", args.ke_vs_per_rad), ("--floor-a", args.floor_a),
                             (args.prior_flags[0], args.prior_model), (args.prior_flags[1], args.prior_name))

@@ -66,11 +66,13 @@ def run(args) -> int:
     from ..logs import benchlog, dataset, outdir
     from ..logs import ripple as rf
     from ..logs.errors import InputError
-    from ..model import ripple as rp
+    from ..ripple.encoder import check_ratio, span_reference
+    from ..ripple.log import speed_of_log
+    from ..ripple.options import Options
 
     if args.ripples_per_rev is None and not args.calibrate:
         raise InputError("--ripples-per-rev N is required (or --calibrate, which finds it from the data)")
-    opts = rp.Options(args.ripples_per_rev or 0, args.gear_ratio)
+    opts = Options(args.ripples_per_rev or 0, args.gear_ratio)
     if args.calibrate:
         return _calibrate(args, opts)
     if args.floor_a is not None:
@@ -91,7 +93,7 @@ def run(args) -> int:
             progress.stage(f"{path}: reading the log, counting the ripple of its bursts ({k + 1}/{len(args.logs)})")
             log = benchlog.read_log(path)
             df = log.df
-            est, ke, ke_from = rp.speed_of_log(path, df, log.meta, opts, args.ra_ohm, args.ke_vs_per_rad,
+            est, ke, ke_from = speed_of_log(path, df, log.meta, opts, args.ra_ohm, args.ke_vs_per_rad,
                                             model=model, rpm_range=args.rpm_range)
             rows = est["row"].to_numpy()
             est.insert(1, "t_s", df["t_s"].to_numpy()[rows])
@@ -111,7 +113,7 @@ def run(args) -> int:
                 ref = np.where(glitch, np.nan, df["rpm_ref"].to_numpy())[rows]
                 s["glitch_rows_left_out"] = int(glitch.sum())
                 # a span's count against the encoder over the same span (ripple.span_reference)
-                ref_span = rp.span_reference(est, ref)
+                ref_span = span_reference(est, ref)
                 ok = conf & np.isfinite(ref_span) & (ref_span > 0)
                 if ok.any():
                     e = est["rpm"].to_numpy()[ok] / ref_span[ok] - 1
@@ -121,7 +123,7 @@ def run(args) -> int:
                 # one encoder count per window where the header declares the encoder (docs/bench-log.md),
                 # else check_ratio reads it from the readings
                 sensors = dataset.sensor_meta(log.meta, path)
-                s["ratio_check"] = rp.check_ratio(est, ref, window_s, opts,
+                s["ratio_check"] = check_ratio(est, ref, window_s, opts,
                                                   encoder_step_rpm=dataset.encoder_count_rpm(sensors, window_s))
             summary[name] = s
             share = f"{(conf & above).sum() / above.sum():.1%}" if above.sum() else "-"
@@ -157,11 +159,11 @@ COLUMNS = ("seq", "t_s", "rpm", "confidence", "confident", "reason", "f_Hz", "cy
 
 def _capture(path, opts, args, stage):
     """One current-only capture (a burst file without its bench log): its windows counted
-    (model.ripple_capture.speed_of_bursts), written, summed up and said; (name, summary)."""
+    (ripple.capture.speed_of_bursts), written, summed up and said; (name, summary)."""
     import numpy as np
 
     from ..logs import ripple as rf
-    from ..model import ripple_capture
+    from ..ripple import capture as ripple_capture
 
     ignored = [f for f, v in (("--ra-ohm", args.ra_ohm), ("--ke-vs-per-rad", args.ke_vs_per_rad),
                               ("--model", args.prior_model)) if v is not None]
@@ -194,12 +196,12 @@ def _capture(path, opts, args, stage):
 
 
 def _commutator(est) -> dict:
-    """The commutator's health over a log's windows (model.ripple_comb.health): the windows where
+    """The commutator's health over a log's windows (ripple.comb.health): the windows where
     it was read, those named damaged, the median and largest power at twice the rotation frequency
     relative to the commutation line, and a statement."""
     import numpy as np
 
-    from ..model import ripple_comb as rc
+    from ..ripple import comb as rc
 
     r2 = est["rot2_rel"].to_numpy(float)
     read = np.isfinite(r2)
@@ -223,14 +225,14 @@ def _commutator(est) -> dict:
 
 def _calibrate(args, opts) -> int:
     """hpddo ripple --calibrate: the ripples per revolution of each log from its data
-    (ripple_comb.calibrate), printed and written to OUT/summary.json."""
+    (calibrate.calibrate), printed and written to OUT/summary.json."""
     import numpy as np
 
     from .. import progress
     from ..logs import benchlog, dataset, outdir
     from ..logs import ripple as rf
     from ..logs.errors import InputError
-    from ..model import ripple_calibrate as rcal
+    from ..ripple import calibrate as rcal
 
     summary = {}
     with outdir.staged(args.out, TOOL) as stage:

@@ -116,7 +116,7 @@ def run(args) -> int:
     from ..pipeline import DEFAULT_RATED_RPM, DEFAULT_RATED_V, PipelineConfig, run as run_pipeline
     from ..model.train import TrainConfig
 
-    from ..model import reference
+    from ..ripple import reference
 
     ref = options.reference_of(args)
     given = (args.rated_v is not None) + (args.rated_rpm is not None)

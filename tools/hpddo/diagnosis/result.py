@@ -26,7 +26,7 @@ class Options:
     leave_one_out: bool = False  # also score the physics before/after on each recording, fitted on the others
     ke_fit: str = "eq20"         # Ke of M2: "eq20" (the paper's mean ratio) or "lsq" (least squares)
     consistency: bool = True     # check each recording (a table's operating groups) against the others
-    reference: object | None = None  # the speed taken as rpm_ref (hpddo.model.reference.Ripple); None: the encoder
+    reference: object | None = None  # the speed taken as rpm_ref (hpddo.ripple.reference.Ripple); None: the encoder
 
 
 @dataclasses.dataclass
@@ -480,7 +480,7 @@ def ra_statement(ra: RaFit | None) -> str:
 
 
 def reference_json(recordings: list) -> dict:
-    """{"reference": the pooled record} where rpm_ref came from the ripple (hpddo.model.reference)."""
-    from ..model import reference
+    """{"reference": the pooled record} where rpm_ref came from the ripple (hpddo.ripple.reference)."""
+    from ..ripple import reference
     pooled = reference.pooled({r["name"]: r.get("reference") for r in recordings})
     return {} if pooled is None else {"reference": pooled}

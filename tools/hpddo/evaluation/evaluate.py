@@ -53,9 +53,9 @@ def recordings_record(recs) -> dict:
 
 
 def reference_record(recs) -> dict:
-    """{"reference": ...} where rpm_ref came from the ripple (hpddo.model.reference): each
+    """{"reference": ...} where rpm_ref came from the ripple (hpddo.ripple.reference): each
     recording's record and the rows kept and left out, by reason, over all; {} for the encoder."""
-    from ..model import reference
+    from ..ripple import reference
     pooled = reference.pooled({r.name: r.reference for r in recs})
     return {} if pooled is None else {"reference": pooled}
 
@@ -124,7 +124,7 @@ def evaluate(model_dir, log_paths, work_dir: pathlib.Path | None = None, name: s
     """Scores the model in model_dir (its header model_<name>.h and lookup.json) on every
     row of log_paths. work_dir receives the cleaned logs, the replay built for the model
     and its estimates (work_dir/estimates/*.estimates.csv); None: a temporary folder.
-    reference: the speed scored against (hpddo.model.reference; None: the encoder)."""
+    reference: the speed scored against (hpddo.ripple.reference; None: the encoder)."""
     model_name, checksum = model_header(model_dir, name)
     lookup_path = pathlib.Path(model_dir) / baseline.FILE
     lookup = baseline.Lookup.read(lookup_path) if lookup_path.is_file() else None

@@ -55,7 +55,7 @@ class Recording:
     n_train: int          # rows [0, n_train) train, [n_train, n) test
     rows_in_file: int = 0  # data rows of the log before the glitch filter
     warnings: list = dataclasses.field(default_factory=list)  # what a user must be told loudly
-    # where rpm_ref came from when it is not the log's own column (hpddo.model.reference): the
+    # where rpm_ref came from when it is not the log's own column (hpddo.ripple.reference): the
     # record of the swap (rows kept, left out by reason), and each row's weight (its confidence)
     reference: dict | None = None
     weight: np.ndarray | None = None
@@ -131,7 +131,7 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
     """Reads, cleans and splits one bench log (raises benchlog.BenchLogError on format faults).
     reference: None (rpm_ref is the log's column), or a callable (path, df, meta) -> (df with
     rpm_ref replaced, meta, per-row weight, record) applied before the glitch filter
-    (hpddo.model.reference.Ripple)."""
+    (hpddo.ripple.reference.Ripple)."""
     log = benchlog.read_log(path)
     df, meta = log.df, dict(log.meta)  # (the log's own frame: read_log made it, nobody else holds it)
     rows_in_file = len(df)

@@ -55,7 +55,7 @@ class Bursts:
     mains_hz: float = float("nan")  # NaN: not declared
     coupling: str = DC
     refused: tuple = ()  # per window, why no count of it can be confident ("": none); set by the
-    #                      estimator's preparation (model/ripple_sync.py), empty as read
+    #                      estimator's preparation (ripple/sync.py), empty as read
 
     def refusal(self, k: int) -> str:
         return self.refused[k] if k < len(self.refused) else ""

@@ -11,7 +11,7 @@ diagnosis. `browser` opens a page in headless Chromium, as a person would (the t
 `live` is the one page that is not a file: hpddo live's Bokeh server application, which
 draws the bench's rows as they arrive.
 
-May import: the foundations, hpddo.logs, hpddo.model, hpddo.evaluation and hpddo.diagnosis
+May import: the foundations, hpddo.logs, hpddo.model, hpddo.ripple, hpddo.evaluation and hpddo.diagnosis
 (the diagnosis page shows its stages).
 """
 from __future__ import annotations

@@ -5,7 +5,7 @@ and the dynamic family identified there (dynamics), and the benchmarks of the ob
 target (perf); README.md's tables of figures (readme) and the documentation's pictures (figures),
 from the committed JSON.
 
-May import: everything below the command line (the foundations, logs, model, evaluation,
+May import: everything below the command line (the foundations, logs, model, ripple, evaluation,
 twin, diagnosis, reports, hpddo.pipeline); not hpddo.cli.
 """
 

@@ -13,7 +13,7 @@ them again and compares them byte for byte:
   (written by python -m hpddo.studies.validation).
 
 The third picture of the documentation, a current spectrum with the ripple line and its
-rotation comb, belongs to the ripple's code (hpddo.model.ripple, the ripple study) and to its
+rotation comb, belongs to the ripple's code (hpddo.ripple, the ripple study) and to its
 page, docs/ripple.md: it is not drawn here.
 
 SVG for both: it stays sharp at any zoom, diffs as text, and matplotlib writes it without a

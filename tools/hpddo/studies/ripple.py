@@ -22,7 +22,10 @@ import sys
 import numpy as np
 
 from ..logs.ripple import Bursts
-from ..model import ripple as rp
+from ..ripple.encoder import check_ratio, span_reference
+from ..ripple.log import speed_of_log
+from ..ripple.options import Options
+from ..ripple.stall import speed_floor_rpm
 from ..twin import generate, params
 from . import parser, write_json
 
@@ -84,7 +87,7 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True, settled_tai
     if sc.bench:
         bench = dataclasses.replace(bench, **sc.bench)
     rparams = params.ripple_burst(**sc.ripple)
-    opts = rp.Options(bench.ripples_per_rev, sc.gear_ratio_user or bench.gear_ratio, settled_tail=settled_tail)
+    opts = Options(bench.ripples_per_rev, sc.gear_ratio_user or bench.gear_ratio, settled_tail=settled_tail)
     rows = []
     for prot in sc.protocols:
         ts = sc.time_scale if prot != "long" else 0.1 * sc.time_scale
@@ -95,7 +98,7 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True, settled_tai
         # the product's path (hpddo ripple, --reference ripple, compare's ripple peers): the prior's Ke the
         # user's or calibrated from the ripple, Ra the log's ra_ohm metadata, each window counted, then the
         # spans of steady windows counted again
-        df, ke, ke_from = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, sc.ke_user, bursts=b)
+        df, ke, ke_from = speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, sc.ke_user, bursts=b)
         df = df.drop(columns=["row"])
         df["span_first"] += sum(len(r) for r in rows)  # the span's first row in the scenario's rows
         df["protocol"] = prot
@@ -128,7 +131,7 @@ def step_position(log) -> np.ndarray:
     return np.where(change, "first", np.where(last, "last", "within"))
 
 
-def score(sc: Scenario, df, opts: rp.Options) -> dict:
+def score(sc: Scenario, df, opts: Options) -> dict:
     conf = df["confident"].to_numpy()
     # a stall (ripple.count_stalls): 0 RPM within the stated bound, scored as an absolute speed against
     # it (a relative error on 0 RPM means nothing) and counted apart from the counted speeds
@@ -136,14 +139,14 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
     bound = df["rpm_bound"].to_numpy(float)
     above = df["i_mean_A"].to_numpy() >= opts.floor_A
     uncovered = above & ~conf & ~stall  # above the current floor, neither a confident speed nor a stall
-    rpm_floor = rp.speed_floor_rpm(WINDOW_S, opts)
+    rpm_floor = speed_floor_rpm(WINDOW_S, opts)
     fast = df["rpm_true"].to_numpy() >= rpm_floor
     ref = df["rpm_ref"].to_numpy()
     true = df["rpm_true"].to_numpy()
     rpm = df["rpm"].to_numpy()
     # a row counted in a span of steady windows against the encoder over the same span, as hpddo
     # ripple compares it (ripple.span_reference); the encoder's glitches (the truth lists them) left out
-    ref_span = rp.span_reference(df, np.where(df["encoder_glitch"].to_numpy(), np.nan, ref))
+    ref_span = span_reference(df, np.where(df["encoder_glitch"].to_numpy(), np.nan, ref))
     cmp_enc = conf & np.isfinite(ref_span) & (ref_span > 0)
     e_enc = rpm[cmp_enc] / ref_span[cmp_enc] - 1.0
     # and each window against its own encoder reading (the encoder's steps, 0.62 RPM at 2 Hz, are
@@ -220,7 +223,7 @@ def score(sc: Scenario, df, opts: rp.Options) -> dict:
         out["fused_rmse_rpm"] = float(np.sqrt(np.mean((fused[rows] - ref[rows]) ** 2)))
         out["fused_rows"] = int(rows.sum())
     ok = ~df["encoder_glitch"].to_numpy()
-    chk = rp.check_ratio(df[ok], ref[ok], WINDOW_S, opts)
+    chk = check_ratio(df[ok], ref[ok], WINDOW_S, opts)
     out["ratio_check"] = chk
     return out
 

@@ -1,6 +1,6 @@
 """What the board's ripple counter gives through a warm-up (issue 23 item 5, docs/ripple-board-count.md,
 "Figures through a warm-up"): a twin run in the ripple mode replayed through the host's
-reference of the counting build (hpddo.model.ripple_count.track, which the simavr test
+reference of the counting build (hpddo.ripple.board.track, which the simavr test
 firmware.uno.sim_ripple_count holds the AVR build equal to), with the board's observer (the
 fixed-point default model) as the prior, scored against the twin's truth: the ripple speed,
 Ra and the winding temperature, with no temperature sensor.
@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import bench, resource_root
 from ..model import export, quant
-from ..model import ripple_count as rc
+from ..ripple import board as rc
 from ..twin import generate, params
 from . import parser
 

@@ -26,7 +26,8 @@ import sys
 import numpy as np
 
 from ..logs import ripple as rf
-from ..model import ripple as rp
+from ..ripple.log import speed_of_log
+from ..ripple.options import Options
 from ..twin import generate, params, ripple_free
 
 FIGURES = "docs/figures/ripple_captures.json"
@@ -53,10 +54,10 @@ def run_case(protocol: str, seed: int, mains_hz: float, time_scale: float = TIME
     declared = rf.of_meta(meta, g["log"]["seq"].to_numpy(), t0, codes)
     before = dataclasses.replace(declared, sampling=rf.SYNCHRONOUS, pwm_hz=math.nan, mains_hz=math.nan)
     true = g["truth"]["rpm_true"].to_numpy()
-    opts = rp.Options(bench.ripples_per_rev, bench.gear_ratio)
+    opts = Options(bench.ripples_per_rev, bench.gear_ratio)
     out = {"protocol": protocol, "seed": seed, "mains_hz": mains_hz, "time_scale": time_scale}
     for name, b in (("before", before), ("after", declared)):
-        df, ke, _ = rp.speed_of_log(f"{protocol}.csv", g["log"], g["meta"], opts, None, None, bursts=b)
+        df, ke, _ = speed_of_log(f"{protocol}.csv", g["log"], g["meta"], opts, None, None, bursts=b)
         c = df["confident"].to_numpy()
         above = df["i_mean_A"].to_numpy() >= opts.floor_A
         still = c & ~(true > 0)  # a count where the shaft stands: wrong whatever it says

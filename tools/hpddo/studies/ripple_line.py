@@ -3,7 +3,7 @@ benches where the user gives the wrong ripples per revolution (half, double), a 
 commutator (one segment's contact resistance raised), and the same windows under two back-EMF
 priors 12 % apart. Each case is counted as hpddo ripple counts it (ripple.speed_of_log) and
 scored against the twin's truth; the ripples per revolution are found from the data alone and
-from the encoder (ripple_comb.calibrate), and the commutator's health lines are read per window.
+from the encoder (calibrate.calibrate), and the commutator's health lines are read per window.
 
     cd tools && ../.venv/bin/python -m hpddo.studies.ripple_line --json ../docs/figures/ripple_line.json
 
@@ -19,9 +19,10 @@ import sys
 import numpy as np
 
 from ..logs.ripple import Bursts
-from ..model import ripple as rp
-from ..model import ripple_calibrate as rcal
-from ..model import ripple_comb as rc
+from ..ripple.log import speed_of_log
+from ..ripple.options import Options
+from ..ripple import calibrate as rcal
+from ..ripple import comb as rc
 from ..twin import generate, params
 from . import parser, write_json
 
@@ -87,8 +88,8 @@ def run_case(case: Case, quiet: bool = True) -> dict:
     for prot in PROTOCOLS:
         bench, g, b = _record(prot, case.ripple)
         log, truth = g["log"], g["truth"]
-        opts = rp.Options(case.given or bench.ripples_per_rev, bench.gear_ratio)
-        est, ke, _ = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, None, bursts=b)
+        opts = Options(case.given or bench.ripples_per_rev, bench.gear_ratio)
+        est, ke, _ = speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, None, bursts=b)
         parts.append(_score(est, log, truth, bench, opts))
         c = rcal.calibrate(b, log["duty"].to_numpy(), opts, log["rpm_ref"].to_numpy())
         cal[prot] = {"comb": c["comb"]["ripples_per_rev"], "encoder": c["encoder"]["ripples_per_rev"],
@@ -128,10 +129,10 @@ def run_priors(quiet: bool = True) -> dict:
     for prot in PROTOCOLS:
         bench, g, b = _record(prot, {})
         log = g["log"]
-        opts = rp.Options(bench.ripples_per_rev, bench.gear_ratio)
-        _, ke, _ = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, None, bursts=b)
-        a, _, _ = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, ke, bursts=b)
-        c, _, _ = rp.speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, ke * PRIOR_APART, bursts=b)
+        opts = Options(bench.ripples_per_rev, bench.gear_ratio)
+        _, ke, _ = speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, None, bursts=b)
+        a, _, _ = speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, ke, bursts=b)
+        c, _, _ = speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, ke * PRIOR_APART, bursts=b)
         ca, cc = a["confident"].to_numpy(bool), c["confident"].to_numpy(bool)
         pairs += len(a)
         both += int((ca & cc).sum())

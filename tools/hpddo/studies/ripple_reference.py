@@ -263,7 +263,7 @@ def explain(work: pathlib.Path) -> dict:
     a finished run (see the module text)."""
     from ..logs import dataset
     from ..model import export, gate as gate_mod, train
-    from ..model.reference import Ripple
+    from ..ripple.reference import Ripple
 
     work = pathlib.Path(work)
     logs, val = [work / "bench" / f"{p}.csv" for p in BENCH], [work / "val" / f"{p}.csv" for p in VAL]

@@ -77,8 +77,8 @@ class CompareConfig:
     epochs_given: int | None = None  # --epochs; None: QUICK_EPOCHS with --quick, else network's default
     # ripple counting as a peer (issue 23 item 6): the motor's ripples per revolution and gear
     # ratio; None: no ripple rows. The alone row's prior: Ke (None: calibrated from the ripple),
-    # or a trained model's M2 (hpddo.model.ripple.ModelPrior, --prior-model); the current floor
-    # (None: hpddo.model.ripple's default)
+    # or a trained model's M2 (hpddo.ripple.prior.ModelPrior, --prior-model); the current floor
+    # (None: hpddo.ripple.options.Options' default)
     ripples_per_rev: int | None = None
     gear_ratio: float | None = None
     ripple_ke_vs_per_rad: float | None = None

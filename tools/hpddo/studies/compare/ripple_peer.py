@@ -1,6 +1,6 @@
 """Ripple counting as a peer of the comparison (issue 23 item 6, docs/ripple-compare.md): the speed
 counted from the commutation ripple of the current bursts beside each log
-(`<condition>.ripple.csv`, hpddo.model.ripple), given the motor's ripples per revolution and
+(`<condition>.ripple.csv`, hpddo.ripple), given the motor's ripples per revolution and
 gear ratio.
 
 * "ripple": alone, as a user without an encoder has it: the back-EMF prior that resolves the
@@ -14,7 +14,7 @@ gear ratio.
   scored.
 * "EKF + ripple": the comparison's EKF (tuned as the paper's) with the same count as a second
   measurement of the speed beside the current, weighted by the count's own uncertainty
-  (hpddo.model.ripple.count_sd_rpm); every row (host/compare, compare_observers --ripple).
+  (hpddo.ripple.count.count_sd_rpm); every row (host/compare, compare_observers --ripple).
 
 Neither is trained, so the same estimate serves every split (chronological, never seen,
 leave one out)."""
@@ -27,7 +27,10 @@ import numpy as np
 from ...logs import benchlog
 from ...logs import ripple as ripple_file
 from ...logs.errors import InputError
-from ...model import ripple as rp
+from ...ripple.count import count_sd_rpm
+from ...ripple.log import speed_of_log
+from ...ripple.options import Options
+from ...ripple.prior import ModelPrior
 from .methods import reference
 
 ALONE = "ripple"
@@ -40,7 +43,7 @@ METHODS = (ALONE, FUSED, EKF)
 class RippleSpeeds:
     """Per cleaned row of one recording: the ripple speed alone and with M2's prior (NaN where
     the count is not confident), the latter's standard uncertainty, and the Ke the alone count's
-    prior took and where it came from (hpddo.model.ripple.speed_of_log)."""
+    prior took and where it came from (hpddo.ripple.log.speed_of_log)."""
 
     alone_rpm: np.ndarray
     with_m2_prior_rpm: np.ndarray
@@ -53,8 +56,8 @@ def has_bursts(rec) -> bool:
     return ripple_file.path_for(rec.source).exists()
 
 
-def speeds(rec, opts: rp.Options, ra_ohm: float, ke_m2_vs_per_rad: float,
-           ke_alone_vs_per_rad: float | None = None, prior_model: rp.ModelPrior | None = None) -> RippleSpeeds:
+def speeds(rec, opts: Options, ra_ohm: float, ke_m2_vs_per_rad: float,
+           ke_alone_vs_per_rad: float | None = None, prior_model: ModelPrior | None = None) -> RippleSpeeds:
     """The ripple speeds of one recording (hpddo.logs.dataset.Recording), counted on the log's
     own rows (before the glitch filter, as the bursts are) and mapped onto the cleaned rows by
     seq. ke_alone_vs_per_rad: the alone count's prior Ke as the user gives it (None: calibrated
@@ -77,11 +80,11 @@ def speeds(rec, opts: rp.Options, ra_ohm: float, ke_m2_vs_per_rad: float,
         return out
 
     bursts = ripple_file.read(ripple_file.path_for(rec.source))  # read once, counted with either prior
-    alone, ke_alone, ke_from = rp.speed_of_log(rec.source, raw, log.meta, opts,
+    alone, ke_alone, ke_from = speed_of_log(rec.source, raw, log.meta, opts,
                                                None if prior_model is not None else ra_ohm, ke_alone_vs_per_rad,
                                                bursts, model=prior_model)
-    fused, _, _ = rp.speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_m2_vs_per_rad, bursts)
-    return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone), on_rows(fused, rp.count_sd_rpm(fused)),
+    fused, _, _ = speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_m2_vs_per_rad, bursts)
+    return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone), on_rows(fused, count_sd_rpm(fused)),
                         ke_from)
 
 
@@ -144,7 +147,7 @@ def coverage_note(cov: dict | None) -> str | None:
 
 
 def check_options(ripples_per_rev, gear_ratio, recs, floor_A: float | None = None,
-                  ke_vs_per_rad: float | None = None, prior_model: rp.ModelPrior | None = None) -> rp.Options | None:
+                  ke_vs_per_rad: float | None = None, prior_model: ModelPrior | None = None) -> Options | None:
     """The ripple options of a comparison: None where not asked for; an InputError where asked
     for and a recording has no bursts beside it, or where only part of them is given."""
     if ripples_per_rev is None and gear_ratio is None:
@@ -160,5 +163,5 @@ def check_options(ripples_per_rev, gear_ratio, recs, floor_A: float | None = Non
         raise InputError(f"{missing[0]}: no current bursts beside it ({ripple_file.path_for(missing[0]).name}); "
                          "ripple counting as a peer needs the bursts of every recording (the UNO's ripple mode, or "
                          "hpddo twin --ripple-hz; docs/ripple.md)")
-    opts = rp.Options(int(ripples_per_rev), float(gear_ratio))
+    opts = Options(int(ripples_per_rev), float(gear_ratio))
     return opts if floor_A is None else dataclasses.replace(opts, floor_A=float(floor_A))

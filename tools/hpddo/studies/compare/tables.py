@@ -144,12 +144,12 @@ def table7_chrono_and_validation(recs, vrecs, m2, m2e, fit: Fitted, replays: dic
 
 
 RIPPLE_SOURCES = {
-    ripple_peer.ALONE: "hpddo.model.ripple on the current bursts beside each log, its back-EMF prior the one "
+    ripple_peer.ALONE: "hpddo.ripple on the current bursts beside each log, its back-EMF prior the one "
                        "ripple_prior names (Ke calibrated from the ripple, no encoder; --ke-vs-per-rad's; or "
                        "--prior-model's M2); RMSE over the rows with a confident count (ripple_coverage)",
     ripple_peer.FUSED: "the ripple count with M2 as its prior where confident, M2 elsewhere; every row",
     ripple_peer.EKF: "native replay of host/compare's EKF (as tuned above) with the same count as a second "
-                     "measurement of the speed, weighted by its uncertainty (hpddo.model.ripple.count_sd_rpm); "
+                     "measurement of the speed, weighted by its uncertainty (hpddo.ripple.count.count_sd_rpm); "
                      "every row"}
 
 

@@ -3,7 +3,7 @@
 
 * "encoder" (the default): the log's own rpm_ref column, as it is.
 * "ripple": the speed counted from the commutation ripple in the current bursts beside each
-  log (`<condition>.ripple.csv`; hpddo.model.ripple), the encoder's column set aside. A row
+  log (`<condition>.ripple.csv`; hpddo.ripple.log), the encoder's column set aside. A row
   takes the ripple speed where the count is confident; elsewhere its rpm_ref is NaN, so the
   row drives the replay (the observer's lags run through it) but no fit or score uses it,
   and it is counted by its reason (coasting, floor, few_cycles, not_found, far, ambiguous,
@@ -16,11 +16,11 @@ that row in M2's Ke (eq. 20 as a weighted mean, least squares as weighted least 
 in the effect fits (effects.fit, the diagnosis included) and in M3's training (its squared loss,
 train.labelled_rows, network.train). The rows without a confident speed are left out
 (WEIGHTS_NOTE). Where one window holds too few ripple cycles (a slow shaft), the ripple is
-counted over a span of steady windows (ripple.count_steady_spans). Where the drive is off, no
+counted over a span of steady windows (spans.count_steady_spans). Where the drive is off, no
 current flows and the terminal voltage (then the back-EMF) is under a few mV, the shaft stands:
-those rows take 0 RPM from the back-EMF with ripple.STANDING_CONFIDENCE (ripple.standing), counted
+those rows take 0 RPM from the back-EMF with stall.STANDING_CONFIDENCE (stall.standing), counted
 as `standing_labelled`; the other coasting rows are left out. Where the drive is on and current
-flows but the shaft stands (ripple.count_stalls: no ripple line over a span, a prior too low for a
+flows but the shaft stands (stall.count_stalls: no ripple line over a span, a prior too low for a
 count), the rows take 0 RPM weighted by the stall's confidence, counted as `stall_labelled`.
 """
 from __future__ import annotations
@@ -30,7 +30,10 @@ import dataclasses
 import numpy as np
 
 from ..logs.ripple import path_for
-from . import ripple as rp
+from .log import speed_of_log
+from .options import Options
+from .prior import ModelPrior
+from .stall import STANDING_CONFIDENCE, standing
 
 REFERENCES = ("encoder", "ripple")
 NO_BURST = "no_burst"
@@ -44,17 +47,17 @@ class Ripple:
     """The ripple as the reference: the user's ripples per motor revolution and gear ratio,
     and optionally the prior's Ke (else calibrated from the ripple), the current floor and Ra
     (else the log's ra_ohm metadata), or instead of Ke and Ra a trained model's M2 with its named
-    effects as the prior (model: ripple.ModelPrior, as hpddo ripple --model takes it)."""
+    effects as the prior (model: prior.ModelPrior, as hpddo ripple --model takes it)."""
 
     ripples_per_rev: int
     gear_ratio: float
     ke_vs_per_rad: float | None = None
     floor_A: float | None = None
     ra_ohm: float | None = None
-    model: rp.ModelPrior | None = None
+    model: ModelPrior | None = None
 
-    def options(self) -> rp.Options:
-        o = rp.Options(self.ripples_per_rev, self.gear_ratio)
+    def options(self) -> Options:
+        o = Options(self.ripples_per_rev, self.gear_ratio)
         return o if self.floor_A is None else dataclasses.replace(o, floor_A=self.floor_A)
 
     def __call__(self, path, df, meta):
@@ -72,7 +75,7 @@ class Ripple:
 
 def swap(path, df, meta: dict, ref: Ripple):
     """See Ripple.__call__."""
-    est, ke, ke_from = rp.speed_of_log(path, df, meta, ref.options(), ref.ra_ohm, ref.ke_vs_per_rad, model=ref.model)
+    est, ke, ke_from = speed_of_log(path, df, meta, ref.options(), ref.ra_ohm, ref.ke_vs_per_rad, model=ref.model)
     n = len(df)
     rpm = np.full(n, np.nan)
     weight = np.zeros(n)
@@ -83,11 +86,11 @@ def swap(path, df, meta: dict, ref: Ripple):
     weight[rows[conf]] = est["confidence"].to_numpy()[conf]
     key[rows] = est["key"].to_numpy()
     # the rows where the shaft stands by the back-EMF (drive off, no current, |V| under the
-    # threshold): 0 RPM, a measurement where the ripple has nothing to count (ripple.standing)
-    still = rp.standing(est, df["duty"].to_numpy()[rows], df["v_V"].to_numpy()[rows], ref.options())
+    # threshold): 0 RPM, a measurement where the ripple has nothing to count (stall.standing)
+    still = standing(est, df["duty"].to_numpy()[rows], df["v_V"].to_numpy()[rows], ref.options())
     rpm[rows[still]] = 0.0
-    weight[rows[still]] = rp.STANDING_CONFIDENCE
-    # a stall (ripple.count_stalls: the drive on, current flowing, no ripple over a span and a prior too low
+    weight[rows[still]] = STANDING_CONFIDENCE
+    # a stall (stall.count_stalls: the drive on, current flowing, no ripple over a span and a prior too low
     # for a count): 0 RPM, weighted by its confidence (1 - bound / (2 stall_max_rpm)), as the encoder of a
     # jammed shaft reads it; at 0 RPM identification leaves it out (identify.MIN_RPM), the effect fits and M3 take it
     stall = est["stall"].to_numpy(bool)

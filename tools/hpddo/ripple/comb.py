@@ -195,7 +195,7 @@ def fixed_hz_of(bursts) -> tuple:
 
 
 # The PWM's harmonics whose aliases are left out of the comb: a PWM current's edges put harmonics
-# falling as 1 / h^2 far above the 20 the confidence check names (ripple_sync.PWM_HARMONICS), and on
+# falling as 1 / h^2 far above the 20 the confidence check names (sync.PWM_HARMONICS), and on
 # a current cleaned of its PWM-synchronous average the 39th of 490 Hz, aliased at 9.6 kS/s to 82.4 Hz,
 # still stands at 2.6 % of the commutation line's power, beside it.
 COMB_PWM_HARMONICS = 100
@@ -204,7 +204,7 @@ COMB_PWM_HARMONICS = 100
 def without_fixed(found, bursts, res_hz: float) -> list:
     """found (lines()) without the lines the burst file's declared supply puts there: the PWM's
     harmonics up to COMB_PWM_HARMONICS where they alias into the band, the declared mains' multiples;
-    the strongest line is kept whatever it sits on (the confidence check, ripple_sync.fixed_line,
+    the strongest line is kept whatever it sits on (the confidence check, sync.fixed_line,
     judges it). No rotation line, no rival."""
     if not found:
         return []

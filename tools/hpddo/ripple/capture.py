@@ -3,29 +3,32 @@ current-only burst file (hpddo import writes one from a scope's CSV, a sound car
 MATLAB .mat), with no voltage, duty or Ra for the back-EMF prior. The prior is then the user's
 speed range, or none (the comb alone picks the line, and says ambiguous where it cannot).
 
-* the speed range as the prior, and no confident count outside it (model/ripple_range.py);
-* `speed_of_bursts`: every window counted (model.ripple.estimate, count_steady_spans), no duty
+* the speed range as the prior, and no confident count outside it (ripple/speed_range.py);
+* `speed_of_bursts`: every window counted (ripple.count.estimate, ripple.spans.count_steady_spans), no duty
   (every window taken as driven), no stall (that needs the back-EMF).
 """
 from __future__ import annotations
 
 import numpy as np
 
-from . import ripple as rp
-from . import ripple_sync
-from .ripple_range import range_prior, within_range
+from . import sync
+from .count import estimate
+from .options import Options
+from .spans import count_steady_spans
+from .speed_range import range_prior, within_range
 
-def speed_of_bursts(bursts, opts: rp.Options, rpm_range=None, source: str = "bursts"):
+
+def speed_of_bursts(bursts, opts: Options, rpm_range=None, source: str = "bursts"):
     """The ripple speed of every burst of a capture without a bench log: estimate's DataFrame
     (after count_steady_spans and within_range) with `t_s` (the burst's first sample: the start of
-    the window it covers) and `rpm_prior`. The free-running average removed first (ripple_sync.prepare:
+    the window it covers) and `rpm_prior`. The free-running average removed first (sync.prepare:
     InputError where it cannot be)."""
-    b = ripple_sync.prepare(bursts, source)
+    b = sync.prepare(bursts, source)
     n = len(b)
     prior, sd = range_prior(rpm_range, n)
     duty = np.ones(n)  # no duty recorded: every window taken as driven (the floor still applies)
-    est = rp.estimate(b, duty, prior, opts, sd, None)
-    est = rp.count_steady_spans(b, duty, est, opts, None)
+    est = estimate(b, duty, prior, opts, sd, None)
+    est = count_steady_spans(b, duty, est, opts, None)
     est = within_range(est, rpm_range)
     est.insert(1, "t_s", np.asarray(b.t_s, float))
     est["rpm_prior"] = np.nan if prior is None else prior

@@ -77,7 +77,7 @@ def header_body() -> str:
     lines = ["#ifndef HPDDO_RIPPLE_COUNT_GEN_H", "#define HPDDO_RIPPLE_COUNT_GEN_H", "", "#include <stdint.h>", "",
              "namespace acq {", ""]
     for name, c_name, c_type, unit, meaning in BOARD_CONSTANTS:
-        lines.append(f"/// {meaning} ({unit}; ripple_count.py {name})")
+        lines.append(f"/// {meaning} ({unit}; ripple/board.py {name})")
         lines.append(f"static const {c_type} {c_name} = {_c_literal(values[name], c_type)};")
     lines += ["", "}  // namespace acq", "", "#endif  // HPDDO_RIPPLE_COUNT_GEN_H", ""]
     return "\n".join(lines)
@@ -209,7 +209,7 @@ class RaTracker:
     studies.ripple_board; the board has none)."""
 
     def __init__(self, p, ke_fixed: float | None = None):
-        from . import physics
+        from ..model import physics
         self.p, self.physics, self.ke_fixed = p, physics, ke_fixed
         self.ke_sum, self.ke_cal, self.ra_ohm, self.tw_C, self.n_cal, self.have = 0.0, 0.0, 0.0, 0.0, 0, False
         self.n_glitch = 0  # windows left out as a glitch (the host's count only: the board keeps none)

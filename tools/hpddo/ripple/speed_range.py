@@ -1,7 +1,7 @@
 """The user's speed range (hpddo ripple --rpm-range LO HI, issue 33): the back-EMF prior's stand-in
 where there is none (no Ra, a current-only capture), and a bound on every confident count.
 
-* `range_prior`: the range [lo, hi] RPM as the prior of model.ripple: centred, with half the
+* `range_prior`: the range [lo, hi] RPM as the prior of the count (ripple.count): centred, with half the
   range as its sd on each side (a line at either end weighs exp(-1/2) of the centre's, beside Ke's
   relative error), so a line well outside is `far`;
 * `within_range`: a confident window whose count lies outside the range is not confident (key

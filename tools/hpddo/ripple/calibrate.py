@@ -1,24 +1,29 @@
 """The ripples per motor revolution from the data (hpddo ripple --calibrate, docs/ripple.md): the
-comb of rotation lines each window shows (ripple_comb), and the strongest line against an encoder
-or tachometer where the log has one."""
+comb of rotation lines each window shows (comb.py), and the strongest line against an encoder
+or tachometer where the log has one; and Ke of the back-EMF prior from the ripple where the user
+gives none (`calibrate_ke`)."""
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
-from . import ripple_comb as rc
-from .ripple import _spectrum
+from . import comb as rc
+from .count import estimate
+from .line import spectrum
+from .options import Options
 
 
 def window_comb(bursts, k: int, opts):
-    """The lines and the rotation comb of window k's current (ripple_comb.lines, rotation_comb; the
+    """The lines and the rotation comb of window k's current (comb.lines, rotation_comb; the
     comb None where the lines form none), the spectrum's resolution (Hz), and whether the comb's
-    health lines name a damaged commutator (ripple_comb.health, damaged). opts: ripple.Options."""
+    health lines name a damaged commutator (comb.health, damaged). opts: options.Options."""
     from scipy.ndimage import maximum_filter1d
 
     fs = bursts.sample_hz
     x = bursts.current_A(k)
     res = fs / len(x)
-    f, p = _spectrum(x, fs)
+    f, p = spectrum(x, fs)
     found = rc.lines(f, p, max(2.0 * res, 0.5), fs / 2.0 / 2.2, res, opts.min_snr)
     found = rc.without_fixed(found, bursts, res)
     comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts))
@@ -42,7 +47,7 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
     windows (duty > 0, mean current at or above opts.floor_A) whose lines form a rotation comb (not
     those whose health lines name a damaged commutator: a bar's fault puts lines at the even
     multiples, whose spacing is twice the rotation),
-    the multiple of the rotation frequency at which the strongest line sits (ripple_comb.rotation_comb); with
+    the multiple of the rotation frequency at which the strongest line sits (comb.rotation_comb); with
     an encoder or tachometer speed per window (rpm_ref, output shaft), also the strongest line
     (mains and declared PWM multiples left out) over the motor's rotation frequency,
     rpm_ref x opts.gear_ratio / 60, where it lies within CALIBRATE_WHOLE of a whole number. Each
@@ -112,3 +117,25 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
                         + (f"; {damaged} with a damaged commutator's lines, left out of the comb" if damaged else "")
                         + ")")
     return out
+
+
+def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
+    """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder: the ripple speed
+    of the windows where the comb alone (no prior) gives a confident count, against
+    V - I Ra; their median, each window weighted by (w / u)^2 (u: the voltage the prior does
+    not know, m2_prior_sd_rpm). Returns (ke, windows used)."""
+    df = estimate(bursts, duty, None, opts)
+    ok = df["confident"].to_numpy() & (df["rpm"].to_numpy() > 0)
+    if ok.sum() == 0:
+        return math.nan, 0
+    w = df["rpm"].to_numpy()[ok] * 2 * math.pi / 60.0
+    i = np.asarray(i_A, float)[ok]
+    e = np.asarray(v_V, float)[ok] - i * ra_ohm
+    # each window's E / w is off by the voltage the prior does not know (u, m2_prior_sd_rpm) over w:
+    # the median weighted by (w / u)^2, so that slow, loaded windows (and a fixed line counted
+    # while the shaft stands) weigh little
+    u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * np.abs(i))
+    ke = e / w
+    order = np.argsort(ke)
+    cw = np.cumsum(((w / u) ** 2)[order])
+    return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ok.sum())

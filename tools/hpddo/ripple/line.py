@@ -1,0 +1,60 @@
+"""Which line of the current's spectrum is the ripple: the spectrum of a window, the power of a
+line, the sub-harmonic family weighed beside it (count.estimate_window searches with them), and
+the line's identity over a whole recording (`identity_of_recording`)."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .options import REASONS, Options
+
+
+FAMILY = (2, 3, 6)  # the sub-harmonics f/2, f/3, f/6 of rotor asymmetry
+ALTERNATIVES = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
+# the weight of each sub-harmonic's power in a candidate's evidence: small enough that the main
+# line's own second harmonic (2 f, whose f/2 is the main line) does not rival the main line
+FAMILY_WEIGHT = 0.25
+
+
+def spectrum(x, fs, pad=8):
+    n = len(x)
+    t = np.arange(n)
+    xd = x - np.polyval(np.polyfit(t, x, 1), t)
+    nfft = 1 << int(math.ceil(math.log2(n * pad)))
+    a = np.abs(np.fft.rfft(xd * np.hanning(n), nfft)) ** 2
+    f = np.fft.rfftfreq(nfft, 1.0 / fs)
+    return f, a
+
+
+def line_power(f_grid, p_max, f):
+    """Power of the strongest bin within half a resolution of f (p_max: the max-filtered spectrum)."""
+    return np.interp(f, f_grid, p_max, left=0.0, right=0.0)
+
+
+def identity_of_recording(est, opts: Options):
+    """The line's identity over a whole recording: where most of the windows whose lines form a
+    rotation comb (est's `multiple` > 0; not those named `damaged`) put the strongest line at another multiple than
+    opts.ripples_per_rev, the user's figure is wrong for this motor, and a window without a comb of
+    its own cannot show that its line is the ripple (its prior, (V - I Ra) / Ke with a Ke calibrated
+    under the same figure, agrees with any multiple): every confident row without its own comb at
+    ripples_per_rev is then `multiple`, not confident, with the multiple the comb windows show.
+    est: speed_of_log's DataFrame. Returns a copy."""
+    est = est.copy()
+    m = est["multiple"].to_numpy(int)
+    shown = (m > 0) & (est["key"].to_numpy() != "damaged")  # a damaged commutator's even lines are not the comb
+    other = shown & (m != opts.ripples_per_rev)
+    if not shown.any() or other.sum() <= 0.5 * shown.sum():
+        return est
+    vals, counts = np.unique(m[other], return_counts=True)
+    top = int(vals[np.argmax(counts)])
+    demote = est["confident"].to_numpy(bool) & (m != opts.ripples_per_rev)
+    idx = est.index[demote]
+    est.loc[idx, "confident"] = False
+    est.loc[idx, "confidence"] = 0.0
+    est.loc[idx, "key"] = "multiple"
+    est.loc[idx, "reason"] = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the "
+                              f"{opts.ripples_per_rev} given, in {int((m == top).sum())} of the {int(shown.sum())} "
+                              "windows of this recording whose lines form a rotation comb; this window shows none "
+                              "of its own")
+    return est

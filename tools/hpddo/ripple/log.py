@@ -1,0 +1,91 @@
+"""The ripple speed of every window of a bench log (`speed_of_log`, as `hpddo ripple` counts it):
+the bursts beside the log read and matched to its rows, the back-EMF prior, the windows counted
+one at a time, over spans, the stalls named and the line's identity over the recording."""
+from __future__ import annotations
+
+import math
+import pathlib
+
+import numpy as np
+
+from . import sync
+from .calibrate import calibrate_ke
+from .count import count_settled_tails, estimate
+from .line import identity_of_recording
+from .options import Options
+from .prior import ModelPrior, m2_prior_rpm, m2_prior_sd_rpm, rpm_per_amp
+from .spans import count_steady_spans
+from .stall import count_stalls
+
+
+def _number_or_nan(text) -> float:
+    """A metadata value as a number; NaN where it is missing or not one."""
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = None,
+                 ke_vs_per_rad: float | None = None, bursts=None, model: ModelPrior | None = None,
+                 rpm_range=None):
+    """The ripple speed of every window of one bench log (its rows df, metadata meta) from the
+    bursts beside it (`<condition>.ripple.csv`): (estimate DataFrame, one row per burst, with
+    `row`, the index of its window in df, and `rpm_prior`; Ke of the prior, where it came
+    from). The prior is M2 without effects, (V - I Ra) / Ke: Ke the user's, else calibrated
+    from the ripple (calibrate_ke); Ra the user's, else the log's ra_ohm metadata.
+    InputError where the bursts are missing, do not match the log, or Ra is unknown. bursts:
+    the log's bursts already read (logs.ripple.read), for a caller that counts them twice.
+    model: a trained model's M2 with its named effects as the prior instead (ModelPrior; its Ra and
+    Ke give the prior's spread, m2_prior_sd_rpm, and the speed a change of current means); not with
+    ra_ohm or ke_vs_per_rad. The windows are counted one at a time (estimate), over spans of steady
+    windows (count_steady_spans), with the settled tails where opts.settled_tail, and the stalls named
+    (count_stalls: columns `stall` and `rpm_bound`). Without Ra (no ra_ohm, no metadata, no model) there
+    is no back-EMF prior: rpm_range (lo, hi) RPM is the prior, or none (speed_range.range_prior), Ke
+    NaN. Where rpm_range is given, a confident count outside it is not confident (within_range). Free-running
+    bursts have their PWM-synchronous average removed first (sync.prepare)."""
+    from ..logs import ripple as rf
+    from ..logs.errors import InputError
+    from . import speed_range
+
+    bpath = rf.path_for(path)
+    if bursts is None and not bpath.exists():
+        raise InputError(f"{path}: no current bursts beside it ({bpath.name}); record them in the ripple "
+                         "mode (hpddo twin --ripple-hz, docs/ripple.md)")
+    b = sync.prepare(rf.read(bpath) if bursts is None else bursts, str(bpath))
+    seq = df["seq"].to_numpy() if "seq" in df else np.arange(len(df))
+    pos = {int(s): k for k, s in enumerate(seq)}
+    rows = [pos.get(int(s)) for s in b.seq]
+    if any(r is None for r in rows):
+        raise InputError(f"{bpath}: a burst's seq is not in {pathlib.Path(path).name}")
+    duty, v, i = (df[c].to_numpy()[rows] for c in ("duty", "v_V", "i_A"))
+    if model is not None:
+        if ra_ohm is not None or ke_vs_per_rad:
+            raise ValueError("a model's M2 is the prior with its own Ra and Ke: not with ra_ohm or ke_vs_per_rad")
+        ra, ke, ke_from = float(model.physics.ra_ohm), float(model.physics.ke_vs_per_rad), model.describe()
+        if not (ke > 0 and math.isfinite(ra)):
+            raise InputError(f"{model.source}: the model's Ke {ke:g} V s/rad or Ra {ra:g} ohm cannot be a prior")
+        prior = model.rpm(path, df, meta)[rows]
+    else:
+        ra = ra_ohm if ra_ohm is not None else _number_or_nan(meta.get("ra_ohm"))
+        if not math.isfinite(ra):  # no back-EMF prior: the user's speed range, or none
+            ke, ke_from = math.nan, "no Ra: " + ("the speed range given is the prior" if rpm_range else "no prior")
+        elif ke_vs_per_rad:
+            ke, ke_from = float(ke_vs_per_rad), "user"
+        else:
+            ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
+            ke_from = f"ripple ({n_ke} windows)"
+        prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
+    per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) and math.isfinite(ra) else None
+    prior_sd = m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None
+    if prior is None and rpm_range is not None:
+        prior, prior_sd = speed_range.range_prior(rpm_range, len(rows))
+    est = estimate(b, duty, prior, opts, prior_sd, per_A)
+    est = count_settled_tails(b, duty, est, opts, per_A)
+    est = count_steady_spans(b, duty, est, opts, per_A)
+    est = count_stalls(b, duty, est, opts, per_A if prior is not None else None)
+    est = identity_of_recording(est, opts)
+    est = speed_range.within_range(est, rpm_range)
+    est.insert(1, "row", np.asarray(rows, np.int64))
+    est["rpm_prior"] = np.nan if prior is None else prior
+    return est, ke, ke_from

@@ -1,0 +1,77 @@
+"""The ripple estimator's settings (`Options`: the user's ripples per revolution and gear ratio, and
+every threshold of the count) and the reasons for no confident speed, by key (`REASONS`)."""
+from __future__ import annotations
+
+import dataclasses
+
+from . import sync
+
+
+#: the reasons for no confident speed, by key (the texts of `Estimate.reason`)
+REASONS = {
+    "coasting": "coasting: the drive is off (duty 0), no armature current to ripple",
+    "floor": "mean current under the floor",
+    "few_cycles": "too few ripple cycles in the window for a count",
+    "not_found": "the ripple line not found (no line above the noise near the back-EMF prior)",
+    "far": "the strongest line is too far from the back-EMF prior to be the ripple (a fixed line: interference, "
+           "while the shaft stands or turns too slowly for its ripple)",
+    "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
+                 "and the back-EMF prior cannot tell them apart",
+    "multiple": "the data show another ripples per revolution than the one given",
+    "rival": "another line inside the back-EMF prior's spread is as strong, and the data do not place it on the "
+             "rotation comb: unresolved",
+    "damaged": "a damaged commutator: the lines at once or twice the rotation frequency are too strong against "
+               "the commutation line (a worn or burnt bar, a shorted coil, a badly eccentric rotor); the ripple is not "
+               "counted through it",
+    "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
+    "stall": "stall: the drive on and current flowing, but no ripple line over a span of steady windows, and the "
+             "back-EMF prior too low for a window's count: the shaft stands (0 RPM within rpm_bound)",
+    sync.KEY: sync.REASON,
+    sync.KEY_FOLD: sync.REASON_FOLD,
+}
+
+
+@dataclasses.dataclass(frozen=True)
+class Options:
+    ripples_per_rev: int          # commutation ripples per motor revolution (2 x segments for 2 brushes)
+    gear_ratio: float             # motor revolutions per output revolution (the user's figure)
+    floor_A: float = 0.10         # no estimate under this mean current
+    prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty on a candidate's speed: Ke's error
+    #                               (calibration, magnet temperature); beside it the voltages of m2_prior_sd_rpm
+    prior_unmodelled_V: float = 0.5   # a voltage the prior (V - I Ra)/Ke does not know: of the order of a brush drop
+    prior_ra_rel: float = 0.2     # Ra's relative error in the prior: the multimeter's value against a winding
+    #                               up to ~50 K warmer (copper +0.39 %/K) or colder
+    min_snr: float = 10.0         # the line's power over the local noise floor
+    min_cycles: float = 5.0       # ripple cycles a window must hold
+    max_spread: float = 0.03      # relative spread of the quarter-window speeds still counted as steady
+    band: float = 1.2             # the band-pass: f / band .. f * band
+    ambiguity: float = 0.5        # an alternative with this share of the best's evidence (prior-weighted) is a rival
+    max_prior_z: float = 3.0      # a line further than this many of the prior's sd from it is not the ripple
+    #                               (a fixed line, interference, while the shaft stands or turns slowly)
+    span_max_s: float = 10.0      # count_steady_spans: the longest span of steady windows counted as one (s);
+    #                               0 turns the multi-window count off
+    standing_V: float = 0.010     # standing(): with the drive off and no current the open terminals show the
+    #                               back-EMF; under this |V| the shaft stands (|n| < standing_V / Ke, 0.25 RPM at
+    #                               0.38 V s/rad); 0 turns the label off
+    settled_tail: bool = False    # count_settled_tails: a `changing` window counted again over its part after the
+    #                               step (the tail), its head's speed from the back-EMF; off by default (the
+    #                               ripple pages' figures are without it, but docs/ripple-step-windows.md, "Settled
+    #                               tails (off by default)", which measures it)
+    tail_starts: tuple = (0.1, 0.2, 0.3, 0.4)   # count_settled_tails: where the tail may begin, shares of the window
+    tail_min_cycles: float = 10.0  # count_settled_tails: ripple cycles a tail must hold; a tail has no margins, so
+    #                               its count leaves a tenth out at each end and reads the phase at filter edges
+    #                               (4 % off on a steady tail of 5.2 cycles, unseen x0.25 seed 2;
+    #                               docs/ripple-step-windows.md, "Settled tails (off by default)")
+    stall_max_rpm: float = 1.0    # count_stalls: the largest bound on |n| (RPM, output shaft) the data must give
+    #                               for a stall (the drive on, current above the floor, the shaft standing);
+    #                               0 turns the stall off
+    stall_cycles: float = 3.0     # count_stalls: the ripple cycles a line is taken to need over a span to stand
+    #                               out in its spectrum (Hann window, trend removed), so a span of S s bounds |n| to
+    #                               stall_cycles / (N G S) revolutions per second; a margin: on synthetic bursts 1-2
+    #                               cycles stood out too, a real current's slow drifts fill the lowest bins
+    stall_snr: float = 30.0       # count_stalls: a bin of the span's spectrum this many times the band's median
+    #                               power is a line; noise alone (exponential power per bin, median ln 2 of the
+    #                               mean) reaches it with probability 2^-30 ~ 1e-9 a bin, a ripple of 1.5 mA at 3
+    #                               cycles over 9.5 s stood 153x over it at the least (docs/ripple-counting.md,
+    #                               "Speed from the ripple", step 6)
+    stall_prior_z: float = 1.0    # count_stalls: the back-EMF prior plus this many of its upper sd must lie under
