@@ -36,11 +36,12 @@ def _table(rng, duties=(0.3, 0.5, 0.7, 0.9), loads=(0, 1, 2), hold=8, i_top=None
     return rows
 
 
-def test_clipped_current_rows_and_their_commands_are_left_out_of_every_fit_and_said(tmp_path):
+def test_clipped_current_rows_and_their_holds_are_left_out_of_every_fit_and_said(tmp_path):
     """A current channel that reads its top (1.0 A) at two loads and four duties: those rows are
-    no measurement of the motor, and the rows of the same commands that read below the top do so
-    because their noise did (a truncated sample, its mean biased low): all of them are left out
-    (their train and test masks cleared) and a warning names how many."""
+    no measurement of the motor, and the rows of the same holds that read just below the top (here
+    all of them: 1 A true, 2 mA of noise) do so because their noise did (a truncated sample, its
+    mean biased low): all of them are left out (their train and test masks cleared) and a warning
+    names how many."""
     rng = np.random.default_rng(1)
     path = _log(tmp_path / "clip.csv", _table(rng, i_top=1.0))
     rec = dataset.load_recordings([path])[0]

@@ -98,7 +98,7 @@ def _saturated(x: np.ndarray, command: np.ndarray) -> list:
     return out
 
 
-TRUNCATED_SD = 3.0  # rows this many noise standard deviations from a clipping edge are its truncated sample
+TRUNCATED_SD = 4.0  # rows this many noise standard deviations from a clipping edge are its truncated sample
 
 
 def _keys(command: np.ndarray) -> np.ndarray:
@@ -129,11 +129,12 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         # the holds: runs of consecutive rows at one command (in a time series, one operating point)
         keys = _keys(command)
         hold = np.cumsum(np.r_[True, keys[1:] != keys[:-1]])
-        # the channel's noise: the robust spread of its row-to-row changes (steps of load or duty
-        # are outliers to it), at least one step
+        # the channel's noise: the robust spread of its row-to-row changes away from its ends (steps of
+        # load or duty are outliers to it; rows held at an end change by nothing), at least one step
         step = meta.get(lsb_key) or float(np.min(np.diff(levels)))
-        noise = max(1.4826 * float(np.median(np.abs(np.diff(x) - np.median(np.diff(x))))) / np.sqrt(2.0), step) \
-            if len(x) > 2 else step
+        inner = (x[1:] != levels[0]) & (x[1:] != levels[-1]) & (x[:-1] != levels[0]) & (x[:-1] != levels[-1])
+        dx = np.diff(x)[inner]
+        noise = max(1.4826 * float(np.median(np.abs(dx - np.median(dx)))) / np.sqrt(2.0), step) if len(dx) > 2 else step
         for edge, which, n, _held in _saturated(x, command):
             at = x == edge
             # the rows of a hold in which a fine channel clips that read within TRUNCATED_SD of its
