@@ -93,38 +93,44 @@ UNPHYSICAL = "with the other named effects fitted alongside reaches the end of w
 BEYOND = "lies outside the range the effect takes on a motor"
 
 
+def _range(e, which: str) -> str:
+    lo, hi = getattr(fx.LIBRARY[e.effect], which)
+    sc, unit = fx.LIBRARY[e.effect].show_scale, fx.LIBRARY[e.effect].show_unit
+    return f"{lo * sc:.3g}..{hi * sc:.3g} {unit}"
+
+
+# why a selected effect is not named, by the mark in its ranking row's note (core.not_named's callers)
+NOT_NAMED = (
+    ("holds zero", lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
+                             "tell it from its absence: not named."),
+    (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it reaches the end of the "
+                           f"{_range(e, 'physical')} it can take, or goes beyond: the fit traded it against them, "
+                           "so it is not named."),
+    (BEYOND, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval lies outside the {_range(e, 'plausible')} it "
+                       "takes on a motor: its term stands for something else these recordings hold, so it is not "
+                       "named."),
+    (RESTS_ON, lambda e: "only with the recording that disagrees with the rest (below); without it, it is not: "
+                         "not named."),
+    (channels.BLIND_NOTE, lambda e: f"it acts through the {fx.LIBRARY[e.effect].reads} channel, which is stuck, or "
+                                    "flat within one step, in every recording (Channel health, below): not named."),
+)
+
+
+def _why_not_named(e) -> str:
+    """The sentence's end for a selected effect that is not named ("" for any other row)."""
+    return next((say(e) for mark, say in NOT_NAMED if e.note and mark in e.note), "")
+
+
 def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
             floor: noise.NoiseFloor | None = None, family=None) -> str:
     """The verdict's text; family: the dynamic family from the fast recordings (dynamics.Dynamics)."""
     ra = ra_verdict(sel.ra_fit)
     text = _verdict(sel, conf, resid, sigma2, floor)
-    held = [e for e in sel.ranking if e.kind == "candidate" and e.note and ("holds zero" in e.note or RESTS_ON in e.note or BEYOND in e.note or UNPHYSICAL in e.note
-                                                                         or channels.BLIND_NOTE in e.note)]
+    held = [e for e in sel.ranking if e.kind == "candidate" and e.note and _why_not_named(e)]
     if held and text.startswith("No library effect explains the residual"):  # one was selected: said below
         text = "No library effect is named for the residual" + text[len("No library effect explains the residual"):]
-    for e in sel.ranking:  # selected by its held-out gain, but its interval holds zero (core.through_zero)
-        if e.kind == "candidate" and e.note and "holds zero" in e.note:
-            text += (f" {e.effect} was selected ({e.shown}), but its {100 * intervals.LEVEL:.0f} % interval holds zero, "
-                     "so these recordings do not tell it from its absence: not named.")
-        elif e.kind == "candidate" and e.note and UNPHYSICAL in e.note:
-            lo, hi = fx.LIBRARY[e.effect].physical
-            sc, unit = fx.LIBRARY[e.effect].show_scale, fx.LIBRARY[e.effect].show_unit
-            text += (f" {e.effect} was selected ({e.shown}), but with the other named effects fitted alongside it "
-                     f"reaches the end of the {lo * sc:.3g}..{hi * sc:.3g} {unit} it can take, or goes beyond: the fit "
-                     "traded it against them, so it is not named.")
-        elif e.kind == "candidate" and e.note and BEYOND in e.note:
-            lo, hi = fx.LIBRARY[e.effect].plausible
-            sc, unit = fx.LIBRARY[e.effect].show_scale, fx.LIBRARY[e.effect].show_unit
-            text += (f" {e.effect} was selected ({e.shown}), but its {100 * intervals.LEVEL:.0f} % interval lies "
-                     f"outside the {lo * sc:.3g}..{hi * sc:.3g} {unit} it takes on a motor: its term stands for "
-                     "something else these recordings hold: not named.")
-        elif e.kind == "candidate" and e.note and RESTS_ON in e.note:
-            text += (f" {e.effect} was selected ({e.shown}), but only with the recording that disagrees with the "
-                     "rest (below); without it, it is not: not named.")
-        elif e.kind == "candidate" and e.note and channels.BLIND_NOTE in e.note:
-            text += (f" {e.effect} was selected ({e.shown}), but it acts through the {fx.LIBRARY[e.effect].reads} "
-                     "channel, which is stuck, or flat within one step, in every recording (Channel health, below): "
-                     "not named.")
+    for e in held:  # selected by its held-out gain, but not named (core.through_zero, unphysical, ...)
+        text += f" {e.effect} was selected ({e.shown}), but {_why_not_named(e)}"
     dyn = dynamics(resid.before, resid.dt_s, family)
     if dyn and family is not None and family.fast:  # the dynamics are named: no "no library effect explains it"
         for said, say in (("No library effect explains the residual", "Apart from the dynamics (above), no library "
