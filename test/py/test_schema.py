@@ -40,6 +40,7 @@ def test_check_mode_reports_a_stale_file(tmp_path, capsys):
     (tmp_path / regenerate.TWIN_DOC).write_text(twin)
     (tmp_path / regenerate.RIPPLE_DOC).write_text((ROOT / regenerate.RIPPLE_DOC).read_text())  # as committed
     (tmp_path / regenerate.CAPTURES_DOC).write_text((ROOT / regenerate.CAPTURES_DOC).read_text())  # as committed
+    (tmp_path / regenerate.HEADER_DOC).write_text((ROOT / regenerate.HEADER_DOC).read_text())  # as committed
     assert regenerate.main(["--check", "--root", str(tmp_path)]) == 1
     assert regenerate.main(["--write", "--root", str(tmp_path)]) == 0
     assert regenerate.main(["--check", "--root", str(tmp_path)]) == 0
@@ -48,6 +49,36 @@ def test_check_mode_reports_a_stale_file(tmp_path, capsys):
     for e in schema.EFFECTS:
         assert f"| {e.name} | `{e.field}` | {e.unit} | {e.show_unit} |" in text
     capsys.readouterr()
+
+
+def test_the_model_header_page_names_every_symbol_and_field_of_a_committed_header():
+    """docs/model-header.md lists, in the writer's order, every symbol of the committed
+    headers (the tiny fixture, the deployed model), and every physics field with its unit."""
+    page = (ROOT / regenerate.HEADER_DOC).read_text()
+    for rel in ("test/fixtures/model_tiny.h", "models/default/model_default.h"):
+        symbols = export.header_symbols((ROOT / rel).read_text())
+        assert len(symbols) >= 17, rel
+        for name, key, _ in symbols:
+            assert key in export.HEADER_SYMBOLS, f"{rel}: {name} has no meaning in export.HEADER_SYMBOLS"
+            assert f"| `{name}` |" in page, f"{regenerate.HEADER_DOC} does not list {name} of {rel}"
+    rows = [ln for ln in page.splitlines() if ln.startswith("| `k") or ln.startswith("| `Net`")]
+    assert [r.split("`")[1] for r in rows] == [n for n, _, _ in export.header_symbols(
+        export.model_header(fixtures.with_dynamics(fixtures.tiny_model(*fixtures.FIXTURES["tiny"])), "tiny", {}))]
+    for k, field in enumerate(schema.FIELDS):
+        unit = schema.UNITS.get(field, "bits")
+        assert f"| {k} | `{field}` | {unit} |" in page, field
+    assert regenerate.HEADER_DOC.removeprefix("docs/") in (ROOT / "mkdocs.yml").read_text()
+    assert "model-header.md" in (ROOT / "docs/core.md").read_text()
+
+
+def test_a_header_symbol_without_a_meaning_stops_the_page(monkeypatch):
+    declared = export.HEADER_SYMBOLS
+    monkeypatch.setattr(export, "HEADER_SYMBOLS", {k: v for k, v in declared.items() if k != "kEnvHi"})
+    with pytest.raises(ValueError, match="kEnvHi"):
+        export.header_md()
+    monkeypatch.setattr(export, "HEADER_SYMBOLS", dict(declared, kGone="never written"))
+    with pytest.raises(ValueError, match="kGone"):
+        export.header_md()
 
 
 def test_banner_carries_provenance_and_the_checksum_of_the_text():

@@ -2,7 +2,8 @@
 struct (lib/hpddo_core/src/hpddo/params_gen.h, from hpddo/schema.py), the board's ripple
 counter constants (uno_acq/ripple_count_gen.h, from hpddo/ripple/board.py) and the generated
 tables of the documents (the effects table of docs/core.md, from the schema; the twin's
-effects table of docs/twin.md, from hpddo/twin/params.py). A pytest compares each with
+effects table of docs/twin.md, from hpddo/twin/params.py; the model header's fields of
+docs/model-header.md, from hpddo/model/export.py and the schema). A pytest compares each with
 what this writes, byte for byte:
 
     cd tools && ../.venv/bin/python -m hpddo.regenerate --write      # or --check
@@ -19,6 +20,7 @@ import zlib
 
 from . import schema
 from .schema import GENERATOR, ROOT, layout_crc
+from .model import export
 from .ripple import board as ripple_board
 from .twin import params as twin_params
 from .twin import ripple_free
@@ -43,6 +45,7 @@ EFFECTS_DOC = "docs/core.md"
 TWIN_DOC = "docs/twin.md"
 RIPPLE_DOC = "docs/ripple.md"
 CAPTURES_DOC = "docs/ripple-captures.md"
+HEADER_DOC = "docs/model-header.md"
 
 
 def with_generated_block(text: str, block: str, path: str, what: str, source: str) -> str:
@@ -60,7 +63,8 @@ def doc_blocks() -> list:
             (TWIN_DOC, "the twin's effects table", "tools/hpddo/twin/params.py", twin_params.effects_md()),
             (RIPPLE_DOC, "the ripple mode's parameters", "tools/hpddo/twin/params.py", twin_params.ripple_burst_md()),
             (CAPTURES_DOC, "the free-running mode's parameters", "tools/hpddo/twin/ripple_free.py",
-             ripple_free.ripple_free_md())]
+             ripple_free.ripple_free_md()),
+            (HEADER_DOC, "the model header's fields", "tools/hpddo/model/export.py", export.header_md())]
 
 
 def generated(root: pathlib.Path = ROOT) -> dict:

@@ -459,3 +459,81 @@ def read_model_header(text: str) -> ModelData:
     if model_checksum(model) != want:
         raise ValueError("the model read back does not have the header's checksum")
     return model
+
+
+# The reference page of the model header (docs/model-header.md, a block hpddo.regenerate writes):
+# every symbol model_header() writes, with its meaning, declared here beside the writer. The page
+# lists the symbols of a header written by model_header() itself (the tiny fixture with the dynamic
+# family named), so a symbol added to the writer and not here fails the regeneration.
+#: symbol (kW<k>/kB<k> for every layer) -> what it holds
+HEADER_SYMBOLS = {
+    "Net": "the network's type: hpddo::Mlp<5, h1, h2> (h2 0 for one hidden layer)",
+    "kChecksum": "CRC-32 over the float32 little-endian bytes of everything stored, in the order of "
+                 "hpddo::model_checksum (physics fields, scaler, network, envelope, gate, clamp, limits, "
+                 "then kDynamics where named)",
+    "kEffects": "the effect bits that are on (hpddo::Effect); the physics initialiser's last field",
+    "kScalerMean": "the mean of each of the 5 network inputs (v_V, i_A, n_M2 and the previous sample's i_A and n_M2), subtracted before the network",
+    "kScalerScale": "the scale of each of the 5 network inputs, divided by before the network",
+    "kW<k>": "layer k's weights, row-major (outputs x inputs); a static_assert ties the size to Net",
+    "kB<k>": "layer k's biases",
+    "kEnvLo": "the training envelope's lower bound of each input (outside the box the observer gives M2 alone: fallback)",
+    "kEnvHi": "the training envelope's upper bound of each input",
+    "kGateCentre": "the novelty gate's centre of each input",
+    "kGateScale": "the novelty gate's scale of each input",
+    "kGatePrototypes": "the novelty gate's prototypes (hpddo::kGatePrototypes rows of 5 inputs)",
+    "kModel": "the deployed model, hpddo::Model<Net>: the physics initialiser (below), the scaler, the "
+              "network, the envelope, the gate with its squared radii r_in and r_out, the residual "
+              "clamp in RPM and the readings' limits (v_max_V, i_max_A, temp_min_C, temp_max_C)",
+    "kNameplate": "the nameplate model M1 (rated voltage over rated speed) as PhysicsParams, for comparison only",
+    "kDynamics": "only where the model names the dynamic family: hpddo::DynamicsParams (J, B, Tc, the "
+                 "observer's tau), covered by kChecksum last",
+}
+HEADER_DECLARATION = __import__("re").compile(
+    r"^(?:HPDDO_FLASH )?(?:typedef (?P<tdef>[^;]+) (?P<tname>\w+);|static (?:constexpr|const) "
+    r"(?P<type>[\w:<>, ]+?) (?P<name>k\w+)(?P<size>\[\d+\])? =)", __import__("re").M)
+
+
+def header_symbols(text: str) -> list[tuple[str, str, str]]:
+    """(symbol, its key in HEADER_SYMBOLS, its C++ type as written) of every declaration of a
+    model header's text, in order."""
+    import re
+    out = []
+    for m in HEADER_DECLARATION.finditer(text):
+        name = m.group("tname") or m.group("name")
+        ctype = m.group("tdef") if m.group("tname") else m.group("type") + (m.group("size") or "")
+        out.append((name, re.sub(r"^k([WB])\d+$", r"k\1<k>", name), ctype))
+    return out
+
+
+def header_md() -> str:
+    """The block of docs/model-header.md: the banner's lines, the symbols of a model header and the
+    fields of its physics initialiser, from a header model_header() writes (the tiny fixture with
+    the dynamic family named) and the schema."""
+    from . import fixtures
+    hidden, seed, gain = fixtures.FIXTURES["tiny"]
+    model = fixtures.with_dynamics(fixtures.tiny_model(hidden, seed, gain))
+    text = model_header(model, "tiny", {})
+    banner = [ln[3:].split(": ", 1) for ln in text.splitlines()[1:] if ln.startswith("// ")]
+    rows = ["The lines the export adds to the banner (`// key: value`) after the writer's provenance, "
+            "for the tiny fixture (`test/fixtures`) with the dynamic family named:", "",
+            "| key | value for the tiny fixture |", "|---|---|"]
+    rows += [f"| `{k}` | {schema.md_cell(v)} |" for k, v in banner]
+    rows += ["", "The symbols, in the order the header declares them (namespace `hpddo_model_<name>`):", "",
+             "| symbol | C++ type in model_tiny.h (5-4-3-1) | holds |", "|---|---|---|"]
+    symbols = header_symbols(text)
+    missing = sorted({key for _, key, _ in symbols} - set(HEADER_SYMBOLS))
+    if missing:
+        raise ValueError(f"tools/hpddo/model/export.py: HEADER_SYMBOLS has no meaning for {', '.join(missing)}")
+    unwritten = sorted(set(HEADER_SYMBOLS) - {key for _, key, _ in symbols})
+    if unwritten:
+        raise ValueError(f"tools/hpddo/model/export.py: HEADER_SYMBOLS names {', '.join(unwritten)}, "
+                         "which model_header() does not write")
+    rows += [f"| `{name}` | `{ctype}` | {schema.md_cell(HEADER_SYMBOLS[key].replace('layer k', 'layer ' + name[2:]))} |"
+             for name, key, ctype in symbols]
+    rows += ["", "The physics initialiser of `kModel` and `kNameplate` (hpddo::PhysicsParams, positional: "
+                 "one value per line, labelled with its field and SI unit, in the schema's order):", "",
+             "| # | field | SI unit | meaning |", "|---|---|---|---|"]
+    rows += [f"| {k} | `{p.field}` | {p.unit} | {schema.md_cell(p.meaning)} |" for k, p in enumerate(schema.PARAMS)]
+    rows.append(f"| {len(schema.PARAMS)} | `{schema.BITS_FIELD}` | bits | {schema.md_cell(schema.BITS_MEANING)} "
+                "(`kEffects`) |")
+    return "\n".join(rows) + "\n"
