@@ -14,7 +14,7 @@ them again and compares them byte for byte:
 
 The third picture of the documentation, a current spectrum with the ripple line and its
 rotation comb, belongs to the ripple's code (hpddo.ripple, the ripple study) and to its
-page, docs/ripple.md: it is not drawn here.
+page, docs/ripple.md: it is drawn by hpddo.studies.ripple_spectrum, not here.
 
 SVG for both: it stays sharp at any zoom, diffs as text, and matplotlib writes it without a
 date or random ids when told (metadata Date None, svg.hashsalt fixed), so the bytes depend
