@@ -181,20 +181,23 @@ def main(argv=None) -> int:
     from ..regenerate import write_or_check
     ap = write_or_check("python -m hpddo.studies.figures", __doc__, "the pictures")
     args = ap.parse_args(argv)
-    stale = [rel for rel, text in generated().items()
+    return write_or_check_texts(generated(), args.check, COMMAND, "pictures")
+
+
+def write_or_check_texts(want: dict, check: bool, command: str, what: str) -> int:
+    """Each generated file of want ({path relative to the repository: text}) compared with the
+    committed one: with check, 1 and the stale ones named (with command) where any differ; else the
+    stale ones written. 0 otherwise."""
+    stale = [rel for rel, text in want.items()
              if not (ROOT / rel).exists() or (ROOT / rel).read_text(encoding="utf-8") != text]
-    if args.check:
-        if stale:
-            print(f"out of date (run: {COMMAND}): " + ", ".join(stale), file=sys.stderr)
-            return 1
-        print("pictures up to date")
-        return 0
-    texts = generated()
-    for rel in stale:
-        (ROOT / rel).write_text(texts[rel], encoding="utf-8")
+    if check and stale:
+        print(f"out of date (run: {command}): " + ", ".join(stale), file=sys.stderr)
+        return 1
+    for rel in [] if check else stale:
+        (ROOT / rel).write_text(want[rel], encoding="utf-8")
         print(f"wrote {rel}")
-    if not stale:
-        print("pictures up to date")
+    if check or not stale:
+        print(f"{what} up to date")
     return 0
 
 

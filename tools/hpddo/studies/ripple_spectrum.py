@@ -141,21 +141,10 @@ def main(argv=None) -> int:
     except InputError as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 2
-    stale = [rel for rel, text in want.items()
-             if not (ROOT / rel).exists() or (ROOT / rel).read_text(encoding="utf-8") != text]
-    if args.check:
-        if stale:
-            print(f"out of date (run: {COMMAND}): " + ", ".join(stale), file=sys.stderr)
-            return 1
-        print("picture up to date")
-        return 0
-    for rel in stale:
-        (ROOT / rel).write_text(want[rel], encoding="utf-8")
-        print(f"wrote {rel}")
-    if not stale:
-        print("picture up to date")
-    print(caption(measure()))
-    return 0
+    status = figures.write_or_check_texts(want, args.check, COMMAND, "picture")
+    if status == 0 and not args.check:
+        print(caption(measure()))
+    return status
 
 
 if __name__ == "__main__":
