@@ -101,6 +101,12 @@ def _saturated(x: np.ndarray, command: np.ndarray) -> list:
 TRUNCATED_SD = 4.0  # rows this many noise standard deviations from a clipping edge are its truncated sample
 
 
+def _step(meta: dict, lsb_key: str, levels: np.ndarray) -> float:
+    """A channel's step: the declared resolution, else the smallest step between the values it logs
+    (levels: its distinct values, two or more)."""
+    return meta.get(lsb_key) or float(np.min(np.diff(levels)))
+
+
 def _keys(command: np.ndarray) -> np.ndarray:
     """One value per row of command (a vector, or a matrix of one command per row) naming the command."""
     c = np.asarray(command, float)
@@ -125,13 +131,13 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         if len(levels) < 2:
             continue
         command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
-        fine = np.ptp(x) / (meta.get(lsb_key) or float(np.min(np.diff(levels)))) >= COARSE_LEVELS
+        step = _step(meta, lsb_key, levels)
+        fine = np.ptp(x) / step >= COARSE_LEVELS
         # the holds: runs of consecutive rows at one command (in a time series, one operating point)
         keys = _keys(command)
         hold = np.cumsum(np.r_[True, keys[1:] != keys[:-1]])
         # the channel's noise: the robust spread of its row-to-row changes away from its ends (steps of
         # load or duty are outliers to it; rows held at an end change by nothing), at least one step
-        step = meta.get(lsb_key) or float(np.min(np.diff(levels)))
         inner = (x[1:] != levels[0]) & (x[1:] != levels[-1]) & (x[:-1] != levels[0]) & (x[:-1] != levels[-1])
         dx = np.diff(x)[inner]
         noise = max(1.4826 * float(np.median(np.abs(dx - np.median(dx)))) / np.sqrt(2.0), step) if len(dx) > 2 else step
@@ -175,8 +181,7 @@ def _faults(rec, r, sigma2: float) -> list:
         # the commands that move the channel: the duty moves the voltage; the duty and the load the current
         command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
         commands = len(np.unique(command, axis=0))
-        # its step: the declared resolution, else the smallest step between the values it logs
-        step = meta.get(lsb_key) or float(np.min(np.diff(levels)))
+        step = _step(meta, lsb_key, levels)
         span = float(np.ptp(x))
         # too coarse for the range its commands move it over (one command: its range is its noise)
         if commands >= SATURATED_COMMANDS and step > 0 and span > 0 and span / step < COARSE_LEVELS:

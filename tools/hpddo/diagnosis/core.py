@@ -42,7 +42,7 @@ from .result import (  # noqa: F401 (HYBRID_ITER, as core.HYBRID_ITER)
     MaterialCheck, ModelFit, Options, RaFit, RankingStep, ResidualAnalysis, Residuals, Selection,
     _described, _score)
 from .verdict import (  # noqa: F401 (DYNAMICS_R and NOTHING, as core.X)
-    DYNAMICS_R, ENCODER_NEEDS, NOTHING, RATES, RESTS_ON, BEYOND, UNPHYSICAL, verdict)
+    DYNAMICS_R, ENCODER_NEEDS, NOTHING, RATES, RESTS_ON, BEYOND, UNPHYSICAL, HOLDS_ZERO, verdict)
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
 
@@ -1066,7 +1066,7 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
     # (the data's, the sensors' and the model's parts: an effect the held Ra's doubt alone could take
     # is named with that doubt in its interval, and the verdict says what it is conditional on)
     half = lambda iv: iv.half_without_ra if iv.half_without_ra is not None else (iv.hi - iv.lo) / 2.0  # noqa: E731
-    note = f"fitted, but its {100 * intervals.LEVEL:.0f} % interval holds zero: not named"
+    note = f"fitted, but its {100 * intervals.LEVEL:.0f} % interval {HOLDS_ZERO}: not named"
     return not_named(inp, sel, {field[iv.field]: note for iv in sel.intervals if iv.field in field and
                                 iv.determined and iv.lo is not None and abs(iv.value) <= half(iv)}, floor)
 

@@ -87,6 +87,8 @@ def _ra_verdict(ra: RaFit | None) -> str:
 RESTS_ON = "named only with the recording that disagrees with the rest"
 
 
+# the note of an effect whose whole interval holds zero (core.through_zero)
+HOLDS_ZERO = "holds zero"
 # the note of an effect whose final coefficient is on or beyond its physical range (core.unphysical)
 UNPHYSICAL = "with the other named effects fitted alongside reaches the end of what the effect can be"
 # the note of an effect whose whole interval lies outside its plausible range (core.beyond_plausible)
@@ -94,14 +96,13 @@ BEYOND = "lies outside the range the effect takes on a motor"
 
 
 def _range(e, which: str) -> str:
-    lo, hi = getattr(fx.LIBRARY[e.effect], which)
-    sc, unit = fx.LIBRARY[e.effect].show_scale, fx.LIBRARY[e.effect].show_unit
-    return f"{lo * sc:.3g}..{hi * sc:.3g} {unit}"
+    eff = fx.LIBRARY[e.effect]
+    return intervals._rng(getattr(eff, which), eff.show_scale, eff.show_unit)
 
 
 # why a selected effect is not named, by the mark in its ranking row's note (core.not_named's callers)
 NOT_NAMED = (
-    ("holds zero", lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
+    (HOLDS_ZERO, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
                              "tell it from its absence: not named."),
     (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it reaches the end of the "
                            f"{_range(e, 'physical')} it can take, or goes beyond: the fit traded it against them, "
