@@ -185,6 +185,23 @@ def worker_init() -> None:
     _signal.signal(_signal.SIGTERM, _signal.SIG_DFL)
 
 
+def map_on_cores(fn, jobs: list, shown=None) -> list:
+    """[fn(job) for job in jobs], on every core: forked workers (worker_init: SIGINT is the main
+    process's to handle), the results in the order of jobs. In this process where there is one core
+    or one job, or where this is a daemonic pool's worker (which may not start processes). shown:
+    (iterable of results, number of jobs) -> the same iterable (a progress bar), or None."""
+    import multiprocessing
+
+    show = shown if shown is not None else (lambda it, n: it)
+    workers = min(len(jobs), os.cpu_count() or 1)
+    if workers > 1 and not multiprocessing.current_process().daemon:
+        import concurrent.futures
+        with concurrent.futures.ProcessPoolExecutor(max_workers=workers, initializer=worker_init,
+                                                    mp_context=multiprocessing.get_context("fork")) as pool:
+            return list(show(pool.map(fn, jobs), len(jobs)))
+    return [fn(j) for j in show(jobs, len(jobs))]
+
+
 class handling:
     """Within: SIGINT and SIGTERM raise Interrupted in the main thread after the tool's
     processes are ended (`with handling(label):`). In an armed process the handler stays

@@ -26,7 +26,7 @@ import math
 import time
 import numpy as np
 from scipy import stats
-from .. import progress
+from .. import interrupt, progress
 from ..logs import dataset
 from ..model import identify
 from ..logs.errors import InputError
@@ -778,9 +778,11 @@ def _rmse_by_condition(rows, res) -> dict:
     return out
 
 
-def _hybrid(recs, p, cfg_iter, seed):
-    """M3 on top of physics p: trained on the training rows; estimates for every row with
-    the observer's clamp, envelope fallback and novelty gate (train.hybrid_rpm)."""
+def _hybrid(job):
+    """M3 on top of physics p, job = (recordings, p, epochs, seed): trained on the training rows;
+    estimates for every row with the observer's clamp, envelope fallback and novelty gate
+    (train.hybrid_rpm)."""
+    recs, p, cfg_iter, seed = job
     res = train_residual(recs, p, TrainConfig(hidden=(16, 8), max_iter=cfg_iter, seed=seed, progress=False))
     return [hybrid_rpm(res, r, p) for r in recs]
 
@@ -789,11 +791,12 @@ def hybrid(inp: Inputs, model: ph.PhysicsParams, after_model: ph.PhysicsParams, 
            opt: Options) -> tuple[Hybrid | None, list]:
     """The hybrid on the model under test and on it with the missing effects (the same
     network when nothing changed): (Hybrid, warnings); None when it cannot be trained."""
+    models = [model, after_model] if changed else [model]  # the two trainings side by side, on the cores
     try:
-        hb = _hybrid(inp.recs, model, opt.hybrid_iter, opt.seed)
+        est = interrupt.map_on_cores(_hybrid, [(inp.recs, m, opt.hybrid_iter, opt.seed) for m in models])
     except TrainingError as exc:  # too few rows for a network: the physics verdict stands alone
         return None, [f"hybrid before/after not computed: {exc}"]
-    ha = _hybrid(inp.recs, after_model, opt.hybrid_iter, opt.seed) if changed else hb
+    hb, ha = est[0], est[-1]
     rows = inp.rows
     return Hybrid(rmse_before=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, hb)]),
                   rmse_after=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, ha)]),

@@ -29,11 +29,8 @@ within the noise is not named, whatever its inclusion.
 """
 from __future__ import annotations
 
-import concurrent.futures
 import dataclasses
 import math
-import multiprocessing
-import os
 
 import numpy as np
 
@@ -638,13 +635,8 @@ def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int =
                 w[blk >= 0] = mult[np.searchsorted(ids, blk[blk >= 0])]
             weights.append(w)
         jobs.append((d, m2, list(given), list(candidates), sigma2, weights, start))
-    workers = min(n, os.cpu_count() or 1)
-    if workers > 1:
-        with concurrent.futures.ProcessPoolExecutor(max_workers=workers, initializer=interrupt.worker_init,
-                                                    mp_context=multiprocessing.get_context("fork")) as pool:
-            chosen = list(progress.bar(pool.map(_select_names, jobs), "bootstrap", total=n, unit="resample"))
-    else:
-        chosen = [_select_names(j) for j in progress.bar(jobs, "bootstrap", unit="resample")]
+    chosen = interrupt.map_on_cores(_select_names, jobs,
+                                    lambda it, k: progress.bar(it, "bootstrap", total=k, unit="resample"))
     for names in chosen:
         for c in names:
             counts[c] += 1

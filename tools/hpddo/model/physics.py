@@ -160,6 +160,25 @@ def _rise_bounded(rise, ref):
     return rise if rise >= 0.0 else 0.0
 
 
+_decays: dict = {}
+
+
+def _decay(dt, tau: float):
+    """(dt > 0, the node's decay exp(-dt / tau) per step, 1 where no step) of _rise_float64.
+    A fit moves tau in one Jacobian column of several, so the last few are kept per array of
+    periods (by identity, held beside them) and given again, the same values."""
+    key = (id(dt), float(tau))
+    hit = _decays.get(key)
+    if hit is not None and hit[0] is dt:
+        return hit[1], hit[2]
+    step = dt > 0
+    d = np.where(step, exp(-np.where(step, dt, 0.0) / tau), 1.0)
+    if len(_decays) > 32:
+        _decays.clear()
+    _decays[key] = (dt, step, d)
+    return step, d
+
+
 def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     """The rise of thermal_trajectory in float64, vectorised. Each step is linear in the
     previous rise, rise_k = alpha_k rise_(k-1) + beta_k, with (exp step d, loss at Ra(T_w))
@@ -168,14 +187,50 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     rounding). A block whose rise leaves [0, WINDING_MAX_C - ref] is redone step by step
     with the bound applied after each step."""
     r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
-    step = dt > 0
-    d = np.where(step, exp(-np.where(step, dt, 0.0) / tau), 1.0)
+    step, d = _decay(dt, tau)
     q = r * i * i * ra
     alpha = np.where(step, d + (1.0 - d) * q * a, 1.0)
     beta = np.where(step, (1.0 - d) * q * (1.0 + a * (ref - tref)), 0.0)
-    out = np.empty(len(i))
+    n = len(i)
+    out = np.empty(n)
+    if n == 0:
+        return out
+    # Every block's products and sums at once, a row of a (blocks x _BLOCK) table (the last
+    # padded with steps that change nothing: alpha 1, beta 0); cumprod and cumsum run along a
+    # row as along the block alone, so each value is the same bits as block by block.
+    nb = -(-n // _BLOCK)
+    if nb == 1:  # one block: the loop below does it with fewer steps
+        return _rise_blocks(alpha, beta, step, ref, rise0, out, 0)
+    pad = nb * _BLOCK - n
+    al2 = np.concatenate([alpha, np.ones(pad)]).reshape(nb, _BLOCK)
+    be2 = np.concatenate([beta, np.zeros(pad)]).reshape(nb, _BLOCK)
+    last = np.minimum(np.arange(1, nb + 1) * _BLOCK, n) - np.arange(nb) * _BLOCK - 1  # a block's last real step
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        prod = np.cumprod(al2, axis=1)
+        sums = np.cumsum(be2 / prod, axis=1)
+    rows = np.arange(nb)
+    usable = (prod.min(axis=1) > 1e-250) & np.isfinite(prod[rows, last])
+    # the rise entering each block: the one leaving the block before, as the block computes it
+    starts = np.empty(nb)
     x = rise0
-    for s0 in range(0, len(i), _BLOCK):
+    for b, (pb, sb) in enumerate(zip(prod[rows, last].tolist(), sums[rows, last].tolist())):
+        starts[b] = x
+        x = pb * (x + sb)
+    with np.errstate(over="ignore", invalid="ignore"):
+        table = prod * (starts[:, None] + sums)
+    ref2 = np.concatenate([ref, np.full(pad, -np.inf)]).reshape(nb, _BLOCK)
+    inside = np.all((table >= 0.0) & (table <= WINDING_MAX_C - ref2), axis=1) & usable
+    first_bad = nb if inside.all() else int(np.argmin(inside))
+    out[:first_bad * _BLOCK] = table[:first_bad].ravel()[:min(first_bad * _BLOCK, n)]
+    if first_bad == nb:
+        return out
+    return _rise_blocks(alpha, beta, step, ref, rise0 if first_bad == 0 else float(out[first_bad * _BLOCK - 1]),
+                        out, first_bad * _BLOCK)
+
+
+def _rise_blocks(alpha, beta, step, ref, x: float, out, s_from: int):
+    """_rise_float64 block by block from sample s_from (a block's start), the rise x entering it."""
+    for s0 in range(s_from, len(alpha), _BLOCK):  # from the first block out of range or bounds, block by block
         al, be = alpha[s0:s0 + _BLOCK], beta[s0:s0 + _BLOCK]
         rf = ref[s0:s0 + _BLOCK]
         with np.errstate(over="ignore"):  # an overflow is caught below (isfinite) and redone step by step
