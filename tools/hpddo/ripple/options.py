@@ -76,4 +76,3 @@ class Options:
     #                               "Speed from the ripple", step 6)
     stall_prior_z: float = 1.0    # count_stalls: the back-EMF prior plus this many of its upper sd must lie under
     #                               the speed floor for a span to be a stall or a creep (stall.count_stalls, 1.)
-
