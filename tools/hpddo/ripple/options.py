@@ -75,4 +75,4 @@ class Options:
     #                               cycles over 9.5 s stood 153x over it at the least (docs/ripple-counting.md,
     #                               "Speed from the ripple", step 6)
     stall_prior_z: float = 1.0    # count_stalls: the back-EMF prior plus this many of its upper sd must lie under
-    #                               the speed floor for a span to be a stall or a creep (stall.count_stalls, 1.)
+    #                               the speed floor for a span to be a stall (stall.count_stalls, 1.)
