@@ -204,16 +204,15 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     pad = nb * _BLOCK - n
     al2 = np.concatenate([alpha, np.ones(pad)]).reshape(nb, _BLOCK)
     be2 = np.concatenate([beta, np.zeros(pad)]).reshape(nb, _BLOCK)
-    last = np.minimum(np.arange(1, nb + 1) * _BLOCK, n) - np.arange(nb) * _BLOCK - 1  # a block's last real step
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
         prod = np.cumprod(al2, axis=1)
         sums = np.cumsum(be2 / prod, axis=1)
-    rows = np.arange(nb)
-    usable = (prod.min(axis=1) > 1e-250) & np.isfinite(prod[rows, last])
+    # (past the last block's last step the padding holds its product and sum: column -1 is every block's end)
+    usable = (prod.min(axis=1) > 1e-250) & np.isfinite(prod[:, -1])
     # the rise entering each block: the one leaving the block before, as the block computes it
     starts = np.empty(nb)
     x = rise0
-    for b, (pb, sb) in enumerate(zip(prod[rows, last].tolist(), sums[rows, last].tolist())):
+    for b, (pb, sb) in enumerate(zip(prod[:, -1].tolist(), sums[:, -1].tolist())):
         starts[b] = x
         x = pb * (x + sb)
     with np.errstate(over="ignore", invalid="ignore"):
