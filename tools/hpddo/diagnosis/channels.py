@@ -77,14 +77,93 @@ class ChannelFault:
                 f"{CANNOT[self.channel]}")
 
 
-def _saturated(x: np.ndarray, command: np.ndarray) -> list:
+# The evidence that a channel clips at an end it reads over several commands (a held end alone is
+# no evidence: the top load of a recording draws the same current at every duty, and a channel
+# whose noise stays within a step reads it as one code):
+#  * a channel that dithers reads a pile of rows at one exact value: the holds that reach the end
+#    read DITHER_CODES or more distinct values short of it (their noise spreads them over steps);
+#  * or the motor's own balance says the rows at the end measured more than it: the value the
+#    other channel and the speed imply (the recording's V = a w + b I + c, least squares over the
+#    rows off the ends) exceeds the reading at the end by CLIP_STEPS steps (or CLIP_SE standard
+#    errors) more than at the rows just short of it (CLIP_NEAR_STEPS), whose bias it shares.
+DITHER_CODES = 3
+CLIP_STEPS = 1.0
+CLIP_SE = 4.0
+CLIP_NEAR_STEPS = 3.0
+CLIP_MIN_NEAR = 5
+
+
+def implied(r, name: str) -> np.ndarray:
+    """The channel `name`'s value per row that the motor's balance implies (V = a w + b I + c, from
+    the other channel and the speed, least squares over the driven rows with a speed at which the
+    channel reads neither end it may clip at; NaN where it cannot say: no speed, too few rows, or an I term
+    it does not determine)."""
+    out = np.full(len(r.v), np.nan)
+    ok = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i) & np.isfinite(r.ref)
+    if ok.sum() < 10:
+        return out
+    x_ch = r.v if name == "voltage" else r.i
+    # the balance from the rows off the ends it may clip at (the bottom only at zero or below: _saturated)
+    lo = np.min(x_ch[ok])
+    inner = ok & (x_ch < np.max(x_ch[ok])) & ((x_ch > lo) | (lo > 0))
+    if inner.sum() < 10 or np.ptp(r.i[inner]) <= 0 or np.ptp(r.ref[inner]) <= 0:
+        return out
+    w = r.ref * (2.0 * np.pi / 60.0)
+    x = np.column_stack([w[inner], r.i[inner], np.ones(int(inner.sum()))])
+    try:
+        fit = sm.OLS(r.v[inner], x).fit()
+    except (np.linalg.LinAlgError, ValueError):
+        return out
+    if not np.all(np.isfinite(fit.params)) or not np.all(np.isfinite(fit.bse)):
+        return out
+    a, b, c = (float(q) for q in fit.params)
+    if name == "voltage":
+        out[ok] = a * w[ok] + b * r.i[ok] + c
+    elif b > 0 and abs(b) > 4.0 * float(fit.bse[1]):
+        out[ok] = (r.v[ok] - a * w[ok] - c) / b
+    return out
+
+
+def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float, implied_x) -> bool:
+    """Whether the readings x (driven rows) at their end `edge` show the channel clipping there (the
+    evidence above); hold: the hold of each row (runs of one command); implied_x: the balance's value
+    per row (NaN where unknown), or None."""
+    at = x == edge
+    sign = 1.0 if which == "top" else -1.0
+    short = ~at & np.isin(hold, hold[at])
+    if len(np.unique(x[short])) >= DITHER_CODES:
+        return True
+    if implied_x is None:
+        return False
+    excess = sign * (implied_x - x)
+    top = at & np.isfinite(excess)
+    off = np.flatnonzero(~at & np.isfinite(excess))
+    if top.sum() < SATURATED_MIN_ROWS or len(off) < CLIP_MIN_NEAR:
+        return False
+    # the rows just short of the end: within CLIP_NEAR_STEPS steps, at least as many as read the end
+    # (the nearest; a fine channel's step is no distance)
+    dist = sign * (edge - x[off])
+    order = np.argsort(dist, kind="stable")
+    k = max(int(np.sum(dist <= CLIP_NEAR_STEPS * step)), CLIP_MIN_NEAR, int(top.sum()))
+    near = np.zeros(len(x), bool)
+    near[off[order[:k]]] = True
+    d = float(np.median(excess[top]) - np.median(excess[near]))
+    spread = 1.4826 * float(np.median(np.abs(excess[near] - np.median(excess[near]))))
+    se = 1.2533 * spread * np.sqrt(1.0 / top.sum() + 1.0 / near.sum())
+    return d > max(CLIP_STEPS * step, CLIP_SE * se)
+
+
+def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, implied_x=None) -> list:
     """[(edge value, "top"/"bottom", rows at it, commands at it)] of the ends of x (a channel's driven
-    readings) that it reads exactly in at least SATURATED_SHARE of the rows (SATURATED_MIN_ROWS) under
-    at least SATURATED_COMMANDS different commands: the ends of its range, not what it measured (the
-    bottom only at zero or below)."""
+    readings, in steps of `step`; implied_x: the balance's value of each, implied()) that it reads
+    exactly in at least SATURATED_SHARE of the rows (SATURATED_MIN_ROWS) under at least
+    SATURATED_COMMANDS different commands, with the evidence that it clips there (_clips): the ends
+    of its range, not what it measured (the bottom only at zero or below)."""
     out = []
     if len(x) == 0:
         return out
+    keys = _keys(command)
+    hold = np.cumsum(np.r_[True, keys[1:] != keys[:-1]])
     for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
         if which == "bottom" and edge > 0:
             # a positive floor held at several commands is a motor's own (the no-load current of a sweep,
@@ -93,7 +172,8 @@ def _saturated(x: np.ndarray, command: np.ndarray) -> list:
         at = x == edge
         n = int(np.sum(at))
         held = len(np.unique(command[at], axis=0))
-        if n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)) and held >= SATURATED_COMMANDS:
+        if (n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)) and held >= SATURATED_COMMANDS
+                and _clips(x, float(edge), which, hold, step, implied_x)):
             out.append((float(edge), which, n, held))
     return out
 
@@ -105,6 +185,24 @@ def _step(meta: dict, lsb_key: str, levels: np.ndarray) -> float:
     """A channel's step: the declared resolution, else the smallest step between the values it logs
     (levels: its distinct values, two or more)."""
     return meta.get(lsb_key) or float(np.min(np.diff(levels)))
+
+
+# the Rows attribute that carries each channel's reading (effects.Rows)
+ROW_ATTR = {"current": "i", "voltage": "v"}
+
+
+def steps(rec, r) -> dict:
+    """{Rows attribute ("i", "v"): the channel's step} of a recording (rows r): the declared
+    resolution, else the smallest step between the values it logs on the driven rows (0 where it
+    logs fewer than two)."""
+    driven = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i)
+    meta = dataset.sensor_meta(rec.meta, rec.source)
+    out = {}
+    for name, col, lsb_key in CHANNELS:
+        levels = np.unique(rec.df[col].to_numpy(float)[driven])
+        levels = levels[np.isfinite(levels)]
+        out[ROW_ATTR[name]] = float(meta.get(lsb_key) or (np.min(np.diff(levels)) if len(levels) > 1 else 0.0))
+    return out
 
 
 def _keys(command: np.ndarray) -> np.ndarray:
@@ -133,6 +231,7 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
         step = _step(meta, lsb_key, levels)
         fine = np.ptp(x) / step >= COARSE_LEVELS
+        balance = implied(r, name)[driven]
         # the holds: runs of consecutive rows at one command (in a time series, one operating point)
         keys = _keys(command)
         hold = np.cumsum(np.r_[True, keys[1:] != keys[:-1]])
@@ -141,7 +240,7 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         inner = (x[1:] != levels[0]) & (x[1:] != levels[-1]) & (x[:-1] != levels[0]) & (x[:-1] != levels[-1])
         dx = np.diff(x)[inner]
         noise = max(1.4826 * float(np.median(np.abs(dx - np.median(dx)))) / np.sqrt(2.0), step) if len(dx) > 2 else step
-        for edge, which, n, _held in _saturated(x, command):
+        for edge, which, n, _held in _saturated(x, command, step, balance):
             at = x == edge
             # the rows of a hold in which a fine channel clips that read within TRUNCATED_SD of its
             # noise below the edge: they read below it because their noise did, a truncated sample
@@ -188,7 +287,7 @@ def _faults(rec, r, sigma2: float) -> list:
             out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
                                     f"{span / step:.0f} levels"))
             continue  # a coarse channel repeats its extremes as it repeats every level
-        for edge, which, n, held in _saturated(x, command):
+        for edge, which, n, held in _saturated(x, command, step, implied(r, name)[driven]):
             out.append(ChannelFault(rec.name, name, "saturated", f"{n} of {len(x)} driven rows read exactly "
                                     f"{edge:.4g} ({which} of its range) over {held} different commands"))
             break

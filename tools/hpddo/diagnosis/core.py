@@ -629,8 +629,12 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
             if c not in names and c != ranking.RA_MISMATCH and not fx.LIBRARY[c].thermal
             and not fx.LIBRARY[c].case_temperature]
     models = [a.value for a in alts if a is not None and a.determined] + list(rivals_ohm)
-    return intervals.with_budget(iv, calibration(inp.recs), birge(inp, p, sigma2) if sigma2 else 1.0,
-                                 models=models)
+    # (an alternative's Ra is read for its value only: its rounding part is not taken)
+    cal = calibration(inp.recs)
+    sens = {} if whole else intervals.sensors_of_fit(inp.data, p, names, channel_steps(inp), cal,
+                                                     ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
+    return intervals.with_budget(iv, cal, birge(inp, p, sigma2) if sigma2 else 1.0,
+                                 models=models, sensors=sens.get("ra_ohm"))
 
 
 def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
@@ -1181,6 +1185,11 @@ def calibration(recs) -> dict:
     return out
 
 
+def channel_steps(inp: Inputs) -> list:
+    """Per recording, {Rows attribute: its channel's step} (channels.steps)."""
+    return [channels.steps(rec, r) for rec, r in zip(inp.recs, inp.rows)]
+
+
 def birge(inp: Inputs, p: ph.PhysicsParams, sigma2: float) -> float:
     """sqrt(held-out MSE of p / the noise floor), at least 1: how far the model's held-out error
     stands above what the noise explains."""
@@ -1205,8 +1214,8 @@ def ra_doubt_ohm(ra_held: float, ra_fit: RaFit | None) -> float:
 def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigma2: float | None = None,
              ra_fit: RaFit | None = None) -> list:
     """ivs (intervals.of_fit of p, fitted with Ra held at inp.m2's) with their uncertainty
-    budgets (intervals.with_budget): the channels' calibration, the model's held-out excess,
-    and the doubt of the Ra held (ra_doubt_ohm, rectangular), through each quantity's
+    budgets (intervals.with_budget): the channels' calibration and rounding through the fit (intervals.sensors_u),
+    the model's held-out excess, and the doubt of the Ra held (ra_doubt_ohm, rectangular), through each quantity's
     sensitivity to Ra (a refit at Ra moved by RA_SENS_REL)."""
     cal = calibration(inp.recs)
     b = birge(inp, p, sigma2) if sigma2 else 1.0
@@ -1222,8 +1231,9 @@ def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigm
     doubt = ra_doubt_ohm(ra, ra_fit)
     ra_u = doubt / math.sqrt(3.0)
     given = f"Ra = {ra:.4g} ohm held, within {doubt:.3g} ohm in the budget"
+    through = intervals.sensors_of_fit(inp.data, p, names, channel_steps(inp), cal, hold)
     return [intervals.with_budget(iv, cal, b, ra_u, sens.get(iv.field, 0.0),
-                                  given if iv.field in sens else "") for iv in ivs]
+                                  given if iv.field in sens else "", sensors=through.get(iv.field)) for iv in ivs]
 
 
 def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) -> Diagnosis:

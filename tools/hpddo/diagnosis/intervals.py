@@ -309,8 +309,9 @@ def ke_two_ways(recs, ra_ohm: float) -> dict:
 # conditional on the model being right and on perfect sensors. Each interval the diagnosis
 # reports adds, in quadrature, as standard uncertainties:
 #   * the sensors' part: the channels' calibration, a rectangular tolerance of half-width
-#     v_cal_rel / i_cal_rel (log header, docs/bench-log.md; else the defaults below), through the
-#     quantity's relative sensitivity to each channel's gain (SENSOR_GAIN);
+#     v_cal_rel / i_cal_rel (log header, docs/bench-log.md; else the defaults below), and their ADC
+#     steps, each carried through the fit (sensors_u); where no fit is at hand, the calibration
+#     alone through the quantity's own scaling with each channel's gain (SENSOR_GAIN);
 #   * the model's part: the held-out residual beyond the noise floor (the Birge ratio
 #     R = sqrt(held-out MSE / floor)): where the model leaves structure, its statistical part is
 #     scaled by R (u_model = u_stat sqrt(R^2 - 1));
@@ -344,6 +345,103 @@ def sensor_u(field: str, value: float, cal: dict) -> float:
     return abs(value) * math.sqrt(rel2)
 
 
+RESOLUTION_PART = "of which ADC steps"  # the sensors' part's share from the channels' rounding (sensors_u)
+RESOLUTION_SHOWN = 0.01  # ... shown where it is at least this share of the sensors' part
+# the Rows attribute of each channel's reading -> its calibration tolerance key
+CAL_KEY = {"v": "v_cal_rel", "i": "i_cal_rel"}
+
+
+NOISE_TRIM = 4.0  # row-to-row changes beyond this many steps (or robust spreads) are a load's steps
+
+
+def _row_noise(x: np.ndarray, step: float) -> float:
+    """A channel's noise within a block of consecutive rows at one command, read in steps of `step`:
+    the spread of its row-to-row changes over sqrt 2, the changes beyond NOISE_TRIM steps or robust
+    spreads left out (the steps of a load the log does not name; a quantised channel's median change
+    is often none, so the step bounds the cut from below); 0 with fewer than three rows."""
+    if len(x) < 3:
+        return 0.0
+    dx = np.diff(x)
+    mad = 1.4826 * float(np.median(np.abs(dx - np.median(dx))))
+    kept = dx[np.abs(dx) <= NOISE_TRIM * max(step, mad)]
+    return float(np.sqrt(np.mean(kept ** 2)) / math.sqrt(2.0)) if len(kept) else 0.0
+
+
+def sensors_u(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict, steps: list, cal: dict) -> dict:
+    """{field: (calibration's, rounding's standard uncertainty)} of the fields of p fitted on the
+    training rows of `rows` (groups_per_rec: their operating-point blocks, as for intervals()),
+    each sensor error carried through the fit (GUM: its sensitivity coefficient, by the fit's
+    linearised least-squares projection of the speed change the error makes on the rows onto the
+    fitted fields; the model's sensitivity to each channel by central differences):
+      * calibration: each channel's gain error, rectangular within cal[CAL_KEY] (relative). Not
+        only the quantity's own scale: with Ra held, a current gain error is an Ra error; a voltage
+        gain error moves what is fitted through the back-EMF (Ke, and a term that can take its shape);
+      * rounding: steps, per recording {Rows attribute "v"/"i": the channel's step s, 0 where
+        unknown}. Where a channel's noise within an operating point dithers it over several steps,
+        the rounding averages out of the point's mean; where it does not (a held load reading one
+        code, or two neighbours), every row of the point carries the same rounding error, anywhere
+        within -+ s/2 (standard s / sqrt 12), and so do the other rows that read the same code (the
+        same load at another duty draws the same current): the rows' scatter does not show it. For
+        Gaussian noise sigma before the ADC the bias on a point's mean falls as
+        exp(-2 pi^2 sigma^2 / s^2) (its first harmonic), sigma from the block's row-to-row changes
+        (_row_noise) with Sheppard's correction (sigma^2 - s^2 / 12); a steady-state table's row is
+        a settled point of its own, whose noise its neighbours do not show (taken as none). The
+        codes add in quadrature."""
+    masks = []
+    for r, g in zip(rows, groups_per_rec):
+        masks.append(r.train & np.isfinite(r.ref) & np.isfinite(fx.predict(r, p)) & (g >= 0))
+    edge = [f in bounds and on_edge(float(getattr(p, f)), bounds[f]) for f in fields]
+    free = [f for f, on in zip(fields, edge) if not on]
+    if not free or not any(m.any() for m in masks):
+        return {}
+    jac = jacobian(rows, masks, p, free)
+    ok = np.all(np.isfinite(jac), axis=1)
+    norms = np.sqrt(np.sum(jac[ok] ** 2, axis=0))
+    live = (norms > 0) & np.isfinite(norms)
+    if not live.any() or ok.sum() <= live.sum():
+        return {}
+    proj = np.zeros((len(free), len(ok)))
+    proj[np.ix_(live, ok)] = np.linalg.pinv(jac[np.ix_(ok, live)] / norms[live], rcond=1e-9) / norms[live][:, None]
+    var_cal, var_res = np.zeros(len(free)), np.zeros(len(free))
+    for attr, key in CAL_KEY.items():
+        x = np.concatenate([getattr(r, attr)[m] for r, m in zip(rows, masks)])
+        h = 1e-4 * max(float(np.max(np.abs(x))), 1e-9)
+        up = predict_all([dataclasses.replace(r, **{attr: getattr(r, attr) + h}) for r in rows], masks, p)
+        dn = predict_all([dataclasses.replace(r, **{attr: getattr(r, attr) - h}) for r in rows], masks, p)
+        sens = np.where(np.isfinite(up - dn), (up - dn) / (2 * h), 0.0)  # d speed / d reading, per row
+        var_cal += (proj @ (sens * x) * cal.get(key, 0.0)) ** 2 / 3.0
+        weight = np.zeros(len(sens))  # per row: the standard rounding error its point's mean carries
+        code = np.full(len(sens), -1)
+        keys, at = {}, 0
+        for r, g, m, st in zip(rows, groups_per_rec, masks, steps):
+            s_step = st.get(attr, 0.0)
+            n = int(m.sum())
+            if s_step > 0:
+                xr, blk = getattr(r, attr)[m], g[m]
+                for b in np.unique(blk):
+                    sel = np.flatnonzero(blk == b)
+                    sigma = 0.0 if r.steady else _row_noise(xr[sel], s_step)
+                    sigma2 = max(sigma * sigma - s_step ** 2 / 12.0, 0.0)
+                    weight[at + sel] = math.exp(-2.0 * math.pi ** 2 * sigma2 / s_step ** 2) * s_step / math.sqrt(12.0)
+                for k in range(n):  # the rows that read one code share its rounding error
+                    code[at + k] = keys.setdefault((s_step, int(np.round(xr[k] / s_step))), len(keys))
+            at += n
+        if keys:
+            moves = np.zeros((len(keys), len(free)))
+            use = code >= 0
+            np.add.at(moves, code[use], (proj[:, use] * (sens * weight)[use]).T)
+            var_res += np.sum(moves ** 2, axis=0)
+    return {f: (float(math.sqrt(c)), float(math.sqrt(r))) for f, c, r in zip(free, var_cal, var_res)}
+
+
+def sensors_of_fit(data, p: ph.PhysicsParams, names, steps: list, cal: dict, hold=None, ra_bounds=None) -> dict:
+    """sensors_u of the quantities that fx.fit(data.rows, ..., names, hold, ra_bounds) moved to
+    reach p (as of_fit)."""
+    widen = fx.widened_in(p, [n for n in names if n in fx.LIBRARY])
+    fields, bounds = fitted_fields(data.rows, names, hold, ra_bounds, widen)
+    return sensors_u(data.rows, data.blocks_train, p, fields, bounds, steps, cal)
+
+
 def spread_u(value: float, alternatives) -> float:
     """The standard uncertainty of a quantity from the models that explain the data about as
     well as the one it was fitted with (their values of it, alternatives): the largest distance
@@ -353,26 +451,32 @@ def spread_u(value: float, alternatives) -> float:
 
 
 def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_sens: float = 0.0,
-                given: str = "", models=()) -> "Interval":
+                given: str = "", models=(), sensors: tuple | None = None) -> "Interval":
     """iv with its uncertainty budget and the expanded interval (above); ra_u: the standard
     uncertainty of the Ra the fit held, ra_sens: d value / d Ra; given: what it is conditional on;
     models: the quantity's values in the candidate models the data did not exclude: the interval
     reaches from the lowest of them and iv.value, less the expanded half-width of one model, to the
     highest, plus it (every model with its own doubt), and their spread (spread_u) joins the model
-    part of the budget shown."""
+    part of the budget shown; sensors: (calibration's, rounding's) standard uncertainty carried
+    through the fit (sensors_u), else the calibration's through the quantity's own scale (sensor_u)
+    and no rounding part; the rounding's share of the sensors' part is shown as its own."""
     if iv.lo is None or iv.hi is None or not (math.isfinite(iv.lo) and math.isfinite(iv.hi)):
         return iv
     if "statistical" not in iv.budget:
         return iv
     t_stat = (iv.hi - iv.lo) / 2.0  # t u_stat
     u_stat = iv.budget["statistical"]
-    u_sens = sensor_u(iv.field, iv.value, cal)
+    u_cal, u_res = sensors if sensors is not None else (sensor_u(iv.field, iv.value, cal), 0.0)
+    u_sens = math.hypot(u_cal, u_res)
     u_birge = u_stat * math.sqrt(max(birge * birge - 1.0, 0.0))
     models = [m for m in models if math.isfinite(m)]
     u_model = math.hypot(u_birge, spread_u(iv.value, models))
     u_ra = abs(ra_sens) * ra_u
     half = math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_birge ** 2 + u_ra ** 2))
-    budget = {"statistical": u_stat, "sensors": u_sens, "model": u_model}
+    budget = {"statistical": u_stat, "sensors": u_sens}
+    if u_res >= RESOLUTION_SHOWN * u_sens > 0:
+        budget[RESOLUTION_PART] = u_res
+    budget["model"] = u_model
     if ra_u > 0 and ra_sens:
         budget["Ra given"] = u_ra
     lo, hi = min([iv.value] + models) - half, max([iv.value] + models) + half
