@@ -1,8 +1,8 @@
 """Ra as a nuisance parameter of the diagnosis (ranking.RA_MISMATCH): a multimeter reading
 10 % off with nothing hidden names no effect and reports the mismatch with the value the
 data support; with thermal_ra hidden, thermal_ra is still named; with the reading right,
-nothing changes (the bundled recordings still name thermal_ra, brush_drop and
-magnet_thermal: the bench's brush drop, its 8 mA current offset read at rest). Twin recordings of the ideal bench (Ra 4.5 ohm), seeds 3 and 4."""
+nothing changes (the bundled recordings still name thermal_ra and magnet_thermal; the
+bench's brush drop is selected at +0.1 V, but its interval holds zero: not named). Twin recordings of the ideal bench (Ra 4.5 ohm), seeds 3 and 4."""
 import pytest
 
 from conftest import ROOT
@@ -71,6 +71,8 @@ def test_right_ra_is_no_mismatch(root, seed):
 def test_bundled_recordings_unchanged_with_the_reading_right():
     paths = [ROOT / "data" / "default" / f"{p}.csv" for p in ("load", "long", "sweep")]
     res = core.diagnose(paths, core.Options(bootstrap=0, hybrid=False)).to_json()
-    assert res["missing_effects"] == ["thermal_ra", "brush_drop", "magnet_thermal"], res["verdict"]
+    assert res["missing_effects"] == ["thermal_ra", "magnet_thermal"], res["verdict"]
+    brush = next(e for e in res["ranking"] if e["effect"] == "brush_drop")
+    assert not brush["named"] and "holds zero" in brush["note"], brush
     assert res["ra_fit"]["mismatch"] is False and res["ra_fit"]["confounded_with"] == []
     assert "The Ra you gave" not in res["verdict"]

@@ -107,7 +107,7 @@ def test_the_figures_the_guide_quotes_are_what_the_walk_measures(walked):
     train = cwd / "my_model" / "metrics.json"
     assert f"M2 {_avg(train, 'M2'):.2f} RPM, M3 {_avg(train, 'M3'):.2f}, lookup {_avg(train, 'lookup'):.2f}" in text
     for folder, label in (("my_eval", "`my_model` (plain physics)"),
-                          ("my_eval_fx", "`my_model_fx` (with the three named effects)")):
+                          ("my_eval_fx", "`my_model_fx` (with the two named effects)")):
         m = cwd / folder / "metrics.json"
         row = f"| {label} | {_avg(m, 'M2'):.2f} | {_avg(m, 'M3'):.2f} | {_avg(m, 'lookup'):.2f} |"
         assert row in text, row

@@ -1067,7 +1067,11 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
     """sel without the named effects whose coefficient's interval (the data's, the sensors' and the
     model's parts) holds zero: the data do not tell such an effect from its absence, so it is not
     named (its row in the ranking table a candidate with the reason), and the final model is fitted
-    again without it. (One whose interval is not determined is named with it, "its size is not
+    again without it. So is one whose interval is not determined for another reason (its form at
+    the edge of those allowed; for an effect of one sign, an interval through zero reaches outside
+    its physical range and is not determined for that alone) where it has an interval that holds
+    zero: an effect named with a size its data cannot tell from none is no instruction. (One whose
+    interval is not determined and does not hold zero is named with it, "its size is not
     determined", verdict._size.)"""
     field = {fx.LIBRARY[e].field: e for e in sel.missing}
     # (the data's, the sensors' and the model's parts: an effect the held Ra's doubt alone could take
@@ -1075,7 +1079,8 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
     half = lambda iv: iv.half_without_ra if iv.half_without_ra is not None else (iv.hi - iv.lo) / 2.0  # noqa: E731
     note = f"fitted, but its {100 * intervals.LEVEL:.0f} % interval {HOLDS_ZERO}: not named"
     return not_named(inp, sel, {field[iv.field]: note for iv in sel.intervals if iv.field in field and
-                                iv.determined and iv.lo is not None and abs(iv.value) <= half(iv)}, floor)
+                                iv.lo is not None and iv.hi is not None and math.isfinite(half(iv))
+                                and abs(iv.value) <= half(iv)}, floor)
 
 
 def unphysical(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = None) -> Selection:

@@ -17,7 +17,7 @@ import pathlib
 from .. import resource_root
 
 #: The effects the diagnosis names on data/default (docs/diagnosis.md; hpddo demo, step 2).
-NAMED_EFFECTS = ("thermal_ra", "brush_drop", "magnet_thermal")
+NAMED_EFFECTS = ("thermal_ra", "magnet_thermal")
 TRAINING = ("load", "long", "sweep")
 VALIDATION = ("hot", "unseen")
 
