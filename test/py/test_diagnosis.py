@@ -66,7 +66,14 @@ def _halfway(res, ideal):
 @pytest.mark.parametrize("seed", SEEDS)
 @pytest.mark.parametrize("name", sorted(SINGLE))
 def test_single_effect_is_named_and_the_error_falls(root, name, seed):
+    """Each effect named (or in a stated group) and the error at least halfway to the ideal bench's;
+    a voltage gain error of 2 % may instead be selected with an interval that holds zero: with Ra
+    held, the current channel's default 2 % calibration tolerance is an Ra error, which the sensors'
+    part of its budget carries (docs/diagnosis-limits.md), and then nothing is named."""
     res = run(bench_dir(root, name, SINGLE[name], seed))
+    if name == "v_gain" and not res["missing_effects"]:
+        assert "v_gain was selected" in res["verdict"] and "holds zero" in res["verdict"], res["verdict"]
+        return
     assert _named_or_confounded(res, name), (res["missing_effects"], res["confounded"], res["verdict"])
     ideal = run(bench_dir(root, "ideal", {}, seed))
     ok, nums = _halfway(res, ideal)
@@ -179,16 +186,17 @@ def test_two_bundled_recordings_are_diagnosed(names):
     """The bundled sweep and load alone (no long run): the forward selection took a wrong
     Ra, then an effect that a wrong Ra cannot be told from; refitting Ra with it (once, not
     twice: it crashed with KeyError 'ra_mismatch') gave a verdict about Ra (5.0 ohm, +11 %).
-    Since the brush drop's widened family (docs/diagnosis-forms.md, Forms outside the library) the
-    bench's brush drop (0.5 V) is named instead, its form at the edge of those allowed and
-    its size not determined (0.84 V, 0.16..1.51), and Ra is not called wrong (the bench's is
-    4.5 ohm cold): held-out 2.59 RPM against 2.82 with the wrong Ra."""
+    With the brush drop's widened family (docs/diagnosis-forms.md, Forms outside the library) the
+    bench's brush drop (0.5 V) is selected instead, at 0.84 V, its form at the edge of those
+    allowed, and Ra is not called wrong (the bench's is 4.5 ohm cold). With the sensors' part of
+    its budget (the channels' gain errors and steps through the fit) its interval holds zero: it
+    is said and not named."""
     res = run([ROOT / "data" / "default" / f"{n}.csv" for n in names])
     if res["ra_fit"]["mismatch"]:
         assert "Ra" in res["verdict"]
     else:
-        assert res["missing_effects"] == ["brush_drop"], res["verdict"]
-        assert "its size is not determined" in res["verdict"], res["verdict"]
+        assert res["missing_effects"] == [], res["verdict"]
+        assert "brush_drop was selected" in res["verdict"] and "holds zero" in res["verdict"], res["verdict"]
     assert all(v == v for v in res["rmse_rpm"]["after"].values())  # no NaN
 
 
@@ -206,8 +214,8 @@ def test_the_diagnosis_prints_the_train_command_that_adds_what_it_named(tmp_path
     assert tuple(args.effects) == tuple(res["missing_effects"])
     if res["ra_fit"]["mismatch"]:  # the Ra the data support, where they call the reading wrong
         assert args.ra_ohm == pytest.approx(res["ra_fit"]["supported_ohm"], rel=1e-3)
-    else:  # (since the widened brush family: the brush drop, the reading kept)
-        assert args.ra_ohm is None and args.effects
+    else:  # the reading kept
+        assert args.ra_ohm is None
 
 
 @pytest.mark.parametrize("given", [

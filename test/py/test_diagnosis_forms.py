@@ -59,10 +59,14 @@ run = twin_benches.diagnosed
 @pytest.mark.parametrize("key", sorted(CASES))
 def test_an_effect_in_another_form_is_named_alone(root, key, seed):
     """Named alone; or, for an effect that with Ke fitted is a wrong Ra (RA_TWINS), either named
-    or said not told apart from a wrong reading of Ra, with nothing else named."""
+    or said not told apart from a wrong reading of Ra, or selected with an interval that holds
+    zero (the current channel's gain error, 2 % by default, is an Ra error where Ra is held, and
+    the sensors' part of the budget carries it), with nothing else named."""
     res = run(bench_dir(root, key, seed))
     want = CASES[key][3]
     if want in RA_TWINS and not res["missing_effects"]:
+        if f"{want} was selected" in res["verdict"] and "holds zero" in res["verdict"]:
+            return
         assert want in res["ra_fit"]["confounded_with"], res["verdict"]
         assert "so neither is named" in res["verdict"] or "none of them" in res["verdict"], res["verdict"]
         return

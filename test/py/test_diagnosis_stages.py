@@ -198,7 +198,10 @@ def test_stages_on_the_bundled_recordings(default_stages):
     assert sel2.final.ra_tc_per_K == pytest.approx(fx.COPPER_TC_PER_K)
     assert sel.missing[-1] != "magnet_thermal"  # the stage returns new values, its inputs stay
     sel2 = core.through_zero(inp, core.with_intervals(inp, sel2, mf.noise), mf.noise)
-    assert {iv.quantity for iv in sel2.intervals} >= {"Ke", "brush_drop", "magnet_thermal"}
+    assert {iv.quantity for iv in sel2.intervals} >= {"Ke", "magnet_thermal"}
+    # the brush drop, selected at +0.1 V (0.5 V on the bench, Ke takes most of it at 2 Hz): its
+    # interval holds zero, so it is said and not named
+    assert "brush_drop" not in sel2.missing and "brush_drop" in sel.missing
     resid = core.residuals(inp, mf, sel2)
     text = core.verdict(sel2, conf2, resid, mf.sigma2)
     assert text.startswith("Missing: thermal_ra")
