@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 from hpddo import cli
@@ -96,6 +96,11 @@ def write_log(path, s, t_s):
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
                                                                    HealthCheck.too_slow])
 @given(s=burst_spec())
+# 17 samples at 1 Hz: no frequency between the count's band edges (2 / T or 0.5 Hz, and fs / 4.4); it
+# was a traceback (argmax of an empty band), found by this test
+@example(s={"windows": 1, "n": 17, "shape": "constant", "sample_hz": 1.0, "a_per_code": 0.0097, "offset": None,
+            "sampling": None, "pwm_hz": None, "mains_hz": None, "coupling": None, "gaps": False,
+            "varying_n": False, "seed": 0})
 def test_any_valid_burst_file_gives_a_result_or_a_user_error(tmp_path_factory, s):
     d = tmp_path_factory.mktemp("burst")
     path, t_s = write_bursts(d / "any.ripple.csv", s)

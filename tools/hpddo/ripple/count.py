@@ -174,6 +174,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     p_max = maximum_filter1d(p, size=max(1, int(round(res / step))) | 1)
     f_lo = max(2.0 * res, 0.5)
     f_hi = fs / 2.0 / 2.2
+    if not np.any((f >= f_lo) & (f <= f_hi)):  # a sample rate or window too short for any ripple's cycles
+        out.update(key="few_cycles", reason=f"{REASONS['few_cycles']} (at {fs:g} Hz over {T:.3g} s no frequency lies "
+                                            f"between {f_lo:.3g} and {f_hi:.3g} Hz)")
+        return out
     grid = np.geomspace(f_lo, f_hi, 4000)
 
     def evidence(g):
