@@ -162,8 +162,7 @@ def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, implied_x=
     out = []
     if len(x) == 0:
         return out
-    keys = _keys(command)
-    hold = np.cumsum(np.r_[True, keys[1:] != keys[:-1]])
+    hold = _holds(command)
     for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
         if which == "bottom" and edge > 0:
             # a positive floor held at several commands is a motor's own (the no-load current of a sweep,
@@ -201,8 +200,15 @@ def steps(rec, r) -> dict:
     for name, col, lsb_key in CHANNELS:
         levels = np.unique(rec.df[col].to_numpy(float)[driven])
         levels = levels[np.isfinite(levels)]
-        out[ROW_ATTR[name]] = float(meta.get(lsb_key) or (np.min(np.diff(levels)) if len(levels) > 1 else 0.0))
+        out[ROW_ATTR[name]] = float(_step(meta, lsb_key, levels)) if meta.get(lsb_key) or len(levels) > 1 else 0.0
     return out
+
+
+def _holds(command: np.ndarray) -> np.ndarray:
+    """The hold of each row: runs of consecutive rows at one command (in a time series, one operating
+    point), numbered from 1."""
+    keys = _keys(command)
+    return np.cumsum(np.r_[True, keys[1:] != keys[:-1]])
 
 
 def _keys(command: np.ndarray) -> np.ndarray:
@@ -232,9 +238,7 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         step = _step(meta, lsb_key, levels)
         fine = np.ptp(x) / step >= COARSE_LEVELS
         balance = implied(r, name)[driven]
-        # the holds: runs of consecutive rows at one command (in a time series, one operating point)
-        keys = _keys(command)
-        hold = np.cumsum(np.r_[True, keys[1:] != keys[:-1]])
+        hold = _holds(command)
         # the channel's noise: the robust spread of its row-to-row changes away from its ends (steps of
         # load or duty are outliers to it; rows held at an end change by nothing), at least one step
         inner = (x[1:] != levels[0]) & (x[1:] != levels[-1]) & (x[:-1] != levels[0]) & (x[:-1] != levels[-1])

@@ -135,25 +135,29 @@ def covariance(jac: np.ndarray, e: np.ndarray, groups: np.ndarray) -> tuple[np.n
     return cov, df, method
 
 
+def fitted_rows(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict) -> tuple:
+    """(per recording, the mask of the training rows p was fitted on that it predicts; the fields not
+    held on an edge of their bounds): a field on an edge is held there (an active constraint), out
+    of the covariance and of every sensitivity."""
+    masks = [r.train & np.isfinite(r.ref) & np.isfinite(fx.predict(r, p)) & (g >= 0)
+             for r, g in zip(rows, groups_per_rec)]
+    free = [f for f in fields if not (f in bounds and on_edge(float(getattr(p, f)), bounds[f]))]
+    return masks, free
+
+
 def free_covariance(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict) -> tuple:
     """(the fields not held on an edge of their bounds, their covariance, its degrees of freedom,
     its method, the number of blocks) of p fitted on the training rows of `rows` (groups_per_rec: the operating-point
     block id per row of each recording, -1 outside the training rows), cluster-robust over the
     blocks (covariance)."""
-    masks = []
+    masks, free = fitted_rows(rows, groups_per_rec, p, fields, bounds)
     groups = []
     offset = 0
-    for r, g in zip(rows, groups_per_rec):
-        n = fx.predict(r, p)
-        m = r.train & np.isfinite(r.ref) & np.isfinite(n) & (g >= 0)
-        masks.append(m)
+    for g, m in zip(groups_per_rec, masks):
         groups.append(g[m] + offset)
         offset += int(g.max()) + 1 if len(g) else 0
     ref = np.concatenate([r.ref[m] for r, m in zip(rows, masks)])
     e = ref - predict_all(rows, masks, p)
-    # a field on an edge of its bounds is held there (an active constraint): out of the covariance
-    edge = [f in bounds and on_edge(float(getattr(p, f)), bounds[f]) for f in fields]
-    free = [f for f, on in zip(fields, edge) if not on]
     groups = np.concatenate(groups)
     cov, df, method = covariance(jacobian(rows, masks, p, free), e, groups)
     return free, cov, df, method, len(np.unique(groups))
@@ -387,11 +391,7 @@ def sensors_u(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict, s
         (_row_noise) with Sheppard's correction (sigma^2 - s^2 / 12); a steady-state table's row is
         a settled point of its own, whose noise its neighbours do not show (taken as none). The
         codes add in quadrature."""
-    masks = []
-    for r, g in zip(rows, groups_per_rec):
-        masks.append(r.train & np.isfinite(r.ref) & np.isfinite(fx.predict(r, p)) & (g >= 0))
-    edge = [f in bounds and on_edge(float(getattr(p, f)), bounds[f]) for f in fields]
-    free = [f for f, on in zip(fields, edge) if not on]
+    masks, free = fitted_rows(rows, groups_per_rec, p, fields, bounds)
     if not free or not any(m.any() for m in masks):
         return {}
     jac = jacobian(rows, masks, p, free)
@@ -411,8 +411,9 @@ def sensors_u(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict, s
         sens = np.where(np.isfinite(up - dn), (up - dn) / (2 * h), 0.0)  # d speed / d reading, per row
         var_cal += (proj @ (sens * x) * cal.get(key, 0.0)) ** 2 / 3.0
         weight = np.zeros(len(sens))  # per row: the standard rounding error its point's mean carries
-        code = np.full(len(sens), -1)
-        keys, at = {}, 0
+        step_of = np.zeros(len(sens))  # per row: its channel's step (0: unknown) and the code it reads
+        code_of = np.zeros(len(sens))
+        at = 0
         for r, g, m, st in zip(rows, groups_per_rec, masks, steps):
             s_step = st.get(attr, 0.0)
             n = int(m.sum())
@@ -423,13 +424,18 @@ def sensors_u(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict, s
                     sigma = 0.0 if r.steady else _row_noise(xr[sel], s_step)
                     sigma2 = max(sigma * sigma - s_step ** 2 / 12.0, 0.0)
                     weight[at + sel] = math.exp(-2.0 * math.pi ** 2 * sigma2 / s_step ** 2) * s_step / math.sqrt(12.0)
-                for k in range(n):  # the rows that read one code share its rounding error
-                    code[at + k] = keys.setdefault((s_step, int(np.round(xr[k] / s_step))), len(keys))
+                step_of[at:at + n], code_of[at:at + n] = s_step, np.round(xr / s_step)
             at += n
-        if keys:
-            moves = np.zeros((len(keys), len(free)))
-            use = code >= 0
-            np.add.at(moves, code[use], (proj[:, use] * (sens * weight)[use]).T)
+        use = step_of > 0
+        if use.any():
+            # the rows that read one code (of one step) share its rounding error; the codes numbered in
+            # the order they first appear
+            _, first, inv = np.unique(np.column_stack([step_of[use], code_of[use]]), axis=0,
+                                      return_index=True, return_inverse=True)
+            rank = np.empty(len(first), np.int64)
+            rank[np.argsort(first, kind="stable")] = np.arange(len(first))
+            moves = np.zeros((len(first), len(free)))
+            np.add.at(moves, rank[np.ravel(inv)], (proj[:, use] * (sens * weight)[use]).T)
             var_res += np.sum(moves ** 2, axis=0)
     return {f: (float(math.sqrt(c)), float(math.sqrt(r))) for f, c, r in zip(free, var_cal, var_res)}
 

@@ -174,7 +174,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     p_max = maximum_filter1d(p, size=max(1, int(round(res / step))) | 1)
     f_lo = max(2.0 * res, 0.5)
     f_hi = fs / 2.0 / 2.2
-    if not np.any((f >= f_lo) & (f <= f_hi)):  # a sample rate or window too short for any ripple's cycles
+    band_all = (f >= f_lo) & (f <= f_hi)
+    if not band_all.any():  # a sample rate or window too short for any ripple's cycles
         out.update(key="few_cycles", reason=f"{REASONS['few_cycles']} (at {fs:g} Hz over {T:.3g} s no frequency lies "
                                             f"between {f_lo:.3g} and {f_hi:.3g} Hz)")
         return out
@@ -187,7 +188,6 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
             e = e + FAMILY_WEIGHT * np.where(gd >= 1.5 * res, line_power(f, p_max, gd), 0.0)
         return e
 
-    band_all = (f >= f_lo) & (f <= f_hi)
     out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
     found = rc.lines(f, p, f_lo, f_hi, res, opts.min_snr)
     found = rc.without_fixed(found, bursts, res)
