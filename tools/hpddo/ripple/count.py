@@ -128,6 +128,43 @@ def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A):
     return rpm_per_A * (max(means) - min(means)) / max(abs(rpm), 1e-12)
 
 
+def spread_noise(cycles, snr):
+    """The relative spread of the quarters' speeds that the count's own noise makes, as one
+    quarter's standard deviation: the line's phase read to 1 / sqrt(snr) rad (its amplitude over
+    the noise's) at each end of a quarter of cycles / 4 ripples, so a quarter's speed to
+    sqrt(2) / (2 pi (cycles / 4) sqrt(snr)) of itself; inf without cycles or a line."""
+    cycles, snr = np.asarray(cycles, float), np.asarray(snr, float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sd = math.sqrt(2.0) / (2 * math.pi * (cycles / 4.0) * np.sqrt(snr))
+    return np.where((cycles > 0) & (snr > 0), sd, np.inf)
+
+
+def wide_snr(f, p_max, p, f_Hz, res, f_lo, f_hi, n_res):
+    """The line at f_Hz over the median power of a wide band around it (n_res resolutions res, shifted
+    to lie inside f_lo .. f_hi): a floor the lines of the ripple's family, mains and PWM cannot move,
+    nor one noisy bin beside a line of few cycles. NaN where f_lo .. f_hi holds fewer than n_res
+    resolutions (no floor that wide to be had)."""
+    width = n_res * res
+    if f_hi - f_lo < width:
+        return math.nan
+    a = min(max(f_Hz - width / 2, f_lo), f_hi - width)
+    sel = (f >= a) & (f <= a + width)
+    floor = float(np.median(p[sel]))
+    return float(line_power(f, p_max, f_Hz)) / max(floor, 1e-30)
+
+
+def allowed_spread(cycles, snr, snr_wide, opts: Options) -> float:
+    """The quarters' spread (relative) under which a window's count is steady: opts.max_spread, and on
+    top of it opts.spread_noise_z sd of the count's own noise (spread_noise) where the line stands
+    clear of the floor (snr_wide, wide_snr, at least opts.spread_noise_snr; a line nearer the noise,
+    the noise of a standing shaft among them, keeps max_spread alone), at most half the band's
+    half-width ((band - 1) / 2: a line that moved more has left the band's flat part)."""
+    if not (np.isfinite(snr_wide) and snr_wide >= opts.spread_noise_snr):
+        return opts.max_spread
+    extra = opts.spread_noise_z * float(spread_noise(cycles, snr))
+    return float(min(opts.max_spread + extra, max(opts.max_spread, (opts.band - 1.0) / 2.0)))
+
+
 def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None, prior_sd=None, rpm_per_A=None):
     """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
     frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
@@ -141,8 +178,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
 
     fs = bursts.sample_hz
     out = dict(rpm=math.nan, rpm_fft=math.nan, f_Hz=math.nan, f_strongest_Hz=math.nan, cycles=math.nan, snr=math.nan,
-               spread=math.nan, spread_current=math.nan, i_mean_A=math.nan, rot_hz=math.nan, multiple=0,
-               rot1_rel=math.nan, rot2_rel=math.nan, confidence=0.0, reason="", key="")
+               spread=math.nan, spread_current=math.nan, spread_allowed=math.nan, snr_wide=math.nan,
+               i_mean_A=math.nan, rot_hz=math.nan, multiple=0, rot1_rel=math.nan, rot2_rel=math.nan, confidence=0.0, reason="", key="")
     x0 = bursts.current_A(k)
     n = len(x0)
     if n < 16:
@@ -221,6 +258,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     floor = float(np.median(p[sel])) if sel.sum() > 8 else float(np.median(p))
     snr = line_power(f, p_max, f_star) / max(floor, 1e-30)
     out["snr"] = float(snr)
+    out["snr_wide"] = wide_snr(f, p_max, p, f_star, res, f_lo, f_hi, opts.spread_noise_res)
     if snr < opts.min_snr or (comb is None and post[j] <= 0):
         out.update(key="not_found", reason=REASONS["not_found"], f_Hz=f_star)
         return out
@@ -280,7 +318,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     spread_i = (_current_spread(x0, fs, f_count, f_count * 60.0 / per_rev_out, rpm_per_A)
                 if rpm_per_A is not None and np.isfinite(rpm_per_A) and f_count > 0 else 0.0)
     out["spread_current"] = spread_i
-    if max(spread, spread_i) > opts.max_spread:  # the speed moved out of the fixed band: follow the line instead
+    allowed = allowed_spread(cycles, snr, out["snr_wide"], opts)  # the quarters' own noise allowed for
+    if spread > allowed or spread_i > opts.max_spread:  # the speed moved out of the fixed band: follow the line
         tracked = _tracked_phase(xx, fs, f_star, e)
         if tracked is not None:
             f_tr = (tracked[e] - tracked[b]) / (2 * math.pi) / ((e - b) / fs)
@@ -301,16 +340,17 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if f_count * T < opts.min_cycles:
         out.update(key="few_cycles", reason=f"{REASONS['few_cycles']} ({f_count * T:.1f} < {opts.min_cycles:g})")
         return out
-    if max(spread, spread_i) > opts.max_spread:
-        out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}; from the "
-                   f"current, Ra dI / Ke, {spread_i:.1%})")
+    out["spread_allowed"] = allowed
+    if spread > allowed or spread_i > opts.max_spread:
+        out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}, {allowed:.1%} "
+                   f"allowed with the count's noise; from the current, Ra dI / Ke, {spread_i:.1%})")
         return out
     fixed = sync.fixed_line(bursts, k, f_count, res, placed)  # the counted line, too, off the PWM and mains lines
     if fixed:
         out.update(key=fixed[0], reason=fixed[1])
         return out
     out["confidence"] = float(min(1.0, (1 - math.exp(-snr / (4 * opts.min_snr)))
-                                  * (1 - max(spread, spread_i) / opts.max_spread / 2)))
+                                  * (1 - max(spread / allowed, spread_i / opts.max_spread) / 2)))
     return out
 
 

@@ -24,6 +24,9 @@ REASONS = {
                "the commutation line (a worn or burnt bar, a shorted coil, a badly eccentric rotor); the ripple is not "
                "counted through it",
     "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
+    "creep": "creep: the drive on and current flowing, a ripple line over a span of steady windows but none fast "
+             "enough for a window's count, and the back-EMF prior under the speed floor: the shaft creeps "
+             "(|n| within rpm_bound, not counted)",
     "stall": "stall: the drive on and current flowing, but no ripple line over a span of steady windows, and the "
              "back-EMF prior too low for a window's count: the shaft stands (0 RPM within rpm_bound)",
     sync.KEY: sync.REASON,
@@ -44,6 +47,14 @@ class Options:
     min_snr: float = 10.0         # the line's power over the local noise floor
     min_cycles: float = 5.0       # ripple cycles a window must hold
     max_spread: float = 0.03      # relative spread of the quarter-window speeds still counted as steady
+    spread_noise_z: float = 4.0   # the quarters' spread allowed on top of max_spread for the count's own noise, in
+    #                               sd of one quarter's speed (count.spread_noise): the range of four quarters of
+    #                               independent normal errors exceeds 4 sd with probability ~3 %, 5 sd ~0.4 %
+    spread_noise_snr: float = 30.0  # count.spread_noise: the allowance only where the line stands this many times
+    #                               over a wide band's median power (as stall_snr: noise alone reaches it with
+    #                               probability 2^-30 a bin); a weaker line (a standing shaft's noise) keeps max_spread
+    spread_noise_res: int = 64    # count.wide_snr: that wide band's width in frequency resolutions (1 / T); a
+    #                               window whose band holds fewer has no noise allowance
     band: float = 1.2             # the band-pass: f / band .. f * band
     ambiguity: float = 0.5        # an alternative with this share of the best's evidence (prior-weighted) is a rival
     max_prior_z: float = 3.0      # a line further than this many of the prior's sd from it is not the ripple
@@ -74,5 +85,8 @@ class Options:
     #                               mean) reaches it with probability 2^-30 ~ 1e-9 a bin, a ripple of 1.5 mA at 3
     #                               cycles over 9.5 s stood 153x over it at the least (docs/ripple-counting.md,
     #                               "Speed from the ripple", step 6)
+    creep_cycles: float = 3.0     # count_stalls: a span with a line, but none at this many ripples a window or
+    #                               faster, and the prior under the speed floor, is a creep: |n| under creep_cycles
+    #                               ripples a window (rpm_bound), never confident; 0 turns the creep off
     stall_prior_z: float = 1.0    # count_stalls: the back-EMF prior plus this many of its upper sd must lie under
     #                               the speed floor for a span to be a stall (stall.count_stalls, 1.)

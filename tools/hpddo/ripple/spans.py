@@ -79,7 +79,8 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
         if r["key"]:
             continue
         idx = est.index[a:e]
-        for c in ("rpm", "rpm_fft", "f_Hz", "f_strongest_Hz", "snr", "spread", "spread_current", "confidence"):
+        for c in ("rpm", "rpm_fft", "f_Hz", "f_strongest_Hz", "snr", "snr_wide", "spread", "spread_current", "spread_allowed",
+                  "confidence"):
             est.loc[idx, c] = r[c]
         est.loc[idx, "cycles"] = r["cycles"] / (e - a)  # the window's share of the span's cycles
         est.loc[idx, ["key", "reason"]] = ""

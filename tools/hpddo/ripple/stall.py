@@ -62,7 +62,9 @@ def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
     confidence 1 - bound / (2 stall_max_rpm) (0.5..1). `confident` stays False: a stall is not a
     count of the ripple (the consumers of counted speeds, check_ratio, count_sd_rpm, span_reference,
     are unchanged); the ripple reference labels it (reference.swap). Needs a prior and rpm_per_A
-    (Ra / Ke); without them, or with opts.stall_max_rpm 0, est is returned with `stall` False and
+    (Ra / Ke). Where 2. finds a line, but none at opts.creep_cycles ripples a window or faster, the span
+    is a creep (_creep): key "creep", `rpm_bound` the speed of creep_cycles ripples a window, never
+    confident. Without a prior and rpm_per_A, or with opts.stall_max_rpm 0, est is returned with `stall` False and
     `rpm_bound` NaN everywhere. est: estimate()'s DataFrame (after count_steady_spans). Returns a copy."""
     est = est.copy()
     est["stall"] = False
@@ -92,8 +94,11 @@ def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
         band = (f >= f_min) & (f <= f_max)
         if band.sum() < 16:
             continue
-        snr = float(p[band].max() / max(float(np.median(p[band])), 1e-30))
-        if snr >= opts.stall_snr:  # 2. a line in the band: something turns
+        med = max(float(np.median(p[band])), 1e-30)
+        snr = float(p[band].max() / med)
+        if snr >= opts.stall_snr:  # 2. a line in the band: something turns (a creep where too slowly for a count)
+            _creep(est, a, e, f, p, med, f_max, float(np.median(lengths)) / fs, S, float(duty[a]), pr, n_up,
+                   rpm_floor, per_rev_out, rpm_per_A * float(i_mean[a:e].max() - i_mean[a:e].min()), opts)
             continue
         bound = 60.0 * opts.stall_cycles / (per_rev_out * S) + rpm_per_A * float(i_mean[a:e].max() - i_mean[a:e].min())
         if bound > opts.stall_max_rpm:
@@ -112,6 +117,34 @@ def count_stalls(bursts, duty, est, opts: Options, rpm_per_A=None):
         est.loc[idx, "stall"] = True
         est.loc[idx, "rpm_bound"] = bound
     return est
+
+
+def _creep(est, a, e, f, p, med, f_max, window_s, S, duty, pr, n_up, rpm_floor, per_rev_out, move_rpm, opts):
+    """count_stalls' creep: the span a .. e (S s) holds a ripple line (a bin of f, p at least stall_snr x
+    med), but none from opts.creep_cycles ripples a window (window_s) up to f_max, and its prior is
+    under the speed floor (count_stalls' 1.): the shaft turns, slower than creep_cycles ripples a
+    window. Its windows take key "creep", the bound 60 creep_cycles / (N G window_s) + move_rpm (the
+    windows' own speeds about the span's mean, Ra dI / Ke) in `rpm_bound`, and stay not confident
+    (their rpm NaN: a bound, not a count). Nothing where the line lies at creep_cycles a window or
+    faster (a count the windows failed: their own reasons stand) or opts.creep_cycles is 0."""
+    f_creep = opts.creep_cycles / window_s
+    fast = (f >= f_creep) & (f <= f_max)
+    if not opts.creep_cycles > 0 or not fast.any() or float(p[fast].max()) >= opts.stall_snr * med:
+        return
+    slow = (f >= opts.stall_cycles / S) & (f < f_creep)
+    j = int(np.argmax(np.where(slow, p, -np.inf)))
+    bound = 60.0 * f_creep / per_rev_out + move_rpm
+    idx = est.index[a:e]
+    est.loc[idx, ["rpm", "f_Hz", "cycles", "confidence"]] = [math.nan, math.nan, math.nan, 0.0]
+    est.loc[idx, "snr"] = float(p[j] / med)
+    est.loc[idx, "key"] = "creep"
+    est.loc[idx, "reason"] = (
+        f"{REASONS['creep']}: at duty {duty:g} over {S:.1f} s ({e - a} windows) the strongest line, "
+        f"{f[j]:.2f} Hz ({60.0 * f[j] / per_rev_out:.2f} RPM), is {p[j] / med:.0f}x the band's median power, none "
+        f"from {f_creep:.1f} Hz ({opts.creep_cycles:g} ripples a window) to {f_max:.1f} Hz reaches "
+        f"{opts.stall_snr:g}x; the prior {pr:.1f} RPM + {opts.stall_prior_z:g} sd = {n_up:.1f} RPM, under the speed "
+        f"floor {rpm_floor:.1f} RPM; |n| < {bound:.2f} RPM")
+    est.loc[idx, "rpm_bound"] = bound
 
 
 STANDING = "standing"
