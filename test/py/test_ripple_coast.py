@@ -1,0 +1,113 @@
+"""Online Ra and winding temperature from the coast probe (ripple/coast.py, twin/coast.py,
+docs/ripple-coast.md): Ra and the winding's temperature recovered within the targets on generated
+warm-ups (other seeds, other motors than the study's), no figure without a probe, a probe whose current
+does not freewheel out refused, and the study's committed figures regenerated."""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from hpddo.ripple import coast as rc
+from hpddo.ripple.options import CoastOptions, Options
+from hpddo.studies import coast as study
+from hpddo.twin import coast as tc
+from hpddo.twin import params
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def _scored(b, seed, duration_s=45.0, sampling=None):
+    rec, tab, t_first = study.run_one(b, duration_s, seed, sampling or {})
+    return rec, tab, study.score(rec, tab, t_first)
+
+
+MOTORS = {
+    # the study's motor, other seeds
+    "study motor": lambda: study.bench(),
+    # a lower-resistance winding with weaker magnets, its copper at the case temperature, its magnets lagging
+    "other motor": lambda: params.with_forms(study.bench(ra_ohm=3.6, ke_vs_per_rad=0.31),
+                                             thermal_ra="case", magnet_thermal="lag_600s"),
+}
+
+
+@pytest.mark.parametrize("motor", sorted(MOTORS))
+@pytest.mark.parametrize("seed", [7, 11])
+def test_ra_and_winding_within_targets(motor, seed):
+    rec, tab, s = _scored(MOTORS[motor](), seed)
+    assert s["ra_given"] >= s["probes"] // 2, s["refused"]  # the probes at one duty and load give Ra
+    assert s["ra_err_pct"]["max"] <= study.RA_TARGET * 100, s
+    assert s["winding_err_K"]["max"] <= study.T_TARGET_K, s
+    # every probe not given says why, in words; every probe given has its uncertainty
+    given = tab["ra_ohm"].notna()
+    assert (tab.loc[~given, "reason"].str.len() > 0).all()
+    assert (tab.loc[given, "reason"] == "").all() and tab.loc[given, "ra_sd_ohm"].gt(0).all()
+
+
+def test_free_running_sampling_within_targets():
+    rec, tab, s = _scored(study.bench(), 13, sampling=study.SAMPLINGS["free-running"])
+    assert s["ra_given"] >= s["probes"] // 2, s["refused"]
+    assert s["ra_err_pct"]["max"] <= study.RA_TARGET * 100 and s["winding_err_K"]["max"] <= study.T_TARGET_K, s
+
+
+def test_no_probe_gives_the_sentence_not_a_number():
+    b = study.bench()
+    rec = tc.warmup(b, study.segments(6.0), seed=3, probe=None)
+    assert len(rec.probes) == 0 and (rec.log["duty"] > 0).all()
+    res = rc.estimate(rec.log, rec.bursts, rec.probes, Options(b.ripples_per_rev, b.gear_ratio), b.ra_ohm,
+                      b.ke_vs_per_rad, CoastOptions())
+    assert res.table is None and res.statement == rc.NO_PROBE
+    assert not any(ch.isdigit() for ch in res.statement)
+
+
+def test_probe_whose_current_does_not_decay_is_refused():
+    # a winding of 200 mH: L / R of 40 ms, the freewheel needs ~15 ms to reach zero, the probe lasts 4 ms
+    b = params.with_effects(study.bench(), inductance=200.0)
+    rec = tc.warmup(b, study.segments(8.0), seed=4, probe=params.coast_probe())
+    assert (rec.facts["t_decay_s"] > rec.probe["probe_s"]).all()
+    res = rc.estimate(rec.log, rec.bursts, rec.probes, Options(b.ripples_per_rev, b.gear_ratio), b.ra_ohm,
+                      b.ke_vs_per_rad, CoastOptions(brush_drop_V=0.5))
+    tab = res.table
+    assert len(tab) and (tab["reason"] == rc.NOT_DECAYED).all()
+    assert tab[["ke_vs_per_rad", "ra_ohm", "winding_C"]].isna().all().all()
+
+
+def test_back_emf_refuses_what_it_cannot_see():
+    t_i = 2 * np.arange(20) / 10000.0
+    t_v = t_i + 1e-4
+    # a current that stays up: refused
+    e = rc.back_emf(t_i, np.full(20, 0.5), t_v, np.full(20, -0.4), 0.5, CoastOptions())
+    assert math.isnan(e[0]) and e[3] == rc.NOT_DECAYED
+    # decayed at once, but the terminals show nothing: a standing shaft
+    e = rc.back_emf(t_i, np.zeros(20), t_v, np.zeros(20), 0.5, CoastOptions())
+    assert math.isnan(e[0]) and e[3] == rc.STANDING
+    # decayed late: too few voltage samples after it
+    i = np.where(np.arange(20) < 16, 0.4, 0.0)
+    e = rc.back_emf(t_i, i, t_v, np.full(20, 5.0), 0.5, CoastOptions())
+    assert math.isnan(e[0]) and e[3].startswith(rc.FEW_EMF)
+    # a clean decay and a straight back-EMF line: read back at the torque's end
+    i = np.where(np.arange(20) < 1, 0.5, 0.0)
+    v = 5.0 - 300.0 * t_v
+    e, sd, t_a, why = rc.back_emf(t_i, i, t_v, v, 0.5, CoastOptions())
+    assert why == "" and t_a == pytest.approx(1e-4) and e == pytest.approx(5.0 - 300.0 * t_a, abs=1e-9)
+
+
+def test_twin_without_probe_is_unchanged():
+    """The probe is off unless asked: the schedule without it is the segments' own."""
+    from hpddo.twin import protocols
+    segs = study.segments(10.0)
+    d, ld, rows = tc.schedule(segs, None, 250.0)
+    d0, ld0 = protocols.per_sample(segs, 250.0)
+    assert len(rows) == 0 and np.array_equal(d, d0) and np.array_equal(ld, ld0)
+
+
+@pytest.mark.slow
+def test_study_regenerates_the_committed_figures():
+    """A small version of the study (one seed, synchronous sampling) gives the committed run's figures."""
+    committed = json.loads((ROOT / "docs/figures/coast.json").read_text())
+    res = study.run(committed["duration_s"], seeds=(1,), samplings=("synchronous",))
+    assert res["runs"]["synchronous seed 1"] == committed["runs"]["synchronous seed 1"]
