@@ -89,11 +89,40 @@ def test_back_emf_refuses_what_it_cannot_see():
     i = np.where(np.arange(20) < 16, 0.4, 0.0)
     e = rc.back_emf(t_i, i, t_v, np.full(20, 5.0), 0.5, CoastOptions())
     assert math.isnan(e[0]) and e[3].startswith(rc.FEW_EMF)
-    # a clean decay and a straight back-EMF line: read back at the torque's end
+    # a clean decay and a straight back-EMF line: read back at the torque's end; one sample above the threshold
+    # puts the zero in the middle of its interval (0.1 ms), the charge 0.5 A x 0.1 ms / 2, t_a = 0.05 ms
     i = np.where(np.arange(20) < 1, 0.5, 0.0)
     v = 5.0 - 300.0 * t_v
     e, sd, t_a, why = rc.back_emf(t_i, i, t_v, v, 0.5, CoastOptions())
-    assert why == "" and t_a == pytest.approx(1e-4) and e == pytest.approx(5.0 - 300.0 * t_a, abs=1e-9)
+    assert why == "" and t_a == pytest.approx(5e-5) and e == pytest.approx(5.0 - 300.0 * t_a, abs=1e-9)
+    # two samples above it: their line carried on to zero (1.0 A at 0, 0.4 A at 0.2 ms: zero at 0.2667 ms)
+    i = np.where(np.arange(20) < 2, np.where(np.arange(20) < 1, 1.0, 0.4), 0.0)
+    e, sd, t_a, why = rc.back_emf(t_i, i, t_v, v, 1.0, CoastOptions())
+    q = 0.5 * (1.0 + 0.4) * 2e-4 + 0.5 * 0.4 * (0.4 / 3000.0)
+    assert why == "" and t_a == pytest.approx(q)
+
+
+def test_conducting_share_measured_where_the_samples_see_it():
+    """Under a 490 Hz PWM at duty 0.7 the current stops for part of each period (the brush drop with it):
+    free-running samples measure the share; synchronous ones, all in the on-time, cannot and give 1."""
+    from hpddo.twin.ripple_free import ripple_free
+    b = study.bench()
+    for sampling, pwm in (("free", 490.196), ("synchronous", 0.0)):
+        rp = {**params.ripple_burst(), **ripple_free(pwm_hz=pwm)}
+        rec = tc.warmup(b, [(4.0, 0.7, 2)], seed=6, probe=params.coast_probe(), ripple=rp)
+        rows = [int(s) for s in rec.bursts.seq if s > 100]
+        pos = {int(s): j for j, s in enumerate(rec.bursts.seq)}
+        share = rc.conducting_share(rec.bursts, pos, rows, CoastOptions().decayed_A)
+        cond = float(rec.truth["cond_frac"].to_numpy()[rows].mean())
+        if sampling == "free":
+            assert cond < 0.97 and share == pytest.approx(cond, abs=0.01)
+        else:
+            assert share == 1.0 and cond == pytest.approx(1.0)
+
+
+def test_the_page_quotes_the_committed_figures():
+    committed = json.loads((ROOT / "docs/figures/coast.json").read_text())
+    assert study.block(committed) in (ROOT / "docs/ripple-coast.md").read_text()
 
 
 def test_twin_without_probe_is_unchanged():
@@ -111,3 +140,16 @@ def test_study_regenerates_the_committed_figures():
     committed = json.loads((ROOT / "docs/figures/coast.json").read_text())
     res = study.run(committed["duration_s"], seeds=(1,), samplings=("synchronous",))
     assert res["runs"]["synchronous seed 1"] == committed["runs"]["synchronous seed 1"]
+
+
+def test_no_reference_temperature_gives_ra_and_says_why_no_temperature():
+    b = study.bench()
+    rec = tc.warmup(b, [(12.0, 0.9, 2)], seed=5, probe=params.coast_probe())
+    opts = Options(b.ripples_per_rev, b.gear_ratio)
+    res = rc.estimate(rec.log.drop(columns=["temp_C"]), rec.bursts, rec.probes, opts, b.ra_ohm, b.ke_vs_per_rad,
+                      CoastOptions(brush_drop_V=0.5))
+    assert res.table["ra_ohm"].notna().any() and res.table["winding_C"].isna().all()
+    assert res.statement == rc.NO_REFERENCE
+    from hpddo.logs.errors import InputError
+    with pytest.raises(InputError, match="v_V"):
+        rc.estimate(rec.log.drop(columns=["v_V"]), rec.bursts, rec.probes, opts, b.ra_ohm, b.ke_vs_per_rad)

@@ -11,15 +11,16 @@ Per probe (a row of the log at duty 0 with its burst of both channels, twin/coas
 2. the back-EMF: the terminal voltage after the decay, a quadratic in time (the shaft slows at its
    mechanical time constant), read at the moment the drive's torque effectively ended,
    t_a = Q / I (Q the charge the freewheel still carried, the current samples joined by straight
-   lines down to zero at the first under the threshold; I the mean current before the cut: at
+   lines, the last two carried on to zero; I the mean current before the cut: at
    steady speed Ke I balances the friction, so w(t) = w_cut - a (t - t_a) to first order);
 3. the speed at the cut: the ripple counted (ripple.count.estimate_window) over count_s of the
    drive before the cut and after the recovery, interpolated linearly to the cut; both counts
    must be confident, at one duty and load; Ke = E / w_cut, its uncertainty from the fit's and the counts';
 4. Ra per driven span between two probes (one duty and load, recovery left out): the rows'
    V - Ke w - drop = Ra I summed, Ke the median of the probes within ke_window_s, w linear
-   between the span's two counts: Ra = (sum V - Ke sum w - n drop) / sum I, its uncertainty from
-   the rows' scatter and Ke's;
+   between the span's two counts, the declared brush drop times the share of the time the current
+   flows (conducting_share): Ra = (sum V - Ke sum w - n drop) / sum I, its uncertainty from the
+   rows' scatter and Ke's;
 5. Ra at the probe: the spans within ra_window_s, inverse-variance weighted; not given where its
    relative uncertainty exceeds max_ra_rel_sd; the winding's temperature
    T = T_ref + (Ra / Ra_ref - 1) / copper's coefficient (model.effects.COPPER_TC_PER_K), Ra_ref at
@@ -50,12 +51,15 @@ STANDING = "the terminals show no back-EMF after the decay: the shaft stands, Ke
 NO_COUNT = "the speed around the probe is not confident"
 NO_SPAN = "no driven span of one duty and load beside the probe with a measured Ke and counted speeds"
 UNCERTAIN = "the driven spans around the probe leave Ra too uncertain"
+NO_REFERENCE = ("no reference for the winding's temperature: no Ra given at a known temperature and no temperature "
+                "reading at the log's start, so Ra is given and the temperature is not")
 
 
 @dataclasses.dataclass
 class CoastResult:
-    """The probes' figures (a DataFrame, one row per probe) or, where the record holds none, the
-    statement alone (`statement`, table None)."""
+    """The probes' figures (a DataFrame, one row per probe: t_s, row, e_V, ke_vs_per_rad, ke_sd, rpm_cut,
+    ra_ohm, ra_sd_ohm, winding_C, winding_sd_K, reason) or, where the record holds no probe, the
+    statement alone (`statement`, table None); `statement` also says where no temperature can be given."""
 
     table: pd.DataFrame | None
     statement: str = ""
@@ -65,6 +69,19 @@ class CoastResult:
 
 def _rad_s(rpm):
     return np.asarray(rpm, float) * 2 * math.pi / 60.0
+
+
+def _zero_time(t_i, i_A, m: int) -> float:
+    """When the freewheel's current reached zero (s after the cut), m the first sample of the decayed
+    tail: the line through the last two samples above it carried on to zero (the freewheel falls almost
+    straight: L di/dt = -(Vf + E + vb) - R i), within the interval before sample m; the middle of that
+    interval where one sample alone lies above."""
+    if m == 0:
+        return float(t_i[0])
+    lo, hi = float(t_i[m - 1]), float(t_i[m])
+    if m >= 2 and i_A[m - 2] > i_A[m - 1]:
+        return float(np.clip(lo + i_A[m - 1] * (lo - t_i[m - 2]) / (i_A[m - 2] - i_A[m - 1]), lo, hi))
+    return 0.5 * (lo + hi)
 
 
 def back_emf(t_i, i_A, t_v, v_V, i_before_A: float, opts: CoastOptions):
@@ -77,9 +94,7 @@ def back_emf(t_i, i_A, t_v, v_V, i_before_A: float, opts: CoastOptions):
     sel = t_v >= t_d
     if sel.sum() < opts.min_emf_samples:
         return math.nan, math.nan, math.nan, f"{FEW_EMF} ({int(sel.sum())} < {opts.min_emf_samples})"
-    # the charge the freewheel carried: the samples joined by straight lines down to the first under the
-    # threshold, taken as zero (trapezoids)
-    q = float(np.trapezoid(np.append(np.clip(i_A[:m], 0.0, None), 0.0), t_i[:m + 1])) if m > 0 else 0.0
+    q = float(np.trapezoid(np.append(np.clip(i_A[:m], 0.0, None), 0.0), np.append(t_i[:m], _zero_time(t_i, i_A, m))))
     t_a = q / i_before_A if i_before_A > opts.decayed_A else 0.0
     x, y = t_v[sel] - t_a, v_V[sel]
     a = np.column_stack([np.ones_like(x), x, x * x])
@@ -108,12 +123,31 @@ def _count(bursts, rows_pos, rows, duty, prior, prior_sd, per_A, opts: Options):
     return float(out["rpm"]), float(count_sd_rpm(row)[0]), ""
 
 
+def conducting_share(bursts, rows_pos, rows, decayed_A: float) -> float:
+    """The share of the time the armature current flows over `rows` (log rows), from their bursts: the
+    brush drop acts only then (discontinuous conduction under a slow PWM leaves the current at zero for
+    part of each period). Free-running samples fall at every phase of the PWM period, so the share of
+    them above decayed_A measures it; synchronous ones sit in the on-time and cannot, so 1 (continuous
+    conduction, as the PWM at the sample rate gives a running motor)."""
+    from ..logs import ripple as rf
+    idx = [rows_pos.get(int(r)) for r in rows]
+    idx = [j for j in idx if j is not None]
+    if bursts.sampling != rf.FREE or not idx:
+        return 1.0
+    x = np.concatenate([bursts.current_A(j) for j in idx])
+    return float(np.mean(x > decayed_A))
+
+
 def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke_vs_per_rad: float,
              copts: CoastOptions = CoastOptions()) -> CoastResult:
     """Ke, Ra and the winding's temperature at every coast probe of a record: its log (t_s, duty, v_V,
     i_A, temp_C; load where logged), its current bursts (logs.ripple.Bursts, seq = the log's rows), its
     probes (twin.coast.ProbeBursts). ra_ohm, ke_vs_per_rad: the nominal figures of the back-EMF prior
     that places the ripple's line (ripple.prior). A CoastResult."""
+    from ..logs.errors import InputError
+    missing = [c for c in ("t_s", "duty", "v_V", "i_A") if c not in log]
+    if missing:
+        raise InputError(f"coast probe: the log lacks the column(s) {', '.join(missing)}")
     if probes is None or len(probes) == 0:
         return CoastResult(None, NO_PROBE)
     t = log["t_s"].to_numpy(float)
@@ -182,7 +216,9 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
         t0, r0 = float(tab.at[a_, "t_after"]), float(tab.at[a_, "rpm_after"])
         t1, r1 = float(tab.at[b_, "t_before"]), float(tab.at[b_, "rpm_before"])
         w = _rad_s(r0 + (r1 - r0) * (t[rows] + 0.5 * Ts - t0) / (t1 - t0))
-        drop = copts.brush_drop_V * (i[rows] > copts.decayed_A)
+        heads = range(ka + 1 + n_rec, ka + 1 + n_rec + n_count)
+        share = conducting_share(b, pos, list(heads) + list(range(kb - n_count, kb)), copts.decayed_A)
+        drop = copts.brush_drop_V * share * (i[rows] > copts.decayed_A)
         si = float(np.sum(i[rows]))
         if not si > 0:
             continue
@@ -208,13 +244,14 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
     given = tab["ra_ohm"].notna()
     if copts.ra_ref_ohm is not None:
         ra_ref, t_ref = float(copts.ra_ref_ohm), float(copts.ra_ref_C)
-    elif given.any():
+    elif given.any() and "temp_C" in log and math.isfinite(float(log["temp_C"].iloc[0])):
         first = int(np.flatnonzero(given.to_numpy())[0])
         ra_ref, t_ref = float(tab.at[first, "ra_ohm"]), float(log["temp_C"].iloc[0])
     else:
         ra_ref, t_ref = math.nan, math.nan
+    statement = "" if math.isfinite(ra_ref) or not given.any() else NO_REFERENCE
     tab["winding_C"] = t_ref + (tab["ra_ohm"] / ra_ref - 1.0) / COPPER_TC_PER_K
     tab["winding_sd_K"] = tab["ra_sd_ohm"] / ra_ref / COPPER_TC_PER_K
     bad = tab["reason"] != ""
     tab.loc[bad, ["ra_ohm", "ra_sd_ohm", "winding_C", "winding_sd_K"]] = math.nan  # Ke stays where it was measured
-    return CoastResult(tab, "", ra_ref, t_ref)
+    return CoastResult(tab, statement, ra_ref, t_ref)

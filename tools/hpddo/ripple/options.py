@@ -88,14 +88,15 @@ class CoastOptions:
     #                               thirtieth of a running current
     min_emf_samples: int = 8      # voltage samples a probe must hold after the decay for the back-EMF's curve
     #                               (a quadratic in time: the shaft slows at its mechanical time constant)
-    count_s: float = 0.25         # the ripple counted over this much of the drive on each side of a probe
-    #                               (14 cycles at 125 RPM on 26.4 ripples per output revolution)
+    count_s: float = 0.3          # the ripple counted over this much of the drive on each side of a probe: 13
+    #                               cycles at 99 RPM on 26.4 ripples per output revolution (0.25 s left the
+    #                               quarters' spread at 10 % there, so no count was confident)
     recovery_s: float = 0.05      # left out after a probe: the shaft regains its speed (mechanical time constant
     #                               16 ms on the twin under the heaviest load) and the current its level
     ke_window_s: float = 30.0     # Ke at a driven span: the median of the probes within this of it (the magnets
     #                               follow the case, minutes; a probe's Ke scatters by its count's resolution)
     ra_window_s: float = 8.0      # Ra at a probe: the driven spans whose middle lies within this of it, weighted
-    #                               by their variance (the averaging ADC leaves ~70 mV / sqrt(s) on V under a
+    #                               by their variance (the averaging ADC leaves ~75 mV / sqrt(s) on V under a
     #                               10 kHz PWM); against the winding's 9 s time constant on the twin
     max_ra_rel_sd: float = 0.008  # an Ra less certain than this (relative standard uncertainty) is not given:
     #                               0.8 % is 2 K of copper (0.393 %/K)

@@ -80,7 +80,8 @@ class ProbeBursts:
 class CoastRecord:
     """A warm-up with coast probes: the log (sensors.measure's columns, one row per probe_s), the
     current bursts beside the probes (logs.ripple.Bursts, one per row kept), the probes, and the
-    truth per row (t_s, ra_ohm, winding_C, case_C, ke_vs_per_rad, rpm_true)."""
+    truth per row (t_s, ra_ohm, winding_C, case_C, ke_vs_per_rad, rpm_true, cond_frac: the share of the
+    time the current flows)."""
 
     log: pd.DataFrame
     bursts: rf.Bursts
@@ -185,7 +186,8 @@ def warmup(bench: Bench, segments, seed: int = 1, probe: dict | None = None, rip
     cols, _ = sensors.measure(bench, res, duty, load, np.random.default_rng(np.random.SeedSequence([int(seed)])))
     log = pd.DataFrame(cols)
     truth = pd.DataFrame({"t_s": log["t_s"], "ra_ohm": res.ra, "winding_C": res.tw, "case_C": res.tc,
-                          "ke_vs_per_rad": res.ke, "rpm_true": res.w_mean * 60.0 / (2 * math.pi)})
+                          "ke_vs_per_rad": res.ke, "rpm_true": res.w_mean * 60.0 / (2 * math.pi),
+                          "cond_frac": res.cond})
     prng = np.random.default_rng(np.random.SeedSequence([int(seed), SEED_TAG]))
     brng = np.random.default_rng(np.random.SeedSequence([int(seed), SEED_TAG, ripple_mode.SEED_TAG]))
     T = 1.0 / rate_hz

@@ -459,7 +459,7 @@ COAST_PROBE = {
         BurstParam("period_s", "s", 1.5, (1.0, 2.0),
                    "one probe every period_s: often against the winding's thermal time constant "
                    "(C_w R_wc, 9 s on the twin), rare enough that the drive loses 0.3 % of its time"),
-        BurstParam("burst_s", "s", 0.4, (0.3, 1.0),
+        BurstParam("burst_s", "s", 0.4, (0.4, 1.0),
                    "the current burst kept on each side of a probe (before the cut, after the drive is back) "
                    "for the ripple count of the speed there; the rest of the run keeps its log rows only"),
     ]
