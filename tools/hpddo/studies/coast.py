@@ -84,6 +84,7 @@ def score(rec, tab, t_first) -> dict:
     ra_err = (tab["ra_ohm"].to_numpy() / ra_t - 1.0)[given]
     t_err = (tab["winding_C"].to_numpy() - tw_t)[given]
     t1_err = (t_first - tw_t)[given]
+    z = np.abs(t_err) / tab["winding_sd_K"].to_numpy()[given]  # the error in the probe's own uncertainties
     ke_ok = tab["ke_vs_per_rad"].notna().to_numpy()
     ke_err = (tab["ke_vs_per_rad"].to_numpy() / ke_t - 1.0)[ke_ok]
 
@@ -105,12 +106,14 @@ def score(rec, tab, t_first) -> dict:
         "winding_err_first_probe_ref_K": stats(t1_err, 1, 2),
         "ra_within_target": int(np.sum(np.abs(ra_err) <= RA_TARGET)),
         "winding_within_target": int(np.sum(np.abs(t_err) <= T_TARGET_K)),
+        "winding_err_in_sd": stats(z, 1, 2),
         "winding_true_C": [round(float(tw_t.min()), 2), round(float(tw_t.max()), 2)],
         "ra_true_ohm": [round(float(ra_t.min()), 4), round(float(ra_t.max()), 4)],
         "refused": dict(sorted(reasons.items())),
         "per_probe": {"t_s": [round(float(x), 3) for x in tab["t_s"].to_numpy()[given]],
                       "ra_err_pct": [round(float(x) * 100, 3) for x in ra_err],
-                      "winding_err_K": [round(float(x), 2) for x in t_err]},
+                      "winding_err_K": [round(float(x), 2) for x in t_err],
+                      "winding_sd_K": [round(float(x), 2) for x in tab["winding_sd_K"].to_numpy()[given]]},
     }
 
 
@@ -134,6 +137,7 @@ def run(duration_s: float = DURATION_S, seeds=SEEDS, samplings=tuple(SAMPLINGS),
         "winding_err_max_K": max((r["winding_err_K"]["max"] or 0) for r in runs),
         "ra_within_target": sum(r["ra_within_target"] for r in runs),
         "winding_within_target": sum(r["winding_within_target"] for r in runs),
+        "winding_err_max_in_sd": max((r["winding_err_in_sd"]["max"] or 0) for r in runs),
     }
     out["all"]["target_met"] = bool(out["all"]["ra_err_max_pct"] <= RA_TARGET * 100
                                     and out["all"]["winding_err_max_K"] <= T_TARGET_K)
@@ -153,7 +157,8 @@ def block(res: dict) -> str:
     rows.append("")
     rows.append(f"Over all runs: {a['ra_given']} of {a['probes']} probes give Ra; {a['ra_within_target']} within 2 %, "
                 f"{a['winding_within_target']} within 3 K; the largest errors {a['ra_err_max_pct']} % and "
-                f"{a['winding_err_max_K']} K: target {'met' if a['target_met'] else 'NOT met'}.")
+                f"{a['winding_err_max_K']} K: target {'met' if a['target_met'] else 'NOT met'}. The largest temperature "
+                f"error is {a['winding_err_max_in_sd']} of its probe's standard uncertainty.")
     return "\n".join(rows) + "\n"
 
 
