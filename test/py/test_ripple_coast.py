@@ -4,7 +4,6 @@ warm-ups (other seeds, other motors than the study's), no figure without a probe
 does not freewheel out refused, and the study's committed figures regenerated."""
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import pathlib
