@@ -20,15 +20,18 @@ from hpddo.twin import params
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
-def _scored(b, seed, duration_s=45.0, sampling=None):
+def _scored(b, seed, duration_s=90.0, sampling=None):
+    # 90 s: stretches of 18-27 s (the study's schedule shrunk); at 45 s (9-13.5 s, about one winding time
+    # constant) the straight line through a stretch's spans (ripple.coast.ra_at) was too uncertain at the
+    # stretch's ends for half of the probes to give Ra
     rec, tab, t_first = study.run_one(b, duration_s, seed, sampling or {})
     return rec, tab, study.score(rec, tab, t_first)
 
 
 def _holds_what_the_page_says(rec, tab, s):
-    """docs/ripple-coast.md, "Measured": Ra within 2 % at every probe given; the winding within 3 K at most
-    of them (not all: the logged voltage's noise leaves ~1 K of scatter); every error within 4 of the
-    probe's own standard uncertainty."""
+    """docs/ripple-coast.md, "Measured": Ra within 2 % at every probe given (the study: all but the warm-up's
+    first probe on one seed); the winding within 3 K at most of them (not all: the cold start bends faster
+    than the 30 s line follows); every error within 4 of the probe's own standard uncertainty."""
     assert s["ra_given"] >= s["probes"] // 2, s["refused"]  # the probes at one duty and load give Ra
     assert s["ra_err_pct"]["max"] <= study.RA_TARGET * 100, s
     assert s["winding_within_target"] >= 0.9 * s["ra_given"], s
@@ -128,6 +131,27 @@ def test_conducting_share_measured_where_the_samples_see_it():
             assert cond < 0.97 and share == pytest.approx(cond, abs=0.01)
         else:
             assert share == 1.0 and cond == pytest.approx(1.0)
+
+
+def test_ra_at_follows_a_step_of_drive_and_averages_the_noise():
+    """The line through a stretch's spans: a step of the drive between two stretches is not smeared (each
+    side reads its own line), and over spans of independent noise its error stays within its uncertainty."""
+    import pandas as pd
+    rng = np.random.default_rng(0)
+    t = np.arange(0.75, 120.0, 1.5)
+    stretch = (t > 60).astype(int)
+    true = np.where(stretch == 0, 4.5 + 0.002 * t, 4.8 + 0.001 * t)  # the heavier drive's copper 0.3 ohm warmer
+    sd = np.full(len(t), 0.02)
+    for noise in (0.0, 1.0):
+        sp = pd.DataFrame({"t_mid": t, "stretch": stretch, "ra": true + noise * sd * rng.standard_normal(len(t)),
+                           "sd_rows": sd, "sd_ke": 0.0})
+        errs = []
+        for t0, st, want in ((59.0, 0, 4.5 + 0.002 * 59.0), (61.0, 1, 4.8 + 0.001 * 61.0), (90.0, 1, 4.89)):
+            ra, ra_sd = rc.ra_at(sp, t0, st, 30.0)
+            errs.append(abs(ra - want) / ra_sd)
+            assert ra_sd < 0.02  # better than one span's
+        assert max(errs) <= (1e-6 if noise == 0 else 4.0), errs
+    assert math.isnan(rc.ra_at(sp.iloc[:2], 1.0, 0, 30.0)[0])  # fewer than three spans: no line
 
 
 def test_the_page_quotes_the_committed_figures():

@@ -21,8 +21,11 @@ Per probe (a row of the log at duty 0 with its burst of both channels, twin/coas
    between the span's two counts, the declared brush drop times the share of the time the current
    flows (conducting_share): Ra = (sum V - Ke sum w - n drop) / sum I, its uncertainty from the
    rows' scatter and Ke's;
-5. Ra at the probe: the spans within ra_window_s, inverse-variance weighted; not given where its
-   relative uncertainty exceeds max_ra_rel_sd; the winding's temperature
+5. Ra at the probe: a straight line in time through the spans of its stretch (one duty and load) within
+   ra_window_s, inverse-variance weighted (ra_at): the copper's heat capacity keeps its temperature
+   straight over that window at one drive, and the fit never crosses a change of duty or load, so a
+   load step's heating is followed; not given where its relative uncertainty exceeds max_ra_rel_sd;
+   the winding's temperature
    T = T_ref + (Ra / Ra_ref - 1) / copper's coefficient (model.effects.COPPER_TC_PER_K), Ra_ref at
    T_ref given or the first probe's Ra at the log's first temperature reading.
 
@@ -65,6 +68,7 @@ class CoastResult:
     statement: str = ""
     ra_ref_ohm: float = math.nan
     ra_ref_C: float = math.nan
+    spans: pd.DataFrame | None = None  # the driven spans' Ra (t_mid, stretch, ra, sd_rows, sd_ke)
 
 
 def _rad_s(rpm):
@@ -138,6 +142,26 @@ def conducting_share(bursts, rows_pos, rows, decayed_A: float) -> float:
     return float(np.mean(x > decayed_A))
 
 
+def ra_at(spans: pd.DataFrame, t_s: float, stretch: int, window_s: float):
+    """(Ra, its standard uncertainty) at t_s: a straight line in time through the driven spans of `stretch`
+    (one duty and load) whose middle lies within window_s of t_s, each weighted by its rows' variance
+    (the spans' noise is independent: each its own stretch of rows); the line's variance at t_s scaled up
+    by the reduced chi-square where the spans scatter more than their stated uncertainties, and Ke's
+    part (shared by the spans) added. (NaN, NaN) where fewer than three spans lie there."""
+    near = spans[(spans["stretch"] == stretch) & (np.abs(spans["t_mid"] - t_s) <= window_s)]
+    if len(near) < 3:
+        return math.nan, math.nan
+    x = (near["t_mid"].to_numpy() - t_s) / window_s
+    a = np.column_stack([np.ones_like(x), x])
+    wgt = 1.0 / near["sd_rows"].to_numpy() ** 2
+    y = near["ra"].to_numpy()
+    cov = np.linalg.inv((a.T * wgt) @ a)
+    coef = cov @ ((a.T * wgt) @ y)
+    chi2 = float(np.sum(wgt * (y - a @ coef) ** 2)) / (len(y) - 2) if len(y) > 2 else 1.0
+    sd = math.hypot(math.sqrt(cov[0, 0] * max(1.0, chi2)), float(np.mean(near["sd_ke"])))  # Ke's part is shared
+    return float(coef[0]), sd
+
+
 def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke_vs_per_rad: float,
              copts: CoastOptions = CoastOptions()) -> CoastResult:
     """Ke, Ra and the winding's temperature at every coast probe of a record: its log (t_s, duty, v_V,
@@ -163,6 +187,13 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
     per_A = rpm_per_amp(ra_ohm, ke_vs_per_rad)
     n_count = max(1, int(round(copts.count_s / Ts)))
     n_rec = int(round(copts.recovery_s / Ts))
+    # the stretches of one duty and load, numbered (a probe's row takes its drive's)
+    drive = duty.copy()
+    for s_ in probes.seq:
+        k_ = row_of.get(int(s_))
+        if k_ is not None and k_ > 0:
+            drive[k_] = drive[k_ - 1]
+    stretch = np.cumsum(np.r_[0, (np.diff(drive) != 0) | (load[1:] != load[:-1])])
     recs = []
     for j in range(len(probes)):
         k = row_of.get(int(probes.seq[j]))
@@ -225,18 +256,17 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
         ra = float(np.sum(v[rows] - ke * w - drop)) / si
         resid = v[rows] - ke * w - drop - ra * i[rows]
         sd_rows = float(np.std(resid, ddof=1)) / math.sqrt(len(rows)) / float(np.mean(i[rows]))
-        spans.append(dict(t_mid=tm, ra=ra, sd_rows=sd_rows, sd_ke=ke_sd * float(np.mean(w)) / float(np.mean(i[rows]))))
-    sp = pd.DataFrame(spans, columns=["t_mid", "ra", "sd_rows", "sd_ke"])
+        spans.append(dict(t_mid=tm, stretch=int(stretch[rows[0]]), ra=ra, sd_rows=sd_rows,
+                          sd_ke=ke_sd * float(np.mean(w)) / float(np.mean(i[rows]))))
+    sp = pd.DataFrame(spans, columns=["t_mid", "stretch", "ra", "sd_rows", "sd_ke"])
+    tab["stretch"] = [int(stretch[k - 1]) if k else -1 for k in tab["row"].fillna(0).astype(int)]
     tab["ra_ohm"] = math.nan
     tab["ra_sd_ohm"] = math.nan
     for j in ok_idx:
-        near = sp[np.abs(sp["t_mid"] - tab.at[j, "t_s"]) <= copts.ra_window_s]
-        if near.empty:
+        ra, sd = ra_at(sp, float(tab.at[j, "t_s"]), int(tab.at[j, "stretch"]), copts.ra_window_s)
+        if not math.isfinite(ra):
             tab.at[j, "reason"] = NO_SPAN
             continue
-        wgt = 1.0 / near["sd_rows"].to_numpy() ** 2
-        ra = float(np.sum(wgt * near["ra"]) / np.sum(wgt))
-        sd = math.hypot(math.sqrt(1.0 / np.sum(wgt)), float(np.mean(near["sd_ke"])))  # Ke's part is shared
         if not sd / ra <= copts.max_ra_rel_sd:
             tab.at[j, "reason"] = f"{UNCERTAIN} ({sd / ra:.1%} > {copts.max_ra_rel_sd:.1%})"
             continue
@@ -254,4 +284,4 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
     tab["winding_sd_K"] = tab["ra_sd_ohm"] / ra_ref / COPPER_TC_PER_K
     bad = tab["reason"] != ""
     tab.loc[bad, ["ra_ohm", "ra_sd_ohm", "winding_C", "winding_sd_K"]] = math.nan  # Ke stays where it was measured
-    return CoastResult(tab, statement, ra_ref, t_ref)
+    return CoastResult(tab, statement, ra_ref, t_ref, sp)

@@ -95,9 +95,15 @@ class CoastOptions:
     #                               16 ms on the twin under the heaviest load) and the current its level
     ke_window_s: float = 30.0     # Ke at a driven span: the median of the probes within this of it (the magnets
     #                               follow the case, minutes; a probe's Ke scatters by its count's resolution)
-    ra_window_s: float = 8.0      # Ra at a probe: the driven spans whose middle lies within this of it, weighted
-    #                               by their variance (the averaging ADC leaves ~75 mV / sqrt(s) on V under a
-    #                               10 kHz PWM); against the winding's 9 s time constant on the twin
+    ra_window_s: float = 30.0     # Ra at a probe: a straight line in time through the driven spans of its stretch
+    #                               (one duty and load) whose middle lies within this of it, weighted by their
+    #                               variance (the averaging ADC leaves ~75 mV / sqrt(s) on V under a 10 kHz PWM,
+    #                               ~1 K per 16 s of spans). The copper cannot bend faster than its heat capacity
+    #                               lets it: at one drive it relaxes to the case plus P R_wc at the winding's time
+    #                               constant (C_w R_wc, 9 s on the twin), then follows the case (C_c R_ca, 23 min),
+    #                               straight over a minute; the stretch's first ~3 winding time constants keep a
+    #                               curvature the line misses (the cold start's first 6 s: up to 5.2 K with
+    #                               the noise on one seed of four, docs/ripple-coast.md)
     max_ra_rel_sd: float = 0.008  # an Ra less certain than this (relative standard uncertainty) is not given:
     #                               0.8 % is 2 K of copper (0.393 %/K)
     brush_drop_V: float = 0.0     # the brushes' contact drop while current flows, where the user declares it
