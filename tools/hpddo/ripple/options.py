@@ -90,3 +90,37 @@ class Options:
     #                               ripples a window (rpm_bound), never confident; 0 turns the creep off
     stall_prior_z: float = 1.0    # count_stalls: the back-EMF prior plus this many of its upper sd must lie under
     #                               the speed floor for a span to be a stall (stall.count_stalls, 1.)
+
+
+@dataclasses.dataclass(frozen=True)
+class CoastOptions:
+    """The coast probe's estimator (ripple/coast.py, docs/ripple-coast.md): Ke from the open terminals'
+    back-EMF, then Ra and the winding's temperature from the driven rows around it."""
+
+    decayed_A: float = 0.03       # the current has freewheeled out once every later sample of the probe reads under
+    #                               this: 3 codes of the twin's shunt channel (9.8 mA), 6 of its noise's sd, a
+    #                               thirtieth of a running current
+    min_emf_samples: int = 8      # voltage samples a probe must hold after the decay for the back-EMF's curve
+    #                               (a quadratic in time: the shaft slows at its mechanical time constant)
+    count_s: float = 0.3          # the ripple counted over this much of the drive on each side of a probe: 13
+    #                               cycles at 99 RPM on 26.4 ripples per output revolution (0.25 s left the
+    #                               quarters' spread at 10 % there, so no count was confident)
+    recovery_s: float = 0.05      # left out after a probe: the shaft regains its speed (mechanical time constant
+    #                               16 ms on the twin under the heaviest load) and the current its level
+    ke_window_s: float = 30.0     # Ke at a driven span: the median of the probes within this of it (the magnets
+    #                               follow the case, minutes; a probe's Ke scatters by its count's resolution)
+    ra_window_s: float = 30.0     # Ra at a probe: a straight line in time through the driven spans of its stretch
+    #                               (one duty and load) whose middle lies within this of it, weighted by their
+    #                               variance (the averaging ADC leaves ~75 mV / sqrt(s) on V under a 10 kHz PWM,
+    #                               ~1 K per 16 s of spans). The copper cannot bend faster than its heat capacity
+    #                               lets it: at one drive it relaxes to the case plus P R_wc at the winding's time
+    #                               constant (C_w R_wc, 9 s on the twin), then follows the case (C_c R_ca, 23 min),
+    #                               straight over a minute; the stretch's first ~3 winding time constants keep a
+    #                               curvature the line misses (the cold start's first 6 s: up to 5.2 K with
+    #                               the noise on one seed of four, docs/ripple-coast.md)
+    max_ra_rel_sd: float = 0.008  # an Ra less certain than this (relative standard uncertainty) is not given:
+    #                               0.8 % is 2 K of copper (0.393 %/K)
+    brush_drop_V: float = 0.0     # the brushes' contact drop while current flows, where the user declares it
+    #                               (V - Ke n - drop = Ra I); 0: none declared, Ra then carries drop / I
+    ra_ref_ohm: float | None = None  # the winding's Ra at ra_ref_C (a multimeter's); None: the first probe's Ra,
+    ra_ref_C: float | None = None    # at the log's first temperature reading (the motor cold, at ambient)

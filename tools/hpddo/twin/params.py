@@ -440,3 +440,35 @@ def params_md(params) -> str:
 def ripple_burst_md() -> str:
     """The ripple mode's parameters table of docs/ripple.md, from RIPPLE_BURST."""
     return params_md(RIPPLE_BURST.values())
+
+
+# ---------------------------------------------------------------------------------------
+# The coast probe (issue 33, item 7; twin/coast.py, docs/ripple-coast.md): the drive held off
+# for a few milliseconds at a fixed period, so the terminals show the back-EMF itself; off
+# unless asked (twin.coast.warmup), so no recording or study without it changes.
+
+COAST_PROBE = {
+    p.name: p
+    for p in [
+        BurstParam("probe_s", "s", 0.004, (0.002, 0.010),
+                   "how long the drive is held off per probe: long enough for the armature current to "
+                   "freewheel to zero (La / R about 0.5 ms, sped up by the back-EMF) and leave some "
+                   "milliseconds of open terminals, short against the mechanical time constant (the shaft "
+                   "slows about 2 % over 4 ms under full friction); also the log's row period in the twin's "
+                   "warm-up, so a probe is one row"),
+        BurstParam("period_s", "s", 1.5, (1.0, 2.0),
+                   "one probe every period_s: often against the winding's thermal time constant "
+                   "(C_w R_wc, 9 s on the twin), rare enough that the drive loses 0.3 % of its time"),
+        BurstParam("burst_s", "s", 0.4, (0.4, 1.0),
+                   "the current burst kept on each side of a probe (before the cut, after the drive is back) "
+                   "for the ripple count of the speed there; the rest of the run keeps its log rows only"),
+    ]
+}
+
+
+def coast_probe(**values) -> dict:
+    """The coast probe's parameters (COAST_PROBE defaults, names checked) as {name: value}."""
+    out = declared_values(COAST_PROBE, values, "coast-probe")
+    if not (out["probe_s"] > 0 and out["period_s"] > 2 * out["probe_s"]):
+        raise ValueError("probe_s must be > 0 and period_s more than twice probe_s")
+    return out

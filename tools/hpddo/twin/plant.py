@@ -152,6 +152,13 @@ def pwm_waveform(phase, d, E, vb, ra, la, b: Bench):
     return np.where(s < t_on, on, off)
 
 
+def load_damping_nms(b: Bench, load: int) -> float:
+    """The generator's braking per rad/s at the shared shaft under load state `load` (N m s):
+    Ke_gen^2 / (R_gen + R_relay + R_load), none with the load open."""
+    r_l = b.load_ohm[int(load)]
+    return 0.0 if math.isinf(r_l) else b.ke_gen_vs_per_rad ** 2 / (b.r_gen_ohm + b.r_relay_ohm + r_l)
+
+
 class Result:
     """Per-sample true means and states, and the energy ledger of a run."""
 
@@ -192,9 +199,7 @@ def simulate(bench: Bench, duty, load, rate_hz, h_max=None, h0=2e-4, growth=1.15
     tcm, tcg = b.tc_motor_nm, b.tc_gen_nm
     Tct = tcm + tcg
     rsh, rds, rd, vd, Vs = b.r_shunt_ohm, b.r_dson_ohm, b.diode_r_ohm, b.diode_vf_V, b.supply_V
-    cg_of = []
-    for r_l in b.load_ohm:
-        cg_of.append(0.0 if math.isinf(r_l) else b.ke_gen_vs_per_rad ** 2 / (b.r_gen_ohm + b.r_relay_ohm + r_l))
+    cg_of = [load_damping_nms(b, L) for L in range(len(b.load_ohm))]
     Cw, Cc = b.c_winding_J_per_K, b.c_case_J_per_K
     Rwc, Rca = b.r_winding_case_K_per_W, b.r_case_amb_K_per_W
     Ta = b.ambient_C

@@ -1,0 +1,189 @@
+"""Online Ra and winding temperature from the coast probe (ripple/coast.py, twin/coast.py,
+docs/ripple-coast.md): Ra and the winding's temperature recovered within the targets on generated
+warm-ups (other seeds, other motors than the study's), no figure without a probe, a probe whose current
+does not freewheel out refused, and the study's committed figures regenerated."""
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+
+import numpy as np
+import pytest
+
+from hpddo.ripple import coast as rc
+from hpddo.ripple.options import CoastOptions, Options
+from hpddo.studies import coast as study
+from hpddo.twin import coast as tc
+from hpddo.twin import params
+
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+
+
+def _scored(b, seed, duration_s=90.0, sampling=None):
+    # 90 s: stretches of 18-27 s (the study's schedule shrunk); at 45 s (9-13.5 s, about one winding time
+    # constant) the straight line through a stretch's spans (ripple.coast.ra_at) was too uncertain at the
+    # stretch's ends for half of the probes to give Ra
+    rec, tab, t_first = study.run_one(b, duration_s, seed, sampling or {})
+    return rec, tab, study.score(rec, tab, t_first)
+
+
+def _holds_what_the_page_says(rec, tab, s):
+    """docs/ripple-coast.md, "Measured": Ra within 2 % at every probe given (the study: all but the warm-up's
+    first probe on one seed); the winding within 3 K at most of them (not all: the cold start bends faster
+    than the 30 s line follows); every error within 4 of the probe's own standard uncertainty."""
+    assert s["ra_given"] >= s["probes"] // 2, s["refused"]  # the probes at one duty and load give Ra
+    assert s["ra_err_pct"]["max"] <= study.RA_TARGET * 100, s
+    assert s["winding_within_target"] >= 0.9 * s["ra_given"], s
+    given = tab["ra_ohm"].notna().to_numpy()
+    k = tab["row"].to_numpy(int)[given]
+    copper = "case_C" if rec.bench.form("thermal_ra") == "case" else "winding_C"
+    err = tab["winding_C"].to_numpy()[given] - rec.truth[copper].to_numpy()[k - 1]
+    assert np.all(np.abs(err) <= 4 * tab["winding_sd_K"].to_numpy()[given]), np.max(np.abs(err) / tab["winding_sd_K"].to_numpy()[given])
+
+
+MOTORS = {
+    # the study's motor, other seeds
+    "study motor": lambda: study.bench(),
+    # a lower-resistance winding with weaker magnets, its copper at the case temperature, its magnets lagging
+    "other motor": lambda: params.with_forms(study.bench(ra_ohm=3.6, ke_vs_per_rad=0.31),
+                                             thermal_ra="case", magnet_thermal="lag_600s"),
+}
+
+
+@pytest.mark.parametrize("motor", sorted(MOTORS))
+@pytest.mark.parametrize("seed", [7, 11])
+def test_ra_and_winding_within_targets(motor, seed):
+    rec, tab, s = _scored(MOTORS[motor](), seed)
+    _holds_what_the_page_says(rec, tab, s)
+    # every probe not given says why, in words; every probe given has its uncertainty
+    given = tab["ra_ohm"].notna()
+    assert (tab.loc[~given, "reason"].str.len() > 0).all()
+    assert (tab.loc[given, "reason"] == "").all() and tab.loc[given, "ra_sd_ohm"].gt(0).all()
+
+
+def test_free_running_sampling_within_targets():
+    rec, tab, s = _scored(study.bench(), 13, sampling=study.SAMPLINGS["free-running"])
+    _holds_what_the_page_says(rec, tab, s)
+
+
+def test_no_probe_gives_the_sentence_not_a_number():
+    b = study.bench()
+    rec = tc.warmup(b, study.segments(6.0), seed=3, probe=None)
+    assert len(rec.probes) == 0 and (rec.log["duty"] > 0).all()
+    res = rc.estimate(rec.log, rec.bursts, rec.probes, Options(b.ripples_per_rev, b.gear_ratio), b.ra_ohm,
+                      b.ke_vs_per_rad, CoastOptions())
+    assert res.table is None and res.statement == rc.NO_PROBE
+    assert not any(ch.isdigit() for ch in res.statement)
+
+
+def test_probe_whose_current_does_not_decay_is_refused():
+    # a winding of 200 mH: L / R of 40 ms, the freewheel needs ~15 ms to reach zero, the probe lasts 4 ms
+    b = params.with_effects(study.bench(), inductance=200.0)
+    rec = tc.warmup(b, study.segments(8.0), seed=4, probe=params.coast_probe())
+    assert (rec.facts["t_decay_s"] > rec.probe["probe_s"]).all()
+    res = rc.estimate(rec.log, rec.bursts, rec.probes, Options(b.ripples_per_rev, b.gear_ratio), b.ra_ohm,
+                      b.ke_vs_per_rad, CoastOptions(brush_drop_V=0.5))
+    tab = res.table
+    assert len(tab) and (tab["reason"] == rc.NOT_DECAYED).all()
+    assert tab[["ke_vs_per_rad", "ra_ohm", "winding_C"]].isna().all().all()
+
+
+def test_back_emf_refuses_what_it_cannot_see():
+    t_i = 2 * np.arange(20) / 10000.0
+    t_v = t_i + 1e-4
+    # a current that stays up: refused
+    e = rc.back_emf(t_i, np.full(20, 0.5), t_v, np.full(20, -0.4), 0.5, CoastOptions())
+    assert math.isnan(e[0]) and e[3] == rc.NOT_DECAYED
+    # decayed at once, but the terminals show nothing: a standing shaft
+    e = rc.back_emf(t_i, np.zeros(20), t_v, np.zeros(20), 0.5, CoastOptions())
+    assert math.isnan(e[0]) and e[3] == rc.STANDING
+    # decayed late: too few voltage samples after it
+    i = np.where(np.arange(20) < 16, 0.4, 0.0)
+    e = rc.back_emf(t_i, i, t_v, np.full(20, 5.0), 0.5, CoastOptions())
+    assert math.isnan(e[0]) and e[3].startswith(rc.FEW_EMF)
+    # a clean decay and a straight back-EMF line: read back at the torque's end; one sample above the threshold
+    # puts the zero in the middle of its interval (0.1 ms), the charge 0.5 A x 0.1 ms / 2, t_a = 0.05 ms
+    i = np.where(np.arange(20) < 1, 0.5, 0.0)
+    v = 5.0 - 300.0 * t_v
+    e, sd, t_a, why = rc.back_emf(t_i, i, t_v, v, 0.5, CoastOptions())
+    assert why == "" and t_a == pytest.approx(5e-5) and e == pytest.approx(5.0 - 300.0 * t_a, abs=1e-9)
+    # two samples above it: their line carried on to zero (1.0 A at 0, 0.4 A at 0.2 ms: zero at 0.2667 ms)
+    i = np.where(np.arange(20) < 2, np.where(np.arange(20) < 1, 1.0, 0.4), 0.0)
+    e, sd, t_a, why = rc.back_emf(t_i, i, t_v, v, 1.0, CoastOptions())
+    q = 0.5 * (1.0 + 0.4) * 2e-4 + 0.5 * 0.4 * (0.4 / 3000.0)
+    assert why == "" and t_a == pytest.approx(q)
+
+
+def test_conducting_share_measured_where_the_samples_see_it():
+    """Under a 490 Hz PWM at duty 0.7 the current stops for part of each period (the brush drop with it):
+    free-running samples measure the share; synchronous ones, all in the on-time, cannot and give 1."""
+    from hpddo.twin.ripple_free import ripple_free
+    b = study.bench()
+    for sampling, pwm in (("free", 490.196), ("synchronous", 0.0)):
+        rp = {**params.ripple_burst(), **ripple_free(pwm_hz=pwm)}
+        rec = tc.warmup(b, [(4.0, 0.7, 2)], seed=6, probe=params.coast_probe(), ripple=rp)
+        rows = [int(s) for s in rec.bursts.seq if s > 100]
+        pos = {int(s): j for j, s in enumerate(rec.bursts.seq)}
+        share = rc.conducting_share(rec.bursts, pos, rows, CoastOptions().decayed_A)
+        cond = float(rec.truth["cond_frac"].to_numpy()[rows].mean())
+        if sampling == "free":
+            assert cond < 0.97 and share == pytest.approx(cond, abs=0.01)
+        else:
+            assert share == 1.0 and cond == pytest.approx(1.0)
+
+
+def test_ra_at_follows_a_step_of_drive_and_averages_the_noise():
+    """The line through a stretch's spans: a step of the drive between two stretches is not smeared (each
+    side reads its own line), and over spans of independent noise its error stays within its uncertainty."""
+    import pandas as pd
+    rng = np.random.default_rng(0)
+    t = np.arange(0.75, 120.0, 1.5)
+    stretch = (t > 60).astype(int)
+    true = np.where(stretch == 0, 4.5 + 0.002 * t, 4.8 + 0.001 * t)  # the heavier drive's copper 0.3 ohm warmer
+    sd = np.full(len(t), 0.02)
+    for noise in (0.0, 1.0):
+        sp = pd.DataFrame({"t_mid": t, "stretch": stretch, "ra": true + noise * sd * rng.standard_normal(len(t)),
+                           "sd_rows": sd, "sd_ke": 0.0})
+        errs = []
+        for t0, st, want in ((59.0, 0, 4.5 + 0.002 * 59.0), (61.0, 1, 4.8 + 0.001 * 61.0), (90.0, 1, 4.89)):
+            ra, ra_sd = rc.ra_at(sp, t0, st, 30.0)
+            errs.append(abs(ra - want) / ra_sd)
+            assert ra_sd < 0.02  # better than one span's
+        assert max(errs) <= (1e-6 if noise == 0 else 4.0), errs
+    assert math.isnan(rc.ra_at(sp.iloc[:2], 1.0, 0, 30.0)[0])  # fewer than three spans: no line
+
+
+def test_the_page_quotes_the_committed_figures():
+    committed = json.loads((ROOT / "docs/figures/coast.json").read_text())
+    assert study.block(committed) in (ROOT / "docs/ripple-coast.md").read_text()
+
+
+def test_twin_without_probe_is_unchanged():
+    """The probe is off unless asked: the schedule without it is the segments' own."""
+    from hpddo.twin import protocols
+    segs = study.segments(10.0)
+    d, ld, rows = tc.schedule(segs, None, 250.0)
+    d0, ld0 = protocols.per_sample(segs, 250.0)
+    assert len(rows) == 0 and np.array_equal(d, d0) and np.array_equal(ld, ld0)
+
+
+@pytest.mark.slow
+def test_study_regenerates_the_committed_figures():
+    """A small version of the study (one seed, synchronous sampling) gives the committed run's figures."""
+    committed = json.loads((ROOT / "docs/figures/coast.json").read_text())
+    res = study.run(committed["duration_s"], seeds=(1,), samplings=("synchronous",))
+    assert res["runs"]["synchronous seed 1"] == committed["runs"]["synchronous seed 1"]
+
+
+def test_no_reference_temperature_gives_ra_and_says_why_no_temperature():
+    b = study.bench()
+    rec = tc.warmup(b, [(12.0, 0.9, 2)], seed=5, probe=params.coast_probe())
+    opts = Options(b.ripples_per_rev, b.gear_ratio)
+    res = rc.estimate(rec.log.drop(columns=["temp_C"]), rec.bursts, rec.probes, opts, b.ra_ohm, b.ke_vs_per_rad,
+                      CoastOptions(brush_drop_V=0.5))
+    assert res.table["ra_ohm"].notna().any() and res.table["winding_C"].isna().all()
+    assert res.statement == rc.NO_REFERENCE
+    from hpddo.logs.errors import InputError
+    with pytest.raises(InputError, match="v_V"):
+        rc.estimate(rec.log.drop(columns=["v_V"]), rec.bursts, rec.probes, opts, b.ra_ohm, b.ke_vs_per_rad)
