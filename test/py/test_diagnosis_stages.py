@@ -266,3 +266,36 @@ def test_correlates_put_the_largest_significant_r_first():
     assert [c["input"] for c in out] == ["duty", "I"]
     assert out[0]["peak"] < -0.8 and 0.15 < out[1]["peak"] < 0.35
     assert all(c["significant"] for c in out)
+
+
+def test_bootstrap_started_from_the_whole_data_selects_as_from_the_smaller_model(default_stages, monkeypatch):
+    """The bootstrap's resamples fit each model from that model's fit on all rows (the
+    selection's fits): the same inclusion frequencies as each fit started from the model one
+    effect smaller, in fewer evaluations of the model (counted, not timed)."""
+    from hpddo import interrupt
+    from hpddo.diagnosis import ranking
+    from scipy.optimize import least_squares
+    paths, opt, inp, mf, ident, sel, conf = default_stages
+    d, m2, given = inp.data, inp.m2, inp.given
+    candidates = [c for c in ident if ident[c].identifiable] + [ranking.RA_MISMATCH]
+    fits = {}
+    steps, final = ranking.forward_select(d, m2, given, candidates, mf.sigma2, fits=fits)
+    assert [s.name for s in steps if s.name] == [s.name for s in sel.steps if s.name]
+    assert frozenset(given) in fits and all(frozenset(given + [c]) in fits for c in candidates if c not in given)
+    evals = []
+
+    def counted(*a, **k):
+        r = least_squares(*a, **k)
+        evals.append(r.nfev + r.njev * len(r.x))
+        return r
+
+    monkeypatch.setattr(fx, "least_squares", counted)
+    monkeypatch.setattr(interrupt, "map_on_cores", lambda fn, jobs, shown=None: [fn(j) for j in jobs])
+    fx._fit_memo.clear()
+    cold = ranking.bootstrap(d, m2, given, candidates, mf.sigma2, final, 3, seed=5)
+    n_cold, evals[:] = sum(evals), []
+    fx._fit_memo.clear()
+    warm = ranking.bootstrap(d, m2, given, candidates, mf.sigma2, final, 3, seed=5, starts=fits)
+    assert warm == cold and sum(warm.values()) > 0
+    print(f"evaluations of the model: {sum(evals)} warm, {n_cold} cold")
+    assert sum(evals) < 0.85 * n_cold, (sum(evals), n_cold)

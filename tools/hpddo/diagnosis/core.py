@@ -434,12 +434,13 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
     d, rows, m2, given, sigma2 = inp.data, inp.rows, inp.m2, inp.given, mf.sigma2
     RA = ranking.RA_MISMATCH
     candidates = [c for c in ident if ident[c].identifiable] + [RA]
-    steps, final = ranking.forward_select(d, m2, given, candidates, sigma2)
+    fits = {}
+    steps, final = ranking.forward_select(d, m2, given, candidates, sigma2, fits=fits)
     chosen = [s.name for s in steps if s.name]
     missing = [c for c in chosen if c != RA]
     if opt.bootstrap:
         progress.stage(f"the forward selection again on {opt.bootstrap} bootstrap resamples")
-    boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed)
+    boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed, starts=fits)
     # An effect named at a step where a wrong Ra passed every test too is told apart from it
     # only when its held-out gain over the wrong-Ra model is Z_MIN standard errors or more;
     # otherwise neither is named (RaFit.confounded_with).

@@ -492,16 +492,19 @@ def _value(name: str, p: ph.PhysicsParams) -> float:
 
 
 def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: float, weights=None,
-                   start=None, exclude=()) -> tuple[list, ph.PhysicsParams]:
+                   start=None, exclude=(), fits=None, starts=None) -> tuple[list, ph.PhysicsParams]:
     """Forward selection from the model with `given` effects; returns (steps, final params).
     exclude: candidates tried at every step (their gains are the alternatives') but never
     named. An offset drifting with the case temperature that the final model could trade for
     a thermal effect of the motor without the recordings telling the two apart is excluded
-    so (motor_physics_first)."""
-    steps, p = _forward_select(d, m2, given, candidates, sigma2, weights, start, exclude)
+    so (motor_physics_first).
+    fits: a dict filled with every model fitted along the way, {frozenset of its effects:
+    params}; starts: such a dict of another selection on the same recordings (the bootstrap's
+    of the selection on all rows), each model's fit started there where it holds the model."""
+    steps, p = _forward_select(d, m2, given, candidates, sigma2, weights, start, exclude, fits, starts)
     if not exclude and motor_physics_first(d, m2, given, steps, p, candidates, sigma2, weights):
         drifts = tuple(c for c in candidates if c in fx.LIBRARY and fx.LIBRARY[c].case_temperature)
-        return _forward_select(d, m2, given, candidates, sigma2, weights, start, drifts)
+        return _forward_select(d, m2, given, candidates, sigma2, weights, start, drifts, fits, starts)
     return steps, p
 
 
@@ -554,9 +557,19 @@ def motor_physics_first(d: Data, m2: ph.PhysicsParams, given, steps, p, candidat
 
 
 def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: float, weights=None,
-                    start=None, exclude=()) -> tuple[list, ph.PhysicsParams]:
+                    start=None, exclude=(), fits=None, starts=None) -> tuple[list, ph.PhysicsParams]:
+    starts = starts or {}
+
+    def fit_from(names, p_before):
+        """scored_names of the model of names, started from starts' fit of it, else p_before."""
+        key = frozenset(names)
+        pc, rc = scored_names(d, m2, names, sigma2, weights=weights, start=starts.get(key, p_before))
+        if fits is not None:
+            fits[key] = pc
+        return pc, rc
+
     chosen = list(given)
-    p, res = scored_names(d, m2, chosen, sigma2, weights=weights, start=start)
+    p, res = fit_from(chosen, start)
     mse = held_out_mse(d, res)
     mse_start = mse
     steps = []
@@ -565,7 +578,7 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
         tried = []
         for c in remaining:
             try:
-                pc, rc = scored_names(d, m2, chosen + [c], sigma2, weights=weights, start=p)
+                pc, rc = fit_from(chosen + [c], p)
             except Exception:  # a degenerate fit is simply not a candidate
                 continue
             g, z = gain_z(d, res, rc, sigma2)
@@ -603,8 +616,8 @@ def apart_z(d: Data, res_alt, res_named, sigma2: float) -> float:
 
 
 def _select_names(args) -> list:
-    d, m2, given, candidates, sigma2, weights, start = args
-    steps, _ = forward_select(d, m2, given, candidates, sigma2, weights=weights, start=start)
+    d, m2, given, candidates, sigma2, weights, start, starts = args
+    steps, _ = forward_select(d, m2, given, candidates, sigma2, weights=weights, start=start, starts=starts)
     return [s.name for s in steps if s.name]
 
 
@@ -616,9 +629,12 @@ def n_train_blocks(d: Data) -> int:
     return int(sum(len(np.unique(b[b >= 0])) for b in d.blocks_train))
 
 
-def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7) -> dict:
+def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7, starts=None) -> dict:
     """Inclusion frequency of each candidate over n block resamples of the training rows.
-    The resamples are drawn in order from one seed, then selected on all cores."""
+    The resamples are drawn in order from one seed, then selected on all cores. starts: the
+    fits of the selection on all rows (forward_select's fits), each resample's fit of a
+    model started from that model's fit there: a resample's optimum lies near the whole
+    data's, and the solver reaches it in fewer steps than from the model one effect smaller."""
     rng = np.random.default_rng(seed)
     counts = {c: 0 for c in candidates}
     if n <= 0:
@@ -634,7 +650,7 @@ def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int =
                 mult = np.bincount(np.searchsorted(ids, pick), minlength=len(ids)).astype(float)
                 w[blk >= 0] = mult[np.searchsorted(ids, blk[blk >= 0])]
             weights.append(w)
-        jobs.append((d, m2, list(given), list(candidates), sigma2, weights, start))
+        jobs.append((d, m2, list(given), list(candidates), sigma2, weights, start, starts))
     chosen = interrupt.map_on_cores(_select_names, jobs,
                                     lambda it, k: progress.bar(it, "bootstrap", total=k, unit="resample"))
     for names in chosen:
