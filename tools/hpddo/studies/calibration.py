@@ -301,22 +301,17 @@ DOC = "docs/diagnosis-limits.md"
 WHAT = "the calibration study's figures"
 
 
-def doc_markers() -> tuple[str, str]:
-    from .. import regenerate
-    return (regenerate.DOC_BEGIN.format(what=WHAT, source=FIGURES,
-                                        command="python -m hpddo.studies.calibration --write-docs"),
-            regenerate.DOC_END.format(what=WHAT))
+def doc_markers() -> tuple:
+    from . import doc_markers as markers
+    return markers("calibration", WHAT, FIGURES)
 
 
 def docs_text(doc: str, figures: dict) -> str:
     """doc (docs/diagnosis-limits.md's text) with its block of the study's figures rendered from figures
     (the committed JSON)."""
-    begin, end = doc_markers()
-    i, j = doc.find(begin), doc.find(end)
-    if i < 0 or j < i:
-        raise ValueError(f"{DOC}: the markers of {WHAT} are missing")
+    from . import with_block
     block = f"Measured by `{figures['command']}`:\n\n{table(figures['summary'])}\n"
-    return doc[: i + len(begin)] + "\n" + block + doc[j:]
+    return with_block(doc, doc_markers(), block, DOC, WHAT)
 
 
 def main(argv=None) -> int:
@@ -329,11 +324,8 @@ def main(argv=None) -> int:
     ap.add_argument("--json", type=pathlib.Path, help="write every bench's result and the summary here")
     args = ap.parse_args(argv)
     if args.write_docs:
-        from .. import resource_root
-        root = resource_root()
-        doc = root / DOC
-        doc.write_text(docs_text(doc.read_text(), json.loads((root / FIGURES).read_text())))
-        return 0
+        from . import write_docs
+        return write_docs(DOC, FIGURES, docs_text)
     seeds = list(range(args.seed, args.seed + args.benches))
     command = "python -m hpddo.studies.calibration " + " ".join(argv if argv is not None else sys.argv[1:])
     from tqdm import tqdm

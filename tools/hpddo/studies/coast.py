@@ -20,7 +20,7 @@ from ..ripple.options import CoastOptions, Options
 from ..twin import coast as tc
 from ..twin import params
 from ..twin.ripple_free import ripple_free
-from . import parser, write_json
+from . import report
 
 SEEDS = (1, 2, 3, 4)  # 3 and 4 added with the straight-line fit (ripple.coast.ra_at): its window was chosen on 1 and 2
 DURATION_S = 600.0
@@ -163,13 +163,7 @@ def block(res: dict) -> str:
 
 
 def main(argv=None) -> int:
-    ap = parser("coast", __doc__)
-    a = ap.parse_args(argv)
-    res = run(quiet=False)
-    print(block(res))
-    if a.json:
-        write_json(a.json, res)
-    return 0
+    return report("coast", __doc__, run, block, argv)
 
 
 if __name__ == "__main__":

@@ -121,29 +121,24 @@ def ke_line(cases: list) -> str:
 
 
 def doc_markers() -> tuple:
-    from .. import regenerate
-    return (regenerate.DOC_BEGIN.format(what=WHAT, source=FIGURES,
-                                        command="python -m hpddo.studies.ripple_captures --write-docs"),
-            regenerate.DOC_END.format(what=WHAT))
+    from . import doc_markers as markers
+    return markers("ripple_captures", WHAT, FIGURES)
 
 
 def docs_text(doc: str, figures: dict) -> str:
     """doc (docs/ripple-captures.md) with its block of the study's figures rendered from figures (the
     committed JSON)."""
-    begin, end = doc_markers()
-    i, j = doc.find(begin), doc.find(end)
-    if i < 0 or j < i:
-        raise ValueError(f"{DOC}: the markers of {WHAT} are missing")
+    from . import with_block
     benches = ", ".join(f"{p} x{figures['time_scale']:g}" for p in figures["protocols"])
     block = (f"Measured by `{figures['command']}` ({benches}, seeds {', '.join(map(str, figures['seeds']))}; "
              f"{figures['sample_hz']:g} S/s free-running under {figures['pwm_hz']:g} Hz PWM; "
              "errors against the twin's true window-mean speed):\n\n" + table(figures["summary"]) + "\n\n"
              + ke_line(figures["cases"]) + "\n")
-    return doc[: i + len(begin)] + "\n" + block + doc[j:]
+    return with_block(doc, doc_markers(), block, DOC, WHAT)
 
 
 def main(argv=None) -> int:
-    from . import parser
+    from . import parser, write_docs
     ap = parser("ripple_captures", __doc__)
     ap.add_argument("--write-docs", action="store_true",
                     help=f"only write {DOC}'s block of figures from the committed {FIGURES}")
@@ -151,13 +146,8 @@ def main(argv=None) -> int:
     ap.add_argument("--protocols", default=",".join(PROTOCOLS), metavar="P,P,..")
     ap.add_argument("--time-scale", type=float, default=TIME_SCALE)
     a = ap.parse_args(argv)
-    from .. import resource_root
-    root = resource_root()
     if a.write_docs:
-        doc = root / DOC
-        doc.write_text(docs_text(doc.read_text(encoding="utf-8"),
-                                 json.loads((root / FIGURES).read_text(encoding="utf-8"))), encoding="utf-8")
-        return 0
+        return write_docs(DOC, FIGURES, docs_text)
     seeds = [int(s) for s in a.seeds.split(",")]
     protocols = a.protocols.split(",")
     cases = []

@@ -24,7 +24,7 @@ from ..ripple.options import Options
 from ..ripple import calibrate as rcal
 from ..ripple import comb as rc
 from ..twin import generate, params
-from . import parser, write_json
+from . import report
 
 WINDOW_S = 0.5
 PROTOCOLS = ("sweep", "load")
@@ -175,13 +175,7 @@ def block(res: dict) -> str:
 
 
 def main(argv=None) -> int:
-    ap = parser("ripple_line", __doc__)
-    a = ap.parse_args(argv)
-    res = run(quiet=False)
-    print(block(res))
-    if a.json:
-        write_json(a.json, res)
-    return 0
+    return report("ripple_line", __doc__, run, block, argv)
 
 
 if __name__ == "__main__":

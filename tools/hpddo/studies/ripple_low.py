@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import itertools
-import json
 import math
 import sys
 
@@ -115,39 +114,29 @@ def table(cases: list) -> str:
 
 
 def doc_markers() -> tuple:
-    from .. import regenerate
-    return (regenerate.DOC_BEGIN.format(what=WHAT, source=FIGURES,
-                                        command="python -m hpddo.studies.ripple_low --write-docs"),
-            regenerate.DOC_END.format(what=WHAT))
+    from . import doc_markers as markers
+    return markers("ripple_low", WHAT, FIGURES)
 
 
 def docs_text(doc: str, figures: dict) -> str:
     """doc (docs/ripple-accuracy.md) with its block of the study's figures rendered from figures."""
-    begin, end = doc_markers()
-    i, j = doc.find(begin), doc.find(end)
-    if i < 0 or j < i:
-        raise ValueError(f"{DOC}: the markers of {WHAT} are missing")
+    from . import with_block
     block = (f"Measured by `{figures['command']}` (duties {', '.join(f'{d:g}' for d in figures['duties'])}, "
              f"{figures['dwell_s']:g} s each, open; Ke {figures['ke_given']:g} V s/rad given; errors against the "
              "twin's true window-mean speed):\n\n" + table(figures["cases"]) + "\n")
-    return doc[: i + len(begin)] + "\n" + block + doc[j:]
+    return with_block(doc, doc_markers(), block, DOC, WHAT)
 
 
 def main(argv=None) -> int:
-    from . import parser, write_json
+    from . import parser, write_docs, write_json
     ap = parser("ripple_low", __doc__)
     ap.add_argument("--write-docs", action="store_true",
                     help=f"only write {DOC}'s block of figures from the committed {FIGURES}")
     ap.add_argument("--seeds", default="1,2", metavar="S,S,..")
     ap.add_argument("--modes", default=",".join(MODES), metavar="M,M,..")
     a = ap.parse_args(argv)
-    from .. import resource_root
-    root = resource_root()
     if a.write_docs:
-        doc = root / DOC
-        doc.write_text(docs_text(doc.read_text(encoding="utf-8"),
-                                 json.loads((root / FIGURES).read_text(encoding="utf-8"))), encoding="utf-8")
-        return 0
+        return write_docs(DOC, FIGURES, docs_text)
     cases = []
     for mode, seed, variant in itertools.product(a.modes.split(","), [int(s) for s in a.seeds.split(",")], VARIANTS):
         c = run_case(mode, seed, variant)
