@@ -101,6 +101,14 @@ def write_log(path, s, t_s):
 @example(s={"windows": 1, "n": 17, "shape": "constant", "sample_hz": 1.0, "a_per_code": 0.0097, "offset": None,
             "sampling": None, "pwm_hz": None, "mains_hz": None, "coupling": None, "gaps": False,
             "varying_n": False, "seed": 0})
+# a mains frequency of 1 mHz: its multiples up to fs / 2 were listed (5e8 of them: the memory ran out)
+@example(s={"windows": 4, "n": 300, "shape": "constant", "sample_hz": 1e6, "a_per_code": 1.0, "offset": 1e12,
+            "sampling": None, "pwm_hz": None, "mains_hz": 0.001, "coupling": None, "gaps": True,
+            "varying_n": False, "seed": 0})
+# 17 samples at 100 Hz, AC-coupled: a line found, too few samples for the count's band-pass (sosfiltfilt)
+@example(s={"windows": 1, "n": 17, "shape": "ripple", "sample_hz": 100.0, "a_per_code": 1e-9, "offset": None,
+            "sampling": None, "pwm_hz": None, "mains_hz": None, "coupling": "ac", "gaps": False,
+            "varying_n": False, "seed": 1})
 def test_any_valid_burst_file_gives_a_result_or_a_user_error(tmp_path_factory, s):
     d = tmp_path_factory.mktemp("burst")
     path, t_s = write_bursts(d / "any.ripple.csv", s)
@@ -120,3 +128,60 @@ def test_any_valid_burst_file_gives_a_result_or_a_user_error(tmp_path_factory, s
         status = cli.main(["ripple", str(log), *common, "--out", str(d / "logged")])
         assert status in (0, 1)
         event(f"beside a log: status {status}")
+
+
+@st.composite
+def coast_spec(draw):
+    return {
+        "burst": draw(burst_spec()),
+        "probes": draw(st.integers(min_value=0, max_value=4)),
+        "n_i": draw(st.sampled_from((0, 1, 3, 20, 200))),
+        "n_v": draw(st.sampled_from((0, 1, 3, 20, 200))),
+        "shape": draw(st.sampled_from(("decay", "constant", "noise", "huge", "negative"))),
+        "sample_hz": draw(st.sampled_from((1.0, 10000.0, 1e6))),
+        "v_per_code": draw(st.sampled_from((1e-9, 0.0147, 1e3))),
+        "v_shift": draw(st.sampled_from((None, 0.0, 1.5, -1e9))),
+        "seed": draw(st.integers(min_value=0, max_value=2 ** 16)),
+    }
+
+
+def write_coast(path, c, t_s):
+    """Probes at some of the log's rows (seq), each a burst of both channels."""
+    from hpddo.logs import coast as cf
+    rng = np.random.default_rng(c["seed"])
+    rows = sorted(set(rng.integers(0, len(t_s), c["probes"]).tolist())) if len(t_s) else []
+    ic, vc = [], []
+    for _ in rows:
+        j_i, j_v = np.arange(c["n_i"]), np.arange(c["n_v"])
+        if c["shape"] == "decay":
+            i, v = np.maximum(0, 60 - 20 * j_i), np.full(c["n_v"], 300)
+        elif c["shape"] == "constant":
+            i, v = np.full(c["n_i"], 7), np.full(c["n_v"], 7)
+        elif c["shape"] == "noise":
+            i, v = np.round(rng.normal(0, 3, c["n_i"])), np.round(300 + rng.normal(0, 3, c["n_v"]))
+        elif c["shape"] == "huge":
+            i, v = rng.integers(-2 ** 40, 2 ** 40, c["n_i"]), rng.integers(-2 ** 40, 2 ** 40, c["n_v"])
+        else:
+            i, v = -np.abs(60 - 20 * j_i), -np.full(c["n_v"], 300)
+        ic.append(np.asarray(i, np.int64))
+        vc.append(np.asarray(v, np.int64))
+    probes = cf.ProbeBursts(sample_hz=c["sample_hz"], a_per_code=0.0097, v_per_code=c["v_per_code"],
+                            v_shift_V=0.0 if c["v_shift"] is None else c["v_shift"], seq=np.array(rows, np.int64),
+                            t_s=np.array([t_s[r] for r in rows], float), i_codes=ic, v_codes=vc)
+    return cf.write(path, probes, {"condition": "any"})
+
+
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
+                                                                   HealthCheck.too_slow])
+@given(c=coast_spec())
+def test_any_valid_coast_file_gives_a_result_or_a_user_error(tmp_path_factory, c):
+    """`hpddo ripple --coast` on a log, its bursts and its probes of every shape: status 0 or 1."""
+    s = c["burst"]
+    d = tmp_path_factory.mktemp("coast")
+    path, t_s = write_bursts(d / "any.ripple.csv", s)
+    log = write_log(d / "any.csv", s, t_s)
+    write_coast(d / "any.coast.csv", c, [float(t) for t in benchlog.read_log(log).df["t_s"]] if s["windows"] else [])
+    status = cli.main(["ripple", str(log), "--coast", "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                       "--ke-vs-per-rad", "0.35", "--quiet", "--out", str(d / "out")])
+    assert status in (0, 1)
+    event(f"coast: status {status}")

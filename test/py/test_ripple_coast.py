@@ -187,3 +187,103 @@ def test_no_reference_temperature_gives_ra_and_says_why_no_temperature():
     from hpddo.logs.errors import InputError
     with pytest.raises(InputError, match="v_V"):
         rc.estimate(rec.log.drop(columns=["v_V"]), rec.bursts, rec.probes, opts, b.ra_ohm, b.ke_vs_per_rad)
+
+
+# ---- the probes in files (logs/coast.py) and `hpddo ripple --coast`
+
+@pytest.fixture(scope="module")
+def coast_files(tmp_path_factory):
+    b = study.bench()
+    rec = tc.warmup(b, study.segments(40.0), seed=5, probe=params.coast_probe())
+    d = tmp_path_factory.mktemp("coast")
+    return b, rec, tc.write(rec, d)
+
+
+def test_probes_written_and_read_back_are_the_same(coast_files):
+    from hpddo.logs import coast as cf
+    b, rec, paths = coast_files
+    back = cf.read(paths["coast"])
+    assert len(back) == len(rec.probes) > 0
+    for f in ("sample_hz", "a_per_code", "v_per_code", "v_shift_V", "offset_code"):
+        assert getattr(back, f) == getattr(rec.probes, f)
+    assert np.array_equal(back.seq, rec.probes.seq) and np.array_equal(back.t_s, rec.probes.t_s)
+    for k in range(len(back)):
+        assert np.array_equal(back.i_codes[k], rec.probes.i_codes[k])
+        assert np.array_equal(back.v_codes[k], rec.probes.v_codes[k])
+        assert np.array_equal(back.current(k)[1], rec.probes.current(k)[1])
+        assert np.array_equal(back.voltage(k)[1], rec.probes.voltage(k)[1])
+
+
+def test_ripple_coast_from_files_gives_what_the_estimator_gives_in_memory(coast_files, tmp_path, capsys):
+    """The command on the files: each probe's Ke, Ra and temperature are the estimator's on the twin's record
+    in memory (the log's columns as the bench log writes them), and the summary counts them."""
+    import pandas as pd
+    from hpddo import cli
+    b, rec, paths = coast_files
+    out = tmp_path / "out"
+    assert cli.main(["ripple", str(paths["log"]), "--coast", "--ripples-per-rev", str(b.ripples_per_rev),
+                     "--gear-ratio", str(b.gear_ratio), "--ke-vs-per-rad", str(b.ke_vs_per_rad), "--brush-drop-v",
+                     "0.5", "--ra-ref", str(b.ra_ohm), str(b.ra_ref_C), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    got = pd.read_csv(out / "coast.coast_probes.csv", keep_default_na=False, na_values=[""])
+    want = rc.estimate(rec.log, rec.bursts, rec.probes, Options(b.ripples_per_rev, b.gear_ratio), b.ra_ohm,
+                       b.ke_vs_per_rad, CoastOptions(brush_drop_V=0.5, ra_ref_ohm=b.ra_ohm, ra_ref_C=b.ra_ref_C)).table
+    assert len(got) == len(want) and got["ra_ohm"].notna().sum() >= len(got) // 2
+    for col in ("ke_vs_per_rad", "ra_ohm", "winding_C"):
+        np.testing.assert_allclose(got[col].to_numpy(float), want[col].to_numpy(float), rtol=2e-4, equal_nan=True)
+    assert list(got["reason"].fillna("")) == list(want["reason"])
+    js = json.loads((out / "summary.json").read_text())["coast"]
+    assert js["probes"] == len(got) and js["ra_given"] == int(got["ra_ohm"].notna().sum())
+    assert f"{js['probes']} coast probes; Ke measured at {js['ke_measured']}, Ra at {js['ra_given']}" in printed
+
+
+def test_ripple_coast_refuses_what_it_cannot_use(coast_files, tmp_path, capsys):
+    from hpddo import cli
+    b, rec, paths = coast_files
+    base = ["ripple", str(paths["log"]), "--ripples-per-rev", "6", "--gear-ratio", "4.4"]
+    cases = [(["--coast", "--out", str(tmp_path / "a")], "--ke-vs-per-rad"),
+             (["--ra-ref", "4.5", "31", "--ke-vs-per-rad", "0.35", "--out", str(tmp_path / "b")], "apply with --coast"),
+             (["--coast", "--ke-vs-per-rad", "0.35", "--ra-ref", "-1", "20", "--out", str(tmp_path / "c")], "--ra-ref")]
+    for extra, said in cases:
+        assert cli.main(base + extra) == 1
+        assert said in capsys.readouterr().err
+    lone = tmp_path / "lone"
+    lone.mkdir()
+    (lone / "coast.csv").write_bytes(paths["log"].read_bytes())
+    (lone / "coast.ripple.csv").write_bytes(paths["ripple"].read_bytes())
+    assert cli.main(["ripple", str(lone / "coast.csv"), "--coast", "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                     "--ke-vs-per-rad", "0.35", "--out", str(tmp_path / "d")]) == 1
+    assert "coast.coast.csv expected" in capsys.readouterr().err
+    assert not (tmp_path / "d").exists()
+
+
+BAD_COAST = [
+    ("# format=hpddo-coast 1\n# sample_hz=10000\n# a_per_code=0.01\nseq,t_s,n_i,i_codes,n_v,v_codes\n",
+     "missing metadata v_per_code"),
+    ("# format=hpddo-coast 2\n# sample_hz=10000\n# a_per_code=0.01\n# v_per_code=0.02\n", ":1: format"),
+    ("# format=hpddo-coast 1\n# sample_hz=0\n# a_per_code=0.01\n# v_per_code=0.02\nseq,t_s,n_i,i_codes,n_v,v_codes\n",
+     ":2: metadata sample_hz=0 must be > 0"),
+    ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=nan\n# v_per_code=0.02\nseq,t_s,n_i,i_codes,n_v,v_codes\n",
+     ":3: metadata a_per_code"),
+    ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\nseq,t_s,codes\n", ":5: header"),
+    ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\n"
+     "seq,t_s,n_i,i_codes,n_v,v_codes\n3,1.5,2,5 6,1,7\n4,3.0,2,5,1,7\n", ":7: count 2 does not match the 1 codes"),
+    ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\n"
+     "seq,t_s,n_i,i_codes,n_v,v_codes\n3,1.5,1,5,1,7\n4,1.5,1,5,1,7\n", ":7: t_s not increasing"),
+    ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\n"
+     "seq,t_s,n_i,i_codes,n_v,v_codes\n3,inf,1,5,1,7\n", ":6: t_s 'inf'"),
+    ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\n"
+     "seq,t_s,n_i,i_codes,n_v,v_codes\n3,1.5,1,5.5,1,7\n", ":6: "),
+    ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\n"
+     "seq,t_s,n_i,i_codes,n_v,v_codes\n3,1.5,1,5\n", ":6: 4 fields, 6 expected"),
+]
+
+
+@pytest.mark.parametrize("text,fault", BAD_COAST)
+def test_bad_coast_files_name_file_line_and_fault(tmp_path, text, fault):
+    from hpddo.logs import coast as cf
+    p = tmp_path / "x.coast.csv"
+    p.write_text(text)
+    with pytest.raises(cf.CoastFileError) as e:
+        cf.read(p)
+    assert str(e.value).startswith(str(p)) and fault in str(e.value), str(e.value)

@@ -5,6 +5,8 @@ confidence and the reason where there is none (docs/ripple.md).
     hpddo ripple LOG... --ripples-per-rev N --gear-ratio G --out OUT [--ke-vs-per-rad KE | --model DIR]
     hpddo ripple CAPTURE.ripple.csv --ripples-per-rev N --gear-ratio G --out OUT [--rpm-range LO HI]
     hpddo ripple LOG... --calibrate --gear-ratio G --out OUT [--ripples-per-rev N]
+    hpddo ripple LOG... --coast --ripples-per-rev N --gear-ratio G --out OUT (--ke-vs-per-rad KE | --model DIR)
+                        [--brush-drop-v V] [--ra-ref OHM C]
 
 --calibrate finds the ripples per motor revolution from the data (the comb of rotation lines each
 window shows, and the strongest line against the encoder or tachometer where the log has rpm_ref),
@@ -26,6 +28,14 @@ A burst file given alone (CAPTURE.ripple.csv, e.g. written by hpddo import from 
 card's WAV or a MATLAB .mat; docs/ripple-captures.md) is a current-only capture: no voltage, duty or
 encoder; its bursts are counted with the speed range as the prior, or none.
 Writes OUT/<condition>.ripple_speed.csv and OUT/summary.json.
+
+--coast reads the coast probes beside each log (<condition>.coast.csv: the drive held off for a few
+milliseconds, the current and the terminal voltage sampled in turn; docs/ripple-coast.md) and gives
+at each probe Ke (the back-EMF over the ripple's speed), Ra (from the driven spans around it) and
+the winding's temperature (copper's coefficient, from --ra-ref OHM C, a multimeter's Ra at a known
+temperature, else the first probe's Ra at the log's first temperature reading): OUT/<condition>.coast_probes.csv
+and OUT/summary.json; it counts no other window. --brush-drop-v: the brushes' drop while current flows,
+where known (without it Ra carries drop / I).
 """
 from __future__ import annotations
 
@@ -48,6 +58,14 @@ def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     p.add_argument("--calibrate", action="store_true",
                    help="find the ripples per motor revolution from the data (and the encoder where there is one); "
                         "no speed is counted")
+    p.add_argument("--coast", action="store_true",
+                   help="Ke, Ra and the winding's temperature at the coast probes of each log (<condition>.coast.csv "
+                        "beside it); no other window is counted")
+    p.add_argument("--brush-drop-v", type=options.non_negative_float, default=None, metavar="V",
+                   help="--coast: the brushes' contact drop while current flows, V (default: none declared)")
+    p.add_argument("--ra-ref", type=float, nargs=2, default=None, metavar=("OHM", "C"),
+                   help="--coast: the winding's Ra at a known temperature (a multimeter's), the temperature's "
+                        "reference (default: the first probe's Ra at the log's first temperature reading)")
     options.ra_ohm(p)
     p.add_argument("--rpm-range", type=options.non_negative_float, nargs=2, metavar=("LO", "HI"), default=None,
                    help="the output shaft's speed range (RPM): the prior where there is no back-EMF one (no Ra, a "
@@ -75,6 +93,10 @@ def run(args) -> int:
     opts = Options(args.ripples_per_rev or 0, args.gear_ratio)
     if args.calibrate:
         return _calibrate(args, opts)
+    if (args.brush_drop_v is not None or args.ra_ref is not None) and not args.coast:
+        raise InputError("--brush-drop-v and --ra-ref apply with --coast")
+    if args.coast:
+        return _coast(args, opts)
     if args.floor_a is not None:
         opts = dataclasses.replace(opts, floor_A=args.floor_a)
     if args.prior_model is not None and args.ra_ohm is not None:  # refused before any work
@@ -155,6 +177,89 @@ def run(args) -> int:
 
 COLUMNS = ("seq", "t_s", "rpm", "confidence", "confident", "reason", "f_Hz", "cycles", "i_mean_A", "rpm_prior",
            "rpm_fft", "stall", "rpm_bound", "rot_hz", "multiple", "rot1_rel", "rot2_rel")  # OUT/<condition>.ripple_speed.csv, rpm written rpm_ripple
+
+
+COAST_COLUMNS = ("t_s", "row", "e_V", "e_sd_V", "rpm_cut", "rpm_sd", "ke_vs_per_rad", "ke_sd", "ra_ohm", "ra_sd_ohm",
+                 "winding_C", "winding_sd_K", "reason")  # OUT/<condition>.coast_probes.csv
+
+
+def _coast(args, opts) -> int:
+    """--coast: the coast probe estimator (hpddo.ripple.coast) on each log, its bursts and its probes."""
+    import dataclasses
+
+    import numpy as np
+
+    from .. import progress
+    from ..logs import benchlog, outdir
+    from ..logs import coast as coast_file
+    from ..logs import ripple as rf
+    from ..logs.errors import InputError
+    from ..ripple import coast as rc
+    from ..ripple.options import CoastOptions
+
+    if args.prior_model is not None and (args.ra_ohm is not None or args.ke_vs_per_rad):
+        raise InputError("--ra-ohm and --ke-vs-per-rad do not apply with --model: the model's M2 has its own")
+    model = options.prior_model_of(args)
+    if model is None and not args.ke_vs_per_rad:
+        raise InputError("--coast needs the nominal Ke that places the ripple's line: --ke-vs-per-rad KE or "
+                         "--model DIR (a model of hpddo train)")
+    if args.ra_ref is not None and not (args.ra_ref[0] > 0 and np.isfinite(args.ra_ref).all()):
+        raise InputError(f"--ra-ref {args.ra_ref[0]:g} {args.ra_ref[1]:g}: Ra must be > 0 and both finite")
+    copts = CoastOptions(brush_drop_V=args.brush_drop_v or 0.0)
+    if args.ra_ref is not None:
+        copts = dataclasses.replace(copts, ra_ref_ohm=float(args.ra_ref[0]), ra_ref_C=float(args.ra_ref[1]))
+    summary = {}
+    with outdir.staged(args.out, TOOL) as stage:
+        for k, path in enumerate(args.logs):
+            progress.stage(f"{path}: reading the log, its bursts and its coast probes ({k + 1}/{len(args.logs)})")
+            log = benchlog.read_log(path)
+            for beside, what in ((rf.path_for(path), "current bursts"), (coast_file.path_for(path), "coast probes")):
+                if not beside.exists():
+                    raise InputError(f"{path}: no {what} beside it ({beside.name} expected; docs/bench-log.md)")
+            bursts = rf.read(rf.path_for(path))
+            probes = coast_file.read(coast_file.path_for(path))
+            if model is not None:
+                ra, ke = float(model.physics.ra_ohm), float(model.physics.ke_vs_per_rad)
+            else:
+                ra = args.ra_ohm if args.ra_ohm is not None else _meta_ra(path, log.meta)
+                ke = float(args.ke_vs_per_rad)
+            res = rc.estimate(log.df, bursts, probes, opts, ra, ke, copts)
+            name = log.condition
+            s = {"probes": len(probes), "statement": res.statement}
+            if res.table is not None:
+                tab = res.table
+                tab[list(COAST_COLUMNS)].to_csv(stage / f"{name}.coast_probes.csv", index=False, float_format="%.6g")
+                ok = tab["ra_ohm"].notna()
+                tw = tab.loc[ok, "winding_C"].to_numpy(float)
+                s.update({"ke_measured": int(tab["ke_vs_per_rad"].notna().sum()), "ra_given": int(ok.sum()),
+                          "ra_ref_ohm": res.ra_ref_ohm if np.isfinite(res.ra_ref_ohm) else None,
+                          "ra_ref_C": res.ra_ref_C if np.isfinite(res.ra_ref_C) else None,
+                          "reasons": {r: int(n) for r, n in tab.loc[tab["reason"] != "", "reason"].value_counts().items()}})
+                line = (f"{name}: {len(probes)} coast probes; Ke measured at {s['ke_measured']}, Ra at {s['ra_given']}")
+                if np.isfinite(tw).any():
+                    sd = tab.loc[ok, "winding_sd_K"].to_numpy(float)
+                    s["winding_C"] = [float(np.nanmin(tw)), float(np.nanmax(tw))]
+                    line += (f"; winding {np.nanmin(tw):.1f} .. {np.nanmax(tw):.1f} C (median standard uncertainty "
+                             f"{np.nanmedian(sd):.2f} K)")
+                print(line)
+            if res.statement:
+                print(f"{name}: {res.statement}")
+            summary[name] = s
+        benchlog.write_text_atomic(stage / "summary.json", json.dumps(summary, indent=1, sort_keys=True,
+                                                                      default=float) + "\n")
+    return 0
+
+
+def _meta_ra(path, meta: dict) -> float:
+    """The log's ra_ohm metadata, or an InputError saying how to give Ra."""
+    from ..logs.errors import InputError
+    try:
+        ra = float(meta["ra_ohm"])
+    except (KeyError, ValueError):
+        ra = math.nan
+    if not (ra > 0 and math.isfinite(ra)):
+        raise InputError(f"{path}: no Ra: give --ra-ohm (a multimeter reading) or an ra_ohm metadata line")
+    return ra
 
 
 def _capture(path, opts, args, stage):

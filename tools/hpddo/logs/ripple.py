@@ -100,13 +100,15 @@ def write(path, meta: dict, seq, t_s, codes) -> pathlib.Path:
     return write_text_atomic(path, "\n".join(lines) + "\n")
 
 
-def read(path) -> Bursts:
-    """Reads a burst file; a RippleFileError names the line and the fault."""
+def head(path, error, required, fmt: str, header: str) -> tuple:
+    """The metadata and header of a file beside a bench log (bursts, coast probes): (its lines,
+    {key: value}, {key: line number}, the header's index); error(text) names the file, the line and
+    the fault: unreadable, malformed or missing metadata, another format, no header."""
     path = pathlib.Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise RippleFileError(f"{path}: cannot read: {exc}") from None
+        raise error(f"{path}: cannot read: {exc}") from None
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
@@ -114,17 +116,24 @@ def read(path) -> Bursts:
     while i < len(lines) and lines[i].startswith("#"):
         m = _META.match(lines[i])
         if not m:
-            raise RippleFileError(f"{path}:{i + 1}: malformed metadata")
+            raise error(f"{path}:{i + 1}: malformed metadata")
         meta[m.group(1)] = m.group(2).strip()
         where[m.group(1)] = i + 1
         i += 1
-    for k in REQUIRED_META:
+    for k in required:
         if k not in meta:
-            raise RippleFileError(f"{path}: missing metadata {k}")
-    if meta["format"] != FORMAT:
-        raise RippleFileError(f"{path}: format {meta['format']!r}, expected {FORMAT!r}")
-    if i >= len(lines) or lines[i].strip() != HEADER:
-        raise RippleFileError(f"{path}:{i + 1}: header {HEADER!r} expected")
+            raise error(f"{path}: missing metadata {k}")
+    if meta["format"] != fmt:
+        raise error(f"{path}:{where['format']}: format {meta['format']!r}, expected {fmt!r}")
+    if i >= len(lines) or lines[i].strip() != header:
+        raise error(f"{path}:{i + 1}: header {header!r} expected")
+    return lines, meta, where, i
+
+
+def read(path) -> Bursts:
+    """Reads a burst file; a RippleFileError names the line and the fault."""
+    path = pathlib.Path(path)
+    lines, meta, where, i = head(path, RippleFileError, REQUIRED_META, FORMAT, HEADER)
     seq, t, codes = [], [], []
     for j in range(i + 1, len(lines)):
         parts = lines[j].split(",")
@@ -154,17 +163,17 @@ def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = Non
     for k in REQUIRED_META[1:]:
         if k not in meta:
             raise RippleFileError(f"{path}: missing metadata {k}")
-    fs, lsb = _number(path, meta, where, "sample_hz"), _number(path, meta, where, "a_per_code")
+    fs, lsb = number(path, meta, where, "sample_hz"), number(path, meta, where, "a_per_code")
     if not (fs > 0 and lsb > 0):
         raise RippleFileError(f"{path}: sample_hz and a_per_code must be > 0")
     declared = {}
     for key, least in ((PWM_HZ, 0.0), (MAINS_HZ, None)):  # pwm_hz=0: no PWM (a DC supply)
         if key in meta:
-            declared[key] = _number(path, meta, where, key)
+            declared[key] = number(path, meta, where, key)
             if not (declared[key] > 0 or declared[key] == least):
                 raise RippleFileError(f"{path}:{where[key]}: metadata {key}={meta[key]} must be > 0"
                                       + (" (0: no PWM)" if least == 0 else "") + "; leave the key out where unknown")
-    offset = _number(path, meta, where, OFFSET_CODE) if OFFSET_CODE in meta else 0.0
+    offset = number(path, meta, where, OFFSET_CODE) if OFFSET_CODE in meta else 0.0
     for key, allowed in ((SAMPLING, SAMPLINGS), (COUPLING, COUPLINGS)):
         if key in meta and meta[key] not in allowed:
             raise RippleFileError(f"{path}: metadata {key}={meta[key]!r}, expected one of {', '.join(allowed)}")
@@ -173,12 +182,14 @@ def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = Non
                   mains_hz=declared.get(MAINS_HZ, math.nan), coupling=meta.get(COUPLING, DC))
 
 
-def _number(path, meta: dict, where: dict, key: str) -> float:
-    """A metadata value that must be a finite number; RippleFileError naming the key otherwise."""
+def number(path, meta: dict, where: dict, key: str, error=RippleFileError) -> float:
+    """A metadata value that must be a finite number; error (RippleFileError) naming the key otherwise."""
     try:
         v = float(meta[key])
     except ValueError:
         v = math.nan
     if not math.isfinite(v):
-        raise RippleFileError(f"{path}:{where[key]}: metadata {key}={meta[key]!r} is not a finite number")
+        raise error(f"{path}:{where[key]}: metadata {key}={meta[key]!r} is not a finite number")
     return v
+
+

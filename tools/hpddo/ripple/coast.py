@@ -3,7 +3,7 @@ the drive held off for a few milliseconds, the open terminals show the back-EMF 
 measured against the ripple's counted speed, and Ra follows from the driven rows around it,
 separating the copper from the magnets.
 
-Per probe (a row of the log at duty 0 with its burst of both channels, twin/coast.ProbeBursts):
+Per probe (a row of the log at duty 0 with its burst of both channels, logs/coast.ProbeBursts):
 
 1. the current freewheels to zero through the diode (La / R, hastened by the back-EMF): the probe
    is usable from the first current sample after which every one reads under options.decayed_A,
@@ -48,6 +48,8 @@ from .prior import m2_prior_rpm, m2_prior_sd_rpm, rpm_per_amp
 
 NO_PROBE = ("no coast probe in the record: no row with the drive off carries a burst of the terminal voltage, "
             "so the back-EMF cannot be seen and neither Ke nor Ra is measured")
+NO_PERIOD = ("the log has no row period (fewer than two rows, or no time between them), so no driven span "
+             "around a probe can be counted and neither Ke nor Ra is measured")
 NOT_DECAYED = "the current did not freewheel to zero within the probe, so the terminals never showed the back-EMF"
 FEW_EMF = "too few voltage samples after the current's decay for the back-EMF's curve"
 STANDING = "the terminals show no back-EMF after the decay: the shaft stands, Ke cannot be measured"
@@ -166,8 +168,8 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
              copts: CoastOptions = CoastOptions()) -> CoastResult:
     """Ke, Ra and the winding's temperature at every coast probe of a record: its log (t_s, duty, v_V,
     i_A, temp_C; load where logged), its current bursts (logs.ripple.Bursts, seq = the log's rows), its
-    probes (twin.coast.ProbeBursts). ra_ohm, ke_vs_per_rad: the nominal figures of the back-EMF prior
-    that places the ripple's line (ripple.prior). A CoastResult."""
+    probes (logs.coast.ProbeBursts: <condition>.coast.csv, or the twin's). ra_ohm, ke_vs_per_rad: the
+    nominal figures of the back-EMF prior that places the ripple's line (ripple.prior). A CoastResult."""
     from ..logs.errors import InputError
     missing = [c for c in ("t_s", "duty", "v_V", "i_A") if c not in log]
     if missing:
@@ -177,7 +179,9 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
     t = log["t_s"].to_numpy(float)
     duty, v, i = (log[c].to_numpy(float) for c in ("duty", "v_V", "i_A"))
     load = log["load"].to_numpy() if "load" in log else np.zeros(len(log))
-    Ts = float(np.median(np.diff(t)))
+    Ts = float(np.median(np.diff(t))) if len(t) > 1 else math.nan
+    if not (Ts > 0 and math.isfinite(Ts)):
+        return CoastResult(None, NO_PERIOD)
     seq = log["seq"].to_numpy() if "seq" in log else np.arange(len(log))
     row_of = {int(s): k for k, s in enumerate(seq)}
     b = bursts

@@ -214,13 +214,21 @@ def without_fixed(found, bursts, res_hz: float) -> list:
     if math.isfinite(pwm) and 0 < pwm < fs / 2.0:
         fixed += [abs((h * pwm + fs / 2.0) % fs - fs / 2.0) for h in range(1, COMB_PWM_HARMONICS + 1)]
     mains = getattr(bursts, "mains_hz", float("nan"))
-    if math.isfinite(mains) and mains > 0:
-        fixed += [h * mains for h in range(1, int(fs / 2.0 // mains) + 1)]
-    if not fixed:
+    mains = mains if math.isfinite(mains) and mains > 0 else None
+
+    def on_mains(hz: float) -> bool:
+        """hz within the tolerance of a multiple of the mains frequency (1 to fs / 2: as many as there
+        are, computed, not listed: a file may declare any positive mains frequency)."""
+        top = math.floor(fs / 2.0 / mains)
+        h = min(max(round(hz / mains), 1), top)  # the nearest multiple there is
+        return top >= 1 and abs(hz - h * mains) <= fixed_tol_hz(hz, res_hz)
+
+    if not fixed and mains is None:
         return list(found)
     top = max(found, key=lambda ln: ln.power)
     return [ln for ln in found if ln is top
-            or not any(abs(ln.hz - f) <= fixed_tol_hz(ln.hz, res_hz) for f in fixed)]
+            or not (any(abs(ln.hz - f) <= fixed_tol_hz(ln.hz, res_hz) for f in fixed)
+                    or (mains is not None and on_mains(ln.hz)))]
 
 
 def rivals(found, f_hz: float, res_hz: float, in_spread, share: float, exclude=()) -> list:

@@ -299,6 +299,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     xx, s0, nw = _window(bursts, k, fs)
     lo, hi = f_star / opts.band, min(f_star * opts.band, 0.45 * fs)
     sos = signal.butter(3, [lo, hi], btype="bandpass", fs=fs, output="sos")
+    if len(xx) <= 3 * (2 * len(sos) + 1):  # sosfiltfilt's edge padding needs more samples than this
+        out.update(key="few_cycles", f_Hz=f_star,
+                   reason=f"{REASONS['few_cycles']} ({len(xx)} samples: too few to filter the line out and count it)")
+        return out
     y = signal.sosfiltfilt(sos, xx - xx.mean())
     phase = np.unwrap(np.angle(signal.hilbert(y)))
     if s0 == 0 and len(xx) == nw:  # no margins: leave the filter's edges out

@@ -101,9 +101,11 @@ def prepare(bursts, source: str = "bursts"):
     return dataclasses.replace(bursts, codes=codes, refused=tuple(refused))
 
 
-def fixed_lines(bursts, f_max_hz: float) -> list:
+def fixed_lines(bursts, f_max_hz: float, f_min_hz: float = 0.0) -> list:
     """The supply's fixed lines below f_max_hz as (Hz, what): the PWM's harmonics (and where they alias
-    into the band at sample_hz), the mains frequency's multiples; where the file declares them."""
+    into the band at sample_hz), the mains frequency's multiples from f_min_hz (as many as lie between,
+    whatever the declared mains frequency: a file may declare any positive one); where the file declares
+    them."""
     fs = bursts.sample_hz
     out = []
     if math.isfinite(bursts.pwm_hz) and bursts.pwm_hz > 0:
@@ -114,7 +116,7 @@ def fixed_lines(bursts, f_max_hz: float) -> list:
             if alias <= f_max_hz:
                 out.append((alias, what))
     if math.isfinite(bursts.mains_hz):
-        for h in range(1, int(f_max_hz // bursts.mains_hz) + 1):
+        for h in range(max(1, math.ceil(f_min_hz / bursts.mains_hz)), int(f_max_hz // bursts.mains_hz) + 1):
             out.append((h * bursts.mains_hz, f"{h} x the mains' {bursts.mains_hz:g} Hz"))
     return out
 
@@ -129,7 +131,7 @@ def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float):
     if not math.isfinite(f_hz):
         return None
     tol = resolution_hz + 0.002 * f_hz
-    for f, what in fixed_lines(bursts, f_hz + tol):
+    for f, what in fixed_lines(bursts, f_hz + tol, f_hz - tol):
         if abs(f_hz - f) <= tol:
             return KEY, f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz)"
     return None

@@ -41,39 +41,13 @@ import numpy as np
 import pandas as pd
 
 from ..logs import ripple as rf
+from ..logs import coast as coast_file
+from ..logs.coast import ProbeBursts
 from . import plant, ripple_free, sensors
 from . import ripple as ripple_mode
 from .params import Bench, brush_share, coast_probe, offset_share, ripple_burst, v_gain_share
 
 SEED_TAG = 33  # the probes' stream: SeedSequence([seed, 33]); the bursts' [seed, 33, ripple.SEED_TAG]
-
-
-@dataclasses.dataclass
-class ProbeBursts:
-    """The probes of a run: per probe its log row (seq), the cut's time (s), and both channels'
-    codes, the current at t_s + 2 j / sample_hz, the voltage at t_s + (2 j + 1) / sample_hz."""
-
-    sample_hz: float      # the converter's rate; each channel gets half of it
-    a_per_code: float     # current channel, A per code
-    v_per_code: float     # voltage channel, V per code (before the level shift)
-    v_shift_V: float      # the level shift: v = code x v_per_code - v_shift_V
-    seq: np.ndarray
-    t_s: np.ndarray
-    i_codes: list
-    v_codes: list
-
-    def __len__(self) -> int:
-        return len(self.seq)
-
-    def current(self, k: int):
-        """(times after the cut, s; current, A) of probe k."""
-        c = np.asarray(self.i_codes[k], float)
-        return 2 * np.arange(len(c)) / self.sample_hz, c * self.a_per_code
-
-    def voltage(self, k: int):
-        """(times after the cut, s; terminal voltage, V) of probe k."""
-        c = np.asarray(self.v_codes[k], float)
-        return (2 * np.arange(len(c)) + 1) / self.sample_hz, c * self.v_per_code - self.v_shift_V
 
 
 @dataclasses.dataclass
@@ -220,3 +194,27 @@ def warmup(bench: Bench, segments, seed: int = 1, probe: dict | None = None, rip
                          seq=np.asarray(rows, np.int64), t_s=np.asarray(rows, float) * T, i_codes=pi, v_codes=pv)
     return CoastRecord(log=log, bursts=bursts, probes=probes, truth=truth, bench=bench, probe=pr, ripple=rp,
                        facts=pd.DataFrame(facts))
+
+
+def write(rec: CoastRecord, out_dir, condition: str = "coast", note: str = "") -> dict:
+    """The record as files in out_dir, as a bench would write them: the bench log `<condition>.csv`
+    (its Ra at the reference temperature in the metadata), the current bursts `<condition>.ripple.csv`,
+    the probes `<condition>.coast.csv` and the twin's truth per row `<condition>.truth.csv`. Returns
+    {kind: path}."""
+    import pathlib
+
+    from ..logs import benchlog
+    out = pathlib.Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    b = rec.bench
+    meta = {"condition": condition, "sample_rate_hz": f"{1.0 / rec.probe['probe_s']:g}",
+            "motor": "25GA371 1:4.4 (bench twin)", "ra_ohm": f"{b.ra_ohm:.2f}",
+            "note": note or f"coast probe warm-up of the bench twin; truth in {condition}.truth.csv"}
+    paths = {"log": benchlog.write_log(out / f"{condition}.csv", rec.log, meta)}
+    bz = rec.bursts
+    paths["ripple"] = rf.write(out / f"{condition}{rf.SUFFIX}", {**{k: v for k, v in bz.meta.items() if k != "format"},
+                                                                "condition": condition}, bz.seq, bz.t_s, bz.codes)
+    paths["coast"] = coast_file.write(out / f"{condition}{coast_file.SUFFIX}", rec.probes, {"condition": condition})
+    paths["truth"] = benchlog.write_text_atomic(out / f"{condition}.truth.csv",
+                                                rec.truth.to_csv(index=False, float_format="%.6f", lineterminator="\n"))
+    return paths
