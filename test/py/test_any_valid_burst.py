@@ -93,7 +93,7 @@ def write_log(path, s, t_s):
     return path
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
+@settings(max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture,
                                                                    HealthCheck.too_slow])
 @given(s=burst_spec())
 # 17 samples at 1 Hz: no frequency between the count's band edges (2 / T or 0.5 Hz, and fs / 4.4); it
@@ -171,7 +171,7 @@ def write_coast(path, c, t_s):
     return cf.write(path, probes, {"condition": "any"})
 
 
-@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture,
+@settings(max_examples=25, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.function_scoped_fixture,
                                                                    HealthCheck.too_slow])
 @given(c=coast_spec())
 def test_any_valid_coast_file_gives_a_result_or_a_user_error(tmp_path_factory, c):
