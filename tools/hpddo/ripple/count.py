@@ -266,8 +266,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="far", f_Hz=f_star, reason=f"{REASONS['far']} ({f_star:.1f} Hz, {rpm_of(f_star):.1f} RPM, "
                    f"{z_star:+.1f} sd from the prior's {rpm_prior:.1f} RPM)")
         return out
-    placed = comb is not None or np.isfinite(f_prior)  # a comb or a prior places the line (sync.fixed_line)
-    fixed = sync.fixed_line(bursts, k, f_star, res, placed)  # a PWM or mains line, or a refused fold
+    line_placed = comb is not None or np.isfinite(f_prior)  # a comb or a prior places the line (sync.fixed_line)
+    fixed = sync.fixed_line(bursts, k, f_star, res, line_placed)  # a PWM or mains line, or a refused fold
     if fixed:
         out.update(key=fixed[0], f_Hz=f_star, reason=fixed[1])
         return out
@@ -345,7 +345,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}, {allowed:.1%} "
                    f"allowed with the count's noise; from the current, Ra dI / Ke, {spread_i:.1%})")
         return out
-    fixed = sync.fixed_line(bursts, k, f_count, res, placed)  # the counted line, too, off the PWM and mains lines
+    fixed = sync.fixed_line(bursts, k, f_count, res, line_placed)  # the counted line, too, off the PWM and mains lines
     if fixed:
         out.update(key=fixed[0], reason=fixed[1])
         return out
