@@ -186,9 +186,8 @@ def test_a_lone_line_at_a_mains_multiple_is_never_confident_where_the_file_decla
     t = np.arange(int(0.5 * FS)) / FS
     x = 0.4 + 0.005 * np.sin(2 * math.pi * hz * t) + 0.0002 * rng.standard_normal(len(t))
     r = one(x, 6, None)
-    # the count looks past the hum's lobe for a line (sync.fixed_grid): here there is none but noise
-    assert r["confidence"] == 0.0 and r["key"] in ("fixed_line", "not_found"), r["reason"]
-    assert r["key"] == "not_found" or "a mains frequency (the file declares none)" in r["reason"]
+    assert r["key"] == "fixed_line" and r["confidence"] == 0.0, r["reason"]
+    assert "a mains frequency (the file declares none)" in r["reason"]
     # a file that declares its mains (60 Hz) puts only that one's multiples off limits, even with a prior on it
     r60 = estimate_window(dataclasses.replace(bursts_of([x]), mains_hz=60.0), 0, 0.5, hz * 60 / 6, Options(6, 1.0))
     assert (r60["key"] == "fixed_line") == (hz % 60 == 0), r60["reason"]

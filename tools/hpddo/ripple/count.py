@@ -252,10 +252,6 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     ev = evidence(grid)
     like, z = prior_like(grid, f_prior, sd_lo, sd_hi, opts.prior_rel_sd)
     post = ev * like
-    if comb is None and not np.isfinite(f_prior):  # nothing places the line: not a possible hum's (sync.fixed_line)
-        hum = sync.fixed_grid(bursts, grid, res)
-        if hum.any() and not hum.all():
-            post = np.where(hum, 0.0, post)
     j = int(np.argmax(post))
     f_star = float(grid[j]) if comb is None else comb.commutation.hz
     z_star = float(z[j]) if comb is None else float(prior_like([f_star], f_prior, sd_lo, sd_hi, opts.prior_rel_sd)[1][0])

@@ -38,9 +38,6 @@ MAX_BINS = 512     # finer bins than this gain nothing at a kink of the PWM curr
 PWM_HARMONICS = 20  # the PWM harmonics whose aliases are checked: a PWM current's harmonic h falls as 1 / h^2
 #                     (its kinks), the 20th at 1/400 of the first
 
-#: a fixed line's main lobe in a window's spectrum (Hann: +-2 resolutions to its first zeros), in resolutions
-HUM_LOBE_RES = 2.5
-
 KEY = "fixed_line"
 REASON = "the line sits at a multiple of the PWM or mains frequency (a fixed line of the supply, not the shaft's)"
 KEY_FOLD = "pwm_fold"
@@ -126,21 +123,6 @@ def fixed_lines(bursts, f_max_hz: float, either_mains: bool = False) -> list:
         for mains in MAINS_HZ:
             for h in range(1, int(f_max_hz // mains) + 1):
                 out.append((h * mains, f"{h} x {mains:g} Hz, a mains frequency (the file declares none)"))
-    return out
-
-
-def fixed_grid(bursts, f_hz, resolution_hz: float) -> np.ndarray:
-    """Which of the candidate frequencies f_hz (an array) lie on a fixed line's main lobe where nothing
-    places the line: within HUM_LOBE_RES resolutions (and 0.2 %) of a declared PWM or mains line, or of a
-    multiple of 50 or 60 Hz where the file declares no mains. The count of a window without a comb or a
-    prior looks past them for its line (the twin's 5 mA of 50 Hz outweighs the ripple under load)."""
-    f_hz = np.asarray(f_hz, float)
-    out = np.zeros(len(f_hz), bool)
-    if not len(f_hz):
-        return out
-    tol = HUM_LOBE_RES * resolution_hz + 0.002 * f_hz
-    for f, _ in fixed_lines(bursts, float(np.max(f_hz + tol)), either_mains=True):
-        out |= np.abs(f_hz - f) <= tol
     return out
 
 
