@@ -136,7 +136,10 @@ def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     the same weights (at most 1, since E >= 2 u; a calibration from slow windows alone carries a
     large one: at duties up to 0.3 on the twin, 0.5). Returns (ke, windows used, its relative
     doubt); (NaN, 0, NaN) where no window tells it."""
-    df = estimate(bursts, duty, None, opts)
+    # no window's line is refused for lying at an undeclared mains multiple (estimate's unplaced_hum): E >= 2 u
+    # shows the shaft turning, so its line is not a standing shaft's hum (the twin's long recording, duty 0.8
+    # under load 2, puts the ripple at 51-52 Hz, beside 50 Hz)
+    df = estimate(bursts, duty, None, opts, unplaced_hum=False)
     w = df["rpm"].to_numpy() * 2 * math.pi / 60.0
     i = np.asarray(i_A, float)
     e = np.asarray(v_V, float) - i * ra_ohm
