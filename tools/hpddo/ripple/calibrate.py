@@ -119,23 +119,38 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
     return out
 
 
+#: calibrate_ke: a window's back-EMF E = V - I Ra must stand this many times over the voltage the prior does
+#: not know (u: a brush drop, Ra's error times I) to tell Ke: under it E / w is the unknown voltage's, not
+#: Ke's (a shaft standing at a fixed line: hum, a bus aliased into the band, with E a brush drop)
+KE_MIN_EMF_OVER_U = 2.0
+
+
 def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
-    """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder: the ripple speed
-    of the windows where the comb alone (no prior) gives a confident count, against
-    V - I Ra; their median, each window weighted by (w / u)^2 (u: the voltage the prior does
-    not know, m2_prior_sd_rpm). Returns (ke, windows used)."""
-    df = estimate(bursts, duty, None, opts)
-    ok = df["confident"].to_numpy() & (df["rpm"].to_numpy() > 0)
-    if ok.sum() == 0:
-        return math.nan, 0
-    w = df["rpm"].to_numpy()[ok] * 2 * math.pi / 60.0
-    i = np.asarray(i_A, float)[ok]
-    e = np.asarray(v_V, float)[ok] - i * ra_ohm
-    # each window's E / w is off by the voltage the prior does not know (u, m2_prior_sd_rpm) over w:
-    # the median weighted by (w / u)^2, so that slow, loaded windows (and a fixed line counted
-    # while the shaft stands) weigh little
+    """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder: the ripple speed w
+    of the windows where the comb alone (no prior) gives a confident count, against the back-EMF
+    E = V - I Ra, in the windows where E stands KE_MIN_EMF_OVER_U times over u, the voltage the
+    prior does not know (opts.prior_unmodelled_V, and Ra's error opts.prior_ra_rel times I); their
+    median of E / w, each window weighted by (w / u)^2, so that slow, loaded windows weigh little.
+    Each window's E / w is off by up to u / w, all of them the same way where one brush drop is in
+    every one: against Ke w = E - u at the least, Ke's relative doubt is u / (E - u), averaged with
+    the same weights (at most 1, since E >= 2 u; a calibration from slow windows alone carries a
+    large one: at duties up to 0.3 on the twin, 0.5). Returns (ke, windows used, its relative
+    doubt); (NaN, 0, NaN) where no window tells it."""
+    # no window's line is refused for lying at an undeclared mains multiple (estimate's unplaced_hum): E >= 2 u
+    # shows the shaft turning, so its line is not a standing shaft's hum (the twin's long recording, duty 0.8
+    # under load 2, puts the ripple at 51-52 Hz, beside 50 Hz)
+    df = estimate(bursts, duty, None, opts, unplaced_hum=False)
+    w = df["rpm"].to_numpy() * 2 * math.pi / 60.0
+    i = np.asarray(i_A, float)
+    e = np.asarray(v_V, float) - i * ra_ohm
     u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * np.abs(i))
+    ok = df["confident"].to_numpy() & (w > 0) & (e >= KE_MIN_EMF_OVER_U * u)
+    if ok.sum() == 0:
+        return math.nan, 0, math.nan
+    w, e, u = w[ok], e[ok], u[ok]
     ke = e / w
+    weight = (w / u) ** 2
     order = np.argsort(ke)
-    cw = np.cumsum(((w / u) ** 2)[order])
-    return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ok.sum())
+    cw = np.cumsum(weight[order])
+    rel = float(np.sum(weight * u / (e - u)) / np.sum(weight))
+    return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ok.sum()), rel

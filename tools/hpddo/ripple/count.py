@@ -165,7 +165,8 @@ def allowed_spread(cycles, snr, snr_wide, opts: Options) -> float:
     return float(min(opts.max_spread + extra, max(opts.max_spread, (opts.band - 1.0) / 2.0)))
 
 
-def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None, prior_sd=None, rpm_per_A=None):
+def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None, prior_sd=None, rpm_per_A=None,
+                    prior_glitch=0.0, unplaced_hum=True):
     """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
     frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
     confidence (0..1), reason ('' when confident), key (REASONS key or ''). prior_before: the
@@ -173,7 +174,12 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     prior_sd: the prior's voltage-borne sd at this window (RPM), one figure or (below, above)
     (m2_prior_sd_rpm); None: 0 (Ke's relative error, opts.prior_rel_sd, alone). rpm_per_A: Ra / Ke
     in RPM per A, the speed change a change of current means at constant duty (_current_spread;
-    None: not checked)."""
+    None: not checked). prior_glitch: the part of prior_sd (RPM, in quadrature) that only allows for a glitch
+    of V or I beside the window (estimate: its own prior against the median of three); a line at a multiple of
+    50 or 60 Hz where the file declares no mains must lie within max_prior_z of the prior without it to count
+    as placed by the prior (sync.fixed_line). unplaced_hum: whether a line that neither a comb nor the prior
+    places is taken for hum at an undeclared 50 or 60 Hz multiple (sync.fixed_line); False for calibrate_ke,
+    which keeps only the windows whose back-EMF shows the shaft turning."""
     from scipy import signal
 
     fs = bursts.sample_hz
@@ -202,6 +208,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     f_prior = rpm_prior * per_rev_out / 60.0 if rpm_prior is not None and np.isfinite(rpm_prior) else math.nan
     sd_lo, sd_hi = (np.nan_to_num(np.broadcast_to(np.asarray(prior_sd, float), (2,)), nan=0.0) * per_rev_out / 60.0
                     if prior_sd is not None else (0.0, 0.0))
+    glitch_hz = float(np.nan_to_num(prior_glitch)) * per_rev_out / 60.0
+    sd_lo_own, sd_hi_own = (math.sqrt(max(sd * sd - glitch_hz * glitch_hz, 0.0)) for sd in (sd_lo, sd_hi))
 
     # 2. the line: comb evidence weighted by the prior
     f, p = spectrum(x0, fs)
@@ -262,7 +270,11 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="far", f_Hz=f_star, reason=f"{REASONS['far']} ({f_star:.1f} Hz, {rpm_of(f_star):.1f} RPM, "
                    f"{z_star:+.1f} sd from the prior's {rpm_prior:.1f} RPM)")
         return out
-    fixed = sync.fixed_line(bursts, k, f_star, res)  # a PWM or mains line, or a refused fold
+    def line_placed(f_hz):  # a comb or the prior places the line (sync.fixed_line): the prior without its glitch allowance
+        return not unplaced_hum or comb is not None or (np.isfinite(f_prior) and abs(float(prior_like(
+            [f_hz], f_prior, sd_lo_own, sd_hi_own, opts.prior_rel_sd)[1][0])) <= opts.max_prior_z)
+
+    fixed = sync.fixed_line(bursts, k, f_star, res, line_placed(f_star))  # a PWM or mains line, or a refused fold
     if fixed:
         out.update(key=fixed[0], f_Hz=f_star, reason=fixed[1])
         return out
@@ -344,7 +356,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}, {allowed:.1%} "
                    f"allowed with the count's noise; from the current, Ra dI / Ke, {spread_i:.1%})")
         return out
-    fixed = sync.fixed_line(bursts, k, f_count, res)  # the counted line, too, off the PWM and mains lines
+    fixed = sync.fixed_line(bursts, k, f_count, res, line_placed(f_count))  # the counted line, too, off the PWM and mains lines
     if fixed:
         out.update(key=fixed[0], reason=fixed[1])
         return out
@@ -353,7 +365,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     return out
 
 
-def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=None):
+def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=None, unplaced_hum=True):
     """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
     duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's voltage-borne
     sd per window (RPM), one figure or (below, above) (m2_prior_sd_rpm; None: 0, Ke's relative
@@ -361,12 +373,15 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
     that a glitch of one sample of V or I cannot steer the line; where the window's own prior and that median disagree (a step of speed beside a
     glitch, where the median takes the speed before the step), the window's speed may be either,
     and the prior's sd spans both: sd = sqrt(sd^2 + (own - median)^2). The DataFrame carries
-    the prior used (`rpm_prior_used`) and its sd (`prior_sd_below`, `prior_sd_above`). rpm_per_A:
-    Ra / Ke in RPM per A (rpm_per_amp), for the speed change the current shows inside a window."""
+    the prior used (`rpm_prior_used`), its sd (`prior_sd_below`, `prior_sd_above`) and the glitch's part of
+    it (`prior_glitch`, |own - median|). rpm_per_A:
+    Ra / Ke in RPM per A (rpm_per_amp), for the speed change the current shows inside a window. unplaced_hum:
+    estimate_window's."""
     import pandas as pd
 
     n = len(bursts)
     sd = np.zeros((n, 2))
+    glitch = np.zeros(n)  # the sd's part that allows for a glitch beside the window (estimate_window's prior_glitch)
     if prior_sd is not None:  # one figure per window, or (below, above)
         given = np.asarray(prior_sd, float)
         given = np.repeat(given[:, None], 2, axis=1) if given.ndim == 1 else given
@@ -378,19 +393,21 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
             pr = np.concatenate([pr[:1], np.median(np.stack([pr[:-2], pr[1:-1], pr[2:]]), axis=0), pr[-1:]])
             gap = np.nan_to_num(np.abs(own - pr), nan=0.0)
             sd = np.hypot(sd, gap[:, None])
+            glitch = gap
         rpm_prior = pr
     rows = []
     for k in range(n):
         d = None if duty is None else float(duty[k])
         pr = None if rpm_prior is None else float(rpm_prior[k])
         before = None if rpm_prior is None or k == 0 else float(rpm_prior[k - 1])
-        rows.append(estimate_window(bursts, k, d, pr, opts, before, sd[k], rpm_per_A))
+        rows.append(estimate_window(bursts, k, d, pr, opts, before, sd[k], rpm_per_A, glitch[k], unplaced_hum))
     df = pd.DataFrame(rows)
     df.insert(0, "seq", bursts.seq)
     df["confident"] = df["key"] == ""
     df["rpm_prior_used"] = np.nan if rpm_prior is None else rpm_prior
     df["prior_sd_below"] = sd[:, 0] if rpm_prior is not None else np.nan
     df["prior_sd_above"] = sd[:, 1] if rpm_prior is not None else np.nan
+    df["prior_glitch"] = glitch if rpm_prior is not None else np.nan
     return df
 
 
@@ -419,6 +436,7 @@ def count_settled_tails(bursts, duty, est, opts: Options, rpm_per_A=None):
     est["tail_start"] = np.nan
     prior = est["rpm_prior_used"].to_numpy(float)
     sd = est[["prior_sd_below", "prior_sd_above"]].to_numpy(float)
+    glitch = est["prior_glitch"].to_numpy(float) if "prior_glitch" in est else np.zeros(len(est))
     for k in np.flatnonzero(est["key"].to_numpy() == "changing"):
         d = None if duty is None else float(np.asarray(duty, float)[k])
         if not np.isfinite(prior[k]):
@@ -430,7 +448,7 @@ def count_settled_tails(bursts, duty, est, opts: Options, rpm_per_A=None):
             if not 0 < i0 < n:
                 continue
             tail = bursts.one(k, np.asarray(bursts.codes[k])[i0:], i0 / bursts.sample_hz)
-            r = estimate_window(tail, 0, d, float(prior[k]), opts, None, sd[k], rpm_per_A)
+            r = estimate_window(tail, 0, d, float(prior[k]), opts, None, sd[k], rpm_per_A, glitch[k])
             if r["key"] or not r["cycles"] >= opts.tail_min_cycles:
                 continue
             head = i0 / n

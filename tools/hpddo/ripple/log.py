@@ -73,8 +73,10 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         elif ke_vs_per_rad:
             ke, ke_from = float(ke_vs_per_rad), "user"
         else:
-            ke, n_ke = calibrate_ke(b, duty, v, i, ra, opts)
-            ke_from = f"ripple ({n_ke} windows)"
+            ke, n_ke, ke_rel = calibrate_ke(b, duty, v, i, ra, opts)
+            # its doubt is said, not put into the prior's spread: Ke's relative error there (prior_rel_sd) scales
+            # with each candidate's speed, and at 0.35 no line however fast would be far from the prior
+            ke_from = f"ripple ({n_ke} windows" + (f", to +-{ke_rel:.0%}" if math.isfinite(ke_rel) else "") + ")"
         prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
     per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) and math.isfinite(ra) else None
     prior_sd = m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None

@@ -69,13 +69,15 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
     keys = est["key"].to_numpy()
     prior = est["rpm_prior_used"].to_numpy(float)
     sd = est[["prior_sd_below", "prior_sd_above"]].to_numpy(float)
+    glitch = est["prior_glitch"].to_numpy(float) if "prior_glitch" in est else np.zeros(len(est))
     for a, e in steady_spans(bursts, duty, keys, opts):
         joined = bursts.one(a, np.concatenate(bursts.codes[a:e]))
         has_prior = bool(np.isfinite(prior[a:e]).any())
         pr = float(np.nanmedian(prior[a:e])) if has_prior else None
         psd = np.nanmedian(sd[a:e], axis=0) if has_prior else None
+        pgl = float(np.nanmedian(glitch[a:e])) if has_prior else 0.0
         before = float(prior[a - 1]) if has_prior and a > 0 and np.isfinite(prior[a - 1]) else None
-        r = estimate_window(joined, 0, float(np.asarray(duty, float)[a]), pr, opts, before, psd, rpm_per_A)
+        r = estimate_window(joined, 0, float(np.asarray(duty, float)[a]), pr, opts, before, psd, rpm_per_A, pgl)
         if r["key"]:
             continue
         idx = est.index[a:e]

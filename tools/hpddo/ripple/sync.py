@@ -26,6 +26,7 @@ import numpy as np
 
 from ..logs import ripple as rf
 from ..logs.errors import InputError
+from .comb import MAINS_HZ
 
 MIN_PER_BIN = 32   # samples a phase bin holds on average: its mean carries the commutation ripple and the
 #                    noise over sqrt(32) into the subtracted average, where fewer, finer bins follow the PWM
@@ -101,11 +102,12 @@ def prepare(bursts, source: str = "bursts"):
     return dataclasses.replace(bursts, codes=codes, refused=tuple(refused))
 
 
-def fixed_lines(bursts, f_max_hz: float, f_min_hz: float = 0.0) -> list:
-    """The supply's fixed lines below f_max_hz as (Hz, what): the PWM's harmonics (and where they alias
-    into the band at sample_hz), the mains frequency's multiples from f_min_hz (as many as lie between,
+def fixed_lines(bursts, f_max_hz: float, f_min_hz: float = 0.0, either_mains: bool = False) -> list:
+    """The supply's fixed lines from f_min_hz to f_max_hz as (Hz, what): the PWM's harmonics (and where
+    they alias into the band at sample_hz), the mains frequency's multiples (as many as lie between,
     whatever the declared mains frequency: a file may declare any positive one); where the file declares
-    them."""
+    them. With either_mains, where the file declares no mains frequency, the multiples of every mains
+    frequency (comb.MAINS_HZ: 50 and 60 Hz), since hum is in a current whether the file says so or not."""
     fs = bursts.sample_hz
     out = []
     if math.isfinite(bursts.pwm_hz) and bursts.pwm_hz > 0:
@@ -118,20 +120,31 @@ def fixed_lines(bursts, f_max_hz: float, f_min_hz: float = 0.0) -> list:
     if math.isfinite(bursts.mains_hz):
         for h in range(max(1, math.ceil(f_min_hz / bursts.mains_hz)), int(f_max_hz // bursts.mains_hz) + 1):
             out.append((h * bursts.mains_hz, f"{h} x the mains' {bursts.mains_hz:g} Hz"))
+    elif either_mains:
+        for mains in MAINS_HZ:
+            for h in range(max(1, math.ceil(f_min_hz / mains)), int(f_max_hz // mains) + 1):
+                out.append((h * mains, f"{h} x {mains:g} Hz, a mains frequency (the file declares none)"))
     return out
 
 
-def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float):
+def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float, placed: bool = True):
     """Why window k cannot be confident on a line at f_hz (its spectrum resolving resolution_hz):
     (key, reason), or None. A refused fold (prepare), or a line within one resolution (and 0.2 %,
-    the comb grid's step) of a PWM or mains line (fixed_lines)."""
+    the comb grid's step) of a PWM or mains line (fixed_lines). Where the file declares no mains
+    frequency and nothing places the line (placed False: no rotation comb around it, which leaves the
+    mains' multiples out, and no back-EMF prior or speed range, whose spread a fixed line far from the
+    shaft's speed leaves), a line at a multiple of 50 or 60 Hz is taken for hum too: alone it cannot
+    be told from the hum of a standing shaft (twin: 5 mA at 50 Hz with the drive on and the shaft
+    standing, counted as 114 RPM). Where a comb or a prior places the line, undeclared mains are not
+    assumed: on the twin's recordings a quarter to half of the windows' lines sit within a resolution
+    of a multiple of 50 or 60 Hz."""
     why = bursts.refusal(k)
     if why:
         return KEY_FOLD, why
     if not math.isfinite(f_hz):
         return None
     tol = resolution_hz + 0.002 * f_hz
-    for f, what in fixed_lines(bursts, f_hz + tol, f_hz - tol):
+    for f, what in fixed_lines(bursts, f_hz + tol, f_hz - tol, either_mains=not placed):
         if abs(f_hz - f) <= tol:
             return KEY, f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz)"
     return None
