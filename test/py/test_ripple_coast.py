@@ -267,7 +267,7 @@ BAD_COAST = [
      ":3: metadata a_per_code"),
     ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\nseq,t_s,codes\n", ":5: header"),
     ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\n"
-     "seq,t_s,n_i,i_codes,n_v,v_codes\n3,1.5,2,5 6,1,7\n4,3.0,2,5,1,7\n", ":7: count 2 does not match the 1 codes"),
+     "seq,t_s,n_i,i_codes,n_v,v_codes\n3,1.5,2,5 6,1,7\n4,3.0,2,5,1,7\n", ":7: n_i 2 does not match the 1 codes"),
     ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\n"
      "seq,t_s,n_i,i_codes,n_v,v_codes\n3,1.5,1,5,1,7\n4,1.5,1,5,1,7\n", ":7: t_s not increasing"),
     ("# format=hpddo-coast 1\n# sample_hz=1e4\n# a_per_code=0.01\n# v_per_code=0.02\n"

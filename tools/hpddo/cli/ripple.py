@@ -253,10 +253,8 @@ def _coast(args, opts) -> int:
 def _meta_ra(path, meta: dict) -> float:
     """The log's ra_ohm metadata, or an InputError saying how to give Ra."""
     from ..logs.errors import InputError
-    try:
-        ra = float(meta["ra_ohm"])
-    except (KeyError, ValueError):
-        ra = math.nan
+    from ..ripple.log import number_or_nan
+    ra = number_or_nan(meta.get("ra_ohm"))
     if not (ra > 0 and math.isfinite(ra)):
         raise InputError(f"{path}: no Ra: give --ra-ohm (a multimeter reading) or an ra_ohm metadata line")
     return ra

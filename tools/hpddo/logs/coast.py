@@ -10,7 +10,6 @@ current is (code - offset_code) x a_per_code A, the terminal voltage code x v_pe
 from __future__ import annotations
 
 import dataclasses
-import math
 import pathlib
 import re
 
@@ -89,13 +88,6 @@ def write(path, probes: ProbeBursts, meta: dict | None = None) -> pathlib.Path:
     return write_text_atomic(path, "\n".join(lines) + "\n")
 
 
-def _codes(count: str, text: str) -> np.ndarray:
-    c = np.array(text.split(), dtype=np.int64) if text.strip() else np.zeros(0, np.int64)
-    if c.size != int(count):
-        raise ValueError(f"count {count.strip()} does not match the {c.size} codes")
-    return c
-
-
 def read(path) -> ProbeBursts:
     """Reads a coast probe file; a CoastFileError names the line and the fault."""
     path = pathlib.Path(path)
@@ -116,10 +108,8 @@ def read(path) -> ProbeBursts:
         try:
             if len(parts) != 6:
                 raise ValueError(f"{len(parts)} fields, 6 expected ({HEADER})")
-            s, tt = int(parts[0]), float(parts[1])
-            if not math.isfinite(tt):
-                raise ValueError(f"t_s {parts[1].strip()!r} is not a finite number")
-            ci, cv = _codes(parts[2], parts[3]), _codes(parts[4], parts[5])
+            s, tt = int(parts[0]), rf.time_of(parts[1])
+            ci, cv = rf.codes_of(parts[2], parts[3], "n_i"), rf.codes_of(parts[4], parts[5], "n_v")
         except (ValueError, OverflowError) as exc:
             raise CoastFileError(f"{path}:{j + 1}: {exc}") from None
         if t and tt <= t[-1]:

@@ -130,6 +130,23 @@ def head(path, error, required, fmt: str, header: str) -> tuple:
     return lines, meta, where, i
 
 
+def codes_of(count: str, text: str, name: str) -> np.ndarray:
+    """A row's codes (integers, space separated) and their count in the column `name`; ValueError
+    where they are not integers or their number is not the count."""
+    c = np.array(text.split(), dtype=np.int64) if text.strip() else np.zeros(0, np.int64)
+    if c.size != int(count):
+        raise ValueError(f"{name} {count.strip()} does not match the {c.size} codes")
+    return c
+
+
+def time_of(text: str) -> float:
+    """A row's t_s; ValueError where it is not a finite number."""
+    t = float(text)
+    if not math.isfinite(t):
+        raise ValueError(f"t_s {text.strip()!r} is not a finite number")
+    return t
+
+
 def read(path) -> Bursts:
     """Reads a burst file; a RippleFileError names the line and the fault."""
     path = pathlib.Path(path)
@@ -140,12 +157,8 @@ def read(path) -> Bursts:
         try:
             if len(parts) != 4:
                 raise ValueError("field count")
-            c = np.array(parts[3].split(), dtype=np.int64) if parts[3].strip() else np.zeros(0, np.int64)
-            if c.size != int(parts[2]):
-                raise ValueError(f"n {parts[2].strip()} does not match the {c.size} codes")
-            s, tt = int(parts[0]), float(parts[1])
-            if not math.isfinite(tt):
-                raise ValueError(f"t_s {parts[1].strip()!r} is not a finite number")
+            c = codes_of(parts[2], parts[3], "n")
+            s, tt = int(parts[0]), time_of(parts[1])
         except (ValueError, OverflowError) as exc:
             raise RippleFileError(f"{path}:{j + 1}: {exc}") from None
         if t and tt <= t[-1]:

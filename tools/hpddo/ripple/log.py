@@ -18,7 +18,7 @@ from .spans import count_steady_spans
 from .stall import count_stalls
 
 
-def _number_or_nan(text) -> float:
+def number_or_nan(text) -> float:
     """A metadata value as a number; NaN where it is missing or not one."""
     try:
         return float(text)
@@ -67,7 +67,7 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
             raise InputError(f"{model.source}: the model's Ke {ke:g} V s/rad or Ra {ra:g} ohm cannot be a prior")
         prior = model.rpm(path, df, meta)[rows]
     else:
-        ra = ra_ohm if ra_ohm is not None else _number_or_nan(meta.get("ra_ohm"))
+        ra = ra_ohm if ra_ohm is not None else number_or_nan(meta.get("ra_ohm"))
         if not math.isfinite(ra):  # no back-EMF prior: the user's speed range, or none
             ke, ke_from = math.nan, "no Ra: " + ("the speed range given is the prior" if rpm_range else "no prior")
         elif ke_vs_per_rad:
