@@ -216,8 +216,11 @@ def test_a_line_at_an_undeclared_mains_multiple_counts_where_the_prior_places_it
     (within max_prior_z of it) it is counted, confident (half the twin's windows lie within a resolution of such
     a multiple); where only the prior's allowance for a glitch of V or I beside the window holds it (prior_glitch,
     estimate's |own - median|: on the twin's low-duty run a glitch at a standing window put the own prior at 65
-    RPM beside the median's 10, and the 50 Hz hum became confident at 113.7 RPM), it is taken for hum; the same
-    sd without a glitch places it."""
+    RPM beside the median's 10, and the 50 Hz hum became confident at 113.7 RPM), it is taken for hum; so it is
+    where the same sd, without a glitch, holds a standing shaft too (0 RPM within max_prior_z of the prior: a
+    stall's current holds the hum alone; on the independent commutator simulation a stall under a prior of
+    -60 RPM, its spread past 300 RPM, had its 50 Hz hum counted, confident, as 300 RPM); a prior as wide that
+    refuses a standing shaft places it."""
     rng = np.random.default_rng(int(hz))
     t = np.arange(int(0.5 * FS)) / FS
     x = 0.4 + 0.005 * np.sin(2 * math.pi * hz * t) + 0.0002 * rng.standard_normal(len(t))
@@ -229,7 +232,9 @@ def test_a_line_at_an_undeclared_mains_multiple_counts_where_the_prior_places_it
     glitch = estimate_window(b, 0, 0.5, rpm / 10, opts, None, (sd, sd), None, gap)
     assert glitch["key"] == "fixed_line" and "the file declares none" in glitch["reason"], glitch["reason"]
     weak = estimate_window(b, 0, 0.5, rpm / 10, opts, None, (sd, sd), None, 0.0)
-    assert weak["key"] == "", weak["reason"]
+    assert weak["key"] == "fixed_line" and "the file declares none" in weak["reason"], weak["reason"]
+    turning = estimate_window(b, 0, 0.5, 0.6 * rpm, opts, None, (0.15 * rpm, sd), None, 0.0)
+    assert turning["key"] == "" and abs(turning["rpm"] / rpm - 1) < 0.01, turning["reason"]
 
 
 def test_ke_from_the_ripple_counts_a_turning_shafts_lone_line_at_a_mains_multiple():

@@ -127,7 +127,8 @@ KE_MIN_EMF_OVER_U = 2.0
 
 def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder: the ripple speed w
-    of the windows where the comb alone (no prior) gives a confident count, against the back-EMF
+    of the windows where the count alone (no prior) is confident and whose rotation comb places the line at
+    opts.ripples_per_rev (where no window's does: every such confident window), against the back-EMF
     E = V - I Ra, in the windows where E stands KE_MIN_EMF_OVER_U times over u, the voltage the
     prior does not know (opts.prior_unmodelled_V, and Ra's error opts.prior_ra_rel times I); their
     median of E / w, each window weighted by (w / u)^2, so that slow, loaded windows weigh little.
@@ -145,6 +146,13 @@ def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     e = np.asarray(v_V, float) - i * ra_ohm
     u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * np.abs(i))
     ok = df["confident"].to_numpy() & (w > 0) & (e >= KE_MIN_EMF_OVER_U * u)
+    # the windows whose rotation comb places their line at the figure given, where there are any: a window without
+    # a comb counts its strongest line, which a strongly eccentric rotor's once-per-revolution line can be (a
+    # 5-bar commutator's ripple under it in the independent commutator simulation: Ke 10x the motor's, and the
+    # comb windows' own lines then `far` from the prior); the comb is the one check of the line's identity here
+    placed = ok & (df["multiple"].to_numpy(int) == opts.ripples_per_rev)
+    if placed.any():
+        ok = placed
     if ok.sum() == 0:
         return math.nan, 0, math.nan
     w, e, u = w[ok], e[ok], u[ok]

@@ -166,7 +166,7 @@ def allowed_spread(cycles, snr, snr_wide, opts: Options) -> float:
 
 
 def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None, prior_sd=None, rpm_per_A=None,
-                    prior_glitch=0.0, unplaced_hum=True):
+                    prior_glitch=0.0, unplaced_hum=True, turning_given=False):
     """One window: dict with rpm (count), rpm_fft (one FFT peak in the band), f_Hz (the counted
     frequency), f_strongest_Hz (the strongest line of the spectrum, for comparison), cycles, snr, spread,
     confidence (0..1), reason ('' when confident), key (REASONS key or ''). prior_before: the
@@ -179,7 +179,9 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     50 or 60 Hz where the file declares no mains must lie within max_prior_z of the prior without it to count
     as placed by the prior (sync.fixed_line). unplaced_hum: whether a line that neither a comb nor the prior
     places is taken for hum at an undeclared 50 or 60 Hz multiple (sync.fixed_line); False for calibrate_ke,
-    which keeps only the windows whose back-EMF shows the shaft turning."""
+    which keeps only the windows whose back-EMF shows the shaft turning. The prior places a line only where it
+    also refuses a standing shaft (0 RPM beyond max_prior_z of its sd), or where turning_given: the user's
+    speed range, whose lower end is above 0, says the shaft turns (ripple.speed_range)."""
     from scipy import signal
 
     fs = bursts.sample_hz
@@ -270,9 +272,16 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="far", f_Hz=f_star, reason=f"{REASONS['far']} ({f_star:.1f} Hz, {rpm_of(f_star):.1f} RPM, "
                    f"{z_star:+.1f} sd from the prior's {rpm_prior:.1f} RPM)")
         return out
-    def line_placed(f_hz):  # a comb or the prior places the line (sync.fixed_line): the prior without its glitch allowance
-        return not unplaced_hum or comb is not None or (np.isfinite(f_prior) and abs(float(prior_like(
-            [f_hz], f_prior, sd_lo_own, sd_hi_own, opts.prior_rel_sd)[1][0])) <= opts.max_prior_z)
+    def line_placed(f_hz):  # a comb or the prior places the line (sync.fixed_line): the prior without its glitch
+        # allowance holds the line and refuses a standing shaft (0 RPM further than max_prior_z of its sd), whose
+        # current holds the hum alone
+        if not unplaced_hum or comb is not None:
+            return True
+        if not np.isfinite(f_prior):
+            return False
+        with np.errstate(divide="ignore", invalid="ignore"):
+            z_line, z_still = prior_like([f_hz, 0.0], f_prior, sd_lo_own, sd_hi_own, opts.prior_rel_sd)[1]
+        return abs(float(z_line)) <= opts.max_prior_z and (turning_given or not abs(float(z_still)) <= opts.max_prior_z)
 
     fixed = sync.fixed_line(bursts, k, f_star, res, line_placed(f_star))  # a PWM or mains line, or a refused fold
     if fixed:
@@ -365,7 +374,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     return out
 
 
-def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=None, unplaced_hum=True):
+def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=None, unplaced_hum=True,
+             turning_given=False):
     """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
     duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's voltage-borne
     sd per window (RPM), one figure or (below, above) (m2_prior_sd_rpm; None: 0, Ke's relative
@@ -375,8 +385,8 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
     and the prior's sd spans both: sd = sqrt(sd^2 + (own - median)^2). The DataFrame carries
     the prior used (`rpm_prior_used`), its sd (`prior_sd_below`, `prior_sd_above`) and the glitch's part of
     it (`prior_glitch`, |own - median|). rpm_per_A:
-    Ra / Ke in RPM per A (rpm_per_amp), for the speed change the current shows inside a window. unplaced_hum:
-    estimate_window's."""
+    Ra / Ke in RPM per A (rpm_per_amp), for the speed change the current shows inside a window. unplaced_hum,
+    turning_given: estimate_window's."""
     import pandas as pd
 
     n = len(bursts)
@@ -400,7 +410,8 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
         d = None if duty is None else float(duty[k])
         pr = None if rpm_prior is None else float(rpm_prior[k])
         before = None if rpm_prior is None or k == 0 else float(rpm_prior[k - 1])
-        rows.append(estimate_window(bursts, k, d, pr, opts, before, sd[k], rpm_per_A, glitch[k], unplaced_hum))
+        rows.append(estimate_window(bursts, k, d, pr, opts, before, sd[k], rpm_per_A, glitch[k], unplaced_hum,
+                                    turning_given))
     df = pd.DataFrame(rows)
     df.insert(0, "seq", bursts.seq)
     df["confident"] = df["key"] == ""

@@ -32,29 +32,45 @@ def line_power(f_grid, p_max, f):
     return np.interp(f, f_grid, p_max, left=0.0, right=0.0)
 
 
-def identity_of_recording(est, opts: Options):
+def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     """The line's identity over a whole recording: where most of the windows whose lines form a
     rotation comb (est's `multiple` > 0; not those named `damaged`) put the strongest line at another multiple than
     opts.ripples_per_rev, the user's figure is wrong for this motor, and a window without a comb of
     its own cannot show that its line is the ripple (its prior, (V - I Ra) / Ke with a Ke calibrated
     under the same figure, agrees with any multiple): every confident row without its own comb at
-    ripples_per_rev is then `multiple`, not confident, with the multiple the comb windows show.
+    ripples_per_rev is then `multiple`, not confident, with the multiple the comb windows show, and so is a
+    confident row whose own comb shows the figure given: the recording's combs outweigh it.
+    scale_checked: whether anything besides the ripple sets the speed's scale (the user's Ke, a model's M2, a
+    speed range). Where nothing does (Ke calibrated from the ripple under the figure given, or no prior), the
+    counts scale with the figure given and only the comb can check it: where no window of the recording shows a
+    comb, every confident row is `unchecked`, not confident.
     est: speed_of_log's DataFrame. Returns a copy."""
     est = est.copy()
     m = est["multiple"].to_numpy(int)
     shown = (m > 0) & (est["key"].to_numpy() != "damaged")  # a damaged commutator's even lines are not the comb
+    if not scale_checked and not shown.any():
+        idx = est.index[est["confident"].to_numpy(bool)]
+        est.loc[idx, "confident"] = False
+        est.loc[idx, "confidence"] = 0.0
+        est.loc[idx, "key"] = "unchecked"
+        est.loc[idx, "reason"] = (f"{REASONS['unchecked']} ({opts.ripples_per_rev} given; none of the {len(est)} windows "
+                                  "shows a comb)")
+        return est
     other = shown & (m != opts.ripples_per_rev)
     if not shown.any() or other.sum() <= 0.5 * shown.sum():
         return est
     vals, counts = np.unique(m[other], return_counts=True)
     top = int(vals[np.argmax(counts)])
-    demote = est["confident"].to_numpy(bool) & (m != opts.ripples_per_rev)
+    # every confident row: a window's own comb at the figure given does not outweigh the recording's (a free-running
+    # burst's PWM residue put a comb at half the rotation frequency under 2 of 16 comb windows of a 6-ripple motor
+    # given 12, in the independent commutator simulation; the 14 others showed other figures)
+    demote = est["confident"].to_numpy(bool)
     idx = est.index[demote]
     est.loc[idx, "confident"] = False
     est.loc[idx, "confidence"] = 0.0
     est.loc[idx, "key"] = "multiple"
-    est.loc[idx, "reason"] = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the "
-                              f"{opts.ripples_per_rev} given, in {int((m == top).sum())} of the {int(shown.sum())} "
-                              "windows of this recording whose lines form a rotation comb; this window shows none "
-                              "of its own")
+    head = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the {opts.ripples_per_rev} given, in "
+            f"{int((m == top).sum())} of the {int(shown.sum())} windows of this recording whose lines form a rotation comb")
+    for j, k in zip(idx, m[demote]):
+        est.at[j, "reason"] = head + ("; this window shows none of its own" if k == 0 else f"; this window's own shows {k}")
     return est

@@ -80,13 +80,18 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         prior = m2_prior_rpm(v, i, ra, ke) if math.isfinite(ke) else None
     per_A = rpm_per_amp(ra, ke) if math.isfinite(ke) and math.isfinite(ra) else None
     prior_sd = m2_prior_sd_rpm(v, i, ra, ke, opts) if prior is not None else None
+    turning_given = False  # the user's speed range as the prior, above 0: the shaft turns (estimate_window)
     if prior is None and rpm_range is not None:
         prior, prior_sd = speed_range.range_prior(rpm_range, len(rows))
-    est = estimate(b, duty, prior, opts, prior_sd, per_A)
+        turning_given = float(rpm_range[0]) > 0
+    est = estimate(b, duty, prior, opts, prior_sd, per_A, turning_given=turning_given)
     est = count_settled_tails(b, duty, est, opts, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)
     est = count_stalls(b, duty, est, opts, per_A if prior is not None else None)
-    est = identity_of_recording(est, opts)
+    # the speed's scale is checked where the prior's Ke is the user's or a model's, or the user gives a speed range;
+    # a Ke calibrated from the ripple under the figure given scales with it
+    est = identity_of_recording(est, opts, scale_checked=model is not None or bool(ke_vs_per_rad)
+                                or rpm_range is not None)
     est = speed_range.within_range(est, rpm_range)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior

@@ -18,6 +18,10 @@ REASONS = {
     "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
                  "and the back-EMF prior cannot tell them apart",
     "multiple": "the data show another ripples per revolution than the one given",
+    "unchecked": "the ripples per revolution given is not checked by the data: the back-EMF prior's Ke was "
+                 "calibrated from the ripple under that figure (or there is no prior), so the counts scale with it, and "
+                 "no window of the recording shows a rotation comb to check it; give Ke (--ke-vs-per-rad) or a model "
+                 "(--model), or a speed range (--rpm-range)",
     "rival": "another line inside the back-EMF prior's spread is as strong, and the data do not place it on the "
              "rotation comb: unresolved",
     "damaged": "a damaged commutator: the lines at once or twice the rotation frequency are too strong against "
@@ -36,7 +40,7 @@ REASONS = {
 
 @dataclasses.dataclass(frozen=True)
 class Options:
-    ripples_per_rev: int          # commutation ripples per motor revolution (2 x segments for 2 brushes)
+    ripples_per_rev: int          # commutation ripples per motor revolution (2 brushes: 2 x odd segments, x1 even)
     gear_ratio: float             # motor revolutions per output revolution (the user's figure)
     floor_A: float = 0.10         # no estimate under this mean current
     prior_rel_sd: float = 0.15    # the back-EMF prior's relative uncertainty on a candidate's speed: Ke's error

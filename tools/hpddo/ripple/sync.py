@@ -135,9 +135,13 @@ def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float, placed: bool =
     mains' multiples out, and no back-EMF prior or speed range, whose spread a fixed line far from the
     shaft's speed leaves), a line at a multiple of 50 or 60 Hz is taken for hum too: alone it cannot
     be told from the hum of a standing shaft (twin: 5 mA at 50 Hz with the drive on and the shaft
-    standing, counted as 114 RPM). Where a comb or a prior places the line, undeclared mains are not
-    assumed: on the twin's recordings a quarter to half of the windows' lines sit within a resolution
-    of a multiple of 50 or 60 Hz."""
+    standing, counted as 114 RPM). Where a comb places the line, or a prior that holds it and refuses a
+    standing shaft (0 RPM further than max_prior_z of the prior's sd: estimate_window's line_placed),
+    undeclared mains are not assumed: on the twin's recordings a quarter to half of the windows' lines sit
+    within a resolution of a multiple of 50 or 60 Hz. A prior whose spread holds 0 RPM does not place a
+    line: a stall at 3.3 A where V - I Ra is small against Ra's error times I (the independent commutator
+    simulation, studies/ripple_independent.py) put the prior at -60 RPM and its spread past 300 RPM, and the
+    50 Hz hum was counted, confident, as 300 RPM."""
     why = bursts.refusal(k)
     if why:
         return KEY_FOLD, why
