@@ -97,3 +97,12 @@ def test_the_docs_quote_the_committed_study():
     assert study.docs_text(doc, figures) == doc
     assert figures["command"].startswith("python -m hpddo.studies.ripple_independent")
     assert study.summarise(figures["cases"]) == figures["summary"]
+
+
+@pytest.mark.slow
+def test_one_bench_of_the_study_regenerates_its_figures():
+    figures = json.loads((ROOT / study.FIGURES).read_text(encoding="utf-8"))
+    old = next(c for c in figures["cases"] if c["segments"] == 5 and c["seed"] == 1 and c["sampling"] == "synchronous"
+               and c["mains"] == "none")
+    new = study.run_bench(study.Bench(old["segments"], old["sampling"], old["mains"], old["protocol"], old["seed"]))
+    assert json.loads(json.dumps(new)) == old
