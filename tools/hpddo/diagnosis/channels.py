@@ -93,15 +93,65 @@ CLIP_NEAR_STEPS = 3.0
 CLIP_MIN_NEAR = 5
 
 
+# The balance bends where the motor's own physics does (the copper heating with the current, the
+# armature reaction, a brush drop levelling off): fitted on the rows off the ends, a straight balance
+# V = a w + b I + c leaves that bend at the highest current, where a channel would clip, and reads it as
+# a clip. Where the rows off the ends show the bend (the terms I^2, I w, w^2, I^3 together at p <
+# CURVE_P: the settled copper adds a r Ra^2 I^3 to the drop, the armature reaction I w), the balance
+# carries them and is extrapolated to the ends with them.
+CURVE_P = 1e-3
+
+
 def implied(r, name: str) -> np.ndarray:
-    """The channel `name`'s value per row that the motor's balance implies (V = a w + b I + c, from
-    the other channel and the speed, least squares over the driven rows with a speed at which the
-    channel reads neither end it may clip at; NaN where it cannot say: no speed, too few rows, or an I term
-    it does not determine)."""
+    """The channel `name`'s value per row that the motor's balance implies (V = a w + b I + c, and
+    its bend where the rows show one: CURVE_P), from the other channel and the speed, least squares
+    over the driven rows with a speed at which the channel reads neither end it may clip at; NaN where
+    it cannot say: no speed, too few rows, or an I term it does not determine). The current's value:
+    the reading moved by the voltage's excess over the balance at it, over the balance's slope in I
+    there (with the straight balance, (V - a w - c) / b)."""
     out = np.full(len(r.v), np.nan)
     ok = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i) & np.isfinite(r.ref)
     if ok.sum() < 10:
         return out
+    x_ch = r.v if name == "voltage" else r.i
+    # the balance from the rows off the ends it may clip at (the bottom only at zero or below: _saturated)
+    lo = np.min(x_ch[ok])
+    inner = ok & (x_ch < np.max(x_ch[ok])) & ((x_ch > lo) | (lo > 0))
+    if inner.sum() < 10 or np.ptp(r.i[inner]) <= 0 or np.ptp(r.ref[inner]) <= 0:
+        return out
+    w = r.ref * (2.0 * np.pi / 60.0)
+
+    def design(rows, bent):
+        cols = [w[rows], r.i[rows], np.ones(int(rows.sum()))]
+        if bent:
+            cols += [r.i[rows] ** 2, r.i[rows] * w[rows], w[rows] ** 2, r.i[rows] ** 3]
+        return np.column_stack(cols)
+
+    try:
+        fit = sm.OLS(r.v[inner], design(inner, False)).fit()
+        bent = False
+        x_bent = design(inner, True)
+        if inner.sum() >= 20 and np.linalg.matrix_rank(x_bent) == x_bent.shape[1]:
+            curved = sm.OLS(r.v[inner], x_bent).fit()
+            if (np.all(np.isfinite(curved.params)) and np.all(np.isfinite(curved.bse))
+                    and curved.compare_f_test(fit)[1] < CURVE_P):
+                fit, bent = curved, True
+    except (np.linalg.LinAlgError, ValueError):
+        return out
+    if not np.all(np.isfinite(fit.params)) or not np.all(np.isfinite(fit.bse)):
+        return out
+    q = np.asarray(fit.params, float)
+    v_hat = design(ok, bent) @ q
+    if name == "voltage":
+        out[ok] = v_hat
+        return out
+    b = float(q[1])
+    if not (b > 0 and abs(b) > 4.0 * float(fit.bse[1])):
+        return out
+    slope = b + (2.0 * q[3] * r.i[ok] + q[4] * w[ok] + 3.0 * q[6] * r.i[ok] ** 2 if bent else 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out[ok] = np.where(slope > 0, r.i[ok] + (r.v[ok] - v_hat) / slope, np.nan)
+    return out
     x_ch = r.v if name == "voltage" else r.i
     # the balance from the rows off the ends it may clip at (the bottom only at zero or below: _saturated)
     lo = np.min(x_ch[ok])

@@ -200,17 +200,22 @@ def _covers(iv, truth) -> bool | None:
     return bool(iv["lo"] <= truth <= iv["hi"])
 
 
-def score(b: Bench, js: dict, paths) -> dict:
-    """What the diagnosis js said of bench b, against its truth."""
+def score(b: Bench, js: dict, paths, effect_rms: float | None = None) -> dict:
+    """What the diagnosis js said of bench b, against its truth. b: a Bench or any bench with its
+    fields (ke_vs_per_rad, ra_ohm, ra_given_ohm, other_motor and effects, {library name: true
+    coefficient}, NaN where the bench's law is not the library's form and no coefficient is
+    comparable); effect_rms: the RMS RPM by which its effects move the plain model (default
+    effect_rms_rpm(b))."""
     from ..diagnosis.verdict import NOTHING
+    from ..model import effects as fx
 
     out = {"covered": {}, "false": {}}
     ivs = {iv["field"]: iv for iv in js.get("intervals", [])}
     out["covered"]["Ke"] = _covers(ivs.get("ke_vs_per_rad"), b.ke_vs_per_rad)
     out["covered"]["Ra (data alone)"] = _covers((js.get("ra_fit") or {}).get("data_alone"), b.ra_ohm)
     for e in js.get("missing_effects", []):
-        if e in b.effects:
-            out["covered"][f"{e} coefficient"] = _covers(ivs.get(EFFECTS[e][0]), b.effects[e])
+        if e in b.effects and math.isfinite(b.effects[e]):
+            out["covered"][f"{e} coefficient"] = _covers(ivs.get(fx.LIBRARY[e].field), b.effects[e])
     present = set(b.effects) | {"v_gain"}  # every channel has its gain error (within its tolerance)
     # a named effect that the verdict says cannot be told from others (a confounded group: "X and Y
     # cannot be told apart on these recordings") states one of the group: absent only when all are
@@ -225,12 +230,15 @@ def score(b: Bench, js: dict, paths) -> dict:
     odd += [o["recording"] for o in (js.get("consistency") or {}).get("other_motors", [])]
     out["false"]["effect named that is absent"] = bool(absent_named)
     out["false"]["'consistent with noise' with an effect above the floor"] = bool(
-        NOTHING in verdict and effect_rms_rpm(b) > 2.0 * max(floor, NOISE["rpm"]))
+        NOTHING in verdict and (effect_rms_rpm(b) if effect_rms is None else effect_rms) > 2.0 * max(floor, NOISE["rpm"]))
     out["false"]["an Ra stated more than 10 % off"] = any(abs(x / b.ra_ohm - 1) > 0.10 for x in ra_said)
     out["false"]["a wrong instruction"] = bool(
         any(abs(x / b.ra_ohm - 1) > abs(b.ra_given_ohm / b.ra_ohm - 1) for x in ra_said)
         or absent_named or [u for u in odd if not u.startswith("other")])
     out["false"]["a recording called inconsistent that is not"] = bool([u for u in odd if not u.startswith("other")])
+    # no bench of the study clips a channel (its readings have no range to clip at)
+    out["false"]["a channel called saturated that does not clip"] = any(
+        c.get("fault") == "saturated" for c in js.get("channels", []))
     out["other motor named"] = (any(u.startswith("other") for u in odd)) if b.other_motor else None
     # each effect on the bench (a channel's gain within its tolerance aside): named, or in a group the
     # verdict states with a named effect
