@@ -153,8 +153,9 @@ __attribute__((noinline)) void coast_restore() {
 /// probe in the burst's place of every coast_every-th window (acq_coast.h). OCR1A 0 in the period
 /// before the cut (the cut period's on-time shrinks to one cycle at its start: the output goes low
 /// at its first compare match, whatever this interrupt's latency), the output held low at the cut
-/// (the burst's first period, where the ADC waits for the trigger; else no probe), the drive back
-/// from the period after the probe's last sample. Not inlined: TIMER1_OVF saves every register a
+/// (the burst's first period, once on_period has opened the probe's slot: the ADC waits for the
+/// trigger; else on_period restores the drive, no probe), the drive back from the period after the
+/// probe's last sample. Not inlined: TIMER1_OVF saves every register a
 /// call clobbers anyway (its prologue, seen in the disassembly), so the call costs no pushes.
 __attribute__((noinline)) void coast_period(uint16_t p) {
   if (p == 0 && g.coast_n && ++g.coast_count >= g.coast_every) {
@@ -165,8 +166,7 @@ __attribute__((noinline)) void coast_period(uint16_t p) {
   if (p == static_cast<uint16_t>(g.burst_period - 1u)) {
     g.coast_ocr = OCR1A;  // the buffer: the value in force (written at the window's start)
     OCR1A = 0;
-  } else if (p == g.burst_period) {
-    if (!g.triggered) return coast_restore();  // no burst starts: no probe (on_period counts it)
+  } else if (p == g.burst_period) {  // the ADC waits for the trigger (on_period checked it)
     g.coast_tccr1a = TCCR1A;
     g.coast_pin = static_cast<uint8_t>(PORTB & _BV(PB1));
     TCCR1A = _BV(WGM11);  // OC1A disconnected: the pin follows PORTB
@@ -229,12 +229,21 @@ __attribute__((always_inline)) inline void on_period(uint16_t p, uint32_t seq) {
   }
   if (!g.burst_n) return;
   if (p == g.arm_period) g.arm = true;
+  // The coast probe's call comes last on each path, and only at p 0 or in a probe's window: the
+  // interrupt took a median 132 cycles a period without the probe, 183 with the call first and in
+  // every period (values kept across it in call-saved registers, 6 more pushes and pops), 156 so
+  // (simavr, ovf_isr.csv; docs/ripple-board.md "Coast probes").
+  if (p != g.burst_period) {
 #if ACQ_COAST
-  if (!g.coast_off || g.coast_win) coast_period(p);
+    if (g.coast_win || (p == 0 && !g.coast_off)) coast_period(p);
 #endif
-  if (p != g.burst_period) return;
+    return;
+  }
   if (!g.triggered) {
     ++g.not_started;
+#if ACQ_COAST
+    if (g.coast_win) coast_restore();  // no burst starts: no probe
+#endif
     return;
   }
   Slot& s = g.slot[g.slot_w & (kSlots - 1)];
@@ -242,7 +251,7 @@ __attribute__((always_inline)) inline void on_period(uint16_t p, uint32_t seq) {
   s.total = g.burst_n;
 #if ACQ_COAST
   s.sync1 = kRippleSync1;
-  if (g.coast) {  // the probe's samples in the burst's place
+  if (g.coast_win) {  // the probe's samples in the burst's place
     s.total = g.coast_n;
     s.sync1 = kCoastSync1;
   }
@@ -253,6 +262,9 @@ __attribute__((always_inline)) inline void on_period(uint16_t p, uint32_t seq) {
   s.open = true;
   g.slot_w = static_cast<uint8_t>(g.slot_w + 1);
   g.left = s.total;
+#if ACQ_COAST
+  if (g.coast_win) coast_period(p);  // the cut
+#endif
   // The counter begins the burst at its first code, in the ADC interrupt (begin_count), not
   // here: this interrupt runs with interrupts off, and the link's bit interrupt must not wait
   // behind it (a burst's opening here took 439 cycles, and 100 Hz windows had framing errors

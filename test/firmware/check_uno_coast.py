@@ -88,6 +88,11 @@ def probe_feed(n, e0_V, i0_A, period_s):
     return mv, (lambda t: e0_V * (1 - 5 * t))
 
 
+def t0_ok(e, windows, seqs):
+    """Whether cycle e lies in the recorded windows."""
+    return windows[seqs[0] - 1]["close"] <= e < windows[seqs[-1]]["close"]
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--harness", required=True)
@@ -239,6 +244,24 @@ def main():
           f"{late} held past the next trigger")
     if late:
         fail(f"{late} ADC interrupts of a probe ended after the next trigger (its channel would be the wrong one)")
+
+    # ---- Timer1's overflow interrupt (the window close and the probe's cut and restore are in it)
+    ovf = [tuple(int(x) for x in l.split(",")) for l in (work / "ovf_isr.csv").read_text().splitlines()[1:]]
+    marks = {}
+    for x, _ in spans:
+        marks[x - period] = "OCR1A 0"   # the period before the cut
+        marks[x] = "cut"
+    for x, y in spans:
+        marks[y - period] = "restore"
+    by_kind = {}
+    for e, c in ovf:
+        if not t0_ok(e, windows, seqs):
+            continue
+        k = round(min(marks, key=lambda m: abs(m - e)) if marks else 0)
+        kind = marks[k] if abs(k - e) < period // 2 else "other"
+        by_kind.setdefault(kind, []).append(c)
+    print("Timer1 overflow interrupt: " + "; ".join(
+        f"{kind} median {sorted(c)[len(c) // 2]} max {max(c)} cycles ({len(c)})" for kind, c in sorted(by_kind.items())))
 
     # ---- the coast file and the estimator's back-EMF
     t_start = {int(r.seq): float(r.t_s) for r in df.itertuples()}

@@ -30,7 +30,8 @@
  * of A1 as A1's; ripple_triggers.csv gives each triggered conversion's channel (ch). And
  * <out>/ripple_pwm.csv: at each Timer1 overflow (the period's end) the PWM's state the firmware set
  * for that period: OCR1A (in force from the next period: double-buffered), TCCR1A and PORTB, from
- * which check_uno_coast.py measures how long the drive is held off.
+ * which check_uno_coast.py measures how long the drive is held off; <out>/ovf_isr.csv: each Timer1
+ * overflow interrupt's entry cycle and cycles until reti (the probe's work is in it).
  */
 #ifndef UNO_SIM_RIPPLE_H
 #define UNO_SIM_RIPPLE_H
@@ -62,6 +63,9 @@ typedef struct {
   avr_cycle_count_t entry, cycles;
   int triggered;
 } rip_isr_t;
+static rip_isr_t* rip_ovf_isr;
+static long rip_n_ovf_isr;
+static avr_cycle_count_t rip_ovf_entry;  /* Timer1's overflow interrupts (ovf_isr.csv) */
 
 static int rip_on;
 static unsigned** rip_feed; /* per window line */
@@ -212,6 +216,19 @@ static void rip_adc_running(struct avr_irq_t* irq, uint32_t value, void* param) 
   }
 }
 
+/* Timer1's overflow interrupt runs (value 1) or returns (0); not interruptible (no nesting). */
+static void rip_ovf_running(struct avr_irq_t* irq, uint32_t value, void* param) {
+  (void)irq;
+  (void)param;
+  if (value) {
+    rip_ovf_entry = avr->cycle;
+  } else if (rip_ovf_isr && rip_n_ovf_isr < RIP_MAX) {
+    rip_ovf_isr[rip_n_ovf_isr].entry = rip_ovf_entry;
+    rip_ovf_isr[rip_n_ovf_isr].cycles = avr->cycle - rip_ovf_entry;
+    rip_ovf_isr[rip_n_ovf_isr++].triggered = 0;
+  }
+}
+
 /* The interrupt vector's irq: index 0 is raised with the flag, 1 while its routine runs. */
 static avr_irq_t* rip_vector_irq(int vector, int which) {
   avr_irq_t* irq = avr_get_interrupt_irq(avr, (uint8_t)vector);
@@ -263,6 +280,10 @@ static int rip_init(unsigned ram_end) {
   if (!compb || !ovf) return -1;
   avr_irq_register_notify(compb, rip_compb, NULL);
   avr_irq_register_notify(ovf, rip_ovf, NULL);
+  rip_ovf_isr = calloc(RIP_MAX, sizeof *rip_ovf_isr);
+  avr_irq_t* ovf_run = rip_vector_irq(RIP_VEC_T1_OVF, AVR_INT_IRQ_RUNNING);
+  if (!rip_ovf_isr || !ovf_run) return -1;
+  avr_irq_register_notify(ovf_run, rip_ovf_running, NULL);
   avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_OUT_TRIGGER), rip_adc_start, NULL);
   return 0;
 }
@@ -288,6 +309,13 @@ static int rip_write(const char* outdir) {
   for (long k = 0; k < rip_n_pwm; ++k)
     fprintf(f, "%llu,%u,%u,%u\n", (unsigned long long)rip_pwm[k].cycle, rip_pwm[k].ocr1a, rip_pwm[k].tccr1a,
             rip_pwm[k].portb);
+  fclose(f);
+  snprintf(path, sizeof path, "%s/ovf_isr.csv", outdir);
+  f = fopen(path, "w");
+  if (!f) return -1;
+  fprintf(f, "entry_cycle,cycles\n");
+  for (long k = 0; k < rip_n_ovf_isr; ++k)
+    fprintf(f, "%llu,%llu\n", (unsigned long long)rip_ovf_isr[k].entry, (unsigned long long)rip_ovf_isr[k].cycles);
   fclose(f);
   snprintf(path, sizeof path, "%s/ripple_reads.csv", outdir);
   f = fopen(path, "w");
