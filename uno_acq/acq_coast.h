@@ -35,8 +35,8 @@ static const uint8_t kCoastSync1 = 0x5C;  ///< a coast probe's chunk (0x5B a rip
 /// The drive held off per probe, us: the twin's COAST_PROBE probe_s (tools/hpddo/twin/params.py;
 /// test/py/test_ripple_coast_board.py holds the two equal): the current freewheels to zero within
 /// about 0.5 ms, the rest shows the back-EMF, short against the shaft's mechanical time constant.
-/// Whole microseconds and milliseconds: the arithmetic below is in integers (in floats it took
-/// 326 bytes of flash more).
+/// Whole microseconds and milliseconds: the arithmetic below is in integers, 16-bit where it fits
+/// (docs/ripple-board.md, "Coast probes": each step of making the probe smaller, measured).
 static const uint32_t kCoastProbeUs = 4000;
 /// A probe every this many milliseconds once probes are on (`coast 1`): the twin's COAST_PROBE period_s.
 static const uint32_t kCoastPeriodMs = 1500;
