@@ -23,7 +23,7 @@ voltage then the back-EMF, slowing with the shaft, at a level of its own per win
 * the stack's low-water mark stays above the static RAM; the flash and RAM of the build are printed.
 """
 import argparse
-import math
+import bisect
 import pathlib
 import random
 import subprocess
@@ -236,7 +236,6 @@ def main():
              for p in probes]
     in_probe = sorted((e, c) for e, c, tr in isr if tr and any(x <= e < y for x, y in spans))
     trig_t = sorted(t["t"] for t in trig)
-    import bisect
     late = sum(1 for e, c in in_probe if bisect.bisect_right(trig_t, e) < len(trig_t)
                and e + c > trig_t[bisect.bisect_right(trig_t, e)])
     cyc = sorted(c for _, c in in_probe)
@@ -273,11 +272,9 @@ def main():
     lsb_v = back.v_per_code
     worst = 0.0
     for j, p in enumerate(probes):
-        ocr1b = [t for t in trig if t["t"] >= windows[p.seq - 1]["close"]][0]
         t_want = t_start[p.seq] + (start * period + p.phase_cycles) / F_CPU
         if abs(back.t_s[j] - t_want) > 1e-9 or len(back.i_codes[j]) != n_probe // 2:
             fail(f"probe {j}: t_s {back.t_s[j]} (want {t_want}), {len(back.i_codes[j])} current samples")
-        del ocr1b
         ti, ia = back.current(j)
         tv, vv = back.voltage(j)
         i_before = float(df["i_A"].iloc[seqs.index(p.seq) - 1])
