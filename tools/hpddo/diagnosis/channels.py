@@ -152,26 +152,6 @@ def implied(r, name: str) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         out[ok] = np.where(slope > 0, r.i[ok] + (r.v[ok] - v_hat) / slope, np.nan)
     return out
-    x_ch = r.v if name == "voltage" else r.i
-    # the balance from the rows off the ends it may clip at (the bottom only at zero or below: _saturated)
-    lo = np.min(x_ch[ok])
-    inner = ok & (x_ch < np.max(x_ch[ok])) & ((x_ch > lo) | (lo > 0))
-    if inner.sum() < 10 or np.ptp(r.i[inner]) <= 0 or np.ptp(r.ref[inner]) <= 0:
-        return out
-    w = r.ref * (2.0 * np.pi / 60.0)
-    x = np.column_stack([w[inner], r.i[inner], np.ones(int(inner.sum()))])
-    try:
-        fit = sm.OLS(r.v[inner], x).fit()
-    except (np.linalg.LinAlgError, ValueError):
-        return out
-    if not np.all(np.isfinite(fit.params)) or not np.all(np.isfinite(fit.bse)):
-        return out
-    a, b, c = (float(q) for q in fit.params)
-    if name == "voltage":
-        out[ok] = a * w[ok] + b * r.i[ok] + c
-    elif b > 0 and abs(b) > 4.0 * float(fit.bse[1]):
-        out[ok] = (r.v[ok] - a * w[ok] - c) / b
-    return out
 
 
 def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float, implied_x) -> bool:

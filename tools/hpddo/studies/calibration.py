@@ -322,23 +322,29 @@ def docs_text(doc: str, figures: dict) -> str:
     return with_block(doc, doc_markers(), block, DOC, WHAT)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.calibration", description=__doc__.split("\n\n")[0])
+def run_benches(module: str, description: str, run_one, docs: tuple, benches: int, argv=None) -> int:
+    """The command line of a study over randomised benches (this one, calibration_mismatch): run_one(seed)
+    on --benches seeds from --seed, on --jobs processes, the summary printed as table() renders it and
+    every bench's result with it written to --json after each bench (a long run stopped early keeps what
+    it measured); --write-docs: only the document's block from the committed figures. docs: (the
+    document, the committed figures, docs_text(document's text, figures))."""
+    doc, figures, docs_text_of = docs
+    ap = argparse.ArgumentParser(prog=f"python -m hpddo.studies.{module}", description=description)
     ap.add_argument("--write-docs", action="store_true",
-                    help=f"only write {DOC}'s block of figures from the committed {FIGURES}")
-    ap.add_argument("--benches", type=int, default=200)
+                    help=f"only write {doc}'s block of figures from the committed {figures}")
+    ap.add_argument("--benches", type=int, default=benches)
     ap.add_argument("--seed", type=int, default=1, help="the first bench's seed (the others follow)")
     ap.add_argument("--jobs", type=int, default=1, help="benches diagnosed at once (processes)")
     ap.add_argument("--json", type=pathlib.Path, help="write every bench's result and the summary here")
     args = ap.parse_args(argv)
     if args.write_docs:
         from . import write_docs
-        return write_docs(DOC, FIGURES, docs_text)
+        return write_docs(doc, figures, docs_text_of)
     seeds = list(range(args.seed, args.seed + args.benches))
-    command = "python -m hpddo.studies.calibration " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = f"python -m hpddo.studies.{module} " + " ".join(argv if argv is not None else sys.argv[1:])
     from tqdm import tqdm
 
-    def save(results):  # after every bench: a long run stopped early keeps what it measured
+    def save(results):
         if args.json:
             tmp = args.json.with_name(args.json.name + ".partial")
             tmp.write_text(json.dumps({"command": command, "summary": summarise(results), "results": results},
@@ -358,6 +364,10 @@ def main(argv=None) -> int:
             save(results)
     print(table(summarise(results)))
     return 0
+
+
+def main(argv=None) -> int:
+    return run_benches("calibration", __doc__.split("\n\n")[0], run_one, (DOC, FIGURES, docs_text), 200, argv)
 
 
 if __name__ == "__main__":

@@ -29,9 +29,7 @@ saturation's c are other forms' numbers and are not scored).
 """
 from __future__ import annotations
 
-import argparse
 import dataclasses
-import json
 import math
 import pathlib
 import sys
@@ -280,33 +278,8 @@ def docs_text(doc: str, figures: dict) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.calibration_mismatch",
-                                 description=__doc__.split("\n\n")[0])
-    ap.add_argument("--write-docs", action="store_true",
-                    help=f"only write {DOC}'s block of figures from the committed {FIGURES}")
-    ap.add_argument("--benches", type=int, default=100)
-    ap.add_argument("--seed", type=int, default=1, help="the first bench's seed (the others follow)")
-    ap.add_argument("--jobs", type=int, default=1, help="benches diagnosed at once (processes)")
-    ap.add_argument("--json", type=pathlib.Path, help="write every bench's result and the summary here")
-    args = ap.parse_args(argv)
-    if args.write_docs:
-        from . import write_docs
-        return write_docs(DOC, FIGURES, docs_text)
-    seeds = list(range(args.seed, args.seed + args.benches))
-    command = "python -m hpddo.studies.calibration_mismatch " + " ".join(argv if argv is not None else sys.argv[1:])
-    from tqdm import tqdm
-
-    if args.jobs > 1:
-        import multiprocessing as mp
-        with mp.get_context("fork").Pool(args.jobs) as pool:
-            results = list(tqdm(pool.imap(run_one, seeds), total=len(seeds), file=sys.stderr, disable=None))
-    else:
-        results = [run_one(s) for s in tqdm(seeds, file=sys.stderr, disable=None)]
-    if args.json:
-        args.json.write_text(json.dumps({"command": command, "summary": cal.summarise(results), "results": results},
-                                        indent=1, default=float) + "\n")
-    print(cal.table(cal.summarise(results)))
-    return 0
+    return cal.run_benches("calibration_mismatch", __doc__.split("\n\n")[0], run_one, (DOC, FIGURES, docs_text), 100,
+                           argv)
 
 
 if __name__ == "__main__":
