@@ -31,6 +31,13 @@ def test_the_settled_rise_is_where_the_node_arrives_holding_the_point(r, ra, i, 
         assert rise == pytest.approx(r * i * i * float(ph.ra_at_ohm(p, ref + rise)), rel=1e-9, abs=1e-12)
 
 
+def test_a_current_that_is_no_number_heats_nothing_as_in_the_trajectory():
+    p = _node(3.0, 1.5)
+    rise = ph.settled_rise(p, np.array([np.nan]), np.array([25.0]))
+    step = ph.thermal_trajectory(p, np.array([np.nan]), np.array([1.0]), ref_C=np.array([25.0])) - 25.0
+    assert rise.tolist() == step.tolist() == [0.0]
+
+
 def test_a_steady_table_sees_the_settled_winding_and_holds_the_copper(tmp_path):
     """Rows in any order, a made-up 1 s clock: each row's winding is its own settled rise (the order of
     the rows changes nothing), and a fit of the heating moves the node's resistance, not copper's

@@ -305,7 +305,8 @@ def settled_rise(p, i_true_A, ref_C) -> np.ndarray:
     q = p.th_r_K_per_W * i * i * p.ra_ohm
     gain = 1.0 - q * p.ra_tc_per_K
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        rise = np.where(gain > 0.0, q * (1.0 + p.ra_tc_per_K * (ref - p.t_ref_C)) / gain, np.inf)
+        rise = np.where(gain > 0.0, q * (1.0 + p.ra_tc_per_K * (ref - p.t_ref_C)) / gain,
+                        np.where(gain <= 0.0, np.inf, np.nan))
     rise = np.minimum(rise, WINDING_MAX_C - ref)
     return np.where(rise >= 0.0, rise, 0.0)
 
