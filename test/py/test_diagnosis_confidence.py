@@ -205,6 +205,22 @@ def test_a_top_load_read_as_one_code_beside_the_copper_heating_is_not_a_saturate
     assert said and "saturated" in said[0] and cut[at_top].all()
 
 
+def test_loads_held_at_one_duty_without_a_load_column_are_no_dither(tmp_path):
+    """Calibration bench 45 (no effect): its load recording, a time series with no load column, holds
+    four loads at each duty, the top one (1.3 A) read by its 20 mA channel as one code. The other loads
+    of the same duty read 0.94, 0.56 and 0.2 A: other operating points, not the dither of a clip (only
+    rows within channels.TRUNCATED_SD of the channel's noise from the end count). It was called
+    saturated at both duties that reach 1.3 A."""
+    import pathlib
+    from hpddo.studies import calibration as cal
+    paths = cal.write(cal.draw(45), pathlib.Path(tmp_path))
+    rec = next(r for r in dataset.load_recordings(paths) if r.name == "load")
+    assert "load" not in rec.df
+    rows = fx.rows_of(rec)
+    assert not [f for f in channels.check([rec], [rows], 1.0) if f.fault == "saturated"]
+    assert not channels.clipped(rec, rows)[1]
+
+
 def _inputs(tmp_path, step, noise, rng):
     rows = []
     for duty in (0.3, 0.45, 0.6, 0.75, 0.9):

@@ -154,13 +154,28 @@ def implied(r, name: str) -> np.ndarray:
     return out
 
 
-def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float, implied_x) -> bool:
+def noise_of(x: np.ndarray, step: float) -> float:
+    """A channel's noise (its driven readings x in steps of `step`): the robust spread of its row-to-row
+    changes away from its ends (steps of load or duty are outliers to it; rows held at an end change by
+    nothing), at least one step."""
+    levels = np.unique(x)
+    if len(levels) < 2:
+        return step
+    inner = (x[1:] != levels[0]) & (x[1:] != levels[-1]) & (x[:-1] != levels[0]) & (x[:-1] != levels[-1])
+    dx = np.diff(x)[inner]
+    return max(1.4826 * float(np.median(np.abs(dx - np.median(dx)))) / np.sqrt(2.0), step) if len(dx) > 2 else step
+
+
+def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float, implied_x,
+           noise: float = 0.0) -> bool:
     """Whether the readings x (driven rows) at their end `edge` show the channel clipping there (the
     evidence above); hold: the hold of each row (runs of one command); implied_x: the balance's value
-    per row (NaN where unknown), or None."""
+    per row (NaN where unknown), or None; noise: the channel's noise (noise_of). A hold's rows short of
+    the end count as its dither only within TRUNCATED_SD of that noise: a command that does not name
+    the load (no load column) holds several loads, whose levels are other operating points."""
     at = x == edge
     sign = 1.0 if which == "top" else -1.0
-    short = ~at & np.isin(hold, hold[at])
+    short = ~at & np.isin(hold, hold[at]) & (sign * (edge - x) <= TRUNCATED_SD * max(noise, step))
     if len(np.unique(x[short])) >= DITHER_CODES:
         return True
     if implied_x is None:
@@ -193,6 +208,7 @@ def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, implied_x=
     if len(x) == 0:
         return out
     hold = _holds(command)
+    noise = noise_of(x, step)
     for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
         if which == "bottom" and edge > 0:
             # a positive floor held at several commands is a motor's own (the no-load current of a sweep,
@@ -202,7 +218,7 @@ def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, implied_x=
         n = int(np.sum(at))
         held = len(np.unique(command[at], axis=0))
         if (n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)) and held >= SATURATED_COMMANDS
-                and _clips(x, float(edge), which, hold, step, implied_x)):
+                and _clips(x, float(edge), which, hold, step, implied_x, noise)):
             out.append((float(edge), which, n, held))
     return out
 
@@ -269,11 +285,7 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         fine = np.ptp(x) / step >= COARSE_LEVELS
         balance = implied(r, name)[driven]
         hold = _holds(command)
-        # the channel's noise: the robust spread of its row-to-row changes away from its ends (steps of
-        # load or duty are outliers to it; rows held at an end change by nothing), at least one step
-        inner = (x[1:] != levels[0]) & (x[1:] != levels[-1]) & (x[:-1] != levels[0]) & (x[:-1] != levels[-1])
-        dx = np.diff(x)[inner]
-        noise = max(1.4826 * float(np.median(np.abs(dx - np.median(dx)))) / np.sqrt(2.0), step) if len(dx) > 2 else step
+        noise = noise_of(x, step)
         for edge, which, n, _held in _saturated(x, command, step, balance):
             at = x == edge
             # the rows of a hold in which a fine channel clips that read within TRUNCATED_SD of its
