@@ -1,5 +1,5 @@
 """The calibration study on physics the library does not hold (python -m
-hpddo.studies.calibration_mismatch, docs/diagnosis-limits.md): its law is what it says, a few of its
+hpddo.studies.calibration_mismatch, docs/diagnosis-mismatch.md): its law is what it says, a few of its
 benches state nothing false (each once stated something false), and the docs quote the committed run."""
 import dataclasses
 import json

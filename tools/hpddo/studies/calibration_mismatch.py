@@ -260,7 +260,7 @@ def run_one(seed: int) -> dict:
 
 
 FIGURES = "docs/figures/calibration_mismatch.json"   # the committed run (--json), its command inside
-DOC = "docs/diagnosis-limits.md"
+DOC = "docs/diagnosis-mismatch.md"
 WHAT = "the study on physics the library does not hold"
 
 
@@ -270,7 +270,7 @@ def doc_markers() -> tuple:
 
 
 def docs_text(doc: str, figures: dict) -> str:
-    """doc (docs/diagnosis-limits.md's text) with its block of this study's figures rendered from
+    """doc (docs/diagnosis-mismatch.md's text) with its block of this study's figures rendered from
     figures (the committed JSON)."""
     from . import with_block
     block = f"Measured by `{figures['command']}`:\n\n{cal.table(figures['summary'])}\n"
