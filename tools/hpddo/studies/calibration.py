@@ -314,12 +314,18 @@ def doc_markers() -> tuple:
     return markers("calibration", WHAT, FIGURES)
 
 
+def block_in(doc: str, figures: dict, markers: tuple, name: str, what: str) -> str:
+    """doc (the text of the document name) with the block between markers rendered from a bench study's
+    figures (its committed JSON): the command, then table() of its summary (this study, calibration_mismatch)."""
+    from . import with_block
+    block = f"Measured by `{figures['command']}`:\n\n{table(figures['summary'])}\n"
+    return with_block(doc, markers, block, name, what)
+
+
 def docs_text(doc: str, figures: dict) -> str:
     """doc (docs/diagnosis-limits.md's text) with its block of the study's figures rendered from figures
     (the committed JSON)."""
-    from . import with_block
-    block = f"Measured by `{figures['command']}`:\n\n{table(figures['summary'])}\n"
-    return with_block(doc, doc_markers(), block, DOC, WHAT)
+    return block_in(doc, figures, doc_markers(), DOC, WHAT)
 
 
 def run_benches(module: str, description: str, run_one, docs: tuple, benches: int, argv=None) -> int:

@@ -272,9 +272,7 @@ def doc_markers() -> tuple:
 def docs_text(doc: str, figures: dict) -> str:
     """doc (docs/diagnosis-mismatch.md's text) with its block of this study's figures rendered from
     figures (the committed JSON)."""
-    from . import with_block
-    block = f"Measured by `{figures['command']}`:\n\n{cal.table(figures['summary'])}\n"
-    return with_block(doc, doc_markers(), block, DOC, WHAT)
+    return cal.block_in(doc, figures, doc_markers(), DOC, WHAT)
 
 
 def main(argv=None) -> int:
