@@ -9,6 +9,7 @@
 //   pwm <Hz>              PWM frequency, 31..100000 (not while recording)
 //   hold <s>              step length of sweep and load (0: the bench's, 30 s and 25 s)
 //   long <s>              length of long
+//   coast 0|1             coast probes off / on (the ripple build with -DACQ_COAST=1; acq_coast.h)
 //   status, help
 #ifndef HPDDO_ACQ_COMMAND_H
 #define HPDDO_ACQ_COMMAND_H
@@ -34,13 +35,14 @@ enum CommandKind : uint8_t {
   kCmdLong,
   kCmdStatus,
   kCmdHelp,
+  kCmdCoast,
 };
 
 /// A parsed command line.
 struct Command {
   CommandKind kind;
   Protocol protocol;  ///< for run
-  float value;        ///< for duty, load, rate, pwm, hold, long
+  float value;        ///< for duty, load, rate, pwm, hold, long, coast
   char word[16];      ///< for rec: the condition word
 };
 
@@ -153,6 +155,9 @@ inline Command parse_command(const char* line) {
   else if (detail::word_eq(s, e, "pwm")) c.kind = (v >= 31.0f && v <= 100000.0f) ? kCmdPwm : kCmdBad;
   else if (detail::word_eq(s, e, "hold")) c.kind = (v >= 0.0f && v <= 86400.0f) ? kCmdHold : kCmdBad;
   else if (detail::word_eq(s, e, "long")) c.kind = (v > 0.0f && v <= 604800.0f) ? kCmdLong : kCmdBad;
+#if !defined(ARDUINO) || ACQ_COAST  // the board parses it only in the build that has the probe (68 bytes)
+  else if (detail::word_eq(s, e, "coast")) c.kind = (v == 0.0f || v == 1.0f) ? kCmdCoast : kCmdBad;
+#endif
   return c;
 }
 

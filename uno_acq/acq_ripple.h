@@ -25,7 +25,7 @@
 // hpddo/frame.h), base64 on a text line "~<base64>\n" on the USB serial, so that a ripple
 // chunk never looks like a log row:
 //   0  1  sync0 0xA5
-//   1  1  sync1 0x5B           (0x5A is a sample frame)
+//   1  1  sync1 0x5B           (0x5A is a sample frame, 0x5C a coast probe's chunk: acq_coast.h)
 //   2  1  payload length       13 + ceil(10 n / 8)
 //   3  4  seq                  the window's seq (the log's)
 //   7  2  first                index of the chunk's first sample in the burst
@@ -147,11 +147,12 @@ struct RippleChunk {
   const uint16_t* codes;  ///< n codes, 0..1023
 };
 
-/// Encodes a chunk into out (at least kRippleChunkMax bytes); returns its length.
-inline uint8_t encode_ripple_chunk(const RippleChunk& c, uint8_t* out) {
+/// Encodes a chunk into out (at least kRippleChunkMax bytes); returns its length. sync1: the chunk's
+/// kind, kRippleSync1 (a burst of the current) or kCoastSync1 (a coast probe, acq_coast.h).
+inline uint8_t encode_ripple_chunk(const RippleChunk& c, uint8_t* out, uint8_t sync1 = kRippleSync1) {
   const uint8_t packed = static_cast<uint8_t>((c.n * 10u + 7u) / 8u);
   out[0] = 0xA5;
-  out[1] = kRippleSync1;
+  out[1] = sync1;
   out[2] = static_cast<uint8_t>(kRippleHead - 3u + packed);
   out[3] = static_cast<uint8_t>(c.seq);
   out[4] = static_cast<uint8_t>(c.seq >> 8);

@@ -28,6 +28,7 @@
 #define ACQ_RIPPLES_PER_REV HPDDO_BENCH_RIPPLES_PER_REV
 #endif
 #include "acq_ripple_count.h"
+#include "acq_coast.h"
 
 // What the build does with the bursts: send them to the host (ACQ_RIPPLE_STREAM, item 2) or
 // count them on the board (ACQ_RIPPLE_COUNT, item 5), by default the first. Both at once do
@@ -39,6 +40,17 @@
 #endif
 #ifndef ACQ_RIPPLE_STREAM
 #define ACQ_RIPPLE_STREAM (!ACQ_RIPPLE_COUNT)
+#endif
+// The coast probe (acq_coast.h, issue 33 item 7): -DACQ_COAST=1 in the streaming build. A build
+// of its own, as the counter's: it takes 698 bytes of flash (docs/ripple-board.md, "Coast
+// probes"), which the streaming build has (86.6 % of the flash with it) but not with a model that
+// names the dynamic family (92.7 %, 247 bytes over its 92 %), and without it the streaming build is the same
+// image as before.
+#ifndef ACQ_COAST
+#define ACQ_COAST 0
+#endif
+#if ACQ_COAST && !ACQ_RIPPLE_STREAM
+#error "the coast probe's samples are streamed to the host: build ACQ_COAST=1 without ACQ_RIPPLE_COUNT=1"
 #endif
 
 namespace acq {
@@ -54,6 +66,9 @@ struct Slot {
   uint16_t total;
   uint16_t start_period;  ///< the window's period of sample 0
   uint16_t phase_cycles;  ///< a period's start to its sample-and-hold
+#if ACQ_COAST
+  uint8_t sync1;          ///< kRippleSync1: a burst of the current; kCoastSync1: a coast probe (acq_coast.h)
+#endif
   volatile uint16_t pushed;
   volatile bool open;
 };
@@ -77,6 +92,19 @@ struct State {
   volatile uint16_t pend;
   volatile uint16_t deferred;     ///< codes taken from a nested interrupt
   uint32_t chunks;                ///< chunks sent
+#if ACQ_COAST
+  // the coast probe (acq_coast.h): in the burst's place of every coast_every-th window
+  uint16_t coast_n;               ///< samples of a probe; 0: none fits the window
+  uint16_t coast_every;           ///< windows from one probe to the next
+  uint16_t coast_count;           ///< windows since the last probe
+  volatile bool coast_off;        ///< probes stopped (`coast 0`; on from power-up, `coast 1`)
+  bool coast_win;                 ///< the open window carries a probe
+  bool coast_cut;                 ///< the drive is held off
+  volatile bool coast;            ///< the probe's conversions run: the channel alternates
+  uint16_t coast_ocr;             ///< OCR1A in force before the probe
+  uint8_t coast_tccr1a;           ///< TCCR1A (the PWM's output mode) before the probe
+  uint8_t coast_pin;              ///< the PWM pin's PORTB bit before the probe (high: duty 1)
+#endif
   // the ripple counter (acq_ripple_count.h): the ADC interrupt counts, the main loop reads
   struct Band {
     uint32_t seq;                 ///< the window whose burst this band is for
@@ -108,14 +136,68 @@ __attribute__((always_inline)) inline void free_running() {
   ADCSRA = static_cast<uint8_t>(_BV(ADEN) | _BV(ADIE) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0) | _BV(ADSC));
 }
 
+#if ACQ_COAST
+/// The drive as it was before the probe (TIMER1_OVF or configure, interrupts off): OCR1A from
+/// the next period on, the output mode and pin now.
+__attribute__((noinline)) void coast_restore() {
+  OCR1A = g.coast_ocr;
+  if (g.coast_cut) {
+    PORTB |= g.coast_pin;
+    TCCR1A = g.coast_tccr1a;
+  }
+  g.coast_cut = false;
+  g.coast_win = false;
+}
+
+/// The coast probe's part of the start of period p (TIMER1_OVF, interrupts off; probes on): a
+/// probe in the burst's place of every coast_every-th window (acq_coast.h). OCR1A 0 in the period
+/// before the cut (the cut period's on-time shrinks to one cycle at its start: the output goes low
+/// at its first compare match, whatever this interrupt's latency), the output held low at the cut
+/// (the burst's first period, once on_period has opened the probe's slot: the ADC waits for the
+/// trigger; else on_period restores the drive, no probe), the drive back from the period after the
+/// probe's last sample. Not inlined: TIMER1_OVF saves every register a
+/// call clobbers anyway (its prologue, seen in the disassembly), so the call costs no pushes.
+__attribute__((noinline)) void coast_period(uint16_t p) {
+  if (p == 0 && g.coast_n && ++g.coast_count >= g.coast_every) {
+    g.coast_count = 0;
+    g.coast_win = true;
+  }
+  if (!g.coast_win) return;
+  if (p == static_cast<uint16_t>(g.burst_period - 1u)) {
+    g.coast_ocr = OCR1A;  // the buffer: the value in force (written at the window's start)
+    OCR1A = 0;
+  } else if (p == g.burst_period) {  // the ADC waits for the trigger (on_period checked it)
+    g.coast_tccr1a = TCCR1A;
+    g.coast_pin = static_cast<uint8_t>(PORTB & _BV(PB1));
+    TCCR1A = _BV(WGM11);  // OC1A disconnected: the pin follows PORTB
+    PORTB &= static_cast<uint8_t>(~_BV(PB1));
+    g.coast_cut = true;
+    g.coast = true;
+  } else if (p == static_cast<uint16_t>(g.burst_period + g.coast_n - 1u)) {
+    coast_restore();
+  }
+}
+#endif
+
 /// Sets the timing for hz and the burst length for a window of window_periods; interrupts off.
 inline bool configure(uint32_t hz, uint16_t window_periods, uint32_t baud) {
   RippleTiming rt;
   if (!ripple_timing(hz, &rt)) return false;
+#if ACQ_COAST
+  if (g.coast_win) coast_restore();  // a probe in progress: the drive comes back
+  g.coast = false;
+#endif
   g.rt = rt;
   g.burst_n = ripple_burst_samples(rt, window_periods, baud);
   g.burst_period = static_cast<uint16_t>(window_periods - g.burst_n);
   g.arm_period = static_cast<uint16_t>(g.burst_period - rt.stop_periods);
+#if ACQ_COAST
+  const uint16_t period = static_cast<uint16_t>(rt.pwm.top + 1u);  // prescaler 1 (ripple_timing)
+  const uint16_t probe_n = coast_samples(period);
+  g.coast_n = coast_fits(g.burst_n, probe_n) ? probe_n : 0;
+  g.coast_every = coast_every_windows(period, window_periods);
+  g.coast_count = 0;
+#endif
   g.left = 0;
   g.arm = false;
   g.triggered = false;
@@ -147,20 +229,42 @@ __attribute__((always_inline)) inline void on_period(uint16_t p, uint32_t seq) {
   }
   if (!g.burst_n) return;
   if (p == g.arm_period) g.arm = true;
-  if (p != g.burst_period) return;
+  // The coast probe's call comes last on each path, and only at p 0 or in a probe's window: the
+  // interrupt took a median 132 cycles a period without the probe, 183 with the call first and in
+  // every period (values kept across it in call-saved registers, 6 more pushes and pops), 156 so
+  // (simavr, ovf_isr.csv; docs/ripple-board.md "Coast probes").
+  if (p != g.burst_period) {
+#if ACQ_COAST
+    if (g.coast_win || (p == 0 && !g.coast_off)) coast_period(p);
+#endif
+    return;
+  }
   if (!g.triggered) {
     ++g.not_started;
+#if ACQ_COAST
+    if (g.coast_win) coast_restore();  // no burst starts: no probe
+#endif
     return;
   }
   Slot& s = g.slot[g.slot_w & (kSlots - 1)];
   s.seq = seq;
   s.total = g.burst_n;
+#if ACQ_COAST
+  s.sync1 = kRippleSync1;
+  if (g.coast_win) {  // the probe's samples in the burst's place
+    s.total = g.coast_n;
+    s.sync1 = kCoastSync1;
+  }
+#endif
   s.start_period = p;
   s.phase_cycles = static_cast<uint16_t>(OCR1B + 1u + g.rt.sh_cycles);  // compare match at OCR1B + 1 ticks
   s.pushed = 0;
   s.open = true;
   g.slot_w = static_cast<uint8_t>(g.slot_w + 1);
-  g.left = g.burst_n;
+  g.left = s.total;
+#if ACQ_COAST
+  if (g.coast_win) coast_period(p);  // the cut
+#endif
   // The counter begins the burst at its first code, in the ADC interrupt (begin_count), not
   // here: this interrupt runs with interrupts off, and the link's bit interrupt must not wait
   // behind it (a burst's opening here took 439 cycles, and 100 Hz windows had framing errors
@@ -232,6 +336,12 @@ __attribute__((always_inline)) inline void triggered_sample(uint16_t code) {
 #endif
   if (left == 1u || !g.left) {
     s.open = false;
+#if ACQ_COAST
+    if (g.coast) {  // the probe's last: the ADC stays on the trigger (discarded) to the window's end,
+      g.coast = false;  // whose V and I are the first part's, before the cut
+      return;
+    }
+#endif
     free_running();  // the V/I conversions of the next window
   }
 }
@@ -243,6 +353,9 @@ template <class AccT>
 __attribute__((always_inline)) inline bool on_adc(uint16_t code, AccT* acc) {
   if (ADCSRA & _BV(ADATE)) {
     TIFR1 = _BV(OCF1B);  // the trigger is the flag's rising edge: clear it for the next one
+#if ACQ_COAST
+    if (g.coast) ADMUX ^= 1u;  // a probe: the other channel for the next period's conversion
+#endif
     // The interrupt runs with interrupts on, so others (the window close, the USART) can
     // hold it past the next conversion, whose interrupt would then nest: that one hands its
     // code to this one, which takes it in order when done (two held at once: one lost, counted).
@@ -438,7 +551,11 @@ __attribute__((noinline)) void drain(bool recording, uint32_t rec_start, Write w
       c.n = n;
       c.codes = codes;
       uint8_t frame[kRippleChunkMax];
-      const uint8_t len = encode_ripple_chunk(c, frame);
+      const uint8_t len = encode_ripple_chunk(c, frame
+#if ACQ_COAST
+                                            , s.sync1
+#endif
+      );
       char line[kRippleLineMax];
       write(line, ripple_line(frame, len, line));
       ++g.chunks;

@@ -141,6 +141,16 @@ static_assert(!kWithDynamics,
               "mode with a model without the family, the streaming ripple mode (ACQ_RIPPLE_COUNT=0) or the "
               "normal build with it, or run the family on the ESP8266");
 #endif
+#if defined(ACQ_RIPPLE_HZ) && ACQ_COAST
+// Measured (docs/ripple-board.md, "Coast probes"): the coast probe build with the family is 29,922
+// bytes, 92.7 % of the flash, over the streaming build's 92 % by 247 bytes.
+static_assert(!kWithDynamics,
+              "uno_acq: the coast probe build (ACQ_COAST=1) cannot run a model that names the dynamic family "
+              "(its header's kDynamics): the probe's 698 bytes of flash do not fit beside the family's 1.8 KB "
+              "within the streaming ripple build's budget (92.7 % of the flash, over its 92 %; "
+              "docs/ripple-board.md). Build the coast probe with a model without the family, or the streaming "
+              "ripple build without the probe");
+#endif
 // One observer step per closed window, in the main loop (process()).
 hpddo::Observer<model::Net, kWithDynamics> g_obs(model::kModel, model::kDynamics);
 #endif
@@ -688,6 +698,11 @@ void handle_command(const char* line) {
       return print_status("ok");
     case kCmdStatus:
       return print_status("status");
+#if defined(ACQ_RIPPLE_HZ) && ACQ_COAST
+    case kCmdCoast:  // a probe every ripple::g.coast_every windows from the next one on (acq_coast.h)
+      ripple::g.coast_off = c.value == 0.0f;
+      return print_status("ok");
+#endif
     case kCmdHelp:
       return say(F("commands: run sweep|load|long, rec [condition], stop, duty <0..1>, load <0..2>, "
                    "rate <Hz>, pwm <Hz>, hold <s>, long <s>, status"));

@@ -387,7 +387,7 @@ def main():
         order.append(int(s))
     trig = []
     for l in (work / "ripple_triggers.csv").read_text().splitlines()[1:]:
-        k, t, ps, started, mv, code, o1a, o1b = (int(x) for x in l.split(","))
+        k, t, ps, started, mv, code, o1a, o1b = (int(x) for x in l.split(",")[:8])
         trig.append(dict(t=t, ps=ps, started=started, mv=mv, code=code, ocr1a=o1a, ocr1b=o1b))
     # A match with the trigger enabled that started no conversion (the flag still set: no edge;
     # or the ADC busy) loses a sample when it falls in a burst; the bursts' checks below

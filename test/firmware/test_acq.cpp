@@ -205,6 +205,10 @@ TEST(Command, ParsesEveryCommandAndRefusesTheRest) {
   EXPECT_EQ(acq::parse_command("pwm 20000").kind, acq::kCmdPwm);
   EXPECT_EQ(acq::parse_command("hold .5").kind, acq::kCmdHold);
   EXPECT_EQ(acq::parse_command("long 7200").kind, acq::kCmdLong);
+  EXPECT_EQ(acq::parse_command("coast 1").kind, acq::kCmdCoast);
+  EXPECT_EQ(acq::parse_command("coast 0").value, 0.0f);
+  EXPECT_EQ(acq::parse_command("coast 2").kind, acq::kCmdBad);
+  EXPECT_EQ(acq::parse_command("coast").kind, acq::kCmdBad);
   EXPECT_EQ(acq::parse_command("stop").kind, acq::kCmdStop);
   EXPECT_EQ(acq::parse_command("status").kind, acq::kCmdStatus);
   EXPECT_EQ(acq::parse_command("").kind, acq::kCmdNone);

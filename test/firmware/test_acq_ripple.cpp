@@ -12,6 +12,7 @@
 
 #include <cmath>
 
+#include "acq_coast.h"
 #include "acq_ripple.h"
 #include "acq_ripple_count.h"
 #include "hpddo/crc.h"
@@ -111,6 +112,70 @@ TEST(AcqRipple, ChunkLayoutPackingAndCrc) {
   c.n = 5;
   EXPECT_EQ(acq::encode_ripple_chunk(c, out), acq::kRippleHead + 7 + 2);
   EXPECT_EQ(out[2], acq::kRippleHead - 3 + 7);
+}
+
+// The coast probe (acq_coast.h, issue 33 item 7): its length, how often, where it fits, its channels
+// and its chunk. The board side is proven in simavr (check_uno_coast.py, firmware.uno.sim_coast_*).
+TEST(AcqCoast, ProbeIsFourMillisecondsOfPairsAtEveryRate) {
+  for (uint32_t hz = acq::kRippleHzMin; hz <= acq::kRippleHzMax; hz += 500) {
+    acq::RippleTiming rt;
+    ASSERT_TRUE(acq::ripple_timing(hz, &rt)) << hz;
+    const uint16_t period = static_cast<uint16_t>(rt.pwm.top + 1u);
+    const uint16_t n = acq::coast_samples(period);
+    EXPECT_EQ(n % 2u, 0u) << hz;  // a current and a voltage sample a pair
+    const double probe_us = 1e6 * n * period / acq::kCpuHz;
+    EXPECT_NEAR(probe_us, acq::kCoastProbeUs, 1e6 * period / acq::kCpuHz) << hz;  // within a pair's period
+  }
+  EXPECT_EQ(acq::coast_samples(1600), 40);  // 10 kHz: 20 pairs
+  EXPECT_EQ(acq::coast_samples(2000), 32);  // 8 kHz
+  EXPECT_EQ(acq::coast_samples(800), 80);   // 20 kHz
+  EXPECT_EQ(acq::coast_samples(40000), 4);  // at least 2 pairs
+}
+
+TEST(AcqCoast, ProbeEveryPeriodInWholeWindows) {
+  EXPECT_EQ(acq::coast_every_windows(1600, 5000), 3);   // 2 Hz windows: 1.5 s
+  EXPECT_EQ(acq::coast_every_windows(1600, 1000), 15);  // 10 Hz
+  EXPECT_EQ(acq::coast_every_windows(1600, 100), 150);  // 100 Hz
+  EXPECT_EQ(acq::coast_every_windows(1600, 60000), 2);  // 6 s windows: at least every other one
+  for (uint16_t wp = 100; wp < 20000; wp = static_cast<uint16_t>(wp * 3 / 2)) {
+    const double window_s = wp * 1600.0 / acq::kCpuHz;
+    const uint16_t n = acq::coast_every_windows(1600, wp);
+    if (n > 2) {
+      EXPECT_LE(std::fabs(n * window_s - acq::kCoastPeriodMs / 1000.0), window_s / 2 + 1e-9) << wp;
+    }
+  }
+}
+
+TEST(AcqCoast, ProbeTakesTheBurstsPlaceAndAlternatesCurrentFirst) {
+  acq::RippleTiming rt;
+  ASSERT_TRUE(acq::ripple_timing(10000, &rt));
+  const uint16_t n = acq::coast_samples(1600);
+  EXPECT_TRUE(acq::coast_fits(acq::ripple_burst_samples(rt, 5000, acq::kRippleHostBaud), n));   // 2 Hz
+  EXPECT_TRUE(acq::coast_fits(acq::ripple_burst_samples(rt, 1000, acq::kRippleHostBaud), n));   // 10 Hz
+  EXPECT_TRUE(acq::coast_fits(acq::ripple_burst_samples(rt, 100, acq::kRippleHostBaud), n));    // 100 Hz: 64
+  EXPECT_FALSE(acq::coast_fits(acq::ripple_burst_samples(rt, 30, acq::kRippleHostBaud), n));    // no burst
+  EXPECT_FALSE(acq::coast_fits(40, 40));  // the drive must be back before the window's last period
+  for (uint16_t k = 0; k < n; ++k)
+    EXPECT_EQ(acq::coast_channel(k), k % 2 ? acq::kAdcChannelV : acq::kAdcChannelI) << k;
+}
+
+TEST(AcqCoast, ChunkIsTheRippleLayoutWithItsOwnSync) {
+  std::vector<uint16_t> codes;
+  for (int k = 0; k < 8; ++k) codes.push_back(static_cast<uint16_t>(k % 2 ? 600 - k : 60 >> k));
+  acq::RippleChunk c;
+  c.seq = 17;
+  c.first = 32;
+  c.total = 40;
+  c.start_period = 1032;
+  c.phase_cycles = 641;
+  c.n = 8;
+  c.codes = codes.data();
+  uint8_t burst[acq::kRippleChunkMax], probe[acq::kRippleChunkMax];
+  const uint8_t len = acq::encode_ripple_chunk(c, burst);
+  ASSERT_EQ(acq::encode_ripple_chunk(c, probe, acq::kCoastSync1), len);
+  EXPECT_EQ(probe[1], 0x5C);
+  EXPECT_EQ(burst[1], acq::kRippleSync1);
+  EXPECT_EQ(std::memcmp(burst + 2, probe + 2, len - 2u), 0);  // the CRC does not cover the sync
 }
 
 TEST(AcqRipple, Base64LineAsRfc4648) {

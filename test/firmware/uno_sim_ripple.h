@@ -24,6 +24,14 @@
  * atomic section with the window's bank), its cycle, the 10-bit code, ADMUX's channel bit and
  * ADATE at the read: with the window closes, which window's V or I sum each code went into
  * (check_uno_ripple.py's exact V/I means).
+ *
+ * The coast probe (-DACQ_COAST=1, acq_coast.h) converts the terminal voltage (A0) and the current
+ * (A1) in turn on the trigger: a triggered conversion of A0 gets the feed value as A0's input, one
+ * of A1 as A1's; ripple_triggers.csv gives each triggered conversion's channel (ch). And
+ * <out>/ripple_pwm.csv: at each Timer1 overflow (the period's end) the PWM's state the firmware set
+ * for that period: OCR1A (in force from the next period: double-buffered), TCCR1A and PORTB, from
+ * which check_uno_coast.py measures how long the drive is held off; <out>/ovf_isr.csv: each Timer1
+ * overflow interrupt's entry cycle and cycles until reti (the probe's work is in it).
  */
 #ifndef UNO_SIM_RIPPLE_H
 #define UNO_SIM_RIPPLE_H
@@ -41,12 +49,23 @@ typedef struct {
   unsigned mv;
   int started;
   unsigned ocr1a, ocr1b; /* in force at the match */
+  int ch;                /* the channel converted (ADMUX's MUX0 at the start), -1 when none started */
 } rip_trig_t;
+
+typedef struct {
+  avr_cycle_count_t cycle;
+  unsigned ocr1a, tccr1a, portb;
+} rip_pwm_t;
+static rip_pwm_t* rip_pwm;
+static long rip_n_pwm;
 
 typedef struct {
   avr_cycle_count_t entry, cycles;
   int triggered;
 } rip_isr_t;
+static rip_isr_t* rip_ovf_isr;
+static long rip_n_ovf_isr;
+static avr_cycle_count_t rip_ovf_entry;  /* Timer1's overflow interrupts (ovf_isr.csv) */
 
 static int rip_on;
 static unsigned** rip_feed; /* per window line */
@@ -130,6 +149,7 @@ static void rip_compb(struct avr_irq_t* irq, uint32_t value, void* param) {
   t->started = rising ? 0 : -1; /* -1: the flag was still set, no edge: no conversion */
   t->ocr1a = avr->data[0x88] | (avr->data[0x89] << 8);
   t->ocr1b = avr->data[0x8A] | (avr->data[0x8B] << 8);
+  t->ch = -1;
   if (!rising) {
     rip_no_edge++;
     return;
@@ -143,7 +163,15 @@ static void rip_compb(struct avr_irq_t* irq, uint32_t value, void* param) {
 static void rip_ovf(struct avr_irq_t* irq, uint32_t value, void* param) {
   (void)irq;
   (void)param;
-  if (value) rip_period_start = avr->cycle;
+  if (!value) return;
+  rip_period_start = avr->cycle;
+  if (rip_pwm && rip_n_pwm < RIP_MAX) {
+    rip_pwm_t* r = &rip_pwm[rip_n_pwm++];
+    r->cycle = avr->cycle;
+    r->ocr1a = avr->data[0x88] | (avr->data[0x89] << 8);
+    r->tccr1a = avr->data[0x80];
+    r->portb = avr->data[0x25];
+  }
 }
 
 /* A conversion starts: value is the avr_adc_mux_t of the channel. */
@@ -165,7 +193,8 @@ static void rip_adc_start(struct avr_irq_t* irq, uint32_t value, void* param) {
     long j = (long)((t->trig - open) / period);
     if (j >= rip_feed_len[w]) j = rip_feed_len[w] - 1;
     t->mv = rip_feed[w][j];
-    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC1), t->mv);
+    t->ch = e.mux.src == 0 ? 0 : 1; /* a coast probe's voltage sample converts A0 */
+    avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, t->ch ? ADC_IRQ_ADC1 : ADC_IRQ_ADC0), t->mv);
   } else if (e.mux.src == 1) {
     avr_raise_irq(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC1), rip_cur_i_mV);
   }
@@ -184,6 +213,19 @@ static void rip_adc_running(struct avr_irq_t* irq, uint32_t value, void* param) 
     r->entry = rip_isr_entry;
     r->cycles = avr->cycle - rip_isr_entry;
     r->triggered = rip_isr_triggered;
+  }
+}
+
+/* Timer1's overflow interrupt runs (value 1) or returns (0); not interruptible (no nesting). */
+static void rip_ovf_running(struct avr_irq_t* irq, uint32_t value, void* param) {
+  (void)irq;
+  (void)param;
+  if (value) {
+    rip_ovf_entry = avr->cycle;
+  } else if (rip_ovf_isr && rip_n_ovf_isr < RIP_MAX) {
+    rip_ovf_isr[rip_n_ovf_isr].entry = rip_ovf_entry;
+    rip_ovf_isr[rip_n_ovf_isr].cycles = avr->cycle - rip_ovf_entry;
+    rip_ovf_isr[rip_n_ovf_isr++].triggered = 0;
   }
 }
 
@@ -225,6 +267,7 @@ static int rip_init(unsigned ram_end) {
   if (!rip_n_feed) return -1;
   rip_trig = calloc(RIP_MAX, sizeof *rip_trig);
   rip_read = calloc(RIP_MAX, sizeof *rip_read);
+  rip_pwm = calloc(RIP_MAX, sizeof *rip_pwm);
   rip_on = 1;
   /* Chained by hand: avr_register_io_read refuses a second callback on an address. */
   rip_adcl_orig = avr->io[AVR_DATA_TO_IO(RIP_ADCL)].r.c;
@@ -237,6 +280,10 @@ static int rip_init(unsigned ram_end) {
   if (!compb || !ovf) return -1;
   avr_irq_register_notify(compb, rip_compb, NULL);
   avr_irq_register_notify(ovf, rip_ovf, NULL);
+  rip_ovf_isr = calloc(RIP_MAX, sizeof *rip_ovf_isr);
+  avr_irq_t* ovf_run = rip_vector_irq(RIP_VEC_T1_OVF, AVR_INT_IRQ_RUNNING);
+  if (!rip_ovf_isr || !ovf_run) return -1;
+  avr_irq_register_notify(ovf_run, rip_ovf_running, NULL);
   avr_irq_register_notify(avr_io_getirq(avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_OUT_TRIGGER), rip_adc_start, NULL);
   return 0;
 }
@@ -247,13 +294,28 @@ static int rip_write(const char* outdir) {
   snprintf(path, sizeof path, "%s/ripple_triggers.csv", outdir);
   FILE* f = fopen(path, "w");
   if (!f) return -1;
-  fprintf(f, "k,trig_cycle,period_start,started,mv,code,ocr1a,ocr1b\n");
+  fprintf(f, "k,trig_cycle,period_start,started,mv,code,ocr1a,ocr1b,ch\n");
   for (long k = 0; k < rip_n_trig; ++k) {
     const rip_trig_t* t = &rip_trig[k];
     /* simavr's scale (avr_adc.c): code = mV * 1023 / AVcc mV, truncated */
-    fprintf(f, "%ld,%llu,%llu,%d,%u,%u,%u,%u\n", k, (unsigned long long)t->trig, (unsigned long long)t->period_start,
-            t->started, t->mv, t->mv * 1023u / 5000u, t->ocr1a, t->ocr1b);
+    fprintf(f, "%ld,%llu,%llu,%d,%u,%u,%u,%u,%d\n", k, (unsigned long long)t->trig, (unsigned long long)t->period_start,
+            t->started, t->mv, t->mv * 1023u / 5000u, t->ocr1a, t->ocr1b, t->ch);
   }
+  fclose(f);
+  snprintf(path, sizeof path, "%s/ripple_pwm.csv", outdir);
+  f = fopen(path, "w");
+  if (!f) return -1;
+  fprintf(f, "cycle,ocr1a,tccr1a,portb\n");
+  for (long k = 0; k < rip_n_pwm; ++k)
+    fprintf(f, "%llu,%u,%u,%u\n", (unsigned long long)rip_pwm[k].cycle, rip_pwm[k].ocr1a, rip_pwm[k].tccr1a,
+            rip_pwm[k].portb);
+  fclose(f);
+  snprintf(path, sizeof path, "%s/ovf_isr.csv", outdir);
+  f = fopen(path, "w");
+  if (!f) return -1;
+  fprintf(f, "entry_cycle,cycles\n");
+  for (long k = 0; k < rip_n_ovf_isr; ++k)
+    fprintf(f, "%llu,%llu\n", (unsigned long long)rip_ovf_isr[k].entry, (unsigned long long)rip_ovf_isr[k].cycles);
   fclose(f);
   snprintf(path, sizeof path, "%s/ripple_reads.csv", outdir);
   f = fopen(path, "w");

@@ -168,6 +168,59 @@ def test_a_held_top_load_read_as_one_code_is_not_a_saturated_channel(tmp_path):
     assert [f.fault for f in channels.check([rec], [fx.rows_of(rec)], 1.0)] == ["saturated"]
 
 
+def _heated_table(rng, i_top=None):
+    """Loads 0..5 at five duties, the copper settled at each (a settled rise of 6 K/W x i^2 Ra, +0.393 %/K;
+    the top load, 1.96 A, on a code of the channel): the balance V = Ke w + Ra(T) I bends at the highest
+    current. A 20 mA channel with 2 mA of noise."""
+    rows = []
+    for duty in (0.3, 0.45, 0.6, 0.75, 0.9):
+        for load in range(6):
+            for _ in range(6):
+                i = 0.2 + 0.352 * load
+                rise = 6.0 * i * i * RA / (1 - 6.0 * i * i * RA * 0.00393)
+                v = 12.0 * duty
+                rpm = (v - i * RA * (1 + 0.00393 * rise)) / KE * 60 / (2 * math.pi) + rng.normal(0, 0.5)
+                i_read = i + rng.normal(0, 0.002)
+                if i_top is not None:
+                    i_read = min(i_read, i_top)
+                rows.append((duty, v + rng.normal(0, 0.005), i_read, rpm, load))
+    return _quantised(rows, 0.02)
+
+
+def test_a_top_load_read_as_one_code_beside_the_copper_heating_is_not_a_saturated_channel(tmp_path):
+    """The top load heats the copper by 56 K, 22 % on Ra: a straight balance V = a w + b I + c over the
+    loads below it puts those rows 0.16 A above their one code, a clip to it (as it was before
+    channels.CURVE_P); the balance with its bend does not. Clipped at 1.8 A instead (the bend and a
+    clip), it is one."""
+    rng = np.random.default_rng(5)
+    lsb = ("# i_lsb_A=0.02",)
+    rec = dataset.load_recordings([_log(tmp_path / "heated.csv", _heated_table(rng), meta=lsb)])[0]
+    assert (rec.df["i_A"] == rec.df["i_A"].max()).sum() == 30  # the top load reads one code at every duty
+    cut, said = channels.clipped(rec, fx.rows_of(rec))
+    assert not cut.any() and not said
+    assert not [f for f in channels.check([rec], [fx.rows_of(rec)], 1.0) if f.fault == "saturated"]
+    rec = dataset.load_recordings([_log(tmp_path / "clip.csv", _heated_table(rng, i_top=1.8), meta=lsb)])[0]
+    cut, said = channels.clipped(rec, fx.rows_of(rec))
+    at_top = rec.df["i_A"].to_numpy() == rec.df["i_A"].max()
+    assert said and "saturated" in said[0] and cut[at_top].all()
+
+
+def test_loads_held_at_one_duty_without_a_load_column_are_no_dither(tmp_path):
+    """Calibration bench 45 (no effect): its load recording, a time series with no load column, holds
+    four loads at each duty, the top one (1.3 A) read by its 20 mA channel as one code. The other loads
+    of the same duty read 0.94, 0.56 and 0.2 A: other operating points, not the dither of a clip (only
+    rows within channels.TRUNCATED_SD of the channel's noise from the end count). It was called
+    saturated at both duties that reach 1.3 A."""
+    import pathlib
+    from hpddo.studies import calibration as cal
+    paths = cal.write(cal.draw(45), pathlib.Path(tmp_path))
+    rec = next(r for r in dataset.load_recordings(paths) if r.name == "load")
+    assert "load" not in rec.df
+    rows = fx.rows_of(rec)
+    assert not [f for f in channels.check([rec], [rows], 1.0) if f.fault == "saturated"]
+    assert not channels.clipped(rec, rows)[1]
+
+
 def _inputs(tmp_path, step, noise, rng):
     rows = []
     for duty in (0.3, 0.45, 0.6, 0.75, 0.9):

@@ -135,7 +135,7 @@ def test_material_fields_leave_the_generated_header_unchanged():
 
 @pytest.mark.parametrize("blind", [False, True])
 def test_fit_holds_the_material_constants_as_declared(blind):
-    rows = [types.SimpleNamespace(needs_state=blind)]
+    rows = [types.SimpleNamespace(needs_state=blind, steady=False)]
 
     def held(names):
         return fx.spec_for(rows, names).fixed
@@ -146,6 +146,10 @@ def test_fit_holds_the_material_constants_as_declared(blind):
     assert held(["magnet_thermal", "saturation"]) == ({"ke_tc_per_K": -0.002} if blind else {})
     assert held(["brush_drop"]) == {}
     assert fx.spec_for(rows, ["thermal_ra"], hold={"thermal_ra": 0.004}).fixed == {"ra_tc_per_K": 0.004}
+    # settled rows (a steady-state table): the copper shows only times the node's resistance, so it is held
+    table = [types.SimpleNamespace(needs_state=blind, steady=True)]
+    assert fx.spec_for(table, ["thermal_ra"]).fixed == {"ra_tc_per_K": 0.00393}
+    assert fx.spec_for(table, ["magnet_thermal"]).fixed == ({"ke_tc_per_K": -0.002} if blind else {})
 
 
 # ---- the typed result

@@ -155,6 +155,13 @@ def test_the_diagnosis_of_a_dyno_table_names_no_effect_and_finds_a_wrong_ra(tmp_
         # every alternative): the wrong Ra and that alternative are said not told apart
         assert res["ra_fit"]["confounded_with"] and "--ra-ohm" not in res["verdict"], res["ra_fit"]
         return
+    if ra < RA_OHM and not res["ra_fit"]["mismatch"]:
+        # the reading 10 % low: a winding warmer than the reading's (each row's settled rise, r i^2 Ra,
+        # with copper's coefficient) holds the reading too, so the two are said not told apart and no
+        # instruction is given; only a reading above what the rows show rules the heating out
+        assert "thermal_ra" in res["ra_fit"]["confounded_with"], res["ra_fit"]
+        assert "--ra-ohm" not in res["verdict"], res["verdict"]
+        return
     assert res["ra_fit"]["mismatch"] == (ra != RA_OHM), res["ra_fit"]
     if ra != RA_OHM:
         sup = res["ra_fit"]["supported_ohm"]

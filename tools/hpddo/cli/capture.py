@@ -24,7 +24,9 @@ The UNO's ripple build (uno_acq with -DACQ_RIPPLE_HZ, 500000 baud: --baud 500000
 the current of each window in bursts, "~" lines of framed, CRC-checked chunks
 (docs/ripple-board.md, "The UNO's ripple mode"). They are collected and, with the log, written to
 OUT's <condition>.ripple.csv beside it (the file the twin writes, which `hpddo ripple` reads);
-a burst that did not arrive whole is left out and counted, a damaged chunk line counted.
+a burst that did not arrive whole is left out and counted, a damaged chunk line counted. The
+build with coast probes (-DACQ_COAST=1, docs/ripple-board.md "Coast probes") sends them as chunks
+of their own kind; they go to OUT's <condition>.coast.csv, which `hpddo ripple --coast` reads.
 
 Exit status: 0 log written, 3 log written with garbled rows (complete=false),
 1 capture failed (one line "hpddo capture: ...", nothing written to OUT), 130 interrupted.
@@ -40,7 +42,7 @@ import shutil
 import sys
 import time
 
-from ..logs import benchlog, ripple, ripple_link
+from ..logs import benchlog, coast, ripple, ripple_link
 from ..logs.errors import InputError
 from . import options
 
@@ -352,6 +354,17 @@ def write_bursts(cap: Capture, out: pathlib.Path, log=print) -> None:
     log(f"{path}: {kept} bursts of {len(cap.t_by_seq)} rows; left out: {len(incomplete)} incomplete, "
         f"{len(bursts) - kept} without a row; {cap.ripple.bad} damaged chunk lines, "
         f"{cap.ripple.duplicates} repeated")
+    if not cap.ripple.has_probes:
+        return
+    probes, incomplete = cap.ripple.probes()
+    path = coast.path_for(out)
+    try:
+        _, kept = ripple_link.coast_file(path, probes, meta, cap.t_by_seq)
+    except ValueError as exc:
+        raise CaptureError(f"{out} written, but its coast probes cannot be: {exc}") from None
+    except OSError as exc:
+        raise OutputError(f"{out} written, but not {path}: {os_fault(exc)}") from None
+    log(f"{path}: {kept} coast probes; left out: {len(incomplete)} incomplete, {len(probes) - kept} without a row")
 
 
 def send_stop(port) -> None:

@@ -93,11 +93,22 @@ CLIP_NEAR_STEPS = 3.0
 CLIP_MIN_NEAR = 5
 
 
+# The balance bends where the motor's own physics does (the copper heating with the current, the
+# armature reaction, a brush drop levelling off): fitted on the rows off the ends, a straight balance
+# V = a w + b I + c leaves that bend at the highest current, where a channel would clip, and reads it as
+# a clip. Where the rows off the ends show the bend (the terms I^2, I w, w^2, I^3 together at p <
+# CURVE_P: the settled copper adds a r Ra^2 I^3 to the drop, the armature reaction I w), the balance
+# carries them and is extrapolated to the ends with them.
+CURVE_P = 1e-3
+
+
 def implied(r, name: str) -> np.ndarray:
-    """The channel `name`'s value per row that the motor's balance implies (V = a w + b I + c, from
-    the other channel and the speed, least squares over the driven rows with a speed at which the
-    channel reads neither end it may clip at; NaN where it cannot say: no speed, too few rows, or an I term
-    it does not determine)."""
+    """The channel `name`'s value per row that the motor's balance implies (V = a w + b I + c, and
+    its bend where the rows show one: CURVE_P), from the other channel and the speed, least squares
+    over the driven rows with a speed at which the channel reads neither end it may clip at; NaN where
+    it cannot say: no speed, too few rows, or an I term it does not determine). The current's value:
+    the reading moved by the voltage's excess over the balance at it, over the balance's slope in I
+    there (with the straight balance, (V - a w - c) / b)."""
     out = np.full(len(r.v), np.nan)
     ok = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i) & np.isfinite(r.ref)
     if ok.sum() < 10:
@@ -109,28 +120,62 @@ def implied(r, name: str) -> np.ndarray:
     if inner.sum() < 10 or np.ptp(r.i[inner]) <= 0 or np.ptp(r.ref[inner]) <= 0:
         return out
     w = r.ref * (2.0 * np.pi / 60.0)
-    x = np.column_stack([w[inner], r.i[inner], np.ones(int(inner.sum()))])
+
+    def design(rows, bent):
+        cols = [w[rows], r.i[rows], np.ones(int(rows.sum()))]
+        if bent:
+            cols += [r.i[rows] ** 2, r.i[rows] * w[rows], w[rows] ** 2, r.i[rows] ** 3]
+        return np.column_stack(cols)
+
     try:
-        fit = sm.OLS(r.v[inner], x).fit()
+        fit = sm.OLS(r.v[inner], design(inner, False)).fit()
+        bent = False
+        x_bent = design(inner, True)
+        if inner.sum() >= 20 and np.linalg.matrix_rank(x_bent) == x_bent.shape[1]:
+            curved = sm.OLS(r.v[inner], x_bent).fit()
+            if (np.all(np.isfinite(curved.params)) and np.all(np.isfinite(curved.bse))
+                    and curved.compare_f_test(fit)[1] < CURVE_P):
+                fit, bent = curved, True
     except (np.linalg.LinAlgError, ValueError):
         return out
     if not np.all(np.isfinite(fit.params)) or not np.all(np.isfinite(fit.bse)):
         return out
-    a, b, c = (float(q) for q in fit.params)
+    q = np.asarray(fit.params, float)
+    v_hat = design(ok, bent) @ q
     if name == "voltage":
-        out[ok] = a * w[ok] + b * r.i[ok] + c
-    elif b > 0 and abs(b) > 4.0 * float(fit.bse[1]):
-        out[ok] = (r.v[ok] - a * w[ok] - c) / b
+        out[ok] = v_hat
+        return out
+    b = float(q[1])
+    if not (b > 0 and abs(b) > 4.0 * float(fit.bse[1])):
+        return out
+    slope = b + (2.0 * q[3] * r.i[ok] + q[4] * w[ok] + 3.0 * q[6] * r.i[ok] ** 2 if bent else 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out[ok] = np.where(slope > 0, r.i[ok] + (r.v[ok] - v_hat) / slope, np.nan)
     return out
 
 
-def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float, implied_x) -> bool:
+def noise_of(x: np.ndarray, step: float) -> float:
+    """A channel's noise (its driven readings x in steps of `step`): the robust spread of its row-to-row
+    changes away from its ends (steps of load or duty are outliers to it; rows held at an end change by
+    nothing), at least one step."""
+    levels = np.unique(x)
+    if len(levels) < 2:
+        return step
+    inner = (x[1:] != levels[0]) & (x[1:] != levels[-1]) & (x[:-1] != levels[0]) & (x[:-1] != levels[-1])
+    dx = np.diff(x)[inner]
+    return max(1.4826 * float(np.median(np.abs(dx - np.median(dx)))) / np.sqrt(2.0), step) if len(dx) > 2 else step
+
+
+def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float, implied_x,
+           noise: float = 0.0) -> bool:
     """Whether the readings x (driven rows) at their end `edge` show the channel clipping there (the
     evidence above); hold: the hold of each row (runs of one command); implied_x: the balance's value
-    per row (NaN where unknown), or None."""
+    per row (NaN where unknown), or None; noise: the channel's noise (noise_of). A hold's rows short of
+    the end count as its dither only within TRUNCATED_SD of that noise: a command that does not name
+    the load (no load column) holds several loads, whose levels are other operating points."""
     at = x == edge
     sign = 1.0 if which == "top" else -1.0
-    short = ~at & np.isin(hold, hold[at])
+    short = ~at & np.isin(hold, hold[at]) & (sign * (edge - x) <= TRUNCATED_SD * max(noise, step))
     if len(np.unique(x[short])) >= DITHER_CODES:
         return True
     if implied_x is None:
@@ -163,6 +208,7 @@ def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, implied_x=
     if len(x) == 0:
         return out
     hold = _holds(command)
+    noise = noise_of(x, step)
     for edge, which in ((x.max(), "top"), (x.min(), "bottom")):
         if which == "bottom" and edge > 0:
             # a positive floor held at several commands is a motor's own (the no-load current of a sweep,
@@ -172,7 +218,7 @@ def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, implied_x=
         n = int(np.sum(at))
         held = len(np.unique(command[at], axis=0))
         if (n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)) and held >= SATURATED_COMMANDS
-                and _clips(x, float(edge), which, hold, step, implied_x)):
+                and _clips(x, float(edge), which, hold, step, implied_x, noise)):
             out.append((float(edge), which, n, held))
     return out
 
@@ -239,11 +285,7 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         fine = np.ptp(x) / step >= COARSE_LEVELS
         balance = implied(r, name)[driven]
         hold = _holds(command)
-        # the channel's noise: the robust spread of its row-to-row changes away from its ends (steps of
-        # load or duty are outliers to it; rows held at an end change by nothing), at least one step
-        inner = (x[1:] != levels[0]) & (x[1:] != levels[-1]) & (x[:-1] != levels[0]) & (x[:-1] != levels[-1])
-        dx = np.diff(x)[inner]
-        noise = max(1.4826 * float(np.median(np.abs(dx - np.median(dx)))) / np.sqrt(2.0), step) if len(dx) > 2 else step
+        noise = noise_of(x, step)
         for edge, which, n, _held in _saturated(x, command, step, balance):
             at = x == edge
             # the rows of a hold in which a fine channel clips that read within TRUNCATED_SD of its

@@ -623,12 +623,21 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
     if physical and not all(fx.LIBRARY[n].plausibility(getattr(p, fx.LIBRARY[n].field))[0] for n in names):
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
-    if whole and not all(iv.determined for iv in ivs):
+    # (the winding node's parameters of a heating alternative: within their plausible range, determined or
+    # not: a steady-state table has no clock for the time constant, and a heating the rows allow is no
+    # less an explanation for a resistance the rows do not pin down)
+    plausible_node = {n["field"] for n in fx.node_plausibility(p, inp.blind) if n["plausible"]}
+    if whole and not all(iv.determined or iv.field in plausible_node for iv in ivs):
         return None
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")
+    # On settled rows (steady-state tables) the copper is at each row's settled rise, r i^2 Ra above the
+    # reading: a model with that heating (copper's coefficient held, the node's r fitted) explains the rows
+    # as they are, and its Ra is Ra at the reference temperature, where a model without it reads Ra at the
+    # rows' mean winding temperature (physics.settled_rise, effects.spec_for)
+    settled = all(r.steady for r in inp.rows)
     alts = [ra_alone(inp, list(names) + [c], physical=True, whole=True) for c in alternatives
-            if c not in names and c != ranking.RA_MISMATCH and not fx.LIBRARY[c].thermal
-            and not fx.LIBRARY[c].case_temperature]
+            if c not in names and c != ranking.RA_MISMATCH and not fx.LIBRARY[c].case_temperature
+            and (not fx.LIBRARY[c].thermal or (settled and c == fx.COPPER))]
     models = [a.value for a in alts if a is not None and a.determined] + list(rivals_ohm)
     # (an alternative's Ra is read for its value only: its rounding part is not taken)
     cal = calibration(inp.recs)

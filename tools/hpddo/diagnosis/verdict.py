@@ -71,17 +71,22 @@ def _ra_verdict(ra: RaFit | None) -> str:
     if not ra.mismatch:
         return (f"An error proportional to the current remains that a wrong Ra{alone} explains as well as "
                 f"{' or '.join(ra.confounded_with)}, so neither is named; to separate them: {ranking.RA_SEPARATOR}.")
-    text = (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings{alone}: with the reading's "
+    if ra.confounded_with:
+        # an instruction only where it holds across the models that explain the rows about as well: with
+        # Ra at the reading, each effect of confounded_with does (core.select, core.robust_ra): no --ra-ohm
+        others = " or ".join(ra.confounded_with)
+        return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings unless {others} is at work"
+                f"{alone}: with the reading's {ra.tolerance:.0%} tolerance as a prior and none of them, they support "
+                f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error proportional "
+                f"to the current. These recordings cannot tell a wrong Ra from {others}, so "
+                f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect (the effects "
+                f"were looked for with Ra at {ra.supported_ohm:.3g} ohm); to separate them: {ranking.RA_SEPARATOR}. "
+                "hpddo train still uses the Ra given.")
+    return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings{alone}: with the reading's "
             f"{ra.tolerance:.0%} tolerance as a prior they support "
             f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error "
-            "proportional to the current; the effects were looked for with Ra at that value.")
-    if ra.confounded_with:
-        text += (f" These recordings cannot tell a wrong Ra from {' or '.join(ra.confounded_with)}, so "
-                 f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect; "
-                 f"to separate them: {ranking.RA_SEPARATOR}.")
-    text += (f" hpddo train still uses the Ra given: re-measure Ra, or pass --ra-ohm "
-             f"{ra.supported_ohm:.3g} if you trust these recordings.")
-    return text
+            "proportional to the current; the effects were looked for with Ra at that value. hpddo train still "
+            f"uses the Ra given: re-measure Ra, or pass --ra-ohm {ra.supported_ohm:.3g} if you trust these recordings.")
 
 # the note of an effect named only with a recording that disagrees with the rest (core.resting_on)
 RESTS_ON = "named only with the recording that disagrees with the rest"

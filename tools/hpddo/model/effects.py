@@ -43,7 +43,8 @@ LIBRARY = dict(schema.BY_NAME)
 
 NAMES = tuple(LIBRARY)
 
-COPPER_TC_PER_K = LIBRARY["thermal_ra"].material      # 0.00393, declared in schema.py
+COPPER = "thermal_ra"                                 # the copper: Ra at the winding's temperature
+COPPER_TC_PER_K = LIBRARY[COPPER].material            # 0.00393, declared in schema.py
 FERRITE_TC_PER_K = LIBRARY["magnet_thermal"].material  # -0.002
 
 
@@ -119,12 +120,13 @@ _temp_cache: dict = {}
 
 def temperature(r: Rows, p: ph.PhysicsParams) -> ph.Temps:
     """The winding and magnet temperatures the thermal effects see, as the boards compute
-    them (physics.temperatures, observer.h); the last few are kept per recording."""
+    them (physics.temperatures, observer.h; on a steady-state table's settled rows, the node
+    settled at each); the last few are kept per recording."""
     key = (id(r), tuple(getattr(p, f) for f in _THERMAL_FIELDS))
     hit = _temp_cache.get(key)
     if hit is not None and hit[0] is r:
         return hit[1]
-    t = ph.temperatures(p, r.i, r.dt, r.temp)
+    t = ph.temperatures(p, r.i, r.dt, r.temp, settled=r.steady)
     if len(_temp_cache) > 64:
         _temp_cache.clear()
     _temp_cache[key] = (r, t)
@@ -242,6 +244,11 @@ def spec_for(rows: list[Rows], names, hold=None, widen=()) -> FitSpec:
     # scale is unknown, so the coefficient is held at its material value.
     state = bool(thermal)
     blind = state and any(r.needs_state for r in rows)
+    # On settled rows (steady-state tables, physics.settled_rise) the winding's rise is
+    # r i^2 Ra (...) / (1 - a r i^2 Ra): the copper's coefficient a and the node's r show as
+    # their product, so the copper is held at its material value there, as where no temperature
+    # is read (the magnets follow the reading: their coefficient stays free).
+    settled = state and all(r.steady for r in rows)
     free, scales, fixed = ["ke_vs_per_rad"], [0.3], {}
     # A coefficient that is a material constant (schema: material) is held at it where the
     # temperature scale is unknown (blind), unless a named effect that shares its work with
@@ -254,7 +261,8 @@ def spec_for(rows: list[Rows], names, hold=None, widen=()) -> FitSpec:
         held_by_partner = any(LIBRARY[m].shares_work_with == n for m in names)
         if n in hold:
             fixed[eff.field] = hold[n]
-        elif eff.material is not None and (partner_named or (blind and not held_by_partner)):
+        elif eff.material is not None and (partner_named or (blind and not held_by_partner)
+                                           or (settled and n == COPPER)):
             fixed[eff.field] = eff.material
         else:
             free.append(eff.field)

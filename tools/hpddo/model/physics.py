@@ -294,16 +294,39 @@ def speed_limit_rpm(p, v_max_V, i_max_A, dtype=np.float64):
     return dtype(dtype(dtype(dtype(SPEED_LIMIT_FACTOR) * emf) / ke) * dtype(RPM_PER_RAD_S))
 
 
-def temperatures(p, i_A, dt_s, temp_read_C) -> Temps:
+def settled_rise(p, i_true_A, ref_C) -> np.ndarray:
+    """The winding's rise above ref_C (C) once the node has settled at each current: the fixed
+    point of thermal_trajectory's step, rise = r i^2 Ra(ref + rise), that is
+    rise = r i^2 Ra (1 + a (ref - t_ref)) / (1 - r i^2 Ra a); held within [0, WINDING_MAX_C - ref]
+    as the trajectory is (no fixed point, 1 - r i^2 Ra a <= 0: the hottest; NaN gives 0). A row
+    of a steady-state table is such a point: the motor ran there until it settled."""
+    i = np.asarray(i_true_A, float)
+    ref = np.asarray(ref_C, float)
+    q = p.th_r_K_per_W * i * i * p.ra_ohm
+    gain = 1.0 - q * p.ra_tc_per_K
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        rise = np.where(gain > 0.0, q * (1.0 + p.ra_tc_per_K * (ref - p.t_ref_C)) / gain,
+                        np.where(gain <= 0.0, np.inf, np.nan))
+    rise = np.minimum(rise, WINDING_MAX_C - ref)
+    return np.where(rise >= 0.0, rise, 0.0)
+
+
+def temperatures(p, i_A, dt_s, temp_read_C, settled: bool = False) -> Temps:
     """What the observer feeds the thermal effects, per sample (observer.h): temp_read_C
     is the case reading, NaN where none (or out of the sensor's range). With a thermal
     network, the winding is the estimate above the reading (above t_amb where none); the
     magnets follow the reading, else the winding estimate. Without a network, both are
-    the reading, else t_ref."""
+    the reading, else t_ref. settled: the rows are settled operating points (a steady-state
+    table, no clock): the winding is at each row's settled rise (settled_rise), where the
+    observer would arrive holding that point."""
     t = np.asarray(temp_read_C, float)
     read = np.isfinite(t)
     if p.thermal_enabled():
-        winding = thermal_trajectory(p, true_current_A(p, i_A), dt_s, ref_C=np.where(read, t, p.t_amb_C))
+        ref = np.where(read, t, p.t_amb_C)
+        if settled:
+            winding = ref + settled_rise(p, true_current_A(p, i_A), ref)
+        else:
+            winding = thermal_trajectory(p, true_current_A(p, i_A), dt_s, ref_C=ref)
         return Temps(winding, np.where(read, t, winding))
     both = np.where(read, t, p.t_ref_C)
     return Temps(both, both)

@@ -11,7 +11,7 @@ from . import dynamics_ref
 from . import gate as gate_mod
 from . import network
 from . import physics as ph
-from ..logs.dataset import Recording, di_dt_A_per_s, dt_s, lagged, segment_starts, temp_read_C
+from ..logs.dataset import Recording, di_dt_A_per_s, dt_s, kind, lagged, segment_starts, temp_read_C
 from ..logs.errors import InputError
 
 FEATURES = ["v_V", "i_A", "n_M2", "i_A_lag1", "n_M2_lag1"]
@@ -36,8 +36,10 @@ class TrainConfig(network.AdamConfig):
 
 def temperature_used(rec: Recording, p: ph.PhysicsParams) -> ph.Temps:
     """The winding and magnet temperatures the observer feeds the thermal effects
-    (physics.temperatures): the case reading where it lies in the sensor's range."""
-    return ph.temperatures(p, rec.df["i_A"].to_numpy(float), dt_s(rec), temp_read_C(rec))
+    (physics.temperatures): the case reading where it lies in the sensor's range; on a
+    steady-state table's settled rows, the node settled at each (effects.temperature)."""
+    return ph.temperatures(p, rec.df["i_A"].to_numpy(float), dt_s(rec), temp_read_C(rec),
+                           settled=kind(rec)[0] == "steady_state")
 
 
 def physics_rpm(rec: Recording, p: ph.PhysicsParams) -> np.ndarray:

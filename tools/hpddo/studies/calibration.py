@@ -200,17 +200,22 @@ def _covers(iv, truth) -> bool | None:
     return bool(iv["lo"] <= truth <= iv["hi"])
 
 
-def score(b: Bench, js: dict, paths) -> dict:
-    """What the diagnosis js said of bench b, against its truth."""
+def score(b: Bench, js: dict, paths, effect_rms: float | None = None) -> dict:
+    """What the diagnosis js said of bench b, against its truth. b: a Bench or any bench with its
+    fields (ke_vs_per_rad, ra_ohm, ra_given_ohm, other_motor and effects, {library name: true
+    coefficient}, NaN where the bench's law is not the library's form and no coefficient is
+    comparable); effect_rms: the RMS RPM by which its effects move the plain model (default
+    effect_rms_rpm(b))."""
     from ..diagnosis.verdict import NOTHING
+    from ..model import effects as fx
 
     out = {"covered": {}, "false": {}}
     ivs = {iv["field"]: iv for iv in js.get("intervals", [])}
     out["covered"]["Ke"] = _covers(ivs.get("ke_vs_per_rad"), b.ke_vs_per_rad)
     out["covered"]["Ra (data alone)"] = _covers((js.get("ra_fit") or {}).get("data_alone"), b.ra_ohm)
     for e in js.get("missing_effects", []):
-        if e in b.effects:
-            out["covered"][f"{e} coefficient"] = _covers(ivs.get(EFFECTS[e][0]), b.effects[e])
+        if e in b.effects and math.isfinite(b.effects[e]):
+            out["covered"][f"{e} coefficient"] = _covers(ivs.get(fx.LIBRARY[e].field), b.effects[e])
     present = set(b.effects) | {"v_gain"}  # every channel has its gain error (within its tolerance)
     # a named effect that the verdict says cannot be told from others (a confounded group: "X and Y
     # cannot be told apart on these recordings") states one of the group: absent only when all are
@@ -225,12 +230,15 @@ def score(b: Bench, js: dict, paths) -> dict:
     odd += [o["recording"] for o in (js.get("consistency") or {}).get("other_motors", [])]
     out["false"]["effect named that is absent"] = bool(absent_named)
     out["false"]["'consistent with noise' with an effect above the floor"] = bool(
-        NOTHING in verdict and effect_rms_rpm(b) > 2.0 * max(floor, NOISE["rpm"]))
+        NOTHING in verdict and (effect_rms_rpm(b) if effect_rms is None else effect_rms) > 2.0 * max(floor, NOISE["rpm"]))
     out["false"]["an Ra stated more than 10 % off"] = any(abs(x / b.ra_ohm - 1) > 0.10 for x in ra_said)
     out["false"]["a wrong instruction"] = bool(
         any(abs(x / b.ra_ohm - 1) > abs(b.ra_given_ohm / b.ra_ohm - 1) for x in ra_said)
         or absent_named or [u for u in odd if not u.startswith("other")])
     out["false"]["a recording called inconsistent that is not"] = bool([u for u in odd if not u.startswith("other")])
+    # no bench of the study clips a channel (its readings have no range to clip at)
+    out["false"]["a channel called saturated that does not clip"] = any(
+        c.get("fault") == "saturated" for c in js.get("channels", []))
     out["other motor named"] = (any(u.startswith("other") for u in odd)) if b.other_motor else None
     # each effect on the bench (a channel's gain within its tolerance aside): named, or in a group the
     # verdict states with a named effect
@@ -306,31 +314,43 @@ def doc_markers() -> tuple:
     return markers("calibration", WHAT, FIGURES)
 
 
+def block_in(doc: str, figures: dict, markers: tuple, name: str, what: str) -> str:
+    """doc (the text of the document name) with the block between markers rendered from a bench study's
+    figures (its committed JSON): the command, then table() of its summary (this study, calibration_mismatch)."""
+    from . import with_block
+    block = f"Measured by `{figures['command']}`:\n\n{table(figures['summary'])}\n"
+    return with_block(doc, markers, block, name, what)
+
+
 def docs_text(doc: str, figures: dict) -> str:
     """doc (docs/diagnosis-limits.md's text) with its block of the study's figures rendered from figures
     (the committed JSON)."""
-    from . import with_block
-    block = f"Measured by `{figures['command']}`:\n\n{table(figures['summary'])}\n"
-    return with_block(doc, doc_markers(), block, DOC, WHAT)
+    return block_in(doc, figures, doc_markers(), DOC, WHAT)
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m hpddo.studies.calibration", description=__doc__.split("\n\n")[0])
+def run_benches(module: str, description: str, run_one, docs: tuple, benches: int, argv=None) -> int:
+    """The command line of a study over randomised benches (this one, calibration_mismatch): run_one(seed)
+    on --benches seeds from --seed, on --jobs processes, the summary printed as table() renders it and
+    every bench's result with it written to --json after each bench (a long run stopped early keeps what
+    it measured); --write-docs: only the document's block from the committed figures. docs: (the
+    document, the committed figures, docs_text(document's text, figures))."""
+    doc, figures, docs_text_of = docs
+    ap = argparse.ArgumentParser(prog=f"python -m hpddo.studies.{module}", description=description)
     ap.add_argument("--write-docs", action="store_true",
-                    help=f"only write {DOC}'s block of figures from the committed {FIGURES}")
-    ap.add_argument("--benches", type=int, default=200)
+                    help=f"only write {doc}'s block of figures from the committed {figures}")
+    ap.add_argument("--benches", type=int, default=benches)
     ap.add_argument("--seed", type=int, default=1, help="the first bench's seed (the others follow)")
     ap.add_argument("--jobs", type=int, default=1, help="benches diagnosed at once (processes)")
     ap.add_argument("--json", type=pathlib.Path, help="write every bench's result and the summary here")
     args = ap.parse_args(argv)
     if args.write_docs:
         from . import write_docs
-        return write_docs(DOC, FIGURES, docs_text)
+        return write_docs(doc, figures, docs_text_of)
     seeds = list(range(args.seed, args.seed + args.benches))
-    command = "python -m hpddo.studies.calibration " + " ".join(argv if argv is not None else sys.argv[1:])
+    command = f"python -m hpddo.studies.{module} " + " ".join(argv if argv is not None else sys.argv[1:])
     from tqdm import tqdm
 
-    def save(results):  # after every bench: a long run stopped early keeps what it measured
+    def save(results):
         if args.json:
             tmp = args.json.with_name(args.json.name + ".partial")
             tmp.write_text(json.dumps({"command": command, "summary": summarise(results), "results": results},
@@ -350,6 +370,10 @@ def main(argv=None) -> int:
             save(results)
     print(table(summarise(results)))
     return 0
+
+
+def main(argv=None) -> int:
+    return run_benches("calibration", __doc__.split("\n\n")[0], run_one, (DOC, FIGURES, docs_text), 200, argv)
 
 
 if __name__ == "__main__":
