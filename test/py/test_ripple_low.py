@@ -196,6 +196,11 @@ def test_the_low_duty_run_with_ke_from_the_ripple_has_no_confident_window_where_
     assert (conf & (true < 1)).sum() == 0
     assert (np.abs(est["rpm"].to_numpy()[conf] / true[conf] - 1) < 0.05).all()
     turning = true > 20  # the 0.24 and 0.3 steps: 24-34 RPM, 5-7 ripples a window
-    assert conf[turning].mean() > 0.9
+    # counted: confident, or `unchecked` (ripple.line.identity_of_recording): no window of this run shows a rotation
+    # comb and Ke is calibrated from the ripple under the figure given, so nothing checks the figure and no window is
+    # confident; the counts are there all the same, and right
+    counted = conf | (est["key"].to_numpy() == "unchecked")
+    assert counted[turning].mean() > 0.9
+    assert (np.abs(est["rpm"].to_numpy()[turning & counted] / true[turning & counted] - 1) < 0.05).all()
     doubt = float(ke_from.split("to +-")[1].rstrip("%)")) / 100
     assert abs(ke / float(truth["ke_vs_per_rad"].median()) - 1) <= doubt <= 1.0, (ke, ke_from)
