@@ -242,6 +242,9 @@ class Data:
     # cross-validation (small data, CV_MAX_ROWS): per fold, the rows of every recording with
     # the fold's rows as test and the others as train; None: the chronological split
     folds: list | None = None
+    # per recording: the rounding errors its held-out rows share, [(label per row, standard RPM per row)]
+    # per channel (intervals.shared_rounding); () where unknown
+    rounding: list = ()
 
     @property
     def scheme(self) -> str:
@@ -360,17 +363,28 @@ def gain_z(d: Data, res_a, res_b, sigma2: float) -> tuple[float, float]:
     """Held-out MSE gain of model b over model a, and how many standard errors of noise it
     is. With delta = e_a - e_b (the change of prediction), e_a^2 - e_b^2 = delta^2 +
     2 delta e_b: the first term is what b explains; the second is what noise of variance
-    sigma2 alone would add, with standard error 2 sigma sqrt(sum w^2 delta^2)."""
+    sigma2 alone would add, with standard error 2 sigma sqrt(sum w^2 delta^2), each row's noise
+    its own; and what the rounding that the rows of an operating point share adds (a channel
+    whose noise does not dither it reads a held point as one code, every row with one error:
+    d.rounding), 2 u sum(w delta) over each point's code, with u its standard speed error."""
     g = 0.0
     v = 0.0
-    for r, ea, eb, w in zip(d.rows, res_a, res_b, d.w_test):
+    shared = 0.0
+    rounding = d.rounding or [()] * len(d.rows)
+    for r, ea, eb, w, rr in zip(d.rows, res_a, res_b, d.w_test, rounding):
         m = r.test & np.isfinite(ea) & np.isfinite(eb)
         if not m.any():
             continue
         ww = w[m] / len(d.rows)
+        dl = ea[m] - eb[m]
         g += float(np.sum(ww * (ea[m] ** 2 - eb[m] ** 2)))
-        v += float(np.sum((ww * (ea[m] - eb[m])) ** 2))
-    se = 2.0 * float(np.sqrt(max(sigma2, 1e-12) * v))
+        v += float(np.sum((ww * dl) ** 2))
+        for labels, u in rr:
+            lab = labels[m]
+            on = lab >= 0
+            if on.any():
+                shared += float(np.sum(np.bincount(lab[on], weights=(ww * dl * u[m])[on]) ** 2))
+    se = 2.0 * float(np.sqrt(max(sigma2, 1e-12) * v + shared))
     return g, (g / se if se > 0 else (np.inf if g > 0 else 0.0))
 
 
