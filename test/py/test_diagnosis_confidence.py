@@ -401,3 +401,21 @@ def test_two_effects_that_act_together_are_found_a_step_ahead(tmp_path):
     paths = cal.write(b, pathlib.Path(tmp_path))
     js = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False)).to_json()
     assert sorted(js["missing_effects"]) == ["saturation", "thermal_ra"], js["verdict"]
+
+
+def test_an_effect_demoted_for_its_range_is_shown_with_the_value_that_left_it(tmp_path):
+    """Calibration bench 66 (the copper's heating, a 20 mA current channel over 10 ohm): the heating is
+    selected at +0.393 %/K, and with the effects named after it fitted alongside it falls to the end of
+    what copper can be. The sentence gives the value that left the range, not the one it was selected
+    at beside a range that holds it."""
+    import pathlib
+    import re
+    from hpddo.studies import calibration as cal
+    b = cal.draw(66)
+    paths = cal.write(b, pathlib.Path(tmp_path))
+    js = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False)).to_json()
+    m = re.search(r"thermal_ra was selected \([^)]*\), but with the other named effects fitted alongside it moves to "
+                  r"([+-][0-9.]+) %/K, the end of the ([0-9.]+)\.\.([0-9.]+) %/K it can take, or beyond", js["verdict"])
+    assert m, js["verdict"]
+    value, lo, hi = (float(x) for x in m.groups())
+    assert value <= lo or value >= hi
