@@ -9,6 +9,7 @@ import dataclasses
 
 import numpy as np
 import statsmodels.api as sm
+from scipy import stats
 
 from .. import schema
 from ..logs import dataset
@@ -159,7 +160,7 @@ def _clustered(y: np.ndarray, x: np.ndarray, groups: list):
     for g in groups:
         labels = np.unique(g, axis=0, return_inverse=True)[1].ravel()
         if labels.max() + 1 >= BALANCE_GROUPS * x.shape[1]:
-            robust = sm.OLS(y, x).fit(cov_type="cluster", cov_kwds={"groups": labels})
+            robust = fit.get_robustcov_results(cov_type="cluster", groups=labels)
             covs.append(np.asarray(robust.cov_params(), float))
     return fit, covs
 
@@ -167,8 +168,6 @@ def _clustered(y: np.ndarray, x: np.ndarray, groups: list):
 def _bend_p(x_bent: np.ndarray, fit, covs: list) -> float:
     """The p value of the bent terms (the design's columns past the straight three) being zero: the
     largest over the covariances (Wald, chi-square)."""
-    from scipy import stats
-
     q = np.asarray(fit.params, float)[3:]
     p = 0.0
     for cov in covs:
@@ -257,8 +256,6 @@ def _pile(x: np.ndarray, edge: float, sign: float, short: np.ndarray, step: floa
     """Whether the end `edge` holds a pile (the first evidence above): the rows at it against the
     rows `short` of it within one noise width (at least a step), of which a falling density leaves it
     at most one code's share."""
-    from scipy import stats
-
     width = max(noise, step)
     band = short & (sign * (edge - x) <= width + 0.5 * step)
     n_at, n_band = int(np.sum(x == edge)), int(band.sum())
@@ -388,10 +385,11 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         levels = np.unique(x)
         if len(levels) < 2:
             continue
-        command = _command_rows(r, load, name)[driven]
+        command_all = _command_rows(r, load, name)
+        command = command_all[driven]
         step = _step(meta, lsb_key, levels)
         fine = np.ptp(x) / step >= COARSE_LEVELS
-        balance = implied(r, name, _command_rows(r, load, name)).take(driven)
+        balance = implied(r, name, command_all).take(driven)
         hold = _holds(command)
         noise = noise_of(x, step)
         for edge, which, n, _held in _saturated(x, command, step, balance):
@@ -431,7 +429,8 @@ def _faults(rec, r, sigma2: float) -> list:
             continue
         if len(levels) < 2:
             continue  # one value and one command: the protocol holds it (a supply per log), no fault to name
-        command = _command_rows(r, load, name)[driven]
+        command_all = _command_rows(r, load, name)
+        command = command_all[driven]
         commands = len(np.unique(command, axis=0))
         step = _step(meta, lsb_key, levels)
         span = float(np.ptp(x))
@@ -440,7 +439,7 @@ def _faults(rec, r, sigma2: float) -> list:
             out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
                                     f"{span / step:.0f} levels"))
             continue  # a coarse channel repeats its extremes as it repeats every level
-        for edge, which, n, held in _saturated(x, command, step, implied(r, name, _command_rows(r, load, name)).take(driven)):
+        for edge, which, n, held in _saturated(x, command, step, implied(r, name, command_all).take(driven)):
             out.append(ChannelFault(rec.name, name, "saturated", f"{n} of {len(x)} driven rows read exactly "
                                     f"{edge:.4g} ({which} of its range) over {held} different commands"))
             break

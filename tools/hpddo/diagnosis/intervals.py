@@ -388,9 +388,10 @@ def shared_rounding(r, blocks: np.ndarray, steps: dict, p: ph.PhysicsParams) -> 
     (ranking.gain_z): per channel with a known step (steps: {Rows attribute: step}), (a label per row
     naming the operating point (blocks, -1 outside) and the code it reads, -1 where none; the
     standard speed error, RPM, of that shared rounding: point_rounding_u through the plain model's
-    sensitivity to the channel, 60 / (2 pi Ke) per volt and Ra times that per ampere)."""
-    rpm_per_v = 60.0 / (2.0 * math.pi * p.ke_vs_per_rad)
-    sens = {"v": rpm_per_v, "i": p.ra_ohm * rpm_per_v}
+    sensitivity to the channel, noise.rpm_per_reading)."""
+    from .noise import rpm_per_reading
+
+    sens = rpm_per_reading(p)
     out = []
     for attr, step in steps.items():
         if not step or step <= 0 or attr not in sens:

@@ -588,20 +588,15 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
     mse_start = mse
     steps = []
     remaining = [c for c in candidates if c not in chosen]
-    while remaining:
-        tried = []
-        for c in remaining:
-            try:
-                pc, rc = fit_from(chosen + [c], p)
-            except Exception:  # a degenerate fit is simply not a candidate
-                continue
-            g, z = gain_z(d, res, rc, sigma2)
-            tried.append((c, g, z, _physical(c, _value(c, pc), m2), pc, rc))
-        def passes(t, mse_now, z_min=Z_MIN):
-            return (t[0] not in exclude and t[3] and t[2] >= z_min and t[1] >= REL_MIN * mse_now
-                    and t[1] >= EXCESS_MIN * max(mse_now - sigma2, 0.0)
-                    and (t[1] >= SCORE_MIN * mse_start or t[0] == RA_MISMATCH))
 
+    def passes(t, mse_now, z_min=Z_MIN):
+        """Whether a trial (_trials) is a step from a model of held-out MSE mse_now."""
+        return (t[0] not in exclude and t[3] and t[2] >= z_min and t[1] >= REL_MIN * mse_now
+                and t[1] >= EXCESS_MIN * max(mse_now - sigma2, 0.0)
+                and (t[1] >= SCORE_MIN * mse_start or t[0] == RA_MISMATCH))
+
+    while remaining:
+        tried = _trials(d, m2, sigma2, fit_from, chosen, remaining, p, res)
         ok = [t for t in tried if passes(t, mse)]
         if not ok:
             ahead = _look_ahead(d, m2, sigma2, res, mse, tried, remaining, chosen, fit_from, passes)
@@ -629,8 +624,23 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
     return steps, p
 
 
-def _look_ahead(d: Data, m2: ph.PhysicsParams, sigma2: float, res, mse: float, tried: list, remaining: list, chosen: list, fit_from,
-                passes):
+def _trials(d: Data, m2: ph.PhysicsParams, sigma2: float, fit_from, chosen: list, candidates, p, res) -> list:
+    """Each candidate fitted beside `chosen` (fit_from, started at p): [(candidate, its held-out gain
+    over the model of residuals res, its z, whether its coefficient is physical, params, residuals)];
+    a degenerate fit is simply not a candidate."""
+    tried = []
+    for c in candidates:
+        try:
+            pc, rc = fit_from(chosen + [c], p)
+        except Exception:  # noqa: BLE001
+            continue
+        g, z = gain_z(d, res, rc, sigma2)
+        tried.append((c, g, z, _physical(c, _value(c, pc), m2), pc, rc))
+    return tried
+
+
+def _look_ahead(d: Data, m2: ph.PhysicsParams, sigma2: float, res, mse: float, tried: list, remaining: list,
+                chosen: list, fit_from, passes):
     """Where no candidate passes alone, one step ahead: two effects that act together (a winding's
     heating and a saturation, each alone worse on the held-out rows than neither, the pair far
     better) are missed by a search that adds one at a time. The candidate of the largest held-out
@@ -645,16 +655,7 @@ def _look_ahead(d: Data, m2: ph.PhysicsParams, sigma2: float, res, mse: float, t
     first = max(near, key=lambda t: t[1])
     c1, _, _, _, p1, r1 = first
     mse1 = held_out_mse(d, r1)
-    tried_next = []
-    for c in remaining:
-        if c == c1:
-            continue
-        try:
-            pc, rc = fit_from(chosen + [c1, c], p1)
-        except Exception:  # a degenerate fit is simply not a candidate
-            continue
-        g, z = gain_z(d, r1, rc, sigma2)
-        tried_next.append((c, g, z, _physical(c, _value(c, pc), m2), pc, rc))
+    tried_next = _trials(d, m2, sigma2, fit_from, chosen + [c1], [c for c in remaining if c != c1], p1, r1)
     ok = [t for t in tried_next if passes(t, mse1) and gain_z(d, res, t[5], sigma2)[1] >= Z_MIN]
     if not ok:
         return None
