@@ -5,6 +5,9 @@ import dataclasses
 import math
 
 import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from hpddo.diagnosis import channels, core, intervals
 from hpddo.logs import dataset
@@ -280,3 +283,139 @@ def test_the_calibration_part_is_each_gain_error_carried_through_the_fit(tmp_pat
         moves.append((fx.fit(rows, inp.m2, [], start=p).ke_vs_per_rad - p.ke_vs_per_rad) / g * cal[key] / math.sqrt(3))
     assert abs(moves[1]) > 0.1 * abs(moves[0])  # the current's gain moves Ke with Ra held
     assert math.isclose(u_cal, math.hypot(*moves), rel_tol=0.05), (u_cal, moves)
+
+
+def _held_top(rng, noise_A, step_A, i_top=None, hold=40):
+    """A table of four duties at three loads, the top load drawing 1 A; the current read with noise_A
+    of noise in steps of step_A, clipped at i_top where given."""
+    rows = []
+    for duty in (0.3, 0.5, 0.7, 0.9):
+        for load in (0, 1, 2):
+            for _ in range(hold):
+                i = 0.2 + 0.4 * load
+                rpm = (12.0 * duty - i * RA) / KE * 60 / (2 * math.pi) + rng.normal(0, 0.5)
+                i_read = i + rng.normal(0, noise_A)
+                if i_top is not None:
+                    i_read = min(i_read, i_top)
+                rows.append((duty, 12.0 * duty + rng.normal(0, 0.005), round(i_read / step_A) * step_A, rpm, load))
+    return rows
+
+
+@settings(max_examples=25, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 10_000), noise_steps=st.floats(1.5, 3.0))
+def test_the_tail_of_a_held_loads_noise_is_no_pile_and_a_clip_is(tmp_path_factory, seed, noise_steps):
+    """A held top load whose noise spreads its readings over several codes (1.5 steps or more: the
+    dither rule needs channels.DITHER_CODES codes short of the end) reaches its largest code in
+    a few rows, the tail of its sample: not saturated (calibration benches 181 read so: 5 of 200 rows
+    at the top, 22 one code below). Clipped at its mean, the same channel piles half its rows on the end
+    code: saturated."""
+    step = 0.004
+    tmp = tmp_path_factory.mktemp("pile")
+    meta = (f"# i_lsb_A={step:g}",)
+    rng = np.random.default_rng(seed)
+    rec = dataset.load_recordings([_log(tmp / "held.csv", _held_top(rng, noise_steps * step, step), meta=meta)])[0]
+    assert not [f for f in channels.check([rec], [fx.rows_of(rec)], 1.0) if f.fault == "saturated"]
+    assert not channels.clipped(rec, fx.rows_of(rec))[1]
+    clip = dataset.load_recordings([_log(tmp / "clip.csv", _held_top(rng, noise_steps * step, step, i_top=1.0),
+                                         meta=meta)])[0]
+    assert [f.fault for f in channels.check([clip], [fx.rows_of(clip)], 1.0)] == ["saturated"]
+
+
+def test_no_channel_of_the_calibration_benches_is_called_saturated(tmp_path):
+    """No bench of the calibration study clips a channel (its readings have no range): over its first
+    200 benches none is called saturated. Benches 181 and 196 were: the tail of a held load's noise
+    taken for the dither of a clip, and a balance bent by one current code's rounding per operating
+    point, extrapolated to the top load without that doubt (channels.Balance)."""
+    import pathlib
+    from hpddo.logs.errors import USER_ERRORS
+    from hpddo.studies import calibration as cal
+    said = []
+    for seed in range(1, 201):
+        folder = pathlib.Path(tmp_path) / str(seed)
+        folder.mkdir()
+        try:
+            recs = dataset.load_recordings(cal.write(cal.draw(seed), folder))
+        except USER_ERRORS:
+            continue  # a bench too short to split (the diagnosis refuses it the same way)
+        said += [(seed, f.text()) for f in channels.check(recs, [fx.rows_of(r) for r in recs], 1.0)
+                 if f.fault == "saturated"]
+    assert not said
+
+
+@settings(max_examples=40, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 10_000), points=st.integers(2, 12), u_rpm=st.floats(0.1, 5.0))
+def test_a_held_points_shared_rounding_widens_the_held_out_test_and_a_dithered_channel_does_not(seed, points, u_rpm):
+    """ranking.gain_z: where every row of a held-out point reads one code (one rounding error each,
+    standard u_rpm of speed), the noise part of a held-out gain is the sum over the point, not row by
+    row: its standard error grows by 2 u sum(w delta) per point, the gain's z falls; with no shared
+    rounding (a dithered channel: d.rounding empty) it is the white one."""
+    import types
+    from hpddo.diagnosis import ranking
+    rng = np.random.default_rng(seed)
+    n = points * 50
+    blocks = np.repeat(np.arange(points), 50)
+    test = np.ones(n, bool)
+    e_b = rng.normal(0, 1.0, n)
+    e_a = e_b + rng.normal(0.5, 0.3, n)
+    rows = [types.SimpleNamespace(test=test)]
+    white = ranking.Data(rows=rows, w_test=[np.full(n, 1.0 / n)], blocks_test=[blocks], blocks_train=[blocks])
+    shared = dataclasses.replace(white, rounding=[[(blocks, np.full(n, u_rpm))]])
+    g0, z0 = ranking.gain_z(white, [e_a], [e_b], 1.0)
+    g1, z1 = ranking.gain_z(shared, [e_a], [e_b], 1.0)
+    w, dl = 1.0 / n, e_a - e_b
+    se_white = 2.0 * math.sqrt(np.sum((w * dl) ** 2))
+    per_point = np.bincount(blocks, weights=w * dl * u_rpm)
+    assert g0 == g1
+    assert z0 == pytest.approx(g0 / se_white, rel=1e-12)
+    assert z1 == pytest.approx(g0 / (2.0 * math.sqrt(np.sum((w * dl) ** 2) + np.sum(per_point ** 2))), rel=1e-12)
+    assert abs(z1) < abs(z0)
+
+
+def test_a_coarse_current_channels_rounding_names_no_effect(tmp_path):
+    """Calibration bench 196: a 20 mA current channel over a 9 ohm winding (one code, 2 RPM of speed,
+    per held load), its gain 1.9 % high and the Ra given 3 % high, no saturation. The held-out rows of
+    each load share one rounding error; counted row by row, a saturation fitted to the codes' errors
+    beat a free Ra by 4.8 standard errors and was named (with brush_drop beside it). With the shared
+    rounding in the test's noise (ranking.gain_z) it is told from nothing, and nothing is named."""
+    import pathlib
+    from hpddo.studies import calibration as cal
+    b = cal.draw(196)
+    paths = cal.write(b, pathlib.Path(tmp_path))
+    js = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False)).to_json()
+    assert js["missing_effects"] == [], js["verdict"]
+    assert "--ra-ohm" not in js["verdict"]
+
+
+def test_two_effects_that_act_together_are_found_a_step_ahead(tmp_path):
+    """Calibration bench 23: a 90-row table with the copper's heating and a saturation (Ke -10.8 %/A).
+    Beside the first step's current-offset drift, each of the two alone is worse on the held-out rows
+    than neither, and the best single candidate (the magnets) passes every test but its z (2.48, under
+    ranking.Z_MIN): a search that adds one effect at a time stopped there and named the drift, which
+    the bench does not have. One step ahead (ranking._look_ahead), the magnets and then the saturation
+    (z 6.3 over the magnets, and the pair over neither) are taken, then the heating: the two the bench
+    has are named, the drift and the magnets are not (their intervals hold zero)."""
+    import pathlib
+    from hpddo.studies import calibration as cal
+    b = cal.draw(23)
+    assert set(b.effects) == {"thermal_ra", "saturation"} and b.table
+    paths = cal.write(b, pathlib.Path(tmp_path))
+    js = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False)).to_json()
+    assert sorted(js["missing_effects"]) == ["saturation", "thermal_ra"], js["verdict"]
+
+
+def test_an_effect_demoted_for_its_range_is_shown_with_the_value_that_left_it(tmp_path):
+    """Calibration bench 66 (the copper's heating, a 20 mA current channel over 10 ohm): the heating is
+    selected at +0.393 %/K, and with the effects named after it fitted alongside it falls to the end of
+    what copper can be. The sentence gives the value that left the range, not the one it was selected
+    at beside a range that holds it."""
+    import pathlib
+    import re
+    from hpddo.studies import calibration as cal
+    b = cal.draw(66)
+    paths = cal.write(b, pathlib.Path(tmp_path))
+    js = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False)).to_json()
+    m = re.search(r"thermal_ra was selected \([^)]*\), but with the other named effects fitted alongside it moves to "
+                  r"([+-][0-9.]+) %/K, the end of the ([0-9.]+)\.\.([0-9.]+) %/K it can take, or beyond", js["verdict"])
+    assert m, js["verdict"]
+    value, lo, hi = (float(x) for x in m.groups())
+    assert value <= lo or value >= hi

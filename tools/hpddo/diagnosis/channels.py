@@ -9,6 +9,7 @@ import dataclasses
 
 import numpy as np
 import statsmodels.api as sm
+from scipy import stats
 
 from .. import schema
 from ..logs import dataset
@@ -81,12 +82,21 @@ class ChannelFault:
 # no evidence: the top load of a recording draws the same current at every duty, and a channel
 # whose noise stays within a step reads it as one code):
 #  * a channel that dithers reads a pile of rows at one exact value: the holds that reach the end
-#    read DITHER_CODES or more distinct values short of it (their noise spreads them over steps);
+#    read DITHER_CODES or more distinct values short of it (their noise spreads them over steps), and
+#    the end holds more of their rows than the band of one noise width below it would leave it if
+#    nothing clipped (a density that falls towards the sample's largest value puts no more rows in
+#    its last code than in any code below it; a clip puts there every reading beyond it): more than
+#    one code's share of that band at p < PILE_P (binomial). The largest values of a hold's noise
+#    alone, read exactly by a few rows, are the tail of its sample, not a pile;
 #  * or the motor's own balance says the rows at the end measured more than it: the value the
 #    other channel and the speed imply (the recording's V = a w + b I + c, least squares over the
 #    rows off the ends) exceeds the reading at the end by CLIP_STEPS steps (or CLIP_SE standard
-#    errors) more than at the rows just short of it (CLIP_NEAR_STEPS), whose bias it shares.
+#    errors) more than at the rows just short of it (CLIP_NEAR_STEPS), whose bias it shares. The
+#    standard error holds the balance's own, extrapolated to the end (Balance.se_between): a
+#    coarse channel's rounding is one error per operating point, shared by its rows, so the
+#    balance's covariance is clustered by operating point (BALANCE_GROUPS).
 DITHER_CODES = 3
+PILE_P = 1e-3
 CLIP_STEPS = 1.0
 CLIP_SE = 4.0
 CLIP_NEAR_STEPS = 3.0
@@ -102,24 +112,96 @@ CLIP_MIN_NEAR = 5
 CURVE_P = 1e-3
 
 
-def implied(r, name: str) -> np.ndarray:
+@dataclasses.dataclass
+class Balance:
+    """A channel's value per row that the motor's balance implies (implied()), and what it takes to
+    say how well: the balance's design per row, its coefficients' covariance and its slope in the
+    channel (1 for the voltage; dV/dI for the current)."""
+
+    values: np.ndarray          # NaN where the balance cannot say
+    design: np.ndarray | None = None
+    covs: tuple = ()            # the coefficients' covariances, plain and clustered (_clustered)
+    slope: np.ndarray | None = None
+
+    @staticmethod
+    def none(n: int) -> "Balance":
+        return Balance(np.full(n, np.nan))
+
+    def take(self, rows) -> "Balance":
+        if self.design is None:
+            return Balance(self.values[rows])
+        return Balance(self.values[rows], self.design[rows], self.covs, self.slope[rows])
+
+    def se_between(self, a: np.ndarray, b: np.ndarray) -> float:
+        """The standard error of the balance's mean value over rows a less that over rows b: the
+        coefficients' error extrapolated to where the two sets of rows lie, the largest over its
+        covariances (0 where unknown)."""
+        if self.design is None or not a.any() or not b.any():
+            return 0.0
+        dx = self.design[a].mean(axis=0) - self.design[b].mean(axis=0)
+        slope = float(np.nanmean(np.r_[self.slope[a], self.slope[b]]))
+        var = max(float(dx @ c @ dx) for c in self.covs)
+        return float(np.sqrt(var)) / abs(slope) if var > 0 and np.isfinite(slope) and slope != 0 else 0.0
+
+
+# The balance's errors are not independent row by row: a channel's rounding is one error per operating
+# point, which every row of it shares. Its covariance is clustered by operating point: the rows of one
+# command that read one code of the current, or of the voltage (the larger of the two), or row by row
+# where fewer than BALANCE_GROUPS clusters per coefficient are left.
+BALANCE_GROUPS = 2
+
+
+def _clustered(y: np.ndarray, x: np.ndarray, groups: list):
+    """The OLS fit of y on x and its coefficients' covariance: the largest over the clusterings in
+    groups (each one label per row) that hold BALANCE_GROUPS clusters per coefficient, or the plain
+    one (row by row) where none does."""
+    fit = sm.OLS(y, x).fit()
+    covs = [np.asarray(fit.cov_params(), float)]
+    for g in groups:
+        labels = np.unique(g, axis=0, return_inverse=True)[1].ravel()
+        if labels.max() + 1 >= BALANCE_GROUPS * x.shape[1]:
+            robust = fit.get_robustcov_results(cov_type="cluster", groups=labels)
+            covs.append(np.asarray(robust.cov_params(), float))
+    return fit, covs
+
+
+def _bend_p(x_bent: np.ndarray, fit, covs: list) -> float:
+    """The p value of the bent terms (the design's columns past the straight three) being zero: the
+    largest over the covariances (Wald, chi-square)."""
+    q = np.asarray(fit.params, float)[3:]
+    p = 0.0
+    for cov in covs:
+        c = cov[3:, 3:]
+        try:
+            stat = float(q @ np.linalg.solve(c, q))
+        except np.linalg.LinAlgError:
+            return 1.0
+        p = max(p, float(stats.chi2.sf(stat, len(q))) if np.isfinite(stat) and stat >= 0 else 1.0)
+    return p
+
+
+def implied(r, name: str, command=None) -> Balance:
     """The channel `name`'s value per row that the motor's balance implies (V = a w + b I + c, and
     its bend where the rows show one: CURVE_P), from the other channel and the speed, least squares
     over the driven rows with a speed at which the channel reads neither end it may clip at; NaN where
     it cannot say: no speed, too few rows, or an I term it does not determine). The current's value:
     the reading moved by the voltage's excess over the balance at it, over the balance's slope in I
-    there (with the straight balance, (V - a w - c) / b)."""
-    out = np.full(len(r.v), np.nan)
+    there (with the straight balance, (V - a w - c) / b). command: each row's command (a vector or a
+    matrix, one row per row of r), which with a channel's code names an operating point
+    (BALANCE_GROUPS); default the duty."""
+    n = len(r.v)
     ok = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i) & np.isfinite(r.ref)
     if ok.sum() < 10:
-        return out
+        return Balance.none(n)
     x_ch = r.v if name == "voltage" else r.i
     # the balance from the rows off the ends it may clip at (the bottom only at zero or below: _saturated)
     lo = np.min(x_ch[ok])
     inner = ok & (x_ch < np.max(x_ch[ok])) & ((x_ch > lo) | (lo > 0))
     if inner.sum() < 10 or np.ptp(r.i[inner]) <= 0 or np.ptp(r.ref[inner]) <= 0:
-        return out
+        return Balance.none(n)
     w = r.ref * (2.0 * np.pi / 60.0)
+    cmd = np.asarray(r.duty if command is None else command, float).reshape(n, -1)
+    groups = [np.column_stack([cmd[inner], r.i[inner]]), np.column_stack([cmd[inner], r.v[inner]])]
 
     def design(rows, bent):
         cols = [w[rows], r.i[rows], np.ones(int(rows.sum()))]
@@ -128,30 +210,34 @@ def implied(r, name: str) -> np.ndarray:
         return np.column_stack(cols)
 
     try:
-        fit = sm.OLS(r.v[inner], design(inner, False)).fit()
+        fit, covs = _clustered(r.v[inner], design(inner, False), groups)
         bent = False
         x_bent = design(inner, True)
         if inner.sum() >= 20 and np.linalg.matrix_rank(x_bent) == x_bent.shape[1]:
-            curved = sm.OLS(r.v[inner], x_bent).fit()
-            if (np.all(np.isfinite(curved.params)) and np.all(np.isfinite(curved.bse))
-                    and curved.compare_f_test(fit)[1] < CURVE_P):
-                fit, bent = curved, True
+            curved, curved_covs = _clustered(r.v[inner], x_bent, groups)
+            if (np.all(np.isfinite(curved.params)) and np.all([np.isfinite(c).all() for c in curved_covs])
+                    and curved.compare_f_test(fit)[1] < CURVE_P and _bend_p(x_bent, curved, curved_covs) < CURVE_P):
+                fit, covs, bent = curved, curved_covs, True
     except (np.linalg.LinAlgError, ValueError):
-        return out
+        return Balance.none(n)
     if not np.all(np.isfinite(fit.params)) or not np.all(np.isfinite(fit.bse)):
-        return out
+        return Balance.none(n)
     q = np.asarray(fit.params, float)
-    v_hat = design(ok, bent) @ q
+    x_all = np.full((n, len(q)), np.nan)
+    x_all[ok] = design(ok, bent)
+    v_hat = x_all[ok] @ q
+    out = np.full(n, np.nan)
     if name == "voltage":
         out[ok] = v_hat
-        return out
+        return Balance(out, x_all, tuple(covs), np.ones(n))
     b = float(q[1])
-    if not (b > 0 and abs(b) > 4.0 * float(fit.bse[1])):
-        return out
-    slope = b + (2.0 * q[3] * r.i[ok] + q[4] * w[ok] + 3.0 * q[6] * r.i[ok] ** 2 if bent else 0.0)
+    if not (b > 0 and abs(b) > 4.0 * float(np.sqrt(max(c[1, 1] for c in covs)))):
+        return Balance.none(n)
+    slope = np.full(n, np.nan)
+    slope[ok] = b + (2.0 * q[3] * r.i[ok] + q[4] * w[ok] + 3.0 * q[6] * r.i[ok] ** 2 if bent else 0.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        out[ok] = np.where(slope > 0, r.i[ok] + (r.v[ok] - v_hat) / slope, np.nan)
-    return out
+        out[ok] = np.where(slope[ok] > 0, r.i[ok] + (r.v[ok] - v_hat) / slope[ok], np.nan)
+    return Balance(out, x_all, tuple(covs), slope)
 
 
 def noise_of(x: np.ndarray, step: float) -> float:
@@ -166,21 +252,33 @@ def noise_of(x: np.ndarray, step: float) -> float:
     return max(1.4826 * float(np.median(np.abs(dx - np.median(dx)))) / np.sqrt(2.0), step) if len(dx) > 2 else step
 
 
-def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float, implied_x,
+def _pile(x: np.ndarray, edge: float, sign: float, short: np.ndarray, step: float, noise: float) -> bool:
+    """Whether the end `edge` holds a pile (the first evidence above): the rows at it against the
+    rows `short` of it within one noise width (at least a step), of which a falling density leaves it
+    at most one code's share."""
+    width = max(noise, step)
+    band = short & (sign * (edge - x) <= width + 0.5 * step)
+    n_at, n_band = int(np.sum(x == edge)), int(band.sum())
+    share = 1.0 / (1.0 + max(width / step, 1.0)) if step > 0 else 0.0
+    return bool(share > 0 and stats.binomtest(n_at, n_at + n_band, share, alternative="greater").pvalue < PILE_P)
+
+
+def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float, balance,
            noise: float = 0.0) -> bool:
     """Whether the readings x (driven rows) at their end `edge` show the channel clipping there (the
-    evidence above); hold: the hold of each row (runs of one command); implied_x: the balance's value
-    per row (NaN where unknown), or None; noise: the channel's noise (noise_of). A hold's rows short of
-    the end count as its dither only within TRUNCATED_SD of that noise: a command that does not name
-    the load (no load column) holds several loads, whose levels are other operating points."""
+    evidence above); hold: the hold of each row (runs of one command); balance: the balance's value
+    per row (a Balance, implied(), its values NaN where unknown), or None; noise: the channel's noise
+    (noise_of). A hold's rows short of the end count as its dither only within TRUNCATED_SD of that
+    noise: a command that does not name the load (no load column) holds several loads, whose levels
+    are other operating points."""
     at = x == edge
     sign = 1.0 if which == "top" else -1.0
     short = ~at & np.isin(hold, hold[at]) & (sign * (edge - x) <= TRUNCATED_SD * max(noise, step))
-    if len(np.unique(x[short])) >= DITHER_CODES:
+    if len(np.unique(x[short])) >= DITHER_CODES and _pile(x, edge, sign, short, step, noise):
         return True
-    if implied_x is None:
+    if balance is None:
         return False
-    excess = sign * (implied_x - x)
+    excess = sign * (balance.values - x)
     top = at & np.isfinite(excess)
     off = np.flatnonzero(~at & np.isfinite(excess))
     if top.sum() < SATURATED_MIN_ROWS or len(off) < CLIP_MIN_NEAR:
@@ -194,14 +292,15 @@ def _clips(x: np.ndarray, edge: float, which: str, hold: np.ndarray, step: float
     near[off[order[:k]]] = True
     d = float(np.median(excess[top]) - np.median(excess[near]))
     spread = 1.4826 * float(np.median(np.abs(excess[near] - np.median(excess[near]))))
-    se = 1.2533 * spread * np.sqrt(1.0 / top.sum() + 1.0 / near.sum())
+    se = float(np.hypot(1.2533 * spread * np.sqrt(1.0 / top.sum() + 1.0 / near.sum()),
+                        balance.se_between(top, near)))
     return d > max(CLIP_STEPS * step, CLIP_SE * se)
 
 
-def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, implied_x=None) -> list:
+def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, balance=None) -> list:
     """[(edge value, "top"/"bottom", rows at it, commands at it)] of the ends of x (a channel's driven
-    readings, in steps of `step`; implied_x: the balance's value of each, implied()) that it reads
-    exactly in at least SATURATED_SHARE of the rows (SATURATED_MIN_ROWS) under at least
+    readings, in steps of `step`; balance: the balance's value of each, a Balance, implied()) that it
+    reads exactly in at least SATURATED_SHARE of the rows (SATURATED_MIN_ROWS) under at least
     SATURATED_COMMANDS different commands, with the evidence that it clips there (_clips): the ends
     of its range, not what it measured (the bottom only at zero or below)."""
     out = []
@@ -218,7 +317,7 @@ def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, implied_x=
         n = int(np.sum(at))
         held = len(np.unique(command[at], axis=0))
         if (n >= max(SATURATED_MIN_ROWS, SATURATED_SHARE * len(x)) and held >= SATURATED_COMMANDS
-                and _clips(x, float(edge), which, hold, step, implied_x, noise)):
+                and _clips(x, float(edge), which, hold, step, balance, noise)):
             out.append((float(edge), which, n, held))
     return out
 
@@ -248,6 +347,12 @@ def steps(rec, r) -> dict:
         levels = levels[np.isfinite(levels)]
         out[ROW_ATTR[name]] = float(_step(meta, lsb_key, levels)) if meta.get(lsb_key) or len(levels) > 1 else 0.0
     return out
+
+
+def _command_rows(r, load: np.ndarray, name: str) -> np.ndarray:
+    """The commands that move the channel `name`, per row of r: the duty moves the voltage; the duty
+    and the load (a column of zeros where the log has none) the current."""
+    return r.duty if name == "voltage" else np.column_stack([r.duty, load])
 
 
 def _holds(command: np.ndarray) -> np.ndarray:
@@ -280,10 +385,11 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
         levels = np.unique(x)
         if len(levels) < 2:
             continue
-        command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
+        command_all = _command_rows(r, load, name)
+        command = command_all[driven]
         step = _step(meta, lsb_key, levels)
         fine = np.ptp(x) / step >= COARSE_LEVELS
-        balance = implied(r, name)[driven]
+        balance = implied(r, name, command_all).take(driven)
         hold = _holds(command)
         noise = noise_of(x, step)
         for edge, which, n, _held in _saturated(x, command, step, balance):
@@ -323,8 +429,8 @@ def _faults(rec, r, sigma2: float) -> list:
             continue
         if len(levels) < 2:
             continue  # one value and one command: the protocol holds it (a supply per log), no fault to name
-        # the commands that move the channel: the duty moves the voltage; the duty and the load the current
-        command = r.duty[driven] if name == "voltage" else np.column_stack([r.duty[driven], load[driven]])
+        command_all = _command_rows(r, load, name)
+        command = command_all[driven]
         commands = len(np.unique(command, axis=0))
         step = _step(meta, lsb_key, levels)
         span = float(np.ptp(x))
@@ -333,7 +439,7 @@ def _faults(rec, r, sigma2: float) -> list:
             out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
                                     f"{span / step:.0f} levels"))
             continue  # a coarse channel repeats its extremes as it repeats every level
-        for edge, which, n, held in _saturated(x, command, step, implied(r, name)[driven]):
+        for edge, which, n, held in _saturated(x, command, step, implied(r, name, command_all).take(driven)):
             out.append(ChannelFault(rec.name, name, "saturated", f"{n} of {len(x)} driven rows read exactly "
                                     f"{edge:.4g} ({which} of its range) over {held} different commands"))
             break

@@ -74,6 +74,8 @@ def inputs_of(recs, opt: Options) -> Inputs:
         rows.append(r)
     data = ranking.make_data(rows)
     rows = data.rows  # under cross-validation (small data) every labelled row is train and test
+    data = dataclasses.replace(data, rounding=[intervals.shared_rounding(r, b, channels.steps(rec, r), m2)
+                                               for rec, r, b in zip(recs, rows, data.blocks_test)])
     held_out = sum(int(r.test.sum()) for r in rows)
     if held_out < MIN_HELD_OUT_ROWS:
         raise InputError(f"only {held_out} held-out rows with rpm_ref > {fx.MIN_RPM} RPM in "

@@ -371,6 +371,46 @@ def _row_noise(x: np.ndarray, step: float) -> float:
     return float(np.sqrt(np.mean(kept ** 2)) / math.sqrt(2.0)) if len(kept) else 0.0
 
 
+def point_rounding_u(x: np.ndarray, step: float, steady: bool) -> float:
+    """The standard rounding error that the mean of one operating point's readings x (a channel read
+    in steps of `step`) carries: anywhere within -+ step/2 (standard step / sqrt 12) where its noise
+    does not dither it over several steps, falling as exp(-2 pi^2 sigma^2 / step^2) (the first
+    harmonic) where Gaussian noise sigma before the ADC does; sigma from the point's row-to-row
+    changes (_row_noise) with Sheppard's correction (sigma^2 - step^2 / 12). A steady-state table's
+    row is a settled point of its own, whose noise its neighbours do not show (taken as none)."""
+    sigma = 0.0 if steady else _row_noise(x, step)
+    sigma2 = max(sigma * sigma - step ** 2 / 12.0, 0.0)
+    return math.exp(-2.0 * math.pi ** 2 * sigma2 / step ** 2) * step / math.sqrt(12.0)
+
+
+def shared_rounding(r, blocks: np.ndarray, steps: dict, p: ph.PhysicsParams) -> list:
+    """The rounding errors that the rows of one recording (rows r) share, for the held-out test
+    (ranking.gain_z): per channel with a known step (steps: {Rows attribute: step}), (a label per row
+    naming the operating point (blocks, -1 outside) and the code it reads, -1 where none; the
+    standard speed error, RPM, of that shared rounding: point_rounding_u through the plain model's
+    sensitivity to the channel, noise.rpm_per_reading)."""
+    from .noise import rpm_per_reading
+
+    sens = rpm_per_reading(p)
+    out = []
+    for attr, step in steps.items():
+        if not step or step <= 0 or attr not in sens:
+            continue
+        x = getattr(r, attr)
+        labels = np.full(len(x), -1, np.int64)
+        u = np.zeros(len(x))
+        inside = (blocks >= 0) & np.isfinite(x)
+        if not inside.any():
+            continue
+        codes = np.round(x[inside] / step)
+        labels[inside] = np.unique(np.column_stack([blocks[inside], codes]), axis=0, return_inverse=True)[1].ravel()
+        for b in np.unique(blocks[inside]):
+            sel = inside & (blocks == b)
+            u[sel] = point_rounding_u(x[sel], step, r.steady) * sens[attr]
+        out.append((labels, u))
+    return out
+
+
 def sensors_u(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict, steps: list, cal: dict) -> dict:
     """{field: (calibration's, rounding's standard uncertainty)} of the fields of p fitted on the
     training rows of `rows` (groups_per_rec: their operating-point blocks, as for intervals()),
@@ -421,9 +461,7 @@ def sensors_u(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict, s
                 xr, blk = getattr(r, attr)[m], g[m]
                 for b in np.unique(blk):
                     sel = np.flatnonzero(blk == b)
-                    sigma = 0.0 if r.steady else _row_noise(xr[sel], s_step)
-                    sigma2 = max(sigma * sigma - s_step ** 2 / 12.0, 0.0)
-                    weight[at + sel] = math.exp(-2.0 * math.pi ** 2 * sigma2 / s_step ** 2) * s_step / math.sqrt(12.0)
+                    weight[at + sel] = point_rounding_u(xr[sel], s_step, r.steady)
                 step_of[at:at + n], code_of[at:at + n] = s_step, np.round(xr / s_step)
             at += n
         use = step_of > 0

@@ -159,6 +159,13 @@ def truncated_share(rows) -> float:
     return low / driven if driven else 0.0
 
 
+def rpm_per_reading(p) -> dict:
+    """The plain model's sensitivity of the speed to each channel's reading, in magnitude: {Rows
+    attribute: RPM per volt ("v", 1 / Ke) or per ampere ("i", Ra / Ke)}."""
+    per_v = 1.0 / (p.ke_vs_per_rad * RAD_S_PER_RPM)
+    return {"v": per_v, "i": p.ra_ohm * per_v}
+
+
 def sensors(recs, rows, p) -> dict:
     """{part: variance RPM^2} of the speed error that the sensors' resolution alone gives, from
     each recording's metadata (dataset.sensor_meta), pooled over the labelled rows: the
@@ -178,11 +185,11 @@ def sensors(recs, rows, p) -> dict:
         q = step_rpm(rec, r)
         if q is not None:
             parts["encoder quantisation"] = q * q / 6.0
-        per_v = 1.0 / (p.ke_vs_per_rad * RAD_S_PER_RPM)  # RPM per volt
+        per = rpm_per_reading(p)
         if meta.get("v_lsb_V"):
-            parts["voltage resolution"] = (meta["v_lsb_V"] * per_v) ** 2 / 12.0
+            parts["voltage resolution"] = (meta["v_lsb_V"] * per["v"]) ** 2 / 12.0
         if meta.get("i_lsb_A"):
-            parts["current resolution"] = (meta["i_lsb_A"] * p.ra_ohm * per_v) ** 2 / 12.0
+            parts["current resolution"] = (meta["i_lsb_A"] * per["i"]) ** 2 / 12.0
         for key, v in parts.items():
             sums[key] = sums.get(key, 0.0) + v * k
     return {key: v / n for key, v in sums.items()} if n else {}

@@ -242,6 +242,9 @@ class Data:
     # cross-validation (small data, CV_MAX_ROWS): per fold, the rows of every recording with
     # the fold's rows as test and the others as train; None: the chronological split
     folds: list | None = None
+    # per recording: the rounding errors its held-out rows share, [(label per row, standard RPM per row)]
+    # per channel (intervals.shared_rounding); () where unknown
+    rounding: list = ()
 
     @property
     def scheme(self) -> str:
@@ -360,17 +363,28 @@ def gain_z(d: Data, res_a, res_b, sigma2: float) -> tuple[float, float]:
     """Held-out MSE gain of model b over model a, and how many standard errors of noise it
     is. With delta = e_a - e_b (the change of prediction), e_a^2 - e_b^2 = delta^2 +
     2 delta e_b: the first term is what b explains; the second is what noise of variance
-    sigma2 alone would add, with standard error 2 sigma sqrt(sum w^2 delta^2)."""
+    sigma2 alone would add, with standard error 2 sigma sqrt(sum w^2 delta^2), each row's noise
+    its own; and what the rounding that the rows of an operating point share adds (a channel
+    whose noise does not dither it reads a held point as one code, every row with one error:
+    d.rounding), 2 u sum(w delta) over each point's code, with u its standard speed error."""
     g = 0.0
     v = 0.0
-    for r, ea, eb, w in zip(d.rows, res_a, res_b, d.w_test):
+    shared = 0.0
+    rounding = d.rounding or [()] * len(d.rows)
+    for r, ea, eb, w, rr in zip(d.rows, res_a, res_b, d.w_test, rounding):
         m = r.test & np.isfinite(ea) & np.isfinite(eb)
         if not m.any():
             continue
         ww = w[m] / len(d.rows)
+        dl = ea[m] - eb[m]
         g += float(np.sum(ww * (ea[m] ** 2 - eb[m] ** 2)))
-        v += float(np.sum((ww * (ea[m] - eb[m])) ** 2))
-    se = 2.0 * float(np.sqrt(max(sigma2, 1e-12) * v))
+        v += float(np.sum((ww * dl) ** 2))
+        for labels, u in rr:
+            lab = labels[m]
+            on = lab >= 0
+            if on.any():
+                shared += float(np.sum(np.bincount(lab[on], weights=(ww * dl * u[m])[on]) ** 2))
+    se = 2.0 * float(np.sqrt(max(sigma2, 1e-12) * v + shared))
     return g, (g / se if se > 0 else (np.inf if g > 0 else 0.0))
 
 
@@ -574,21 +588,29 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
     mse_start = mse
     steps = []
     remaining = [c for c in candidates if c not in chosen]
+
+    def passes(t, mse_now, z_min=Z_MIN):
+        """Whether a trial (_trials) is a step from a model of held-out MSE mse_now."""
+        return (t[0] not in exclude and t[3] and t[2] >= z_min and t[1] >= REL_MIN * mse_now
+                and t[1] >= EXCESS_MIN * max(mse_now - sigma2, 0.0)
+                and (t[1] >= SCORE_MIN * mse_start or t[0] == RA_MISMATCH))
+
     while remaining:
-        tried = []
-        for c in remaining:
-            try:
-                pc, rc = fit_from(chosen + [c], p)
-            except Exception:  # a degenerate fit is simply not a candidate
-                continue
-            g, z = gain_z(d, res, rc, sigma2)
-            tried.append((c, g, z, _physical(c, _value(c, pc), m2), pc, rc))
-        ok = [t for t in tried if t[0] not in exclude and t[3] and t[2] >= Z_MIN and t[1] >= REL_MIN * mse
-              and t[1] >= EXCESS_MIN * max(mse - sigma2, 0.0)
-              and (t[1] >= SCORE_MIN * mse_start or t[0] == RA_MISMATCH)]
+        tried = _trials(d, m2, sigma2, fit_from, chosen, remaining, p, res)
+        ok = [t for t in tried if passes(t, mse)]
         if not ok:
-            steps.append(Step("", p, 0.0, 0.0, mse, mse, [(t[0], t[1], t[2], t[3]) for t in tried]))
-            break
+            ahead = _look_ahead(d, m2, sigma2, res, mse, tried, remaining, chosen, fit_from, passes)
+            if ahead is None:
+                steps.append(Step("", p, 0.0, 0.0, mse, mse, [(t[0], t[1], t[2], t[3]) for t in tried]))
+                break
+            first, tried_next, second = ahead
+            c, g, z, _, pc, rc = first
+            new_mse = held_out_mse(d, rc)
+            steps.append(Step(c, pc, g, z, mse, new_mse, [(t[0], t[1], t[2], t[3]) for t in tried]))
+            chosen.append(c)
+            remaining.remove(c)
+            p, res, mse, tried = pc, rc, new_mse, tried_next
+            ok = [second]
         best = max(ok, key=lambda t: t[1])
         c, g, z, _, pc, rc = best
         new_mse = held_out_mse(d, rc)
@@ -600,6 +622,44 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
         remaining.remove(c)
         p, res, mse = pc, rc, new_mse
     return steps, p
+
+
+def _trials(d: Data, m2: ph.PhysicsParams, sigma2: float, fit_from, chosen: list, candidates, p, res) -> list:
+    """Each candidate fitted beside `chosen` (fit_from, started at p): [(candidate, its held-out gain
+    over the model of residuals res, its z, whether its coefficient is physical, params, residuals)];
+    a degenerate fit is simply not a candidate."""
+    tried = []
+    for c in candidates:
+        try:
+            pc, rc = fit_from(chosen + [c], p)
+        except Exception:  # noqa: BLE001
+            continue
+        g, z = gain_z(d, res, rc, sigma2)
+        tried.append((c, g, z, _physical(c, _value(c, pc), m2), pc, rc))
+    return tried
+
+
+def _look_ahead(d: Data, m2: ph.PhysicsParams, sigma2: float, res, mse: float, tried: list, remaining: list,
+                chosen: list, fit_from, passes):
+    """Where no candidate passes alone, one step ahead: two effects that act together (a winding's
+    heating and a saturation, each alone worse on the held-out rows than neither, the pair far
+    better) are missed by a search that adds one at a time. The candidate of the largest held-out
+    gain that passes every test but its z (physical, a gain above the noise's share) is tried with
+    each other candidate beside it: where one of them passes its own step's tests beside it, and the
+    pair's gain over the model without either passes Z_MIN, the two are taken in turn ((the first's
+    trial, the second step's trials, the second's trial)); otherwise None. The first is then judged
+    as every named effect is (its interval, its rivals): it is a step, not a finding."""
+    near = [t for t in tried if t[1] > 0 and passes(t, mse, -math.inf)]
+    if not near:
+        return None
+    first = max(near, key=lambda t: t[1])
+    c1, _, _, _, p1, r1 = first
+    mse1 = held_out_mse(d, r1)
+    tried_next = _trials(d, m2, sigma2, fit_from, chosen + [c1], [c for c in remaining if c != c1], p1, r1)
+    ok = [t for t in tried_next if passes(t, mse1) and gain_z(d, res, t[5], sigma2)[1] >= Z_MIN]
+    if not ok:
+        return None
+    return first, tried_next, max(ok, key=lambda t: t[1])
 
 
 def apart_z(d: Data, res_alt, res_named, sigma2: float) -> float:
@@ -615,9 +675,15 @@ def apart_z(d: Data, res_alt, res_named, sigma2: float) -> float:
     return float(z) if g >= REL_MIN * held_out_mse(d, res_alt) else 0.0
 
 
+# A bootstrap resample's fits decide held-out gains only, from the whole data's optimum: solved to
+# BOOTSTRAP_TOL (effects.solver_tolerance), a third fewer evaluations of the model on data/default
+BOOTSTRAP_TOL = 1e-5
+
+
 def _select_names(args) -> list:
     d, m2, given, candidates, sigma2, weights, start, starts = args
-    steps, _ = forward_select(d, m2, given, candidates, sigma2, weights=weights, start=start, starts=starts)
+    with fx.solver_tolerance(BOOTSTRAP_TOL):
+        steps, _ = forward_select(d, m2, given, candidates, sigma2, weights=weights, start=start, starts=starts)
     return [s.name for s in steps if s.name]
 
 

@@ -109,8 +109,8 @@ def _range(e, which: str) -> str:
 NOT_NAMED = (
     (HOLDS_ZERO, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
                              "tell it from its absence: not named."),
-    (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it reaches the end of the "
-                           f"{_range(e, 'physical')} it can take, or goes beyond: the fit traded it against them, "
+    (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it moves to {_final(e)}, the end of "
+                           f"the {_range(e, 'physical')} it can take, or beyond: the fit traded it against them, "
                            "so it is not named."),
     (BEYOND, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval lies outside the {_range(e, 'plausible')} it "
                        "takes on a motor: its term stands for something else these recordings hold, so it is not "
@@ -120,6 +120,12 @@ NOT_NAMED = (
     (channels.BLIND_NOTE, lambda e: f"it acts through the {fx.LIBRARY[e.effect].reads} channel, which is stuck, or "
                                     "flat within one step, in every recording (Channel health, below): not named."),
 )
+
+
+def _final(e) -> str:
+    """The coefficient with which a demoted effect's note says it left its range (core.unphysical's
+    note: "fitted <value>, which ...")."""
+    return e.note.split(", which", 1)[0].removeprefix("fitted ")
 
 
 def _why_not_named(e) -> str:

@@ -24,6 +24,7 @@ coefficient is always held (only the material constant tells the two apart).
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 
@@ -358,6 +359,24 @@ def fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", we
     return pw if cost_w <= (1.0 - WIDEN_REL) * cost else p
 
 
+# The solver's tolerances (scipy's xtol, ftol, gtol). A fit whose only use is a decision on held-out
+# gains of REL_MIN (2 %) of an error and more (the bootstrap's resamples, started at the whole data's
+# optimum) needs the optimum to far fewer digits than one whose values are reported:
+# solver_tolerance() loosens them for its block.
+SOLVER_TOL = 1e-8
+_solver_tol = [SOLVER_TOL]
+
+
+@contextlib.contextmanager
+def solver_tolerance(tol: float):
+    """Every fit inside the block solved to `tol` (xtol, ftol, gtol) instead of SOLVER_TOL."""
+    _solver_tol.append(float(tol))
+    try:
+        yield
+    finally:
+        _solver_tol.pop()
+
+
 # The diagnosis asks for the same fit more than once (the ranking, Ra from the data alone and
 # its alternatives, the checks after them: 21 of the 119 fits of data/default's physics verdict,
 # 3.4 of its 16.9 s). A fit is a function of its inputs, so the last MEMO_FITS are kept and
@@ -378,7 +397,7 @@ def _memo_key(rows, base, names, mask, weights, start, hold, ra_prior, ra_bounds
 
     return (tuple(id(r) for r in rows), params(base), tuple(names), mask, arrays(weights), params(start),
             tuple(sorted((hold or {}).items())), None if ra_prior is None else tuple(map(float, ra_prior)),
-            None if ra_bounds is None else tuple(map(float, ra_bounds)), tuple(widen))
+            None if ra_bounds is None else tuple(map(float, ra_bounds)), tuple(widen), _solver_tol[-1])
 
 
 def _fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
@@ -474,7 +493,7 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
             lo[k], hi[k] = math.log(n.physical[0]), math.log(n.physical[1])
             x0[k] = min(max(x0[k], lo[k] + 1e-9), hi[k] - 1e-9)
     res = least_squares(resid, np.asarray(x0, float), x_scale=np.asarray(scales, float), bounds=(lo, hi),
-                        method="trf", xtol=1e-8, ftol=1e-8, gtol=1e-8, max_nfev=200)
+                        method="trf", xtol=_solver_tol[-1], ftol=_solver_tol[-1], gtol=_solver_tol[-1], max_nfev=200)
     p = _params(base, spec, res.x)
     bits = 0
     for n in spec.names:
