@@ -170,37 +170,44 @@ LOW_DUTY_STEPS = ((0.0, 0), (0.08, 0), (0.12, 0), (0.18, 0), (0.24, 0), (0.3, 0)
 @pytest.mark.parametrize("seed", [1, 2])
 @pytest.mark.parametrize("free", [False, True], ids=["synchronous", "free"])
 def test_the_low_duty_run_with_ke_from_the_ripple_has_no_confident_window_where_the_shaft_stands(monkeypatch, seed, free):
-    """hpddo ripple's path (speed_of_log, Ke calibrated from the ripple) on the low-duty run, synchronous and
+    """hpddo ripple's path (speed_of_bench, Ke calibrated from the ripple) on the low-duty run, synchronous and
     free-running: the hum of the standing windows once set Ke at 0.043 V s/rad (true 0.355) and 156 standing
-    windows confident at 114 RPM. No confident window stands or is more than 5 % off, Ke's stated doubt holds
-    the truth, and the turning steps keep their counts (~2.5 min each)."""
+    windows confident at 114 RPM. No confident window stands or is more than 5 % off and Ke's stated doubt holds
+    the truth. Alone, no window of the run shows a rotation comb, so nothing checks the figure its Ke is
+    calibrated under: its turning steps are counted right but `unchecked`. Counted beside a load run of the
+    same motor, whose combs confirm the figure, they are confident (~3 min each)."""
     import dataclasses
 
     from hpddo import bench as hb
-    from hpddo.ripple.log import speed_of_log
+    from hpddo.ripple.log import speed_of_bench
     from hpddo.twin import generate, params, ripple_free
 
-    segs = tuple(hb.Segment(20.0, d, load) for d, load in LOW_DUTY_STEPS)
-    monkeypatch.setitem(hb.PROTOCOLS, "sweep", dataclasses.replace(hb.PROTOCOLS["sweep"], segments=segs))
     bench = params.preset("default")
     rpar = ({**params.ripple_burst(sample_hz=9600.0), **ripple_free.ripple_free(pwm_hz=490.196)} if free
             else params.ripple_burst())
+    g_load = generate.generate(bench, "load", 2.0, seed, time_scale=0.25, ripple=rpar)
+    segs = tuple(hb.Segment(20.0, d, load) for d, load in LOW_DUTY_STEPS)
+    monkeypatch.setitem(hb.PROTOCOLS, "sweep", dataclasses.replace(hb.PROTOCOLS["sweep"], segments=segs))
     g = generate.generate(bench, "sweep", 2.0, seed, ripple=rpar)
-    t0, codes, bmeta = g["bursts"]
     log, truth = g["log"], g["truth"]
-    b = rf.of_meta(bmeta, log["seq"].to_numpy(), t0, codes)
-    est, ke, ke_from = speed_of_log("low.csv", log, g["meta"], Options(bench.ripples_per_rev, bench.gear_ratio),
-                                    bursts=b)
+    opts = Options(bench.ripples_per_rev, bench.gear_ratio)
+
+    def bursts(gen):
+        t0, codes, bmeta = gen["bursts"]
+        return rf.of_meta(bmeta, gen["log"]["seq"].to_numpy(), t0, codes)
+
+    low = ("low.csv", log, g["meta"], bursts(g))
+    ((alone, _, _),) = speed_of_bench([low], opts)
+    _, (est, ke, ke_from) = speed_of_bench([("load.csv", g_load["log"], g_load["meta"], bursts(g_load)), low], opts)
     true = truth["rpm_true"].to_numpy()
-    conf = est["confident"].to_numpy()
-    assert (conf & (true < 1)).sum() == 0
-    assert (np.abs(est["rpm"].to_numpy()[conf] / true[conf] - 1) < 0.05).all()
     turning = true > 20  # the 0.24 and 0.3 steps: 24-34 RPM, 5-7 ripples a window
-    # counted: confident, or `unchecked` (ripple.line.identity_of_recording): no window of this run shows a rotation
-    # comb and Ke is calibrated from the ripple under the figure given, so nothing checks the figure and no window is
-    # confident; the counts are there all the same, and right
-    counted = conf | (est["key"].to_numpy() == "unchecked")
-    assert counted[turning].mean() > 0.9
-    assert (np.abs(est["rpm"].to_numpy()[turning & counted] / true[turning & counted] - 1) < 0.05).all()
+    for e in (alone, est):
+        conf = e["confident"].to_numpy()
+        assert (conf & (true < 1)).sum() == 0
+        assert (np.abs(e["rpm"].to_numpy()[conf] / true[conf] - 1) < 0.05).all()
+    unchecked = alone["key"].to_numpy() == "unchecked"
+    assert not alone["confident"].any() and unchecked[turning].mean() > 0.9
+    assert (np.abs(alone["rpm"].to_numpy()[turning & unchecked] / true[turning & unchecked] - 1) < 0.05).all()
+    assert "other recordings" in ke_from and est["confident"].to_numpy()[turning].mean() > 0.9, ke_from
     doubt = float(ke_from.split("to +-")[1].rstrip("%)")) / 100
     assert abs(ke / float(truth["ke_vs_per_rad"].median()) - 1) <= doubt <= 1.0, (ke, ke_from)

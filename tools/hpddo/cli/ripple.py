@@ -85,7 +85,7 @@ def run(args) -> int:
     from ..logs import ripple as rf
     from ..logs.errors import InputError
     from ..ripple.encoder import check_ratio, span_reference
-    from ..ripple.log import speed_of_log
+    from ..ripple.log import speed_of_bench
     from ..ripple.options import Options
 
     if args.ripples_per_rev is None and not args.calibrate:
@@ -105,6 +105,16 @@ def run(args) -> int:
         raise InputError(f"--rpm-range {args.rpm_range[0]:g} {args.rpm_range[1]:g}: LO must be under HI")
     model = options.prior_model_of(args)  # a bad folder refused before any log is read
     summary = {}
+    logs = [p for p in args.logs if not p.name.endswith(rf.SUFFIX)]  # the others: current-only captures
+    read = {}
+    for k, path in enumerate(logs):
+        progress.stage(f"{path}: reading the log and its bursts ({k + 1}/{len(logs)})")
+        log = benchlog.read_log(path)
+        read[path] = (log, rf.read(rf.path_for(path)) if rf.path_for(path).exists() else None)
+    # the logs are recordings of one motor: the ripples per revolution given is checked over all of them
+    progress.stage(f"counting the ripple of {len(logs)} logs' bursts")
+    counted = dict(zip(logs, speed_of_bench([(p, read[p][0].df, read[p][0].meta, read[p][1]) for p in logs], opts,
+                                            args.ra_ohm, args.ke_vs_per_rad, model=model, rpm_range=args.rpm_range)))
     with outdir.staged(args.out, TOOL) as stage:
         for k, path in enumerate(args.logs):
             if path.name.endswith(rf.SUFFIX):  # a current-only capture, no bench log
@@ -112,11 +122,9 @@ def run(args) -> int:
                 name, s_cap = _capture(path, opts, args, stage)
                 summary[name] = s_cap
                 continue
-            progress.stage(f"{path}: reading the log, counting the ripple of its bursts ({k + 1}/{len(args.logs)})")
-            log = benchlog.read_log(path)
+            log = read[path][0]
             df = log.df
-            est, ke, ke_from = speed_of_log(path, df, log.meta, opts, args.ra_ohm, args.ke_vs_per_rad,
-                                            model=model, rpm_range=args.rpm_range)
+            est, ke, ke_from = counted[path]
             rows = est["row"].to_numpy()
             est.insert(1, "t_s", df["t_s"].to_numpy()[rows])
             name = log.condition

@@ -125,18 +125,14 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
 KE_MIN_EMF_OVER_U = 2.0
 
 
-def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
-    """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder: the ripple speed w
-    of the windows where the count alone (no prior) is confident and whose rotation comb places the line at
-    opts.ripples_per_rev (where no window's does: every such confident window), against the back-EMF
-    E = V - I Ra, in the windows where E stands KE_MIN_EMF_OVER_U times over u, the voltage the
-    prior does not know (opts.prior_unmodelled_V, and Ra's error opts.prior_ra_rel times I); their
-    median of E / w, each window weighted by (w / u)^2, so that slow, loaded windows weigh little.
-    Each window's E / w is off by up to u / w, all of them the same way where one brush drop is in
-    every one: against Ke w = E - u at the least, Ke's relative doubt is u / (E - u), averaged with
-    the same weights (at most 1, since E >= 2 u; a calibration from slow windows alone carries a
-    large one: at duties up to 0.3 on the twin, 0.5). Returns (ke, windows used, its relative
-    doubt); (NaN, 0, NaN) where no window tells it."""
+def ke_evidence(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options) -> dict:
+    """The windows that tell Ke (V s/rad, output shaft) without an encoder, each as calibrate_ke weighs
+    it: the ripple speed w of the windows where the count alone (no prior) is confident, against the
+    back-EMF E = V - I Ra, where E stands KE_MIN_EMF_OVER_U times over u, the voltage the prior does
+    not know (opts.prior_unmodelled_V, and Ra's error opts.prior_ra_rel times I). Returns a dict of
+    arrays over those windows: `ke` (E / w), `weight` ((w / u)^2: slow, loaded windows weigh little),
+    `doubt` (u / (E - u), the relative error of E / w where u is in every window the same way) and
+    `placed` (whether the window's rotation comb places its line at opts.ripples_per_rev)."""
     # no window's line is refused for lying at an undeclared mains multiple (estimate's unplaced_hum): E >= 2 u
     # shows the shaft turning, so its line is not a standing shaft's hum (the twin's long recording, duty 0.8
     # under load 2, puts the ripple at 51-52 Hz, beside 50 Hz)
@@ -146,19 +142,41 @@ def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     e = np.asarray(v_V, float) - i * ra_ohm
     u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * np.abs(i))
     ok = df["confident"].to_numpy() & (w > 0) & (e >= KE_MIN_EMF_OVER_U * u)
+    placed = df["multiple"].to_numpy(int)[ok] == opts.ripples_per_rev
+    w, e, u = w[ok], e[ok], u[ok]
+    return {"ke": e / w, "weight": (w / u) ** 2, "doubt": u / (e - u), "placed": placed}
+
+
+def ke_of(evidence: dict) -> tuple:
+    """Ke from windows of ke_evidence (their arrays, possibly pooled over recordings): the weighted
+    median of E / w, and its relative doubt, the windows' u / (E - u) averaged with the same weights
+    (at most 1, since E >= 2 u). Returns (ke, windows, doubt); (NaN, 0, NaN) where there are none."""
+    ke, weight = np.asarray(evidence["ke"], float), np.asarray(evidence["weight"], float)
+    if ke.size == 0:
+        return math.nan, 0, math.nan
+    order = np.argsort(ke)
+    cw = np.cumsum(weight[order])
+    rel = float(np.sum(weight * np.asarray(evidence["doubt"], float)) / np.sum(weight))
+    return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ke.size), rel
+
+
+def placed_only(evidence: dict) -> dict:
+    """ke_evidence's windows whose rotation comb places their line at the figure given."""
+    keep = np.asarray(evidence["placed"], bool)
+    return {k: np.asarray(v)[keep] for k, v in evidence.items()}
+
+
+def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
+    """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder (ke_evidence, ke_of): from
+    the windows whose rotation comb places the line at opts.ripples_per_rev, where any do; else from
+    every window that tells Ke. Each window's E / w is off by up to u / w, all of them the same way where
+    one brush drop is in every one: against Ke w = E - u at the least, Ke's relative doubt is u / (E - u)
+    (a calibration from slow windows alone carries a large one: at duties up to 0.3 on the twin, 0.5).
+    Returns (ke, windows used, its relative doubt); (NaN, 0, NaN) where no window tells it."""
     # the windows whose rotation comb places their line at the figure given, where there are any: a window without
     # a comb counts its strongest line, which a strongly eccentric rotor's once-per-revolution line can be (a
     # 5-bar commutator's ripple under it in the independent commutator simulation: Ke 10x the motor's, and the
     # comb windows' own lines then `far` from the prior); the comb is the one check of the line's identity here
-    placed = ok & (df["multiple"].to_numpy(int) == opts.ripples_per_rev)
-    if placed.any():
-        ok = placed
-    if ok.sum() == 0:
-        return math.nan, 0, math.nan
-    w, e, u = w[ok], e[ok], u[ok]
-    ke = e / w
-    weight = (w / u) ** 2
-    order = np.argsort(ke)
-    cw = np.cumsum(weight[order])
-    rel = float(np.sum(weight * u / (e - u)) / np.sum(weight))
-    return float(ke[order][np.searchsorted(cw, 0.5 * cw[-1])]), int(ok.sum()), rel
+    ev = ke_evidence(bursts, duty, v_V, i_A, ra_ohm, opts)
+    placed = placed_only(ev)
+    return ke_of(placed if placed["ke"].size else ev)

@@ -379,8 +379,8 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
     """Every window of a recording (a pandas DataFrame, one row per burst; see estimate_window).
     duty, rpm_prior: per window (None or NaN where unknown); prior_sd: the prior's voltage-borne
     sd per window (RPM), one figure or (below, above) (m2_prior_sd_rpm; None: 0, Ke's relative
-    error opts.prior_rel_sd alone). The prior passes a running median of three windows first, so
-    that a glitch of one sample of V or I cannot steer the line; where the window's own prior and that median disagree (a step of speed beside a
+    error opts.prior_rel_sd alone). The prior passes a running median of three windows first (the first
+    and last windows: with their two neighbours), so that a glitch of one sample of V or I cannot steer the line; where the window's own prior and that median disagree (a step of speed beside a
     glitch, where the median takes the speed before the step), the window's speed may be either,
     and the prior's sd spans both: sd = sqrt(sd^2 + (own - median)^2). The DataFrame carries
     the prior used (`rpm_prior_used`), its sd (`prior_sd_below`, `prior_sd_above`) and the glitch's part of
@@ -400,7 +400,11 @@ def estimate(bursts, duty, rpm_prior, opts: Options, prior_sd=None, rpm_per_A=No
         own = np.asarray(rpm_prior, float)
         pr = own
         if len(pr) >= 3:
-            pr = np.concatenate([pr[:1], np.median(np.stack([pr[:-2], pr[1:-1], pr[2:]]), axis=0), pr[-1:]])
+            # the first and last windows with their two neighbours on one side (a glitch of V in a recording's last
+            # row put the prior 55 % high there and its count on the line's second harmonic, +100 %, confident)
+            pr = np.concatenate([np.median(pr[:3], keepdims=True),
+                                 np.median(np.stack([pr[:-2], pr[1:-1], pr[2:]]), axis=0),
+                                 np.median(pr[-3:], keepdims=True)])
             gap = np.nan_to_num(np.abs(own - pr), nan=0.0)
             sd = np.hypot(sd, gap[:, None])
             glitch = gap

@@ -9,7 +9,7 @@ import pathlib
 import numpy as np
 
 from . import sync
-from .calibrate import calibrate_ke
+from .calibrate import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, calibrate_ke, ke_evidence, ke_of, placed_only
 from .count import count_settled_tails, estimate
 from .line import identity_of_recording
 from .options import Options
@@ -26,9 +26,14 @@ def number_or_nan(text) -> float:
         return math.nan
 
 
+def ra_of(meta: dict, ra_ohm: float | None = None) -> float:
+    """The winding's Ra for a log's back-EMF prior: the user's, else the log's ra_ohm metadata; NaN where neither."""
+    return ra_ohm if ra_ohm is not None else number_or_nan(meta.get("ra_ohm"))
+
+
 def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = None,
                  ke_vs_per_rad: float | None = None, bursts=None, model: ModelPrior | None = None,
-                 rpm_range=None):
+                 rpm_range=None, ke_source: str = "user"):
     """The ripple speed of every window of one bench log (its rows df, metadata meta) from the
     bursts beside it (`<condition>.ripple.csv`): (estimate DataFrame, one row per burst, with
     `row`, the index of its window in df, and `rpm_prior`; Ke of the prior, where it came
@@ -43,7 +48,8 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     (count_stalls: columns `stall` and `rpm_bound`). Without Ra (no ra_ohm, no metadata, no model) there
     is no back-EMF prior: rpm_range (lo, hi) RPM is the prior, or none (speed_range.range_prior), Ke
     NaN. Where rpm_range is given, a confident count outside it is not confident (within_range). Free-running
-    bursts have their PWM-synchronous average removed first (sync.prepare)."""
+    bursts have their PWM-synchronous average removed first (sync.prepare). ke_source: where a Ke given
+    (ke_vs_per_rad) comes from, in words (speed_of_bench's Ke from other recordings of the motor)."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
     from . import speed_range
@@ -67,11 +73,11 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
             raise InputError(f"{model.source}: the model's Ke {ke:g} V s/rad or Ra {ra:g} ohm cannot be a prior")
         prior = model.rpm(path, df, meta)[rows]
     else:
-        ra = ra_ohm if ra_ohm is not None else number_or_nan(meta.get("ra_ohm"))
+        ra = ra_of(meta, ra_ohm)
         if not math.isfinite(ra):  # no back-EMF prior: the user's speed range, or none
             ke, ke_from = math.nan, "no Ra: " + ("the speed range given is the prior" if rpm_range else "no prior")
         elif ke_vs_per_rad:
-            ke, ke_from = float(ke_vs_per_rad), "user"
+            ke, ke_from = float(ke_vs_per_rad), ke_source
         else:
             ke, n_ke, ke_rel = calibrate_ke(b, duty, v, i, ra, opts)
             # its doubt is said, not put into the prior's spread: Ke's relative error there (prior_rel_sd) scales
@@ -96,3 +102,65 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from
+
+
+def figure_shown(ests, opts: Options) -> tuple:
+    """Whether the rotation combs of a motor's recordings (speed_of_log's estimates) confirm the ripples per
+    revolution given: over their windows whose lines form a comb (not a damaged commutator's), at least
+    CALIBRATE_MIN_WINDOWS place the line at opts.ripples_per_rev and they are CALIBRATE_AGREE of all such
+    windows, as hpddo ripple --calibrate names a figure. Returns (confirmed, windows at the figure, comb windows)."""
+    at = shown = 0
+    for est in ests:
+        m = est["multiple"].to_numpy(int)
+        comb = (m > 0) & (est["key"].to_numpy() != "damaged")
+        shown += int(comb.sum())
+        at += int((comb & (m == opts.ripples_per_rev)).sum())
+    return at >= CALIBRATE_MIN_WINDOWS and at >= CALIBRATE_AGREE * shown, at, shown
+
+
+def speed_of_bench(logs, opts: Options, ra_ohm: float | None = None, ke_vs_per_rad: float | None = None,
+                   model: ModelPrior | None = None, rpm_range=None) -> list:
+    """The ripple speed of every window of several recordings of one motor (logs: (path, df, meta, bursts or
+    None) each, as speed_of_log takes them), each counted by speed_of_log; then the figure given checked over
+    the motor, not per recording. Where Ke is calibrated from the ripple (no Ke, no model given) a recording
+    whose windows show no rotation comb cannot check the figure it is counted under, and none of its windows
+    is confident (`unchecked`, line.identity_of_recording). Where the motor's other recordings' combs confirm
+    the figure (figure_shown), their windows whose comb places the line at it tell Ke under a checked figure
+    (calibrate.ke_evidence, pooled): such a recording is counted again with that Ke as its back-EMF prior,
+    which then checks its line as a user's Ke does. Returns speed_of_log's (estimate, Ke, where Ke came
+    from) per log, in order."""
+    from ..logs import ripple as rf
+
+    # each log's bursts read once (a missing file is speed_of_log's error to name)
+    logs = [(p, df, meta, b if b is not None or not rf.path_for(p).exists() else rf.read(rf.path_for(p)))
+            for p, df, meta, b in logs]
+    out = [speed_of_log(p, df, meta, opts, ra_ohm, ke_vs_per_rad, bursts=b, model=model, rpm_range=rpm_range)
+           for p, df, meta, b in logs]
+    if model is not None or ke_vs_per_rad:
+        return out
+    unchecked = [k for k, (est, _, _) in enumerate(out)
+                 if (est["key"] == "unchecked").any() and math.isfinite(ra_of(logs[k][2], ra_ohm))]
+    checking = [k for k in range(len(out)) if k not in unchecked and math.isfinite(out[k][1])]
+    confirmed, at, shown = figure_shown([out[k][0] for k in checking], opts)
+    if not unchecked or not confirmed:
+        return out
+    pooled = {}
+    for k in checking:
+        p, df, meta, b = logs[k]
+        est = out[k][0]
+        rows = est["row"].to_numpy()
+        duty, v, i = (df[c].to_numpy()[rows] for c in ("duty", "v_V", "i_A"))
+        ev = placed_only(ke_evidence(sync.prepare(b, str(rf.path_for(p))), duty, v, i, ra_of(meta, ra_ohm), opts))
+        for key, val in ev.items():
+            pooled.setdefault(key, []).append(val)
+    ke, n_ke, ke_rel = ke_of({key: np.concatenate(v) for key, v in pooled.items()}) if pooled else (math.nan, 0, 0)
+    if not (n_ke and ke > 0):
+        return out
+    names = ", ".join(pathlib.Path(str(logs[k][0])).stem for k in checking)
+    source = (f"ripple of the motor's other recordings ({n_ke} windows of {names} whose comb shows the "
+              f"{opts.ripples_per_rev} given, in {at} of their {shown} comb windows"
+              + (f"; to +-{ke_rel:.0%}" if math.isfinite(ke_rel) else "") + ")")
+    for k in unchecked:
+        p, df, meta, b = logs[k]
+        out[k] = speed_of_log(p, df, meta, opts, ra_ohm, ke, bursts=b, rpm_range=rpm_range, ke_source=source)
+    return out

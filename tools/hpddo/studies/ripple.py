@@ -23,7 +23,7 @@ import numpy as np
 
 from ..logs.ripple import Bursts
 from ..ripple.encoder import check_ratio, span_reference
-from ..ripple.log import speed_of_log
+from ..ripple.log import speed_of_bench
 from ..ripple.options import Options
 from ..ripple.stall import speed_floor_rpm
 from ..twin import generate, params
@@ -80,6 +80,17 @@ SCENARIOS = (
 
 
 def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True, settled_tail: bool = False) -> dict:
+    """The scenario's recordings counted as one motor's (count_scenario) and scored together (score)."""
+    import pandas as pd
+
+    parts, opts = count_scenario(sc, seed, quiet, settled_tail)
+    return score(sc, pd.concat(_offset_spans([df for _, df in parts]), ignore_index=True), opts)
+
+
+def count_scenario(sc: Scenario, seed: int = None, quiet: bool = True, settled_tail: bool = False) -> tuple:
+    """Each of the scenario's protocols recorded on its bench and counted without the encoder, the
+    recordings as one motor's (speed_of_bench: the figure given checked over all of them): ([(protocol,
+    its windows' DataFrame with the truth beside them)], the count's Options)."""
     seed = sc.seed if seed is None else seed
     bench = params.preset(sc.preset)
     if sc.effects:
@@ -88,19 +99,21 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True, settled_tai
         bench = dataclasses.replace(bench, **sc.bench)
     rparams = params.ripple_burst(**sc.ripple)
     opts = Options(bench.ripples_per_rev, sc.gear_ratio_user or bench.gear_ratio, settled_tail=settled_tail)
-    rows = []
+    made = []
     for prot in sc.protocols:
         ts = sc.time_scale if prot != "long" else 0.1 * sc.time_scale
         g = generate.generate(bench, prot, 1.0 / WINDOW_S, seed, time_scale=ts, ripple=rparams)
         t0, codes, bmeta = g["bursts"]
+        b = Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), g["log"]["seq"].to_numpy(), t0, codes)
+        made.append((prot, g, b))
+    # the product's path (hpddo ripple, --reference ripple, compare's ripple peers): the prior's Ke the user's or
+    # calibrated from the ripple, Ra the log's ra_ohm metadata, each window counted, then the spans of steady
+    # windows counted again; the figure given checked over the scenario's recordings of its motor
+    counted = speed_of_bench([(f"{prot}.csv", g["log"], g["meta"], b) for prot, g, b in made], opts, None, sc.ke_user)
+    parts = []
+    for (prot, g, b), (df, ke, ke_from) in zip(made, counted):
         log, truth = g["log"], g["truth"]
-        b = Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), log["seq"].to_numpy(), t0, codes)
-        # the product's path (hpddo ripple, --reference ripple, compare's ripple peers): the prior's Ke the
-        # user's or calibrated from the ripple, Ra the log's ra_ohm metadata, each window counted, then the
-        # spans of steady windows counted again
-        df, ke, ke_from = speed_of_log(f"{prot}.csv", log, g["meta"], opts, None, sc.ke_user, bursts=b)
         df = df.drop(columns=["row"])
-        df["span_first"] += sum(len(r) for r in rows)  # the span's first row in the scenario's rows
         df["protocol"] = prot
         df["rpm_ref"] = log["rpm_ref"].to_numpy()
         df["rpm_true"] = truth["rpm_true"].to_numpy()
@@ -108,13 +121,22 @@ def run_scenario(sc: Scenario, seed: int = None, quiet: bool = True, settled_tai
                                                             if gl["column"] == "rpm_ref"])
         df["ke_prior"] = ke
         df["step_position"] = step_position(log)
-        rows.append(df)
+        parts.append((prot, df))
         if not quiet:
             print(f"  {sc.name}/{prot}: {len(df)} windows, Ke for the prior {ke:.4f} V s/rad from {ke_from}",
                   file=sys.stderr)
-    import pandas as pd
+    return parts, opts
 
-    return score(sc, pd.concat(rows, ignore_index=True), opts)
+
+def _offset_spans(dfs) -> list:
+    """The recordings' windows with each span's first row counted in the rows of all of them, in order."""
+    out, n = [], 0
+    for df in dfs:
+        df = df.copy()
+        df["span_first"] += n
+        out.append(df)
+        n += len(df)
+    return out
 
 
 def step_position(log) -> np.ndarray:
@@ -276,18 +298,21 @@ PROTOCOLS = ("sweep", "load", "long", "unseen", "hot")
 
 def over_seeds(seeds, time_scales, quiet: bool = True, protocols=PROTOCOLS, settled_tail: bool = False) -> list:
     """Every twin protocol on the default bench (or those of protocols), per seed and time scale (the
-    long run at a tenth of it): one scored result each (run_scenario), for the worst confident error
-    over them."""
-    out = []
-    for prot in protocols:
-        for ts in time_scales:
-            for seed in seeds:
-                sc = dataclasses.replace(SCENARIOS[0], name=f"{prot} seed {seed} x{ts:g}", protocols=(prot,),
-                                         time_scale=ts, seed=seed)
-                r = run_scenario(sc, quiet=quiet, settled_tail=settled_tail)
+    long run at a tenth of it): one scored result each, for the worst confident error over them. The
+    protocols of one seed and time scale are recordings of one motor, counted together (count_scenario:
+    the figure given checked over all of them) and scored one by one."""
+    got = {}
+    for ts in time_scales:
+        for seed in seeds:
+            sc = dataclasses.replace(SCENARIOS[0], name=f"seed {seed} x{ts:g}", protocols=tuple(protocols),
+                                     time_scale=ts, seed=seed)
+            parts, opts = count_scenario(sc, quiet=quiet, settled_tail=settled_tail)
+            for prot, df in parts:
+                one = dataclasses.replace(sc, name=f"{prot} seed {seed} x{ts:g}", protocols=(prot,))
+                r = score(one, df.reset_index(drop=True), opts)
                 r.update(protocol=prot, seed=seed, time_scale=ts)
-                out.append(r)
-    return out
+                got[(prot, ts, seed)] = r
+    return [got[(prot, ts, seed)] for prot in protocols for ts in time_scales for seed in seeds]
 
 
 def _by_protocol_and_scale(results) -> list:
