@@ -330,6 +330,31 @@ def test_reference_swap_puts_the_confident_ripple_speed_in_rpm_ref_and_counts_th
     assert pooled["left_out"] == rec["left_out"] and pooled["weights"] == reference.WEIGHTS_NOTE
 
 
+@pytest.mark.slow
+def test_the_reference_counts_a_runs_logs_as_one_motors_so_a_combless_log_keeps_its_labels(tmp_path):
+    """--reference ripple reads the ripple of a run's logs as hpddo ripple does (speed_of_bench): the twin's long
+    recording (one duty under one load, no window with a rotation comb) is `unchecked` read alone, Ke calibrated
+    from the ripple; read beside a load run whose combs confirm the figure, its rows are labelled, and right."""
+    from hpddo.logs import dataset
+    from hpddo.ripple import reference
+
+    load, = _twin_logs(tmp_path, ("load",), time_scale=0.1)
+    long, = _twin_logs(tmp_path, ("long",), time_scale=0.02)
+    ref = reference.Ripple(6, 4.4)
+    (alone,) = dataset.load_recordings([long], reference=ref)
+    assert alone.reference["kept"] <= alone.reference["standing_labelled"]
+    assert alone.reference["left_out_by_reason"].get("unchecked", 0) > 0.9 * alone.reference["rows"]
+    _, beside = dataset.load_recordings([load, long], reference=ref)
+    assert beside.reference["kept"] > 0.9 * beside.reference["rows"], beside.reference["left_out_by_reason"]
+    assert "other recordings" in beside.reference["ke_from"]
+    truth = np.genfromtxt(tmp_path / "long.truth.csv", delimiter=",", names=True)["rpm_true"]
+    label = beside.df["rpm_ref"].to_numpy()
+    true = truth[beside.df["seq"].to_numpy()]
+    counted = np.isfinite(label) & (label > 0)  # (a standing row's label is 0 RPM)
+    assert counted.sum() > 0.9 * beside.reference["rows"]
+    assert (np.abs(label[counted] / true[counted] - 1) < 0.05).all()
+
+
 def test_reference_options_are_checked_before_any_work(tmp_path, capsys):
     from hpddo import cli
 

@@ -265,6 +265,8 @@ def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
     paths = [pathlib.Path(p) for p in log_paths]
     _check_leave_one_out(paths)
     out = pathlib.Path(out_dir)
+    if cfg.reference is not None and hasattr(cfg.reference, "over"):  # the ripple counted once over every recording
+        cfg = dataclasses.replace(cfg, reference=cfg.reference.over(paths))
     scores = {}
     for k, held in enumerate(paths):
         others = paths[:k] + paths[k + 1:]

@@ -181,9 +181,13 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
 def load_recordings(paths, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True,
                     reference=None) -> list[Recording]:
     """load_recording for each path; refuses two recordings with the same name (condition
-    metadata, else file name), which would be counted as one."""
+    metadata, else file name), which would be counted as one. A reference with an `over` (the ripple's)
+    is counted over all the paths first, as recordings of one motor."""
     from .. import progress
     paths = list(paths)
+    if reference is not None and hasattr(reference, "over"):  # the ripple counted over the run's logs of one motor
+        progress.stage(f"counting the ripple of {len(paths)} log(s)")
+        reference = reference.over(paths)
     progress.stage(f"reading {len(paths)} log(s) ({progress.size(paths)})")
     recs = [load_recording(p, train_fraction, glitch_filter, reference)
             for p in progress.bar(paths, "reading", unit="log")]

@@ -26,11 +26,12 @@ count), the rows take 0 RPM weighted by the stall's confidence, counted as `stal
 from __future__ import annotations
 
 import dataclasses
+import pathlib
 
 import numpy as np
 
 from ..logs.ripple import path_for
-from .log import speed_of_log
+from .log import speed_of_bench, speed_of_log
 from .options import Options
 from .prior import ModelPrior
 from .stall import STANDING_CONFIDENCE, standing
@@ -56,6 +57,27 @@ class Ripple:
     ra_ohm: float | None = None
     model: ModelPrior | None = None
 
+    # each log's count where the reference was counted over a run's logs (over): ((resolved path, speed_of_log's
+    # (estimate, Ke, where Ke came from)), ...)
+    counted: tuple = dataclasses.field(default=(), compare=False, repr=False)
+
+    def over(self, paths) -> "Ripple":
+        """This reference with the ripple of the logs at paths counted as one motor's (speed_of_bench: the figure
+        given checked over all of them, so that a log whose windows show no rotation comb is checked by the
+        others'), each log's count then taken from there (swap); itself where every path is counted already."""
+        from ..logs import benchlog
+
+        done = {k for k, _ in self.counted}
+        paths = [pathlib.Path(p) for p in paths]
+        if all(str(p.resolve()) in done for p in paths):
+            return self
+        logs = []
+        for p in paths:
+            log = benchlog.read_log(p)
+            logs.append((p, log.df, log.meta, None))
+        got = speed_of_bench(logs, self.options(), self.ra_ohm, self.ke_vs_per_rad, model=self.model)
+        return dataclasses.replace(self, counted=tuple((str(p.resolve()), r) for p, r in zip(paths, got)))
+
     def options(self) -> Options:
         o = Options(self.ripples_per_rev, self.gear_ratio)
         return o if self.floor_A is None else dataclasses.replace(o, floor_A=self.floor_A)
@@ -75,7 +97,9 @@ class Ripple:
 
 def swap(path, df, meta: dict, ref: Ripple):
     """See Ripple.__call__."""
-    est, ke, ke_from = speed_of_log(path, df, meta, ref.options(), ref.ra_ohm, ref.ke_vs_per_rad, model=ref.model)
+    got = dict(ref.counted).get(str(pathlib.Path(path).resolve()))
+    est, ke, ke_from = got if got is not None else speed_of_log(path, df, meta, ref.options(), ref.ra_ohm,
+                                                                 ref.ke_vs_per_rad, model=ref.model)
     n = len(df)
     rpm = np.full(n, np.nan)
     weight = np.zeros(n)
