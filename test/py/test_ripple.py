@@ -12,6 +12,7 @@ import pytest
 
 from hpddo.logs import ripple as rf
 from hpddo.logs.errors import USER_ERRORS
+from hpddo.ripple.calibrate import KE_DOUBT_MAX, calibrate_ke
 from hpddo.ripple.count import _current_spread
 from hpddo.ripple.encoder import check_ratio, span_reference
 from hpddo.ripple.log import speed_of_log
@@ -786,4 +787,21 @@ def test_a_low_duty_run_with_standing_steps_gives_no_confident_speed_where_the_s
     assert (est["key"].to_numpy()[:40] == "stall").mean() > 0.9
     doubt = float(ke_from.split("to +-")[1].rstrip("%)")) / 100
     ke_true = float(truth["ke_vs_per_rad"].iloc[-1])
-    assert abs(ke / ke_true - 1) <= doubt <= 1.0, (ke, ke_true, ke_from)
+    assert abs(ke / ke_true - 1) <= doubt <= KE_DOUBT_MAX, (ke, ke_true, ke_from)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("protocol", ["load", "hot"])
+def test_ke_from_the_ripple_states_a_doubt_that_holds_the_truth_on_the_twins_runs(protocol):
+    """calibrate_ke's stated relative doubt holds the twin's true Ke at the run's median, where a brush drop
+    and a winding warmer than the Ra given both put E = V - I Ra above Ke w: on the load run Ke is 8.7-11.9 %
+    above the truth and the doubt added in quadrature said 10.5 %; on the warm-up (Ra 10-22 % over the log's)
+    13.6 % above and 10.1 % said. Seed 2, a quarter length."""
+    g = generate.generate(params.preset("default"), protocol, 2.0, 2, time_scale=0.25, ripple=params.ripple_burst())
+    t0, codes, bmeta = g["bursts"]
+    log = g["log"]
+    b = rf.of_meta(bmeta, log["seq"].to_numpy(), t0, codes)
+    ke, n, doubt = calibrate_ke(b, log["duty"].to_numpy(), log["v_V"].to_numpy(), log["i_A"].to_numpy(),
+                                float(g["meta"]["ra_ohm"]), Options(6, 4.4))
+    truth = float(g["truth"]["ke_vs_per_rad"].median())
+    assert n > 20 and abs(ke / truth - 1) <= doubt <= KE_DOUBT_MAX, (ke, truth, doubt)

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from hpddo.logs import ripple as rf
+from hpddo.ripple.calibrate import KE_DOUBT_MAX
 from hpddo.ripple.count import allowed_spread, estimate_window, spread_noise
 from hpddo.ripple.options import REASONS, Options
 from hpddo.ripple.stall import count_stalls
@@ -210,4 +211,4 @@ def test_the_low_duty_run_with_ke_from_the_ripple_has_no_confident_window_where_
     assert (np.abs(alone["rpm"].to_numpy()[turning & unchecked] / true[turning & unchecked] - 1) < 0.05).all()
     assert "other recordings" in ke_from and est["confident"].to_numpy()[turning].mean() > 0.9, ke_from
     doubt = float(ke_from.split("to +-")[1].rstrip("%)")) / 100
-    assert abs(ke / float(truth["ke_vs_per_rad"].median()) - 1) <= doubt <= 1.0, (ke, ke_from)
+    assert abs(ke / float(truth["ke_vs_per_rad"].median()) - 1) <= doubt <= KE_DOUBT_MAX, (ke, ke_from)

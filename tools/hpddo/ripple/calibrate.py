@@ -123,6 +123,8 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
 #: not know (u: a brush drop, Ra's error times I) to tell Ke: under it E / w is the unknown voltage's, not
 #: Ke's (a shaft standing at a fixed line: hum, a bus aliased into the band, with E a brush drop)
 KE_MIN_EMF_OVER_U = 2.0
+#: the largest relative doubt calibrate_ke states: u' = a + b <= sqrt(2) hypot(a, b) = sqrt(2) u and E >= KE_MIN_EMF_OVER_U u
+KE_DOUBT_MAX = math.sqrt(2.0) / (KE_MIN_EMF_OVER_U - math.sqrt(2.0))
 
 
 def ke_evidence(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options) -> dict:
@@ -131,8 +133,9 @@ def ke_evidence(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options) -> dict:
     back-EMF E = V - I Ra, where E stands KE_MIN_EMF_OVER_U times over u, the voltage the prior does
     not know (opts.prior_unmodelled_V, and Ra's error opts.prior_ra_rel times I). Returns a dict of
     arrays over those windows: `ke` (E / w), `weight` ((w / u)^2: slow, loaded windows weigh little),
-    `doubt` (u / (E - u), the relative error of E / w where u is in every window the same way) and
-    `placed` (whether the window's rotation comb places its line at opts.ripples_per_rev)."""
+    `doubt` (u' / (E - u'), the relative error of E / w where the unmodelled voltage and Ra's error are in
+    every window the same way: u' their sum, opts.prior_unmodelled_V + opts.prior_ra_rel Ra |I|; at most
+    KE_DOUBT_MAX) and `placed` (whether the window's rotation comb places its line at opts.ripples_per_rev)."""
     # no window's line is refused for lying at an undeclared mains multiple (estimate's unplaced_hum): E >= 2 u
     # shows the shaft turning, so its line is not a standing shaft's hum (the twin's long recording, duty 0.8
     # under load 2, puts the ripple at 51-52 Hz, beside 50 Hz)
@@ -141,16 +144,19 @@ def ke_evidence(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options) -> dict:
     i = np.asarray(i_A, float)
     e = np.asarray(v_V, float) - i * ra_ohm
     u = np.hypot(opts.prior_unmodelled_V, opts.prior_ra_rel * ra_ohm * np.abs(i))
+    # the doubt's bound adds the two, not in quadrature: a brush drop and a winding warmer than the Ra given both
+    # put E above Ke w (the twin's load run: Ke 8.7-11.9 % above the truth, stated +-10.5 % with u; +-15.5 % so)
+    u_bound = opts.prior_unmodelled_V + opts.prior_ra_rel * ra_ohm * np.abs(i)
     ok = df["confident"].to_numpy() & (w > 0) & (e >= KE_MIN_EMF_OVER_U * u)
     placed = df["multiple"].to_numpy(int)[ok] == opts.ripples_per_rev
-    w, e, u = w[ok], e[ok], u[ok]
-    return {"ke": e / w, "weight": (w / u) ** 2, "doubt": u / (e - u), "placed": placed}
+    w, e, u, u_bound = w[ok], e[ok], u[ok], u_bound[ok]
+    return {"ke": e / w, "weight": (w / u) ** 2, "doubt": u_bound / (e - u_bound), "placed": placed}
 
 
 def ke_of(evidence: dict) -> tuple:
     """Ke from windows of ke_evidence (their arrays, possibly pooled over recordings): the weighted
-    median of E / w, and its relative doubt, the windows' u / (E - u) averaged with the same weights
-    (at most 1, since E >= 2 u). Returns (ke, windows, doubt); (NaN, 0, NaN) where there are none."""
+    median of E / w, and its relative doubt, the windows' doubts averaged with the same weights (at
+    most KE_DOUBT_MAX). Returns (ke, windows, doubt); (NaN, 0, NaN) where there are none."""
     ke, weight = np.asarray(evidence["ke"], float), np.asarray(evidence["weight"], float)
     if ke.size == 0:
         return math.nan, 0, math.nan
@@ -170,8 +176,8 @@ def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     """Ke (V s/rad, output shaft) for the back-EMF prior without an encoder (ke_evidence, ke_of): from
     the windows whose rotation comb places the line at opts.ripples_per_rev, where any do; else from
     every window that tells Ke. Each window's E / w is off by up to u / w, all of them the same way where
-    one brush drop is in every one: against Ke w = E - u at the least, Ke's relative doubt is u / (E - u)
-    (a calibration from slow windows alone carries a large one: at duties up to 0.3 on the twin, 0.5).
+    one brush drop is in every one: against Ke w = E - u' at the least, Ke's relative doubt is u' / (E - u')
+    (ke_evidence; a calibration from slow windows alone carries a large one).
     Returns (ke, windows used, its relative doubt); (NaN, 0, NaN) where no window tells it."""
     # the windows whose rotation comb places their line at the figure given, where there are any: a window without
     # a comb counts its strongest line, which a strongly eccentric rotor's once-per-revolution line can be (a

@@ -6,6 +6,7 @@ calibrated from the ripple itself), then scored against the encoder and the twin
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple --json F   # and the figures as JSON
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple --seeds 1,2,3,4,5,6   # every protocol over seeds, ~10 min
     PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple --seeds 1,2,3,4,5,6 --time-scales 0.25 --protocols unseen
+    PYTHONPATH=tools .venv/bin/python -m hpddo.studies.ripple --ke   # Ke from the ripple against the truth, ~5 min
         # one protocol and length over seeds, with where its rows without a confident speed lie, ~15 s
 
 Scored rows: the confident ones; the encoder's own glitches (the twin's truth lists them; the
@@ -137,6 +138,40 @@ def _offset_spans(dfs) -> list:
         out.append(df)
         n += len(df)
     return out
+
+
+#: the runs whose Ke from the ripple --ke compares with the twin's truth: (protocol, time scale, seed)
+KE_RUNS = (("sweep", 1.0, 1), ("load", 1.0, 1), ("unseen", 1.0, 1), ("hot", 1.0, 1), ("hot", 0.25, 2), ("long", 0.1, 1))
+
+
+def ke_against_truth(protocol: str, time_scale: float, seed: int) -> dict:
+    """Ke from the ripple (calibrate_ke, Ra the log's ra_ohm) on one twin run of the default bench, beside the
+    twin's true Ke over the run: its windows, its stated relative doubt, and how far it lies from the truth's
+    least and greatest value and from its median."""
+    from ..ripple.calibrate import calibrate_ke
+
+    bench = params.preset("default")
+    g = generate.generate(bench, protocol, 1.0 / WINDOW_S, seed, time_scale=time_scale, ripple=params.ripple_burst())
+    t0, codes, bmeta = g["bursts"]
+    log = g["log"]
+    b = Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), log["seq"].to_numpy(), t0, codes)
+    ke, n, doubt = calibrate_ke(b, log["duty"].to_numpy(), log["v_V"].to_numpy(), log["i_A"].to_numpy(),
+                                float(g["meta"]["ra_ohm"]), Options(bench.ripples_per_rev, bench.gear_ratio))
+    truth = g["truth"]["ke_vs_per_rad"].to_numpy()
+    return {"protocol": protocol, "time_scale": time_scale, "seed": seed, "ke": ke, "windows": n, "doubt": doubt,
+            "true_min": float(truth.min()), "true_max": float(truth.max()), "true_median": float(np.median(truth)),
+            "holds_median": bool(abs(ke / np.median(truth) - 1) <= doubt)}
+
+
+def ke_table(rows) -> str:
+    lines = ["| run | Ke from the ripple (windows) | true Ke over the run | off | doubt stated | holds the median |",
+             "|---|---|---|---|---|---|"]
+    for r in rows:
+        lines.append(f"| {r['protocol']} x{r['time_scale']:g} seed {r['seed']} | {r['ke']:.4f} ({r['windows']}) | "
+                     f"{r['true_min']:.4f}..{r['true_max']:.4f} | {100 * (r['ke'] / r['true_max'] - 1):+.1f}.."
+                     f"{100 * (r['ke'] / r['true_min'] - 1):+.1f} % | {100 * r['doubt']:.1f} % | "
+                     f"{'yes' if r['holds_median'] else 'no'} |")
+    return "\n".join(lines)
 
 
 def step_position(log) -> np.ndarray:
@@ -381,6 +416,8 @@ def main(argv=None) -> int:
     ap = parser("ripple", __doc__)
     ap.add_argument("--only", metavar="NAME", help="one scenario")
     ap.add_argument("--quiet", action="store_true")
+    ap.add_argument("--ke", action="store_true", help="instead of the scenarios: Ke from the ripple against the "
+                    "twin's true Ke on the runs of KE_RUNS, with the doubt stated")
     ap.add_argument("--seeds", metavar="S,S,..", help="instead of the scenarios: every protocol on the default "
                     "bench over these seeds, at --time-scales, and the worst confident error")
     ap.add_argument("--time-scales", metavar="X,X,..", default="1,0.25", help="with --seeds (default 1,0.25)")
@@ -390,6 +427,12 @@ def main(argv=None) -> int:
                     help="count a changing window again over its part after the step (ripple.count_settled_tails, "
                          "off in the product; docs/ripple-step-windows.md, Settled tails)")
     a = ap.parse_args(argv)
+    if a.ke:
+        rows = [ke_against_truth(*run) for run in KE_RUNS]
+        print(ke_table(rows), flush=True)
+        if a.json:
+            write_json(a.json, rows)
+        return 0
     if a.seeds:
         protocols = tuple(a.protocols.split(","))
         unknown = sorted(set(protocols) - set(PROTOCOLS))
