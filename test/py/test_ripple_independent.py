@@ -1,5 +1,5 @@
 """The ripple count on an independent commutator simulation (hpddo.studies.commutator,
-hpddo.studies.ripple_independent; docs/ripple-accuracy.md, "An independent commutator simulation"):
+hpddo.studies.ripple_independent; docs/ripple-independent.md):
 the simulation's ripples per revolution are the commutator's (S for even S, 2 S for odd S) in its
 network and in its current's spectrum; over a few randomised benches written as files and counted by
 the product's path, no confident window is more than 5 % off the true speed, and with half or
@@ -75,7 +75,7 @@ def test_no_confident_window_is_more_than_five_percent_off(bench):
     assert case["right"]["false_stalls"] == 0
 
 
-# the count's known limit (docs/ripple-accuracy.md, "An independent commutator simulation"): where the rotor's
+# the count's known limit (docs/ripple-independent.md): where the rotor's
 # once-per-revolution lines are too weak to show, the comb's spacing is twice the rotation frequency, and half the
 # figure is what the comb shows; with Ke calibrated from the ripple nothing else checks it
 COMB_AT_TWICE_THE_ROTATION = pytest.mark.xfail(strict=True, reason="the comb at twice the rotation frequency "

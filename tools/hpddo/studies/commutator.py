@@ -1,6 +1,5 @@
 """An independent simulation of a brushed PMDC motor's armature current, per rotor angle, for checking
-the ripple count on signals it was not built beside (docs/ripple-accuracy.md, "An independent
-commutator simulation"). Written from the physics below with numpy only; it shares no code with
+the ripple count on signals it was not built beside (docs/ripple-independent.md). Written from the physics below with numpy only; it shares no code with
 the twin (hpddo.twin) and writes its recordings with the project's writers (hpddo.logs).
 
 The armature (a two-pole machine, so the electrical angle is the rotor's angle theta):

@@ -1,5 +1,5 @@
-"""The ripple count's confidence on an independent commutator simulation (docs/ripple-accuracy.md,
-"An independent commutator simulation"): randomised benches of studies/commutator.py (S bars in
+"""The ripple count's confidence on an independent commutator simulation (docs/ripple-independent.md):
+randomised benches of studies/commutator.py (S bars in
 {3, 5, 6, 7, 8, 12}, the network solved per angle; torque balance with load steps or imposed speed
 profiles; synchronous sampling at 8-20 kHz or free-running at 9.6 kHz under 490.196 Hz PWM; no
 mains, mains declared, mains not declared), written as a bench log and its bursts file, read back
@@ -30,7 +30,7 @@ from ..ripple.options import Options
 from . import commutator as cm
 
 FIGURES = "docs/figures/ripple_independent.json"
-DOC = "docs/ripple-accuracy.md"
+DOC = "docs/ripple-independent.md"
 WHAT = "the independent commutator study's figures"
 TARGET = 0.05                 # no confident window further off the truth than this
 SEGMENTS = (3, 5, 6, 7, 8, 12)
