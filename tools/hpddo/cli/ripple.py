@@ -108,12 +108,11 @@ def run(args) -> int:
     logs = [p for p in args.logs if not p.name.endswith(rf.SUFFIX)]  # the others: current-only captures
     read = {}
     for k, path in enumerate(logs):
-        progress.stage(f"{path}: reading the log and its bursts ({k + 1}/{len(logs)})")
-        log = benchlog.read_log(path)
-        read[path] = (log, rf.read(rf.path_for(path)) if rf.path_for(path).exists() else None)
+        progress.stage(f"{path}: reading the log ({k + 1}/{len(logs)})")
+        read[path] = benchlog.read_log(path)
     # the logs are recordings of one motor: the ripples per revolution given is checked over all of them
     progress.stage(f"counting the ripple of {len(logs)} logs' bursts")
-    counted = dict(zip(logs, speed_of_bench([(p, read[p][0].df, read[p][0].meta, read[p][1]) for p in logs], opts,
+    counted = dict(zip(logs, speed_of_bench([(p, read[p].df, read[p].meta, None) for p in logs], opts,
                                             args.ra_ohm, args.ke_vs_per_rad, model=model, rpm_range=args.rpm_range)))
     with outdir.staged(args.out, TOOL) as stage:
         for k, path in enumerate(args.logs):
@@ -122,7 +121,7 @@ def run(args) -> int:
                 name, s_cap = _capture(path, opts, args, stage)
                 summary[name] = s_cap
                 continue
-            log = read[path][0]
+            log = read[path]
             df = log.df
             est, ke, ke_from = counted[path]
             rows = est["row"].to_numpy()

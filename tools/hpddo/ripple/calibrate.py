@@ -183,6 +183,10 @@ def calibrate_ke(bursts, duty, v_V, i_A, ra_ohm: float, opts: Options):
     # a comb counts its strongest line, which a strongly eccentric rotor's once-per-revolution line can be (a
     # 5-bar commutator's ripple under it in the independent commutator simulation: Ke 10x the motor's, and the
     # comb windows' own lines then `far` from the prior); the comb is the one check of the line's identity here
-    ev = ke_evidence(bursts, duty, v_V, i_A, ra_ohm, opts)
-    placed = placed_only(ev)
-    return ke_of(placed if placed["ke"].size else ev)
+    return calibrated(ke_evidence(bursts, duty, v_V, i_A, ra_ohm, opts))
+
+
+def calibrated(evidence: dict) -> tuple:
+    """calibrate_ke's Ke from a recording's ke_evidence: (ke, windows used, its relative doubt)."""
+    placed = placed_only(evidence)
+    return ke_of(placed if placed["ke"].size else evidence)

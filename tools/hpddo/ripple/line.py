@@ -32,6 +32,12 @@ def line_power(f_grid, p_max, f):
     return np.interp(f, f_grid, p_max, left=0.0, right=0.0)
 
 
+def comb_windows(est) -> np.ndarray:
+    """The windows of an estimate (count.estimate's DataFrame) whose lines form a rotation comb (`multiple` > 0),
+    not those named `damaged`: a damaged commutator's even lines are not the comb."""
+    return (est["multiple"].to_numpy(int) > 0) & (est["key"].to_numpy() != "damaged")
+
+
 def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     """The line's identity over a whole recording: where most of the windows whose lines form a
     rotation comb (est's `multiple` > 0; not those named `damaged`) put the strongest line at another multiple than
@@ -47,7 +53,7 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     est: speed_of_log's DataFrame. Returns a copy."""
     est = est.copy()
     m = est["multiple"].to_numpy(int)
-    shown = (m > 0) & (est["key"].to_numpy() != "damaged")  # a damaged commutator's even lines are not the comb
+    shown = comb_windows(est)
     if not scale_checked and not shown.any():
         idx = est.index[est["confident"].to_numpy(bool)]
         est.loc[idx, "confident"] = False

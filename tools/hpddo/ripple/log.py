@@ -9,9 +9,9 @@ import pathlib
 import numpy as np
 
 from . import sync
-from .calibrate import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, calibrate_ke, ke_evidence, ke_of, placed_only
+from .calibrate import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, calibrated, ke_evidence, ke_of, placed_only
 from .count import count_settled_tails, estimate
-from .line import identity_of_recording
+from .line import comb_windows, identity_of_recording
 from .options import Options
 from .prior import ModelPrior, m2_prior_rpm, m2_prior_sd_rpm, rpm_per_amp
 from .spans import count_steady_spans
@@ -50,10 +50,18 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     NaN. Where rpm_range is given, a confident count outside it is not confident (within_range). Free-running
     bursts have their PWM-synchronous average removed first (sync.prepare). ke_source: where a Ke given
     (ke_vs_per_rad) comes from, in words (speed_of_bench's Ke from other recordings of the motor)."""
+    return _count_log(path, df, meta, opts, ra_ohm, ke_vs_per_rad, bursts, model, rpm_range, ke_source)[:3]
+
+
+def _count_log(path, df, meta: dict, opts: Options, ra_ohm, ke_vs_per_rad, bursts, model, rpm_range, ke_source):
+    """speed_of_log's (estimate, Ke, where Ke came from), and where Ke is calibrated from the ripple the
+    windows that told it whose comb places the line at the figure given (calibrate.placed_only of
+    ke_evidence), else None: speed_of_bench pools them over a motor's recordings."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
     from . import speed_range
 
+    placed = None
     bpath = rf.path_for(path)
     if bursts is None and not bpath.exists():
         raise InputError(f"{path}: no current bursts beside it ({bpath.name}); record them in the ripple "
@@ -79,7 +87,9 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
         elif ke_vs_per_rad:
             ke, ke_from = float(ke_vs_per_rad), ke_source
         else:
-            ke, n_ke, ke_rel = calibrate_ke(b, duty, v, i, ra, opts)
+            evidence = ke_evidence(b, duty, v, i, ra, opts)
+            ke, n_ke, ke_rel = calibrated(evidence)
+            placed = placed_only(evidence)
             # its doubt is said, not put into the prior's spread: Ke's relative error there (prior_rel_sd) scales
             # with each candidate's speed, and at 0.35 no line however fast would be far from the prior
             ke_from = f"ripple ({n_ke} windows" + (f", to +-{ke_rel:.0%}" if math.isfinite(ke_rel) else "") + ")"
@@ -101,7 +111,7 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     est = speed_range.within_range(est, rpm_range)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
-    return est, ke, ke_from
+    return est, ke, ke_from, placed
 
 
 def figure_shown(ests, opts: Options) -> tuple:
@@ -111,10 +121,9 @@ def figure_shown(ests, opts: Options) -> tuple:
     windows, as hpddo ripple --calibrate names a figure. Returns (confirmed, windows at the figure, comb windows)."""
     at = shown = 0
     for est in ests:
-        m = est["multiple"].to_numpy(int)
-        comb = (m > 0) & (est["key"].to_numpy() != "damaged")
+        comb = comb_windows(est)
         shown += int(comb.sum())
-        at += int((comb & (m == opts.ripples_per_rev)).sum())
+        at += int((comb & (est["multiple"].to_numpy(int) == opts.ripples_per_rev)).sum())
     return at >= CALIBRATE_MIN_WINDOWS and at >= CALIBRATE_AGREE * shown, at, shown
 
 
@@ -134,26 +143,18 @@ def speed_of_bench(logs, opts: Options, ra_ohm: float | None = None, ke_vs_per_r
     # each log's bursts read once (a missing file is speed_of_log's error to name)
     logs = [(p, df, meta, b if b is not None or not rf.path_for(p).exists() else rf.read(rf.path_for(p)))
             for p, df, meta, b in logs]
-    out = [speed_of_log(p, df, meta, opts, ra_ohm, ke_vs_per_rad, bursts=b, model=model, rpm_range=rpm_range)
-           for p, df, meta, b in logs]
+    got = [_count_log(p, df, meta, opts, ra_ohm, ke_vs_per_rad, b, model, rpm_range, "user") for p, df, meta, b in logs]
+    out = [g[:3] for g in got]
     if model is not None or ke_vs_per_rad:
         return out
     unchecked = [k for k, (est, _, _) in enumerate(out)
                  if (est["key"] == "unchecked").any() and math.isfinite(ra_of(logs[k][2], ra_ohm))]
-    checking = [k for k in range(len(out)) if k not in unchecked and math.isfinite(out[k][1])]
+    # the others whose Ke the ripple told (calibrate.ke_evidence, kept by _count_log)
+    checking = [k for k in range(len(out)) if k not in unchecked and got[k][3] is not None and math.isfinite(out[k][1])]
     confirmed, at, shown = figure_shown([out[k][0] for k in checking], opts)
     if not unchecked or not confirmed:
         return out
-    pooled = {}
-    for k in checking:
-        p, df, meta, b = logs[k]
-        est = out[k][0]
-        rows = est["row"].to_numpy()
-        duty, v, i = (df[c].to_numpy()[rows] for c in ("duty", "v_V", "i_A"))
-        ev = placed_only(ke_evidence(sync.prepare(b, str(rf.path_for(p))), duty, v, i, ra_of(meta, ra_ohm), opts))
-        for key, val in ev.items():
-            pooled.setdefault(key, []).append(val)
-    ke, n_ke, ke_rel = ke_of({key: np.concatenate(v) for key, v in pooled.items()}) if pooled else (math.nan, 0, 0)
+    ke, n_ke, ke_rel = ke_of({key: np.concatenate([got[k][3][key] for k in checking]) for key in got[checking[0]][3]})
     if not (n_ke and ke > 0):
         return out
     names = ", ".join(pathlib.Path(str(logs[k][0])).stem for k in checking)

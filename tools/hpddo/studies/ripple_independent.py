@@ -25,6 +25,7 @@ import numpy as np
 
 from ..logs import benchlog
 from ..logs import ripple as rf
+from ..ripple.line import comb_windows
 from ..ripple.log import speed_of_log
 from ..ripple.options import Options
 from . import commutator as cm
@@ -194,7 +195,7 @@ def score(est, sim: dict, given: int, n_true: int) -> dict:
              for r, t, x, e, f, p in zip(rows[off], true[off], rpm[off], err[off], est["f_Hz"].to_numpy()[off],
                                           est["rpm_prior"].to_numpy()[off])]
     m = est["multiple"].to_numpy(int)
-    comb = (m > 0) & (est["key"].to_numpy() != "damaged")
+    comb = comb_windows(est)
     return {"given": int(given), "windows": int(len(est)), "driven": int(driven.sum()), "confident": int(conf.sum()),
             "comb_windows": int(comb.sum()), "comb_at_given": int((comb & (m == given)).sum()),
             "over_target": int(off.sum()),
