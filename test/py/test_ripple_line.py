@@ -306,3 +306,78 @@ def test_a_glitch_of_one_windows_prior_does_not_steer_its_count_at_either_end_of
     conf = est["confident"].to_numpy()
     assert conf[[k for k in range(5) if k != at]].all()
     assert (np.abs(est["rpm"].to_numpy()[conf] / (rot * 60) - 1) < 0.05).all()
+
+
+def _comb_plain(rots_comb, rots_plain, seed=0):
+    """A recording of one motor whose windows at rots_comb show a rotation comb (HEALTHY_6) and at rots_plain none."""
+    import pandas as pd
+
+    df_c, meta, b_c = _recording(rots_comb, HEALTHY_6, seed=seed)
+    df_p, _, b_p = _recording(rots_plain, COMMUTATION_ONLY, seed=seed + 100)
+    df = pd.concat([df_c, df_p], ignore_index=True)
+    df["seq"] = np.arange(len(df))
+    df["t_s"] = 0.5 * np.arange(len(df))
+    return df, meta, bursts_of([b_c.current_A(k) for k in range(len(b_c))] + [b_p.current_A(k) for k in range(len(b_p))])
+
+
+@pytest.mark.parametrize("n_comb", [1, 2, 4, 5, 8])
+def test_with_ke_from_the_ripple_a_recordings_combs_check_the_figure_by_the_rule_calibrate_names_one_by(n_comb):
+    """Ke calibrated from the ripple under the figure given: the counts scale with it, and a recording's combs
+    check it only as hpddo ripple --calibrate names a figure (line.figure_confirmed: 5 windows at it, 80 % of the
+    comb windows). One to four comb windows leave every window `unchecked`; five and more, all confident and
+    right. Under another figure, never confident."""
+    from hpddo.ripple.line import CALIBRATE_MIN_WINDOWS
+    from hpddo.ripple.log import speed_of_bench
+
+    rots = [21.3 + 2.1 * k for k in range(12)]
+    df, meta, b = _comb_plain(rots[:n_comb], rots[n_comb:])
+    ((est, _, _),) = speed_of_bench([("run.csv", df, meta, b)], Options(6, 1.0))
+    if n_comb < CALIBRATE_MIN_WINDOWS:
+        assert not est["confident"].any() and (est["key"] == "unchecked").all(), est["reason"].tolist()
+        assert f"{n_comb} of the {n_comb} windows whose lines form a comb show it" in est["reason"].iloc[0]
+    else:
+        assert est["confident"].all(), est["reason"].tolist()
+        assert np.allclose(est["rpm"], np.asarray(rots) * 60, rtol=0.01)
+    for given in (3, 12):
+        ((est, _, _),) = speed_of_bench([("run.csv", df, meta, b)], Options(given, 1.0))
+        assert not est["confident"].any()
+
+
+def test_comb_windows_at_the_figure_that_the_calibrated_prior_calls_far_confirm_nothing():
+    """Where the comb windows at the figure given lie `far` from a back-EMF prior calibrated from the ripple
+    (its Ke taken from windows whose strongest line is another: a 5-bar motor's once-per-revolution line in the
+    independent commutator simulation, Ke 10x the motor's), they contradict that Ke: nothing is confident."""
+    from hpddo.ripple.line import identity_of_recording
+    import pandas as pd
+
+    n = 12
+    est = pd.DataFrame({"multiple": [6] * 6 + [0] * 6, "key": ["far"] * 6 + [""] * 6, "confident": [False] * 6 + [True] * 6,
+                        "confidence": [0.0] * 6 + [1.0] * 6, "reason": [""] * n})
+    out = identity_of_recording(est, Options(6, 1.0), scale_checked=False)
+    assert not out["confident"].any() and (out["key"].iloc[6:] == "unchecked").all()
+    assert "far from the prior" in out["reason"].iloc[6]
+    est.loc[:5, "key"] = "changing"  # at the figure and agreeing with the prior: the figure and the scale checked
+    assert identity_of_recording(est, Options(6, 1.0), scale_checked=False)["confident"].iloc[6:].all()
+
+
+@pytest.mark.parametrize("rot", [28.0, 31.0, 38.0, 44.0, 47.0, 66.0])
+@pytest.mark.parametrize("depth", [0.4, 0.55, 0.7])
+def test_a_free_running_pwms_sidebands_around_the_ripple_form_no_comb(rot, depth):
+    """A free-running ADC under a 490 Hz PWM (9.6 kS/s): the commutation modulates the PWM's current ripple, and
+    once the PWM-synchronous average is removed its sidebands f_pwm -+ f_c, 2 f_pwm - f_c stay, here at `depth` of
+    the commutation line's amplitude (the independent simulation's: a third to a half of its power). They are
+    no rotation lines: the comb is the motor's 6, never a narrow spacing that collects them (the independent
+    simulation's 73, 61, 27 ... per revolution). The speeds are those whose sidebands lie clear of the rotation
+    lines (over 6 resolutions: at 54.67 Hz f_pwm - f_c falls within one of 3 f_rot and hides it; the comb then
+    rests on fewer lines, and a narrow spacing can collect them by chance) and whose rotation lines are no
+    mains multiples (left out of every comb). Limits (docs/ripple-independent.md): a sideband as strong as the
+    commutation line is taken for it."""
+    fs, pwm = 9600.0, 490.196
+    c = 6 * rot
+    extra = [(abs(pwm - c), depth * 0.08), (pwm + c, depth * 0.08), (abs(2 * pwm - c), 0.2 * depth * 0.08)]
+    assert min(abs(a - m * rot) for a, _ in extra for m in HEALTHY_6) > 6 * 2.0
+    x = motor_current(rot, HEALTHY_6, fs=fs, extra=extra, seed=int(rot))
+    b = bursts_of([x], fs=fs, meta={"sampling": "free", "pwm_hz": f"{pwm:g}"})
+    b = dataclasses.replace(b, pwm_hz=pwm, sampling="free")
+    _, comb, _, _ = rcal.window_comb(b, 0, Options(6, 1.0))
+    assert comb is not None and comb.multiple == 6, comb

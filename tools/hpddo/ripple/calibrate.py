@@ -10,7 +10,7 @@ import numpy as np
 
 from . import comb as rc
 from .count import estimate
-from .line import spectrum
+from .line import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, spectrum
 from .options import Options
 
 
@@ -26,7 +26,7 @@ def window_comb(bursts, k: int, opts):
     f, p = spectrum(x, fs)
     found = rc.lines(f, p, max(2.0 * res, 0.5), fs / 2.0 / 2.2, res, opts.min_snr)
     found = rc.without_fixed(found, bursts, res)
-    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts))
+    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), rc.pwm_of(bursts))
     bad = False
     if comb is not None:
         p_max = maximum_filter1d(p, size=max(1, int(round(res / (f[1] - f[0])))) | 1)
@@ -34,10 +34,6 @@ def window_comb(bursts, k: int, opts):
     return found, comb, res, bad
 
 
-#: calibrate: the share of the windows that must agree on one ripples per revolution for it to be named
-CALIBRATE_AGREE = 0.8
-#: calibrate: the fewest windows a source must have to name a number
-CALIBRATE_MIN_WINDOWS = 5
 #: calibrate with an encoder: a window's line within this share of a whole number of ripples per revolution
 CALIBRATE_WHOLE = 0.03
 

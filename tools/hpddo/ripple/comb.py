@@ -142,7 +142,28 @@ def _on_comb(found, g: float, res_hz: float):
     return sorted(((ln, k) for k, ln in best.items()), key=lambda t: t[1])
 
 
-def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=()) -> Comb | None:
+#: the PWM's sidebands left out of the comb (pwm_sidebands): h f_pwm +- j f_c for h up to MIX_PWM_HARMONICS, j up to
+#: MIX_ORDERS. A free-running ADC sees the PWM's current ripple, whose amplitude the commutation modulates (the
+#: inductance and the current change with the rotor's angle); its PWM-synchronous average removed, the modulation
+#: stays as sidebands (f_pwm - f_c and f_pwm + f_c at a third to a half of the commutation line's power in the
+#: independent commutator simulation), which a narrow spacing collects into a false comb
+MIX_PWM_HARMONICS = 3
+MIX_ORDERS = 2
+
+
+def aliased_hz(hz: float, sample_hz: float) -> float:
+    """Where a frequency lands in a spectrum sampled at sample_hz (0 to sample_hz / 2)."""
+    return abs((hz + sample_hz / 2.0) % sample_hz - sample_hz / 2.0)
+
+
+def pwm_sidebands(comm_hz: float, pwm_hz: float, sample_hz: float) -> list:
+    """The PWM's sidebands around the commutation line comm_hz, aliased (MIX_PWM_HARMONICS, MIX_ORDERS): Hz
+    with their order j (the line's frequency error enters j times)."""
+    return [(aliased_hz(h * pwm_hz + sign * j * comm_hz, sample_hz), j)
+            for h in range(1, MIX_PWM_HARMONICS + 1) for j in range(1, MIX_ORDERS + 1) for sign in (-1, 1)]
+
+
+def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -> Comb | None:
     """The rotation comb of a window's lines (lines()), or None where the lines do not form one.
 
     The commutation line is the strongest line (lines at multiples of the mains or of fixed_hz
@@ -155,12 +176,17 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=()) -> Comb | N
     spacing explains: a wider one
     leaves lines out, a narrower one (f_rot / 2) explains the same lines with more empty multiples.
     A comb needs at least COMB_MIN_LINES lines under the commutation line: a line and its
-    harmonics alone show no rotation."""
+    harmonics alone show no rotation. pwm: (PWM Hz, sample Hz) of a free-running burst whose PWM lies in the
+    band (pwm_of): the PWM's sidebands around the commutation line (pwm_sidebands) are no rotation lines."""
     use = [ln for ln in found if not near_fixed(ln.hz, tuple(MAINS_HZ) + tuple(fixed_hz), fixed_tol_hz(ln.hz, res_hz))]
     if len(use) < COMB_MIN_LINES + 1:
         return None
     c = use[0]
     use = [ln for ln in use if ln.hz <= COMB_SPAN * c.hz and ln.snr >= COMB_LINE_SNR * min_snr]
+    if pwm is not None:
+        bands = pwm_sidebands(c.hz, *pwm)
+        use = [ln for ln in use if ln is c or not any(
+            abs(ln.hz - hz) <= COMB_REL_TOL * j * c.hz + COMB_RES_TOL * res_hz for hz, j in bands)]
     scored = []
     for m in range(COMMUTATION_MIN_MULTIPLE, MAX_MULTIPLE + 1):
         g = c.hz / m
@@ -192,6 +218,13 @@ def fixed_hz_of(bursts) -> tuple:
     except (TypeError, ValueError):
         return ()
     return (pwm,) if math.isfinite(pwm) and 0 < pwm < bursts.sample_hz / 2 else ()
+
+
+def pwm_of(bursts):
+    """(PWM Hz, sample Hz) of bursts whose declared PWM lies inside the band the samples hold (free-running
+    sampling: under half the sample rate), else None (rotation_comb's pwm)."""
+    fixed = fixed_hz_of(bursts)
+    return (fixed[0], float(bursts.sample_hz)) if fixed else None
 
 
 # The PWM's harmonics whose aliases are left out of the comb: a PWM current's edges put harmonics

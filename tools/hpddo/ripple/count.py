@@ -238,7 +238,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
     found = rc.lines(f, p, f_lo, f_hi, res, opts.min_snr)
     found = rc.without_fixed(found, bursts, res)
-    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts))
+    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), rc.pwm_of(bursts))
     if comb is not None:  # the line's identity from the data: the comb of rotation lines
         out.update(rot_hz=comb.rot_hz, multiple=comb.multiple)
         out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res)

@@ -10,6 +10,12 @@ import numpy as np
 from .options import REASONS, Options
 
 
+#: the share of the windows that must agree on one ripples per revolution for it to be named (hpddo ripple
+#: --calibrate), and for the combs to check the figure given where nothing else sets the speed's scale
+CALIBRATE_AGREE = 0.8
+#: ... and the fewest windows that must show it
+CALIBRATE_MIN_WINDOWS = 5
+
 FAMILY = (2, 3, 6)  # the sub-harmonics f/2, f/3, f/6 of rotor asymmetry
 ALTERNATIVES = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
 # the weight of each sub-harmonic's power in a candidate's evidence: small enough that the main
@@ -38,6 +44,25 @@ def comb_windows(est) -> np.ndarray:
     return (est["multiple"].to_numpy(int) > 0) & (est["key"].to_numpy() != "damaged")
 
 
+def figure_confirmed(at: int, shown: int) -> bool:
+    """Whether windows whose lines form a rotation comb confirm a ripples per revolution: at least
+    CALIBRATE_MIN_WINDOWS of them place the line at it (at) and they are CALIBRATE_AGREE of all such
+    windows (shown), the rule by which hpddo ripple --calibrate names a figure."""
+    return at >= CALIBRATE_MIN_WINDOWS and at >= CALIBRATE_AGREE * shown
+
+
+def figure_shown(ests, opts: Options) -> tuple:
+    """Whether the rotation combs of recordings (speed_of_log's estimates) confirm the ripples per revolution
+    given (figure_confirmed, over their comb windows together). Returns (confirmed, windows at the figure,
+    comb windows)."""
+    at = shown = 0
+    for est in ests:
+        comb = comb_windows(est)
+        shown += int(comb.sum())
+        at += int((comb & (est["multiple"].to_numpy(int) == opts.ripples_per_rev)).sum())
+    return figure_confirmed(at, shown), at, shown
+
+
 def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     """The line's identity over a whole recording: where most of the windows whose lines form a
     rotation comb (est's `multiple` > 0; not those named `damaged`) put the strongest line at another multiple than
@@ -48,35 +73,49 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     confident row whose own comb shows the figure given: the recording's combs outweigh it.
     scale_checked: whether anything besides the ripple sets the speed's scale (the user's Ke, a model's M2, a
     speed range). Where nothing does (Ke calibrated from the ripple under the figure given, or no prior), the
-    counts scale with the figure given and only the comb can check it: where no window of the recording shows a
-    comb, every confident row is `unchecked`, not confident.
+    counts scale with the figure given and only the combs can check it, by the rule --calibrate names a figure
+    by (figure_confirmed), the windows at the figure counted where their line agrees with the prior (not `far`:
+    one that is far contradicts the Ke the prior was calibrated with): where the recording's combs do not
+    confirm it, every confident row is `unchecked`, not confident. One or two comb windows do not: a free-running burst's PWM residue can put a comb at half
+    the rotation frequency under a window or two, and a 5-bar motor's one comb window at the figure given did
+    not stop a Ke calibrated on its once-per-revolution line (10x the motor's) from counting that line
+    confidently (independent commutator simulation, docs/ripple-independent.md).
     est: speed_of_log's DataFrame. Returns a copy."""
     est = est.copy()
     m = est["multiple"].to_numpy(int)
     shown = comb_windows(est)
-    if not scale_checked and not shown.any():
+    at = shown & (m == opts.ripples_per_rev)
+    other = shown & ~at
+    if shown.any() and other.sum() > 0.5 * shown.sum():
+        vals, counts = np.unique(m[other], return_counts=True)
+        top = int(vals[np.argmax(counts)])
+        # every confident row: a window's own comb at the figure given does not outweigh the recording's (a
+        # free-running burst's PWM residue put a comb at half the rotation frequency under 2 of 16 comb windows of
+        # a 6-ripple motor given 12, in the independent commutator simulation; the 14 others showed other figures)
+        demote = est["confident"].to_numpy(bool)
+        idx = est.index[demote]
+        est.loc[idx, "confident"] = False
+        est.loc[idx, "confidence"] = 0.0
+        est.loc[idx, "key"] = "multiple"
+        head = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the {opts.ripples_per_rev} given, in "
+                f"{int((m == top).sum())} of the {int(shown.sum())} windows of this recording whose lines form a "
+                "rotation comb")
+        for j, k in zip(idx, m[demote]):
+            est.at[j, "reason"] = head + ("; this window shows none of its own" if k == 0 else f"; this window's own shows {k}")
+        return est
+    # ... and a comb window at the figure whose line the prior puts out of its reach (`far`) checks the figure but
+    # contradicts the prior's Ke, calibrated under it from other windows: it confirms neither
+    far = at & (est["key"].to_numpy() == "far")
+    if not scale_checked and not figure_confirmed(int((at & ~far).sum()), int(shown.sum())):
         idx = est.index[est["confident"].to_numpy(bool)]
         est.loc[idx, "confident"] = False
         est.loc[idx, "confidence"] = 0.0
         est.loc[idx, "key"] = "unchecked"
-        est.loc[idx, "reason"] = (f"{REASONS['unchecked']} ({opts.ripples_per_rev} given; none of the {len(est)} windows "
-                                  "shows a comb)")
-        return est
-    other = shown & (m != opts.ripples_per_rev)
-    if not shown.any() or other.sum() <= 0.5 * shown.sum():
-        return est
-    vals, counts = np.unique(m[other], return_counts=True)
-    top = int(vals[np.argmax(counts)])
-    # every confident row: a window's own comb at the figure given does not outweigh the recording's (a free-running
-    # burst's PWM residue put a comb at half the rotation frequency under 2 of 16 comb windows of a 6-ripple motor
-    # given 12, in the independent commutator simulation; the 14 others showed other figures)
-    demote = est["confident"].to_numpy(bool)
-    idx = est.index[demote]
-    est.loc[idx, "confident"] = False
-    est.loc[idx, "confidence"] = 0.0
-    est.loc[idx, "key"] = "multiple"
-    head = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the {opts.ripples_per_rev} given, in "
-            f"{int((m == top).sum())} of the {int(shown.sum())} windows of this recording whose lines form a rotation comb")
-    for j, k in zip(idx, m[demote]):
-        est.at[j, "reason"] = head + ("; this window shows none of its own" if k == 0 else f"; this window's own shows {k}")
+        said = (f"none of the {len(est)} windows shows a comb" if not shown.any() else
+                f"{int(at.sum())} of the {int(shown.sum())} windows whose lines form a comb show it"
+                + (f", {int(far.sum())} of them with their line far from the prior (its Ke, calibrated from the "
+                   "ripple, is not the motor's)" if far.any() else "")
+                + f"; {CALIBRATE_MIN_WINDOWS} in agreement with the prior and {CALIBRATE_AGREE:.0%} of the comb "
+                  "windows needed")
+        est.loc[idx, "reason"] = f"{REASONS['unchecked']} ({opts.ripples_per_rev} given; {said})"
     return est

@@ -9,9 +9,9 @@ import pathlib
 import numpy as np
 
 from . import sync
-from .calibrate import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, calibrated, ke_evidence, ke_of, placed_only
+from .calibrate import calibrated, ke_evidence, ke_of, placed_only
 from .count import count_settled_tails, estimate
-from .line import comb_windows, identity_of_recording
+from .line import figure_shown, identity_of_recording
 from .options import Options
 from .prior import ModelPrior, m2_prior_rpm, m2_prior_sd_rpm, rpm_per_amp
 from .spans import count_steady_spans
@@ -114,26 +114,14 @@ def _count_log(path, df, meta: dict, opts: Options, ra_ohm, ke_vs_per_rad, burst
     return est, ke, ke_from, placed
 
 
-def figure_shown(ests, opts: Options) -> tuple:
-    """Whether the rotation combs of a motor's recordings (speed_of_log's estimates) confirm the ripples per
-    revolution given: over their windows whose lines form a comb (not a damaged commutator's), at least
-    CALIBRATE_MIN_WINDOWS place the line at opts.ripples_per_rev and they are CALIBRATE_AGREE of all such
-    windows, as hpddo ripple --calibrate names a figure. Returns (confirmed, windows at the figure, comb windows)."""
-    at = shown = 0
-    for est in ests:
-        comb = comb_windows(est)
-        shown += int(comb.sum())
-        at += int((comb & (est["multiple"].to_numpy(int) == opts.ripples_per_rev)).sum())
-    return at >= CALIBRATE_MIN_WINDOWS and at >= CALIBRATE_AGREE * shown, at, shown
-
-
 def speed_of_bench(logs, opts: Options, ra_ohm: float | None = None, ke_vs_per_rad: float | None = None,
                    model: ModelPrior | None = None, rpm_range=None) -> list:
     """The ripple speed of every window of several recordings of one motor (logs: (path, df, meta, bursts or
     None) each, as speed_of_log takes them), each counted by speed_of_log; then the figure given checked over
     the motor, not per recording. Where Ke is calibrated from the ripple (no Ke, no model given) a recording
-    whose windows show no rotation comb cannot check the figure it is counted under, and none of its windows
-    is confident (`unchecked`, line.identity_of_recording). Where the motor's other recordings' combs confirm
+    whose combs do not confirm the figure it is counted under (too few windows show one) cannot check it, and
+    none of its windows is confident (`unchecked`, line.identity_of_recording). Where the motor's other
+    recordings' combs confirm
     the figure (figure_shown), their windows whose comb places the line at it tell Ke under a checked figure
     (calibrate.ke_evidence, pooled): such a recording is counted again with that Ke as its back-EMF prior,
     which then checks its line as a user's Ke does. Returns speed_of_log's (estimate, Ke, where Ke came
@@ -149,19 +137,22 @@ def speed_of_bench(logs, opts: Options, ra_ohm: float | None = None, ke_vs_per_r
         return out
     unchecked = [k for k, (est, _, _) in enumerate(out)
                  if (est["key"] == "unchecked").any() and math.isfinite(ra_of(logs[k][2], ra_ohm))]
-    # the others whose Ke the ripple told (calibrate.ke_evidence, kept by _count_log)
-    checking = [k for k in range(len(out)) if k not in unchecked and got[k][3] is not None and math.isfinite(out[k][1])]
-    confirmed, at, shown = figure_shown([out[k][0] for k in checking], opts)
-    if not unchecked or not confirmed:
-        return out
-    ke, n_ke, ke_rel = ke_of({key: np.concatenate([got[k][3][key] for k in checking]) for key in got[checking[0]][3]})
-    if not (n_ke and ke > 0):
-        return out
-    names = ", ".join(pathlib.Path(str(logs[k][0])).stem for k in checking)
-    source = (f"ripple of the motor's other recordings ({n_ke} windows of {names} whose comb shows the "
-              f"{opts.ripples_per_rev} given, in {at} of their {shown} comb windows"
-              + (f"; to +-{ke_rel:.0%}" if math.isfinite(ke_rel) else "") + ")")
+    # the recordings whose Ke the ripple told (calibrate.ke_evidence's placed windows, kept by _count_log); an
+    # unchecked one among them too: its windows whose comb places the line at the figure are evidence, too few alone
+    told = [k for k in range(len(out)) if got[k][3] is not None and math.isfinite(out[k][1])]
     for k in unchecked:
+        checking = [j for j in told if j != k]
+        confirmed, at, shown = figure_shown([out[j][0] for j in checking], opts)
+        if not confirmed:
+            continue
+        ke, n_ke, ke_rel = ke_of({key: np.concatenate([got[j][3][key] for j in checking])
+                                  for key in got[checking[0]][3]})
+        if not (n_ke and ke > 0):
+            continue
+        names = ", ".join(pathlib.Path(str(logs[j][0])).stem for j in checking)
+        source = (f"ripple of the motor's other recordings ({n_ke} windows of {names} whose comb shows the "
+                  f"{opts.ripples_per_rev} given, in {at} of their {shown} comb windows"
+                  + (f"; to +-{ke_rel:.0%}" if math.isfinite(ke_rel) else "") + ")")
         p, df, meta, b = logs[k]
         out[k] = speed_of_log(p, df, meta, opts, ra_ohm, ke, bursts=b, rpm_range=rpm_range, ke_source=source)
     return out
