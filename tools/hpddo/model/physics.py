@@ -170,21 +170,22 @@ _decays: dict = {}
 
 
 def _decay(dt, tau: float):
-    """(dt > 0, the node's decay exp(-dt / tau) per step, 1 where no step) of _rise_float64.
-    A fit moves tau in one Jacobian column of several, so the last few are kept per array of
-    periods (by identity, held beside them) and given again, the same values."""
+    """(dt > 0, the node's decay exp(-dt / tau) per step, 1 where no step, 1 - that decay, whether
+    every sample is a step) of _rise_float64. A fit moves tau in one Jacobian column of several, so
+    the last few are kept per array of periods (by identity, held beside them) and given again, the
+    same values."""
     key = (id(dt), float(tau))
     hit = _decays.get(key)
     if hit is not None and hit[0] is dt:
-        return hit[1], hit[2]
+        return hit[1:]
     step, periods, where = _periods(dt)
     # exp of each distinct period's -dt / tau, given to every sample of that period: exp(-dt_k / tau)
     # of each sample, the same bits (libm.exp)
     d = np.where(step, exp(-periods / tau)[where], 1.0)
     if len(_decays) > 32:
         _decays.clear()
-    _decays[key] = (dt, step, d)
-    return step, d
+    _decays[key] = (dt, step, d, 1.0 - d, bool(step.all()))
+    return _decays[key][1:]
 
 
 _periods_of: dict = {}
@@ -213,10 +214,13 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     rounding). A block whose rise leaves [0, WINDING_MAX_C - ref] is redone step by step
     with the bound applied after each step."""
     r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
-    step, d = _decay(dt, tau)
-    q = r * i * i * ra
-    alpha = np.where(step, d + (1.0 - d) * q * a, 1.0)
-    beta = np.where(step, (1.0 - d) * q * (1.0 + a * (ref - tref)), 0.0)
+    step, d, omd, every = _decay(dt, tau)
+    omdq = omd * (r * i * i * ra)  # (1 - d) q, q = r i^2 Ra
+    alpha = d + omdq * a
+    beta = omdq * (1.0 + a * (ref - tref))
+    if not every:  # (where every sample is a step, as on a log whose periods are all positive: the same)
+        alpha = np.where(step, alpha, 1.0)
+        beta = np.where(step, beta, 0.0)
     n = len(i)
     out = np.empty(n)
     if n == 0:
