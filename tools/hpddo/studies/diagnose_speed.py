@@ -2,7 +2,7 @@
 
 Two benches, each diagnosed as `hpddo diagnose` does with its defaults (the bootstrap's
 resamples and the hybrid retrained before and after): the bundled recordings (data/default:
-three recordings, 8,451 rows) and a three-recording twin bench of 13,6xx rows (LARGE: the
+three recordings, 8,451 rows) and a three-recording twin bench of 13,612 rows (LARGE: the
 training protocols at 1.61 times their length, `hpddo twin --protocol all --preset default
 --time-scale 1.61 --seed 2`, written into a temporary folder). On the bundled recordings the
 physics verdict alone is timed too, and its peer in the same run: one fit of M2 with every
@@ -29,7 +29,7 @@ import time
 TARGET_S = 10.0
 
 # The large bench: the twin's training protocols (hpddo twin --protocol all) at LARGE_TIME_SCALE times
-# their length, preset default, seed LARGE_SEED, 2 Hz: 13,627 rows in three recordings
+# their length, preset default, seed LARGE_SEED, 2 Hz: 13,612 rows in three recordings (glitches removed)
 LARGE_PROTOCOLS = ("sweep", "load", "long")
 LARGE_TIME_SCALE = 1.61
 LARGE_SEED = 2
@@ -39,9 +39,10 @@ LARGE_RATE_HZ = 2.0
 # The same measures before the diagnosis ran its stages side by side (commit 915662b), taken alternately
 # with the code after it on the same 2-core machine in the same minutes (its other core busy with other
 # work, load 4-5): wall s, CPU-s of the main process, CPU-s of its workers. See docs/performance.md.
+# (the median of three runs on the bundled recordings, the lesser of two on the large bench)
 BEFORE = {
-    "bundled": {"default_s": None, "main_cpu_s": None, "workers_cpu_s": None},
-    "large": {"default_s": None, "main_cpu_s": None, "workers_cpu_s": None},
+    "bundled": {"default_s": 26.3, "main_cpu_s": 9.3, "workers_cpu_s": 16.9},
+    "large": {"default_s": 48.2, "main_cpu_s": 11.4, "workers_cpu_s": 26.7},
 }
 
 
