@@ -231,11 +231,12 @@ class Task:
             self._finish(value)
 
     def result(self):
-        """Its result, once done. Meanwhile this process does the queued jobs itself (this one
-        first, if no worker has taken it; else the first in the queue), and waits only where
-        every job left is already running."""
+        """Its result, once done. Meanwhile this process does queued jobs itself, the first in the
+        queue each time (the lowest priority number: the one the caller waits for last but longest
+        to run starts first, and the cores finish together), and waits only where every job left
+        is already running."""
         while not self._done.is_set():
-            job = self.owner._take(self)
+            job = self.owner._take()
             if job is not None:
                 job._run_here()
             else:
@@ -307,13 +308,9 @@ class Background:
                 return task
         return None
 
-    def _take(self, wanted: Task):
-        """A queued job for this process to do while it waits for `wanted`: wanted itself where
-        no worker has taken it, else the first queued; None where none is queued."""
+    def _take(self):
+        """The first queued job, for this process to do while it waits; None where none is queued."""
         with self._lock:
-            if wanted.state == "queued":
-                wanted.state = "running"
-                return wanted
             return self._pop()
 
     def _dispatch(self) -> None:
