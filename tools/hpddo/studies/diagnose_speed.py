@@ -37,12 +37,12 @@ LARGE_PRESET = "default"
 LARGE_RATE_HZ = 2.0
 
 # The same measures before the diagnosis ran its stages side by side (commit 915662b), taken alternately
-# with the code after it on the same 2-core machine in the same minutes (its other core busy with other
-# work, load 4-5): wall s, CPU-s of the main process, CPU-s of its workers. See docs/performance.md.
-# (the median of three runs on the bundled recordings, the lesser of two on the large bench)
+# with the code after it on the same 2-core machine in the same minutes (shared with other work, load
+# 4-5, about one core left to this): wall s, CPU-s of the main process, CPU-s of its workers; the median of
+# three runs on the bundled recordings, the lesser of two on the large bench. See docs/performance.md.
 BEFORE = {
-    "bundled": {"default_s": 26.3, "main_cpu_s": 9.3, "workers_cpu_s": 16.9},
-    "large": {"default_s": 48.2, "main_cpu_s": 11.4, "workers_cpu_s": 26.7},
+    "bundled": {"default_s": 20.6, "main_cpu_s": 7.4, "workers_cpu_s": 13.0},
+    "large": {"default_s": 38.3, "main_cpu_s": 11.7, "workers_cpu_s": 26.5},
 }
 
 
