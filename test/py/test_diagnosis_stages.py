@@ -333,3 +333,25 @@ def test_bootstrap_solved_to_its_tolerance_selects_as_to_the_full_one(default_st
     assert loose == full and sum(loose.values()) > 0
     print(f"evaluations of the model: {sum(evals)} at {ranking.BOOTSTRAP_TOL:g}, {n_full} at {fx.SOLVER_TOL:g}")
     assert sum(evals) < 0.9 * n_full, (sum(evals), n_full)
+
+
+def test_bootstrap_beside_the_stages_gives_the_inclusions_of_the_bootstrap_before_them(default_stages):
+    """select with a background (core.diagnose: the resamples run on the other cores while the
+    stages go on) leaves each inclusion a ranking.Pending, and with_inclusion puts in its place
+    the frequency the selection computes when it runs the bootstrap itself, in the ranking
+    table and in Ra's."""
+    from hpddo import interrupt
+    from hpddo.diagnosis import ranking
+    paths, opt, inp, mf, ident, sel, conf = default_stages
+    opt3 = dataclasses.replace(opt, bootstrap=3)
+    inline = core.select(inp, mf, ident, opt3)
+    with interrupt.Background() as bg:
+        pending = core.select(inp, mf, ident, opt3, background=bg)
+        assert pending.bootstrap is not None and len(pending.bootstrap.tasks) == 3
+        assert all(isinstance(e.inclusion, ranking.Pending) for e in pending.ranking if e.kind != "unseen")
+        assert isinstance(pending.ra_fit.inclusion, ranking.Pending)
+        known = core.with_inclusion(pending)
+    assert known.bootstrap is None and inline.bootstrap is None
+    assert [(e.effect, e.inclusion) for e in known.ranking] == [(e.effect, e.inclusion) for e in inline.ranking]
+    assert known.ra_fit.inclusion == inline.ra_fit.inclusion
+    assert any(e.inclusion for e in known.ranking) and known.missing == inline.missing

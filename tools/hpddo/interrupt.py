@@ -202,6 +202,161 @@ def map_on_cores(fn, jobs: list, shown=None) -> list:
     return [fn(j) for j in show(jobs, len(jobs))]
 
 
+WAIT_POLL_S = 0.1  # a wait on a background job wakes this often (a signal's handler runs in between)
+
+
+class Task:
+    """A job given to Background: result() gives what it returned (raises what it raised)."""
+
+    def __init__(self, owner: "Background", fn, job):
+        import threading
+
+        self.owner, self.fn, self.job = owner, fn, job
+        self.state = "queued"  # then "running" (in a worker or in this process) and "done"; or "cancelled"
+        self._done = threading.Event()
+        self._value = None
+        self._exc = None
+
+    def _finish(self, value=None, exc=None) -> None:
+        self._value, self._exc = value, exc
+        self.state = "done"
+        self._done.set()
+
+    def _run_here(self) -> None:
+        try:
+            value = self.fn(self.job)
+        except Exception as exc:  # noqa: BLE001 (given back by result(), as a worker's would be)
+            self._finish(exc=exc)
+        else:
+            self._finish(value)
+
+    def result(self):
+        """Its result, once done. Meanwhile this process does queued jobs itself, the first in the
+        queue each time (the lowest priority number: the one the caller waits for last but longest
+        to run starts first, and the cores finish together), and waits only where every job left
+        is already running."""
+        while not self._done.is_set():
+            job = self.owner._take()
+            if job is not None:
+                job._run_here()
+            else:
+                self._done.wait(WAIT_POLL_S)
+        if self._exc is not None:
+            raise self._exc
+        return self._value
+
+    def cancel(self) -> None:
+        """Not run where it has not started (its result() is then never asked for)."""
+        with self.owner._lock:
+            if self.state == "queued":
+                self.state = "cancelled"
+
+
+class Background:
+    """Jobs run on forked workers (worker_init: SIGINT is the main process's to handle) while this
+    process goes on with its own work, each collected where it is needed (Task.result(), which
+    has this process do queued jobs itself while it waits):
+    `with Background() as bg: t = bg.submit(fn, job); ...; t.result()`.
+    One worker fewer than the cores (this process works on the last one), and at most one job
+    handed to each at a time, the lowest `priority` first (then in the order given), so that a job
+    submitted late and needed first does not wait behind a queue. Where there is one core, or this
+    is a daemonic pool's worker, every job runs in this process when its result is asked for. A
+    job's result depends on the job alone, not on where or when it runs. On leaving the block the
+    jobs not started are dropped; after an exception the workers are ended too (a signal's
+    handler has ended them already)."""
+
+    def __init__(self, workers: int | None = None):
+        import heapq
+        import multiprocessing
+        import threading
+
+        n = (os.cpu_count() or 1) - 1 if workers is None else int(workers)
+        self.workers = max(n, 0) if not multiprocessing.current_process().daemon else 0
+        self._heapq = heapq
+        self._lock = threading.RLock()  # (a pool's callback may run inside _dispatch, in this thread)
+        self._queue = []   # heap of (priority, order, Task)
+        self._order = 0
+        self._running = 0  # jobs in the workers
+        self._pool = None
+        self._closed = False
+
+    def __enter__(self):
+        return self
+
+    def submit(self, fn, job, priority: int = 0) -> Task:
+        task = Task(self, fn, job)
+        with self._lock:
+            self._heapq.heappush(self._queue, (priority, self._order, task))
+            self._order += 1
+            self._dispatch()
+        return task
+
+    def _executor(self):
+        if self._pool is None:
+            import concurrent.futures
+            import multiprocessing
+            self._pool = concurrent.futures.ProcessPoolExecutor(
+                max_workers=self.workers, initializer=worker_init, mp_context=multiprocessing.get_context("fork"))
+        return self._pool
+
+    def _pop(self):
+        """The first queued job (the lock held), None where there is none; it is then running."""
+        while self._queue:
+            _, _, task = self._heapq.heappop(self._queue)
+            if task.state == "queued":
+                task.state = "running"
+                return task
+        return None
+
+    def _take(self):
+        """The first queued job, for this process to do while it waits; None where none is queued."""
+        with self._lock:
+            return self._pop()
+
+    def _dispatch(self) -> None:
+        """Hands queued jobs to the pool while a worker is free (the lock held)."""
+        while self._running < self.workers and not self._closed:
+            task = self._pop()
+            if task is None:
+                return
+            try:
+                fut = self._executor().submit(task.fn, task.job)
+            except Exception as exc:  # noqa: BLE001 (a broken pool: the job fails with its error)
+                task._finish(exc=exc)
+                continue
+            self._running += 1
+            fut.add_done_callback(lambda f, t=task: self._done(f, t))
+
+    def _done(self, fut, task: Task) -> None:
+        # (in the pool's own thread)
+        try:
+            value = fut.result()
+        except BaseException as exc:  # noqa: BLE001 (the job's error, or the pool's: given back by result())
+            task._finish(exc=exc)
+        else:
+            task._finish(value)
+        with self._lock:
+            self._running -= 1
+            self._dispatch()
+
+    def __exit__(self, exc_type, exc, tb):
+        with self._lock:
+            self._closed = True
+            for _, _, task in self._queue:
+                if task.state == "queued":
+                    task.state = "cancelled"
+            self._queue.clear()
+        if self._pool is not None:
+            if exc_type is not None:  # nothing more is needed of the workers: ended, not waited for
+                for p in list((getattr(self._pool, "_processes", None) or {}).values()):
+                    try:
+                        p.terminate()
+                    except Exception:  # noqa: BLE001 (already gone)
+                        pass
+            self._pool.shutdown(wait=True, cancel_futures=True)
+        return False
+
+
 class handling:
     """Within: SIGINT and SIGTERM raise Interrupted in the main thread after the tool's
     processes are ended (`with handling(label):`). In an armed process the handler stays

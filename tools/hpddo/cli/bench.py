@@ -19,9 +19,10 @@ into docs/performance.md and the figures into docs/figures/bench_observer.json.
 
     hpddo bench --diagnose [--data DIR]
 
-instead times hpddo diagnose with its defaults on the bundled recordings beside one fit of M2 with
-every library effect on the same rows, its peer (tools/hpddo/studies/diagnose_speed.py; target:
-10 s on an idle 2-core machine).
+instead times hpddo diagnose with its defaults on the bundled recordings (--data) beside one fit of
+M2 with every library effect on the same rows, its peer, and on a twin bench of 13.6k rows written
+into a temporary folder (tools/hpddo/studies/diagnose_speed.py; target: 10 s each on an idle 2-core
+machine), with the CPU-seconds of the main process and its workers.
 
     hpddo bench --large-log [--rows 2000000]
 
@@ -68,7 +69,8 @@ def parser(prog: str = "hpddo bench") -> argparse.ArgumentParser:
                         "size, time to refuse an early fault against the whole read) instead of the pipeline")
     p.add_argument("--diagnose", action="store_true",
                    help="time hpddo diagnose with its defaults on --data beside one full-library fit of the same "
-                        "rows, its peer (tools/hpddo/studies/diagnose_speed.py), instead of the pipeline")
+                        "rows, its peer, and on a 13.6k-row twin bench (tools/hpddo/studies/diagnose_speed.py), "
+                        "instead of the pipeline")
     p.add_argument("--rows", type=options.positive_int, default=2_000_000, metavar="N",
                    help="--large-log: rows of the synthetic log (default 2000000, about 98 MB)")
     return p
@@ -93,7 +95,10 @@ def run(args) -> int:
         return 0
     if args.diagnose:
         from ..studies import diagnose_speed
-        print(diagnose_speed.report(diagnose_speed.measure(args.data)))
+        m = diagnose_speed.measure(args.data)
+        with tempfile.TemporaryDirectory(prefix="hpddo-bench-diagnose-") as tmp:
+            large = diagnose_speed.measure_large(pathlib.Path(tmp))
+        print(diagnose_speed.report(m, large))
         return 0
     if args.observer:
         from ..studies import perf

@@ -429,10 +429,12 @@ def identifiability(inp: Inputs, mf: ModelFit) -> dict:
     return out
 
 
-def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
+def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options, background=None) -> Selection:
     """Forward selection on the identifiable effects, the bootstrap's inclusion frequencies,
     and the ranking table: the named effects, the other candidates' gains on the final
-    model, the effects these recordings cannot show."""
+    model, the effects these recordings cannot show. background (interrupt.Background): the
+    bootstrap's resamples run there beside what follows, and each inclusion is a
+    ranking.Pending until with_inclusion (Selection.bootstrap holds them)."""
     d, rows, m2, given, sigma2 = inp.data, inp.rows, inp.m2, inp.given, mf.sigma2
     RA = ranking.RA_MISMATCH
     candidates = [c for c in ident if ident[c].identifiable] + [RA]
@@ -440,9 +442,13 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
     steps, final = ranking.forward_select(d, m2, given, candidates, sigma2, fits=fits)
     chosen = [s.name for s in steps if s.name]
     missing = [c for c in chosen if c != RA]
-    if opt.bootstrap:
-        progress.stage(f"the forward selection again on {opt.bootstrap} bootstrap resamples")
-    boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed, starts=fits)
+    if opt.bootstrap and background is not None:  # on the other cores, collected at the end (with_inclusion)
+        boot = ranking.PendingBootstrap(background, d, m2, given, candidates, sigma2, final, opt.bootstrap,
+                                        seed=opt.seed, starts=fits)
+    else:
+        if opt.bootstrap:
+            progress.stage(f"the forward selection again on {opt.bootstrap} bootstrap resamples")
+        boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed, starts=fits)
     # An effect named at a step where a wrong Ra passed every test too is told apart from it
     # only when its held-out gain over the wrong-Ra model is Z_MIN standard errors or more;
     # otherwise neither is named (RaFit.confounded_with).
@@ -553,7 +559,24 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options) -> Selection:
                                                [c for c in candidates if c not in chosen and c not in ra_confounded],
                                                res_final, sigma2)
     return Selection(steps=steps, final=final, steps_final=final, missing=missing, ranking=table, ra_fit=ra_fit,
-                     rivals=rivals)
+                     rivals=rivals, bootstrap=boot if isinstance(boot, ranking.PendingBootstrap) else None)
+
+
+def with_inclusion(sel: Selection) -> Selection:
+    """sel with the inclusion frequencies of its bootstrap (select with a background) in place
+    of each ranking.Pending: in its ranking table and its Ra (waits for the resamples)."""
+    if sel.bootstrap is None:
+        return sel
+    if sel.bootstrap.tasks:
+        progress.stage(f"the forward selection again on {len(sel.bootstrap.tasks)} bootstrap resamples "
+                       "(started beside the stages above)")
+    freq = sel.bootstrap.frequencies()
+    known = lambda v: freq.get(v.effect) if isinstance(v, ranking.Pending) else v  # noqa: E731
+    table = [dataclasses.replace(e, inclusion=known(e.inclusion)) for e in sel.ranking]
+    ra_fit = sel.ra_fit
+    if ra_fit is not None:
+        ra_fit = dataclasses.replace(ra_fit, inclusion=known(ra_fit.inclusion))
+    return dataclasses.replace(sel, ranking=table, ra_fit=ra_fit, bootstrap=None)
 
 
 def _ra_fit(inp: Inputs, final: ph.PhysicsParams | None, names, sigma2: float, inclusion,
@@ -771,10 +794,21 @@ def analyse(inp: Inputs, res, sigma2: float) -> ResidualAnalysis:
     return ResidualAnalysis(mse=mse, noise_var=sigma2, excess=max(0.0, mse - sigma2), whiteness=w, correlates=corr)
 
 
-def residuals(inp: Inputs, mf: ModelFit, sel: Selection) -> Residuals:
-    """Residual analysis of the model under test and of it with the missing effects."""
-    changed = bool(sel.missing) or (sel.ra_fit is not None and sel.ra_fit.mismatch)
-    after_model = fx.identify(inp.recs, inp.m2, inp.given + sel.missing) if changed else mf.model
+def changed_by(sel: Selection) -> bool:
+    """Whether the selection changes the model under test: an effect named, or Ra mismatched."""
+    return bool(sel.missing) or (sel.ra_fit is not None and sel.ra_fit.mismatch)
+
+
+def after_model_of(inp: Inputs, mf: ModelFit, sel: Selection) -> ph.PhysicsParams:
+    """The model under test with the missing effects (identified as it was), or the model under
+    test where the selection changes nothing."""
+    return fx.identify(inp.recs, inp.m2, inp.given + sel.missing) if changed_by(sel) else mf.model
+
+
+def residuals(inp: Inputs, mf: ModelFit, sel: Selection, after_model: ph.PhysicsParams | None = None) -> Residuals:
+    """Residual analysis of the model under test and of it with the missing effects
+    (after_model: after_model_of(inp, mf, sel), where already taken)."""
+    after_model = after_model_of(inp, mf, sel) if after_model is None else after_model
     res_after = ranking.residuals(inp.data, after_model)
     return Residuals(after_model=after_model, res_after=res_after, before=analyse(inp, mf.res_model, mf.sigma2),
                      after=analyse(inp, res_after, mf.sigma2),
@@ -803,16 +837,34 @@ def _hybrid(job):
     return [hybrid_rpm(res, r, p) for r in recs]
 
 
+# Where the hybrid's trainings queue among a Background's jobs (the lowest first): the one on the model
+# with the missing effects can start only once they are known, and the diagnosis then waits for it first
+HYBRID_AFTER_PRIORITY = 0
+HYBRID_BEFORE_PRIORITY = 1
+
+
+def start_hybrid(background, recs, p: ph.PhysicsParams, opt: Options, priority: int):
+    """The hybrid's training on physics p (_hybrid) given to background (interrupt.Background): its Task."""
+    return background.submit(_hybrid, (recs, p, opt.hybrid_iter, opt.seed), priority)
+
+
 def hybrid(inp: Inputs, model: ph.PhysicsParams, after_model: ph.PhysicsParams, changed: bool,
-           opt: Options) -> tuple[Hybrid | None, list]:
+           opt: Options, background=None, before=None, after=None) -> tuple[Hybrid | None, list]:
     """The hybrid on the model under test and on it with the missing effects (the same
-    network when nothing changed): (Hybrid, warnings); None when it cannot be trained."""
-    models = [model, after_model] if changed else [model]  # the two trainings side by side, on the cores
+    network when nothing changed): (Hybrid, warnings); None when it cannot be trained.
+    The two trainings side by side on the cores (background: an interrupt.Background; before,
+    after: their Tasks where already started there)."""
+    if background is None:
+        with interrupt.Background() as bg:
+            return hybrid(inp, model, after_model, changed, opt, bg, before, after)
+    if before is None:
+        before = start_hybrid(background, inp.recs, model, opt, HYBRID_BEFORE_PRIORITY)
+    if after is None:
+        after = start_hybrid(background, inp.recs, after_model, opt, HYBRID_AFTER_PRIORITY) if changed else before
     try:
-        est = interrupt.map_on_cores(_hybrid, [(inp.recs, m, opt.hybrid_iter, opt.seed) for m in models])
+        hb, ha = before.result(), after.result()
     except TrainingError as exc:  # too few rows for a network: the physics verdict stands alone
         return None, [f"hybrid before/after not computed: {exc}"]
-    hb, ha = est[0], est[-1]
     rows = inp.rows
     return Hybrid(rmse_before=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, hb)]),
                   rmse_after=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, ha)]),
@@ -842,7 +894,16 @@ def leave_one_out(inp: Inputs, missing: list) -> dict:
 
 
 def diagnose(paths, opt: Options) -> Diagnosis:
+    """The diagnosis of the recordings in paths. The bootstrap's resamples and the hybrid's
+    trainings run on the other cores beside the stages (interrupt.Background), each started
+    as soon as what it needs is known and collected at the end: the same results as one
+    stage after the other."""
     t0 = time.perf_counter()
+    with interrupt.Background() as bg:
+        return _diagnose(paths, opt, bg, t0)
+
+
+def _diagnose(paths, opt: Options, bg, t0: float) -> Diagnosis:
     inp = load(paths, opt)
     # another motor, or another sensor scale, named before any effect is ranked, and left out
     progress.stage("fitting the physics model with every effect of the library")
@@ -858,7 +919,12 @@ def diagnose(paths, opt: Options) -> Diagnosis:
         except InputError:  # too little left without it: the diagnosis of all goes on, said below
             others = []
             break
-    inp, mf, ident, sel, conf = physics_selection(inp, opt, None if others else mf0)
+    # the hybrid on the model under test needs nothing of the selection: it trains beside it
+    hyb_before = start_hybrid(bg, inp.recs, mf0.model, opt, HYBRID_BEFORE_PRIORITY) if opt.hybrid and not others \
+        else None
+    inp, mf, ident, sel, conf = physics_selection(inp, opt, None if others else mf0, bg)
+    if opt.hybrid and hyb_before is None:
+        hyb_before = start_hybrid(bg, inp.recs, mf.model, opt, HYBRID_BEFORE_PRIORITY)
     progress.stage("checking the recordings against each other")
     # under the model the ranking arrived at: a recording that shows an effect the others do not (the
     # warm-up, the winding's heating) is no disagreement once that effect is named
@@ -879,14 +945,21 @@ def diagnose(paths, opt: Options) -> Diagnosis:
                           "ra_fit": w[3].ra_fit.to_json() if w[3].ra_fit is not None else None}
             after = f" Checked before ranking: {odd.text()}. Without it: {w[6]}"
             sel = resting_on(inp, sel, odd.name, w[3].missing, mf.noise)
-    resid, text = physics_verdict(inp, opt, mf, ident, sel, conf)
+    # the named effects are known: the hybrid on the model with them trains beside the verdict
+    changed = changed_by(sel)
+    after_model = after_model_of(inp, mf, sel)
+    hyb_after = start_hybrid(bg, inp.recs, after_model, opt, HYBRID_AFTER_PRIORITY) if opt.hybrid and changed \
+        else None
+    resid, text = physics_verdict(inp, opt, mf, ident, sel, conf, after_model)
     if others:
         text = "Checked before ranking: " + "; ".join(o.text() for o in others) + ". " + text
     text += after
-    changed = bool(sel.missing) or sel.ra_fit.mismatch
+    sel = with_inclusion(sel)
     if opt.hybrid:
-        progress.stage(f"retraining the hybrid before and after ({opt.hybrid_iter} epochs each)")
-    hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt) if opt.hybrid else (None, [])
+        progress.stage(f"retraining the hybrid before and after ({opt.hybrid_iter} epochs each, "
+                       "started beside the stages above)")
+    hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt, bg, hyb_before, hyb_after) \
+        if opt.hybrid else (None, [])
     d = _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0)
     d.consistency = {"units": [u.to_json() for u in units], "without": without_it,
                      "other_motors": [o.to_json() for o in others]}
@@ -1006,20 +1079,22 @@ def physics(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
     return inp, mf, ident, sel, conf, resid, text
 
 
-def physics_selection(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> tuple:
+def physics_selection(inp: Inputs, opt: Options, mf: ModelFit | None = None, background=None) -> tuple:
     """physics' stages up to the named effects and their intervals: (inputs, ModelFit,
-    identifiability, Selection, Confounding)."""
+    identifiability, Selection, Confounding). background: as select's."""
     if mf is None:
         progress.stage("fitting the physics model with every effect of the library")
         mf = fit_model(inp)
     progress.stage("what these recordings can show of each effect (identifiability)")
     ident = identifiability(inp, mf)
     progress.stage("ranking the effects: forward selection on the held-out rows")
-    sel = select(inp, mf, ident, opt)
+    sel = select(inp, mf, ident, opt, background)
     mf, moved = refloor(inp, mf, sel)
     if moved:  # a table with no repeated point: selected again against what the model leaves
+        if sel.bootstrap is not None:
+            sel.bootstrap.cancel()
         ident = identifiability(inp, mf)
-        sel = select(inp, mf, ident, opt)
+        sel = select(inp, mf, ident, opt, background)
     progress.stage("confounded pairs, intervals and the residuals before and after")
     conf = confounding(inp, mf, sel)
     mf.channels = channels.check(inp.recs, inp.rows, mf.sigma2)  # the rows and the floor stay as they are below
@@ -1040,9 +1115,11 @@ def physics_selection(inp: Inputs, opt: Options, mf: ModelFit | None = None) -> 
     return inp, mf, ident, sel, conf
 
 
-def physics_verdict(inp: Inputs, opt: Options, mf: ModelFit, ident, sel: Selection, conf) -> tuple:
-    """physics' stages from the named effects to the verdict: (Residuals, verdict text)."""
-    resid = residuals(inp, mf, sel)
+def physics_verdict(inp: Inputs, opt: Options, mf: ModelFit, ident, sel: Selection, conf,
+                    after_model: ph.PhysicsParams | None = None) -> tuple:
+    """physics' stages from the named effects to the verdict: (Residuals, verdict text).
+    after_model: residuals'."""
+    resid = residuals(inp, mf, sel, after_model)
     # the dynamic family (issue 21, item 8): identified from the fast recordings, the observer on the
     # model under test's speed for the held-out figure
     progress.stage("the dynamic family, Ke and the channels' health")

@@ -695,17 +695,12 @@ def n_train_blocks(d: Data) -> int:
     return int(sum(len(np.unique(b[b >= 0])) for b in d.blocks_train))
 
 
-def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7, starts=None) -> dict:
-    """Inclusion frequency of each candidate over n block resamples of the training rows.
-    The resamples are drawn in order from one seed, then selected on all cores. starts: the
-    fits of the selection on all rows (forward_select's fits), each resample's fit of a
-    model started from that model's fit there: a resample's optimum lies near the whole
-    data's, and the solver reaches it in fewer steps than from the model one effect smaller."""
+def bootstrap_jobs(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7, starts=None) -> list:
+    """The jobs of _select_names for n block resamples of the training rows, drawn in order
+    from one seed (bootstrap)."""
     rng = np.random.default_rng(seed)
-    counts = {c: 0 for c in candidates}
-    if n <= 0:
-        return {c: None for c in candidates}
     jobs = []
+    starts = dict(starts) if starts is not None else None  # (as they are now: a job may run later)
     for _ in range(n):
         weights = []
         for r, blk in zip(d.rows, d.blocks_train):
@@ -717,9 +712,61 @@ def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int =
                 w[blk >= 0] = mult[np.searchsorted(ids, blk[blk >= 0])]
             weights.append(w)
         jobs.append((d, m2, list(given), list(candidates), sigma2, weights, start, starts))
-    chosen = interrupt.map_on_cores(_select_names, jobs,
-                                    lambda it, k: progress.bar(it, "bootstrap", total=k, unit="resample"))
-    for names in chosen:
-        for c in names:
-            counts[c] += 1
-    return {c: counts[c] / n for c in candidates}
+    return jobs
+
+
+def inclusion(candidates, chosen: list) -> dict:
+    """{candidate: the share of the resamples' selections (chosen: the names of each) that name it}."""
+    return {c: sum(c in names for names in chosen) / len(chosen) for c in candidates}
+
+
+def _shown(it, k: int):
+    return progress.bar(it, "bootstrap", total=k, unit="resample")
+
+
+def bootstrap(d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7, starts=None) -> dict:
+    """Inclusion frequency of each candidate over n block resamples of the training rows.
+    The resamples are drawn in order from one seed, then selected on all cores. starts: the
+    fits of the selection on all rows (forward_select's fits), each resample's fit of a
+    model started from that model's fit there: a resample's optimum lies near the whole
+    data's, and the solver reaches it in fewer steps than from the model one effect smaller."""
+    if n <= 0:
+        return {c: None for c in candidates}
+    jobs = bootstrap_jobs(d, m2, given, candidates, sigma2, start, n, seed, starts)
+    return inclusion(candidates, interrupt.map_on_cores(_select_names, jobs, _shown))
+
+
+@dataclasses.dataclass(frozen=True)
+class Pending:
+    """An inclusion frequency not known yet: the bootstrap's resamples run on the other cores
+    while the diagnosis goes on (PendingBootstrap); core.with_inclusion puts the frequency in
+    its place. Nothing reads an inclusion before that (no test, no sentence of the verdict)."""
+
+    effect: str
+
+
+# Where the bootstrap's resamples queue among a Background's jobs (interrupt.Background: the lowest
+# first): behind the hybrid's trainings, which the diagnosis waits for one by one
+BOOTSTRAP_PRIORITY = 2
+
+
+class PendingBootstrap:
+    """bootstrap() with its resamples given to a Background (interrupt.Background) at once, to
+    run beside the stages that follow the selection; get(c) is a Pending until frequencies()
+    collects them (the same frequencies: each resample's selection depends on its job alone)."""
+
+    def __init__(self, background, d: Data, m2, given, candidates, sigma2, start, n: int, seed: int = 7,
+                 starts=None):
+        self.candidates = list(candidates)
+        self.tasks = [background.submit(_select_names, job, BOOTSTRAP_PRIORITY)
+                      for job in bootstrap_jobs(d, m2, given, candidates, sigma2, start, n, seed, starts)]
+
+    def get(self, c):
+        return Pending(c) if c in self.candidates else None
+
+    def cancel(self) -> None:
+        for t in self.tasks:
+            t.cancel()
+
+    def frequencies(self) -> dict:
+        return inclusion(self.candidates, [t.result() for t in _shown(self.tasks, len(self.tasks))])

@@ -329,6 +329,9 @@ class Selection:
     # {named effect: {rival: z}}: another effect in its place, Ra free within a wrong reading's reach,
     # explains the held-out rows as well (ranking.rivals_beside_free_ra)
     rivals: dict = dataclasses.field(default_factory=dict)
+    # the bootstrap's resamples still running on the other cores (ranking.PendingBootstrap), each
+    # inclusion a ranking.Pending until core.with_inclusion; None once known, or without one
+    bootstrap: object | None = dataclasses.field(default=None, repr=False, compare=False)
 
 
 @dataclasses.dataclass

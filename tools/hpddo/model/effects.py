@@ -25,6 +25,7 @@ coefficient is always held (only the material constant tells the two apart).
 from __future__ import annotations
 
 import contextlib
+import copy
 import dataclasses
 import math
 
@@ -320,7 +321,11 @@ def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsP
     if spec.thermal_state:
         kw["th_r_K_per_W"] = float(math.exp(x[len(spec.free)]))
         kw["th_tau_s"] = float(math.exp(x[len(spec.free) + 1]))
-    return dataclasses.replace(base, **kw)
+    # dataclasses.replace(base, **kw) without its checks, once per evaluation of a fit (PhysicsParams has
+    # no __post_init__: a copy with the fields set is the same value)
+    p = copy.copy(base)
+    p.__dict__.update(kw)
+    return p
 
 
 def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
@@ -467,10 +472,18 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     ref_all, sw_all = np.concatenate(refs), np.concatenate(sw)
     t_fixed = _cat_temps([t[m] for t, m in zip(fixed_temp, sel)]) if all(t is not None for t in fixed_temp) else None
 
+    last = {"temps": (), "tt": None}  # the temperatures of the last evaluation, and their fitted rows end to end
+
     def resid(x):
         p = _params(base, spec, x)
-        tt = t_fixed if t_fixed is not None else _cat_temps(
-            [(temperature(r, p) if t is None else t)[m] for r, m, t in zip(rows, sel, fixed_temp)])
+        tt = t_fixed
+        if tt is None:
+            temps = [temperature(r, p) if t is None else t for r, t in zip(rows, fixed_temp)]
+            if len(temps) == len(last["temps"]) and all(a is b for a, b in zip(temps, last["temps"])):
+                tt = last["tt"]  # a step that moves no thermal parameter (most Jacobian columns): the same
+            else:
+                tt = _cat_temps([t[m] for t, m in zip(temps, sel)])
+                last.update(temps=temps, tt=tt)
         n = ph.physics_rpm(p, v_all, i_all, di_all, tt)
         out = [sw_all * np.where(np.isfinite(n), ref_all - n, 1e4)]
         if ra_prior is not None:

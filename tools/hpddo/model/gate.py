@@ -175,14 +175,40 @@ def open_gate(dims: int, k: int = DEFAULT_PROTOTYPES) -> GateData:
                     r_in_sq=F32(big), r_out_sq=F32(big), rule="open: no novelty gate (w = 1)")
 
 
+NEAREST_BLOCK = 128  # rows whose distances to the others nearest_other_sq takes at once
+
+
 def nearest_other_sq(z: np.ndarray) -> np.ndarray:
     """Each row's squared distance to its nearest other row (float32, gate.h's order of the
-    sum; inf for a single row). N^2 D operations: 0.5 s for the default bench's 6759 rows."""
-    out = np.empty(len(z), F32)
-    for i in range(len(z)):
-        d = _sq_dist(z, z[i])
-        d[i] = np.inf
-        out[i] = d.min() if len(z) > 1 else np.inf
+    sum; inf for a single row). N^2 D operations. For float32 rows, the distances of
+    NEAREST_BLOCK rows at once, each pair once: z_i - z_j is exactly -(z_j - z_i) in IEEE
+    arithmetic, so the two distances are the same bits, and each value is _sq_dist's (0.15 s for
+    6759 rows, against 0.63 s row by row, measured on one core of a busy 2-core machine); other rows (their p_j rounded to float32 first, not
+    symmetric) row by row."""
+    z = np.asarray(z)
+    n = len(z)
+    out = np.full(n, np.inf, F32)
+    if n < 2:
+        return out
+    if z.dtype != F32:
+        for i in range(n):
+            d = _sq_dist(z, z[i])
+            d[i] = np.inf
+            out[i] = d.min()
+        return out
+    with np.errstate(over="ignore", invalid="ignore"):
+        for s in range(0, n, NEAREST_BLOCK):
+            e = min(s + NEAREST_BLOCK, n)
+            acc = np.zeros((e - s, n - s), F32)  # rows s..e against rows s..n, gate.h's order over j
+            for j in range(z.shape[1]):
+                diff = z[None, s:, j] - z[s:e, j, None]
+                np.multiply(diff, diff, out=diff)
+                acc += diff
+            k = np.arange(e - s)
+            acc[k, k] = np.inf  # (not itself)
+            np.minimum(out[s:e], acc.min(axis=1), out=out[s:e])
+            if e < n:  # the same pairs seen from the later rows
+                np.minimum(out[e:], acc[:, e - s:].min(axis=0), out=out[e:])
     return out
 
 

@@ -128,7 +128,12 @@ def back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
     case temperature: the magnets' temperature (the case reading where read, as the boards'
     PhysicsInput::magnet_C)."""
     winding_C, case_C = _split(temp_C)
-    i = true_current_A(p, i_A, dtype, case_C)
+    return _emf(p, v_V, true_current_A(p, i_A, dtype, case_C), di_dt_A_per_s, winding_C, dtype)
+
+
+def _emf(p, v_V, i_true_A, di_dt_A_per_s, winding_C, dtype):
+    """back_emf_V of the true current (true_current_A), taken once by physics_rpm for both terms."""
+    i = i_true_A
     return (true_voltage_V(p, v_V, dtype) - ra_at_ohm(p, winding_C, dtype) * i - brush_drop_V(p, i, dtype)
             - _f(p, "la_H", dtype) * np.asarray(di_dt_A_per_s, dtype))
 
@@ -143,11 +148,12 @@ def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
         if not ke0 > 0:
             return np.full(np.shape(emf), np.nan, dtype)
         return (emf * dtype(dtype(RPM_PER_RAD_S) / ke0)).astype(dtype)
-    case_C = _split(temp_C)[1]
-    ke = ke_at_vs_per_rad(p, case_C, true_current_A(p, i_A, dtype, case_C), dtype)
+    winding_C, case_C = _split(temp_C)
+    i = true_current_A(p, i_A, dtype, case_C)  # (the same for both terms: taken once)
+    ke = ke_at_vs_per_rad(p, case_C, i, dtype)
     with np.errstate(divide="ignore", invalid="ignore"):
-        n = back_emf_V(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype) / ke * dtype(RPM_PER_RAD_S)
-    return np.where(ke > 0, n, np.nan).astype(dtype)
+        n = _emf(p, v_V, i, di_dt_A_per_s, winding_C, dtype) / ke * dtype(RPM_PER_RAD_S)
+    return np.where(ke > 0, n, np.nan).astype(dtype, copy=False)
 
 
 _BLOCK = 1024  # samples per block of the vectorised recursion
@@ -164,19 +170,40 @@ _decays: dict = {}
 
 
 def _decay(dt, tau: float):
-    """(dt > 0, the node's decay exp(-dt / tau) per step, 1 where no step) of _rise_float64.
-    A fit moves tau in one Jacobian column of several, so the last few are kept per array of
-    periods (by identity, held beside them) and given again, the same values."""
+    """(dt > 0, the node's decay exp(-dt / tau) per step, 1 where no step, 1 - that decay, whether
+    every sample is a step) of _rise_float64. A fit moves tau in one Jacobian column of several, so
+    the last few are kept per array of periods (by identity, held beside them) and given again, the
+    same values."""
     key = (id(dt), float(tau))
     hit = _decays.get(key)
     if hit is not None and hit[0] is dt:
-        return hit[1], hit[2]
-    step = dt > 0
-    d = np.where(step, exp(-np.where(step, dt, 0.0) / tau), 1.0)
+        return hit[1:]
+    step, periods, where = _periods(dt)
+    # exp of each distinct period's -dt / tau, given to every sample of that period: exp(-dt_k / tau)
+    # of each sample, the same bits (libm.exp)
+    d = np.where(step, exp(-periods / tau)[where], 1.0)
     if len(_decays) > 32:
         _decays.clear()
-    _decays[key] = (dt, step, d)
-    return step, d
+    _decays[key] = (dt, step, d, 1.0 - d, bool(step.all()))
+    return _decays[key][1:]
+
+
+_periods_of: dict = {}
+
+
+def _periods(dt):
+    """(dt > 0, the distinct periods of np.where(dt > 0, dt, 0), each sample's index among them),
+    once per array of periods (by identity, held beside it): a fit asks for a new tau at every
+    step, over the same periods."""
+    hit = _periods_of.get(id(dt))
+    if hit is not None and hit[0] is dt:
+        return hit[1:]
+    step = dt > 0
+    periods, where = np.unique(np.where(step, dt, 0.0), return_inverse=True)
+    if len(_periods_of) > 32:
+        _periods_of.clear()
+    _periods_of[id(dt)] = (dt, step, periods, where.reshape(np.shape(dt)))
+    return step, periods, where.reshape(np.shape(dt))
 
 
 def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
@@ -187,10 +214,13 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     rounding). A block whose rise leaves [0, WINDING_MAX_C - ref] is redone step by step
     with the bound applied after each step."""
     r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
-    step, d = _decay(dt, tau)
-    q = r * i * i * ra
-    alpha = np.where(step, d + (1.0 - d) * q * a, 1.0)
-    beta = np.where(step, (1.0 - d) * q * (1.0 + a * (ref - tref)), 0.0)
+    step, d, omd, every = _decay(dt, tau)
+    omdq = omd * (r * i * i * ra)  # (1 - d) q, q = r i^2 Ra
+    alpha = d + omdq * a
+    beta = omdq * (1.0 + a * (ref - tref))
+    if not every:  # (where every sample is a step, as on a log whose periods are all positive: the same)
+        alpha = np.where(step, alpha, 1.0)
+        beta = np.where(step, beta, 0.0)
     n = len(i)
     out = np.empty(n)
     if n == 0:

@@ -1,0 +1,75 @@
+"""interrupt.Background: jobs on forked workers beside the main process's own work, collected
+where needed (the diagnosis' bootstrap and hybrid trainings, core.diagnose)."""
+import os
+import time
+
+import pytest
+
+from hpddo import interrupt
+
+
+def _square(x):
+    return x * x
+
+
+def _pid_after(s):
+    time.sleep(s)
+    return os.getpid()
+
+
+def _fails(x):
+    raise ValueError(f"job {x} failed")
+
+
+@pytest.mark.parametrize("workers", [0, 1, 2])
+def test_results_in_order_whatever_runs_them(workers):
+    """Every job's result is its own, in whatever process and order it ran; the main process does
+    queued jobs itself while it waits (with no worker, all of them)."""
+    with interrupt.Background(workers) as bg:
+        tasks = [bg.submit(_square, k, priority=k % 3) for k in range(20)]
+        assert [t.result() for t in tasks] == [k * k for k in range(20)]
+
+
+def test_a_worker_runs_beside_the_main_process():
+    """With a worker, a job submitted first runs there while the main process goes on; the main
+    process then does the next queued one itself instead of waiting."""
+    with interrupt.Background(1) as bg:
+        first = bg.submit(_pid_after, 1.0)
+        time.sleep(0.3)  # the worker has taken it
+        second = bg.submit(_pid_after, 0.0)
+        assert second.result() == os.getpid()  # done here while the worker is busy
+        assert first.result() != os.getpid()
+
+
+def _started(_):
+    return time.monotonic()
+
+
+def test_lowest_priority_number_first():
+    """Queued jobs are taken lowest priority first, then in the order given: here by the main
+    process, while it waits for the one job the worker runs."""
+    with interrupt.Background(1) as bg:
+        blocker = bg.submit(_pid_after, 1.0)
+        time.sleep(0.3)  # the worker has taken it
+        tasks = {name: bg.submit(_started, name, priority=p) for name, p in (("a", 2), ("b", 0), ("c", 1), ("d", 0))}
+        blocker.result()
+        started = {name: t.result() for name, t in tasks.items()}
+        assert sorted(started, key=started.get) == ["b", "d", "c", "a"]
+
+
+@pytest.mark.parametrize("workers", [0, 1])
+def test_an_error_comes_back_where_the_result_is_asked(workers):
+    with interrupt.Background(workers) as bg:
+        bad, good = bg.submit(_fails, 3), bg.submit(_square, 4)
+        with pytest.raises(ValueError, match="job 3 failed"):
+            bad.result()
+        assert good.result() == 16
+
+
+def test_a_cancelled_job_never_runs_and_leaving_drops_the_queue():
+    with interrupt.Background(0) as bg:
+        ran = []
+        t = bg.submit(ran.append, 1)
+        t.cancel()
+        bg.submit(ran.append, 2)  # never asked for: dropped on leaving
+    assert ran == [] and t.state == "cancelled"
