@@ -26,7 +26,10 @@ def test_after_the_change_no_confident_window_is_more_than_five_percent_off():
     for case in figures["cases"]:
         assert case["after"]["over_target"] == 0 and case["after"]["worst_pct"] < study.TARGET_PCT, case
         assert case["after"]["confident"] > 0
-    assert any(c["before"]["over_target"] > 0 for c in figures["cases"])  # the study shows the fault it fixes
+    # the study shows the fault the declaration fixes: read as declaring nothing, the PWM's lines set Ke (8x too low
+    # on the load benches), and the combs' check keeps every window counted under it from being confident and off
+    assert any(c["before"]["ke_vs_per_rad"] < 0.5 * c["after"]["ke_vs_per_rad"] for c in figures["cases"])
+    assert all(c["before"]["over_target"] == 0 for c in figures["cases"])
 
 
 @pytest.mark.slow
@@ -37,5 +40,5 @@ def test_one_bench_of_the_study_regenerates_its_figures():
     for v in ("before", "after"):
         for k in ("windows", "above_floor", "confident", "confident_at_standstill", "over_target", "reasons"):
             assert new[v][k] == old[v][k], (v, k)
-        for k in ("rms_pct", "worst_pct", "ke_vs_per_rad"):
-            assert new[v][k] == pytest.approx(old[v][k], rel=1e-9), (v, k)
+        for k in ("rms_pct", "worst_pct", "ke_vs_per_rad"):  # None where no window is confident
+            assert (new[v][k] is None and old[v][k] is None) or new[v][k] == pytest.approx(old[v][k], rel=1e-9), (v, k)
