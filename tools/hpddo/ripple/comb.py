@@ -106,7 +106,8 @@ def lines(f, p, f_lo: float, f_hi: float, res_hz: float, min_snr: float) -> list
                or (abs(ln.hz - hz) < LEAKAGE_FAR_RES * res_hz and p[j] < LEAKAGE_FAR_SHARE * ln.power) for ln in out):
             continue
         # the band f / LINE_FLOOR_OCTAVE .. f x LINE_FLOOR_OCTAVE as a slice of the (ascending) grid
-        band_p = p[np.searchsorted(f, hz / LINE_FLOOR_OCTAVE, "left"):np.searchsorted(f, hz * LINE_FLOOR_OCTAVE, "right")]
+        band_p = p[np.searchsorted(f, hz / LINE_FLOOR_OCTAVE, "left"):
+                   np.searchsorted(f, hz * LINE_FLOOR_OCTAVE, "right")]
         # under min_snr where fewer than half the band lie at or under p / min_snr (its median then lies above):
         # a count, where the median's partition would cost ten times as much, for most peaks (the noise's)
         if 2 * np.count_nonzero(band_p <= float(p[j]) / min_snr) < len(band_p):

@@ -76,10 +76,11 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     counts scale with the figure given and only the combs can check it, by the rule --calibrate names a figure
     by (figure_confirmed), the windows at the figure counted where their line agrees with the prior (not `far`:
     one that is far contradicts the Ke the prior was calibrated with): where the recording's combs do not
-    confirm it, every confident row is `unchecked`, not confident. One or two comb windows do not: a free-running burst's PWM residue can put a comb at half
-    the rotation frequency under a window or two, and a 5-bar motor's one comb window at the figure given did
-    not stop a Ke calibrated on its once-per-revolution line (10x the motor's) from counting that line
-    confidently (independent commutator simulation, docs/ripple-independent.md).
+    confirm it, every confident row is `unchecked`, not confident. One or two comb windows do not: a
+    free-running burst's PWM residue can put a comb at half the rotation frequency under a window or two, and a
+    5-bar motor's one comb window at the figure given did not stop a Ke calibrated on its once-per-revolution
+    line (10x the motor's) from counting that line confidently (independent commutator simulation,
+    docs/ripple-independent.md).
     est: speed_of_log's DataFrame. Returns a copy."""
     est = est.copy()
     m = est["multiple"].to_numpy(int)
@@ -101,7 +102,8 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
                 f"{int((m == top).sum())} of the {int(shown.sum())} windows of this recording whose lines form a "
                 "rotation comb")
         for j, k in zip(idx, m[demote]):
-            est.at[j, "reason"] = head + ("; this window shows none of its own" if k == 0 else f"; this window's own shows {k}")
+            est.at[j, "reason"] = head + ("; this window shows none of its own" if k == 0
+                                          else f"; this window's own shows {k}")
         return est
     # ... and a comb window at the figure whose line the prior puts out of its reach (`far`) checks the figure but
     # contradicts the prior's Ke, calibrated under it from other windows: it confirms neither
