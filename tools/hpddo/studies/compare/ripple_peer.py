@@ -28,7 +28,7 @@ from ...logs import benchlog
 from ...logs import ripple as ripple_file
 from ...logs.errors import InputError
 from ...ripple.count import count_sd_rpm
-from ...ripple.log import speed_of_log
+from ...ripple.log import speed_of_bench, speed_of_log
 from ...ripple.options import Options
 from ...ripple.prior import ModelPrior
 from .methods import reference
@@ -58,34 +58,47 @@ def has_bursts(rec) -> bool:
 
 def speeds(rec, opts: Options, ra_ohm: float, ke_m2_vs_per_rad: float,
            ke_alone_vs_per_rad: float | None = None, prior_model: ModelPrior | None = None) -> RippleSpeeds:
-    """The ripple speeds of one recording (hpddo.logs.dataset.Recording), counted on the log's
-    own rows (before the glitch filter, as the bursts are) and mapped onto the cleaned rows by
-    seq. ke_alone_vs_per_rad: the alone count's prior Ke as the user gives it (None: calibrated
-    from the ripple); prior_model: a trained model's M2 as the alone count's prior instead, with
-    its own Ra (ra_ohm, the comparison's, stays M2's of the fused count)."""
-    log = benchlog.read_log(rec.source)
-    raw = log.df
-    if "seq" not in raw:
-        raw = raw.assign(seq=np.arange(len(raw), dtype=np.int64))
-    row_of = {int(s): k for k, s in enumerate(rec.df["seq"].to_numpy(np.int64))}
+    """The ripple speeds of one recording counted alone (speeds_of([rec], ...))."""
+    return speeds_of([rec], opts, ra_ohm, ke_m2_vs_per_rad, ke_alone_vs_per_rad, prior_model)[rec.name]
 
-    def on_rows(est, values=None) -> np.ndarray:
-        out = np.full(rec.n, np.nan)
-        seq = raw["seq"].to_numpy(np.int64)[est["row"].to_numpy()]
-        conf = est["confident"].to_numpy()
-        for s, c, v in zip(seq, conf, est["rpm"].to_numpy(float) if values is None else values):
-            k = row_of.get(int(s))
-            if c and k is not None:
-                out[k] = v
-        return out
 
-    bursts = ripple_file.read(ripple_file.path_for(rec.source))  # read once, counted with either prior
-    alone, ke_alone, ke_from = speed_of_log(rec.source, raw, log.meta, opts,
-                                               None if prior_model is not None else ra_ohm, ke_alone_vs_per_rad,
-                                               bursts, model=prior_model)
-    fused, _, _ = speed_of_log(rec.source, raw, log.meta, opts, ra_ohm, ke_m2_vs_per_rad, bursts)
-    return RippleSpeeds(on_rows(alone), on_rows(fused), float(ke_alone), on_rows(fused, count_sd_rpm(fused)),
-                        ke_from)
+def speeds_of(recs, opts: Options, ra_ohm: float, ke_m2_vs_per_rad: float,
+              ke_alone_vs_per_rad: float | None = None, prior_model: ModelPrior | None = None) -> dict:
+    """{recording name: RippleSpeeds} of recordings of one motor (hpddo.logs.dataset.Recording), each
+    counted on the log's own rows (before the glitch filter, as the bursts are) and mapped onto the
+    cleaned rows by seq. The alone count takes the recordings together, as `hpddo ripple` takes a run's
+    logs (speed_of_bench): with Ke calibrated from the ripple, a recording whose own combs cannot check
+    the ripples per revolution given is checked by the others'. ke_alone_vs_per_rad: the alone count's
+    prior Ke as the user gives it (None: calibrated from the ripple); prior_model: a trained model's M2
+    as the alone count's prior instead, with its own Ra (ra_ohm, the comparison's, stays M2's of the
+    fused count)."""
+    read = []
+    for rec in recs:
+        log = benchlog.read_log(rec.source)
+        raw = log.df
+        if "seq" not in raw:
+            raw = raw.assign(seq=np.arange(len(raw), dtype=np.int64))
+        read.append((rec, raw, log.meta, ripple_file.read(ripple_file.path_for(rec.source))))  # read once
+    alone = speed_of_bench([(rec.source, raw, meta, bursts) for rec, raw, meta, bursts in read], opts,
+                           None if prior_model is not None else ra_ohm, ke_alone_vs_per_rad, model=prior_model)
+    out = {}
+    for (rec, raw, meta, bursts), (est_alone, ke_alone, ke_from) in zip(read, alone):
+        row_of = {int(s): k for k, s in enumerate(rec.df["seq"].to_numpy(np.int64))}
+
+        def on_rows(est, values=None) -> np.ndarray:
+            v = np.full(rec.n, np.nan)
+            seq = raw["seq"].to_numpy(np.int64)[est["row"].to_numpy()]
+            conf = est["confident"].to_numpy()
+            for s, c, x in zip(seq, conf, est["rpm"].to_numpy(float) if values is None else values):
+                k = row_of.get(int(s))
+                if c and k is not None:
+                    v[k] = x
+            return v
+
+        fused, _, _ = speed_of_log(rec.source, raw, meta, opts, ra_ohm, ke_m2_vs_per_rad, bursts)
+        out[rec.name] = RippleSpeeds(on_rows(est_alone), on_rows(fused), float(ke_alone),
+                                     on_rows(fused, count_sd_rpm(fused)), ke_from)
+    return out
 
 
 def priors(all_speeds: dict) -> dict:

@@ -102,9 +102,8 @@ def run(log_paths, out_dir, cfg: CompareConfig, validation_paths=()) -> Comparis
                 jobs_.update({f"leave out {name}": (v[0], v[1]) for name, v in loro.items()})
                 observers_exe()
                 if ripple is not None:  # the counts first: the EKF that takes them is tuned with them
-                    ripple.update({r.name: ripple_peer.speeds(r, ropts, ra, m2.ke_vs_per_rad, cfg.ripple_ke_vs_per_rad,
-                                                              cfg.ripple_prior_model)
-                                   for r in recs + vrecs})
+                    ripple.update(ripple_peer.speeds_of(recs + vrecs, ropts, ra, m2.ke_vs_per_rad,
+                                                        cfg.ripple_ke_vs_per_rad, cfg.ripple_prior_model))
                     say("ripple counted")
                 t = tune_observers(jobs_, work / "tuning", coarse=cfg.quick, ripple=ripple)
                 say(f"observers tuned: EKF train RMSE {t['chronological']['train_rmse_rpm']['ekf']:.2f}, SMO "
