@@ -454,9 +454,14 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
         x0 += [math.log(r0), math.log(tau0)]
         scales += [1.0, 1.0]
     sel = [getattr(r, mask) for r in rows]
-    refs = [r.ref[m] for r, m in zip(rows, sel)]
     if sum(int(m.sum()) for m in sel) < len(x0) + 5:
         raise IdentificationError(f"too few labelled rows above {MIN_RPM} RPM to fit {', '.join(spec.free)}")
+    if weights is not None:
+        # a row of weight 0 (an operating point a bootstrap resample leaves out) adds nothing to the sum of
+        # squares: left out of the arrays the model is evaluated on (the thermal trajectory still runs over
+        # every row of its recording, temperature() below; the same fit, its sums in another order)
+        sel = [m & (np.asarray(wi, float) != 0.0) for m, wi in zip(sel, weights)]
+    refs = [r.ref[m] for r, m in zip(rows, sel)]
     w = ([np.ones(int(m.sum())) for m in sel] if weights is None
          else [np.asarray(wi, float)[m] for wi, m in zip(weights, sel)])
     # a reference with a confidence per row (the ripple's: Recording.weight) weights its rows too
@@ -472,18 +477,24 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     ref_all, sw_all = np.concatenate(refs), np.concatenate(sw)
     t_fixed = _cat_temps([t[m] for t, m in zip(fixed_temp, sel)]) if all(t is not None for t in fixed_temp) else None
 
-    last = {"temps": (), "tt": None}  # the temperatures of the last evaluation, and their fitted rows end to end
+    # the temperatures of the last few evaluations (by identity, held beside) and their fitted rows end to end:
+    # a step that moves no thermal parameter (most Jacobian columns) takes them again
+    cat: dict = {}
 
     def resid(x):
         p = _params(base, spec, x)
         tt = t_fixed
         if tt is None:
             temps = [temperature(r, p) if t is None else t for r, t in zip(rows, fixed_temp)]
-            if len(temps) == len(last["temps"]) and all(a is b for a, b in zip(temps, last["temps"])):
-                tt = last["tt"]  # a step that moves no thermal parameter (most Jacobian columns): the same
+            key = tuple(map(id, temps))
+            hit = cat.get(key)
+            if hit is not None and all(a is b for a, b in zip(hit[0], temps)):
+                tt = hit[1]
             else:
                 tt = _cat_temps([t[m] for t, m in zip(temps, sel)])
-                last.update(temps=temps, tt=tt)
+                cat[key] = (temps, tt)
+                if len(cat) > 8:
+                    del cat[next(iter(cat))]
         n = ph.physics_rpm(p, v_all, i_all, di_all, tt)
         out = [sw_all * np.where(np.isfinite(n), ref_all - n, 1e4)]
         if ra_prior is not None:
