@@ -120,15 +120,36 @@ _THERMAL_FIELDS = ("ra_ohm", "ra_tc_per_K", "t_ref_C", "i_offset_A", "th_r_K_per
 _temp_cache: dict = {}
 
 
-def temperature(r: Rows, p: ph.PhysicsParams) -> ph.Temps:
+_prefixes: dict = {}
+
+
+def _prefix(r: Rows, k: int) -> tuple:
+    """(i, dt, temp) of r's first k rows, the same arrays for the same recording and k (the node's decay is kept
+    per array of periods, physics._decay)."""
+    key = (id(r), k)
+    hit = _prefixes.get(key)
+    if hit is not None and hit[0] is r:
+        return hit[1]
+    if len(_prefixes) > 64:
+        _prefixes.clear()
+    _prefixes[key] = (r, (r.i[:k], r.dt[:k], r.temp[:k]))
+    return _prefixes[key][1]
+
+
+def temperature(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> ph.Temps:
     """The winding and magnet temperatures the thermal effects see, as the boards compute
     them (physics.temperatures, observer.h; on a steady-state table's settled rows, the node
-    settled at each); the last few are kept per recording."""
-    key = (id(r), tuple(getattr(p, f) for f in _THERMAL_FIELDS))
+    settled at each); the last few are kept per recording. upto: only the first upto rows'
+    are needed (a fit whose rows end there): those of the rows up to physics.trajectory_prefix,
+    the same bits on the first upto rows as the whole recording's (the node runs forward)."""
+    n = len(r.i)
+    k = n if upto is None else ph.trajectory_prefix(upto, n)
+    key = (id(r), k, tuple(getattr(p, f) for f in _THERMAL_FIELDS))
     hit = _temp_cache.get(key)
     if hit is not None and hit[0] is r:
         return hit[1]
-    t = ph.temperatures(p, r.i, r.dt, r.temp, settled=r.steady)
+    i, dt, temp = (r.i, r.dt, r.temp) if k == n else _prefix(r, k)
+    t = ph.temperatures(p, i, dt, temp, settled=r.steady)
     if len(_temp_cache) > 64:
         _temp_cache.clear()
     _temp_cache[key] = (r, t)
@@ -480,18 +501,21 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     # the temperatures of the last few evaluations (by identity, held beside) and their fitted rows end to end:
     # a step that moves no thermal parameter (most Jacobian columns) takes them again
     cat: dict = {}
+    # the node runs forward: a recording's temperatures are needed up to its last fitted row only
+    upto = [int(np.flatnonzero(m)[-1]) + 1 if m.any() else 0 for m in sel]
+    cut = [m if t is not None else m[: ph.trajectory_prefix(u, len(m))] for m, t, u in zip(sel, fixed_temp, upto)]
 
     def resid(x):
         p = _params(base, spec, x)
         tt = t_fixed
         if tt is None:
-            temps = [temperature(r, p) if t is None else t for r, t in zip(rows, fixed_temp)]
+            temps = [temperature(r, p, u) if t is None else t for r, t, u in zip(rows, fixed_temp, upto)]
             key = tuple(map(id, temps))
             hit = cat.get(key)
             if hit is not None and all(a is b for a, b in zip(hit[0], temps)):
                 tt = hit[1]
             else:
-                tt = _cat_temps([t[m] for t, m in zip(temps, sel)])
+                tt = _cat_temps([t[m] for t, m in zip(temps, cut)])
                 cat[key] = (temps, tt)
                 if len(cat) > 8:
                     del cat[next(iter(cat))]
