@@ -498,9 +498,7 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     ref_all, sw_all = np.concatenate(refs), np.concatenate(sw)
     t_fixed = _cat_temps([t[m] for t, m in zip(fixed_temp, sel)]) if all(t is not None for t in fixed_temp) else None
 
-    # the temperatures of the last few evaluations (by identity, held beside) and their fitted rows end to end:
-    # a step that moves no thermal parameter (most Jacobian columns) takes them again
-    cat: dict = {}
+    last = {"temps": (), "tt": None}  # the temperatures of the last evaluation, and their fitted rows end to end
     # the node runs forward: a recording's temperatures are needed up to its last fitted row only
     upto = [int(np.flatnonzero(m)[-1]) + 1 if m.any() else 0 for m in sel]
     cut = [m if t is not None else m[: ph.trajectory_prefix(u, len(m))] for m, t, u in zip(sel, fixed_temp, upto)]
@@ -510,15 +508,11 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
         tt = t_fixed
         if tt is None:
             temps = [temperature(r, p, u) if t is None else t for r, t, u in zip(rows, fixed_temp, upto)]
-            key = tuple(map(id, temps))
-            hit = cat.get(key)
-            if hit is not None and all(a is b for a, b in zip(hit[0], temps)):
-                tt = hit[1]
+            if len(temps) == len(last["temps"]) and all(a is b for a, b in zip(temps, last["temps"])):
+                tt = last["tt"]  # a step that moves no thermal parameter (most Jacobian columns): the same
             else:
                 tt = _cat_temps([t[m] for t, m in zip(temps, cut)])
-                cat[key] = (temps, tt)
-                if len(cat) > 8:
-                    del cat[next(iter(cat))]
+                last.update(temps=temps, tt=tt)
         n = ph.physics_rpm(p, v_all, i_all, di_all, tt)
         out = [sw_all * np.where(np.isfinite(n), ref_all - n, 1e4)]
         if ra_prior is not None:
