@@ -69,3 +69,39 @@ def test_a_fit_asked_again_is_the_same_fit_and_a_copy():
     fx._fit_memo.clear()
     assert dataclasses.astuple(fx.fit(inp.rows, inp.m2, names, weights=w)) == dataclasses.astuple(weighted)
     assert dataclasses.astuple(fx.fit(inp.rows, inp.m2, names)) == dataclasses.astuple(first)
+
+
+def test_the_temperatures_of_a_prefix_are_the_whole_recordings_on_its_rows():
+    """A fit whose rows end before its recording does runs the node over physics.trajectory_prefix rows only
+    (effects.temperature's upto): on every row up to the last it needs, the same bits as the whole
+    recording's, whether the bound holds the winding within a block after those rows, in the block that
+    holds the last of them, or nowhere, and with steps of no period."""
+    rng = np.random.default_rng(5)
+    n = 4 * ph._BLOCK + 211
+    dt = np.where(rng.random(n) < 0.01, 0.0, 0.01)
+    read = rng.random(n) < 0.9
+    temp = np.where(read, 25.0 + rng.normal(0.0, 2.0, n), np.nan)
+    base = ph.PhysicsParams(ra_ohm=4.5, ke_vs_per_rad=0.4, ra_tc_per_K=0.00393, t_ref_C=25.0, t_amb_C=25.0,
+                            th_r_K_per_W=3.0, th_tau_s=20.0)
+    i = np.abs(rng.normal(1.0, 0.3, n))
+    for hot_from in (None, ph._BLOCK + 700, 3 * ph._BLOCK + 5):
+        cur = i.copy()
+        if hot_from is not None:
+            cur[hot_from:] = 40.0  # the winding at its class limit from here: its blocks taken step by step
+        whole = ph.temperatures(base, cur, dt, temp)
+        for upto in (0, 1, 500, ph._BLOCK, ph._BLOCK + 1, ph._BLOCK + 650, 2 * ph._BLOCK + 3, n - 1, n):
+            k = ph.trajectory_prefix(upto, n)
+            assert upto <= k <= n and (k == n or k % ph._BLOCK == 0)
+            part = ph.temperatures(base, cur[:k], dt[:k], temp[:k])
+            for a, b in ((part.winding_C, whole.winding_C), (part.magnet_C, whole.magnet_C)):
+                assert a[:upto].tobytes() == b[:upto].tobytes()
+    # and effects.temperature with upto (a fit's last row): the whole recording's on the rows up to it
+    inp = core.load(DEFAULT, core.Options())
+    fx._fit_memo.clear()
+    fx._temp_cache.clear()
+    got = fx.fit(inp.rows, inp.m2, ["thermal_ra"])
+    fx._fit_memo.clear()
+    whole_temps = {id(r): fx.temperature(r, got) for r in inp.rows}
+    assert all(fx.temperature(r, got, int(np.flatnonzero(r.train)[-1]) + 1).winding_C.tobytes()
+               == whole_temps[id(r)].winding_C[: ph.trajectory_prefix(int(np.flatnonzero(r.train)[-1]) + 1,
+                                                                       len(r.i))].tobytes() for r in inp.rows)

@@ -120,15 +120,36 @@ _THERMAL_FIELDS = ("ra_ohm", "ra_tc_per_K", "t_ref_C", "i_offset_A", "th_r_K_per
 _temp_cache: dict = {}
 
 
-def temperature(r: Rows, p: ph.PhysicsParams) -> ph.Temps:
+_prefixes: dict = {}
+
+
+def _prefix(r: Rows, k: int) -> tuple:
+    """(i, dt, temp) of r's first k rows, the same arrays for the same recording and k (the node's decay is kept
+    per array of periods, physics._decay)."""
+    key = (id(r), k)
+    hit = _prefixes.get(key)
+    if hit is not None and hit[0] is r:
+        return hit[1]
+    if len(_prefixes) > 64:
+        _prefixes.clear()
+    _prefixes[key] = (r, (r.i[:k], r.dt[:k], r.temp[:k]))
+    return _prefixes[key][1]
+
+
+def temperature(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> ph.Temps:
     """The winding and magnet temperatures the thermal effects see, as the boards compute
     them (physics.temperatures, observer.h; on a steady-state table's settled rows, the node
-    settled at each); the last few are kept per recording."""
-    key = (id(r), tuple(getattr(p, f) for f in _THERMAL_FIELDS))
+    settled at each); the last few are kept per recording. upto: only the first upto rows'
+    are needed (a fit whose rows end there): those of the rows up to physics.trajectory_prefix,
+    the same bits on the first upto rows as the whole recording's (the node runs forward)."""
+    n = len(r.i)
+    k = n if upto is None else ph.trajectory_prefix(upto, n)
+    key = (id(r), k, tuple(getattr(p, f) for f in _THERMAL_FIELDS))
     hit = _temp_cache.get(key)
     if hit is not None and hit[0] is r:
         return hit[1]
-    t = ph.temperatures(p, r.i, r.dt, r.temp, settled=r.steady)
+    i, dt, temp = (r.i, r.dt, r.temp) if k == n else _prefix(r, k)
+    t = ph.temperatures(p, i, dt, temp, settled=r.steady)
     if len(_temp_cache) > 64:
         _temp_cache.clear()
     _temp_cache[key] = (r, t)
@@ -454,9 +475,14 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
         x0 += [math.log(r0), math.log(tau0)]
         scales += [1.0, 1.0]
     sel = [getattr(r, mask) for r in rows]
-    refs = [r.ref[m] for r, m in zip(rows, sel)]
     if sum(int(m.sum()) for m in sel) < len(x0) + 5:
         raise IdentificationError(f"too few labelled rows above {MIN_RPM} RPM to fit {', '.join(spec.free)}")
+    if weights is not None:
+        # a row of weight 0 (an operating point a bootstrap resample leaves out) adds nothing to the sum of
+        # squares: left out of the arrays the model is evaluated on (the thermal trajectory still runs over
+        # every row of its recording, temperature() below; the same fit, its sums in another order)
+        sel = [m & (np.asarray(wi, float) != 0.0) for m, wi in zip(sel, weights)]
+    refs = [r.ref[m] for r, m in zip(rows, sel)]
     w = ([np.ones(int(m.sum())) for m in sel] if weights is None
          else [np.asarray(wi, float)[m] for wi, m in zip(weights, sel)])
     # a reference with a confidence per row (the ripple's: Recording.weight) weights its rows too
@@ -473,16 +499,19 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     t_fixed = _cat_temps([t[m] for t, m in zip(fixed_temp, sel)]) if all(t is not None for t in fixed_temp) else None
 
     last = {"temps": (), "tt": None}  # the temperatures of the last evaluation, and their fitted rows end to end
+    # the node runs forward: a recording's temperatures are needed up to its last fitted row only
+    upto = [int(np.flatnonzero(m)[-1]) + 1 if m.any() else 0 for m in sel]
+    cut = [m if t is not None else m[: ph.trajectory_prefix(u, len(m))] for m, t, u in zip(sel, fixed_temp, upto)]
 
     def resid(x):
         p = _params(base, spec, x)
         tt = t_fixed
         if tt is None:
-            temps = [temperature(r, p) if t is None else t for r, t in zip(rows, fixed_temp)]
+            temps = [temperature(r, p, u) if t is None else t for r, t, u in zip(rows, fixed_temp, upto)]
             if len(temps) == len(last["temps"]) and all(a is b for a, b in zip(temps, last["temps"])):
                 tt = last["tt"]  # a step that moves no thermal parameter (most Jacobian columns): the same
             else:
-                tt = _cat_temps([t[m] for t, m in zip(temps, sel)])
+                tt = _cat_temps([t[m] for t, m in zip(temps, cut)])
                 last.update(temps=temps, tt=tt)
         n = ph.physics_rpm(p, v_all, i_all, di_all, tt)
         out = [sw_all * np.where(np.isfinite(n), ref_all - n, 1e4)]

@@ -159,6 +159,14 @@ def physics_rpm(p, v_V, i_A, di_dt_A_per_s, temp_C, dtype=np.float64):
 _BLOCK = 1024  # samples per block of the vectorised recursion
 
 
+def trajectory_prefix(n_needed: int, n: int) -> int:
+    """How many of a recording's n samples thermal_trajectory (float64) must run over for its first
+    n_needed values to be the same bits as over all n: up to the end of the block (_BLOCK) that
+    holds the last of them (a block is computed, checked against the bounds and redone step by step
+    as a whole, and every block from the one before it alone), at least one block."""
+    return min(n, max(1, -(-n_needed // _BLOCK)) * _BLOCK)
+
+
 def _rise_bounded(rise, ref):
     """A rise held within [0, WINDING_MAX_C - ref]: the node only heats, and no winding
     is hotter than its insulation class allows (NaN gives 0)."""
