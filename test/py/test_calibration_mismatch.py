@@ -29,19 +29,25 @@ def test_a_bench_without_its_effects_is_the_plain_law(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [2, 5, 29, 34])
+@pytest.mark.parametrize("seed", [2, 5, 14, 27, 29, 34])
 def test_a_few_benches_state_nothing_false(seed):
     """2: a time series whose top load heats the copper and levels off the brush drop, once called a
     saturated current channel (a straight balance, channels.CURVE_P); 29 and 34: tables with the copper
     settled at each row, once told to pass an --ra-ohm 14 % and 11 % off (the table's clock taken for a
     trajectory; the copper's coefficient traded with the node's resistance; an instruction beside a
     wrong Ra that another model explains as well); 5: a table whose data-alone Ra interval once missed
-    the truth by 2 % (the Ra of the rows' mean winding temperature)."""
+    the truth by 2 % (the Ra of the rows' mean winding temperature); 14: a loaded table with a brush drop
+    whose data-alone Ra interval (1.68..1.78 ohm) once missed the truth (1.513) by 11 %: the copper's
+    heating beside the brush drop was no alternative because the brush drop's knee, at the edge of its
+    range in the printed model too, was not determined (core.ra_alone); 27: a table without a case reading
+    whose data-alone Ra interval (8.32..8.97 ohm) once missed the truth (8.21): its copper heats at 2.7 K/W
+    to the ambient, a motor on a heat sink, below the range plausible for one standing free, and the
+    heating was no alternative for that."""
     r = cm.run_one(seed)
     assert "score" in r, r
     s = r["score"]
     assert not any(s["false"].values()), s["false"]
-    if seed in (5, 29, 34):
+    if seed in (5, 14, 27, 29, 34):
         assert s["covered"]["Ra (data alone)"], s["covered"]
 
 

@@ -625,7 +625,7 @@ def robust_ra(inp: Inputs, ra_fit: RaFit, names, others, sigma2: float | None = 
 
 
 def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = False,
-             alternatives=(), rivals_ohm=(), whole: bool = False) -> intervals.Interval | None:
+             alternatives=(), rivals_ohm=(), alternative: bool = False) -> intervals.Interval | None:
     """Ra as the data alone determine it, with Ke and the effects in names fitted alongside
     (no prior around the reading): its Interval; None when the fit fails (physical: or when an
     effect's fitted coefficient is not plausible (schema: its plausible range): an alternative
@@ -634,12 +634,20 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
     alternatives: candidate effects the selection did not name. Each that acts on the rows as
     they are (not through a temperature: a thermal effect is fitted with its material's coefficient
     held, a model that insists on a heating, not one that holds the named one), fitted beside names
-    with a plausible coefficient and every quantity of the fit determined, is a model that explains
+    with a plausible coefficient (`alternative`: its Ra determined, its node a winding's), is a model that explains
     the rows at least as well and that the data did not exclude: the spread of their Ra about this
     one is in the interval (intervals.with_budget: from the lowest to the highest, each with its own
     doubt) and in the model part of the budget shown;
     rivals_ohm: the Ra of such models already fitted (the one without an effect of names).
-    whole: None unless every quantity the fit moves is determined."""
+    alternative: None unless the data determine this fit's Ra and its winding node is a heating some
+    motor has (_node_a_winding_has; its effects' coefficients plausible: `physical`): a model the data
+    did not exclude. Its other quantities need not be determined: that the rows do not pin down how much the
+    copper heats (a node's resistance of 0.6..6 K/W on a table) is the very doubt its Ra carries into the
+    interval, and demanding it determined dropped the heating from loaded tables and kept only the Ra
+    of the rows' mean winding temperature (2-15 % above the truth on docs/diagnosis-mismatch.md's
+    benches). A flat direction through Ra (v_gain rescales Ke and Ra together) leaves Ra undetermined
+    and the model out; so does a node beyond a winding's (16.8 K/W in the shortest 4 s on a twin bench
+    without any heating, trading a third of Ra for a term cubic in the current)."""
     names = [n for n in names if n != ranking.RA_MISMATCH]
     try:
         p = ranking.fit_ra_free(inp.rows, inp.m2, names)
@@ -648,28 +656,42 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
     if physical and not all(fx.LIBRARY[n].plausibility(getattr(p, fx.LIBRARY[n].field))[0] for n in names):
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
-    # (the winding node's parameters of a heating alternative: within their plausible range, determined or
-    # not: a steady-state table has no clock for the time constant, and a heating the rows allow is no
-    # less an explanation for a resistance the rows do not pin down)
-    plausible_node = {n["field"] for n in fx.node_plausibility(p, inp.blind) if n["plausible"]}
-    if whole and not all(iv.determined or iv.field in plausible_node for iv in ivs):
-        return None
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")
-    # On settled rows (steady-state tables) the copper is at each row's settled rise, r i^2 Ra above the
-    # reading: a model with that heating (copper's coefficient held, the node's r fitted) explains the rows
-    # as they are, and its Ra is Ra at the reference temperature, where a model without it reads Ra at the
-    # rows' mean winding temperature (physics.settled_rise, effects.spec_for)
-    settled = all(r.steady for r in inp.rows)
-    alts = [ra_alone(inp, list(names) + [c], physical=True, whole=True) for c in alternatives
+    if alternative and not (iv.determined and _node_a_winding_has(p, inp)):
+        return None
+    # The copper heats in every motor that carries current: on settled rows (steady-state tables) it is at
+    # each row's settled rise, r i^2 Ra above the reading, on a time series at its node's trajectory. A
+    # model with that heating (copper's coefficient held, the node fitted) explains the rows as they are,
+    # and its Ra is Ra at the reference temperature, where a model without it reads Ra at the rows' mean
+    # winding temperature (physics.settled_rise, physics.thermal_trajectory, effects.spec_for)
+    alts = [ra_alone(inp, list(names) + [c], physical=True, alternative=True) for c in alternatives
             if c not in names and c != ranking.RA_MISMATCH and not fx.LIBRARY[c].case_temperature
-            and (not fx.LIBRARY[c].thermal or (settled and c == fx.COPPER))]
+            and (not fx.LIBRARY[c].thermal or c == fx.COPPER)]
     models = [a.value for a in alts if a is not None and a.determined] + list(rivals_ohm)
     # (an alternative's Ra is read for its value only: its rounding part is not taken)
     cal = calibration(inp.recs)
-    sens = {} if whole else intervals.sensors_of_fit(inp.data, p, names, channel_steps(inp), cal,
+    sens = {} if alternative else intervals.sensors_of_fit(inp.data, p, names, channel_steps(inp), cal,
                                                      ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     return intervals.with_budget(iv, cal, birge(inp, p, sigma2) if sigma2 else 1.0,
                                  models=models, sensors=sens.get("ra_ohm"))
+
+
+def _node_a_winding_has(p: ph.PhysicsParams, inp: Inputs) -> bool:
+    """Whether p's winding node (none: True) is a heating some motor has (ra_alone's alternatives): its
+    resistance inside the physical range and not above the plausible one (schema.NODE): below it is a
+    motor better cooled than one standing free (clamped to a heat sink or a dyno's plate: 1-3 K/W to
+    the ambient), above it a heating larger than any winding's, the fit trading Ra for a term cubic in
+    the current (12.7 K/W to the case and Ra 40 % low on a table without any heating); and, where the
+    rows have a clock, its time constant within the plausible range (a steady-state table's rows hold
+    none: its node is judged by its resistance alone)."""
+    if not p.thermal_enabled():
+        return True
+    settled = all(r.steady for r in inp.rows)
+    r_node, tau_node = fx.node_params(inp.blind)
+    r = float(getattr(p, r_node.field))
+    if not (r_node.physical[0] <= r <= r_node.plausible[1]) or r_node.at_bound(r):
+        return False
+    return settled or tau_node.plausibility(float(getattr(p, tau_node.field)))[0]
 
 
 def confounding(inp: Inputs, mf: ModelFit, sel: Selection) -> Confounding:
