@@ -655,9 +655,11 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
         return None
     if physical and not all(fx.LIBRARY[n].plausibility(getattr(p, fx.LIBRARY[n].field))[0] for n in names):
         return None
+    if alternative and not _node_a_winding_has(p, inp):  # (before the intervals' Jacobian: it decides alone)
+        return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")
-    if alternative and not (iv.determined and _node_a_winding_has(p, inp)):
+    if alternative and not iv.determined:
         return None
     # The copper heats in every motor that carries current: on settled rows (steady-state tables) it is at
     # each row's settled rise, r i^2 Ra above the reading, on a time series at its node's trajectory. A
