@@ -73,3 +73,27 @@ def test_a_cancelled_job_never_runs_and_leaving_drops_the_queue():
         t.cancel()
         bg.submit(ran.append, 2)  # never asked for: dropped on leaving
     assert ran == [] and t.state == "cancelled"
+
+
+
+def _blas_threads(_):
+    import threadpoolctl
+
+    return {m["internal_api"]: m["num_threads"] for m in threadpoolctl.threadpool_info()
+            if m["user_api"] == "blas"}
+
+
+def test_one_blas_thread_per_process_while_workers_run():
+    """Beside a worker, the main process and the worker each use one BLAS thread (one_blas_thread):
+    two processes whose BLAS spread over both cores would wait on each other's threads. The main
+    process's own setting comes back when the block ends."""
+    import numpy  # noqa: F401 (its BLAS loaded, so threadpoolctl sees it)
+
+    before = _blas_threads(None)
+    assert before, "no BLAS library seen by threadpoolctl"
+    with interrupt.Background(1) as bg:
+        assert set(_blas_threads(None).values()) == {1}
+        in_worker = bg._executor().submit(_blas_threads, None)  # (straight to the pool: run by the worker)
+        assert set(in_worker.result().values()) == {1}
+        assert bg.submit(_square, 3).result() == 9
+    assert _blas_threads(None) == before

@@ -180,9 +180,24 @@ def swallowed_at_start() -> bool:
 
 def worker_init() -> None:
     """A pool worker's initializer: SIGINT ignored (the main process stops its workers),
-    SIGTERM ends it, whatever the start method."""
+    SIGTERM ends it, whatever the start method; one BLAS thread (one_blas_thread)."""
     _signal.signal(_signal.SIGINT, _signal.SIG_IGN)
     _signal.signal(_signal.SIGTERM, _signal.SIG_DFL)
+    one_blas_thread()
+
+
+def one_blas_thread():
+    """The BLAS and OpenMP libraries of this process held to one thread each, until the returned
+    handle's restore_original_limits() (threadpoolctl). Where processes work side by side on
+    the cores, each is one core's work: a BLAS that spreads a product over every core in each
+    of them only makes its threads wait on one another (the default diagnosis of the bundled
+    recordings took 12.5 s with them and 10.3 s without; see docs/performance.md). And the
+    results no longer depend on the thread count: on the 13.6k-row bench, 69 numbers of
+    diagnosis.json differed in their last digits between OPENBLAS_NUM_THREADS=1 and 2 (no
+    sentence, no effect); the trainings call no BLAS at all (network)."""
+    import threadpoolctl
+
+    return threadpoolctl.threadpool_limits(limits=1)
 
 
 def map_on_cores(fn, jobs: list, shown=None) -> list:
@@ -194,7 +209,7 @@ def map_on_cores(fn, jobs: list, shown=None) -> list:
 
     show = shown if shown is not None else (lambda it, n: it)
     workers = min(len(jobs), os.cpu_count() or 1)
-    if workers > 1 and not multiprocessing.current_process().daemon:
+    if workers > 1 and not multiprocessing.current_process().daemon:  # (each worker: one_blas_thread)
         import concurrent.futures
         with concurrent.futures.ProcessPoolExecutor(max_workers=workers, initializer=worker_init,
                                                     mp_context=multiprocessing.get_context("fork")) as pool:
@@ -281,6 +296,9 @@ class Background:
         self._closed = False
 
     def __enter__(self):
+        # this process works beside the workers: one BLAS thread here too, as long as they run (and
+        # with no worker too, so that the results are the same bits on every machine and setting)
+        self._limits = one_blas_thread()
         return self
 
     def submit(self, fn, job, priority: int = 0) -> Task:
@@ -354,6 +372,7 @@ class Background:
                     except Exception:  # noqa: BLE001 (already gone)
                         pass
             self._pool.shutdown(wait=True, cancel_futures=True)
+        self._limits.restore_original_limits()
         return False
 
 

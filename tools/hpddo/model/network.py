@@ -25,18 +25,37 @@ ADAM_EPS = 1e-8
 L2_ALPHA = 1e-4
 
 
+TERM_BY_TERM_MAX = 32  # matmul sums an inner axis up to this long term by term, a longer one by numpy
+
+
 def matmul(a: np.ndarray, w: np.ndarray) -> np.ndarray:
     """a @ w as elementwise products summed over the inner axis in an order fixed by the
     shapes: term by term for a short inner axis, else one numpy reduction."""
     k, m = w.shape
     if k == 1:
         return a[:, 0:1] * w[0]
-    if k <= 32 and m > 1:
+    if k <= TERM_BY_TERM_MAX and m > 1:
         acc = a[:, 0:1] * w[0]
         for j in range(1, k):
             acc += a[:, j: j + 1] * w[j]
         return acc
     return (a[:, :, None] * w[None, :, :]).sum(axis=1)
+
+
+def matmul_cols(w: np.ndarray, a_t: np.ndarray) -> np.ndarray:
+    """matmul(a, w).T from a_t = a.T (features by rows), the same bits: for w of more than one
+    column and an inner axis summed term by term, the inner index's terms added in order (a
+    reduction over the first axis of a C-ordered array adds its slabs one after the other) in
+    two numpy calls instead of two per inner index; otherwise matmul itself."""
+    k, m = w.shape
+    if k > TERM_BY_TERM_MAX or m == 1:
+        return matmul(np.ascontiguousarray(a_t.T), w).T
+    if k == 1:
+        return w[0][:, None] * a_t[0:1]
+    # the products in C order whatever the operands' strides (a transposed w would otherwise lay
+    # them out with the inner index fastest, and numpy would sum them pairwise)
+    terms = np.multiply(w[:, :, None], a_t[:, None, :], out=np.empty((k, m, a_t.shape[1])))
+    return np.add.reduce(terms, axis=0)
 
 
 def matmul_t(a: np.ndarray, d: np.ndarray) -> np.ndarray:
@@ -179,23 +198,41 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None, weight=N
     v = np.zeros_like(theta)
     b1_t = b2_t = 1.0
     nlayers = len(ws)
-    net = Network(coefs_=ws, intercepts_=bs)
     losses = []
+    # Each layer's activations are kept both ways: rows by units (acts, C order) for the sums over
+    # a batch's rows (the weight and bias gradients, the one-output layer), units by rows (acts_t)
+    # for the sums over a layer's inputs (matmul_cols). Every number is the same bits as the
+    # row-major arithmetic of network.activations and matmul (test_network: trained to the byte).
+    z_t = np.ascontiguousarray(z.T)
     epochs = range(cfg.max_iter) if progress is None else progress(range(cfg.max_iter))
     for _ in epochs:
         order = rng.permutation(n)
-        zs, ys = z[order], y[order]
+        zs, zs_t, ys = z[order], z_t[:, order], y[order]
         wts = None if wt is None else wt[order]
         acc_loss = 0.0
         for start in range(0, n, cfg.batch_size):
-            zb, yb = zs[start: start + cfg.batch_size], ys[start: start + cfg.batch_size]
-            nb = len(zb)
-            acts = net.activations(zb)
+            stop = start + cfg.batch_size
+            acts, acts_t, yb = [zs[start: stop]], [zs_t[:, start: stop]], ys[start: stop]
+            nb = len(yb)
+            for k, (w, b) in enumerate(zip(ws, bs)):
+                if w.shape[1] > 1:
+                    h_t = matmul_cols(w, acts_t[-1])
+                    h_t += b[:, None]
+                    if k < nlayers - 1:
+                        np.maximum(h_t, 0.0, out=h_t)
+                    acts_t.append(h_t)
+                    acts.append(np.ascontiguousarray(h_t.T))
+                else:  # one unit (the output): summed as network.activations sums it
+                    h = matmul(acts[-1], w) + b
+                    if k < nlayers - 1:
+                        np.maximum(h, 0.0, out=h)
+                    acts.append(h)
+                    acts_t.append(np.ascontiguousarray(h.T))
             delta = acts[-1] - yb
             if wts is None:
                 sq = float((delta * delta).sum()) / nb / 2.0
             else:  # the weighted loss: sum w d^2 / 2 nb, its gradient w d
-                wb = wts[start: start + cfg.batch_size]
+                wb = wts[start: stop]
                 sq = float((wb * delta * delta).sum()) / nb / 2.0
                 delta = delta * wb
             l2 = sum(float((w * w).sum()) for w in ws)
@@ -204,8 +241,14 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None, weight=N
                 gws[k][...] = (matmul_t(acts[k], delta) + cfg.alpha * ws[k]) / nb
                 gbs[k][...] = delta.sum(axis=0) / nb
                 if k:
-                    delta = matmul(delta, ws[k].T)
-                    delta *= acts[k] > 0
+                    w_t = ws[k].T
+                    if w_t.shape[1] > 1:
+                        d_t = matmul_cols(w_t, np.ascontiguousarray(delta.T))
+                        d_t *= acts_t[k] > 0
+                        delta = np.ascontiguousarray(d_t.T)
+                    else:
+                        delta = matmul(delta, w_t)
+                        delta *= acts[k] > 0
             b1_t *= ADAM_BETA1
             b2_t *= ADAM_BETA2
             adam_step(theta, grad, m, v, adam_rate(cfg, b1_t, b2_t))
