@@ -188,13 +188,13 @@ def worker_init() -> None:
 
 def one_blas_thread():
     """The BLAS and OpenMP libraries of this process held to one thread each, until the returned
-    handle's restore_original_limits() (threadpoolctl). Where processes work side by side on
-    the cores, each is one core's work: a BLAS that spreads a product over every core in each
-    of them only makes its threads wait on one another (the default diagnosis of the bundled
-    recordings took 12.5 s with them and 10.3 s without; see docs/performance.md). And the
-    results no longer depend on the thread count: on the 13.6k-row bench, 69 numbers of
-    diagnosis.json differed in their last digits between OPENBLAS_NUM_THREADS=1 and 2 (no
-    sentence, no effect); the trainings call no BLAS at all (network)."""
+    handle's restore_original_limits() (threadpoolctl). hpddo/__init__.py asks for one thread
+    already, but only where the environment does not set OPENBLAS_NUM_THREADS itself; with it
+    set to 2, 69 numbers of the 13.6k-row bench's diagnosis.json differed in their last digits
+    from those under 1 (Ke's checks, interval budgets; no sentence, no effect). Held here, the
+    diagnosis gives the same bytes whatever the environment says, and processes working side by
+    side on the cores do not spread their products over each other's core. The trainings call
+    no BLAS at all (network)."""
     import threadpoolctl
 
     return threadpoolctl.threadpool_limits(limits=1)
