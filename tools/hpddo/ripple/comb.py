@@ -190,9 +190,7 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
     c = use[0]
     use = [ln for ln in use if ln.hz <= COMB_SPAN * c.hz and ln.snr >= COMB_LINE_SNR * min_snr]
     if pwm is not None:
-        bands = pwm_sidebands(c.hz, *pwm)
-        use = [ln for ln in use if ln is c or not any(
-            abs(ln.hz - hz) <= COMB_REL_TOL * j * c.hz + COMB_RES_TOL * res_hz for hz, j in bands)]
+        use = [ln for ln in use if ln is c or not _sideband_of(ln.hz, c.hz, res_hz, pwm)]
     scored = []
     for m in range(COMMUTATION_MIN_MULTIPLE, MAX_MULTIPLE + 1):
         g = c.hz / m
@@ -285,6 +283,39 @@ def rivals(found, f_hz: float, res_hz: float, in_spread, share: float, exclude=(
         if ln.power >= share * p0 and in_spread(ln.hz):
             out.append(ln)
     return out
+
+
+def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
+    """Whether a line at hz lies on one of the PWM's sidebands around a line at comm_hz (pwm_sidebands, the
+    tolerance rotation_comb leaves them out with)."""
+    return any(abs(hz - s) <= COMB_REL_TOL * j * comm_hz + COMB_RES_TOL * res_hz for s, j in pwm_sidebands(comm_hz, *pwm))
+
+
+#: a line and its PWM sideband partner (sideband_partners) rival each other from this share of the chosen line's
+#: power on: the chosen line may be the sideband of a commutation line this much weaker (amplitude 0.32 of it)
+SIDEBAND_SHARE = 0.1
+
+
+def sideband_partners(found, f_hz: float, res_hz: float, pwm, in_spread, share: float = SIDEBAND_SHARE) -> list:
+    """The lines that make a pair with the chosen line at f_hz under a free-running PWM (pwm: pwm_of's
+    (PWM Hz, sample Hz)): each a PWM sideband of the other (pwm_sidebands, either way round: f_pwm - f_c
+    and f_c are each other's), inside the back-EMF prior's spread (in_spread: Hz -> bool), with at least
+    `share` of the chosen line's power. Which of the two is the commutation line and which its sideband,
+    the half-power rule of rivals cannot say: the sideband's depth is the PWM current ripple's modulation
+    by the rotor, a third to a half of the line's power in the independent commutator simulation, and
+    stronger than the line where the PWM ripple outgrows the commutation's (a hobby driver at 490 Hz);
+    the sidebands around either line are the same set of frequencies. Strongest first; none where pwm
+    is None."""
+    if pwm is None:
+        return []
+    p0 = max((ln.power for ln in found if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz)), default=0.0)
+    out = []
+    for ln in found:
+        if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz) or ln.power < share * p0 or not in_spread(ln.hz):
+            continue
+        if _sideband_of(f_hz, ln.hz, res_hz, pwm) or _sideband_of(ln.hz, f_hz, res_hz, pwm):
+            out.append(ln)
+    return sorted(out, key=lambda ln: -ln.power)
 
 
 def health(f, p_max, rot_hz: float, comm_hz: float, res_hz: float) -> tuple:

@@ -292,11 +292,22 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     # a neighbouring rotation line where no comb is seen); weighed by their power alone, so that a prior
     # which moves cannot turn one of them into a confident answer
     placed = [ln.hz for ln, _ in comb.lines] if comb is not None else []
-    riv = rc.rivals(found, f_star, res, lambda hz: abs(prior_like([hz], f_prior, sd_lo, sd_hi, opts.prior_rel_sd)[1][0])
-                    <= opts.max_prior_z, opts.ambiguity, placed)
+
+    def in_spread(hz):
+        return abs(prior_like([hz], f_prior, sd_lo, sd_hi, opts.prior_rel_sd)[1][0]) <= opts.max_prior_z
+
+    riv = rc.rivals(found, f_star, res, in_spread, opts.ambiguity, placed)
     if riv:
         out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz or {riv[0].hz:.1f} Hz, "
                    f"{riv[0].power / max(line_power(f, p_max, f_star), 1e-300):.2f} of its power)")
+        return out
+    # under a free-running PWM, a line and its PWM sideband inside the spread, whatever their powers: where no comb
+    # places the line, which of the two is the commutation neither power nor prior can tell
+    partners = rc.sideband_partners(found, f_star, res, rc.pwm_of(bursts), in_spread) if comb is None else []
+    if partners:
+        out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz or {partners[0].hz:.1f} Hz: "
+                   f"each the other's sideband of the {rc.pwm_of(bursts)[0]:g} Hz PWM, "
+                   f"{partners[0].power / max(line_power(f, p_max, f_star), 1e-300):.2f} of its power)")
         return out
     # rivals in the family where no comb places the line: the data's own evidence at f* x r, weighted by the prior
     alt = ALTERNATIVES
