@@ -381,3 +381,23 @@ def test_a_free_running_pwms_sidebands_around_the_ripple_form_no_comb(rot, depth
     b = dataclasses.replace(b, pwm_hz=pwm, sampling="free")
     _, comb, _, _ = rcal.window_comb(b, 0, Options(6, 1.0))
     assert comb is not None and comb.multiple == 6, comb
+
+
+@pytest.mark.parametrize("depth,confident", [(2.0, False), (3.0, False), (0.7, False), (0.25, True)])
+def test_a_free_running_pwms_sideband_partner_inside_the_prior_leaves_a_combless_window_unresolved(depth, confident):
+    """A line and its sideband under a free-running PWM are each other's sidebands (f_pwm - f_c and f_c), and
+    where the PWM's current ripple outgrows the commutation's the sideband is the stronger: 2x and 3x the line's
+    amplitude here, at +21 % of it, inside the prior's spread. The half-power rival rule took the sideband and
+    left the line (a quarter or a ninth of its power) as no rival: a confident count 21 % high. Without a comb
+    to place the line, such a pair is unresolved whichever is the stronger (0.7x: the usual depth); a sideband
+    under a tenth of the line's power (0.25x) rivals nothing, and the count is confident and right."""
+    fs, pwm, rot = 9600.0, 490.196, 37.0
+    c = 6 * rot
+    x = motor_current(rot, COMMUTATION_ONLY, fs=fs, extra=[(pwm - c, depth * 0.08), (pwm + c, depth * 0.08)], seed=3)
+    b = bursts_of([x], fs=fs, meta={"sampling": "free", "pwm_hz": f"{pwm:g}"})
+    b = dataclasses.replace(b, pwm_hz=pwm, sampling="free")
+    r = estimate_window(b, 0, 0.5, rot * 60.0, Options(6, 1.0))
+    if confident:
+        assert r["key"] == "" and abs(r["rpm"] / (rot * 60.0) - 1) < 0.005, (r["key"], r["reason"])
+    else:
+        assert r["key"] == "rival" and f"sideband of the {pwm:g} Hz PWM" in r["reason"], (r["key"], r["reason"], r["rpm"])
