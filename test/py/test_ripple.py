@@ -356,6 +356,25 @@ def test_the_reference_counts_a_runs_logs_as_one_motors_so_a_combless_log_keeps_
     assert (np.abs(label[counted] / true[counted] - 1) < 0.05).all()
 
 
+def test_the_loader_parses_each_log_once_with_the_ripple_as_reference(tmp_path, monkeypatch):
+    """load_recordings with the ripple as the reference reads each file once (the count over the run's logs and
+    the recordings are made from the same parse), and gives what counting and loading one after the other
+    give: the same rows, labels, weights and records."""
+    from hpddo.logs import benchlog, dataset
+    from hpddo.ripple import reference
+
+    paths = _twin_logs(tmp_path, ("load", "sweep"), time_scale=0.05)
+    ref = reference.Ripple(6, 4.4)
+    apart = [dataset.load_recording(p, reference=ref.over(paths)) for p in paths]
+    reads = []
+    real = benchlog.read_log
+    monkeypatch.setattr(benchlog, "read_log", lambda p: reads.append(p) or real(p))
+    got = dataset.load_recordings(paths, reference=ref)
+    assert sorted(map(str, reads)) == sorted(map(str, paths))
+    for a, b in zip(apart, got):
+        assert a.df.equals(b.df) and a.reference == b.reference and np.array_equal(a.weight, b.weight)
+
+
 def test_reference_options_are_checked_before_any_work(tmp_path, capsys):
     from hpddo import cli
 

@@ -127,12 +127,13 @@ def outside_limits(df: pd.DataFrame) -> dict:
 
 
 def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True,
-                   reference=None) -> Recording:
+                   reference=None, log=None) -> Recording:
     """Reads, cleans and splits one bench log (raises benchlog.BenchLogError on format faults).
     reference: None (rpm_ref is the log's column), or a callable (path, df, meta) -> (df with
     rpm_ref replaced, meta, per-row weight, record) applied before the glitch filter
-    (hpddo.ripple.reference.Ripple)."""
-    log = benchlog.read_log(path)
+    (hpddo.ripple.reference.Ripple). log: the log at path as benchlog.read_log gave it, where the
+    caller has read it already (load_recordings); its frame is then this recording's."""
+    log = benchlog.read_log(path) if log is None else log
     df, meta = log.df, dict(log.meta)  # (the log's own frame: read_log made it, nobody else holds it)
     rows_in_file = len(df)
     weight, ref_record = None, None
@@ -185,12 +186,12 @@ def load_recordings(paths, train_fraction: float = TRAIN_FRACTION, glitch_filter
     is counted over all the paths first, as recordings of one motor."""
     from .. import progress
     paths = list(paths)
+    progress.stage(f"reading {len(paths)} log(s) ({progress.size(paths)})")
+    logs = [benchlog.read_log(p) for p in progress.bar(paths, "reading", unit="log")]  # each file parsed once
     if reference is not None and hasattr(reference, "over"):  # the ripple counted over the run's logs of one motor
         progress.stage(f"counting the ripple of {len(paths)} log(s)")
-        reference = reference.over(paths)
-    progress.stage(f"reading {len(paths)} log(s) ({progress.size(paths)})")
-    recs = [load_recording(p, train_fraction, glitch_filter, reference)
-            for p in progress.bar(paths, "reading", unit="log")]
+        reference = reference.over(paths, logs)
+    recs = [load_recording(p, train_fraction, glitch_filter, reference, log) for p, log in zip(paths, logs)]
     seen = {}
     for r in recs:
         key = r.file_stem.lower()

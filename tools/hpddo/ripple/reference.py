@@ -61,20 +61,20 @@ class Ripple:
     # (estimate, Ke, where Ke came from)), ...)
     counted: tuple = dataclasses.field(default=(), compare=False, repr=False)
 
-    def over(self, paths) -> "Ripple":
+    def over(self, paths, logs=None) -> "Ripple":
         """This reference with the ripple of the logs at paths counted as one motor's (speed_of_bench: the figure
         given checked over all of them, so that a log whose windows show no rotation comb is checked by the
-        others'), each log's count then taken from there (swap); itself where every path is counted already."""
+        others'), each log's count then taken from there (swap); itself where every path is counted already.
+        logs: the logs at paths as benchlog.read_log gave them, where the caller has read them already (counted
+        from copies of their frames: the recordings are made from them afterwards)."""
         from ..logs import benchlog
 
         done = {k for k, _ in self.counted}
         paths = [pathlib.Path(p) for p in paths]
         if all(str(p.resolve()) in done for p in paths):
             return self
-        logs = []
-        for p in paths:
-            log = benchlog.read_log(p)
-            logs.append((p, log.df, log.meta, None))
+        read = [benchlog.read_log(p) for p in paths] if logs is None else logs
+        logs = [(p, log.df.copy(), dict(log.meta), None) for p, log in zip(paths, read)]
         got = speed_of_bench(logs, self.options(), self.ra_ohm, self.ke_vs_per_rad, model=self.model)
         return dataclasses.replace(self, counted=tuple((str(p.resolve()), r) for p, r in zip(paths, got)))
 
