@@ -401,3 +401,24 @@ def test_a_free_running_pwms_sideband_partner_inside_the_prior_leaves_a_combless
         assert r["key"] == "" and abs(r["rpm"] / (rot * 60.0) - 1) < 0.005, (r["key"], r["reason"])
     else:
         assert r["key"] == "rival" and f"sideband of the {pwm:g} Hz PWM" in r["reason"], (r["key"], r["reason"], r["rpm"])
+
+
+def test_a_recordings_combs_at_scattered_numbers_name_no_figure():
+    """Comb windows that show other numbers than the one given but do not agree among themselves (a narrow
+    spacing takes lines by chance: 36, 24, 36, 18 ... in a 6-ripple recording) leave the recording's windows
+    without confidence, and the sentence says that the combs disagree, not that "the ripple is 36": a figure is
+    named only as --calibrate names one (5 windows, 80 % of the comb windows)."""
+    from hpddo.ripple.line import identity_of_recording
+    import pandas as pd
+
+    mult = [36, 24, 36, 18, 6, 12] + [0] * 6
+    est = pd.DataFrame({"multiple": mult, "key": ["multiple"] * 4 + ["", "multiple"] + [""] * 6,
+                        "confident": [False] * 4 + [True, False] + [True] * 6,
+                        "confidence": [0.0] * 4 + [1.0, 0.0] + [1.0] * 6, "reason": [""] * 12})
+    out = identity_of_recording(est, Options(6, 1.0))
+    assert not out["confident"].any()
+    said = out["reason"].iloc[6]
+    assert "the ripple is" not in said and "5 of the 6 windows" in said and "36 the commonest, in 2" in said, said
+    est["multiple"] = [36] * 5 + [6] + [0] * 6  # five of six agree: the figure is named
+    said = identity_of_recording(est, Options(6, 1.0))["reason"].iloc[6]
+    assert "the ripple is 36 per revolution, not the 6 given, in 5 of the 6 windows" in said, said

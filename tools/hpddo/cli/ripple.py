@@ -86,6 +86,7 @@ def run(args) -> int:
     from ..logs.errors import InputError
     from ..ripple.encoder import check_ratio, span_reference
     from ..ripple.log import speed_of_bench
+    from ..ripple.line import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, figure_confirmed
     from ..ripple.options import Options
 
     if args.ripples_per_rev is None and not args.calibrate:
@@ -168,10 +169,17 @@ def run(args) -> int:
             other = shown[shown != opts.ripples_per_rev]
             if len(other):
                 m = int(other.mode().iloc[0])
-                print(f"{name}: the ripple is {m} per revolution, not the {opts.ripples_per_rev} given, in "
-                      f"{int((shown == m).sum())} of the {len(shown)} windows whose lines form a rotation comb "
-                      f"({int((est['key'] == 'multiple').sum())} windows not confident for it); hpddo ripple "
-                      "--calibrate finds it")
+                k = int((shown == m).sum())
+                if figure_confirmed(k, len(shown)):  # as --calibrate would name it
+                    print(f"{name}: the ripple is {m} per revolution, not the {opts.ripples_per_rev} given, in "
+                          f"{k} of the {len(shown)} windows whose lines form a rotation comb "
+                          f"({int((est['key'] == 'multiple').sum())} windows not confident for it); hpddo ripple "
+                          "--calibrate finds it")
+                else:  # a few combs at other numbers (a narrow spacing takes lines by chance) name no figure
+                    print(f"{name}: {len(other)} of the {len(shown)} windows whose lines form a rotation comb show "
+                          f"another number than the {opts.ripples_per_rev} given ({m} the commonest, in {k}); too few "
+                          f"agree on one to name the motor's ({CALIBRATE_MIN_WINDOWS} windows and "
+                          f"{CALIBRATE_AGREE:.0%} of the comb windows needed, as hpddo ripple --calibrate needs)")
             if "ratio_check" in s:
                 print(f"{name}: {s['ratio_check']['statement']}")
             if not args.quiet:

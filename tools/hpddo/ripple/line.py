@@ -93,14 +93,18 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
         # every confident row: a window's own comb at the figure given does not outweigh the recording's (a
         # free-running burst's PWM residue put a comb at half the rotation frequency under 2 of 16 comb windows of
         # a 6-ripple motor given 12, in the independent commutator simulation; the 14 others showed other figures)
-        demote = est["confident"].to_numpy(bool)
+        demote = est["confident"].to_numpy(bool).copy()  # (a view of the column, which the lines below change)
         idx = est.index[demote]
         est.loc[idx, "confident"] = False
         est.loc[idx, "confidence"] = 0.0
         est.loc[idx, "key"] = "multiple"
+        n_top = int((m == top).sum())
         head = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the {opts.ripples_per_rev} given, in "
-                f"{int((m == top).sum())} of the {int(shown.sum())} windows of this recording whose lines form a "
-                "rotation comb")
+                f"{n_top} of the {int(shown.sum())} windows of this recording whose lines form a rotation comb"
+                if figure_confirmed(n_top, int(shown.sum())) else
+                f"{REASONS['multiple']}: {int(other.sum())} of the {int(shown.sum())} windows of this recording whose "
+                f"lines form a rotation comb show another number than the {opts.ripples_per_rev} given ({top} the "
+                f"commonest, in {n_top}); too few agree on one to name the motor's")
         for j, k in zip(idx, m[demote]):
             est.at[j, "reason"] = head + ("; this window shows none of its own" if k == 0
                                           else f"; this window's own shows {k}")
