@@ -17,7 +17,6 @@ a confident window where the shaft stands (true speed 0) counts as more than 5 %
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import pathlib
@@ -52,7 +51,9 @@ def run_case(protocol: str, seed: int, mains_hz: float, time_scale: float = TIME
     g = generate.generate(bench, protocol, 1.0 / WINDOW_S, seed, time_scale=time_scale, ripple=rpar)
     t0, codes, meta = g["bursts"]
     declared = rf.of_meta(meta, g["log"]["seq"].to_numpy(), t0, codes)
-    before = dataclasses.replace(declared, sampling=rf.SYNCHRONOUS, pwm_hz=math.nan, mains_hz=math.nan)
+    # the same bursts in a file that declares none of the three: its metadata without them, as read
+    undeclared = {k: v for k, v in meta.items() if k not in (rf.SAMPLING, rf.PWM_HZ, rf.MAINS_HZ)}
+    before = rf.of_meta(undeclared, g["log"]["seq"].to_numpy(), t0, codes)
     true = g["truth"]["rpm_true"].to_numpy()
     opts = Options(bench.ripples_per_rev, bench.gear_ratio)
     out = {"protocol": protocol, "seed": seed, "mains_hz": mains_hz, "time_scale": time_scale}
