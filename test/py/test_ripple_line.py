@@ -422,3 +422,30 @@ def test_a_recordings_combs_at_scattered_numbers_name_no_figure():
     est["multiple"] = [36] * 5 + [6] + [0] * 6  # five of six agree: the figure is named
     said = identity_of_recording(est, Options(6, 1.0))["reason"].iloc[6]
     assert "the ripple is 36 per revolution, not the 6 given, in 5 of the 6 windows" in said, said
+
+
+@pytest.mark.parametrize("rot1,rot2,uneven", [(0.01, 0.03, True), (0.01, 0.059, True), (0.01, 0.2, False),
+                                              (1.5, 0.03, False)])
+def test_a_twice_per_revolution_line_that_coils_a_few_percent_unequal_also_make_is_called_uneven(rot1, rot2, uneven):
+    """Between HEALTH_ROT2_MAX and HEALTH_ROT2_UNEVEN_MAX the line at twice the rotation frequency reads as a worn
+    bar (the twin's) and as a healthy motor's coils 1-3 % apart (the independent commutator simulation) read: the
+    window is not counted, and its reason says it is uneven, naming both, not that the commutator is damaged;
+    above, or with the once-per-revolution line over its bound, it is damaged."""
+    from hpddo.ripple.options import REASONS
+
+    said = rc.damaged_reason(REASONS["damaged"], rot1, rot2, 20.0)
+    assert said.startswith(rc.UNEVEN if uneven else REASONS["damaged"]), said
+    assert rc.damaged(rot1, rot2)
+
+
+def test_the_logs_commutator_sentence_says_uneven_or_damaged_as_its_windows_read():
+    import pandas as pd
+
+    from hpddo.cli.ripple import _commutator
+
+    est = pd.DataFrame({"rot1_rel": [0.01, 0.02, 0.01], "rot2_rel": [0.004, 0.03, 0.045],
+                        "key": ["", "damaged", "damaged"]})
+    said = _commutator(est)["statement"]
+    assert said.startswith("the commutator looks uneven in 2 of 3 windows") and "coils a few % unequal" in said, said
+    est.loc[2, "rot2_rel"] = 0.3
+    assert _commutator(est)["statement"].startswith("the commutator looks damaged in 2 of 3 windows")

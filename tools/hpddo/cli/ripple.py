@@ -330,10 +330,16 @@ def _commutator(est) -> dict:
     if not read.any():
         out["statement"] = "the commutator's health not read (no window resolves the rotation's lines)"
     elif bad:
-        out["statement"] = (f"the commutator looks damaged in {bad} of {read.sum()} windows read (the line at twice "
-                            f"the rotation frequency up to {out['rot2_rel_max']:.3g} of the commutation line's power, "
-                            f"over {rc.HEALTH_ROT2_MAX:g}): a worn or burnt bar, a shorted coil; those windows are "
-                            "not counted")
+        dmg = est["key"].to_numpy() == "damaged"
+        r1 = est["rot1_rel"].to_numpy(float)
+        uneven = all(rc.uneven_only(a, b) for a, b in zip(r1[dmg], r2[dmg]))
+        out["statement"] = (f"the commutator looks {'uneven' if uneven else 'damaged'} in {bad} of {read.sum()} "
+                            f"windows read (the line at twice the rotation frequency up to {out['rot2_rel_max']:.3g} "
+                            f"of the commutation line's power, over {rc.HEALTH_ROT2_MAX:g}): "
+                            + (f"a worn bar, or coils a few % unequal as in a healthy motor, which this line does not "
+                               f"tell apart under {rc.HEALTH_ROT2_UNEVEN_MAX:g}" if uneven else
+                               "a worn or burnt bar, a shorted coil")
+                            + "; those windows are not counted")
     else:
         out["statement"] = (f"the commutator looks healthy ({read.sum()} windows read, the line at twice the rotation "
                             f"frequency at most {out['rot2_rel_max']:.3g} of the commutation line's power, under "

@@ -42,6 +42,12 @@ COMB_SPAN = 2.2         # the comb's lines: up to the commutation line's second 
 #: multiples. Set on the twin, between the healthy windows' largest and a worn segment's (+10 % of the loop
 #: resistance) smallest (hpddo.studies.ripple_line, docs/figures/ripple_line.json: each case's percentiles)
 HEALTH_ROT2_MAX = 0.012
+#: ... but up to this, the line does not tell a worn bar from coils a few % unequal, as a healthy motor's are: on
+#: the independent commutator simulation (studies/commutator.py, coils' resistance and EMF 1-3 % sd apart, no
+#: fault) the synchronous benches' comb windows read 0.005-0.056, over the twin's worn segment (+10 % of the loop
+#: resistance: 0.007 at 1 %, 0.029 median); the twin's damaged segment reads 0.065 at 1 %, 0.22 median. Between the
+#: two a window is `damaged` all the same (its even lines make the comb's spacing 2 f_rot), but said to be uneven
+HEALTH_ROT2_UNEVEN_MAX = 0.06
 #: the once-per-revolution line (eccentricity, a bent shaft, one brush's contact) is common in healthy motors:
 #: named only where it is as strong as the commutation line (healthy twin windows: 0.026 at the most)
 HEALTH_ROT1_MAX = 1.0
@@ -338,7 +344,21 @@ def damaged(rot1_rel: float, rot2_rel: float) -> bool:
                 or (np.isfinite(rot2_rel) and rot2_rel > HEALTH_ROT2_MAX))
 
 
+def uneven_only(rot1_rel: float, rot2_rel: float) -> bool:
+    """Whether health lines over the threshold (damaged) stay where a worn bar and coils a few % unequal read
+    alike (HEALTH_ROT2_UNEVEN_MAX): the once-per-revolution line within its bound, the twice within that."""
+    return not (np.isfinite(rot1_rel) and rot1_rel > HEALTH_ROT1_MAX) and np.isfinite(rot2_rel) \
+        and rot2_rel <= HEALTH_ROT2_UNEVEN_MAX
+
+
+UNEVEN = ("an uneven commutator: the line at twice the rotation frequency is strong against the commutation line, "
+          "as a worn bar makes it and as coils a few % unequal do in a healthy motor (this line does not tell the "
+          "two apart); the ripple is not counted through it")
+
+
 def damaged_reason(head: str, rot1_rel: float, rot2_rel: float, rot_hz: float) -> str:
-    return (f"{head} (at {rot_hz:.2f} and {2 * rot_hz:.2f} Hz {rot1_rel:.3g} and {rot2_rel:.3g} of its power, "
-            f"over {HEALTH_ROT1_MAX:g} and {HEALTH_ROT2_MAX:g})")
+    """The reason of a window named damaged: head, or UNEVEN where the lines stay below what tells a fault
+    (uneven_only), with the lines' powers and the thresholds."""
+    return (f"{UNEVEN if uneven_only(rot1_rel, rot2_rel) else head} (at {rot_hz:.2f} and {2 * rot_hz:.2f} Hz "
+            f"{rot1_rel:.3g} and {rot2_rel:.3g} of its power, over {HEALTH_ROT1_MAX:g} and {HEALTH_ROT2_MAX:g})")
 
