@@ -218,15 +218,13 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
 
 
 def fixed_hz_of(bursts) -> tuple:
-    """The fixed lines the acquisition declares in the burst file's metadata, Hz: the PWM frequency
-    (`pwm_hz`) where it lies inside the band the samples hold (under half the sample rate: sampled
-    once per PWM period, the PWM aliases to 0 Hz and puts no line). Their multiples are left out of
-    the comb; this is the hook where a check of the sampling (free-running PWM, mains) adds its
-    own."""
-    try:
-        pwm = float(bursts.meta.get("pwm_hz", "nan"))
-    except (TypeError, ValueError):
-        return ()
+    """The fixed lines the acquisition declares, Hz: the PWM frequency the burst file declares
+    (`Bursts.pwm_hz`, read from its metadata by logs.ripple.of_meta: the one reading of it that the
+    PWM-synchronous average also uses) where it lies inside the band the samples hold (under half
+    the sample rate: sampled once per PWM period, the PWM aliases to 0 Hz and puts no line). Their
+    multiples are left out of the comb; this is the hook where a check of the sampling (free-running
+    PWM, mains) adds its own."""
+    pwm = float(bursts.pwm_hz)
     return (pwm,) if math.isfinite(pwm) and 0 < pwm < bursts.sample_hz / 2 else ()
 
 

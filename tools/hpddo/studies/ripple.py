@@ -22,7 +22,7 @@ import sys
 
 import numpy as np
 
-from ..logs.ripple import Bursts
+from ..logs import ripple as rf
 from ..ripple.encoder import check_ratio, span_reference
 from ..ripple.log import speed_of_bench
 from ..ripple.options import Options
@@ -105,7 +105,7 @@ def count_scenario(sc: Scenario, seed: int = None, quiet: bool = True, settled_t
         ts = sc.time_scale if prot != "long" else 0.1 * sc.time_scale
         g = generate.generate(bench, prot, 1.0 / WINDOW_S, seed, time_scale=ts, ripple=rparams)
         t0, codes, bmeta = g["bursts"]
-        b = Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), g["log"]["seq"].to_numpy(), t0, codes)
+        b = rf.of_meta(bmeta, g["log"]["seq"].to_numpy(), t0, codes)
         made.append((prot, g, b))
     # the product's path (hpddo ripple, --reference ripple, compare's ripple peers): the prior's Ke the user's or
     # calibrated from the ripple, Ra the log's ra_ohm metadata, each window counted, then the spans of steady
@@ -154,7 +154,7 @@ def ke_against_truth(protocol: str, time_scale: float, seed: int) -> dict:
     g = generate.generate(bench, protocol, 1.0 / WINDOW_S, seed, time_scale=time_scale, ripple=params.ripple_burst())
     t0, codes, bmeta = g["bursts"]
     log = g["log"]
-    b = Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), log["seq"].to_numpy(), t0, codes)
+    b = rf.of_meta(bmeta, log["seq"].to_numpy(), t0, codes)
     ke, n, doubt = calibrate_ke(b, log["duty"].to_numpy(), log["v_V"].to_numpy(), log["i_A"].to_numpy(),
                                 float(g["meta"]["ra_ohm"]), Options(bench.ripples_per_rev, bench.gear_ratio))
     truth = g["truth"]["ke_vs_per_rad"].to_numpy()

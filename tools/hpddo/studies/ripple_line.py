@@ -18,7 +18,7 @@ import sys
 
 import numpy as np
 
-from ..logs.ripple import Bursts
+from ..logs import ripple as rf
 from ..ripple.log import speed_of_log
 from ..ripple.options import Options
 from ..ripple import calibrate as rcal
@@ -61,7 +61,7 @@ def _record(prot: str, ripple: dict):
     bench = params.preset("default")
     g = generate.generate(bench, prot, 1.0 / WINDOW_S, SEED, time_scale=TIME_SCALE, ripple=params.ripple_burst(**ripple))
     t0, codes, bmeta = g["bursts"]
-    b = Bursts(bmeta, float(bmeta["sample_hz"]), float(bmeta["a_per_code"]), g["log"]["seq"].to_numpy(), t0, codes)
+    b = rf.of_meta(bmeta, g["log"]["seq"].to_numpy(), t0, codes)
     return bench, g, b
 
 
