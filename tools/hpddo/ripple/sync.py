@@ -102,11 +102,12 @@ def prepare(bursts, source: str = "bursts"):
     return dataclasses.replace(bursts, codes=codes, refused=tuple(refused))
 
 
-def fixed_lines(bursts, f_max_hz: float, f_min_hz: float = 0.0, either_mains: bool = False) -> list:
-    """The supply's fixed lines from f_min_hz to f_max_hz as (Hz, what): the PWM's harmonics (and where
-    they alias into the band at sample_hz), the mains frequency's multiples (as many as lie between,
-    whatever the declared mains frequency: a file may declare any positive one); where the file declares
-    them. With either_mains, where the file declares no mains frequency, the multiples of every mains
+def fixed_lines(bursts, f_hz: float, either_mains: bool = False) -> list:
+    """The supply's fixed lines nearest f_hz as (Hz, what): the PWM's harmonics (and where they alias at
+    sample_hz) up to f_hz's neighbourhood, and the mains frequency's multiple nearest f_hz, where the file
+    declares them (whatever the declared mains frequency: a file may declare any positive one, 1 mHz too,
+    whose multiples near a line in the kHz are millions: the nearest is computed, not listed). With
+    either_mains, where the file declares no mains frequency, the nearest multiple of every mains
     frequency (comb.MAINS_HZ: 50 and 60 Hz), since hum is in a current whether the file says so or not."""
     fs = bursts.sample_hz
     out = []
@@ -115,15 +116,16 @@ def fixed_lines(bursts, f_max_hz: float, f_min_hz: float = 0.0, either_mains: bo
             f = h * bursts.pwm_hz
             alias = abs((f + fs / 2) % fs - fs / 2)
             what = f"{h} x the PWM's {bursts.pwm_hz:g} Hz" + ("" if abs(alias - f) < 1e-9 else f", aliased at {fs:g} S/s")
-            if alias <= f_max_hz:
-                out.append((alias, what))
+            out.append((alias, what))
     if math.isfinite(bursts.mains_hz):
-        for h in range(max(1, math.ceil(f_min_hz / bursts.mains_hz)), int(f_max_hz // bursts.mains_hz) + 1):
-            out.append((h * bursts.mains_hz, f"{h} x the mains' {bursts.mains_hz:g} Hz"))
+        mains = [(bursts.mains_hz, "the mains' {:g} Hz".format(bursts.mains_hz))]
     elif either_mains:
-        for mains in MAINS_HZ:
-            for h in range(max(1, math.ceil(f_min_hz / mains)), int(f_max_hz // mains) + 1):
-                out.append((h * mains, f"{h} x {mains:g} Hz, a mains frequency (the file declares none)"))
+        mains = [(m, f"{m:g} Hz, a mains frequency (the file declares none)") for m in MAINS_HZ]
+    else:
+        mains = []
+    for m, name in mains:
+        h = max(1, round(f_hz / m)) if math.isfinite(f_hz) else 1
+        out.append((h * m, f"{h} x {name}"))
     return out
 
 
@@ -148,7 +150,7 @@ def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float, placed: bool =
     if not math.isfinite(f_hz):
         return None
     tol = resolution_hz + 0.002 * f_hz
-    for f, what in fixed_lines(bursts, f_hz + tol, f_hz - tol, either_mains=not placed):
+    for f, what in fixed_lines(bursts, f_hz, either_mains=not placed):
         if abs(f_hz - f) <= tol:
             return KEY, f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz)"
     return None
