@@ -109,6 +109,10 @@ def write_log(path, s, t_s):
 @example(s={"windows": 1, "n": 17, "shape": "ripple", "sample_hz": 100.0, "a_per_code": 1e-9, "offset": None,
             "sampling": None, "pwm_hz": None, "mains_hz": None, "coupling": "ac", "gaps": False,
             "varying_n": False, "seed": 1})
+# a 1 mHz mains again, AC-coupled ripple in two windows: every mains multiple near each line was listed, 311 s
+@example(s={"windows": 2, "n": 17, "shape": "ripple", "sample_hz": 1e6, "a_per_code": 0.0097, "offset": 1e12,
+            "sampling": None, "pwm_hz": 0.0, "mains_hz": 0.001, "coupling": "ac", "gaps": True,
+            "varying_n": False, "seed": 526})
 def test_any_valid_burst_file_gives_a_result_or_a_user_error(tmp_path_factory, s):
     d = tmp_path_factory.mktemp("burst")
     path, t_s = write_bursts(d / "any.ripple.csv", s)

@@ -90,6 +90,19 @@ def test_fixed_line_names_pwm_harmonics_their_aliases_and_mains():
     assert sync.fixed_line(plain, 0, 150.0, 2.0) is None  # nothing declared, nothing assumed
 
 
+def test_a_mains_frequency_of_any_size_is_checked_by_its_nearest_multiple():
+    """A file may declare any positive mains frequency. The check takes the multiple nearest the line,
+    computed: listing every multiple between the line's bounds took 42 s for four windows at 1 mHz
+    (about 27 million of them near 200 kHz; found by fuzzing hpddo ripple, 311 s for one file)."""
+    b = rf.of_meta({"sample_hz": "1000000", "a_per_code": "0.01", "mains_hz": "0.001"}, [0], [0.0],
+                   [np.zeros(300, np.int64)])
+    assert len(sync.fixed_lines(b, 200000.0)) == 1
+    key, why = sync.fixed_line(b, 0, 200000.0004, 2.0)
+    assert key == sync.KEY and "200000000 x the mains' 0.001 Hz" in why
+    b60 = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01", "mains_hz": "60"}, [0], [0.0], [np.zeros(10, np.int64)])
+    assert sync.fixed_lines(b60, 181.0) == [(180.0, "3 x the mains' 60 Hz")]
+
+
 def test_free_running_without_pwm_hz_is_refused_and_a_short_burst_said_too_short():
     b = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01", "sampling": "free"}, [0], [0.0],
                    [np.arange(4800) % 7])
