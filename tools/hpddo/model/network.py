@@ -200,9 +200,9 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None, weight=N
     nlayers = len(ws)
     losses = []
     # Each layer's activations are kept both ways: rows by units (acts, C order) for the sums over
-    # a batch's rows (the weight and bias gradients, the one-output layer), units by rows (acts_t)
-    # for the sums over a layer's inputs (matmul_cols). Every number is the same bits as the
-    # row-major arithmetic of network.activations and matmul (test_network: trained to the byte).
+    # a batch's rows (the weight and bias gradients), units by rows (acts_t) for the sums over a
+    # layer's inputs (matmul_cols). Every number is the same bits as the row-major arithmetic of
+    # network.activations and matmul (test_network: trained to the byte).
     z_t = np.ascontiguousarray(z.T)
     epochs = range(cfg.max_iter) if progress is None else progress(range(cfg.max_iter))
     for _ in epochs:
@@ -215,19 +215,12 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None, weight=N
             acts, acts_t, yb = [zs[start: stop]], [zs_t[:, start: stop]], ys[start: stop]
             nb = len(yb)
             for k, (w, b) in enumerate(zip(ws, bs)):
-                if w.shape[1] > 1:
-                    h_t = matmul_cols(w, acts_t[-1])
-                    h_t += b[:, None]
-                    if k < nlayers - 1:
-                        np.maximum(h_t, 0.0, out=h_t)
-                    acts_t.append(h_t)
-                    acts.append(np.ascontiguousarray(h_t.T))
-                else:  # one unit (the output): summed as network.activations sums it
-                    h = matmul(acts[-1], w) + b
-                    if k < nlayers - 1:
-                        np.maximum(h, 0.0, out=h)
-                    acts.append(h)
-                    acts_t.append(np.ascontiguousarray(h.T))
+                h_t = matmul_cols(w, acts_t[-1])
+                h_t += b[:, None]
+                if k < nlayers - 1:
+                    np.maximum(h_t, 0.0, out=h_t)
+                acts_t.append(h_t)
+                acts.append(np.ascontiguousarray(h_t.T))
             delta = acts[-1] - yb
             if wts is None:
                 sq = float((delta * delta).sum()) / nb / 2.0
@@ -241,14 +234,9 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None, weight=N
                 gws[k][...] = (matmul_t(acts[k], delta) + cfg.alpha * ws[k]) / nb
                 gbs[k][...] = delta.sum(axis=0) / nb
                 if k:
-                    w_t = ws[k].T
-                    if w_t.shape[1] > 1:
-                        d_t = matmul_cols(w_t, np.ascontiguousarray(delta.T))
-                        d_t *= acts_t[k] > 0
-                        delta = np.ascontiguousarray(d_t.T)
-                    else:
-                        delta = matmul(delta, w_t)
-                        delta *= acts[k] > 0
+                    d_t = matmul_cols(ws[k].T, np.ascontiguousarray(delta.T))
+                    d_t *= acts_t[k] > 0
+                    delta = np.ascontiguousarray(d_t.T)
             b1_t *= ADAM_BETA1
             b2_t *= ADAM_BETA2
             adam_step(theta, grad, m, v, adam_rate(cfg, b1_t, b2_t))

@@ -272,12 +272,17 @@ def without_fixed(found, bursts, res_hz: float) -> list:
                     or (mains is not None and on_mains(ln.hz)))]
 
 
+def _power_at(found, f_hz: float, res_hz: float) -> float:
+    """The power of the strongest line of found (lines()) within tol_hz of f_hz; 0 where there is none."""
+    return max((ln.power for ln in found if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz)), default=0.0)
+
+
 def rivals(found, f_hz: float, res_hz: float, in_spread, share: float, exclude=()) -> list:
     """The lines that rival the chosen line at f_hz: every line (found, lines()) other than it and
     other than those in exclude (Hz: lines the comb has placed), whose frequency in_spread (a
     function of Hz -> bool: inside the back-EMF prior's spread) and whose power is at least share
     of the chosen line's. Strongest first."""
-    p0 = max((ln.power for ln in found if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz)), default=0.0)
+    p0 = _power_at(found, f_hz, res_hz)
     if p0 <= 0:
         return []
     out = []
@@ -312,7 +317,7 @@ def sideband_partners(found, f_hz: float, res_hz: float, pwm, in_spread, share: 
     is None."""
     if pwm is None:
         return []
-    p0 = max((ln.power for ln in found if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz)), default=0.0)
+    p0 = _power_at(found, f_hz, res_hz)
     out = []
     for ln in found:
         if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz) or ln.power < share * p0 or not in_spread(ln.hz):

@@ -238,7 +238,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     out["f_strongest_Hz"] = float(f[band_all][np.argmax(p[band_all])])  # one FFT peak, no prior, no family
     found = rc.lines(f, p, f_lo, f_hi, res, opts.min_snr)
     found = rc.without_fixed(found, bursts, res)
-    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), rc.pwm_of(bursts))
+    pwm = rc.pwm_of(bursts)  # (a free-running burst's in-band PWM, or None)
+    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), pwm)
     if comb is not None:  # the line's identity from the data: the comb of rotation lines
         out.update(rot_hz=comb.rot_hz, multiple=comb.multiple)
         out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res)
@@ -301,12 +302,13 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz or {riv[0].hz:.1f} Hz, "
                    f"{riv[0].power / max(line_power(f, p_max, f_star), 1e-300):.2f} of its power)")
         return out
-    # under a free-running PWM, a line and its PWM sideband inside the spread, whatever their powers: where no comb
-    # places the line, which of the two is the commutation neither power nor prior can tell
-    partners = rc.sideband_partners(found, f_star, res, rc.pwm_of(bursts), in_spread) if comb is None else []
+    # under a free-running PWM, a line and its PWM sideband inside the spread, from a tenth of the chosen line's
+    # power on (comb.SIDEBAND_SHARE): where no comb places the line, which of the two is the commutation neither the
+    # half-power rule nor the prior can tell
+    partners = rc.sideband_partners(found, f_star, res, pwm, in_spread) if comb is None else []
     if partners:
         out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz or {partners[0].hz:.1f} Hz: "
-                   f"each the other's sideband of the {rc.pwm_of(bursts)[0]:g} Hz PWM, "
+                   f"each the other's sideband of the {pwm[0]:g} Hz PWM, "
                    f"{partners[0].power / max(line_power(f, p_max, f_star), 1e-300):.2f} of its power)")
         return out
     # rivals in the family where no comb places the line: the data's own evidence at f* x r, weighted by the prior
