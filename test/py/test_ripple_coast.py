@@ -11,6 +11,7 @@ import pathlib
 import numpy as np
 import pytest
 
+from hpddo.model.effects import COPPER_TC_PER_K as COPPER
 from hpddo.ripple import coast as rc
 from hpddo.ripple.options import CoastOptions, Options
 from hpddo.studies import coast as study
@@ -24,22 +25,31 @@ def _scored(b, seed, duration_s=90.0, sampling=None):
     # 90 s: stretches of 18-27 s (the study's schedule shrunk); at 45 s (9-13.5 s, about one winding time
     # constant) the straight line through a stretch's spans (ripple.coast.ra_at) was too uncertain at the
     # stretch's ends for half of the probes to give Ra
-    rec, tab, t_first = study.run_one(b, duration_s, seed, sampling or {})
-    return rec, tab, study.score(rec, tab, t_first)
+    rec, tab, tab_first = study.run_one(b, duration_s, seed, sampling or {})
+    return rec, tab, tab_first, study.score(rec, tab, tab_first)
 
 
-def _holds_what_the_page_says(rec, tab, s):
+def _holds_what_the_page_says(rec, tab, tab_first, s):
     """docs/ripple-coast.md, "Measured": Ra within 2 % at every probe given (the study: all but the warm-up's
-    first probe on one seed); the winding within 3 K at most of them (not all: the cold start bends faster
-    than the 30 s line follows); every error within 4 of the probe's own standard uncertainty."""
+    first probe on one seed); every winding temperature given within 3 K, with the reference given and with
+    the first probe's (a temperature is given only where its 99 % interval lies within 3 K), and given at
+    most probes where the reference is given; every error within 4 of the probe's own standard uncertainty."""
     assert s["ra_given"] >= s["probes"] // 2, s["refused"]  # the probes at one duty and load give Ra
     assert s["ra_err_pct"]["max"] <= study.RA_TARGET * 100, s
-    assert s["winding_within_target"] >= 0.9 * s["ra_given"], s
-    given = tab["ra_ohm"].notna().to_numpy()
-    k = tab["row"].to_numpy(int)[given]
+    # (90 s: stretches of 18-27 s, so half the probes lie where a stretch's line reaches to one side of them
+    # and the temperature's 99 % interval is wider than 3 K; the study's 600 s runs give it at 90 % of Ra's)
+    assert s["winding_within_target"] == s["winding_given"] >= 0.3 * s["ra_given"], s
+    assert s["winding_first_probe_ref_within_target"] == s["winding_given_first_probe_ref"], s
+    k = tab["row"].to_numpy(int)
     copper = "case_C" if rec.bench.form("thermal_ra") == "case" else "winding_C"
-    err = tab["winding_C"].to_numpy()[given] - rec.truth[copper].to_numpy()[k - 1]
-    assert np.all(np.abs(err) <= 4 * tab["winding_sd_K"].to_numpy()[given]), np.max(np.abs(err) / tab["winding_sd_K"].to_numpy()[given])
+    for t in (tab, tab_first):
+        told = t["winding_C"].notna().to_numpy()
+        err = t["winding_C"].to_numpy()[told] - rec.truth[copper].to_numpy()[k[told] - 1]
+        sd = t["winding_sd_K"].to_numpy()[told]
+        assert np.all(np.abs(err) <= 4 * sd), np.max(np.abs(err) / sd)
+        # a probe with Ra and no temperature says why, with its interval against the tolerance
+        wide = t["ra_ohm"].notna() & t["winding_C"].isna()
+        assert t.loc[wide, "reason"].str.startswith(rc.WINDING_UNCERTAIN).all()
 
 
 MOTORS = {
@@ -54,17 +64,18 @@ MOTORS = {
 @pytest.mark.parametrize("motor", sorted(MOTORS))
 @pytest.mark.parametrize("seed", [7, 11])
 def test_ra_and_winding_within_targets(motor, seed):
-    rec, tab, s = _scored(MOTORS[motor](), seed)
-    _holds_what_the_page_says(rec, tab, s)
+    rec, tab, tab_first, s = _scored(MOTORS[motor](), seed)
+    _holds_what_the_page_says(rec, tab, tab_first, s)
     # every probe not given says why, in words; every probe given has its uncertainty
     given = tab["ra_ohm"].notna()
-    assert (tab.loc[~given, "reason"].str.len() > 0).all()
-    assert (tab.loc[given, "reason"] == "").all() and tab.loc[given, "ra_sd_ohm"].gt(0).all()
+    told = tab["winding_C"].notna()
+    assert (tab.loc[~given | ~told, "reason"].str.len() > 0).all()
+    assert (tab.loc[told, "reason"] == "").all() and tab.loc[given, "ra_sd_ohm"].gt(0).all()
 
 
 def test_free_running_sampling_within_targets():
-    rec, tab, s = _scored(study.bench(), 13, sampling=study.SAMPLINGS["free-running"])
-    _holds_what_the_page_says(rec, tab, s)
+    rec, tab, tab_first, s = _scored(study.bench(), 13, sampling=study.SAMPLINGS["free-running"])
+    _holds_what_the_page_says(rec, tab, tab_first, s)
 
 
 def test_no_probe_gives_the_sentence_not_a_number():
@@ -154,6 +165,42 @@ def test_ra_at_follows_a_step_of_drive_and_averages_the_noise():
     assert math.isnan(rc.ra_at(sp.iloc[:2], 1.0, 0, 30.0)[0])  # fewer than three spans: no line
 
 
+def test_a_temperature_is_given_only_where_its_99_percent_interval_is_within_the_tolerance():
+    """read_winding: Ra's uncertainty becomes the temperature's (copper's 0.393 %/K), the first probe's
+    reference adds its own; a temperature whose 99 % interval is wider than the tolerance is not given, its
+    probe keeps Ra and says why; read again against another reference, the earlier refusals go."""
+    import pandas as pd
+    ra = np.array([4.5, 4.6, 4.7, 4.8])
+    sd_k = np.array([0.5, 1.0, 1.5, 0.3])  # K of copper at 4.5 ohm
+    tab = pd.DataFrame({"t_s": [1.5, 3.0, 4.5, 6.0], "row": [1, 2, 3, 4], "ra_ohm": ra,
+                        "ra_sd_ohm": sd_k * 4.5 * COPPER, "reason": ""})
+    res = rc.CoastResult(tab)
+    given = rc.read_winding(res, CoastOptions(ra_ref_ohm=4.5, ra_ref_C=20.0))
+    t = given.table
+    assert given.statement == ""
+    np.testing.assert_allclose(t["winding_C"].dropna(), (20.0 + (ra / 4.5 - 1.0) / COPPER)[[0, 1, 3]])
+    np.testing.assert_allclose(t["winding_sd_K"].dropna(), sd_k[[0, 1, 3]])
+    # 2.576 x 1.5 K = 3.9 K > 3 K: Ra kept, no temperature, the interval in the reason
+    assert t["ra_ohm"].notna().all() and math.isnan(t.at[2, "winding_C"])
+    assert t.at[2, "reason"].startswith(rc.WINDING_UNCERTAIN) and "3.9 K" in t.at[2, "reason"]
+    assert (t.loc[[0, 1, 3], "reason"] == "").all()
+    # a wider tolerance gives it, read from the same table (the earlier refusal gone)
+    wider = rc.read_winding(given, CoastOptions(ra_ref_ohm=4.5, ra_ref_C=20.0, winding_tolerance_K=4.0)).table
+    assert wider["winding_C"].notna().all() and (wider["reason"] == "").all()
+    # the first probe's reference: its 0.5 K joins every temperature's, and the statement says what is left out
+    first = rc.read_winding(given, CoastOptions(), first_reading_C=20.0)
+    f = first.table
+    assert first.statement == rc.FIRST_PROBE_REFERENCE and first.ra_ref_ohm == 4.5 and first.ra_ref_C == 20.0
+    assert f.at[0, "winding_C"] == 20.0
+    # (the reference's 0.5 K at 4.5 ohm, scaled by each Ra: T - T_ref = (Ra / Ra_ref - 1) / alpha)
+    np.testing.assert_allclose(f["winding_sd_K"].dropna(), np.hypot(sd_k, ra / 4.5 * 0.5)[[0, 1, 3]])
+    assert list(f["winding_C"].notna()) == [True, True, False, True]
+    # no reference at all: Ra given, no temperature, the sentence
+    none = rc.read_winding(given, CoastOptions())
+    assert none.statement == rc.NO_REFERENCE and none.table["winding_C"].isna().all()
+    assert none.table["ra_ohm"].notna().all()
+
+
 def test_the_page_quotes_the_committed_figures():
     committed = json.loads((ROOT / "docs/figures/coast.json").read_text())
     assert study.block(committed) in (ROOT / "docs/ripple-coast.md").read_text()
@@ -234,7 +281,9 @@ def test_ripple_coast_from_files_gives_what_the_estimator_gives_in_memory(coast_
     assert list(got["reason"].fillna("")) == list(want["reason"])
     js = json.loads((out / "summary.json").read_text())["coast"]
     assert js["probes"] == len(got) and js["ra_given"] == int(got["ra_ohm"].notna().sum())
-    assert f"{js['probes']} coast probes; Ke measured at {js['ke_measured']}, Ra at {js['ra_given']}" in printed
+    assert js["winding_given"] == int(got["winding_C"].notna().sum())
+    assert (f"{js['probes']} coast probes; Ke measured at {js['ke_measured']}, Ra at {js['ra_given']}, "
+            f"the winding's temperature at {js['winding_given']}") in printed
 
 
 def test_ripple_coast_refuses_what_it_cannot_use(coast_files, tmp_path, capsys):

@@ -33,8 +33,8 @@ Writes OUT/<condition>.ripple_speed.csv and OUT/summary.json.
 milliseconds, the current and the terminal voltage sampled in turn; docs/ripple-coast.md) and gives
 at each probe Ke (the back-EMF over the ripple's speed), Ra (from the driven spans around it) and
 the winding's temperature (copper's coefficient, from --ra-ref OHM C, a multimeter's Ra at a known
-temperature, else the first probe's Ra at the log's first temperature reading): OUT/<condition>.coast_probes.csv
-and OUT/summary.json; it counts no other window. --brush-drop-v: the brushes' drop while current flows,
+temperature, else the first probe's Ra at the log's first temperature reading; given only where its 99 %
+interval lies within 3 K): OUT/<condition>.coast_probes.csv and OUT/summary.json; it counts no other window. --brush-drop-v: the brushes' drop while current flows,
 where known (without it Ra carries drop / I).
 """
 from __future__ import annotations
@@ -247,10 +247,12 @@ def _coast(args, opts) -> int:
                 ok = tab["ra_ohm"].notna()
                 tw = tab.loc[ok, "winding_C"].to_numpy(float)
                 s.update({"ke_measured": int(tab["ke_vs_per_rad"].notna().sum()), "ra_given": int(ok.sum()),
+                          "winding_given": int(np.isfinite(tw).sum()),
                           "ra_ref_ohm": res.ra_ref_ohm if np.isfinite(res.ra_ref_ohm) else None,
                           "ra_ref_C": res.ra_ref_C if np.isfinite(res.ra_ref_C) else None,
                           "reasons": {r: int(n) for r, n in tab.loc[tab["reason"] != "", "reason"].value_counts().items()}})
-                line = (f"{name}: {len(probes)} coast probes; Ke measured at {s['ke_measured']}, Ra at {s['ra_given']}")
+                line = (f"{name}: {len(probes)} coast probes; Ke measured at {s['ke_measured']}, Ra at {s['ra_given']}, "
+                        f"the winding's temperature at {s['winding_given']}")
                 if np.isfinite(tw).any():
                     sd = tab.loc[ok, "winding_sd_K"].to_numpy(float)
                     s["winding_C"] = [float(np.nanmin(tw)), float(np.nanmax(tw))]

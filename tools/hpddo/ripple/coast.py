@@ -58,13 +58,21 @@ NO_SPAN = "no driven span of one duty and load beside the probe with a measured 
 UNCERTAIN = "the driven spans around the probe leave Ra too uncertain"
 NO_REFERENCE = ("no reference for the winding's temperature: no Ra given at a known temperature and no temperature "
                 "reading at the log's start, so Ra is given and the temperature is not")
+WINDING_UNCERTAIN = "Ra is given, the winding's temperature is not: its 99 % interval exceeds the tolerance"
+FIRST_PROBE_REFERENCE = ("the winding's temperature is read against the first probe's Ra taken at the log's first "
+                         "temperature reading; that Ra's uncertainty is in each temperature's, but not the warming "
+                         "between the reading and the probe (the copper heats within seconds of a start): "
+                         "--ra-ref OHM C, a multimeter's Ra at a known temperature, removes both")
+WINDING_Z = 2.576  # the 99 % interval of a temperature, in standard uncertainties (its error is about normal: the
+#                    coast study's errors fall within 1.96 of them at 97.5 % of probes, within 2.576 at 99.7 %)
 
 
 @dataclasses.dataclass
 class CoastResult:
     """The probes' figures (a DataFrame, one row per probe: t_s, row, e_V, ke_vs_per_rad, ke_sd, rpm_cut,
     ra_ohm, ra_sd_ohm, winding_C, winding_sd_K, reason) or, where the record holds no probe, the
-    statement alone (`statement`, table None); `statement` also says where no temperature can be given."""
+    statement alone (`statement`, table None); `statement` also says where no temperature can be given, or
+    what the first probe's reference leaves out of the temperatures' uncertainties."""
 
     table: pd.DataFrame | None
     statement: str = ""
@@ -275,17 +283,42 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
             tab.at[j, "reason"] = f"{UNCERTAIN} ({sd / ra:.1%} > {copts.max_ra_rel_sd:.1%})"
             continue
         tab.at[j, "ra_ohm"], tab.at[j, "ra_sd_ohm"] = ra, sd
+    bad = tab["reason"] != ""
+    tab.loc[bad, ["ra_ohm", "ra_sd_ohm"]] = math.nan  # Ke stays where it was measured
+    t0_C = float(log["temp_C"].iloc[0]) if "temp_C" in log and len(log) else math.nan
+    return read_winding(CoastResult(tab, "", math.nan, math.nan, sp), copts, t0_C)
+
+
+def read_winding(res: CoastResult, copts: CoastOptions, first_reading_C: float = math.nan) -> CoastResult:
+    """res with each probe's winding temperature read from its Ra against the reference: copts.ra_ref_ohm at
+    ra_ref_C where given, else the first probe's Ra at first_reading_C (the log's first temperature
+    reading; its uncertainty joins every temperature's, and the statement says what it leaves out), else
+    none (NO_REFERENCE). A temperature whose 99 % interval (WINDING_Z standard uncertainties) is wider than
+    copts.winding_tolerance_K is not given; its probe keeps Ra and says why. Any earlier reading of res's
+    temperatures is replaced (so one estimate can be read against another reference)."""
+    tab = res.table.copy()
+    tab["reason"] = tab["reason"].where(~tab["reason"].str.startswith(WINDING_UNCERTAIN), "")
     given = tab["ra_ohm"].notna()
+    ra_ref_sd = 0.0  # a multimeter's Ra: exact here (its tolerance is the user's to add to --ra-ref's figure)
     if copts.ra_ref_ohm is not None:
         ra_ref, t_ref = float(copts.ra_ref_ohm), float(copts.ra_ref_C)
-    elif given.any() and "temp_C" in log and math.isfinite(float(log["temp_C"].iloc[0])):
+        statement = ""
+    elif given.any() and math.isfinite(first_reading_C):
         first = int(np.flatnonzero(given.to_numpy())[0])
-        ra_ref, t_ref = float(tab.at[first, "ra_ohm"]), float(log["temp_C"].iloc[0])
+        ra_ref, t_ref = float(tab.at[first, "ra_ohm"]), float(first_reading_C)
+        ra_ref_sd = float(tab.at[first, "ra_sd_ohm"])
+        statement = FIRST_PROBE_REFERENCE
     else:
         ra_ref, t_ref = math.nan, math.nan
-    statement = "" if math.isfinite(ra_ref) or not given.any() else NO_REFERENCE
+        statement = NO_REFERENCE if given.any() else ""
     tab["winding_C"] = t_ref + (tab["ra_ohm"] / ra_ref - 1.0) / COPPER_TC_PER_K
-    tab["winding_sd_K"] = tab["ra_sd_ohm"] / ra_ref / COPPER_TC_PER_K
-    bad = tab["reason"] != ""
-    tab.loc[bad, ["ra_ohm", "ra_sd_ohm", "winding_C", "winding_sd_K"]] = math.nan  # Ke stays where it was measured
-    return CoastResult(tab, statement, ra_ref, t_ref, sp)
+    # T - T_ref = (Ra / Ra_ref - 1) / alpha: the probe's Ra and the reference's uncertainties in quadrature (the
+    # reference probe's own temperature, T_ref, then carries its uncertainty twice over: an upper bound)
+    tab["winding_sd_K"] = np.hypot(tab["ra_sd_ohm"] / ra_ref, tab["ra_ohm"] * ra_ref_sd / ra_ref ** 2) / COPPER_TC_PER_K
+    wide = given & ~(WINDING_Z * tab["winding_sd_K"] <= copts.winding_tolerance_K) & math.isfinite(ra_ref)
+    for j in np.flatnonzero(wide.to_numpy()):
+        tab.at[j, "reason"] = (f"{WINDING_UNCERTAIN} (+-{WINDING_Z * tab.at[j, 'winding_sd_K']:.1f} K against "
+                               f"+-{copts.winding_tolerance_K:g} K)")
+    tab.loc[~given | wide, ["winding_C", "winding_sd_K"]] = math.nan
+    return dataclasses.replace(res, table=tab, statement=statement, ra_ref_ohm=ra_ref, ra_ref_C=t_ref)
+

@@ -124,6 +124,9 @@ class CoastOptions:
     #                               the noise on one seed of four, docs/ripple-coast.md)
     max_ra_rel_sd: float = 0.008  # an Ra less certain than this (relative standard uncertainty) is not given:
     #                               0.8 % is 2 K of copper (0.393 %/K)
+    winding_tolerance_K: float = 3.0  # a winding temperature is given only where its 99 % interval (WINDING_Z
+    #                                   standard uncertainties, the reference's included) lies within this of it:
+    #                                   the accuracy a stated temperature promises (issue 33's target)
     brush_drop_V: float = 0.0     # the brushes' contact drop while current flows, where the user declares it
     #                               (V - Ke n - drop = Ra I); 0: none declared, Ra then carries drop / I
     ra_ref_ohm: float | None = None  # the winding's Ra at ra_ref_C (a multimeter's); None: the first probe's Ra,
