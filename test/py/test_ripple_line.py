@@ -424,6 +424,25 @@ def test_a_recordings_combs_at_scattered_numbers_name_no_figure():
     assert "the ripple is 36 per revolution, not the 6 given, in 5 of the 6 windows" in said, said
 
 
+def test_damaged_windows_neither_name_nor_count_toward_another_figure():
+    """A damaged commutator's even lines make a comb at the wrong spacing (line.comb_windows leaves those
+    windows out): they count neither toward the figure a recording's combs name (identity_of_recording) nor in
+    hpddo ripple's sentence (other_figure, the one count both use). Two comb windows at 36 beside three damaged
+    ones at 36 name no figure; before, the damaged three made it five and "the ripple is 36" was said."""
+    from hpddo.ripple.line import identity_of_recording, other_figure
+    import pandas as pd
+
+    mult = [36, 36, 6, 36, 36, 36] + [0] * 6
+    key = ["multiple", "multiple", "", "damaged", "damaged", "damaged"] + [""] * 6
+    est = pd.DataFrame({"multiple": mult, "key": key, "confident": [k == "" for k in key],
+                        "confidence": [float(k == "") for k in key], "reason": [""] * 12})
+    assert other_figure(est, Options(6, 1.0)) == (36, 2, 2, 3)
+    out = identity_of_recording(est, Options(6, 1.0))
+    said = out["reason"].iloc[6]
+    assert "the ripple is" not in said and "2 of the 3 windows" in said and "36 the commonest, in 2" in said, said
+    assert other_figure(est.assign(multiple=[6, 6, 6, 36, 36, 36] + [0] * 6), Options(6, 1.0)) is None
+
+
 @pytest.mark.parametrize("rot1,rot2,uneven", [(0.01, 0.03, True), (0.01, 0.059, True), (0.01, 0.2, False),
                                               (1.5, 0.03, False)])
 def test_a_twice_per_revolution_line_that_coils_a_few_percent_unequal_also_make_is_called_uneven(rot1, rot2, uneven):

@@ -86,7 +86,7 @@ def run(args) -> int:
     from ..logs.errors import InputError
     from ..ripple.encoder import check_ratio, span_reference
     from ..ripple.log import speed_of_bench
-    from ..ripple.line import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, figure_confirmed
+    from ..ripple.line import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, figure_confirmed, other_figure
     from ..ripple.options import Options
 
     if args.ripples_per_rev is None and not args.calibrate:
@@ -165,18 +165,16 @@ def run(args) -> int:
                 line += f"; against the encoder RMS {s['rms_vs_encoder_pct']:.3f} %, max {s['max_vs_encoder_pct']:.2f} %"
             print(line)
             print(f"{name}: {s['commutator']['statement']}")
-            shown = est.loc[est["multiple"] > 0, "multiple"]
-            other = shown[shown != opts.ripples_per_rev]
-            if len(other):
-                m = int(other.mode().iloc[0])
-                k = int((shown == m).sum())
-                if figure_confirmed(k, len(shown)):  # as --calibrate would name it
+            other = other_figure(est, opts)  # over the comb windows, the damaged ones left out
+            if other is not None:
+                m, k, n_other, n_shown = other
+                if figure_confirmed(k, n_shown):  # as --calibrate would name it
                     print(f"{name}: the ripple is {m} per revolution, not the {opts.ripples_per_rev} given, in "
-                          f"{k} of the {len(shown)} windows whose lines form a rotation comb "
+                          f"{k} of the {n_shown} windows whose lines form a rotation comb "
                           f"({int((est['key'] == 'multiple').sum())} windows not confident for it); hpddo ripple "
                           "--calibrate finds it")
                 else:  # a few combs at other numbers (a narrow spacing takes lines by chance) name no figure
-                    print(f"{name}: {len(other)} of the {len(shown)} windows whose lines form a rotation comb show "
+                    print(f"{name}: {n_other} of the {n_shown} windows whose lines form a rotation comb show "
                           f"another number than the {opts.ripples_per_rev} given ({m} the commonest, in {k}); too few "
                           f"agree on one to name the motor's ({CALIBRATE_MIN_WINDOWS} windows and "
                           f"{CALIBRATE_AGREE:.0%} of the comb windows needed, as hpddo ripple --calibrate needs)")

@@ -63,6 +63,20 @@ def figure_shown(ests, opts: Options) -> tuple:
     return figure_confirmed(at, shown), at, shown
 
 
+def other_figure(est, opts: Options):
+    """Over an estimate's comb windows (comb_windows: not those named `damaged`), the commonest multiple other
+    than opts.ripples_per_rev: (that multiple, the comb windows showing it, the comb windows showing any other
+    than the figure given, all comb windows); None where every comb window shows the figure given."""
+    m = est["multiple"].to_numpy(int)
+    shown = comb_windows(est)
+    other = shown & (m != opts.ripples_per_rev)
+    if not other.any():
+        return None
+    vals, counts = np.unique(m[other], return_counts=True)
+    top = int(vals[np.argmax(counts)])  # (the smallest of equally common ones)
+    return top, int((shown & (m == top)).sum()), int(other.sum()), int(shown.sum())
+
+
 def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     """The line's identity over a whole recording: where most of the windows whose lines form a
     rotation comb (est's `multiple` > 0; not those named `damaged`) put the strongest line at another multiple than
@@ -88,8 +102,7 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     at = shown & (m == opts.ripples_per_rev)
     other = shown & ~at
     if shown.any() and other.sum() > 0.5 * shown.sum():
-        vals, counts = np.unique(m[other], return_counts=True)
-        top = int(vals[np.argmax(counts)])
+        top, n_top, _, _ = other_figure(est, opts)
         # every confident row: a window's own comb at the figure given does not outweigh the recording's (a
         # free-running burst's PWM residue put a comb at half the rotation frequency under 2 of 16 comb windows of
         # a 6-ripple motor given 12, in the independent commutator simulation; the 14 others showed other figures)
@@ -98,7 +111,6 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
         est.loc[idx, "confident"] = False
         est.loc[idx, "confidence"] = 0.0
         est.loc[idx, "key"] = "multiple"
-        n_top = int((m == top).sum())
         head = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the {opts.ripples_per_rev} given, in "
                 f"{n_top} of the {int(shown.sum())} windows of this recording whose lines form a rotation comb"
                 if figure_confirmed(n_top, int(shown.sum())) else
