@@ -21,26 +21,9 @@ from hpddo.ripple import comb as rc
 from hpddo.studies import ripple_line as study
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-FS = 20000.0
-A_PER_CODE = 1e-5
-
-
-def bursts_of(currents, fs=FS, meta=None):
-    codes = [np.round(np.asarray(x) / A_PER_CODE).astype(np.int64) for x in currents]
-    n = len(codes[0])
-    return Bursts(dict(meta or {}), fs, A_PER_CODE, np.arange(len(codes)), np.arange(len(codes)) * n / fs, codes)
-
-
-def motor_current(rot_hz, lines, seconds=0.5, i_mean=1.0, noise=0.002, seed=0, fs=FS, extra=()):
-    """A current with lines at multiples of rot_hz: lines {multiple: amplitude A}; extra: (hz, A) fixed lines."""
-    rng = np.random.default_rng(seed)
-    t = np.arange(int(seconds * fs)) / fs
-    x = i_mean + noise * rng.standard_normal(len(t))
-    for m, a in lines.items():
-        x = x + a * np.cos(2 * math.pi * m * rot_hz * t + rng.uniform(0, 2 * math.pi))
-    for hz, a in extra:
-        x = x + a * np.cos(2 * math.pi * hz * t + rng.uniform(0, 2 * math.pi))
-    return x
+FS = study.SYNTH_FS
+bursts_of = study.synthetic_bursts
+motor_current = study.synthetic_current
 
 
 def one(x, n_given, prior_rpm, gear=1.0, **kw):
@@ -175,6 +158,16 @@ def test_docs_quote_the_committed_study():
     assert study.block(res) in text
     assert res["command"] in text
     assert res["health_rot2_max"] == rc.HEALTH_ROT2_MAX
+
+
+@pytest.mark.slow
+def test_the_sideband_table_regenerates():
+    """The study's free-running sideband table (run_sidebands, 480 synthetic windows) is the committed one, and
+    none of its confident windows is more than 5 % off."""
+    res = json.loads((ROOT / "docs" / "figures" / "ripple_line.json").read_text())
+    got = study.run_sidebands()
+    assert got == res["sidebands"]
+    assert all(d["wrong"] == 0 for d in got["depths"])
 
 
 @pytest.mark.parametrize("hz", [50.0, 100.0, 150.0, 120.0, 300.0])
@@ -383,14 +376,16 @@ def test_a_free_running_pwms_sidebands_around_the_ripple_form_no_comb(rot, depth
     assert comb is not None and comb.multiple == 6, comb
 
 
-@pytest.mark.parametrize("depth,confident", [(2.0, False), (3.0, False), (0.7, False), (0.25, True)])
+@pytest.mark.parametrize("depth,confident", [(2.0, False), (3.0, False), (5.0, False), (0.7, False), (0.25, False),
+                                              (0.0, True)])
 def test_a_free_running_pwms_sideband_partner_inside_the_prior_leaves_a_combless_window_unresolved(depth, confident):
     """A line and its sideband under a free-running PWM are each other's sidebands (f_pwm - f_c and f_c), and
     where the PWM's current ripple outgrows the commutation's the sideband is the stronger: 2x and 3x the line's
     amplitude here, at +21 % of it, inside the prior's spread. The half-power rival rule took the sideband and
     left the line (a quarter or a ninth of its power) as no rival: a confident count 21 % high. Without a comb
-    to place the line, such a pair is unresolved whichever is the stronger (0.7x: the usual depth); a sideband
-    under a tenth of the line's power (0.25x) rivals nothing, and the count is confident and right."""
+    to place the line, such a pair is unresolved whichever is the stronger and by whatever factor: 0.7x (the
+    usual depth), 0.25x, and 5x (25 times the line's power: the rule before, from a tenth of the chosen line's
+    power on, took it confidently, 21 % high). Without sidebands the count is confident and right."""
     fs, pwm, rot = 9600.0, 490.196, 37.0
     c = 6 * rot
     x = motor_current(rot, COMMUTATION_ONLY, fs=fs, extra=[(pwm - c, depth * 0.08), (pwm + c, depth * 0.08)], seed=3)
@@ -401,6 +396,26 @@ def test_a_free_running_pwms_sideband_partner_inside_the_prior_leaves_a_combless
         assert r["key"] == "" and abs(r["rpm"] / (rot * 60.0) - 1) < 0.005, (r["key"], r["reason"])
     else:
         assert r["key"] == "rival" and f"sideband of the {pwm:g} Hz PWM" in r["reason"], (r["key"], r["reason"], r["rpm"])
+
+
+@pytest.mark.parametrize("rot", [37.0, 39.0, 44.0])
+def test_a_free_running_pwms_sideband_whose_line_is_under_the_noise_is_not_taken_for_it(rot):
+    """A light load under a hobby driver: the commutation line too weak to show, the PWM's sidebands around it
+    (f_pwm -+ f_c) strong. Inside the prior's spread the lower one is the only line, so neither the rivals nor the
+    partner rule see anything to weigh it against, and it was counted confidently 9-21 % off. Its mirror
+    sideband (f_pwm + f_c), of about its power, shows: the window is a `rival`, and says why."""
+    fs, pwm = 9600.0, 490.196
+    c = 6 * rot
+    x = motor_current(rot, {6: 0.0}, fs=fs, extra=[(pwm - c, 0.08), (pwm + c, 0.08)], seed=5)
+    b = dataclasses.replace(bursts_of([x], fs=fs), pwm_hz=pwm, sampling="free")
+    r = estimate_window(b, 0, 0.5, rot * 60.0, Options(6, 1.0))
+    assert r["key"] == "rival" and "under the noise" in r["reason"] and f"{pwm + c:.1f} Hz" in r["reason"], \
+        (r["key"], r["reason"], r["rpm"])
+    # the line itself, without sidebands: confident and right (a lone line has no mirror)
+    x = motor_current(rot, COMMUTATION_ONLY, fs=fs, seed=5)
+    b = dataclasses.replace(bursts_of([x], fs=fs), pwm_hz=pwm, sampling="free")
+    r = estimate_window(b, 0, 0.5, rot * 60.0, Options(6, 1.0))
+    assert r["key"] == "" and abs(r["rpm"] / (rot * 60.0) - 1) < 0.005, (r["key"], r["reason"])
 
 
 def test_a_recordings_combs_at_scattered_numbers_name_no_figure():

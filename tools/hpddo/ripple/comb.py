@@ -301,8 +301,10 @@ def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
 
 
 #: a line and its PWM sideband partner (sideband_partners) rival each other from this share of the chosen line's
-#: power on: the chosen line may be the sideband of a commutation line this much weaker (amplitude 0.32 of it)
-SIDEBAND_SHARE = 0.1
+#: power on: 0, any partner the spectrum shows (a line of lines(), over its noise). The sideband's depth is the
+#: PWM ripple's modulation by the rotor, which no motor bounds: at a tenth (the rule before) a sideband 10x the
+#: line's power, the line under a tenth of it, was taken for the line, confidently and 21 % off
+SIDEBAND_SHARE = 0.0
 
 
 def sideband_partners(found, f_hz: float, res_hz: float, pwm, in_spread, share: float = SIDEBAND_SHARE) -> list:
@@ -313,8 +315,8 @@ def sideband_partners(found, f_hz: float, res_hz: float, pwm, in_spread, share: 
     the half-power rule of rivals cannot say: the sideband's depth is the PWM current ripple's modulation
     by the rotor, a third to a half of the line's power in the independent commutator simulation, and
     stronger than the line where the PWM ripple outgrows the commutation's (a hobby driver at 490 Hz);
-    the sidebands around either line are the same set of frequencies. Strongest first; none where pwm
-    is None."""
+    the sidebands around either line are the same set of frequencies, and either may be the stronger by any
+    factor. Strongest first; none where pwm is None."""
     if pwm is None:
         return []
     p0 = _power_at(found, f_hz, res_hz)
@@ -325,6 +327,43 @@ def sideband_partners(found, f_hz: float, res_hz: float, pwm, in_spread, share: 
         if _sideband_of(f_hz, ln.hz, res_hz, pwm) or _sideband_of(ln.hz, f_hz, res_hz, pwm):
             out.append(ln)
     return sorted(out, key=lambda ln: -ln.power)
+
+
+#: a chosen line's mirror sideband (hidden_line_mirrors) counts from this share of the chosen line's power on: a
+#: line's two sidebands h f_pwm -+ j f_c carry about the same power (the PWM ripple's modulation by the rotor)
+MIRROR_SHARE = 0.1
+
+
+def hidden_line_mirrors(found, f_hz: float, res_hz: float, pwm, in_spread, share: float = MIRROR_SHARE) -> list:
+    """Where the chosen line at f_hz may be a free-running PWM's sideband of a commutation line hidden under the
+    spectrum's noise: each (hidden line's Hz, mirror line) for a line g inside the prior's spread (in_spread) of
+    which f_hz is a sideband (h f_pwm + s j g, aliased: pwm_sidebands' orders) while the other sideband of the
+    same order (h f_pwm - s j g, aliased) shows with at least `share` of the chosen line's power. A line's
+    sidebands come in pairs of about equal power, a line with no sidebands has neither, so a window whose only
+    line in the spread has such a mirror cannot say whether it is the commutation line or a sideband of one too
+    weak to see (a light load's small current under a 490 Hz hobby driver). The partner rule (sideband_partners)
+    sees g where it shows; this one where it does not. None where pwm is None."""
+    if pwm is None:
+        return []
+    pwm_hz, sample_hz = pwm
+    p0 = _power_at(found, f_hz, res_hz)
+    out = []
+    for h in range(1, MIX_PWM_HARMONICS + 1):
+        for j in range(1, MIX_ORDERS + 1):
+            for sign in (-1, 1):
+                for k in (-1, 0, 1):  # f_hz = |h f_pwm + sign j g - k fs| (aliased), for g
+                    for flip in (-1, 1):
+                        g = (flip * f_hz + k * sample_hz - h * pwm_hz) / (sign * j)
+                        tol = COMB_REL_TOL * j * g + COMB_RES_TOL * res_hz
+                        if not g > 0 or abs(g - f_hz) <= tol_hz(f_hz, res_hz) or not in_spread(g):
+                            continue
+                        if abs(aliased_hz(h * pwm_hz + sign * j * g, sample_hz) - f_hz) > tol:
+                            continue
+                        m = aliased_hz(h * pwm_hz - sign * j * g, sample_hz)
+                        near = [ln for ln in found if abs(ln.hz - m) <= tol and abs(ln.hz - f_hz) > tol
+                                and ln.power >= share * p0]
+                        out += [(g, ln) for ln in near]
+    return sorted(out, key=lambda gl: -gl[1].power)
 
 
 def health(f, p_max, rot_hz: float, comm_hz: float, res_hz: float) -> tuple:

@@ -302,14 +302,23 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz or {riv[0].hz:.1f} Hz, "
                    f"{riv[0].power / max(line_power(f, p_max, f_star), 1e-300):.2f} of its power)")
         return out
-    # under a free-running PWM, a line and its PWM sideband inside the spread, from a tenth of the chosen line's
-    # power on (comb.SIDEBAND_SHARE): where no comb places the line, which of the two is the commutation neither the
-    # half-power rule nor the prior can tell
+    # under a free-running PWM, a line and its PWM sideband inside the spread, whatever their powers
+    # (comb.SIDEBAND_SHARE): where no comb places the line, which of the two is the commutation neither the powers
+    # nor the prior can tell
     partners = rc.sideband_partners(found, f_star, res, pwm, in_spread) if comb is None else []
     if partners:
         out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz or {partners[0].hz:.1f} Hz: "
                    f"each the other's sideband of the {pwm[0]:g} Hz PWM, "
                    f"{partners[0].power / max(line_power(f, p_max, f_star), 1e-300):.2f} of its power)")
+        return out
+    # ... and where that partner does not show, the chosen line's mirror sideband may: then it may be a sideband of
+    # a commutation line under the noise
+    mirrors = rc.hidden_line_mirrors(found, f_star, res, pwm, in_spread) if comb is None else []
+    if mirrors:
+        g, ln = mirrors[0]
+        out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz may be a sideband of the "
+                   f"{pwm[0]:g} Hz PWM around a line at {g:.1f} Hz under the noise: its mirror at {ln.hz:.1f} Hz shows, "
+                   f"{ln.power / max(line_power(f, p_max, f_star), 1e-300):.2f} of its power)")
         return out
     # rivals in the family where no comb places the line: the data's own evidence at f* x r, weighted by the prior
     alt = ALTERNATIVES

@@ -145,13 +145,72 @@ def run_priors(quiet: bool = True) -> dict:
             "disagree_over_5pct": disagree, "prior_ke_ratio": PRIOR_APART}
 
 
+# Synthetic currents: a window's lines written down one by one, for what the twin does not make (a free-running
+# PWM's sideband stronger than the commutation line it surrounds)
+SYNTH_FS = 20000.0       # samples per second
+SYNTH_A_PER_CODE = 1e-5  # the converter's step, A
+
+
+def synthetic_bursts(currents, fs=SYNTH_FS, meta=None) -> rf.Bursts:
+    """Bursts (one a window, seq 0, 1, ...) of currents (A), quantised by SYNTH_A_PER_CODE."""
+    codes = [np.round(np.asarray(x) / SYNTH_A_PER_CODE).astype(np.int64) for x in currents]
+    n = len(codes[0])
+    return rf.Bursts(dict(meta or {}), fs, SYNTH_A_PER_CODE, np.arange(len(codes)), np.arange(len(codes)) * n / fs,
+                     codes)
+
+
+def synthetic_current(rot_hz, lines, seconds=0.5, i_mean=1.0, noise=0.002, seed=0, fs=SYNTH_FS, extra=()):
+    """A current (A) with lines at multiples of rot_hz: lines {multiple: amplitude A}; extra: (Hz, A) fixed lines;
+    each line at a random phase, white noise of sd `noise` A."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * fs)) / fs
+    x = i_mean + noise * rng.standard_normal(len(t))
+    for m, a in lines.items():
+        x = x + a * np.cos(2 * math.pi * m * rot_hz * t + rng.uniform(0, 2 * math.pi))
+    for hz, a in extra:
+        x = x + a * np.cos(2 * math.pi * hz * t + rng.uniform(0, 2 * math.pi))
+    return x
+
+
+# A free-running 490 Hz PWM sampled at 9.6 kS/s around a 6-ripple motor without rotation lines (no comb places
+# its line): the commutation line (0.08 A, its second harmonic 0.024 A) and the PWM's sidebands f_pwm -+ f_c
+# (2 f_pwm - f_c at a fifth of them) at SIDEBAND_DEPTHS times its amplitude, the rotation SIDEBAND_WINDOWS steps
+# of a ramp across f_pwm - f_c = f_c (41 Hz), the prior the true speed (Ke given)
+SIDEBAND_PWM_HZ = 490.196
+SIDEBAND_FS = 9600.0
+SIDEBAND_ROT_HZ = (25.0, 50.0)
+SIDEBAND_WINDOWS = 48
+SIDEBAND_DEPTHS = (0.0, 0.25, 0.4, 0.7, 1.0, 2.0, 3.0, 5.0, 10.0)
+
+
+def run_sidebands() -> dict:
+    """Per sideband depth: the windows counted confident, and those more than WRONG off; and under "line
+    hidden", the sidebands at 0.08 A around a commutation line of none (a light load's, under the noise)."""
+    from ..ripple.count import estimate_window
+    pwm, out = SIDEBAND_PWM_HZ, []
+    for depth in SIDEBAND_DEPTHS + (None,):
+        conf = off = 0
+        line_a, side_a = (0.08, depth * 0.08) if depth is not None else (0.0, 0.08)
+        for k, rot in enumerate(np.linspace(*SIDEBAND_ROT_HZ, SIDEBAND_WINDOWS)):
+            c = 6 * rot
+            extra = ([(abs(pwm - c), side_a), (pwm + c, side_a), (abs(2 * pwm - c), 0.2 * side_a)] if side_a else [])
+            x = synthetic_current(rot, {6: line_a, 12: 0.3 * line_a}, fs=SIDEBAND_FS, extra=extra, seed=k)
+            b = dataclasses.replace(synthetic_bursts([x], fs=SIDEBAND_FS), pwm_hz=pwm, sampling=rf.FREE)
+            r = estimate_window(b, 0, 0.5, rot * 60.0, Options(6, 1.0))
+            if r["key"] == "":
+                conf += 1
+                off += int(abs(r["rpm"] / (rot * 60.0) - 1.0) > WRONG)
+        out.append({"sidebands": "line hidden" if depth is None else f"{depth:g}x", "confident": conf, "wrong": off})
+    return {"windows": SIDEBAND_WINDOWS, "depths": out}
+
+
 def run(quiet: bool = True) -> dict:
     cases = [run_case(c, quiet) for c in CASES]
     return {"command": "cd tools && ../.venv/bin/python -m hpddo.studies.ripple_line --json "
                        "../docs/figures/ripple_line.json",
             "protocols": list(PROTOCOLS), "time_scale": TIME_SCALE, "seed": SEED, "window_s": WINDOW_S,
             "health_rot1_max": rc.HEALTH_ROT1_MAX, "health_rot2_max": rc.HEALTH_ROT2_MAX,
-            "cases": cases, "priors": run_priors(quiet)}
+            "cases": cases, "priors": run_priors(quiet), "sidebands": run_sidebands()}
 
 
 def block(res: dict) -> str:
@@ -171,6 +230,12 @@ def block(res: dict) -> str:
     rows.append(f"Two priors, Ke {p['prior_ke_ratio']:g}x apart, on the same {p['windows']} windows: confident under "
                 f"both {p['confident_under_both']}, of which {p['disagree_over_5pct']} disagree by more than 5 %; "
                 f"confident under one only {p['confident_under_one']}.")
+    sb = res["sidebands"]
+    rows += ["", f"A free-running PWM's sidebands around a line no comb places ({sb['windows']} windows a depth):", "",
+             "| sideband amplitude / line | " + " | ".join(v["sidebands"] for v in sb["depths"]) + " |",
+             "|---|" + "---|" * len(sb["depths"]),
+             "| confident (more than 5 % off) | " + " | ".join(f"{v['confident']} ({v['wrong']})"
+                                                          for v in sb["depths"]) + " |"]
     return "\n".join(rows) + "\n"
 
 
