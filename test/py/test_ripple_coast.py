@@ -286,12 +286,38 @@ def test_ripple_coast_from_files_gives_what_the_estimator_gives_in_memory(coast_
             f"the winding's temperature at {js['winding_given']}") in printed
 
 
+def test_ripple_coast_against_the_first_probe_says_what_it_leaves_out_and_takes_a_tolerance(coast_files, tmp_path,
+                                                                                               capsys):
+    """Without --ra-ref the first probe's Ra is the reference: the command says what that leaves out of the
+    temperatures' uncertainties, and gives a temperature only where its 99 % interval lies within the tolerance
+    (--winding-tolerance-k, 3 K by default): a wider one gives at least as many."""
+    import pandas as pd
+    from hpddo import cli
+    b, rec, paths = coast_files
+    given = {}
+    for tol in (None, 10.0):
+        out = tmp_path / f"out{tol}"
+        argv = ["ripple", str(paths["log"]), "--coast", "--ripples-per-rev", str(b.ripples_per_rev), "--gear-ratio",
+                str(b.gear_ratio), "--ke-vs-per-rad", str(b.ke_vs_per_rad), "--brush-drop-v", "0.5", "--out", str(out)]
+        assert cli.main(argv + ([] if tol is None else ["--winding-tolerance-k", str(tol)])) == 0
+        printed = capsys.readouterr().out
+        assert rc.FIRST_PROBE_REFERENCE in printed
+        got = pd.read_csv(out / "coast.coast_probes.csv", keep_default_na=False, na_values=[""])
+        told = got["winding_C"].notna()
+        assert (2.576 * got.loc[told, "winding_sd_K"] <= (tol or 3.0)).all()
+        assert got.loc[got["ra_ohm"].notna() & ~told, "reason"].str.startswith(rc.WINDING_UNCERTAIN).all()
+        given[tol] = int(told.sum())
+    assert given[10.0] >= given[None] and given[10.0] > 0, given
+
+
 def test_ripple_coast_refuses_what_it_cannot_use(coast_files, tmp_path, capsys):
     from hpddo import cli
     b, rec, paths = coast_files
     base = ["ripple", str(paths["log"]), "--ripples-per-rev", "6", "--gear-ratio", "4.4"]
     cases = [(["--coast", "--out", str(tmp_path / "a")], "--ke-vs-per-rad"),
              (["--ra-ref", "4.5", "31", "--ke-vs-per-rad", "0.35", "--out", str(tmp_path / "b")], "apply with --coast"),
+             (["--winding-tolerance-k", "5", "--ke-vs-per-rad", "0.35", "--out", str(tmp_path / "b")],
+              "apply with --coast"),
              (["--coast", "--ke-vs-per-rad", "0.35", "--ra-ref", "-1", "20", "--out", str(tmp_path / "c")], "--ra-ref")]
     for extra, said in cases:
         assert cli.main(base + extra) == 1

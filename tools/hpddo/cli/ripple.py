@@ -66,6 +66,9 @@ def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     p.add_argument("--ra-ref", type=float, nargs=2, default=None, metavar=("OHM", "C"),
                    help="--coast: the winding's Ra at a known temperature (a multimeter's), the temperature's "
                         "reference (default: the first probe's Ra at the log's first temperature reading)")
+    p.add_argument("--winding-tolerance-k", type=options.positive_float, default=None, metavar="K",
+                   help="--coast: a winding temperature is given only where its 99 %% interval lies within this "
+                        "(default 3 K)")
     options.ra_ohm(p)
     p.add_argument("--rpm-range", type=options.non_negative_float, nargs=2, metavar=("LO", "HI"), default=None,
                    help="the output shaft's speed range (RPM): the prior where there is no back-EMF one (no Ra, a "
@@ -94,8 +97,9 @@ def run(args) -> int:
     opts = Options(args.ripples_per_rev or 0, args.gear_ratio)
     if args.calibrate:
         return _calibrate(args, opts)
-    if (args.brush_drop_v is not None or args.ra_ref is not None) and not args.coast:
-        raise InputError("--brush-drop-v and --ra-ref apply with --coast")
+    if (args.brush_drop_v is not None or args.ra_ref is not None or args.winding_tolerance_k is not None) \
+            and not args.coast:
+        raise InputError("--brush-drop-v, --ra-ref and --winding-tolerance-k apply with --coast")
     if args.coast:
         return _coast(args, opts)
     if args.floor_a is not None:
@@ -219,6 +223,8 @@ def _coast(args, opts) -> int:
     if args.ra_ref is not None and not (args.ra_ref[0] > 0 and np.isfinite(args.ra_ref).all()):
         raise InputError(f"--ra-ref {args.ra_ref[0]:g} {args.ra_ref[1]:g}: Ra must be > 0 and both finite")
     copts = CoastOptions(brush_drop_V=args.brush_drop_v or 0.0)
+    if args.winding_tolerance_k is not None:
+        copts = dataclasses.replace(copts, winding_tolerance_K=float(args.winding_tolerance_k))
     if args.ra_ref is not None:
         copts = dataclasses.replace(copts, ra_ref_ohm=float(args.ra_ref[0]), ra_ref_C=float(args.ra_ref[1]))
     summary = {}
