@@ -30,14 +30,13 @@ def _scored(b, seed, duration_s=90.0, sampling=None):
 
 
 def _holds_what_the_page_says(rec, tab, tab_first, s):
-    """docs/ripple-coast.md, "Measured": Ra within 2 % at every probe given (the study: all but the warm-up's
-    first probe on one seed); every winding temperature given within 3 K, with the reference given and with
-    the first probe's (a temperature is given only where its 99 % interval lies within 3 K), and given at
-    most probes where the reference is given; every error within 4 of the probe's own standard uncertainty."""
+    """docs/ripple-coast.md, "Measured": Ra within 2 % at every probe given; every winding temperature given
+    within 3 K, with the reference given and with the first probe's (a temperature is given only where its 99 %
+    interval lies within 3 K); every error within 4 of the probe's own standard uncertainty."""
     assert s["ra_given"] >= s["probes"] // 2, s["refused"]  # the probes at one duty and load give Ra
     assert s["ra_err_pct"]["max"] <= study.RA_TARGET * 100, s
     # (90 s: stretches of 18-27 s, so half the probes lie where a stretch's line reaches to one side of them
-    # and the temperature's 99 % interval is wider than 3 K; the study's 600 s runs give it at 90 % of Ra's)
+    # and the temperature's 99 % interval is wider than 3 K; the study's 600 s runs give it at 82 % of Ra's)
     assert s["winding_within_target"] == s["winding_given"] >= 0.3 * s["ra_given"], s
     assert s["winding_first_probe_ref_within_target"] == s["winding_given_first_probe_ref"], s
     k = tab["row"].to_numpy(int)
@@ -165,6 +164,26 @@ def test_ra_at_follows_a_step_of_drive_and_averages_the_noise():
     assert math.isnan(rc.ra_at(sp.iloc[:2], 1.0, 0, 30.0)[0])  # fewer than three spans: no line
 
 
+def test_ra_at_a_cold_starts_bend_carries_the_models_part_in_its_uncertainty():
+    """A cold start: the copper 20 K up over its 9 s time constant, the spans noise-free. The line through the
+    stretch's first 30 s misses the bend at the first probes (1.6 % of Ra at 1.5 s, 4 K), more than the spans'
+    own uncertainty says; the model's part (a quadratic through the same spans, its difference from the line)
+    covers the miss within the 99 % interval at every probe; in the straight middle of a long stretch it adds
+    next to nothing."""
+    import pandas as pd
+    t = np.arange(0.75, 120.0, 1.5)
+    true = 4.5 * (1.0 + COPPER * 20.0 * (1.0 - np.exp(-t / 9.0)))
+    sp = pd.DataFrame({"t_mid": t, "stretch": 0, "ra": true, "sd_rows": 0.004, "sd_ke": 0.0})
+    for t0 in (1.5, 3.0, 4.5, 6.0):
+        ra, sd = rc.ra_at(sp, t0, 0, 30.0)
+        want = 4.5 * (1.0 + COPPER * 20.0 * (1.0 - np.exp(-t0 / 9.0)))
+        assert abs(ra - want) <= 2.576 * sd, (t0, ra - want, sd)
+    assert abs(rc.ra_at(sp, 1.5, 0, 30.0)[0] / (4.5 * (1 + COPPER * 20 * (1 - np.exp(-1.5 / 9)))) - 1) > 0.01
+    straight = sp.assign(ra=4.5 + 0.001 * t)
+    ra, sd = rc.ra_at(straight, 60.0, 0, 30.0)
+    assert abs(ra - (4.5 + 0.06)) < 1e-9 and sd < 0.004
+
+
 def test_a_temperature_is_given_only_where_its_99_percent_interval_is_within_the_tolerance():
     """read_winding: Ra's uncertainty becomes the temperature's (copper's 0.393 %/K), the first probe's
     reference adds its own; a temperature whose 99 % interval is wider than the tolerance is not given, its
@@ -275,7 +294,8 @@ def test_ripple_coast_from_files_gives_what_the_estimator_gives_in_memory(coast_
     got = pd.read_csv(out / "coast.coast_probes.csv", keep_default_na=False, na_values=[""])
     want = rc.estimate(rec.log, rec.bursts, rec.probes, Options(b.ripples_per_rev, b.gear_ratio), b.ra_ohm,
                        b.ke_vs_per_rad, CoastOptions(brush_drop_V=0.5, ra_ref_ohm=b.ra_ohm, ra_ref_C=b.ra_ref_C)).table
-    assert len(got) == len(want) and got["ra_ohm"].notna().sum() >= len(got) // 2
+    # (40 s: stretches of 8-12 s, whose lines reach to one side of most probes: a third or more give Ra)
+    assert len(got) == len(want) and got["ra_ohm"].notna().sum() >= len(got) // 3
     for col in ("ke_vs_per_rad", "ra_ohm", "winding_C"):
         np.testing.assert_allclose(got[col].to_numpy(float), want[col].to_numpy(float), rtol=2e-4, equal_nan=True)
     assert list(got["reason"].fillna("")) == list(want["reason"])

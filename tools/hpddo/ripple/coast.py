@@ -156,8 +156,9 @@ def ra_at(spans: pd.DataFrame, t_s: float, stretch: int, window_s: float):
     """(Ra, its standard uncertainty) at t_s: a straight line in time through the driven spans of `stretch`
     (one duty and load) whose middle lies within window_s of t_s, each weighted by its rows' variance
     (the spans' noise is independent: each its own stretch of rows); the line's variance at t_s scaled up
-    by the reduced chi-square where the spans scatter more than their stated uncertainties, and Ke's
-    part (shared by the spans) added. (NaN, NaN) where fewer than three spans lie there."""
+    by the reduced chi-square where the spans scatter more than their stated uncertainties, Ke's
+    part (shared by the spans) added, and the model's: from four spans on, the difference at t_s between
+    the line and a quadratic fitted the same way. (NaN, NaN) where fewer than three spans lie there."""
     near = spans[(spans["stretch"] == stretch) & (np.abs(spans["t_mid"] - t_s) <= window_s)]
     if len(near) < 3:
         return math.nan, math.nan
@@ -169,6 +170,12 @@ def ra_at(spans: pd.DataFrame, t_s: float, stretch: int, window_s: float):
     coef = cov @ ((a.T * wgt) @ y)
     chi2 = float(np.sum(wgt * (y - a @ coef) ** 2)) / (len(y) - 2) if len(y) > 2 else 1.0
     sd = math.hypot(math.sqrt(cov[0, 0] * max(1.0, chi2)), float(np.mean(near["sd_ke"])))  # Ke's part is shared
+    if len(y) >= 4:  # the model's part: a quadratic through the same spans explains them about as well; where the
+        # copper bends (a stretch's first winding time constants) or the line reaches to one side of the probe only,
+        # the two part at the probe, and their difference joins the uncertainty
+        a2 = np.column_stack([np.ones_like(x), x, x * x])
+        quad = np.linalg.solve((a2.T * wgt) @ a2, (a2.T * wgt) @ y)
+        sd = math.hypot(sd, float(quad[0] - coef[0]))
     return float(coef[0]), sd
 
 
