@@ -214,6 +214,28 @@ def test_ra_is_optional_the_speed_range_is_the_prior(tmp_path, capsys):
     assert "LO must be under HI" in capsys.readouterr().err
 
 
+def test_a_capture_without_a_range_is_confident_only_where_its_combs_confirm_the_figure():
+    """A current-only capture without a speed range has no prior: the strongest line of a window without a rotation
+    comb may be any line. Twelve windows of a 6-ripple motor at 9.0-10.5k RPM (no rotation lines) beside an
+    undeclared 976.6 Hz PWM line 14x the ripple's power: the PWM line was counted in every window, 5 of them 5-8 %
+    off, confidently; now none is confident (`unchecked`, as a bench log without Ke or a range). With rotation
+    lines, the recording's combs confirm the 6 given and the windows are confident and right."""
+    from hpddo.ripple.capture import speed_of_bursts
+    from hpddo.studies import ripple_line as synth
+
+    fs, rots = 9600.0, np.linspace(150.0, 175.0, 12)
+    for lines, confident in (({6: 0.08, 12: 0.024}, False), ({1: 0.004, 2: 0.003, 3: 0.005, 6: 0.08, 12: 0.024}, True)):
+        extra = [] if confident else [(976.5625, 0.3), (1953.125, 0.1)]
+        xs = [synth.synthetic_current(r, lines, fs=fs, extra=extra, seed=k) for k, r in enumerate(rots)]
+        est = speed_of_bursts(synth.synthetic_bursts(xs, fs=fs), Options(6, 1.0))
+        c = est["confident"].to_numpy()
+        if confident:  # (but where the line falls on a multiple of 50 or 60 Hz, hum the file does not rule out)
+            assert c.sum() >= 9 and (est["key"][~c] == sync.KEY).all(), est["reason"].tolist()
+            assert np.allclose(est["rpm"][c], rots[c] * 60, rtol=0.01)
+        else:
+            assert not c.any() and (est["key"] == "unchecked").all(), est["key"].tolist()
+
+
 @pytest.fixture(scope="module")
 def capture(tmp_path_factory):
     """One free-running twin run (9.6 kHz, 490 Hz PWM, 50 Hz mains) written as a scope's CSV (time and
