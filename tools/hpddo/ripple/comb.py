@@ -294,10 +294,16 @@ def rivals(found, f_hz: float, res_hz: float, in_spread, share: float, exclude=(
     return out
 
 
+def _sideband_tol(comm_hz: float, j: int, res_hz: float) -> float:
+    """How near a PWM sideband of order j around a line at comm_hz a line must lie to be taken for it: tol_hz's
+    form, the line's frequency error entering j times."""
+    return COMB_REL_TOL * j * comm_hz + COMB_RES_TOL * res_hz
+
+
 def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
     """Whether a line at hz lies on one of the PWM's sidebands around a line at comm_hz (pwm_sidebands, the
     tolerance rotation_comb leaves them out with)."""
-    return any(abs(hz - s) <= COMB_REL_TOL * j * comm_hz + COMB_RES_TOL * res_hz for s, j in pwm_sidebands(comm_hz, *pwm))
+    return any(abs(hz - s) <= _sideband_tol(comm_hz, j, res_hz) for s, j in pwm_sidebands(comm_hz, *pwm))
 
 
 #: a line and its PWM sideband partner (sideband_partners) rival each other from this share of the chosen line's
@@ -354,7 +360,7 @@ def hidden_line_mirrors(found, f_hz: float, res_hz: float, pwm, in_spread, share
                 for k in (-1, 0, 1):  # f_hz = |h f_pwm + sign j g - k fs| (aliased), for g
                     for flip in (-1, 1):
                         g = (flip * f_hz + k * sample_hz - h * pwm_hz) / (sign * j)
-                        tol = COMB_REL_TOL * j * g + COMB_RES_TOL * res_hz
+                        tol = _sideband_tol(g, j, res_hz)
                         if not g > 0 or abs(g - f_hz) <= tol_hz(f_hz, res_hz) or not in_spread(g):
                             continue
                         if abs(aliased_hz(h * pwm_hz + sign * j * g, sample_hz) - f_hz) > tol:
