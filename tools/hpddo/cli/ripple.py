@@ -34,8 +34,9 @@ milliseconds, the current and the terminal voltage sampled in turn; docs/ripple-
 at each probe Ke (the back-EMF over the ripple's speed), Ra (from the driven spans around it) and
 the winding's temperature (copper's coefficient, from --ra-ref OHM C, a multimeter's Ra at a known
 temperature, else the first probe's Ra at the log's first temperature reading; given only where its 99 %
-interval lies within 3 K): OUT/<condition>.coast_probes.csv and OUT/summary.json; it counts no other window. --brush-drop-v: the brushes' drop while current flows,
-where known (without it Ra carries drop / I).
+interval lies within 3 K, --winding-tolerance-k): OUT/<condition>.coast_probes.csv and OUT/summary.json; it
+counts no other window. --brush-drop-v: the brushes' drop while current flows, where known (without it Ra
+carries drop / I).
 """
 from __future__ import annotations
 

@@ -24,10 +24,12 @@ Per probe (a row of the log at duty 0 with its burst of both channels, logs/coas
 5. Ra at the probe: a straight line in time through the spans of its stretch (one duty and load) within
    ra_window_s, inverse-variance weighted (ra_at): the copper's heat capacity keeps its temperature
    straight over that window at one drive, and the fit never crosses a change of duty or load, so a
-   load step's heating is followed; not given where its relative uncertainty exceeds max_ra_rel_sd;
+   load step's heating is followed; its uncertainty the line's, Ke's, and the model's (the line against a
+   quadratic through the same spans, where the copper bends); not given where it exceeds max_ra_rel_sd;
    the winding's temperature
    T = T_ref + (Ra / Ra_ref - 1) / copper's coefficient (model.effects.COPPER_TC_PER_K), Ra_ref at
-   T_ref given or the first probe's Ra at the log's first temperature reading.
+   T_ref given or the first probe's Ra at the log's first temperature reading (read_winding), given
+   only where its 99 % interval lies within options.winding_tolerance_K.
 
 Where the data cannot support a figure, the probe's `reason` says why and its figures are NaN;
 a record without a probe gives NO_PROBE and no table.
@@ -328,4 +330,3 @@ def read_winding(res: CoastResult, copts: CoastOptions, first_reading_C: float =
                                f"+-{copts.winding_tolerance_K:g} K)")
     tab.loc[~given | wide, ["winding_C", "winding_sd_K"]] = math.nan
     return dataclasses.replace(res, table=tab, statement=statement, ra_ref_ohm=ra_ref, ra_ref_C=t_ref)
-
