@@ -294,8 +294,13 @@ def estimate(log: pd.DataFrame, bursts, probes, opts: Options, ra_ohm: float, ke
         tab.at[j, "ra_ohm"], tab.at[j, "ra_sd_ohm"] = ra, sd
     bad = tab["reason"] != ""
     tab.loc[bad, ["ra_ohm", "ra_sd_ohm"]] = math.nan  # Ke stays where it was measured
-    t0_C = float(log["temp_C"].iloc[0]) if "temp_C" in log and len(log) else math.nan
-    return read_winding(CoastResult(tab, "", math.nan, math.nan, sp), copts, t0_C)
+    return read_winding(CoastResult(tab, "", math.nan, math.nan, sp), copts, first_reading_C(log))
+
+
+def first_reading_C(log: pd.DataFrame) -> float:
+    """The log's first temperature reading (the motor at rest before the run, its winding at the case's): the
+    temperature of the first probe's reference where no Ra is given at a known one; NaN where none."""
+    return float(log["temp_C"].iloc[0]) if "temp_C" in log and len(log) else math.nan
 
 
 def read_winding(res: CoastResult, copts: CoastOptions, first_reading_C: float = math.nan) -> CoastResult:

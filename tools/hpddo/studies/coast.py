@@ -10,7 +10,7 @@ Target (issue 33): Ra within 2 % and the winding's temperature within 3 K at eve
 """
 from __future__ import annotations
 
-import math
+import dataclasses
 import sys
 
 import numpy as np
@@ -35,7 +35,6 @@ def bench(**over) -> params.Bench:
     """The study's motor: the twin's default motor with the copper and the magnets warming (ferrite on the
     case), a 0.5 V brush drop (declared to the estimator), its inductance and ripple; the sensors exact
     (no offset or gain error: docs/ripple-coast.md, Limits)."""
-    import dataclasses
     b = params.with_effects(params.Bench(), thermal_ra=0.393, magnet_thermal=-0.2, brush_drop=0.5, inductance=2.5,
                             ripple=15.0)
     return dataclasses.replace(b, **over)
@@ -49,14 +48,13 @@ def run_one(b: params.Bench, duration_s: float, seed: int, sampling: dict, copts
     """One warm-up: (the record, the estimate with the reference given, the same read against the first
     probe's reference), the estimator told the bench's Ra at its reference temperature, its brush drop
     and its nominal Ke (for the ripple's prior)."""
-    import dataclasses
     rp = {**params.ripple_burst(), **(ripple_free(**sampling) if sampling else {})}
     rec = tc.warmup(b, segments(duration_s), seed=seed, probe=params.coast_probe(), ripple=rp)
     opts = Options(b.ripples_per_rev, b.gear_ratio)
     base = dataclasses.replace(copts or CoastOptions(), brush_drop_V=b.effect_si("brush_drop"))
     given = dataclasses.replace(base, ra_ref_ohm=b.ra_ohm, ra_ref_C=b.ra_ref_C)
     est = rc.estimate(rec.log, rec.bursts, rec.probes, opts, b.ra_ohm, b.ke_vs_per_rad, given)
-    first = rc.read_winding(est, base, float(rec.log["temp_C"].iloc[0]))
+    first = rc.read_winding(est, base, rc.first_reading_C(rec.log))
     return rec, est.table, first.table
 
 
