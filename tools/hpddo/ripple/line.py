@@ -100,9 +100,9 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     m = est["multiple"].to_numpy(int)
     shown = comb_windows(est)
     at = shown & (m == opts.ripples_per_rev)
-    other = shown & ~at
-    if shown.any() and other.sum() > 0.5 * shown.sum():
-        top, n_top, _, _ = other_figure(est, opts)
+    fig = other_figure(est, opts)
+    if fig is not None and fig[2] > 0.5 * fig[3]:  # most comb windows show another figure
+        top, n_top, n_other, n_shown = fig
         # every confident row: a window's own comb at the figure given does not outweigh the recording's (a
         # free-running burst's PWM residue put a comb at half the rotation frequency under 2 of 16 comb windows of
         # a 6-ripple motor given 12, in the independent commutator simulation; the 14 others showed other figures)
@@ -112,9 +112,9 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
         est.loc[idx, "confidence"] = 0.0
         est.loc[idx, "key"] = "multiple"
         head = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the {opts.ripples_per_rev} given, in "
-                f"{n_top} of the {int(shown.sum())} windows of this recording whose lines form a rotation comb"
-                if figure_confirmed(n_top, int(shown.sum())) else
-                f"{REASONS['multiple']}: {int(other.sum())} of the {int(shown.sum())} windows of this recording whose "
+                f"{n_top} of the {n_shown} windows of this recording whose lines form a rotation comb"
+                if figure_confirmed(n_top, n_shown) else
+                f"{REASONS['multiple']}: {n_other} of the {n_shown} windows of this recording whose "
                 f"lines form a rotation comb show another number than the {opts.ripples_per_rev} given ({top} the "
                 f"commonest, in {n_top}); too few agree on one to name the motor's")
         for j, k in zip(idx, m[demote]):
