@@ -483,3 +483,46 @@ def test_the_logs_commutator_sentence_says_uneven_or_damaged_as_its_windows_read
     assert said.startswith("the commutator looks uneven in 2 of 3 windows") and "coils a few % unequal" in said, said
     est.loc[2, "rot2_rel"] = 0.3
     assert _commutator(est)["statement"].startswith("the commutator looks damaged in 2 of 3 windows")
+
+
+# An undeclared fixed line (a PWM of another pin, a supply's) inside the prior's spread: 976.6 Hz beside a 6-ripple
+# motor turning at 150-175 Hz (its line at 900-1050 Hz), the prior the truth within 4 % (sd 8 %)
+FIXED_TONE_HZ = 976.5625
+FIXED_ROTS = np.linspace(150.0, 175.0, 12)
+
+
+def _with_tone(lines, amp, k, rot):
+    return motor_current(rot, lines, extra=[(FIXED_TONE_HZ, amp), (2 * FIXED_TONE_HZ, amp / 3)] if amp else [],
+                         seed=k)
+
+
+@pytest.mark.parametrize("amp", [0.3, 0.08, 0.02], ids=["stronger", "as_strong", "weaker"])
+def test_a_comb_less_window_with_another_line_in_the_spread_is_never_confident(amp):
+    """Without a comb the line's identity rests on the prior alone, and power does not name the ripple (comb.
+    unplaced_rivals): with the tone 14x the ripple's power, 12 windows were confident, 5 of them 5-8 % off; now every
+    window is a `rival`, whichever line is the stronger, and says which two lines it could not tell apart. Without
+    the tone every window is confident and right."""
+    rng = np.random.default_rng(5)
+    for k, rot in enumerate(FIXED_ROTS):
+        prior = rot * 60 * (1 + 0.04 * rng.standard_normal())
+        r = estimate_window(bursts_of([_with_tone(COMMUTATION_ONLY, amp, k, rot)]), 0, 0.5, prior, Options(6, 1.0),
+                            None, (0.08 * prior, 0.08 * prior))
+        assert r["key"] == "rival", (k, r["reason"])  # (as strong: the half-power rule's; else unplaced_rivals')
+        assert amp == 0.08 or "power does not name the ripple" in r["reason"], (k, r["reason"])
+        clean = estimate_window(bursts_of([_with_tone(COMMUTATION_ONLY, 0, k, rot)]), 0, 0.5, prior, Options(6, 1.0),
+                                None, (0.08 * prior, 0.08 * prior))
+        assert clean["key"] == "" and abs(clean["rpm"] / (rot * 60) - 1) < 0.005, clean["reason"]
+
+
+def test_a_line_of_another_origin_does_not_make_a_finer_comb():
+    """comb._widest_explaining: a narrow spacing holds any line near one of its multiples, so the tone (a quarter of
+    the ripple's amplitude, under it) made the comb of 1, 2 and 3 f_rot into "the ripple is 54 per revolution" (66,
+    84 in other windows). Now a finer spacing takes the place of a wider one only with lines of its own that would
+    not lie so near its multiples by chance: the comb stays at 6 x f_rot in every window, and where the tone lies
+    inside the prior's spread without a place on it the window is a rival, never `multiple`."""
+    for k, rot in enumerate(FIXED_ROTS):
+        r = estimate_window(bursts_of([_with_tone(HEALTHY_6, 0.02, k, rot)]), 0, 0.5, rot * 60, Options(6, 1.0),
+                            None, (0.08 * rot * 60,) * 2)
+        assert r["key"] in ("", "rival") and r["multiple"] in (0, 6), (k, r["multiple"], r["reason"])
+        if r["key"] == "":
+            assert abs(r["rpm"] / (rot * 60) - 1) < 0.005

@@ -203,18 +203,55 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
         if g < 2.0 * res_hz:
             break
         on = _on_comb(use, g, res_hz)
+        # the other lines' multiples share a factor the commutation line's does not: they are a comb of that many
+        # times the spacing, and the commutation line is not on it (a 6-ripple motor's 1, 2 and 3 f_rot at 175 Hz
+        # fell on 5, 10 and 15 x 34.88 Hz, a tone's 28th sub-multiple: "the ripple is 28 per revolution")
+        others = [k for _, k in on if k % m]  # (not the commutation line, nor its harmonics)
+        d = math.gcd(*others) if others else 1
+        if d > 1 and m % d:
+            continue
         if sum(1 for _, k in on if k < m) >= COMB_MIN_LINES:
             scored.append((sum(math.log(ln.snr / min_snr) for ln, _ in on), m, on))
     if not scored:
         return None
-    most = max(s[0] for s in scored)
-    _, m, on = min((s for s in scored if s[0] >= COMB_EXPLAINED * most), key=lambda s: s[1])
+    _, m, on = _widest_explaining(scored, c.hz, res_hz)
     # f_rot refined: the least-squares spacing of the lines on the comb, weighted by their power
     w = np.array([ln.power for ln, _ in on])
     k = np.array([j for _, j in on], float)
     hz = np.array([ln.hz for ln, _ in on])
     g = float(np.sum(w * k * hz) / np.sum(w * k * k))
     return Comb(g, tuple(on), c, int(m))
+
+
+#: a narrower spacing takes a wider one's place (_widest_explaining) only where the lines it adds under the commutation
+#: line would lie that near its multiples by chance with at most this probability
+COMB_CHANCE = 0.1
+
+
+def _widest_explaining(scored, comm_hz: float, res_hz: float):
+    """Of rotation_comb's candidate spacings (evidence explained, m, lines on the comb; the spacing comm_hz / m), the widest (smallest m) that
+    explains COMB_EXPLAINED of what any narrower one explains; a narrower one takes its place only with lines of its
+    own under the commutation line that the wider comb does not hold and that would not lie so near its multiples by
+    chance: each line within tol_hz of a multiple of a spacing g has the chance 2 tol_hz / g of doing so wherever
+    it sits, and the lines' chances together must be at most COMB_CHANCE. A narrow spacing holds any line near one
+    of its multiples (at f_c / 54 half of all frequencies), so a line of another origin (an undeclared PWM's, a
+    supply's) made a 6-ripple motor's comb of 1, 2 and 3 f_rot into "the ripple is 54 per revolution" (66, 84 in the
+    next windows); an 18-bar motor given 18 shows its once-per-revolution line (chance 0.07 at 23.7 Hz over half a
+    second), a motor whose figure is twice the one given its odd rotation lines."""
+    ordered = sorted(scored, key=lambda s: s[1])
+    best = ordered[0]
+    for cand in ordered[1:]:
+        if best[0] >= COMB_EXPLAINED * cand[0]:
+            continue
+        held = {id(ln) for ln, _ in best[2]}
+        g = comm_hz / cand[1]
+        chance = 1.0
+        for ln, k in cand[2]:
+            if k < cand[1] and id(ln) not in held:
+                chance *= min(1.0, 2.0 * tol_hz(ln.hz, res_hz) / g)
+        if chance <= COMB_CHANCE:
+            best = cand
+    return best
 
 
 def fixed_hz_of(bursts) -> tuple:
@@ -304,6 +341,46 @@ def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
     """Whether a line at hz lies on one of the PWM's sidebands around a line at comm_hz (pwm_sidebands, the
     tolerance rotation_comb leaves them out with)."""
     return any(abs(hz - s) <= _sideband_tol(comm_hz, j, res_hz) for s, j in pwm_sidebands(comm_hz, *pwm))
+
+
+#: the ratios to the chosen line at which a line is its own family (its harmonics 2 f, 3 f and sub-harmonics f / 2, f / 3,
+#: 2 f / 3, 3 f / 2: line.ALTERNATIVES), weighed by count.estimate_window's family check, not by unplaced_rivals
+FAMILY_RATIOS = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
+
+
+#: ... but a line on a multiple of 50 or 60 Hz only from this share of the chosen line's power on: a little hum is in
+#: most currents (the twin's 50 Hz line at 0.0006-0.005 of the ripple's power), and for it to hide the ripple the
+#: ripple would have to sit on a multiple of the mains while another line is taken for it; from a hundredth on, it may
+#: be the ripple (one 7 % of the power of an undeclared line beside it, at 900 Hz), and the window says to declare the
+#: mains where it is hum
+MAINS_RIVAL_SHARE = 0.01
+
+
+def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float) -> list:
+    """Where no comb places the chosen line at f_hz, the other lines that could be the ripple as well: every line of
+    found (lines()) standing COMB_LINE_SNR times over the line threshold (a resolved line: noise does not reach it),
+    inside the back-EMF prior's spread (in_spread: Hz -> bool), whatever its power, but the chosen line's own family
+    (FAMILY_RATIOS). Without a comb the line's identity rests on the prior alone, and power does not name the ripple:
+    an undeclared PWM or a supply's line, 14x the ripple's power and inside the prior's spread, was counted as the
+    ripple of 12 comb-less windows, 5 of them 5-8 % off, confidently. A line on a multiple of 50 or 60 Hz is a rival
+    from MAINS_RIVAL_SHARE of the chosen line's power on: undeclared, hum is not known to be there, and a ripple may
+    sit on such a multiple (900 and 1050 Hz, in that test); the declared mains' multiples are out of found already
+    (without_fixed). Strongest first."""
+    # the family about the chosen line's own peak (f_hz is the prior-weighted search's, up to half a resolution off
+    # it), its error entering r times at r f
+    near = [ln for ln in found if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz)]
+    f_line = min(near, key=lambda ln: abs(ln.hz - f_hz)).hz if near else f_hz
+    p0 = _power_at(found, f_hz, res_hz)
+    out = []
+    for ln in found:
+        if ln.snr < COMB_LINE_SNR * min_snr:
+            continue
+        if any(abs(ln.hz - r * f_line) <= max(r, 1.0) * tol_hz(f_line, res_hz) for r in FAMILY_RATIOS):
+            continue
+        if near_fixed(ln.hz, MAINS_HZ, fixed_tol_hz(ln.hz, res_hz)) and ln.power < MAINS_RIVAL_SHARE * p0:
+            continue
+        out.append(ln)
+    return rivals(out, f_hz, res_hz, in_spread, 0.0)
 
 
 #: a line and its PWM sideband partner (sideband_partners) rival each other from this share of the chosen line's

@@ -107,14 +107,15 @@ def _tracked_phase(x, fs, f_end, i_end, frame_s=0.05):
     return phi + np.unwrap(np.angle(zl))
 
 
-def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A):
+def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A, parts=4):
     """The speed change inside a window that the back-EMF gives from the current alone: the
     lines of the ripple (f, its second harmonic and the family f/2, f/3, f/6 that the window holds
     a whole cycle of) fitted out by least squares, the mean of what is left over each quarter;
     at the window's constant duty a change of it is a change of the back-EMF, -Ra dI, i.e. of the
     speed, rpm_per_A dI (Ra / Ke in RPM per A): (max - min) over the quarters, relative to rpm.
     It sees a transient that the fixed band cannot (the line outside the band at the window's
-    start)."""
+    start). parts: the quarters (4), or the indices where the parts after the first begin (a span's
+    windows, spans.count_steady_spans)."""
     n = len(x0)
     t = np.arange(n) / fs
     cols = [np.ones(n)]  # the mean, fitted with the lines (a line of few cycles does not average out)
@@ -124,7 +125,7 @@ def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A):
     a = np.column_stack(cols)
     coef, *_ = np.linalg.lstsq(a, x0, rcond=None)
     x = x0 - a[:, 1:] @ coef[1:]
-    means = [float(q.mean()) for q in np.array_split(x, 4)]
+    means = [float(q.mean()) for q in np.array_split(x, parts)]
     return rpm_per_A * (max(means) - min(means)) / max(abs(rpm), 1e-12)
 
 
@@ -319,6 +320,21 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz may be a sideband of the "
                    f"{pwm[0]:g} Hz PWM around a line at {g:.1f} Hz under the noise: its mirror at {ln.hz:.1f} Hz shows, "
                    f"{ln.power / max(line_power(f, p_max, f_star), 1e-300):.2f} of its power)")
+        return out
+    # ... and where no comb places the line, any other resolved line inside the prior's spread, whatever its power: the
+    # prior alone cannot say which of two lines is the ripple, and the stronger may be another's (comb.unplaced_rivals).
+    # Without a prior the spread is the whole band, whose noise reaches a resolved line's power now and then (1 window
+    # in 10 of a lone 150 Hz line); such windows are checked over the recording instead (line.identity_of_recording)
+    unplaced = (rc.unplaced_rivals(found, f_star, res, in_spread, opts.min_snr)
+                if comb is None and math.isfinite(f_prior) else [])
+    if unplaced:
+        ln = unplaced[0]
+        out.update(key="rival", f_Hz=f_star, reason=f"{REASONS['rival']} ({f_star:.1f} Hz or {ln.hz:.1f} Hz, "
+                   f"{ln.power / max(line_power(f, p_max, f_star), 1e-300):.2g} of its power: no rotation comb places "
+                   "either, and power does not name the ripple"
+                   + ("; one of them lies on a multiple of 50 or 60 Hz: where that is hum, declare the mains (hpddo "
+                      "import --mains-hz)" if any(rc.near_fixed(h, rc.MAINS_HZ, rc.fixed_tol_hz(h, res))
+                                                  for h in (f_star, ln.hz)) else "") + ")")
         return out
     # rivals in the family where no comb places the line: the data's own evidence at f* x r, weighted by the prior
     alt = ALTERNATIVES

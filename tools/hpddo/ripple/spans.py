@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .count import estimate_window
+from .count import _current_spread, estimate_window
 from .options import Options
 
 
@@ -51,6 +51,20 @@ def steady_spans(bursts, duty, keys, opts: Options, span_keys=SPAN_KEYS) -> list
     return spans
 
 
+def _windows_apart(joined, bursts, a: int, e: int, r, rpm_per_A, opts: Options) -> bool:
+    """Whether the current says that the windows a..e of a span counted as one (r: its estimate_window) turned at
+    different speeds: the speed change the back-EMF gives from each window's mean current (count._current_spread,
+    the window's own part of the span where the count takes quarters) over opts.max_spread. The quarters of a long
+    span average a step at its edge away: a load step between the first window of a 14-window span and the second
+    (116.5 and 127.3 RPM, the current 8 % apart) left the first window in the span, confident and 9 % off, where the
+    quarters' spread stayed within the allowance. None without Ra / Ke (rpm_per_A)."""
+    if rpm_per_A is None or not np.isfinite(rpm_per_A) or not r["f_Hz"] > 0:
+        return False
+    starts = np.cumsum([len(c) for c in bursts.codes[a:e - 1]])
+    x = joined.current_A(0)
+    return _current_spread(x, joined.sample_hz, float(r["f_Hz"]), float(r["rpm"]), rpm_per_A, starts) > opts.max_spread
+
+
 def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
     """The ripple counted over several consecutive windows where one window holds too few cycles or
     too little evidence (a slow shaft: at duty 0.2 the bench turns at 4-6 RPM, about one ripple
@@ -78,7 +92,7 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
         pgl = float(np.nanmedian(glitch[a:e])) if has_prior else 0.0
         before = float(prior[a - 1]) if has_prior and a > 0 and np.isfinite(prior[a - 1]) else None
         r = estimate_window(joined, 0, float(np.asarray(duty, float)[a]), pr, opts, before, psd, rpm_per_A, pgl)
-        if r["key"]:
+        if r["key"] or _windows_apart(joined, bursts, a, e, r, rpm_per_A, opts):
             continue
         idx = est.index[a:e]
         for c in ("rpm", "rpm_fft", "f_Hz", "f_strongest_Hz", "snr", "snr_wide", "spread", "spread_current", "spread_allowed",
