@@ -178,8 +178,12 @@ def pwm_sidebands(comm_hz: float, pwm_hz: float, sample_hz: float) -> list:
 def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -> Comb | None:
     """The rotation comb of a window's lines (lines()), or None where the lines do not form one.
 
-    The commutation line is the strongest line (lines at multiples of the mains or of fixed_hz
-    left out); the rotation frequency one of its sub-multiples f_c / m, m from
+    The commutation line is the strongest line of the comb (lines at multiples of the mains or of fixed_hz
+    left out): each of the COMB_ANCHORS strongest lines is tried as it, and the comb whose lines chance would least
+    put there (_surprise) is the window's: a line of another origin stronger than the ripple (an undeclared PWM's)
+    otherwise took the rotation lines of the ripple's comb onto a narrow comb of its own ("the ripple is 34 per
+    revolution, not the 6 given", 56 of 77 windows with such a line, 2 more counted on it, 5-20 % off). The rotation
+    frequency is one of its sub-multiples f_c / m, m from
     COMMUTATION_MIN_MULTIPLE to MAX_MULTIPLE, no narrower than 2 resolutions (lines one spacing
     apart must be resolved). Each spacing explains the lines up to COMB_SPAN x f_c that lie within
     tolerance (COMB_REL_TOL, COMB_RES_TOL) of one of its multiples, each line weighing its evidence
@@ -193,8 +197,69 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
     use = [ln for ln in found if not near_fixed(ln.hz, tuple(MAINS_HZ) + tuple(fixed_hz), fixed_tol_hz(ln.hz, res_hz))]
     if len(use) < COMB_MIN_LINES + 1:
         return None
-    c = use[0]
-    use = [ln for ln in use if ln.hz <= COMB_SPAN * c.hz and ln.snr >= COMB_LINE_SNR * min_snr]
+    combs = [cb for cb in (_comb_about(c, use, res_hz, min_snr, pwm) for c in _anchors(use, res_hz))
+             if cb is not None]
+    return max(combs, key=lambda sc: sc[0])[1] if combs else None
+
+
+#: the lines tried as the commutation line (rotation_comb), strongest first
+COMB_ANCHORS = 3
+
+
+def _anchors(use, res_hz: float) -> list:
+    """The lines rotation_comb tries as the commutation line: the strongest of use (lines strongest first) and the
+    next ones up to COMB_ANCHORS that are not its harmonics (a harmonic of the strongest line is the same line's: a
+    quantised 80 Hz cosine's 17th harmonic made a comb of its intermodulation products, "59 per revolution")."""
+    top = use[0]
+
+    def harmonic(ln) -> bool:
+        k = round(ln.hz / top.hz)
+        return k >= 2 and abs(ln.hz - k * top.hz) <= k * tol_hz(top.hz, res_hz)
+
+    return [top] + [ln for ln in use[1:] if not harmonic(ln)][:COMB_ANCHORS - 1]
+
+
+#: the precision of a line's frequency on a comb (_precision_hz): a share of the spectrum's resolution (a resolved
+#: line's peak refined by a parabola through three bins) and of the line's frequency (a speed that drifts inside the
+#: window moves every line's peak in proportion; a quarter of COMB_REL_TOL, the drift the comb's tolerance allows)
+COMB_PRECISION_RES = 0.1
+COMB_PRECISION_REL = COMB_REL_TOL / 4
+
+
+def _precision_hz(hz: float, res_hz: float) -> float:
+    return COMB_PRECISION_RES * res_hz + COMB_PRECISION_REL * hz
+
+
+def _line_evidence(on, m: int, res_hz: float) -> list:
+    """Per line of a candidate comb (lines on it with their multiples, the commutation line at m), how much more
+    likely the line lies where it does if it is on the comb than if it lies anywhere: log(g / (s sqrt(2 pi))) -
+    d^2 / (2 s^2), d its distance from its multiple of the spacing g the lines fit (least squares, each weighed by
+    1 / s^2), s its precision (_precision_hz). The tolerance that lets a line on the comb (tol_hz) allows a drift
+    of the speed; lines of one comb drift together, so a line of another origin that the tolerance lets on lies
+    further from the others' fit than their precision (an undeclared tone's harmonic 4.7 Hz off the 23rd multiple of
+    52.57 Hz, within tol_hz's 5.6 Hz, where the rotation lines lie within 0.05 Hz of theirs)."""
+    hz = np.array([ln.hz for ln, _ in on])
+    k = np.array([j for _, j in on], float)
+    w = 1.0 / np.array([_precision_hz(h, res_hz) for h in hz]) ** 2
+    g = float(np.sum(w * k * hz) / np.sum(w * k * k))
+    s = 1.0 / np.sqrt(w)
+    return [float(math.log(g / (si * math.sqrt(2 * math.pi))) - (h - kk * g) ** 2 / (2 * si * si))
+            for h, kk, si in zip(hz, k, s)]
+
+
+def _surprise(on, m: int, res_hz: float) -> float:
+    """How unlikely by chance a comb's lines lie where they do: _line_evidence summed over its lines but the
+    commutation line's harmonics (which lie on the comb of whatever line is taken for it)."""
+    return sum(e for e, (_, k) in zip(_line_evidence(on, m, res_hz), on) if k == m or k % m)
+
+
+def _comb_about(c, use, res_hz: float, min_snr: float, pwm):
+    """(surprise, Comb) of the rotation comb whose commutation line is c (rotation_comb), or None: no spacing holds
+    COMB_MIN_LINES lines under it, or a line of the comb stronger than c (from COMMUTATION_MIN_MULTIPLE on where c
+    is the strongest of use, the lines of the window, strongest first; else any): c would not be the comb's
+    commutation line."""
+    strongest = use[0]
+    use = [ln for ln in use if ln.hz <= COMB_SPAN * c.hz and (ln is c or ln.snr >= COMB_LINE_SNR * min_snr)]
     if pwm is not None:
         use = [ln for ln in use if ln is c or not _sideband_of(ln.hz, c.hz, res_hz, pwm)]
     scored = []
@@ -203,6 +268,17 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
         if g < 2.0 * res_hz:
             break
         on = _on_comb(use, g, res_hz)
+        # c is the comb's commutation line only where no line on it from COMMUTATION_MIN_MULTIPLE on is stronger, and
+        # a line tried after the strongest (not the window's strongest line) only where none at all is: its comb would
+        # hold the strongest line as a health line (the twin's ripple at 51.7 Hz is the first multiple of 25.9 Hz
+        # below its own harmonic at 103.5 Hz, a "damaged commutator" in every healthy window). A stronger line that
+        # the tolerance lets on but that lies off the others' fit is no line of the comb.
+        lowest = COMMUTATION_MIN_MULTIPLE if c is strongest else 1
+        if any(k >= lowest and ln.power > c.power for ln, k in on):
+            ev = _line_evidence(on, m, res_hz)
+            if any(k >= lowest and ln.power > c.power and e > 0 for (ln, k), e in zip(on, ev)):
+                continue
+            on = [(ln, k) for (ln, k), e in zip(on, ev) if not (ln.power > c.power and e <= 0)]
         # the other lines' multiples share a factor the commutation line's does not: they are a comb of that many
         # times the spacing, and the commutation line is not on it (a 6-ripple motor's 1, 2 and 3 f_rot at 175 Hz
         # fell on 5, 10 and 15 x 34.88 Hz, a tone's 28th sub-multiple: "the ripple is 28 per revolution")
@@ -220,7 +296,7 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
     k = np.array([j for _, j in on], float)
     hz = np.array([ln.hz for ln, _ in on])
     g = float(np.sum(w * k * hz) / np.sum(w * k * k))
-    return Comb(g, tuple(on), c, int(m))
+    return _surprise(on, m, res_hz), Comb(g, tuple(on), c, int(m))
 
 
 #: a narrower spacing takes a wider one's place (_widest_explaining) only where the lines it adds under the commutation
