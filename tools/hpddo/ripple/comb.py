@@ -45,7 +45,7 @@ HEALTH_ROT2_MAX = 0.012
 #: ... but up to this, the line does not tell a worn bar from coils a few % unequal, as a healthy motor's are: on
 #: the independent commutator simulation (studies/commutator.py, coils' resistance and EMF 1-3 % sd apart, no
 #: fault) the synchronous benches' comb windows read 0.005-0.056, over the twin's worn segment (+10 % of the loop
-#: resistance: 0.007 at 1 %, 0.029 median); the twin's damaged segment reads 0.065 at 1 %, 0.22 median. Between the
+#: resistance: 0.007 at 1 %, 0.028 median); the twin's damaged segment reads 0.065 at 1 %, 0.22 median. Between the
 #: two a window is `damaged` all the same (its even lines make the comb's spacing 2 f_rot), but said to be uneven
 HEALTH_ROT2_UNEVEN_MAX = 0.06
 #: the once-per-revolution line (eccentricity, a bent shaft, one brush's contact) is common in healthy motors:
@@ -179,11 +179,11 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
     """The rotation comb of a window's lines (lines()), or None where the lines do not form one.
 
     The commutation line is the strongest line of the comb (lines at multiples of the mains or of fixed_hz
-    left out): each of the COMB_ANCHORS strongest lines is tried as it, and the comb whose lines chance would least
-    put there (_surprise) is the window's: a line of another origin stronger than the ripple (an undeclared PWM's)
-    otherwise took the rotation lines of the ripple's comb onto a narrow comb of its own ("the ripple is 34 per
-    revolution, not the 6 given", 56 of 77 windows with such a line, 2 more counted on it, 5-20 % off). The rotation
-    frequency is one of its sub-multiples f_c / m, m from
+    left out): the strongest lines are tried as it (_anchors), and the comb whose lines chance would least put there
+    (_surprise) is the window's: a line of another origin stronger than the ripple (an undeclared PWM's) otherwise
+    took the rotation lines of the ripple's comb onto a narrow comb of its own ("the ripple is 34 per revolution, not
+    the 6 given": 187 of 210 windows with such a line in hpddo.studies.ripple_line's table of undeclared tones, 5 more
+    counted on it, more than 5 % off). The rotation frequency is one of its sub-multiples f_c / m, m from
     COMMUTATION_MIN_MULTIPLE to MAX_MULTIPLE, no narrower than 2 resolutions (lines one spacing
     apart must be resolved). Each spacing explains the lines up to COMB_SPAN x f_c that lie within
     tolerance (COMB_REL_TOL, COMB_RES_TOL) of one of its multiples, each line weighing its evidence
@@ -197,8 +197,8 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
     use = [ln for ln in found if not near_fixed(ln.hz, tuple(MAINS_HZ) + tuple(fixed_hz), fixed_tol_hz(ln.hz, res_hz))]
     if len(use) < COMB_MIN_LINES + 1:
         return None
-    combs = [cb for cb in (_comb_about(c, use, res_hz, min_snr, pwm) for c in _anchors(use, res_hz))
-             if cb is not None]
+    anchors = _anchors(use, res_hz) if pwm is None else use[:1]
+    combs = [cb for cb in (_comb_about(c, use, res_hz, min_snr, pwm) for c in anchors) if cb is not None]
     return max(combs, key=lambda sc: sc[0])[1] if combs else None
 
 
@@ -209,7 +209,10 @@ COMB_ANCHORS = 3
 def _anchors(use, res_hz: float) -> list:
     """The lines rotation_comb tries as the commutation line: the strongest of use (lines strongest first) and the
     next ones up to COMB_ANCHORS that are not its harmonics (a harmonic of the strongest line is the same line's: a
-    quantised 80 Hz cosine's 17th harmonic made a comb of its intermodulation products, "59 per revolution")."""
+    quantised 80 Hz cosine's 17th harmonic made a comb of its intermodulation products, "59 per revolution"). Under a
+    free-running PWM (rotation_comb's pwm) the strongest alone: the PWM's residue and its products with the ripple put
+    lines on grids of their own (a 490 Hz PWM at 9.6 kS/s, a line at 448.4 Hz: "32 per revolution" in 23 windows of
+    a low-speed run that showed no comb before, and every window of the run demoted)."""
     top = use[0]
 
     def harmonic(ln) -> bool:
@@ -305,9 +308,9 @@ COMB_CHANCE = 0.1
 
 
 def _widest_explaining(scored, comm_hz: float, res_hz: float):
-    """Of rotation_comb's candidate spacings (evidence explained, m, lines on the comb; the spacing comm_hz / m), the widest (smallest m) that
-    explains COMB_EXPLAINED of what any narrower one explains; a narrower one takes its place only with lines of its
-    own under the commutation line that the wider comb does not hold and that would not lie so near its multiples by
+    """Of rotation_comb's candidate spacings (evidence explained, m, lines on the comb; the spacing comm_hz / m), the
+    widest (smallest m) that explains COMB_EXPLAINED of what any narrower one explains; a narrower one takes its
+    place only with lines of its own under the commutation line that the wider comb does not hold and that would not lie so near its multiples by
     chance: each line within tol_hz of a multiple of a spacing g has the chance 2 tol_hz / g of doing so wherever
     it sits, and the lines' chances together must be at most COMB_CHANCE. A narrow spacing holds any line near one
     of its multiples (at f_c / 54 half of all frequencies), so a line of another origin (an undeclared PWM's, a
@@ -419,9 +422,6 @@ def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
     return any(abs(hz - s) <= _sideband_tol(comm_hz, j, res_hz) for s, j in pwm_sidebands(comm_hz, *pwm))
 
 
-#: the ratios to the chosen line at which a line is its own family (its harmonics 2 f, 3 f and sub-harmonics f / 2, f / 3,
-#: 2 f / 3, 3 f / 2: line.ALTERNATIVES), weighed by count.estimate_window's family check, not by unplaced_rivals
-FAMILY_RATIOS = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
 
 
 #: ... but a line on a multiple of 50 or 60 Hz only from this share of the chosen line's power on: a little hum is in
@@ -432,13 +432,14 @@ FAMILY_RATIOS = (2.0, 3.0, 1.5, 0.5, 1 / 3, 2 / 3)
 MAINS_RIVAL_SHARE = 0.01
 
 
-def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float) -> list:
+def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float, family=()) -> list:
     """Where no comb places the chosen line at f_hz, the other lines that could be the ripple as well: every line of
     found (lines()) standing COMB_LINE_SNR times over the line threshold (a resolved line: noise does not reach it),
     inside the back-EMF prior's spread (in_spread: Hz -> bool), whatever its power, but the chosen line's own family
-    (FAMILY_RATIOS). Without a comb the line's identity rests on the prior alone, and power does not name the ripple:
-    an undeclared PWM or a supply's line, 14x the ripple's power and inside the prior's spread, was counted as the
-    ripple of 12 comb-less windows, 5 of them 5-8 % off, confidently. A line on a multiple of 50 or 60 Hz is a rival
+    (at the ratios `family` to it: count.estimate_window gives line.ALTERNATIVES, which its family check weighs).
+    Without a comb the line's identity rests on the prior alone, and power does not name the ripple: an undeclared
+    PWM or a supply's line, 14x the ripple's power and inside the prior's spread, was counted as the ripple of 12
+    comb-less windows, 5 of them 5-8 % off, confidently. A line on a multiple of 50 or 60 Hz is a rival
     from MAINS_RIVAL_SHARE of the chosen line's power on: undeclared, hum is not known to be there, and a ripple may
     sit on such a multiple (900 and 1050 Hz, in that test); the declared mains' multiples are out of found already
     (without_fixed). Strongest first."""
@@ -451,7 +452,7 @@ def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float
     for ln in found:
         if ln.snr < COMB_LINE_SNR * min_snr:
             continue
-        if any(abs(ln.hz - r * f_line) <= max(r, 1.0) * tol_hz(f_line, res_hz) for r in FAMILY_RATIOS):
+        if any(abs(ln.hz - r * f_line) <= max(r, 1.0) * tol_hz(f_line, res_hz) for r in family):
             continue
         if near_fixed(ln.hz, MAINS_HZ, fixed_tol_hz(ln.hz, res_hz)) and ln.power < MAINS_RIVAL_SHARE * p0:
             continue

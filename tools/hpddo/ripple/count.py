@@ -325,7 +325,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     # prior alone cannot say which of two lines is the ripple, and the stronger may be another's (comb.unplaced_rivals).
     # Without a prior the spread is the whole band, whose noise reaches a resolved line's power now and then (1 window
     # in 10 of a lone 150 Hz line); such windows are checked over the recording instead (line.identity_of_recording)
-    unplaced = (rc.unplaced_rivals(found, f_star, res, in_spread, opts.min_snr)
+    unplaced = (rc.unplaced_rivals(found, f_star, res, in_spread, opts.min_snr, ALTERNATIVES)
                 if comb is None and math.isfinite(f_prior) else [])
     if unplaced:
         ln = unplaced[0]

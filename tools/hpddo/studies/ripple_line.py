@@ -204,13 +204,68 @@ def run_sidebands() -> dict:
     return {"windows": SIDEBAND_WINDOWS, "depths": out}
 
 
+# An undeclared fixed line (a PWM of another pin, a supply's line) beside the ripple, in windows of random synthetic
+# motors: TONE_SEEDS x TONE_WINDOWS windows (those whose line lies under TONE_MAX_HZ), each a motor of TONE_RIPPLES
+# ripples per revolution turning at TONE_ROT_HZ, its line at 0.08 A (its second harmonic at 0.02 A), half of them with
+# rotation lines (1, 2, 3, N - 1 and N + 1 x f_rot at 2-8 mA: a comb), the tone at TONE_AT times the ripple's
+# frequency with TONE_AMPLITUDE times its amplitude (log-uniform) and its second harmonic at a third of that; the prior
+# the truth within 5 % (sd), its spread 10 %. Each window also counted without the tone (the coverage the rules cost)
+TONE_SEEDS = (1, 2, 3)
+TONE_WINDOWS = 300
+TONE_RIPPLES = (6, 10, 14)
+TONE_ROT_HZ = (20.0, 120.0)
+TONE_MAX_HZ = 1900.0
+TONE_AT = (0.8, 1.25)
+TONE_AMPLITUDE = (10 ** -1.3, 10.0)
+
+
+def run_tones() -> dict:
+    """Per group (comb or none, the tone stronger than the ripple or weaker): the windows, those confident, those more
+    than WRONG off, those that name another ripples per revolution (`multiple`: each a false statement, the motor's
+    figure is the one given), and the windows confident without the tone."""
+    from ..ripple.count import estimate_window
+    groups = {}
+    for seed in TONE_SEEDS:
+        rng = np.random.default_rng(seed)
+        for k in range(TONE_WINDOWS):
+            n_rip = int(rng.choice(TONE_RIPPLES))
+            rot = rng.uniform(*TONE_ROT_HZ)
+            fc = n_rip * rot
+            if fc > TONE_MAX_HZ:
+                continue
+            comb = bool(rng.random() < 0.5)
+            lines = {n_rip: 0.08, 2 * n_rip: 0.02}
+            if comb:
+                lines.update({m: 0.004 * rng.uniform(0.5, 2.0) for m in (1, 2, 3, n_rip - 1, n_rip + 1)})
+            tone_hz = fc * rng.uniform(*TONE_AT)
+            amp = 0.08 * math.exp(rng.uniform(*np.log(TONE_AMPLITUDE)))
+            prior = rot * 60.0 * (1.0 + 0.05 * rng.standard_normal())
+            g = groups.setdefault((comb, amp > 0.08), {"comb": comb, "tone_stronger": amp > 0.08, "windows": 0,
+                                                       "confident": 0, "wrong": 0, "multiple_said": 0,
+                                                       "confident_without_tone": 0})
+            g["windows"] += 1
+            for tone in (True, False):
+                extra = [(tone_hz, amp), (2 * tone_hz, amp / 3.0)] if tone else []
+                x = synthetic_current(rot, lines, extra=extra, seed=k)
+                r = estimate_window(synthetic_bursts([x]), 0, 0.5, prior, Options(n_rip, 1.0), None,
+                                    (0.1 * prior, 0.1 * prior))
+                if not tone:
+                    g["confident_without_tone"] += int(r["key"] == "")
+                    continue
+                g["confident"] += int(r["key"] == "")
+                g["wrong"] += int(r["key"] == "" and abs(r["rpm"] / (rot * 60.0) - 1.0) > WRONG)
+                g["multiple_said"] += int(r["key"] == "multiple")
+    return {"seeds": list(TONE_SEEDS), "windows_a_seed": TONE_WINDOWS,
+            "groups": [groups[k] for k in sorted(groups)]}
+
+
 def run(quiet: bool = True) -> dict:
     cases = [run_case(c, quiet) for c in CASES]
     return {"command": "cd tools && ../.venv/bin/python -m hpddo.studies.ripple_line --json "
                        "../docs/figures/ripple_line.json",
             "protocols": list(PROTOCOLS), "time_scale": TIME_SCALE, "seed": SEED, "window_s": WINDOW_S,
             "health_rot1_max": rc.HEALTH_ROT1_MAX, "health_rot2_max": rc.HEALTH_ROT2_MAX,
-            "cases": cases, "priors": run_priors(quiet), "sidebands": run_sidebands()}
+            "cases": cases, "priors": run_priors(quiet), "sidebands": run_sidebands(), "tones": run_tones()}
 
 
 def block(res: dict) -> str:
@@ -236,6 +291,15 @@ def block(res: dict) -> str:
              "|---|" + "---|" * len(sb["depths"]),
              "| confident (more than 5 % off) | " + " | ".join(f"{v['confident']} ({v['wrong']})"
                                                           for v in sb["depths"]) + " |"]
+    tn = res["tones"]
+    rows += ["", f"An undeclared fixed line beside the ripple ({len(tn['seeds'])} x {tn['windows_a_seed']} random "
+                 "windows; 'multiple' said is a false statement):", "",
+             "| rotation comb | tone | windows | confident | more than 5 % off | 'another multiple' said | "
+             "confident without the tone |", "|---|---|---|---|---|---|---|"]
+    for v in tn["groups"]:
+        rows.append(f"| {'yes' if v['comb'] else 'no'} | {'stronger' if v['tone_stronger'] else 'weaker'} | "
+                    f"{v['windows']} | {v['confident']} | {v['wrong']} | {v['multiple_said']} | "
+                    f"{v['confident_without_tone']} |")
     return "\n".join(rows) + "\n"
 
 
