@@ -339,3 +339,22 @@ def test_float_values_quantised_at_their_own_step():
     x = np.random.default_rng(1).standard_normal(1000)
     codes, step = ci.to_codes(x, False)
     assert np.abs(codes * step - x).max() <= step / 2 + 1e-15 and step <= np.ptp(x) / 2 ** 24 * (1 + 1e-9)
+
+
+def test_the_commonest_reason_is_said_in_full(tmp_path, capsys):
+    """hpddo ripple prints, beside the count of each reason, the commonest one's reason in full: a capture of 12
+    comb-less windows beside an undeclared 976.6 Hz line 14x the ripple's power, with a speed range, has no confident
+    window, and the line says why (the two lines the window could not tell apart) and what may help (the mains)."""
+    from hpddo.studies import ripple_line as synth
+
+    fs = 9600.0
+    xs = [synth.synthetic_current(r, {6: 0.08, 12: 0.024}, fs=fs, extra=[(976.5625, 0.3), (1953.125, 0.1)], seed=k)
+          for k, r in enumerate(np.linspace(150.0, 175.0, 12))]
+    p = rf.write(tmp_path / "cap.ripple.csv", {"sample_hz": "9600", "a_per_code": "0.001"}, list(range(12)),
+                 [0.5 * k for k in range(12)], [np.round(x / 0.001).astype(np.int64) for x in xs])
+    assert cli.main(["ripple", str(p), "--ripples-per-rev", "6", "--gear-ratio", "1", "--rpm-range", "8000", "11500",
+                     "--out", str(tmp_path / "o")]) == 0
+    said = capsys.readouterr()
+    assert "confident 0 (0.0%)" in said.out
+    assert "  no estimate: rival 12\n  rival (12 windows), window 0 for one: " in said.err
+    assert "power does not name the ripple" in said.err and "976.8 Hz or 900.0 Hz" in said.err

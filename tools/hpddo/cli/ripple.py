@@ -186,8 +186,7 @@ def run(args) -> int:
             if "ratio_check" in s:
                 print(f"{name}: {s['ratio_check']['statement']}")
             if not args.quiet:
-                print("  no estimate: " + ", ".join(f"{k} {n}" for k, n in s["reasons"].items() if k != "confident"),
-                      file=sys.stderr)
+                print(_no_estimate(est, s["reasons"]), file=sys.stderr)
         benchlog.write_text_atomic(stage / "summary.json", json.dumps(summary, indent=1, sort_keys=True,
                                                                       default=float) + "\n")
     return 0
@@ -315,9 +314,21 @@ def _capture(path, opts, args, stage):
                            else "none (the comb alone)")
     print(line)
     if not args.quiet:
-        print("  no estimate: " + ", ".join(f"{k} {n}" for k, n in s["reasons"].items() if k != "confident"),
-              file=sys.stderr)
+        print(_no_estimate(est, s["reasons"]), file=sys.stderr)
     return name, s
+
+
+def _no_estimate(est, reasons: dict) -> str:
+    """The lines that say why windows have no confident estimate: the count of each key, and the commonest key's
+    reason in full, from its first window (the counts alone do not say what to do: a `rival` from an undeclared line
+    and one from a sideband partner want different things of the user)."""
+    said = "  no estimate: " + ", ".join(f"{k} {n}" for k, n in reasons.items() if k != "confident")
+    keys = {k: n for k, n in reasons.items() if k != "confident"}
+    if not keys:
+        return said
+    top = max(keys, key=lambda k: (keys[k], k))
+    first = est.index[est["key"].to_numpy() == top][0]
+    return said + f"\n  {top} ({keys[top]} windows), window {est.index.get_loc(first)} for one: {est.at[first, 'reason']}"
 
 
 def _commutator(est) -> dict:

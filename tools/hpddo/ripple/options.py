@@ -22,8 +22,9 @@ REASONS = {
                  "calibrated from the ripple under that figure (or there is no prior), so the counts scale with it, and "
                  "no window of the recording shows a rotation comb to check it; give Ke (--ke-vs-per-rad) or a model "
                  "(--model), or a speed range (--rpm-range)",
-    "rival": "another line inside the back-EMF prior's spread is as strong (or, under a free-running PWM, is the "
-             "chosen line's PWM sideband partner), and the data do not place it on the rotation comb: unresolved",
+    "rival": "another line inside the prior's spread may be the ripple as well (as strong; or any resolved line "
+             "where no rotation comb places the chosen one; or, under a free-running PWM, the chosen line's sideband "
+             "partner), and the data do not place it on the rotation comb: unresolved",
     "damaged": "a damaged commutator: the lines at once or twice the rotation frequency are too strong against "
                "the commutation line (a worn or burnt bar, a shorted coil, a badly eccentric rotor); the ripple is not "
                "counted through it",
