@@ -107,15 +107,21 @@ def _tracked_phase(x, fs, f_end, i_end, frame_s=0.05):
     return phi + np.unwrap(np.angle(zl))
 
 
-def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A, parts=4):
+def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A):
     """The speed change inside a window that the back-EMF gives from the current alone: the
     lines of the ripple (f, its second harmonic and the family f/2, f/3, f/6 that the window holds
     a whole cycle of) fitted out by least squares, the mean of what is left over each quarter;
     at the window's constant duty a change of it is a change of the back-EMF, -Ra dI, i.e. of the
     speed, rpm_per_A dI (Ra / Ke in RPM per A): (max - min) over the quarters, relative to rpm.
     It sees a transient that the fixed band cannot (the line outside the band at the window's
-    start). parts: the quarters (4), or the indices where the parts after the first begin (a span's
-    windows, spans.count_steady_spans)."""
+    start)."""
+    means = part_means(x0, fs, f_Hz, 4)
+    return rpm_per_A * (max(means) - min(means)) / max(abs(rpm), 1e-12)
+
+
+def part_means(x0, fs, f_Hz, parts) -> list:
+    """The current's mean over each part of x0 (A) with the ripple's lines fitted out (_current_spread): parts, a
+    number of equal parts or the indices where the parts after the first begin (np.array_split's)."""
     n = len(x0)
     t = np.arange(n) / fs
     cols = [np.ones(n)]  # the mean, fitted with the lines (a line of few cycles does not average out)
@@ -125,8 +131,7 @@ def _current_spread(x0, fs, f_Hz, rpm, rpm_per_A, parts=4):
     a = np.column_stack(cols)
     coef, *_ = np.linalg.lstsq(a, x0, rcond=None)
     x = x0 - a[:, 1:] @ coef[1:]
-    means = [float(q.mean()) for q in np.array_split(x, parts)]
-    return rpm_per_A * (max(means) - min(means)) / max(abs(rpm), 1e-12)
+    return [float(q.mean()) for q in np.array_split(x, parts)]
 
 
 def spread_noise(cycles, snr):

@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .count import _current_spread, estimate_window
+from .count import estimate_window, part_means
 from .options import Options
 
 
@@ -52,17 +52,28 @@ def steady_spans(bursts, duty, keys, opts: Options, span_keys=SPAN_KEYS) -> list
 
 
 def _windows_apart(joined, bursts, a: int, e: int, r, rpm_per_A, opts: Options) -> bool:
-    """Whether the current says that the windows a..e of a span counted as one (r: its estimate_window) turned at
-    different speeds: the speed change the back-EMF gives from each window's mean current (count._current_spread,
-    the window's own part of the span where the count takes quarters) over opts.max_spread. The quarters of a long
-    span average a step at its edge away: a load step between the first window of a 14-window span and the second
-    (116.5 and 127.3 RPM, the current 8 % apart) left the first window in the span, confident and 9 % off, where the
-    quarters' spread stayed within the allowance. None without Ra / Ke (rpm_per_A)."""
-    if rpm_per_A is None or not np.isfinite(rpm_per_A) or not r["f_Hz"] > 0:
+    """Whether the current says that a window of the windows a..e of a span counted as one (r: its estimate_window)
+    turned at another speed than the span's count gives it: a window's mean current (count.part_means: the ripple's
+    lines fitted out) further from the median of the span's windows than opts.max_spread of the speed allows (Ra /
+    Ke in RPM per A, rpm_per_A) and than the current's own noise explains (opts.spread_noise_z standard errors of
+    a window's mean, from the scatter of its quarters about it, pooled over the span). The quarters of a long span
+    average a step at its edge away: a load step between the first window of a 14-window span and the second (116.5
+    and 127.3 RPM) left the first window in the span, confident and 9 % off, where the quarters' spread stayed within
+    the allowance. A span whose speed drifts by a few % over its 10 s is counted: each window is given the span's
+    mean, within max_spread of its own; and at a creep of 3 RPM the windows' currents scatter by a few mA, which the
+    noise explains. False without Ra / Ke (rpm_per_A)."""
+    if rpm_per_A is None or not np.isfinite(rpm_per_A) or not rpm_per_A > 0 or not r["f_Hz"] > 0:
         return False
-    starts = np.cumsum([len(c) for c in bursts.codes[a:e - 1]])
-    x = joined.current_A(0)
-    return _current_spread(x, joined.sample_hz, float(r["f_Hz"]), float(r["rpm"]), rpm_per_A, starts) > opts.max_spread
+    lengths = [len(c) for c in bursts.codes[a:e]]
+    edges = np.concatenate([[0], np.cumsum(lengths)])
+    # each window's quarters: their boundaries inside the span
+    cuts = np.concatenate([np.round(np.linspace(s0, s1, 5)[1:-1]) if k == 0 else np.round(np.linspace(s0, s1, 5)[:-1])
+                           for k, (s0, s1) in enumerate(zip(edges[:-1], edges[1:]))]).astype(int)
+    quarters = np.array(part_means(joined.current_A(0), joined.sample_hz, float(r["f_Hz"]), cuts)).reshape(e - a, 4)
+    means = quarters.mean(axis=1)
+    noise = float(np.sqrt(np.sum((quarters - means[:, None]) ** 2) / (3 * (e - a)))) / 2.0  # sd of a window's mean
+    allowed = opts.max_spread * abs(float(r["rpm"])) / rpm_per_A + opts.spread_noise_z * noise
+    return bool(np.max(np.abs(means - np.median(means))) > allowed)
 
 
 def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
