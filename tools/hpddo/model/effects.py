@@ -156,6 +156,15 @@ def temperature(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> ph.Tem
     return t
 
 
+def temperature_cols(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> ph.Temps:
+    """temperature() for parameters with columns of values (k x 1, the columns of a fit's Jacobian): one
+    row per column, each the same bits as temperature() of that column alone; not kept."""
+    n = len(r.i)
+    k = n if upto is None else ph.trajectory_prefix(upto, n)
+    i, dt, temp = (r.i, r.dt, r.temp) if k == n else _prefix(r, k)
+    return ph.temperatures(p, i, dt, temp, settled=r.steady)
+
+
 def predict(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:
     """n_M2 (RPM) of every row, float64."""
     t = temperature(r, p) if temp is None else temp
@@ -349,6 +358,30 @@ def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsP
     return p
 
 
+def _column(values: np.ndarray):
+    """A field's values over the rows of a batch of parameter sets: the one value where every row holds
+    the same bits, else their column (k x 1)."""
+    values = np.asarray(values, float)
+    if (values.view(np.int64) == values.view(np.int64)[0]).all():
+        return float(values[0])
+    return values[:, None]
+
+
+def _params_cols(base: ph.PhysicsParams, spec: FitSpec, xs: np.ndarray) -> ph.PhysicsParams:
+    """_params of each row of xs at once: every field that differs between the rows a column of its
+    values (k x 1), one value where they agree (physics then computes what depends on it once)."""
+    nf = len(spec.free)
+    kw = {f: _column(xs[:, j]) for j, f in enumerate(spec.free)}
+    kw.update(spec.fixed)
+    kw.update(spec.base_forms)
+    if spec.thermal_state:  # math.exp of each value, as _params takes it (numpy's exp may differ in the last bit)
+        kw["th_r_K_per_W"] = _column([math.exp(v) for v in xs[:, nf].tolist()])
+        kw["th_tau_s"] = _column([math.exp(v) for v in xs[:, nf + 1].tolist()])
+    p = copy.copy(base)
+    p.__dict__.update(kw)
+    return p
+
+
 def _plain(p: ph.PhysicsParams) -> ph.PhysicsParams:
     kw = {ph.EFFECT_BITS[n][1]: 0.0 for n in ph.EFFECT_BITS}
     kw.update((sh.field, sh.default) for sh in schema.SHAPES)
@@ -443,6 +476,13 @@ def _fit(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", w
     return dataclasses.replace(p), cost
 
 
+# A fit's Jacobian: "together" (fd_jacobian: scipy's 2-point finite differences bit for bit, the columns
+# evaluated in one pass: those that move no thermal parameter at the point's temperatures, the others with
+# their thermal trajectories side by side, instead of one evaluation of the model per column), or
+# "2-point" (scipy's own, column by column: the reference test_fit_jacobian.py holds the other to).
+JACOBIAN = "together"
+
+
 def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train", weights=None,
            start: ph.PhysicsParams | None = None, hold=None, ra_prior=None, ra_bounds=None,
            widen=()) -> tuple:
@@ -501,7 +541,24 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     last = {"temps": (), "tt": None}  # the temperatures of the last evaluation, and their fitted rows end to end
     # the node runs forward: a recording's temperatures are needed up to its last fitted row only
     upto = [int(np.flatnonzero(m)[-1]) + 1 if m.any() else 0 for m in sel]
-    cut = [m if t is not None else m[: ph.trajectory_prefix(u, len(m))] for m, t, u in zip(sel, fixed_temp, upto)]
+    cut = [np.flatnonzero(m) for m in sel]  # (the fitted rows lie within the prefix the temperatures run over)
+
+    def fitted_temps(temps):
+        """The fitted rows' temperatures end to end, from each recording's (one set, or one row per
+        column of parameters)."""
+        return _cat_temps([_rows_at(t, k) for t, k in zip(temps, cut)])
+
+    def residual(p, tt):
+        """The weighted speed errors of the fitted rows at p (one row per column of p where it holds
+        columns of parameters), and the prior on Ra where there is one."""
+        n = ph.physics_rpm(p, v_all, i_all, di_all, tt)
+        out = sw_all * np.where(np.isfinite(n), ref_all - n, 1e4)
+        if ra_prior is None:
+            return out
+        prior = np.array([ra_prior[2] * (ra - ra_prior[0]) / ra_prior[1] for ra in np.ravel(p.ra_ohm).tolist()])
+        if out.ndim == 1:
+            return np.concatenate([out, prior])
+        return np.concatenate([out, np.broadcast_to(prior[:, None], (len(out), 1))], axis=1)
 
     def resid(x):
         p = _params(base, spec, x)
@@ -511,13 +568,39 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
             if len(temps) == len(last["temps"]) and all(a is b for a, b in zip(temps, last["temps"])):
                 tt = last["tt"]  # a step that moves no thermal parameter (most Jacobian columns): the same
             else:
-                tt = _cat_temps([t[m] for t, m in zip(temps, cut)])
+                tt = fitted_temps(temps)
                 last.update(temps=temps, tt=tt)
-        n = ph.physics_rpm(p, v_all, i_all, di_all, tt)
-        out = [sw_all * np.where(np.isfinite(n), ref_all - n, 1e4)]
-        if ra_prior is not None:
-            out.append(np.array([ra_prior[2] * (p.ra_ohm - ra_prior[0]) / ra_prior[1]]))
-        return np.concatenate(out)
+        f = residual(p, tt)
+        last.update(x=x.copy(), f=f, tt_x=tt)
+        return f
+
+    # which parameters the temperatures depend on (the node's two, log-parametrised, last)
+    thermal = np.array([f in _THERMAL_FIELDS for f in spec.free] + [True, True] * spec.thermal_state)
+
+    def columns(xs):
+        """resid at each row of xs, one row each (the points of a finite-difference Jacobian: x with one
+        parameter moved), evaluated together: those that move no thermal parameter at the temperatures
+        at x, the others with their thermal trajectories side by side (physics.temperatures with
+        columns of parameters); each row the same bits as resid of it."""
+        moved = np.flatnonzero(np.any(xs != last["x"], axis=1))
+        out = np.empty((len(xs), len(last["f"])))
+        out[:] = last["f"]  # (a step that moves nothing: f(x))
+        plain, hot = moved[~thermal[moved]], moved[thermal[moved]]
+        if len(plain):
+            out[plain] = residual(_params_cols(base, spec, xs[plain]), last["tt_x"])
+        if len(hot):
+            p = _params_cols(base, spec, xs[hot])
+            tt = t_fixed if t_fixed is not None else fitted_temps(
+                [temperature_cols(r, p, u) if t is None else t for r, t, u in zip(rows, fixed_temp, upto)])
+            out[hot] = residual(p, tt)
+        return out
+
+    def jac(x):
+        # the residual at x: that of the evaluation just made there (the solver asks for the Jacobian where it
+        # has just evaluated the residual, as scipy's finite differences take it), else evaluated again
+        if not (last.get("x") is not None and np.array_equal(last["x"], x)):
+            resid(x)
+        return fd_jacobian(columns, x, last["f"], lo_a, hi_a)
 
     lo = [-np.inf] * len(x0)
     hi = [np.inf] * len(x0)
@@ -534,8 +617,10 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
         for k, n in zip((-2, -1), node):
             lo[k], hi[k] = math.log(n.physical[0]), math.log(n.physical[1])
             x0[k] = min(max(x0[k], lo[k] + 1e-9), hi[k] - 1e-9)
+    lo_a, hi_a = np.asarray(lo, float), np.asarray(hi, float)
     res = least_squares(resid, np.asarray(x0, float), x_scale=np.asarray(scales, float), bounds=(lo, hi),
-                        method="trf", xtol=_solver_tol[-1], ftol=_solver_tol[-1], gtol=_solver_tol[-1], max_nfev=200)
+                        jac=jac if JACOBIAN == "together" else JACOBIAN, method="trf", xtol=_solver_tol[-1],
+                        ftol=_solver_tol[-1], gtol=_solver_tol[-1], max_nfev=200)
     p = _params(base, spec, res.x)
     bits = 0
     for n in spec.names:
@@ -543,14 +628,66 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     return dataclasses.replace(p, effects=bits), float(res.cost)
 
 
+# scipy's relative step of a 2-point finite difference in float64 (scipy.optimize._numdiff._eps_for_method)
+FD_REL_STEP = np.finfo(np.float64).eps ** 0.5
+
+
+def fd_steps(x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The step of each parameter in a 2-point finite-difference Jacobian, as scipy's least_squares takes
+    it (scipy.optimize._numdiff: _compute_absolute_step with no relative step given, then
+    _adjust_scheme_to_bounds for a one-sided scheme): sqrt(eps) max(1, |x|) towards +x (at x = 0 too),
+    turned back where it would leave the bounds and the other side has room, else the whole way to the
+    farther bound. The same operations in the same order, so the same bits (test_fit_jacobian.py)."""
+    sign = (x >= 0).astype(float) * 2 - 1
+    h = FD_REL_STEP * sign * np.maximum(1.0, np.abs(x))
+    if np.all((lo == -np.inf) & (hi == np.inf)):
+        return h
+    lower, upper = x - lo, hi - x
+    beyond = ((x + h) < lo) | ((x + h) > hi)
+    fitting = np.abs(h) <= np.maximum(lower, upper)
+    h = np.where(beyond & fitting, -h, h)
+    h = np.where(~fitting & (upper >= lower), upper, h)
+    return np.where(~fitting & (upper < lower), -lower, h)
+
+
+def fd_jacobian(columns, x: np.ndarray, f0: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The Jacobian of f at x as scipy's least_squares computes it with jac='2-point', bit for bit:
+    column j is (f(x + h_j e_j) - f0) / ((x_j + h_j) - x_j), h from fd_steps, f0 = f(x), laid out as
+    scipy lays it (the transpose of a row-major table, so that the solver's products take the same
+    path). columns(xs): f at each row of xs, one row each (the caller evaluates them together)."""
+    h = fd_steps(x, lo, hi)
+    xs = np.repeat(x[None, :], x.size, axis=0)
+    idx = np.arange(x.size)
+    xs[idx, idx] = x + h
+    dx = (x + h) - x
+    return ((columns(xs) - f0) / dx[:, None]).T
+
+
+def _rows_at(t, idx):
+    """The temperatures t (a Temps or an array; one row per column of parameters or one for all) at the
+    rows idx (indices) of the recording."""
+    if isinstance(t, ph.Temps):
+        return ph.Temps(np.take(t.winding_C, idx, axis=-1), np.take(t.magnet_C, idx, axis=-1))
+    return np.take(t, idx, axis=-1)
+
+
+def _cat_rows(parts):
+    """Arrays of several recordings' rows end to end (along the last axis; one for all columns of
+    parameters given to each)."""
+    if all(a.ndim == 1 for a in parts):
+        return np.concatenate(parts)
+    lead = np.broadcast_shapes(*(a.shape[:-1] for a in parts))
+    return np.concatenate([np.broadcast_to(a, lead + np.shape(a)[-1:]) for a in parts], axis=-1)
+
+
 def _cat_temps(parts):
     """The temperatures of several recordings' rows end to end: a Temps where any part is one
     (the winding and the magnets apart), else one array."""
     if not any(isinstance(t, ph.Temps) for t in parts):
-        return np.concatenate(parts)
+        return _cat_rows(parts)
     both = [t if isinstance(t, ph.Temps) else ph.Temps(t, t) for t in parts]
-    return ph.Temps(np.concatenate([np.asarray(t.winding_C, float) for t in both]),
-                    np.concatenate([np.asarray(t.magnet_C, float) for t in both]))
+    return ph.Temps(_cat_rows([np.asarray(t.winding_C, float) for t in both]),
+                    _cat_rows([np.asarray(t.magnet_C, float) for t in both]))
 
 
 FIT_DIGITS = 7  # significant digits kept of a fitted coefficient

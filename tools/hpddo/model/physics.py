@@ -8,6 +8,7 @@ declaration of every parameter and effect (the C++ struct is generated from it).
 """
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 
@@ -80,16 +81,27 @@ def brush_drop_V(p, i_true_A, dtype=np.float64):
     """brush_V f_m(i), m = brush_order: f_1 = i / (|i| + knee) the base form (m = 1, an order
     below 1 or NaN, as the boards; computed as before the order existed), f_2 = i / sqrt(i^2 +
     knee^2), and between them the straight blend f_1 + (m - 1) (f_2 - f_1): one square root,
-    no pow on the boards (physics.h)."""
+    no pow on the boards (physics.h). With columns of parameters (k x 1), the same choices
+    column by column."""
     i = np.asarray(i_true_A, dtype)
     knee = _f(p, "brush_knee_A", dtype)
-    knee = knee if knee > dtype(BRUSH_KNEE_MIN_A) else dtype(BRUSH_KNEE_MIN_A)  # NaN: the minimum, as the boards
+    if isinstance(knee, np.ndarray):
+        knee = np.where(knee > dtype(BRUSH_KNEE_MIN_A), knee, dtype(BRUSH_KNEE_MIN_A))
+    else:
+        knee = knee if knee > dtype(BRUSH_KNEE_MIN_A) else dtype(BRUSH_KNEE_MIN_A)  # NaN: the minimum, as the boards
     m = _f(p, "brush_order", dtype)
-    if not m > dtype(1.0):
+
+    def base_form():
         return _f(p, "brush_V", dtype) * i / (np.abs(i) + knee)
+
+    blended = m > dtype(1.0)  # (one per column where m is a column)
+    columns = isinstance(blended, np.ndarray)
+    if not (blended.any() if columns else blended):
+        return base_form()
     f1 = i / (np.abs(i) + knee)
     f2 = i / np.sqrt(i * i + knee * knee)
-    return _f(p, "brush_V", dtype) * (f1 + (m - dtype(1.0)) * (f2 - f1))
+    blend = _f(p, "brush_V", dtype) * (f1 + (m - dtype(1.0)) * (f2 - f1))
+    return np.where(blended, blend, base_form()) if columns and not blended.all() else blend
 
 
 def ke_at_vs_per_rad(p, temp_C, i_true_A, dtype=np.float64):
@@ -177,11 +189,18 @@ def _rise_bounded(rise, ref):
 _decays: dict = {}
 
 
-def _decay(dt, tau: float):
+def _decay(dt, tau):
     """(dt > 0, the node's decay exp(-dt / tau) per step, 1 where no step, 1 - that decay, whether
     every sample is a step) of _rise_float64. A fit moves tau in one Jacobian column of several, so
     the last few are kept per array of periods (by identity, held beside them) and given again, the
-    same values."""
+    same values. tau a column of time constants (k x 1): the decays one row per tau (k x n), or one
+    row for all where they are one value."""
+    if isinstance(tau, np.ndarray):
+        taus = np.ravel(tau).tolist()
+        if len(set(taus)) == 1:
+            return _decay(dt, taus[0])
+        rows = [_decay(dt, t) for t in taus]
+        return rows[0][0], np.stack([d for _, d, _, _ in rows]), np.stack([omd for _, _, omd, _ in rows]), rows[0][3]
     key = (id(dt), float(tau))
     hit = _decays.get(key)
     if hit is not None and hit[0] is dt:
@@ -220,49 +239,74 @@ def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
         alpha_k = d_k + (1 - d_k) r i_k^2 Ra a,   beta_k = (1 - d_k) r i_k^2 Ra (1 + a (ref_k - T_ref)),
     so blocks of it are cumulative products and sums (equal to the step-by-step loop to
     rounding). A block whose rise leaves [0, WINDING_MAX_C - ref] is redone step by step
-    with the bound applied after each step."""
+    with the bound applied after each step.
+
+    Several parameter sets at once (the columns of a fit's finite-difference Jacobian,
+    effects._solve): each of r, tau, Ra, a, T_ref a column of values (k x 1) or one value,
+    i and ref one row per set (k x n) or one for all; then the rise is a (k x n) table, each
+    row the same bits as the rise of that row's parameters alone (every step elementwise,
+    the products and sums along the rows as along one), in one pass of numpy calls instead
+    of one per set."""
     r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
     step, d, omd, every = _decay(dt, tau)
     omdq = omd * (r * i * i * ra)  # (1 - d) q, q = r i^2 Ra
-    alpha = d + omdq * a
-    beta = omdq * (1.0 + a * (ref - tref))
-    if not every:  # (where every sample is a step, as on a log whose periods are all positive: the same)
-        alpha = np.where(step, alpha, 1.0)
-        beta = np.where(step, beta, 0.0)
-    n = len(i)
-    out = np.empty(n)
+    shape = np.broadcast_shapes(omdq.shape, np.shape(a), ref.shape, np.shape(tref)) if (
+        omdq.ndim > 1 or np.ndim(a) or ref.ndim > 1 or np.ndim(tref)) else omdq.shape
+    k, n = (1, *shape) if len(shape) == 1 else shape
+    # Every block's steps, a row of a (blocks x _BLOCK) table per set of parameters, the last block
+    # padded with steps that change nothing (alpha 1, beta 0), and the bound WINDING_MAX_C - ref (none
+    # on the padding); computed into the table (no step: alpha 1, beta 0)
+    nb = max(1, -(-n // _BLOCK))
+    al, be, lim = np.empty((k, nb * _BLOCK)), np.empty((k, nb * _BLOCK)), np.empty((k, nb * _BLOCK))
+    al[:, n:], be[:, n:], lim[:, n:] = 1.0, 0.0, np.inf
+    alpha, beta = al[:, :n], be[:, :n]
+    if every:  # (every sample a step, as on a log whose periods are all positive)
+        np.add(d, omdq * a, out=alpha)
+        np.multiply(omdq, 1.0 + a * (ref - tref), out=beta)
+    else:
+        alpha[:] = np.where(step, d + omdq * a, 1.0)
+        beta[:] = np.where(step, omdq * (1.0 + a * (ref - tref)), 0.0)
+    if len(shape) == 1 and n <= _BLOCK:  # one set in one block: _rise_blocks does it with fewer steps
+        return _rise_blocks(alpha[0], beta[0], step, ref, rise0, np.empty(n), 0)
+    np.subtract(WINDING_MAX_C, ref, out=lim[:, :n])
+    out = _rise_rows(al, be, lim, step, np.broadcast_to(ref, (k, n)), n, rise0)
+    return out[0] if len(shape) == 1 else out
+
+
+def _rise_rows(al, be, lim, step, ref, n: int, rise0: float) -> np.ndarray:
+    """_rise_float64's rise (k x n) from its steps alpha, beta and bounds WINDING_MAX_C - ref, each
+    row a set of parameters padded to whole blocks (k x blocks _BLOCK)."""
+    k, width = al.shape
+    nb = width // _BLOCK
     if n == 0:
-        return out
-    # Every block's products and sums at once, a row of a (blocks x _BLOCK) table (the last
-    # padded with steps that change nothing: alpha 1, beta 0); cumprod and cumsum run along a
-    # row as along the block alone, so each value is the same bits as block by block.
-    nb = -(-n // _BLOCK)
-    if nb == 1:  # one block: the loop below does it with fewer steps
-        return _rise_blocks(alpha, beta, step, ref, rise0, out, 0)
-    pad = nb * _BLOCK - n
-    al2 = np.concatenate([alpha, np.ones(pad)]).reshape(nb, _BLOCK)
-    be2 = np.concatenate([beta, np.zeros(pad)]).reshape(nb, _BLOCK)
+        return np.empty((k, 0))
+    # cumprod and cumsum run along a row of the table as along the block alone, so each value is
+    # the same bits as block by block
     with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-        prod = np.cumprod(al2, axis=1)
-        sums = np.cumsum(be2 / prod, axis=1)
+        prod = np.cumprod(al.reshape(k, nb, _BLOCK), axis=2)
+        table = np.divide(be.reshape(k, nb, _BLOCK), prod)
+        np.cumsum(table, axis=2, out=table)
     # (past the last block's last step the padding holds its product and sum: column -1 is every block's end)
-    usable = (prod.min(axis=1) > 1e-250) & np.isfinite(prod[:, -1])
+    usable = (prod.min(axis=2) > 1e-250) & np.isfinite(prod[:, :, -1])
     # the rise entering each block: the one leaving the block before, as the block computes it
-    starts = np.empty(nb)
-    x = rise0
-    for b, (pb, sb) in enumerate(zip(prod[:, -1].tolist(), sums[:, -1].tolist())):
-        starts[b] = x
-        x = pb * (x + sb)
-    with np.errstate(over="ignore", invalid="ignore"):
-        table = prod * (starts[:, None] + sums)
-    ref2 = np.concatenate([ref, np.full(pad, -np.inf)]).reshape(nb, _BLOCK)
-    inside = np.all((table >= 0.0) & (table <= WINDING_MAX_C - ref2), axis=1) & usable
-    first_bad = nb if inside.all() else int(np.argmin(inside))
-    out[:first_bad * _BLOCK] = table[:first_bad].ravel()[:min(first_bad * _BLOCK, n)]
-    if first_bad == nb:
-        return out
-    return _rise_blocks(alpha, beta, step, ref, rise0 if first_bad == 0 else float(out[first_bad * _BLOCK - 1]),
-                        out, first_bad * _BLOCK)
+    starts = np.empty((k, nb))
+    for c, (pc, sc) in enumerate(zip(prod[:, :, -1].tolist(), table[:, :, -1].tolist())):
+        x = rise0
+        for b, (pb, sb) in enumerate(zip(pc, sc)):
+            starts[c, b] = x
+            x = pb * (x + sb)
+    with np.errstate(over="ignore", invalid="ignore"):  # the rise: prod (start + sums)
+        np.add(starts[:, :, None], table, out=table)
+        np.multiply(prod, table, out=table)
+    # (the least of a block NaN where any is: then below 0 too, as (table >= 0).all() says)
+    inside = (table.min(axis=2) >= 0.0) & np.all(table <= lim.reshape(k, nb, _BLOCK), axis=2) & usable
+    out = table.reshape(k, width)
+    for c in np.flatnonzero(~inside.all(axis=1)).tolist():
+        # from the first block out of range or bounds on, block by block
+        first_bad = int(np.argmin(inside[c]))
+        x = rise0 if first_bad == 0 else float(out[c, first_bad * _BLOCK - 1])
+        _rise_blocks(al[c, :n], be[c, :n], step, ref[c], x, out[c, :n], first_bad * _BLOCK)
+    return out[:, :n]
 
 
 def _rise_blocks(alpha, beta, step, ref, x: float, out, s_from: int):
@@ -289,6 +333,29 @@ def _rise_blocks(alpha, beta, step, ref, x: float, out, s_from: int):
     return out
 
 
+def _columns(p) -> int:
+    """How many sets of parameters p holds: 1 where every field is one value, k where some are
+    columns of values (k x 1, the columns of a fit's finite-difference Jacobian: effects._solve)."""
+    return max((np.shape(v)[0] for v in vars(p).values() if np.ndim(v)), default=1)
+
+
+def column(p, c: int):
+    """The parameters of column c of p (each field that is a column of values: its c-th value)."""
+    q = copy.copy(p)
+    q.__dict__.update((f, float(np.reshape(v, -1)[c])) for f, v in vars(p).items() if np.ndim(v))
+    return q
+
+
+def _node_runs(p):
+    """Whether the thermal node runs (PhysicsParams.thermal_enabled: r > 0 and tau > 0): for
+    columns of parameters, whether it runs in all of them (True) or none (False); None where
+    they disagree."""
+    if not (isinstance(p.th_r_K_per_W, np.ndarray) or isinstance(p.th_tau_s, np.ndarray)):
+        return p.thermal_enabled()
+    on = (np.asarray(p.th_r_K_per_W) > 0.0) & (np.asarray(p.th_tau_s) > 0.0)
+    return bool(on.all()) if on.all() or not on.any() else None
+
+
 def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_rise_K=0.0, final_rise=False):
     """Winding temperature per sample, as hpddo::ThermalEstimator::step before each sample:
     ref + rise, the rise a first-order node heated by i^2 Ra(T_w) above the reference
@@ -297,16 +364,20 @@ def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_ri
     With final_rise, also returns the rise after the last sample."""
     i = np.asarray(i_true_A, dtype)
     dt = np.asarray(dt_s, dtype)
-    n = len(i)
-    ref = np.full(n, p.t_amb_C, dtype) if ref_C is None else np.asarray(ref_C, dtype)
-    out = np.empty(n, dtype)
+    n = i.shape[-1]
+    ref = (np.full(np.broadcast_shapes(np.shape(p.t_amb_C), (n,)), p.t_amb_C, dtype) if ref_C is None
+           else np.asarray(ref_C, dtype))
     rise = dtype(start_rise_K)
-    if not p.thermal_enabled():
-        out[:] = ref + rise
+    runs = _node_runs(p)
+    if runs is None:
+        raise ValueError("thermal_trajectory: the columns of parameters disagree on whether the node runs")
+    if not runs:
+        out = ref + rise
         return (out, rise) if final_rise else out
     if np.dtype(dtype) == np.float64:
-        out[:] = ref + _rise_float64(p, i, dt, ref, float(rise))
+        out = ref + _rise_float64(p, i, dt, ref, float(rise))
         return (out, float(out[-1] - ref[-1]) if n else float(rise)) if final_rise else out
+    out = np.empty(n, dtype)
     r = dtype(p.th_r_K_per_W)
     tau = dtype(p.th_tau_s)
     hottest = dtype(WINDING_MAX_C)
@@ -359,7 +430,11 @@ def temperatures(p, i_A, dt_s, temp_read_C, settled: bool = False) -> Temps:
     observer would arrive holding that point."""
     t = np.asarray(temp_read_C, float)
     read = np.isfinite(t)
-    if p.thermal_enabled():
+    runs = _node_runs(p)
+    if runs is None:  # columns of parameters (k x 1) that disagree: each column on its own, the same bits
+        cols = [temperatures(column(p, c), i_A, dt_s, temp_read_C, settled) for c in range(_columns(p))]
+        return Temps(np.stack([c.winding_C for c in cols]), np.stack([c.magnet_C for c in cols]))
+    if runs:
         ref = np.where(read, t, p.t_amb_C)
         if settled:
             winding = ref + settled_rise(p, true_current_A(p, i_A), ref)
