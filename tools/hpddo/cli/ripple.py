@@ -322,13 +322,14 @@ def _no_estimate(est, reasons: dict) -> str:
     """The lines that say why windows have no confident estimate: the count of each key, and the commonest key's
     reason in full, from its first window (the counts alone do not say what to do: a `rival` from an undeclared line
     and one from a sideband partner want different things of the user)."""
-    said = "  no estimate: " + ", ".join(f"{k} {n}" for k, n in reasons.items() if k != "confident")
     keys = {k: n for k, n in reasons.items() if k != "confident"}
+    said = "  no estimate: " + ", ".join(f"{k} {n}" for k, n in keys.items())
     if not keys:
         return said
     top = max(keys, key=lambda k: (keys[k], k))
     first = est.index[est["key"].to_numpy() == top][0]
-    return said + f"\n  {top} ({keys[top]} windows), window {est.index.get_loc(first)} for one: {est.at[first, 'reason']}"
+    return (said + f"\n  {top} ({keys[top]} windows), window {est.index.get_loc(first)} for one: "
+            f"{est.at[first, 'reason']}")
 
 
 def _commutator(est) -> dict:

@@ -142,13 +142,11 @@ def temperature(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> ph.Tem
     settled at each); the last few are kept per recording. upto: only the first upto rows'
     are needed (a fit whose rows end there): those of the rows up to physics.trajectory_prefix,
     the same bits on the first upto rows as the whole recording's (the node runs forward)."""
-    n = len(r.i)
-    k = n if upto is None else ph.trajectory_prefix(upto, n)
+    k, (i, dt, temp) = _node_inputs(r, upto)
     key = (id(r), k, tuple(getattr(p, f) for f in _THERMAL_FIELDS))
     hit = _temp_cache.get(key)
     if hit is not None and hit[0] is r:
         return hit[1]
-    i, dt, temp = (r.i, r.dt, r.temp) if k == n else _prefix(r, k)
     t = ph.temperatures(p, i, dt, temp, settled=r.steady)
     if len(_temp_cache) > 64:
         _temp_cache.clear()
@@ -159,10 +157,16 @@ def temperature(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> ph.Tem
 def temperature_cols(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> ph.Temps:
     """temperature() for parameters with columns of values (k x 1, the columns of a fit's Jacobian): one
     row per column, each the same bits as temperature() of that column alone; not kept."""
+    _, (i, dt, temp) = _node_inputs(r, upto)
+    return ph.temperatures(p, i, dt, temp, settled=r.steady)
+
+
+def _node_inputs(r: Rows, upto: int | None) -> tuple:
+    """(k, (i, dt, temp)): the rows the thermal node runs over for the first upto rows' temperatures
+    (physics.trajectory_prefix; all where upto is None) and its inputs over them."""
     n = len(r.i)
     k = n if upto is None else ph.trajectory_prefix(upto, n)
-    i, dt, temp = (r.i, r.dt, r.temp) if k == n else _prefix(r, k)
-    return ph.temperatures(p, i, dt, temp, settled=r.steady)
+    return k, ((r.i, r.dt, r.temp) if k == n else _prefix(r, k))
 
 
 def predict(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:

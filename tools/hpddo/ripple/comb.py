@@ -131,6 +131,12 @@ def lines(f, p, f_lo: float, f_hi: float, res_hz: float, min_snr: float) -> list
     return sorted(out, key=lambda ln: -ln.power)
 
 
+def on_mains(hz: float, res_hz: float) -> bool:
+    """Whether hz lies on a multiple of 50 or 60 Hz (MAINS_HZ), within fixed_tol_hz: hum may be there, declared or
+    not."""
+    return near_fixed(hz, MAINS_HZ, fixed_tol_hz(hz, res_hz))
+
+
 def tol_hz(hz: float, res_hz: float) -> float:
     return COMB_REL_TOL * hz + COMB_RES_TOL * res_hz
 
@@ -233,6 +239,15 @@ def _precision_hz(hz: float, res_hz: float) -> float:
     return COMB_PRECISION_RES * res_hz + COMB_PRECISION_REL * hz
 
 
+def _spacing(on, weights) -> float:
+    """The least-squares spacing g of a comb's lines (on: (Line, multiple)), each line at multiple k weighed by
+    weights: hz = k g."""
+    w = np.asarray(weights, float)
+    k = np.array([j for _, j in on], float)
+    hz = np.array([ln.hz for ln, _ in on])
+    return float(np.sum(w * k * hz) / np.sum(w * k * k))
+
+
 def _line_evidence(on, m: int, res_hz: float) -> list:
     """Per line of a candidate comb (lines on it with their multiples, the commutation line at m), how much more
     likely the line lies where it does if it is on the comb than if it lies anywhere: log(g / (s sqrt(2 pi))) -
@@ -241,13 +256,11 @@ def _line_evidence(on, m: int, res_hz: float) -> list:
     of the speed; lines of one comb drift together, so a line of another origin that the tolerance lets on lies
     further from the others' fit than their precision (an undeclared tone's harmonic 4.7 Hz off the 23rd multiple of
     52.57 Hz, within tol_hz's 5.6 Hz, where the rotation lines lie within 0.05 Hz of theirs)."""
-    hz = np.array([ln.hz for ln, _ in on])
-    k = np.array([j for _, j in on], float)
-    w = 1.0 / np.array([_precision_hz(h, res_hz) for h in hz]) ** 2
-    g = float(np.sum(w * k * hz) / np.sum(w * k * k))
-    s = 1.0 / np.sqrt(w)
-    return [float(math.log(g / (si * math.sqrt(2 * math.pi))) - (h - kk * g) ** 2 / (2 * si * si))
-            for h, kk, si in zip(hz, k, s)]
+    w = [1.0 / _precision_hz(ln.hz, res_hz) ** 2 for ln, _ in on]
+    g = _spacing(on, w)
+    s = [1.0 / math.sqrt(wi) for wi in w]
+    return [math.log(g / (si * math.sqrt(2 * math.pi))) - (ln.hz - k * g) ** 2 / (2 * si * si)
+            for (ln, k), si in zip(on, s)]
 
 
 def _surprise(on, m: int, res_hz: float) -> float:
@@ -295,11 +308,7 @@ def _comb_about(c, use, res_hz: float, min_snr: float, pwm):
         return None
     _, m, on = _widest_explaining(scored, c.hz, res_hz)
     # f_rot refined: the least-squares spacing of the lines on the comb, weighted by their power
-    w = np.array([ln.power for ln, _ in on])
-    k = np.array([j for _, j in on], float)
-    hz = np.array([ln.hz for ln, _ in on])
-    g = float(np.sum(w * k * hz) / np.sum(w * k * k))
-    return _surprise(on, m, res_hz), Comb(g, tuple(on), c, int(m))
+    return _surprise(on, m, res_hz), Comb(_spacing(on, [ln.power for ln, _ in on]), tuple(on), c, int(m))
 
 
 #: a narrower spacing takes a wider one's place (_widest_explaining) only where the lines it adds under the commutation
@@ -310,13 +319,13 @@ COMB_CHANCE = 0.1
 def _widest_explaining(scored, comm_hz: float, res_hz: float):
     """Of rotation_comb's candidate spacings (evidence explained, m, lines on the comb; the spacing comm_hz / m), the
     widest (smallest m) that explains COMB_EXPLAINED of what any narrower one explains; a narrower one takes its
-    place only with lines of its own under the commutation line that the wider comb does not hold and that would not lie so near its multiples by
-    chance: each line within tol_hz of a multiple of a spacing g has the chance 2 tol_hz / g of doing so wherever
-    it sits, and the lines' chances together must be at most COMB_CHANCE. A narrow spacing holds any line near one
-    of its multiples (at f_c / 54 half of all frequencies), so a line of another origin (an undeclared PWM's, a
-    supply's) made a 6-ripple motor's comb of 1, 2 and 3 f_rot into "the ripple is 54 per revolution" (66, 84 in the
-    next windows); an 18-bar motor given 18 shows its once-per-revolution line (chance 0.07 at 23.7 Hz over half a
-    second), a motor whose figure is twice the one given its odd rotation lines."""
+    place only with lines of its own under the commutation line that the wider comb does not hold and that would not
+    lie so near its multiples by chance: each line within tol_hz of a multiple of a spacing g has the chance 2
+    tol_hz / g of doing so wherever it sits, and the lines' chances together must be at most COMB_CHANCE. A narrow
+    spacing holds any line near one of its multiples (at f_c / 54 half of all frequencies), so a line of another
+    origin (an undeclared PWM's, a supply's) made a 6-ripple motor's comb of 1, 2 and 3 f_rot into "the ripple is 54
+    per revolution" (66, 84 in the next windows); an 18-bar motor given 18 shows its once-per-revolution line
+    (chance 0.07 at 23.7 Hz over half a second), a motor whose figure is twice the one given its odd rotation lines."""
     ordered = sorted(scored, key=lambda s: s[1])
     best = ordered[0]
     for cand in ordered[1:]:
@@ -422,13 +431,11 @@ def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
     return any(abs(hz - s) <= _sideband_tol(comm_hz, j, res_hz) for s, j in pwm_sidebands(comm_hz, *pwm))
 
 
-
-
-#: ... but a line on a multiple of 50 or 60 Hz only from this share of the chosen line's power on: a little hum is in
-#: most currents (the twin's 50 Hz line at 0.0006-0.005 of the ripple's power), and for it to hide the ripple the
-#: ripple would have to sit on a multiple of the mains while another line is taken for it; from a hundredth on, it may
-#: be the ripple (one 7 % of the power of an undeclared line beside it, at 900 Hz), and the window says to declare the
-#: mains where it is hum
+#: unplaced_rivals takes a line on a multiple of 50 or 60 Hz only from this share of the chosen line's power on: a
+#: little hum is in most currents (the twin's 50 Hz line at 0.0006-0.005 of the ripple's power), and for it to hide
+#: the ripple the ripple would have to sit on a multiple of the mains while another line is taken for it; from a
+#: hundredth on, it may be the ripple (one 7 % of the power of an undeclared line beside it, at 900 Hz), and the
+#: window says to declare the mains where it is hum
 MAINS_RIVAL_SHARE = 0.01
 
 
@@ -454,7 +461,7 @@ def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float
             continue
         if any(abs(ln.hz - r * f_line) <= max(r, 1.0) * tol_hz(f_line, res_hz) for r in family):
             continue
-        if near_fixed(ln.hz, MAINS_HZ, fixed_tol_hz(ln.hz, res_hz)) and ln.power < MAINS_RIVAL_SHARE * p0:
+        if on_mains(ln.hz, res_hz) and ln.power < MAINS_RIVAL_SHARE * p0:
             continue
         out.append(ln)
     return rivals(out, f_hz, res_hz, in_spread, 0.0)

@@ -64,11 +64,10 @@ def _windows_apart(joined, bursts, a: int, e: int, r, rpm_per_A, opts: Options) 
     noise explains. False without Ra / Ke (rpm_per_A)."""
     if rpm_per_A is None or not np.isfinite(rpm_per_A) or not rpm_per_A > 0 or not r["f_Hz"] > 0:
         return False
-    lengths = [len(c) for c in bursts.codes[a:e]]
-    edges = np.concatenate([[0], np.cumsum(lengths)])
-    # each window's quarters: their boundaries inside the span
-    cuts = np.concatenate([np.round(np.linspace(s0, s1, 5)[1:-1]) if k == 0 else np.round(np.linspace(s0, s1, 5)[:-1])
-                           for k, (s0, s1) in enumerate(zip(edges[:-1], edges[1:]))]).astype(int)
+    edges = np.concatenate([[0], np.cumsum([len(c) for c in bursts.codes[a:e]])])
+    # each window's quarters: where they begin inside the span, but the first (part_means' parts)
+    cuts = np.round(np.concatenate([np.linspace(s0, s1, 5)[:-1] for s0, s1 in zip(edges[:-1], edges[1:])])[1:])
+    cuts = cuts.astype(int)
     quarters = np.array(part_means(joined.current_A(0), joined.sample_hz, float(r["f_Hz"]), cuts)).reshape(e - a, 4)
     means = quarters.mean(axis=1)
     noise = float(np.sqrt(np.sum((quarters - means[:, None]) ** 2) / (3 * (e - a)))) / 2.0  # sd of a window's mean
