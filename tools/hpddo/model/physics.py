@@ -363,7 +363,10 @@ def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_ri
     held within [0, WINDING_MAX_C - ref] after each step.
     With final_rise, also returns the rise after the last sample."""
     i = np.asarray(i_true_A, dtype)
-    dt = np.asarray(dt_s, dtype)
+    # the periods themselves where they are of dtype already: their decays are kept per array (_decay, by
+    # identity), and np.asarray gives a new view of an array whose dtype is equal but another object (one
+    # that came through pickle: a worker's copy of the rows), so a worker's fits found none of them kept
+    dt = dt_s if isinstance(dt_s, np.ndarray) and dt_s.dtype == dtype else np.asarray(dt_s, dtype)
     n = i.shape[-1]
     ref = (np.full(np.broadcast_shapes(np.shape(p.t_amb_C), (n,)), p.t_amb_C, dtype) if ref_C is None
            else np.asarray(ref_C, dtype))

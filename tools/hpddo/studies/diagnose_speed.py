@@ -39,7 +39,7 @@ LARGE_RATE_HZ = 2.0
 # The same measures before the diagnosis ran its stages side by side (commit 915662b), taken alternately
 # with the code after it on the same 2-core machine in the same minutes (shared with other work, load
 # 4-5, about one core left to this): wall s, CPU-s of the main process, CPU-s of its workers; the median of
-# three runs on the bundled recordings, the lesser of two on the large bench. See docs/performance.md.
+# three runs on the bundled recordings, the lesser of two on the large bench. See docs/performance-diagnosis.md.
 BEFORE = {
     "bundled": {"default_s": 20.6, "main_cpu_s": 7.4, "workers_cpu_s": 13.0},
     "large": {"default_s": 38.3, "main_cpu_s": 11.7, "workers_cpu_s": 26.5},
