@@ -78,6 +78,26 @@ def test_a_faulty_current_channel_gives_no_ra_instruction(tmp_path):
     assert not js["ra_fit"]["mismatch"]
 
 
+def test_the_summary_does_not_contradict_the_verdict_on_ra_through_a_faulty_current_channel():
+    """The calibration mismatch study's bench 22 (a sweep whose current reads one value): the data alone
+    put Ra at 9.5 ohm (95 % interval 8.72..10.27) beside a reading of 7.19, the verdict said that
+    whether the reading is right cannot be concluded (Ra rests on the faulty channel), and the summary's
+    clause said "moving Ra does not lower the held-out error enough to name a mismatch". It now says
+    what the verdict says; without the fault, the clause is as before."""
+    from hpddo.diagnosis.result import RaFit, ra_statement
+    from hpddo.model.interval import Interval
+
+    data = Interval("Ra", "ra_ohm", "ohm", 9.496, 8.723, 10.27, True)
+    fault = "the current channel of sweep is stuck"
+    ra = RaFit(given_ohm=7.188, supported_ohm=7.3, tolerance=0.05, sigmas=0.3, mismatch=False, data=data,
+               current_fault=fault)
+    said = ra_statement(ra)
+    assert "interval 8.72..10.3" in said and fault in said and "not concluded" in said, said
+    assert "does not lower" not in said
+    plain = ra_statement(dataclasses.replace(ra, current_fault=""))
+    assert "does not lower the held-out error enough" in plain and "not concluded" not in plain
+
+
 def test_no_effect_is_named_through_a_channel_stuck_in_every_recording(tmp_path):
     """A brush drop of 0.8 V under a current channel stuck at 0.5 A in both recordings: the
     selection takes a constant drop, but an effect whose term reads the current

@@ -479,6 +479,9 @@ def ra_statement(ra: RaFit | None) -> str:
         return head + "not told apart from " + " or ".join(ra.confounded_with)
     if ra.reading_inside:
         return head + f"consistent with the reading and its {100 * ra.tolerance:.0f} % tolerance"
+    if ra.current_fault:  # (as the verdict says: nothing on Ra concluded from a faulty current channel)
+        return head + (f"the reading lies outside it, but {ra.current_fault} (Channel health) and Ra rests on it: "
+                       "whether the reading is right is not concluded from these recordings")
     return head + "the reading lies outside it, but moving Ra does not lower the held-out error enough to name a mismatch"
 
 
