@@ -104,7 +104,7 @@ def test_default_bench_confident_speeds_within_one_percent_and_coasting_said():
 def test_subharmonics_overtaking_the_main_line_with_the_prior():
     """The f/2 line (3 x the rotation) outgrows the commutation line: where a window's lines form the rotation
     comb, the data show 3 ripples per revolution, not the 6 given, and the window says so, never confident
-    (docs/ripple.md, "Which line is the ripple", its Limits); no confident window is more than 5 % off."""
+    (docs/ripple-line.md, "Limits"); no confident window is more than 5 % off."""
     r = _scenario("subharmonics", time_scale=0.3)
     assert r["reasons"].get("multiple", 0) > 0
     assert r["confident"] == 0 or r["max_vs_truth_pct"] < 5.0

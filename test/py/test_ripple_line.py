@@ -1,8 +1,8 @@
-"""The ripple line's identity from the data (ripple/comb.py, docs/ripple.md "Which line is the
-ripple"): the comb of rotation lines gives the rotation frequency, the line the user's ripples per
+"""The ripple line's identity from the data (ripple/comb.py, docs/ripple-line.md "How the line
+is found"): the comb of rotation lines gives the rotation frequency, the line the user's ripples per
 revolution names must be its strongest; rival lines inside the prior's spread leave a window
 unresolved whatever the prior; a damaged commutator is named; --calibrate finds the ripples per
-revolution. The study's figures (hpddo.studies.ripple_line) are quoted by docs/ripple.md."""
+revolution. The study's figures (hpddo.studies.ripple_line) are quoted by docs/ripple-line.md."""
 from __future__ import annotations
 
 import dataclasses
@@ -154,7 +154,7 @@ def test_hpddo_ripple_without_the_figure_and_without_calibrate_is_a_user_error(t
 
 def test_docs_quote_the_committed_study():
     res = json.loads((ROOT / "docs" / "figures" / "ripple_line.json").read_text())
-    text = (ROOT / "docs" / "ripple.md").read_text()
+    text = (ROOT / "docs" / "ripple-line.md").read_text()
     assert study.block(res) in text
     assert res["command"] in text
     assert res["health_rot2_max"] == rc.HEALTH_ROT2_MAX
@@ -174,7 +174,7 @@ def test_the_sideband_table_regenerates():
 def test_the_undeclared_tone_table_regenerates():
     """The study's table of undeclared fixed lines beside the ripple (run_tones, 2 x 900 synthetic windows) is the
     committed one. Of its confident windows one is more than 5 % off: a ripple on a multiple of 60 Hz at a hundredth
-    of the tone's power (docs/ripple.md, Limits); before comb.unplaced_rivals and the comb's anchors, 114 of the
+    of the tone's power (docs/ripple-line.md, "Limits"); before comb.unplaced_rivals and the comb's anchors, 114 of the
     comb-less windows with the tone the stronger were (a script not kept, the same draws)."""
     res = json.loads((ROOT / "docs" / "figures" / "ripple_line.json").read_text())
     got = study.run_tones()

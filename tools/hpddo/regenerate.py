@@ -43,7 +43,7 @@ DOC_BEGIN = "<!-- BEGIN GENERATED: {what}, from {source} ({command}); do not edi
 DOC_END = "<!-- END GENERATED: {what} -->"
 EFFECTS_DOC = "docs/core.md"
 TWIN_DOC = "docs/twin.md"
-RIPPLE_DOC = "docs/ripple.md"
+RIPPLE_DOC = "docs/ripple-counting.md"
 CAPTURES_DOC = "docs/ripple-captures.md"
 HEADER_DOC = "docs/model-header.md"
 

@@ -1,4 +1,4 @@
-"""The ripple line's identity from the data (docs/ripple.md, "Which line is the ripple"): the
+"""The ripple line's identity from the data (docs/ripple-line.md, "How the line is found"): the
 lines of a window's current spectrum, the comb of the rotation frequency they form, the
 multiple of it the commutation line sits at, and the rival lines around the back-EMF prior.
 

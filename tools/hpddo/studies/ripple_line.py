@@ -1,4 +1,4 @@
-"""The ripple line's identity from the data (docs/ripple.md, "Which line is the ripple"): twin
+"""The ripple line's identity from the data (docs/ripple-line.md, "How the line is found"): twin
 benches where the user gives the wrong ripples per revolution (half, double), a damaged
 commutator (one segment's contact resistance raised), and the same windows under two back-EMF
 priors 12 % apart. Each case is counted as hpddo ripple counts it (ripple.speed_of_log) and
@@ -7,7 +7,7 @@ from the encoder (calibrate.calibrate), and the commutator's health lines are re
 
     cd tools && ../.venv/bin/python -m hpddo.studies.ripple_line --json ../docs/figures/ripple_line.json
 
-The figures of docs/ripple.md, "Measured: the line's identity" are this JSON's (test_ripple_line.py
+The figures of docs/ripple-line.md, "Measured: the line's identity" are this JSON's (test_ripple_line.py
 holds the page to it).
 """
 from __future__ import annotations
@@ -269,7 +269,7 @@ def run(quiet: bool = True) -> dict:
 
 
 def block(res: dict) -> str:
-    """docs/ripple.md's table of this study (under "Measured: the line's identity"), from the JSON."""
+    """docs/ripple-line.md's table of this study (under "Measured: the line's identity"), from the JSON."""
     rows = ["| case | confident | more than 5 % off | worst % | confident of driven windows with >= 3 cycles | "
             "'another multiple' said | 'damaged' said | ripples per rev named (comb / encoder), sweep; load | "
             "windows with rot2_rel over the threshold, of those read | rot2_rel 1st / 50th / 99th percentile |",

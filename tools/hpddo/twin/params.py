@@ -438,7 +438,7 @@ def params_md(params) -> str:
 
 
 def ripple_burst_md() -> str:
-    """The ripple mode's parameters table of docs/ripple.md, from RIPPLE_BURST."""
+    """The ripple mode's parameters table of docs/ripple-counting.md, from RIPPLE_BURST."""
     return params_md(RIPPLE_BURST.values())
 
 
