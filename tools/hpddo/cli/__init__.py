@@ -17,6 +17,7 @@ left running and nothing half-written (hpddo.interrupt).
 from __future__ import annotations
 
 import argparse
+import gc
 import importlib
 import sys
 
@@ -75,6 +76,9 @@ def run(name: str, argv=None) -> int:
     args = p.parse_args(argv)
     if hasattr(mod, "validate"):  # checks across options: a usage error, status 2
         mod.validate(args, p)
+    if not gc.isenabled():  # (the hpddo command's entry keeps the collector off while it imports: hpddo.__main__)
+        gc.freeze()
+        gc.enable()
     try:
         with interrupt.handling(f"hpddo {name}"):
             try:

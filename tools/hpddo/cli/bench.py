@@ -95,9 +95,9 @@ def run(args) -> int:
         return 0
     if args.diagnose:
         from ..studies import diagnose_speed
-        m = diagnose_speed.measure(args.data)
         with tempfile.TemporaryDirectory(prefix="hpddo-bench-diagnose-") as tmp:
-            large = diagnose_speed.measure_large(pathlib.Path(tmp))
+            m = diagnose_speed.measure(args.data, pathlib.Path(tmp) / "report")
+            large = diagnose_speed.measure_large(pathlib.Path(tmp) / "large")
         print(diagnose_speed.report(m, large))
         return 0
     if args.observer:

@@ -24,8 +24,8 @@ import dataclasses
 import math
 
 import numpy as np
-import statsmodels.api as sm
 from scipy import stats
+from statsmodels.regression.linear_model import OLS  # (not statsmodels.api: 0.13 s more of every command's start)
 
 from ..model import effects as fx
 from ..model import physics as ph
@@ -113,7 +113,7 @@ def covariance(jac: np.ndarray, e: np.ndarray, groups: np.ndarray) -> tuple[np.n
         return cov, 1, "flat"
     x = jac[:, ~flat] / norms[~flat]
     n_groups = len(np.unique(groups))
-    iid = sm.OLS(e, x).fit()  # rows independent, one variance
+    iid = OLS(e, x).fit()  # rows independent, one variance
     c = np.asarray(iid.cov_params())
     df, method = max(len(e) - x.shape[1], 1), f"rows taken as independent (only {n_groups} operating points)"
     if n_groups >= x.shape[1] + 2:
@@ -121,7 +121,7 @@ def covariance(jac: np.ndarray, e: np.ndarray, groups: np.ndarray) -> tuple[np.n
         # 60-row table of 6 voltages: a quarter of the independent rows' by chance); the larger
         # of the two is kept, so that neither an autocorrelated residual nor a lucky draw of
         # clusters narrows the interval.
-        clu = np.asarray(sm.OLS(e, x).fit(cov_type="cluster", cov_kwds={"groups": groups}).cov_params())
+        clu = np.asarray(OLS(e, x).fit(cov_type="cluster", cov_kwds={"groups": groups}).cov_params())
         scale = np.sqrt(np.maximum(np.diag(clu), np.diag(c)) / np.maximum(np.diag(c), 1e-300))
         c = c * np.outer(scale, scale)
         df, method = n_groups - 1, f"cluster-robust over {n_groups} operating points, at least the rows' own"
@@ -295,11 +295,11 @@ def ke_two_ways(recs, ra_ohm: float) -> dict:
         nan = (math.nan, math.nan, math.nan)
         return {**out, "eq20": nan, "lsq": nan, "apart": False}
     for key, (y, x) in (("eq20", (emf / w, np.ones_like(w))), ("lsq", (emf, w))):
-        fit = sm.OLS(y, x[:, None]).fit()
+        fit = OLS(y, x[:, None]).fit()
         var = float(fit.cov_params()[0, 0])
         df = max(len(y) - 1, 1)
         if out["clusters"] >= 3:
-            clu = sm.OLS(y, x[:, None]).fit(cov_type="cluster", cov_kwds={"groups": groups})
+            clu = OLS(y, x[:, None]).fit(cov_type="cluster", cov_kwds={"groups": groups})
             var, df = max(var, float(clu.cov_params()[0, 0])), out["clusters"] - 1
         t = float(stats.t.ppf(0.5 + LEVEL / 2, df))
         k, se = value[key](v, i, n, ra_ohm), math.sqrt(var)
