@@ -114,6 +114,30 @@ def test_too_few_rows_to_split_names_the_file(tmp_path, capsys):
     assert "tiny.csv" in err and "only 6 usable rows" in err
 
 
+def test_rows_beyond_full_scale_are_named_not_called_glitches(tmp_path, capsys):
+    """A log whose current is beyond the channel's full scale on every row (a motor larger than the
+    board reads, or a wrong scale) is refused for that, with the first row's line, not as a log
+    of glitches."""
+    log = _head(LONG, tmp_path / "big.csv", 40)
+    lines = log.read_text().splitlines(keepends=True)
+    head = [ln for ln in lines if ln.startswith("#")]
+    body = [ln for ln in lines if not ln.startswith("#")]
+    cols = body[0].strip().split(",")
+    k = cols.index("i_A")
+    rows = []
+    for ln in body[1:]:
+        f = ln.rstrip("\n").split(",")
+        f[k] = "250"
+        rows.append(",".join(f) + "\n")
+    log.write_text("".join(head) + body[0] + "".join(rows))
+    assert gen_weights.main([str(log), "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    _no_traceback(err)
+    first = len(head) + 2  # the header line, then the first row
+    assert "big.csv" in err and "40 beyond a channel's full scale" in err and f"line {first}: i_A=250" in err, err
+    assert "departing" not in err, err
+
+
 def test_a_wrong_ra_is_named_as_such(tmp_path, capsys):
     out = tmp_path / "o"
     assert gen_weights.main([*map(str, DATA), "--out", str(out), "--ra-ohm", "34", "--quiet"]) == 1

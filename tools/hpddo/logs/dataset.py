@@ -126,6 +126,21 @@ def outside_limits(df: pd.DataFrame) -> dict:
     return dict(sorted(out.items()))
 
 
+def removed_text(removed: list, outside: dict) -> str:
+    """What the glitch filter removed, by cause, each with its first row's line and reason (removed:
+    [(line, reason)]; outside: {row index: reason} of the rows beyond a channel's full scale): a
+    current channel beyond its full scale on every row is a motor larger than the board reads, or a
+    wrong scale, not a log of glitches."""
+    if not removed:
+        return ""
+    beyond = [(ln, why) for ln, why in removed if why in set(outside.values())]
+    glitches = [(ln, why) for ln, why in removed if why not in set(outside.values())]
+    parts = [f"{len(rows)} {what} (the first at line {rows[0][0]}: {rows[0][1]})"
+             for rows, what in ((beyond, "beyond a channel's full scale"), (glitches, "departing from their neighbours"))
+             if rows]
+    return f" after the glitch filter removed {len(removed)} rows: " + "; ".join(parts)
+
+
 def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: bool = True,
                    reference=None, log=None) -> Recording:
     """Reads, cleans and splits one bench log (raises benchlog.BenchLogError on format faults).
@@ -165,13 +180,12 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
                             "or keep every row with --no-glitch-filter")
     if "temp_C" in df:
         t = df["temp_C"].to_numpy(float)
-        outside = int((np.isfinite(t) & ((t < TEMP_RANGE_C[0]) | (t > TEMP_RANGE_C[1]))).sum())
-        if outside:
-            warnings.append(f"{path}: {outside} temp_C readings lie outside the sensor range {TEMP_RANGE_C} C "
+        temp_outside = int((np.isfinite(t) & ((t < TEMP_RANGE_C[0]) | (t > TEMP_RANGE_C[1]))).sum())
+        if temp_outside:
+            warnings.append(f"{path}: {temp_outside} temp_C readings lie outside the sensor range {TEMP_RANGE_C} C "
                             "and are taken as not read")
     if len(df) < MIN_ROWS:
-        raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows"
-                                     + (f" after removing {len(removed)} glitch rows" if removed else "")
+        raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows" + removed_text(removed, outside)
                                      + f": at least {MIN_ROWS} are needed to split train/test")
     n_train = int(np.floor(train_fraction * len(df)))
     return Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df,
