@@ -190,3 +190,26 @@ def test_a_thermal_model_on_a_log_without_temperature_is_warned_about(tmp_path, 
     capsys.readouterr()
     assert cli.main(["--model", str(MODEL), str(log), "--out", str(tmp_path / "e2"), "--quiet"]) == 0
     assert "no temp_C" not in capsys.readouterr().err
+
+
+def test_a_recording_without_encoder_speeds_has_no_rmse_and_no_part_in_the_average():
+    """metrics.score: a condition whose scored rows carry no rpm_ref has no RMSE (null, "-" in the
+    table), and the average is over the conditions that have one, not null for all."""
+    import numpy as np
+    import pandas as pd
+
+    from hpddo.evaluation import metrics
+
+    n = 50
+    est = pd.DataFrame({"rpm_m1": np.full(n, 110.0), "rpm_m2": np.full(n, 102.0), "rpm_m3": np.full(n, 101.0),
+                        "status": ["ok"] * n})
+    ref = np.full(n, 100.0)
+    m = metrics.score([("with", ref, est, np.ones(n, bool)), ("without", np.full(n, np.nan), est, np.ones(n, bool))],
+                      "test")
+    assert m["rmse_rpm"]["M2"] == {"with": 2, "without": None, "average": 2}
+    assert m["rmse_rpm"]["M1"]["average"] == 10 and m["test_rows"]["without"] == n
+    text = metrics.table(m)
+    row = next(ln for ln in text.splitlines() if ln.startswith("without"))
+    assert row.split()[1:4] == ["-", "-", "-"] and "nan" not in text
+    none = metrics.score([("without", np.full(n, np.nan), est, np.ones(n, bool))], "test")
+    assert none["rmse_rpm"]["M3"]["average"] is None

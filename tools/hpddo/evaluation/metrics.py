@@ -4,7 +4,8 @@ The native replay (host/replay.cpp) writes every row's estimates; this module tu
 them into the figures every report shows, on the rows it is told to score:
 
 * RMSE per condition (recording name), pooled over its scored rows that carry an
-  encoder reading, and "average", the mean over conditions;
+  encoder reading, and "average", the mean over the conditions that have such rows (a
+  recording without an encoder speed has no RMSE, null, and no part in the average);
 * the share of scored rows whose residual was clamped, that fell back to physics
   (outside the per-feature box), whose correction the novelty gate reduced ("gated"),
   or whose reading was invalid, per condition and over all ("all");
@@ -49,21 +50,25 @@ def score(scored: list, source: str, checksum: int | None = None) -> dict:
     order: list[str] = []
     err: dict[str, dict[str, list]] = {}
     status: dict[str, list] = {}
+    n_labelled: dict[str, int] = {}
     for cond, ref, est, mask in scored:
         if cond not in err:
             order.append(cond)
             err[cond] = {m: [] for m in models}
             status[cond] = []
+            n_labelled[cond] = 0
         mask = np.asarray(mask, bool)
         ref = np.asarray(ref, float)[mask]
         labelled = np.isfinite(ref)
+        n_labelled[cond] += int(labelled.sum())
         for m, col in models.items():
             err[cond][m].append((est[col].to_numpy(float)[mask] - ref)[labelled])
         status[cond].append(est["status"].to_numpy(object)[mask])  # (references to a few words)
     out: dict = {"rmse_rpm": {}}
+    scored_conds = [c for c in order if n_labelled[c]]  # (the same for every model: the encoder's rows)
     for m in models:
         per = {c: rmse(np.concatenate(err[c][m])) for c in order}
-        avg = sum(per[c] / len(order) for c in order) if order else float("nan")
+        avg = sum(per[c] / len(scored_conds) for c in scored_conds) if scored_conds else float("nan")
         out["rmse_rpm"][m] = {**{c: figure(v) for c, v in per.items()}, "average": figure(avg)}
     st = {c: np.concatenate(status[c]) for c in order}
     total = sum(len(s) for s in st.values())
@@ -78,8 +83,8 @@ def score(scored: list, source: str, checksum: int | None = None) -> dict:
 
 
 def table_cell(x: float | None) -> str:
-    """One RMSE of a text table, 10 wide; "nan" where there is none."""
-    return f"{x:10.2f}" if x is not None else f"{'nan':>10s}"
+    """One RMSE of a text table, 10 wide; "-" where there is none (no encoder speed to score against)."""
+    return f"{x:10.2f}" if x is not None else f"{'-':>10s}"
 
 
 def table(metrics: dict, title: str = "RMSE on the test parts (RPM)") -> str:
