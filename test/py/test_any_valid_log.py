@@ -6,6 +6,7 @@ printed summary) and M2's identification must each either give a result (every
 determined interval finite, holding its value) or refuse the input with one of the tools' user errors
 (logs.errors.USER_ERRORS: file, line and fault); any other exception is a bug. A verdict
 never carries an exception's text."""
+import json
 import math
 
 import numpy as np
@@ -20,8 +21,13 @@ from hpddo.diagnosis import core
 from hpddo.logs import dataset
 from hpddo.logs.errors import USER_ERRORS
 from hpddo.model import identify
+from hpddo.reports import diagnosis as report
 
 pytestmark = pytest.mark.slow
+
+
+def _refuse_constant(name):
+    raise AssertionError(f"diagnosis.json holds {name}: not JSON")
 
 
 @settings(max_examples=60, deadline=None, suppress_health_check=list(HealthCheck), derandomize=True)
@@ -53,6 +59,8 @@ def test_no_traceback_on_any_valid_log(tmp_path_factory, specs, size, ra_given):
     assert not EXCEPTION_TEXT.search(res.verdict), res.verdict
     diagnose_cli.summary(res)  # the printed summary too
     js = res.to_json()
+    # diagnosis.json as the report writes it: strict JSON (no NaN or Infinity, which JSON.parse refuses)
+    json.loads(report.summary(js), parse_constant=_refuse_constant)
     for iv in js.get("intervals", []):
         if iv["determined"]:
             assert math.isfinite(iv["value"]) and iv["lo"] <= iv["value"] <= iv["hi"], iv

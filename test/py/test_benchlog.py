@@ -234,3 +234,23 @@ def test_write_bytes_atomic_replaces_whole_or_leaves_the_old_file(tmp_path):
     benchlog.write_bytes_atomic(target, lambda fh: fh.write(b"streamed"))
     assert target.read_bytes() == b"streamed"
     assert (target.stat().st_mode & 0o777) == 0o644
+
+
+def test_json_text_writes_what_is_not_finite_as_null():
+    """benchlog.json_text, behind every JSON file the tools write (diagnosis.json, metrics.json,
+    the ripple's summary.json): a standard error of an effect the rows do not excite (inf), an
+    RMSE without encoder rows (NaN) and numpy's numbers, as strict JSON."""
+    import json
+    import math
+
+    import numpy as np
+
+    obj = {"se": math.inf, "rmse": float("nan"), "np": np.float64(-np.inf), "arr": np.array([1.5, np.nan]),
+           "n": np.int64(3), "t": (1, 2.5), "nested": [{"x": -math.inf}]}
+    text = benchlog.json_text(obj, indent=1)
+    assert text.endswith("\n")
+    back = json.loads(text, parse_constant=lambda c: (_ for _ in ()).throw(AssertionError(c)))
+    assert back == {"se": None, "rmse": None, "np": None, "arr": [1.5, None], "n": 3, "t": [1, 2.5],
+                    "nested": [{"x": None}]}
+    finite = {"a": [1, 2.0, "s", None, True]}
+    assert benchlog.json_text(finite, indent=1) == json.dumps(finite, indent=1) + "\n"

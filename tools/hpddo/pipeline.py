@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import json
 import pathlib
 
 import numpy as np
@@ -13,7 +12,7 @@ import numpy as np
 from . import progress, schema
 from .evaluation import baseline
 from .evaluation.evaluate import recordings_record, replay_natively, score_recordings
-from .logs import dataset, outdir
+from .logs import benchlog, dataset, outdir
 from .model import export, identify
 from .evaluation import metrics as metrics_mod
 from .model import physics as ph
@@ -235,8 +234,8 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
             metrics["leave_one_out"] = leave_one_out(
                 log_paths, stage / "leave_one_out",
                 dataclasses.replace(cfg, leave_one_out=False, report=False, train=dataclasses.replace(cfg.train, progress=False)))
-        (stage / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-        (work / "loss_curve.json").write_text(json.dumps(res.loss_curve) + "\n")
+        (stage / "metrics.json").write_text(benchlog.json_text(metrics, indent=2))
+        (work / "loss_curve.json").write_text(benchlog.json_text(res.loss_curve))
         if cfg.report:
             from .reports import training as report
             progress.stage("writing the report")

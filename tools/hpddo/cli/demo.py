@@ -18,12 +18,12 @@
 from __future__ import annotations
 
 import argparse
-import json
 import pathlib
 import sys
 import time
 
 from .. import resource_root
+from ..logs import benchlog
 from . import options
 
 
@@ -144,7 +144,7 @@ def write_summary(stage: pathlib.Path, summary: dict, hidden, shown: pathlib.Pat
     """Prints README.md's RMSE table of the summary and writes summary.json."""
     print("   the RMSE table of README.md (RPM; average: of the chronological held-out 20 %):")
     print("   " + rmse_table(summary, hidden).replace("\n", "\n   ").rstrip())
-    (stage / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
+    (stage / "summary.json").write_text(benchlog.json_text(summary, indent=2))
     print(f"   summary in {shown}")
 
 

@@ -187,8 +187,8 @@ def run(args) -> int:
                 print(f"{name}: {s['ratio_check']['statement']}")
             if not args.quiet:
                 print(_no_estimate(est, s["reasons"]), file=sys.stderr)
-        benchlog.write_text_atomic(stage / "summary.json", json.dumps(summary, indent=1, sort_keys=True,
-                                                                      default=float) + "\n")
+        benchlog.write_text_atomic(stage / "summary.json", benchlog.json_text(summary, indent=1, sort_keys=True,
+                                                                                 default=float))
     return 0
 
 
@@ -266,8 +266,8 @@ def _coast(args, opts) -> int:
             if res.statement:
                 print(f"{name}: {res.statement}")
             summary[name] = s
-        benchlog.write_text_atomic(stage / "summary.json", json.dumps(summary, indent=1, sort_keys=True,
-                                                                      default=float) + "\n")
+        benchlog.write_text_atomic(stage / "summary.json", benchlog.json_text(summary, indent=1, sort_keys=True,
+                                                                                 default=float))
     return 0
 
 
@@ -398,8 +398,8 @@ def _calibrate(args, opts) -> int:
             c = rcal.calibrate(b, log.df["duty"].to_numpy(float)[rows], opts, ref)
             summary[log.condition] = c
             print(f"{log.condition}: {c['statement']}")
-        benchlog.write_text_atomic(stage / "summary.json", json.dumps(summary, indent=1, sort_keys=True,
-                                                                      default=float) + "\n")
+        benchlog.write_text_atomic(stage / "summary.json", benchlog.json_text(summary, indent=1, sort_keys=True,
+                                                                                 default=float))
     return 0
 
 

@@ -30,6 +30,7 @@ same directory, then ``os.replace``), so a reader never sees a partial file.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import os
 import pathlib
@@ -701,6 +702,30 @@ def _checked_chunk(df, cols, head: str, a: int, b: int, line0: int, last: str | 
     except _Fault as f:
         raise ValueError(f"the text would not be a valid bench log (line {f.line + shift}: {f.message})") from None
     return text, rows[-1]
+
+
+def finite_json(obj):
+    """obj with every float that is not finite (NaN, +-inf: a standard error of an effect the rows
+    do not excite, an RMSE without encoder rows) as None, and numpy's scalars and arrays as
+    Python's: what json_text writes."""
+    if isinstance(obj, dict):
+        return {k: finite_json(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [finite_json(v) for v in obj]
+    if isinstance(obj, np.ndarray):
+        return finite_json(obj.tolist())
+    if isinstance(obj, np.generic):
+        obj = obj.item()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return obj
+
+
+def json_text(obj, **kw) -> str:
+    """obj as the text of a JSON file the tools write (RFC 8259: no NaN or Infinity, which a
+    browser's JSON.parse and most readers refuse): every number that is not finite written as
+    null (finite_json), and a newline at the end. kw: json.dumps' (indent, sort_keys, default)."""
+    return json.dumps(finite_json(obj), allow_nan=False, **kw) + "\n"
 
 
 def write_text_atomic(path, text: str) -> pathlib.Path:

@@ -5,7 +5,6 @@ and correlation plots), and the JSON summary, diagnosis.json, written into a sta
 folder that the caller renames into place."""
 from __future__ import annotations
 
-import json
 import pathlib
 
 import matplotlib
@@ -152,7 +151,7 @@ def figures(res, plot) -> dict:
 
 def summary(res) -> str:
     """diagnosis.json's text."""
-    return json.dumps(res, indent=1, default=_json_default) + "\n"
+    return benchlog.json_text(res, indent=1, default=_json_default)
 
 
 def write(stage, res, plot):
