@@ -1278,7 +1278,8 @@ def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None =
             if ra_fit.mismatch:  # the reading is kept: a biased fit names no mismatch
                 ra_fit.mismatch = False
             sel = dataclasses.replace(sel, ra_fit=ra_fit)
-    ivs = budgeted(inp, sel.final, names, ivs, hold, floor.var_rpm2 if floor is not None else None, sel.ra_fit)
+    ivs = budgeted(inp, sel.final, names, ivs, hold, floor.var_rpm2 if floor is not None else None, sel.ra_fit,
+                   alternatives=alternative_models(inp, sel, names, hold))
     by_field = {iv.field: iv for iv in ivs}
     table = []
     for e in sel.ranking:
@@ -1288,6 +1289,29 @@ def with_intervals(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None =
                                                   if f in by_field])
         table.append(e)
     return dataclasses.replace(sel, ranking=table, intervals=ivs)
+
+
+def alternative_models(inp: Inputs, sel: Selection, names, hold=None) -> list:
+    """The models beside the final one (the effects in names) that the data did not exclude, for the
+    model part of each fitted quantity's budget (budgeted, intervals.with_budget's models): each effect
+    the verdict could not tell from a wrong reading of Ra (RaFit.confounded_with: "a wrong Ra explains as
+    well as brush_drop, so neither is named"), and each the selection took that is not named (its
+    interval held zero, or it was not told from another), fitted beside the named effects with Ra held,
+    where its coefficient is plausible. A Ke read without a brush drop the data could not exclude is
+    Ke of one of the models that explain the rows, and its interval reaches over the other's."""
+    extra = list(sel.ra_fit.confounded_with) if sel.ra_fit is not None else []
+    extra += [s.name for s in sel.steps if s.name]
+    out = []
+    for c in dict.fromkeys(extra):
+        if c in names or c not in fx.LIBRARY:
+            continue
+        try:
+            p = fx.fit(inp.rows, inp.m2, list(names) + [c], hold=hold, start=sel.final)
+        except Exception:  # noqa: BLE001 (a degenerate fit is no alternative)
+            continue
+        if fx.LIBRARY[c].plausibility(getattr(p, fx.LIBRARY[c].field))[0]:
+            out.append(p)
+    return out
 
 
 def calibration(recs) -> dict:
@@ -1330,10 +1354,11 @@ def ra_doubt_ohm(ra_held: float, ra_fit: RaFit | None) -> float:
 
 
 def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigma2: float | None = None,
-             ra_fit: RaFit | None = None) -> list:
+             ra_fit: RaFit | None = None, alternatives=()) -> list:
     """ivs (intervals.of_fit of p, fitted with Ra held at inp.m2's) with their uncertainty
     budgets (intervals.with_budget): the channels' calibration and rounding through the fit (intervals.sensors_u),
-    the model's held-out excess, and the doubt of the Ra held (ra_doubt_ohm, rectangular), through each quantity's
+    the model's held-out excess and the spread of each quantity over the alternatives (models the data did not
+    exclude: alternative_models), and the doubt of the Ra held (ra_doubt_ohm, rectangular), through each quantity's
     sensitivity to Ra (a refit at Ra moved by RA_SENS_REL)."""
     cal = calibration(inp.recs)
     b = birge(inp, p, sigma2) if sigma2 else 1.0
@@ -1351,7 +1376,9 @@ def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigm
     given = f"Ra = {ra:.4g} ohm held, within {doubt:.3g} ohm in the budget"
     through = intervals.sensors_of_fit(inp.data, p, names, channel_steps(inp), cal, hold)
     return [intervals.with_budget(iv, cal, b, ra_u, sens.get(iv.field, 0.0),
-                                  given if iv.field in sens else "", sensors=through.get(iv.field)) for iv in ivs]
+                                  given if iv.field in sens else "", sensors=through.get(iv.field),
+                                  models=[float(getattr(a, iv.field)) for a in alternatives])
+            for iv in ivs]
 
 
 def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) -> Diagnosis:
