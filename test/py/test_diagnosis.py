@@ -212,10 +212,30 @@ def test_the_diagnosis_prints_the_train_command_that_adds_what_it_named(tmp_path
     res = json.loads((tmp_path / "d" / "diagnosis.json").read_text())
     args = cli.parser("train").parse_args(words[2:])  # it is a command train takes, as printed
     assert tuple(args.effects) == tuple(res["missing_effects"])
-    if res["ra_fit"]["mismatch"]:  # the Ra the data support, where they call the reading wrong
+    if res["ra_fit"]["mismatch"] and not res["ra_fit"]["confounded_with"]:  # the Ra the data support
         assert args.ra_ohm == pytest.approx(res["ra_fit"]["supported_ohm"], rel=1e-3)
     else:  # the reading kept
         assert args.ra_ohm is None
+
+
+@pytest.mark.parametrize("confounded", [[], ["v_gain"]])
+def test_the_next_command_passes_the_supported_ra_only_where_the_verdict_does(confounded):
+    """A mismatch that an effect explains as well (RaFit.confounded_with) is no instruction: the verdict
+    says that hpddo train still uses the Ra given, and the printed command keeps the reading too (it
+    passed the supported 4.92 ohm beside that sentence, on the bundled load and sweep with a recording
+    of the sweep without its encoder: the true Ra is 4.5 at 25 C, the winding runs warm)."""
+    import shlex
+    from types import SimpleNamespace
+
+    from hpddo import cli
+    from hpddo.cli.diagnose import next_steps
+    args = cli.parser("diagnose").parse_args(["a.csv", "--out", "d"])
+    res = {"missing_effects": [], "verdict": "",
+           "ra_fit": {"mismatch": True, "supported_ohm": 4.92, "confounded_with": confounded}}
+    lines = next_steps(SimpleNamespace(to_json=lambda: res), args).splitlines()
+    trained = cli.parser("train").parse_args(shlex.split(lines[1])[2:])
+    assert trained.ra_ohm == (None if confounded else pytest.approx(4.92)), lines[1]
+    assert lines[0].startswith("next (nothing to add" if confounded else "next (add what"), lines[0]
 
 
 @pytest.mark.parametrize("given", [
@@ -243,3 +263,31 @@ def test_the_printed_next_command_carries_the_options_train_needs(given):
     assert list(trained.effects) == [*args.effects, *(e for e in res["missing_effects"] if e not in args.effects)]
     for own in ("--bootstrap", "--seed"):  # the diagnosis' own options are not train's to repeat
         assert own not in words
+
+
+def test_a_recording_without_encoder_speeds_is_not_scored_and_nothing_reads_nan(tmp_path, capsys):
+    """The bundled load beside its sweep and a copy of the sweep whose rpm_ref is empty: the copy has no
+    RMSE ('-' in the printed tables, null in diagnosis.json) and no part in the averages; leave one out
+    says why it is not scored, where its average was a traceback (None in np.mean) and the tables nan."""
+    src = ROOT / "data" / "default" / "sweep.csv"
+    lines = src.read_text().splitlines(keepends=True)
+    body = [ln for ln in lines if not ln.startswith("#")]
+    k = body[0].strip().split(",").index("rpm_ref")
+    blank = [body[0]] + [",".join("" if j == k else f for j, f in enumerate(ln.rstrip("\n").split(","))) + "\n"
+                         for ln in body[1:]]
+    noref = tmp_path / "noref.csv"
+    noref.write_text("".join(ln.replace("condition=sweep", "condition=noref") for ln in lines if ln.startswith("#"))
+                     + "".join(blank))
+    logs = [str(ROOT / "data" / "default" / "load.csv"), str(src), str(noref)]
+    out = tmp_path / "d"
+    assert diagnose.main([*logs, "--out", str(out), "--bootstrap", "0", "--no-hybrid", "--leave-one-out"]) == 0
+    text = capsys.readouterr().out
+    assert "nan" not in text.split("RMSE on the test parts")[1], text
+    assert "(noref: not scored: no encoder speeds (rpm_ref) to score it against)" in text, text
+    res = json.loads((out / "diagnosis.json").read_text(), parse_constant=lambda c: pytest.fail(c))
+    before = res["rmse_rpm"]["before"]
+    assert before["noref"] is None and before["average"] == pytest.approx((before["load"] + before["sweep"]) / 2)
+    loo = res["leave_one_out"]
+    assert loo["recordings"]["noref"]["before"] is None
+    assert loo["average"]["before"] == pytest.approx(
+        (loo["recordings"]["load"]["before"] + loo["recordings"]["sweep"]["before"]) / 2, rel=1e-5)

@@ -14,6 +14,7 @@ line and fault). See docs/diagnosis.md.
 from __future__ import annotations
 
 import argparse
+import math
 import pathlib
 import sys
 import time
@@ -69,6 +70,11 @@ def diagnose_into(logs, opt, out: pathlib.Path):
     with outdir.staged(out, "diagnose") as stage:
         report.write(stage, d.to_json(), d.plot())
     return d
+
+
+def _cell(v) -> str:
+    """One RMSE of the printed tables, 9 wide; "-" where there is none (a recording without encoder rows)."""
+    return f"{v:9.2f}" if v is not None and math.isfinite(v) else f"{'-':>9s}"
 
 
 def summary(d) -> str:
@@ -135,7 +141,7 @@ def summary(d) -> str:
     if "rmse_rpm_hybrid" in res:
         rows += [("hybrid before", res["rmse_rpm_hybrid"]["before"]), ("hybrid after", res["rmse_rpm_hybrid"]["after"])]
     for lab, row in rows:
-        lines.append(f"  {lab:28s}" + " ".join(f"{row[c]:9.2f}" for c in conds))
+        lines.append(f"  {lab:28s}" + " ".join(_cell(row[c]) for c in conds))
     if "leave_one_out" in res:
         loo = res["leave_one_out"]
         names = list(loo["recordings"]) + ["average"]
@@ -143,7 +149,10 @@ def summary(d) -> str:
         lines.append("  " + f"{'':28s}" + " ".join(f"{c:>9s}" for c in names))
         for w, lab in (("before", "physics before"), ("after", "physics after")):
             vals = [loo["recordings"][c][w] for c in names[:-1]] + [loo["average"][w]]
-            lines.append(f"  {lab:28s}" + " ".join(f"{v:9.2f}" for v in vals))
+            lines.append(f"  {lab:28s}" + " ".join(_cell(v) for v in vals))
+        for c in names[:-1]:
+            if loo["recordings"][c].get("why"):
+                lines.append(f"  ({c}: {loo['recordings'][c]['why']})")
     return "\n".join(lines)
 
 
@@ -165,7 +174,9 @@ def dynamics_named(res: dict) -> bool:
 
 def next_steps(d, args) -> str:
     """What to type next: train with the named effects (and the Ra the data support, where
-    they name a mismatch), then score that model on a recording it never saw. Each option
+    they name a mismatch that no effect explains as well: where one does, the verdict says
+    that hpddo train still uses the Ra given, and so does the command), then score that model
+    on a recording it never saw. Each option
     given here that hpddo train takes and that shapes the model is carried over (the nameplate, Ke's fit,
     the glitch filter, the reference); the diagnosis' own (--bootstrap, --epochs, --seed,
     --leave-one-out, --no-hybrid) are not train's."""
@@ -181,7 +192,8 @@ def next_steps(d, args) -> str:
     dynamics = dynamics_named(res)
     if dynamics:
         words.append("--dynamics")
-    if ra.get("mismatch"):
+    ra_named = bool(ra.get("mismatch")) and not ra.get("confounded_with")
+    if ra_named:
         words += ["--ra-ohm", f"{ra['supported_ohm']:.4g}"]
     elif args.ra_ohm is not None:
         words += ["--ra-ohm", options.number_word(args.ra_ohm)]
@@ -194,7 +206,7 @@ def next_steps(d, args) -> str:
     if args.no_glitch_filter:
         words.append("--no-glitch-filter")
     words += options.reference_words(args)
-    what = ("add what the diagnosis named" if effects != list(args.effects) or ra.get("mismatch") or dynamics
+    what = ("add what the diagnosis named" if effects != list(args.effects) or ra_named or dynamics
             else "nothing to add: train the model as it is")
     lines.append(f"next ({what}):\n  {shlex.join(words)}")
     lines.append("then score it on a recording it never saw:\n  "

@@ -848,7 +848,10 @@ def _rmse_by_condition(rows, res) -> dict:
         se[r.rec.name] = se.get(r.rec.name, 0.0) + float(np.sum(e[m] ** 2))
         cnt[r.rec.name] = cnt.get(r.rec.name, 0) + int(m.sum())
     out = {c: float(np.sqrt(se[c] / cnt[c])) if cnt[c] else float("nan") for c in se}
-    out["average"] = float(np.mean([v for v in out.values()])) if out else float("nan")
+    # over the conditions with encoder rows (evaluation.metrics.score's average): a recording without them
+    # has no RMSE (null) and no part in it
+    scored = [out[c] for c in out if cnt[c]]
+    out["average"] = float(np.mean(scored)) if scored else float("nan")
     return out
 
 
@@ -904,16 +907,27 @@ def leave_one_out(inp: Inputs, missing: list) -> dict:
     from ..evaluation.metrics import figure, rmse
     from ..model.train import physics_rpm
 
+    from ..logs.errors import USER_ERRORS
+
     scores = {}
     for k, held in enumerate(inp.recs):
         others = inp.recs[:k] + inp.recs[k + 1:]
-        m2 = identify.m2_params(others, inp.ra)
+        try:
+            m2 = identify.m2_params(others, inp.ra)
+        except USER_ERRORS as exc:  # the others alone cannot be fitted (no encoder rows among them): said, not scored
+            scores[held.name] = {"before": None, "after": None, "why": f"not scored: the others alone cannot be "
+                                                                        f"fitted ({exc})"}
+            continue
         before = fx.identify(others, m2, inp.given) if inp.given else m2
         after = fx.identify(others, m2, list(inp.given) + list(missing)) if missing else before
         ref = held.df["rpm_ref"].to_numpy(float) if "rpm_ref" in held.df else np.full(held.n, np.nan)
         scores[held.name] = {"before": figure(rmse(physics_rpm(held, before) - ref)),
                              "after": figure(rmse(physics_rpm(held, after) - ref))}
-    avg = {w: figure(float(np.mean([s[w] for s in scores.values()]))) for w in ("before", "after")}
+        if scores[held.name]["before"] is None:
+            scores[held.name]["why"] = "not scored: no encoder speeds (rpm_ref) to score it against"
+    # over the recordings with a score (a recording without encoder rows, or whose others cannot be fitted, has none)
+    avg = {w: figure(float(np.mean(vals))) if (vals := [s[w] for s in scores.values() if s[w] is not None]) else None
+           for w in ("before", "after")}
     return {"recordings": scores, "average": avg}
 
 
