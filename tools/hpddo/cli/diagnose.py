@@ -14,7 +14,6 @@ line and fault). See docs/diagnosis.md.
 from __future__ import annotations
 
 import argparse
-import math
 import pathlib
 import sys
 import time
@@ -72,14 +71,10 @@ def diagnose_into(logs, opt, out: pathlib.Path):
     return d
 
 
-def _cell(v) -> str:
-    """One RMSE of the printed tables, 9 wide; "-" where there is none (a recording without encoder rows)."""
-    return f"{v:9.2f}" if v is not None and math.isfinite(v) else f"{'-':>9s}"
-
-
 def summary(d) -> str:
     """The verdict, the named effects and the RMSE table, as the command prints them."""
     from ..diagnosis.ranking import FEW_BLOCKS
+    from ..evaluation.metrics import table_cell
 
     from ..ripple import reference
 
@@ -141,7 +136,7 @@ def summary(d) -> str:
     if "rmse_rpm_hybrid" in res:
         rows += [("hybrid before", res["rmse_rpm_hybrid"]["before"]), ("hybrid after", res["rmse_rpm_hybrid"]["after"])]
     for lab, row in rows:
-        lines.append(f"  {lab:28s}" + " ".join(_cell(row[c]) for c in conds))
+        lines.append(f"  {lab:28s}" + " ".join(table_cell(row[c], 9) for c in conds))
     if "leave_one_out" in res:
         loo = res["leave_one_out"]
         names = list(loo["recordings"]) + ["average"]
@@ -149,7 +144,7 @@ def summary(d) -> str:
         lines.append("  " + f"{'':28s}" + " ".join(f"{c:>9s}" for c in names))
         for w, lab in (("before", "physics before"), ("after", "physics after")):
             vals = [loo["recordings"][c][w] for c in names[:-1]] + [loo["average"][w]]
-            lines.append(f"  {lab:28s}" + " ".join(_cell(v) for v in vals))
+            lines.append(f"  {lab:28s}" + " ".join(table_cell(v, 9) for v in vals))
         for c in names[:-1]:
             if loo["recordings"][c].get("why"):
                 lines.append(f"  ({c}: {loo['recordings'][c]['why']})")

@@ -41,7 +41,6 @@ carries drop / I).
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import sys
 

@@ -905,9 +905,8 @@ def leave_one_out(inp: Inputs, missing: list) -> dict:
     {"recordings": {name: {"before", "after"}}, "average": {"before", "after"}}, RMSE in RPM.
     The physics only: the hybrid's cross-recording figure is hpddo train --leave-one-out."""
     from ..evaluation.metrics import figure, rmse
-    from ..model.train import physics_rpm
-
     from ..logs.errors import USER_ERRORS
+    from ..model.train import physics_rpm
 
     scores = {}
     for k, held in enumerate(inp.recs):

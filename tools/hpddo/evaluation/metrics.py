@@ -82,9 +82,10 @@ def score(scored: list, source: str, checksum: int | None = None) -> dict:
     return out
 
 
-def table_cell(x: float | None) -> str:
-    """One RMSE of a text table, 10 wide; "-" where there is none (no encoder speed to score against)."""
-    return f"{x:10.2f}" if x is not None else f"{'-':>10s}"
+def table_cell(x: float | None, width: int = 10) -> str:
+    """One RMSE of a text table, `width` wide; "-" where there is none (None or not finite: no encoder
+    speed to score against)."""
+    return f"{x:{width}.2f}" if x is not None and math.isfinite(x) else f"{'-':>{width}s}"
 
 
 def table(metrics: dict, title: str = "RMSE on the test parts (RPM)") -> str:

@@ -126,15 +126,15 @@ def outside_limits(df: pd.DataFrame) -> dict:
     return dict(sorted(out.items()))
 
 
-def removed_text(removed: list, outside: dict) -> str:
+def removed_text(removed: list, beyond_lines: set) -> str:
     """What the glitch filter removed, by cause, each with its first row's line and reason (removed:
-    [(line, reason)]; outside: {row index: reason} of the rows beyond a channel's full scale): a
-    current channel beyond its full scale on every row is a motor larger than the board reads, or a
-    wrong scale, not a log of glitches."""
+    [(line, reason)]; beyond_lines: the lines of the rows beyond a channel's full scale): a current
+    channel beyond its full scale on every row is a motor larger than the board reads, or a wrong
+    scale, not a log of glitches."""
     if not removed:
         return ""
-    beyond = [(ln, why) for ln, why in removed if why in set(outside.values())]
-    glitches = [(ln, why) for ln, why in removed if why not in set(outside.values())]
+    beyond = [(ln, why) for ln, why in removed if ln in beyond_lines]
+    glitches = [(ln, why) for ln, why in removed if ln not in beyond_lines]
     parts = [f"{len(rows)} {what} (the first at line {rows[0][0]}: {rows[0][1]})"
              for rows, what in ((beyond, "beyond a channel's full scale"), (glitches, "departing from their neighbours"))
              if rows]
@@ -185,7 +185,8 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
             warnings.append(f"{path}: {temp_outside} temp_C readings lie outside the sensor range {TEMP_RANGE_C} C "
                             "and are taken as not read")
     if len(df) < MIN_ROWS:
-        raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows" + removed_text(removed, outside)
+        raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows"
+                                     + removed_text(removed, {int(lines[k]) for k in outside})
                                      + f": at least {MIN_ROWS} are needed to split train/test")
     n_train = int(np.floor(train_fraction * len(df)))
     return Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df,

@@ -149,7 +149,6 @@ def write(metrics: dict, estimates_dir: pathlib.Path, out: pathlib.Path, title: 
 def write_evaluation(ev, out: pathlib.Path, title: str, notes: list) -> pathlib.Path:
     """Writes an evaluation's (hpddo.evaluation.evaluate.Evaluation) metrics.json and
     report/index.html into out; the page."""
-    import json
     (pathlib.Path(out) / "metrics.json").write_text(benchlog.json_text(ev.metrics, indent=2))
     return write(ev.metrics, ev.estimates, pathlib.Path(out) / "report", title, notes,
                  caption=ev.table.splitlines()[0])
