@@ -431,12 +431,30 @@ def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
     return any(abs(hz - s) <= _sideband_tol(comm_hz, j, res_hz) for s, j in pwm_sidebands(comm_hz, *pwm))
 
 
-#: unplaced_rivals takes a line on a multiple of 50 or 60 Hz only from this share of the chosen line's power on: a
-#: little hum is in most currents (the twin's 50 Hz line at 0.0006-0.005 of the ripple's power), and for it to hide
+#: unplaced_rivals takes a line on a multiple of 50 or 60 Hz that the window bears out as hum (hum_shows) only from
+#: this share of the chosen line's power on: a little hum is in most currents (the twin's 50 Hz line at 0.0006-0.005 of the ripple's power), and for it to hide
 #: the ripple the ripple would have to sit on a multiple of the mains while another line is taken for it; from a
 #: hundredth on, it may be the ripple (one 7 % of the power of an undeclared line beside it, at 900 Hz), and the
 #: window says to declare the mains where it is hum
 MAINS_RIVAL_SHARE = 0.01
+
+
+def hum_shows(found, line, res_hz: float) -> bool:
+    """Whether the window bears a line on a multiple k of 50 or 60 Hz (MAINS_HZ) out as hum: its order is the hum's
+    first (k = 1, a stray field's line; k = 2, a rectified supply's), or a line at a lower multiple of the same mains
+    frequency stands at least as strong (hum's lines fall with their order: a rectified supply's as 3 / (4 k^2 - 1)).
+    A line on a high multiple standing over every lower one is not shown to be hum, and may be a ripple that sits
+    there (360 Hz, at a hundredth of the power of an undeclared line beside it, was left out for hum and the other
+    line counted, confidently and more than 5 % off)."""
+    tol = fixed_tol_hz(line.hz, res_hz)
+    for f0 in MAINS_HZ:
+        k = round(line.hz / f0)
+        if k < 1 or abs(line.hz - k * f0) > tol:
+            continue
+        if k <= 2 or any(ln.power >= line.power and abs(ln.hz - j * f0) <= fixed_tol_hz(j * f0, res_hz)
+                         for ln in found for j in range(1, k)):
+            return True
+    return False
 
 
 def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float, family=()) -> list:
@@ -447,9 +465,9 @@ def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float
     Without a comb the line's identity rests on the prior alone, and power does not name the ripple: an undeclared
     PWM or a supply's line, 14x the ripple's power and inside the prior's spread, was counted as the ripple of 12
     comb-less windows, 5 of them 5-8 % off, confidently. A line on a multiple of 50 or 60 Hz is a rival
-    from MAINS_RIVAL_SHARE of the chosen line's power on: undeclared, hum is not known to be there, and a ripple may
-    sit on such a multiple (900 and 1050 Hz, in that test); the declared mains' multiples are out of found already
-    (without_fixed). Strongest first."""
+    from MAINS_RIVAL_SHARE of the chosen line's power on (undeclared, hum is not known to be there, and a ripple may
+    sit on such a multiple: 900 and 1050 Hz, in that test), and under it too where the window does not bear it out
+    as hum (hum_shows); the declared mains' multiples are out of found already (without_fixed). Strongest first."""
     # the family about the chosen line's own peak (f_hz is the prior-weighted search's, up to half a resolution off
     # it), its error entering r times at r f
     near = [ln for ln in found if abs(ln.hz - f_hz) <= tol_hz(f_hz, res_hz)]
@@ -461,7 +479,7 @@ def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float
             continue
         if any(abs(ln.hz - r * f_line) <= max(r, 1.0) * tol_hz(f_line, res_hz) for r in family):
             continue
-        if on_mains(ln.hz, res_hz) and ln.power < MAINS_RIVAL_SHARE * p0:
+        if on_mains(ln.hz, res_hz) and ln.power < MAINS_RIVAL_SHARE * p0 and hum_shows(found, ln, res_hz):
             continue
         out.append(ln)
     return rivals(out, f_hz, res_hz, in_spread, 0.0)
