@@ -201,8 +201,12 @@ def next_steps(d, args) -> str:
     if args.no_glitch_filter:
         words.append("--no-glitch-filter")
     words += options.reference_words(args)
+    from ..diagnosis.verdict import ABOVE_SHARE
+    after = res.get("residual_after") or {}
+    left = (after.get("excess") or 0.0) > ABOVE_SHARE * (after.get("noise_var") or float("inf"))
     what = ("add what the diagnosis named" if effects != list(args.effects) or ra_named or dynamics
-            else "nothing to add: train the model as it is")
+            else "nothing named to add: the residual stays above the noise floor (the verdict above); the model as "
+                 "it is" if left else "nothing to add: train the model as it is")
     lines.append(f"next ({what}):\n  {shlex.join(words)}")
     lines.append("then score it on a recording it never saw:\n  "
                  + shlex.join(["hpddo", "evaluate", "--model", "MODEL", "NEW_RUN.csv", "--out", "EVAL",

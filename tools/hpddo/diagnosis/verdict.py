@@ -197,10 +197,14 @@ def dynamics(before: ResidualAnalysis, dt_s: float, family=None) -> str:
             "named on this recording may stand in for them: confirm them on settled rows (a 2 Hz recording).")
 
 
+#: the residual is above the noise floor where its excess over the noise variance is more than this share of it
+ABOVE_SHARE = 0.5
+
+
 def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
              floor: noise.NoiseFloor | None = None) -> str:
     after = resid.after
-    above = after.excess > 0.5 * sigma2
+    above = after.excess > ABOVE_SHARE * sigma2
     structured_left = above and after.whiteness["white"] is False
     if not sel.missing:
         if above and sel.ra_fit is not None and sel.ra_fit.confounded_with and not sel.ra_fit.mismatch:
@@ -208,6 +212,13 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
             return (f"With Ra held at the reading and none of them named, the residual stays "
                     f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor: the "
                     "measurement named above settles which of them it is.")
+        if floor is not None and floor.from_model and above:
+            # the floor is what the selected model leaves out of fold: a residual this far above it is something
+            # the recordings hold that no named effect explains (what was selected and not named, said after this)
+            return ("No library effect is named for the residual, which stays "
+                    f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the floor "
+                    f"({math.sqrt(floor.measured_rpm2):.3g} RPM, what the selected model leaves out of fold: this "
+                    "table repeats no operating point): something these recordings hold is missing from the model.")
         if floor is not None and floor.from_model:
             return ("No library effect is named. Whether anything is missing below "
                     f"{math.sqrt(floor.measured_rpm2):.3g} RPM cannot be told: this table repeats no operating "
