@@ -236,6 +236,26 @@ def test_a_capture_without_a_range_is_confident_only_where_its_combs_confirm_the
             assert not c.any() and (est["key"] == "unchecked").all(), est["key"].tolist()
 
 
+@pytest.mark.parametrize("rpm_range, confident", [((700.0, 2000.0), False), ((960.0, 1000.0), True)])
+def test_a_speed_range_wider_than_a_count_under_another_figure_does_not_check_the_figure(rpm_range, confident):
+    """capture.range_checks_figure: a symmetric 12-ripple rotor (no rotation lines, no comb) at 978 RPM whose ripple's
+    second harmonic is 3x its fundamental (an independent simulator's capture): under 700..2000 RPM the strongest line
+    was counted as the ripple, 1956 RPM, 12 of 12 windows confident; a 14-ripple motor given 7 was counted at twice its
+    speed the same way. A range that holds a count under another figure does not check the figure: no window is
+    confident (`unchecked`). One no more than 5 % wide does, and the windows are confident and right."""
+    from hpddo.ripple.capture import speed_of_bursts
+    from hpddo.studies import ripple_line as synth
+
+    fs, rot = 20000.0, 978.0 / 60.0
+    xs = [synth.synthetic_current(rot, {12: 0.02, 24: 0.06}, fs=fs, noise=0.001, seed=k) for k in range(12)]
+    est = speed_of_bursts(synth.synthetic_bursts(xs, fs=fs), Options(12, 1.0), rpm_range=rpm_range)
+    c = est["confident"].to_numpy()
+    if confident:
+        assert c.sum() >= 10 and np.allclose(est["rpm"][c], 978.0, rtol=0.01), est["reason"].tolist()
+    else:
+        assert not c.any() and (est["key"] == "unchecked").all(), est["key"].tolist()
+
+
 @pytest.fixture(scope="module")
 def capture(tmp_path_factory):
     """One free-running twin run (9.6 kHz, 490 Hz PWM, 50 Hz mains) written as a scope's CSV (time and

@@ -2,9 +2,9 @@
 current-only burst file (hpddo import writes one from a scope's CSV, a sound card's WAV or a
 MATLAB .mat), with no voltage, duty or Ra for the back-EMF prior. The prior is then the user's
 speed range, or none (the comb alone picks the line, and says ambiguous where it cannot).
-Without a range nothing but the combs can check the ripples per revolution given, so the recording's
-windows are confident only where its combs confirm that figure (ripple.line.identity_of_recording, as
-for a bench log without Ke or a range).
+Without a range, or with one wider than RANGE_CHECKS_FIGURE_REL, nothing but the combs can check the ripples per
+revolution given, so the recording's windows are confident only where its combs confirm that figure
+(ripple.line.identity_of_recording, as for a bench log without Ke or a range).
 
 * the speed range as the prior, and no confident count outside it (ripple/speed_range.py);
 * `speed_of_bursts`: every window counted (ripple.count.estimate, ripple.spans.count_steady_spans), no duty
@@ -22,6 +22,24 @@ from .spans import count_steady_spans
 from .speed_range import range_prior, within_range
 
 
+#: a speed range checks the ripples per revolution given (identity_of_recording's scale_checked) only where it is no
+#: wider than this (hi / lo - 1): a count under a wrong figure is the true speed times N_true / N_given, inside any
+#: range wide enough to hold both (a 14-ripple motor given 7 under 500..3000 RPM was counted at twice its 900 RPM,
+#: 12 of 12 windows confident, no comb in the recording to check the figure; given 19 for 18 under 500..1500 RPM,
+#: 5.3 % low): only a range this narrow leaves no room for a count more than 5 % off the truth it holds
+RANGE_CHECKS_FIGURE_REL = 0.05
+
+
+def range_checks_figure(rpm_range) -> bool:
+    """Whether the speed range (lo, hi RPM, or None) is narrow enough to check the ripples per revolution given
+    (RANGE_CHECKS_FIGURE_REL)."""
+    if rpm_range is None:
+        return False
+    lo, hi = (abs(float(x)) for x in rpm_range)
+    lo, hi = min(lo, hi), max(lo, hi)
+    return lo > 0 and hi / lo - 1.0 <= RANGE_CHECKS_FIGURE_REL
+
+
 def speed_of_bursts(bursts, opts: Options, rpm_range=None, source: str = "bursts"):
     """The ripple speed of every burst of a capture without a bench log: estimate's DataFrame
     (after count_steady_spans and within_range) with `t_s` (the burst's first sample: the start of
@@ -35,8 +53,9 @@ def speed_of_bursts(bursts, opts: Options, rpm_range=None, source: str = "bursts
     est = count_steady_spans(b, duty, est, opts, None)
     # the speed's scale and the line's identity: with no prior, the strongest line of a window without a comb may be
     # any line (a supply's, a harmonic): only the recording's combs check the figure (a 976 Hz PWM line, undeclared,
-    # was counted as the ripple of 12 comb-less windows, 5 of them 5-8 % off, confidently)
-    est = identity_of_recording(est, opts, scale_checked=rpm_range is not None)
+    # was counted as the ripple of 12 comb-less windows, 5 of them 5-8 % off, confidently); a speed range checks it
+    # only where it is too narrow to hold a count under another figure (range_checks_figure)
+    est = identity_of_recording(est, opts, scale_checked=range_checks_figure(rpm_range))
     est = within_range(est, rpm_range)
     est.insert(1, "t_s", np.asarray(b.t_s, float))
     est["rpm_prior"] = np.nan if prior is None else prior

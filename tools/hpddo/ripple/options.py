@@ -18,10 +18,11 @@ REASONS = {
     "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
                  "and the back-EMF prior cannot tell them apart",
     "multiple": "the data show another ripples per revolution than the one given",
-    "unchecked": "the ripples per revolution given is not checked by the data: the back-EMF prior's Ke was "
-                 "calibrated from the ripple under that figure (or there is no prior), so the counts scale with it, and "
-                 "no window of the recording shows a rotation comb to check it; give Ke (--ke-vs-per-rad) or a model "
-                 "(--model), or a speed range (--rpm-range)",
+    "unchecked": "the ripples per revolution given is not checked by the data: nothing but the ripple under that "
+                 "figure sets the speed's scale (the back-EMF prior's Ke calibrated from the ripple, no prior, or a "
+                 "speed range wide enough to hold a count under another figure), so the counts scale with it, and the "
+                 "recording's rotation combs do not confirm it; give Ke (--ke-vs-per-rad) or a model (--model), a "
+                 "speed range (--rpm-range) no more than 5 % wide, or find the figure with --calibrate",
     "rival": "another line inside the prior's spread may be the ripple as well (as strong; or any resolved line "
              "where no rotation comb places the chosen one; or, under a free-running PWM, the chosen line's sideband "
              "partner), and the data do not place it on the rotation comb: unresolved",
