@@ -378,3 +378,16 @@ def test_the_commonest_reason_is_said_in_full(tmp_path, capsys):
     assert "confident 0 (0.0%)" in said.out
     assert "  no estimate: rival 12\n  rival (12 windows), window 0 for one: " in said.err
     assert "power does not name the ripple" in said.err and "976.8 Hz or 900.0 Hz" in said.err
+
+
+@pytest.mark.parametrize("name, per", [("time_ms", 1e-3), ("Time (us)", 1e-6), ("t", 1.0)])
+def test_a_time_column_in_the_unit_its_name_states(tmp_path, name, per):
+    """capture_import.time_unit: a scope's "time_ms" column was read as seconds, its 20 kS/s as 20 S/s (every
+    window then too short for a cycle). A name that states ms, us or ns is read in that unit, and the import says
+    so; one that states none is in seconds, as documented."""
+    t = np.arange(200) / 20000.0
+    p = tmp_path / "cap.csv"
+    p.write_text(f"{name},current\n" + "\n".join(f"{x / per:.9g},{0.5 + 0.01 * k % 3:.4f}" for k, x in enumerate(t)))
+    cap = ci.read_csv(p, column="current", time_column=name)
+    assert cap.sample_hz == pytest.approx(20000.0, rel=1e-6)
+    assert ("by its name" in cap.rate_from) == (per != 1.0), cap.rate_from

@@ -87,10 +87,24 @@ def _pick(path, names: list, want, what: str) -> int:
     return j
 
 
+#: a time column's unit where its name states one (a suffix "_ms", "(ms)", "[ms]", " ms", case aside): seconds per
+#: unit; a name that states none is in seconds (a scope's "time_ms" was read as seconds, its 20 kS/s as 20 S/s)
+TIME_UNITS = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "\u00b5s": 1e-6, "ns": 1e-9}
+
+
+def time_unit(name: str) -> tuple[float, str]:
+    """(seconds per unit, the unit) of a time column from its name (TIME_UNITS), (1, "s") where it states none."""
+    import re
+
+    m = re.search(r"(?:[_\s(\[])(s|ms|us|\u00b5s|ns)[)\]]?\s*$", name.strip().lower())
+    return (TIME_UNITS[m.group(1)], m.group(1)) if m else (1.0, "s")
+
+
 def read_csv(path, column=None, time_column=None, sample_hz=None, skip_rows: int = 0) -> Capture:
     """A scope's or DAQ's CSV: a header row of names (or none), numeric rows; the current in
     `column` (name or 0-based index; default: the only column, or the second of two whose first
-    is a time column), the time in `time_column` (s, uniform; default: the first of two)."""
+    is a time column), the time in `time_column` (uniform; in seconds, or in the unit its name states: time_unit;
+    default: the first of two)."""
     import pandas as pd
 
     try:
@@ -128,7 +142,8 @@ def read_csv(path, column=None, time_column=None, sample_hz=None, skip_rows: int
     x = _numbers(path, body.iloc[:, j], line0, names[j])
     rate, t0, rate_from = None, 0.0, None
     if t >= 0 and t != j:
-        ts = _numbers(path, body.iloc[:, t], line0, names[t])
+        per, unit = time_unit(names[t])
+        ts = _numbers(path, body.iloc[:, t], line0, names[t]) * per
         d = np.diff(ts)
         if len(d):
             bad = np.flatnonzero(~(d > 0))
@@ -143,7 +158,8 @@ def read_csv(path, column=None, time_column=None, sample_hz=None, skip_rows: int
                 raise CaptureError(f"{path}:{line0 + k}: time column {names[t]!r} not uniform: {ts[k]:.9g} s where "
                                    f"{ts[0] + step * k:.9g} s is expected ({step:.6g} s a sample over the capture): "
                                    "a gap, a missed sample or a resampled capture")
-            rate, rate_from = 1.0 / step, f"its time column {names[t]!r}"
+            rate, rate_from = 1.0 / step, f"its time column {names[t]!r}" + (f", in {unit} by its name" if unit != "s"
+                                                                                 else "")
         t0 = float(ts[0])
     hz, rate_from = _rate(path, rate, sample_hz, rate_from or "the file")
     return Capture(x, hz, t0, bool(np.all(x == np.round(x))), f"column {names[j]!r}", rate_from)
