@@ -113,6 +113,9 @@ class Effect:
     # near the motor), without the winding node: the offsets' drift. Scored only where the
     # log reads a temperature (elsewhere the term is zero, t_ref throughout).
     case_temperature: bool = False
+    # A channel's calibration (an offset or a gain of the bench's electronics), not the motor's physics: where the
+    # rows cannot tell it from a wrong Ra within the reading's tolerance, it is not named (diagnosis core.through_zero)
+    calibration: bool = False
     separated_from: tuple = ()  # ((other effect, recording that tells the two apart), ...)
     # A coefficient that is a material constant (thermal effects only): its value, held where
     # the temperature scale is unknown (no temperature read) or where the effect it shares
@@ -287,7 +290,7 @@ EFFECTS = (
            separated_from=(
                ("v_gain", "a sweep over the full duty range at light load and rows at zero current"),
            ),
-           reads="current"),
+           calibration=True, reads="current"),
     Effect("v_gain", 5, "v_gain", "1", 100.0, "%",
            "reading / true voltage - 1",
            "gain error of the voltage channel",
@@ -295,7 +298,7 @@ EFFECTS = (
            "|g| below about 5 % (divider tolerance, ADC reference)", (-0.05, 0.05), (-0.1, 0.1), 0.01,
            "the terminal voltage",
            "runs at different voltages with different currents",
-           reads="voltage"),
+           calibration=True, reads="voltage"),
     Effect("inductance", 6, "la_H", "H", 1000.0, "mH",
            "armature inductance",
            "la di/dt, visible at high rates",
@@ -320,7 +323,7 @@ EFFECTS = (
                 "rows at zero and at very low current with the motor turning (coasting): a brush drop "
                 "vanishes with the current, a voltage offset does not"),
            ),
-           reads="voltage"),
+           calibration=True, reads="voltage"),
     # Offsets that drift (issue 21, item 7): a channel's offset following the temperature of
     # its electronics, which sit on or near the motor and warm with its case. An offset in i
     # shifts V - I Ra by Ra di whatever the current's size and sign, at standstill too, where
@@ -362,7 +365,7 @@ EFFECTS = (
                 "rows at standstill with the supply off, cold and warm: the voltage reading there is the "
                 "voltage channel's offset, the current reading the current channel's, at each temperature"),
            ),
-           reads="current"),
+           calibration=True, reads="current"),
 )
 
 STATE = (

@@ -94,6 +94,8 @@ RESTS_ON = "named only with the recording that disagrees with the rest"
 
 # the note of an effect whose whole interval holds zero (core.through_zero)
 HOLDS_ZERO = "holds zero"
+# ... once the doubt on the Ra given is counted (core.through_zero)
+HOLDS_ZERO_WITH_RA = "holds zero once the tolerance of the Ra given is counted"
 # the note of an effect whose final coefficient is on or beyond its physical range (core.unphysical)
 UNPHYSICAL = "with the other named effects fitted alongside reaches the end of what the effect can be"
 # the note of an effect whose whole interval lies outside its plausible range (core.beyond_plausible)
@@ -107,6 +109,10 @@ def _range(e, which: str) -> str:
 
 # why a selected effect is not named, by the mark in its ranking row's note (core.not_named's callers)
 NOT_NAMED = (
+    (HOLDS_ZERO_WITH_RA, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero once the tolerance of "
+                                   "the Ra given is counted: a wrong Ra within that tolerance explains these "
+                                   f"recordings as well, so it is not named; to tell them apart, "
+                                   f"{ranking.RA_SEPARATOR}."),
     (HOLDS_ZERO, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
                              "tell it from its absence: not named."),
     (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it moves to {_final(e)}, the end of "
