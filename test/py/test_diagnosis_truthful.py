@@ -355,25 +355,29 @@ def test_ke_reaches_over_the_models_the_data_did_not_exclude(tmp_path):
     assert ke["lo"] <= 0.95 <= ke["hi"], ke
 
 
-def _constant_drop_table(folder, seed=3):
-    """A dyno table at three supplies (6, 9, 12 V), 30 settled points each (0.09-0.9 A), every current
-    far above a brush's knee: Ra 2 ohm, Ke 0.03 V s/rad, a constant 0.6 V brush drop, a 1 RPM
-    tachometer. Built without the twin (the same law an independent simulator wrote)."""
+def _settled_log(folder, name, v, currents, rpm_of, rng):
+    """A steady-state dyno log (kind declared) at supply v: one settled row a current of currents, the speed
+    rpm_of(i) and a 1 RPM tachometer, the channels read to 2 mV and 0.5 mA. Built without the twin."""
+    rows = [f"{k:.1f},0.75,{v + rng.normal(0, 0.002):.4f},{i + rng.normal(0, 0.0005):.5f},"
+            f"{rpm_of(i) + rng.normal(0, 1.0):.1f}" for k, i in enumerate(currents)]
+    p = folder / f"{name}.csv"
+    p.write_text(f"# condition={name}\n# kind=steady_state\nt_s,duty,v_V,i_A,rpm_ref\n" + "\n".join(rows) + "\n")
+    return p
+
+
+def _rpm(v, ra, ke, drop=0.0):
+    """The law the independent tables are written with: (v - i ra - drop) / ke in RPM, a function of i."""
+    return lambda i: (v - i * ra - drop) / ke * 60 / (2 * math.pi)
+
+
+def _constant_drop_table(folder, seed=1):
+    """A dyno table at three supplies (6, 9, 12 V), 30 settled points each (0.09-0.9 A at 12 V), every current
+    far above a brush's knee: Ra 2 ohm, Ke 0.03 V s/rad, a constant 0.6 V brush drop."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
-    paths = []
-    for v in (6.0, 9.0, 12.0):
-        rows = []
-        for k in range(30):
-            i = 0.09 + 0.81 * k / 29 * v / 12
-            rpm = (v - i * 2.0 - 0.6) / 0.03 * 60 / (2 * math.pi) + rng.normal(0, 1.0)
-            rows.append(f"{k:.1f},0.75,{v + rng.normal(0, 0.002):.4f},{i + rng.normal(0, 0.0005):.5f},{rpm:.1f}")
-        p = folder / f"dyno{int(v)}V.csv"
-        p.write_text(f"# condition=dyno{int(v)}V\n# kind=steady_state\nt_s,duty,v_V,i_A,rpm_ref\n"
-                     + "\n".join(rows) + "\n")
-        paths.append(p)
-    return paths
+    return [_settled_log(folder, f"dyno{int(v)}V", v, 0.09 + 0.81 * np.arange(30) / 29 * v / 12,
+                         _rpm(v, 2.0, 0.03, 0.6), rng) for v in (6.0, 9.0, 12.0)]
 
 
 def test_between_effects_the_data_cannot_tell_apart_the_plausible_one_is_named(tmp_path):
@@ -393,21 +397,12 @@ def test_between_effects_the_data_cannot_tell_apart_the_plausible_one_is_named(t
 
 def _two_motors_table(folder, seed=21):
     """Dyno tables of 30 settled points (0.09-0.9 A): one motor (Ra 2 ohm, Ke 0.03 V s/rad) at 6 and 12 V,
-    and at 9 V one whose Ke is 13 % lower; a 1 RPM tachometer. Built without the twin."""
+    and at 9 V one whose Ke is 13 % lower."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
-    paths = []
-    for v, ke, name in ((12.0, 0.03, "dyno12V"), (6.0, 0.03, "dyno6V"), (9.0, 0.0261, "dyno9V_b")):
-        rows = []
-        for k in range(30):
-            i = 0.09 + 0.81 * k / 29
-            rpm = (v - i * 2.0) / ke * 60 / (2 * math.pi) + rng.normal(0, 1.0)
-            rows.append(f"{k:.1f},0.75,{v + rng.normal(0, 0.002):.4f},{i + rng.normal(0, 0.0005):.5f},{rpm:.1f}")
-        p = folder / f"{name}.csv"
-        p.write_text(f"# condition={name}\n# kind=steady_state\nt_s,duty,v_V,i_A,rpm_ref\n" + "\n".join(rows) + "\n")
-        paths.append(p)
-    return paths
+    return [_settled_log(folder, name, v, 0.09 + 0.81 * np.arange(30) / 29, _rpm(v, 2.0, ke), rng)
+            for v, ke, name in ((12.0, 0.03, "dyno12V"), (6.0, 0.03, "dyno6V"), (9.0, 0.0261, "dyno9V_b"))]
 
 
 def test_a_recording_of_another_motor_among_three_is_named_where_the_others_agree(tmp_path):
@@ -424,18 +419,12 @@ def test_a_recording_of_another_motor_among_three_is_named_where_the_others_agre
 
 def _one_supply_table(folder, seed=15):
     """A clean dyno table at 12 V: 40 load points (0.09-0.9 A), each settled five times; Ra 2 ohm, Ke 0.03
-    V s/rad, no effect, a 1 RPM tachometer. Built without the twin."""
+    V s/rad, no effect."""
     import numpy as np
 
     rng = np.random.default_rng(seed)
-    rows = []
-    for k in range(200):
-        i = 0.09 + 0.81 * (k // 5) / 39
-        rpm = (12.0 - i * 2.0) / 0.03 * 60 / (2 * math.pi) + rng.normal(0, 1.0)
-        rows.append(f"{k:.1f},0.75,{12.0 + rng.normal(0, 0.002):.4f},{i + rng.normal(0, 0.0005):.5f},{rpm:.1f}")
-    p = folder / "dyno12V.csv"
-    p.write_text("# condition=dyno12V\n# kind=steady_state\nt_s,duty,v_V,i_A,rpm_ref\n" + "\n".join(rows) + "\n")
-    return [p]
+    return [_settled_log(folder, "dyno12V", 12.0, 0.09 + 0.81 * (np.arange(200) // 5) / 39, _rpm(12.0, 2.0, 0.03),
+                         rng)]
 
 
 @pytest.mark.parametrize("factor", [1.05, 0.95])
