@@ -22,7 +22,9 @@ a Ke calibrated from the ripple itself (the windows the comb alone resolves). Wh
 scored against them (rows the pipeline's glitch filter marks left out) and the gear ratio checked: the statement says when the data's ratio is
 not the one given. Without Ra (no --ra-ohm, no ra_ohm metadata) there is no back-EMF prior: --rpm-range
 LO HI (the output shaft's speeds the user knows it turns at) is the prior, or none (the comb alone);
-with --rpm-range a confident count outside it is not confident.
+with --rpm-range a confident count outside it is not confident. A range checks the ripples per revolution
+given only where it is no more than 5 % wide: a wider one holds a count under another figure too, and the
+recording's rotation combs must confirm the figure.
 
 A burst file given alone (CAPTURE.ripple.csv, e.g. written by hpddo import from a scope's CSV, a sound
 card's WAV or a MATLAB .mat; docs/ripple-captures.md) is a current-only capture: no voltage, duty or
@@ -72,7 +74,9 @@ def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     options.ra_ohm(p)
     p.add_argument("--rpm-range", type=options.non_negative_float, nargs=2, metavar=("LO", "HI"), default=None,
                    help="the output shaft's speed range (RPM): the prior where there is no back-EMF one (no Ra, a "
-                        "current-only capture); a confident count outside it is not confident")
+                        "current-only capture); a confident count outside it is not confident, and it checks the "
+                        "ripples per revolution given only where it is no more than 5 %% wide (else the recording's "
+                        "rotation combs must confirm the figure)")
     options.out(p, "output folder: new, empty, or a previous output of hpddo ripple")
     options.quiet(p)
     return p
