@@ -113,8 +113,10 @@ class Effect:
     # near the motor), without the winding node: the offsets' drift. Scored only where the
     # log reads a temperature (elsewhere the term is zero, t_ref throughout).
     case_temperature: bool = False
-    # A channel's calibration (an offset or a gain of the bench's electronics), not the motor's physics: where the
-    # rows cannot tell it from a wrong Ra within the reading's tolerance, it is not named (diagnosis core.through_zero)
+    # A channel's static calibration (an offset or a gain of the bench's electronics), not the motor's physics: where
+    # the rows cannot tell it from a wrong Ra within the reading's tolerance, it is not named (diagnosis
+    # core.through_zero). At one supply V - I Ra trades Ke against such an offset or gain; an offset drifting with
+    # the case temperature follows the warm-up, which a wrong Ra does not, and is not one
     calibration: bool = False
     separated_from: tuple = ()  # ((other effect, recording that tells the two apart), ...)
     # A coefficient that is a material constant (thermal effects only): its value, held where
@@ -365,7 +367,7 @@ EFFECTS = (
                 "rows at standstill with the supply off, cold and warm: the voltage reading there is the "
                 "voltage channel's offset, the current reading the current channel's, at each temperature"),
            ),
-           calibration=True, reads="current"),
+           reads="current"),
 )
 
 STATE = (
