@@ -348,8 +348,9 @@ def other_motors(inp: Inputs, sigma2: float) -> list:
         # another motor spoils the others' misses as much as its own (an independent simulator's dyno table: two
         # supplies of one motor, a third of one whose Ke is 13 % lower, 356 RPM against the others' 262 RPM, and
         # nothing named, where the two agree to 5 RPM)
-        agree = float(np.nanmean(np.concatenate(
-            [((r.ref - fx.predict(r, p_rest)) ** 2)[r.train & np.isfinite(r.ref)] for r in rest])))
+        sq = np.concatenate([((r.ref - fx.predict(r, p_rest)) ** 2)[r.train & np.isfinite(r.ref)] for r in rest])
+        sq = sq[np.isfinite(sq)]
+        agree = float(np.mean(sq)) if len(sq) else math.inf  # (no row of theirs to agree on: nothing sets it apart)
         if miss_in > OTHER_MOTOR_APART_X ** 2 * max(agree, sigma2):
             apart.append(OtherMotor(u, float(ratio), math.sqrt(mse_own), math.sqrt(agree)))
     # (one recording alone: where several stand apart so, the others do not agree among themselves either)
