@@ -6,10 +6,12 @@ each recording.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 from scipy import stats
 from statsmodels.regression.linear_model import OLS  # (not statsmodels.api: 0.13 s more of every command's start)
+from statsmodels.tools.sm_exceptions import SingularMatrixWarning
 from statsmodels.tools.tools import add_constant
 
 from .. import schema
@@ -453,8 +455,11 @@ def _faults(rec, r, sigma2: float) -> list:
     if varied and lab.sum() > 10 and not any(f.channel == "current" and f.fault in BLIND for f in out):
         y = r.ref[lab]
         xv = add_constant(r.v[lab])
-        sse_v = float(np.sum(OLS(y, xv).fit().resid ** 2))
-        sse_vi = float(np.sum(OLS(y, np.column_stack([xv, r.i[lab]])).fit().resid ** 2))
+        with warnings.catch_warnings():  # a channel flat over these rows makes the design rank-deficient: the
+            # least-squares residual (pinv) is still the one asked for, and the user sees no library warning
+            warnings.simplefilter("ignore", SingularMatrixWarning)
+            sse_v = float(np.sum(OLS(y, xv).fit().resid ** 2))
+            sse_vi = float(np.sum(OLS(y, np.column_stack([xv, r.i[lab]])).fit().resid ** 2))
         if sse_v > LOAD_MIN_NOISE * max(sigma2, 1e-12) * lab.sum():
             share = 1.0 - sse_vi / sse_v
             if share < LOAD_SHARE:
