@@ -304,8 +304,8 @@ class OtherMotor:
                 f"{self.unit.rmse_rpm:.3g} RPM RMS "
                 + (f"(the others, each left out in turn: {self.unit.others_rpm:.3g}), " if self.agree_rpm is None else
                    f"(the others agree among themselves to {self.agree_rpm:.3g}), ")
-                + f"and its own Ke, {self.ke_ratio:.3g} times theirs, brings that to {self.rmse_own_rpm:.3g} RPM; it is "
-                "left out of the ranking below (diagnose it alone, or check the motor and the channels' scales)")
+                + f"and its own Ke, {self.ke_ratio:.3g} times theirs, brings that to {self.rmse_own_rpm:.3g} RPM; "
+                "it is left out of the ranking below (diagnose it alone, or check the motor and the channels' scales)")
 
 
 def other_motors(inp: Inputs, sigma2: float) -> list:

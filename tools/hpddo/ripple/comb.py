@@ -432,10 +432,10 @@ def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
 
 
 #: unplaced_rivals takes a line on a multiple of 50 or 60 Hz that the window bears out as hum (hum_shows) only from
-#: this share of the chosen line's power on: a little hum is in most currents (the twin's 50 Hz line at 0.0006-0.005 of the ripple's power), and for it to hide
-#: the ripple the ripple would have to sit on a multiple of the mains while another line is taken for it; from a
-#: hundredth on, it may be the ripple (one 7 % of the power of an undeclared line beside it, at 900 Hz), and the
-#: window says to declare the mains where it is hum
+#: this share of the chosen line's power on: a little hum is in most currents (the twin's 50 Hz line at
+#: 0.0006-0.005 of the ripple's power), and for it to hide the ripple the ripple would have to sit on a multiple of
+#: the mains while another line is taken for it; from a hundredth on, it may be the ripple (one 7 % of the power of
+#: an undeclared line beside it, at 900 Hz), and the window says to declare the mains where it is hum
 MAINS_RIVAL_SHARE = 0.01
 
 
