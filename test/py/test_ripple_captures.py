@@ -238,7 +238,7 @@ def test_a_capture_without_a_range_is_confident_only_where_its_combs_confirm_the
 
 @pytest.mark.parametrize("rpm_range, confident", [((700.0, 2000.0), False), ((960.0, 1000.0), True)])
 def test_a_speed_range_wider_than_a_count_under_another_figure_does_not_check_the_figure(rpm_range, confident):
-    """capture.range_checks_figure: a symmetric 12-ripple rotor (no rotation lines, no comb) at 978 RPM whose ripple's
+    """speed_range.range_checks_figure: a symmetric 12-ripple rotor (no rotation lines, no comb) at 978 RPM whose ripple's
     second harmonic is 3x its fundamental (an independent simulator's capture): under 700..2000 RPM the strongest line
     was counted as the ripple, 1956 RPM, 12 of 12 windows confident; a 14-ripple motor given 7 was counted at twice its
     speed the same way. A range that holds a count under another figure does not check the figure: no window is

@@ -565,3 +565,59 @@ def test_a_line_of_another_origin_does_not_make_a_finer_comb():
         assert r["key"] in ("", "rival") and r["multiple"] in (0, 6), (k, r["multiple"], r["reason"])
         if r["key"] == "":
             assert abs(r["rpm"] / (rot * 60) - 1) < 0.005
+
+
+# --- a Ke given checks the figure only where the counts agree with its back-EMF speeds (line.prior_checks_figure)
+
+@pytest.fixture(scope="module")
+def symmetric_rotor_bench():
+    """The twin's three training protocols, short, with its rotor made symmetric (no f/2, f/3, f/6 lines: no
+    rotation comb to show the figure), 10 windows a second: ([(name, log, meta, bursts)], {name: true speed},
+    bench)."""
+    from hpddo.logs import ripple as rf
+    from hpddo.twin import generate, params
+
+    bench = params.preset("default")
+    logs, truth = [], {}
+    for prot, ts in (("sweep", 0.1), ("load", 0.1), ("long", 0.01)):
+        g = generate.generate(bench, prot, 10.0, 1, time_scale=ts,
+                              ripple=params.ripple_burst(sub2_pct=0.0, sub3_pct=0.0, sub6_pct=0.0))
+        t0, codes, meta = g["bursts"]
+        logs.append((f"{prot}.csv", g["log"], g["meta"], rf.of_meta(meta, g["log"]["seq"].to_numpy(), t0, codes)))
+        truth[f"{prot}.csv"] = g["truth"]["rpm_true"].to_numpy()
+    return logs, truth, bench
+
+
+def _bench_counts(bench_logs, given, ke):
+    from hpddo.ripple.log import speed_of_bench
+
+    logs, _, bench = bench_logs
+    return [est for est, _, _ in speed_of_bench(logs, Options(given, bench.gear_ratio), None, ke)]
+
+
+@pytest.mark.parametrize("given", [5, 7])
+def test_a_ke_given_that_disagrees_with_a_neighbouring_figure_leaves_no_window_confident(symmetric_rotor_bench, given):
+    """A symmetric rotor given 5 or 7 for its 6 ripples, with the right Ke: the counts 17-20 % off were confident
+    before (the prior's 15 % spread holds the neighbour); the back-EMF speeds over the motor's recordings put the
+    ripple at 6, so the Ke and the figure are said to disagree and nothing is confident, the steady run's windows
+    (one operating point, which alone cannot tell the figure from a brush drop) among them. With 6 given, the same
+    windows are confident and right."""
+    logs, truth, bench = symmetric_rotor_bench
+    right = _bench_counts(symmetric_rotor_bench, 6, bench.ke_vs_per_rad)
+    for (name, *_), est in zip(logs, right):
+        c = est["confident"].to_numpy(bool)
+        assert c.mean() > 0.6, name
+        assert np.abs(est["rpm"].to_numpy()[c] / truth[name][est["row"].to_numpy()[c]] - 1).max() < 0.02
+    for (name, *_), est, ok in zip(logs, _bench_counts(symmetric_rotor_bench, given, bench.ke_vs_per_rad), right):
+        assert not est["confident"].any(), name
+        named = est["key"] == "ke_or_figure"
+        assert named.sum() >= 0.9 * ok["confident"].sum()
+        assert all("either the figure is 6 or that Ke" in r for r in est["reason"][named])
+
+
+def test_a_ke_within_half_a_figure_of_the_counts_keeps_them_confident(symmetric_rotor_bench):
+    """The right figure under a Ke 5 % off the motor's: the implied figure stays within half a step of 6."""
+    _, _, bench = symmetric_rotor_bench
+    for ke in (0.95 * bench.ke_vs_per_rad, 1.05 * bench.ke_vs_per_rad):
+        for est in _bench_counts(symmetric_rotor_bench, 6, ke):
+            assert est["confident"].mean() > 0.6 and not (est["key"] == "ke_or_figure").any()

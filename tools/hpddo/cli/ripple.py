@@ -52,6 +52,8 @@ TOOL = "ripple"
 
 
 def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
+    from ..ripple.options import FIGURE_CHECK_REL
+
     p = options.new_parser(prog, __doc__)
     options.logs(p, help="bench logs (CSV, docs/bench-log.md), each with its <condition>.ripple.csv beside it")
     # the prior model as --model (this command scores no model of its own), --prior-model as the others spell it
@@ -75,7 +77,8 @@ def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
     p.add_argument("--rpm-range", type=options.non_negative_float, nargs=2, metavar=("LO", "HI"), default=None,
                    help="the output shaft's speed range (RPM): the prior where there is no back-EMF one (no Ra, a "
                         "current-only capture); a confident count outside it is not confident, and it checks the "
-                        "ripples per revolution given only where it is no more than 5 %% wide (else the recording's "
+                        f"ripples per revolution given only where it is no more than {FIGURE_CHECK_REL * 100:g} %% wide "
+                        "(else the recording's "
                         "rotation combs must confirm the figure)")
     options.out(p, "output folder: new, empty, or a previous output of hpddo ripple")
     options.quiet(p)

@@ -2,7 +2,7 @@
 current-only burst file (hpddo import writes one from a scope's CSV, a sound card's WAV or a
 MATLAB .mat), with no voltage, duty or Ra for the back-EMF prior. The prior is then the user's
 speed range, or none (the comb alone picks the line, and says ambiguous where it cannot).
-Without a range, or with one wider than RANGE_CHECKS_FIGURE_REL, nothing but the combs can check the ripples per
+Without a range, or with one wider than options.FIGURE_CHECK_REL, nothing but the combs can check the ripples per
 revolution given, so the recording's windows are confident only where its combs confirm that figure
 (ripple.line.identity_of_recording, as for a bench log without Ke or a range).
 
@@ -19,25 +19,7 @@ from .count import estimate
 from .line import identity_of_recording
 from .options import Options
 from .spans import count_steady_spans
-from .speed_range import range_prior, within_range
-
-
-#: a speed range checks the ripples per revolution given (identity_of_recording's scale_checked) only where it is no
-#: wider than this (hi / lo - 1): a count under a wrong figure is the true speed times N_true / N_given, inside any
-#: range wide enough to hold both (a 14-ripple motor given 7 under 500..3000 RPM was counted at twice its 900 RPM,
-#: 12 of 12 windows confident, no comb in the recording to check the figure; given 19 for 18 under 500..1500 RPM,
-#: 5.3 % low): only a range this narrow leaves no room for a count more than 5 % off the truth it holds
-RANGE_CHECKS_FIGURE_REL = 0.05
-
-
-def range_checks_figure(rpm_range) -> bool:
-    """Whether the speed range (lo, hi RPM, or None) is narrow enough to check the ripples per revolution given
-    (RANGE_CHECKS_FIGURE_REL)."""
-    if rpm_range is None:
-        return False
-    lo, hi = (abs(float(x)) for x in rpm_range)
-    lo, hi = min(lo, hi), max(lo, hi)
-    return lo > 0 and hi / lo - 1.0 <= RANGE_CHECKS_FIGURE_REL
+from .speed_range import range_checks_figure, range_prior, within_range
 
 
 def speed_of_bursts(bursts, opts: Options, rpm_range=None, source: str = "bursts"):

@@ -137,3 +137,102 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
                   "windows needed")
         est.loc[idx, "reason"] = f"{REASONS['unchecked']} ({opts.ripples_per_rev} given; {said})"
     return est
+
+
+#: the fewest confident windows whose counts and back-EMF speeds check the figure given against a Ke
+PRIOR_CHECK_MIN_WINDOWS = 5
+#: the counted speeds' spread (max / min) over which the back-EMF speed's slope against them is fitted with an
+#: intercept (a voltage the prior does not know, a brush drop, taken out); under it, the ratio of the two speeds
+#: with the prior's own allowance for that voltage (m2_prior_sd_rpm, one sd each side)
+PRIOR_CHECK_SPAN = 1.3
+#: the slope's interval, in standard errors (under it, the windows' residuals are not independent: a half figure
+#: apart is the margin the decision takes)
+PRIOR_CHECK_Z = 2.0
+
+
+def implied_figures(rpm, rpm_prior, sd_below, sd_above, n_given: int):
+    """The ripples per revolution that a back-EMF prior implies for windows counted under n_given, n_given x prior /
+    count: (point, lo, hi), point None where only an interval is known; None where too few windows
+    (PRIOR_CHECK_MIN_WINDOWS). Under the figure N_true the count is the true speed times N_true / n_given, and a
+    right Ke's prior the true speed and what a brush drop takes. Over counts spread PRIOR_CHECK_SPAN or more, the
+    prior's slope against the count (least squares with an intercept, which takes the brush drop) is
+    n_given / N_true: the point, and PRIOR_CHECK_Z standard errors either side. Over fewer, the drop and the scale
+    cannot be told apart: the ratio prior / count with the prior's own one-sd allowance each side (sd_below: a
+    voltage the winding does not see; sd_above: Ra's error), the median over windows, as an interval alone."""
+    rpm, pr = np.asarray(rpm, float), np.asarray(rpm_prior, float)
+    sd_lo, sd_hi = np.asarray(sd_below, float), np.asarray(sd_above, float)
+    ok = np.isfinite(rpm) & np.isfinite(pr) & (rpm > 0) & (pr > 0) & np.isfinite(sd_lo) & np.isfinite(sd_hi)
+    if int(ok.sum()) < PRIOR_CHECK_MIN_WINDOWS:
+        return None
+    x, y = rpm[ok], pr[ok]
+    point = None
+    if x.max() >= PRIOR_CHECK_SPAN * x.min():
+        a = np.vstack([x, np.ones_like(x)]).T
+        coef, *_ = np.linalg.lstsq(a, y, rcond=None)
+        resid = y - a @ coef
+        s2 = float(resid @ resid) / (len(x) - 2)
+        se = math.sqrt(s2 / float(((x - x.mean()) ** 2).sum()))
+        s_lo, s_hi = coef[0] - PRIOR_CHECK_Z * se, coef[0] + PRIOR_CHECK_Z * se
+        point = n_given / coef[0] if coef[0] > 0 else None
+    else:
+        s_lo = float(np.median((y - sd_lo[ok]) / x))
+        s_hi = float(np.median((y + sd_hi[ok]) / x))
+    # n_given / slope: the smaller slope, the larger figure; a slope down to 0 or under bounds nothing above
+    hi = n_given / s_lo if s_lo > 0 else math.inf
+    lo = n_given / s_hi if s_hi > 0 else math.inf
+    return point, lo, hi
+
+
+def prior_checks_figure(ests, sds, opts: Options, ke: float, ke_from: str) -> list:
+    """Where a Ke the user gave (or a model's M2) is all that checks the ripples per revolution given: whether the
+    back-EMF speeds agree with the counts under it, over a motor's recordings together (ests: speed_of_log's
+    DataFrames with `rpm_prior`; sds: the prior's sd (n, 2) RPM, below and above, of each), so that a sweep's
+    spread of speeds checks a steady run's too. Where the figures the prior implies (implied_figures, over the
+    confident windows) leave out the one given and the nearest they point to would move the count by more than
+    FIGURE_CHECK_REL, the Ke and the figure disagree: one of them is wrong and the data cannot tell which (a
+    symmetric rotor shows no comb), so every confident row is `ke_or_figure`, not confident. (On the twin with its
+    rotor made symmetric, Ke given right, 5 and 7 given for 6 were counted 620 windows of 990 confident, 15-22 %
+    off, before this check.) Recordings whose combs confirm the figure are left as they are: there the data check
+    the figure and a disagreement is Ke's. ke (V s/rad) and where it came from (ke_from), for the reason. Returns
+    copies, in order."""
+    from .options import FIGURE_CHECK_REL
+
+    ests = [e.copy() for e in ests]
+    n = opts.ripples_per_rev
+    confirmed, _, _ = figure_shown(ests, opts)
+    conf = [e["confident"].to_numpy(bool).copy() for e in ests]  # (views of the columns, which the lines below change)
+    n_conf = int(sum(c.sum() for c in conf))
+    if confirmed or not n_conf:
+        return ests
+    sd = [np.asarray(d, float) for d in sds]
+    got = implied_figures(np.concatenate([e["rpm"].to_numpy(float)[c] for e, c in zip(ests, conf)]),
+                          np.concatenate([e["rpm_prior"].to_numpy(float)[c] for e, c in zip(ests, conf)]),
+                          np.concatenate([d[c, 0] for d, c in zip(sd, conf)]),
+                          np.concatenate([d[c, 1] for d, c in zip(sd, conf)]), n)
+    if got is None:
+        return ests
+    point, lo, hi = got
+    if point is not None:  # a slope: the figure nearest to it, where the interval leaves out the one given
+        if lo <= n <= hi or round(point) == n:
+            return ests
+        nearest = int(round(point))
+    else:  # an interval alone: every figure within half a step of the one given left out
+        if lo <= n + 0.5 and hi >= n - 0.5:
+            return ests
+        nearest = math.ceil(lo - 0.5) if lo > n else math.floor(hi + 0.5)
+    if nearest < 1 or abs(nearest / n - 1.0) <= FIGURE_CHECK_REL:
+        return ests
+    mid = point if point is not None else (math.sqrt(lo * hi) if math.isfinite(hi) else lo)
+    span = ((f"{point:.2f} " if point is not None else "")
+            + (f"({lo:.1f}..{hi:.1f})" if math.isfinite(hi) else f"(over {lo:.1f})"))
+    reason = (f"{REASONS['ke_or_figure']} ({n} given; the back-EMF speeds under Ke {ke:.4g} V s/rad (from {ke_from}) "
+              f"put it at {span} over {n_conf} windows, {nearest} the nearest: either the figure is {nearest} or that "
+              f"Ke is {(mid / n - 1) * 100:+.0f} % off the motor's; an encoder or tachometer run (hpddo ripple "
+              f"--calibrate), or a speed range no more than {FIGURE_CHECK_REL * 100:g} % wide, would tell)")
+    for e, c in zip(ests, conf):
+        idx = e.index[c]
+        e.loc[idx, "confident"] = False
+        e.loc[idx, "confidence"] = 0.0
+        e.loc[idx, "key"] = "ke_or_figure"
+        e.loc[idx, "reason"] = reason
+    return ests

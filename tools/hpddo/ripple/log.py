@@ -11,7 +11,7 @@ import numpy as np
 from . import sync
 from .calibrate import calibrated, ke_evidence, ke_of, placed_only
 from .count import count_settled_tails, estimate
-from .line import figure_shown, identity_of_recording
+from .line import figure_shown, identity_of_recording, prior_checks_figure
 from .options import Options
 from .prior import ModelPrior, m2_prior_rpm, m2_prior_sd_rpm, rpm_per_amp
 from .spans import count_steady_spans
@@ -50,13 +50,31 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     NaN. Where rpm_range is given, a confident count outside it is not confident (within_range). Free-running
     bursts have their PWM-synchronous average removed first (sync.prepare). ke_source: where a Ke given
     (ke_vs_per_rad) comes from, in words (speed_of_bench's Ke from other recordings of the motor)."""
-    return _count_log(path, df, meta, opts, ra_ohm, ke_vs_per_rad, bursts, model, rpm_range, ke_source)[:3]
+    got = _count_log(path, df, meta, opts, ra_ohm, ke_vs_per_rad, bursts, model, rpm_range, ke_source)
+    return _prior_checked([got], opts, model, ke_vs_per_rad)[0]
+
+
+def _prior_checked(got, opts: Options, model, ke_vs_per_rad) -> list:
+    """_count_log's results for a motor's recordings as (estimate, Ke, where Ke came from), with the figure given
+    checked against a Ke the user gave, or a model's, over them together (line.prior_checks_figure)."""
+    out = [g[:3] for g in got]
+    if not (model is not None or ke_vs_per_rad):
+        return out
+    have = [k for k, g in enumerate(got) if g[4] is not None]
+    if have:
+        checked = prior_checks_figure([got[k][0] for k in have], [got[k][4] for k in have], opts, got[have[0]][1],
+                                      got[have[0]][2])
+        for k, est in zip(have, checked):
+            out[k] = (est, *out[k][1:])
+    return out
 
 
 def _count_log(path, df, meta: dict, opts: Options, ra_ohm, ke_vs_per_rad, bursts, model, rpm_range, ke_source):
-    """speed_of_log's (estimate, Ke, where Ke came from), and where Ke is calibrated from the ripple the
-    windows that told it whose comb places the line at the figure given (calibrate.placed_only of
-    ke_evidence), else None: speed_of_bench pools them over a motor's recordings."""
+    """speed_of_log's (estimate, Ke, where Ke came from) before the figure is checked against a Ke given; where Ke
+    is calibrated from the ripple the windows that told it whose comb places the line at the figure given
+    (calibrate.placed_only of ke_evidence), else None: speed_of_bench pools them over a motor's recordings; and
+    where the user's Ke or a model's is the prior, its sd (m2_prior_sd_rpm), else None: _prior_checked checks the
+    figure against that Ke over the motor's recordings together."""
     from ..logs import ripple as rf
     from ..logs.errors import InputError
     from . import speed_range
@@ -104,14 +122,15 @@ def _count_log(path, df, meta: dict, opts: Options, ra_ohm, ke_vs_per_rad, burst
     est = count_settled_tails(b, duty, est, opts, per_A)
     est = count_steady_spans(b, duty, est, opts, per_A)
     est = count_stalls(b, duty, est, opts, per_A if prior is not None else None)
-    # the speed's scale is checked where the prior's Ke is the user's or a model's, or the user gives a speed range;
-    # a Ke calibrated from the ripple under the figure given scales with it
-    est = identity_of_recording(est, opts, scale_checked=model is not None or bool(ke_vs_per_rad)
-                                or rpm_range is not None)
+    # the speed's scale is checked where the prior's Ke is the user's or a model's (where the counts agree with it:
+    # prior_checks_figure), or the user gives a speed range narrow enough; a Ke calibrated from the ripple under the
+    # figure given scales with it
+    ke_given = model is not None or bool(ke_vs_per_rad)
+    est = identity_of_recording(est, opts, scale_checked=ke_given or speed_range.range_checks_figure(rpm_range))
     est = speed_range.within_range(est, rpm_range)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
-    return est, ke, ke_from, placed
+    return est, ke, ke_from, placed, prior_sd if ke_given and prior is not None else None
 
 
 def speed_of_bench(logs, opts: Options, ra_ohm: float | None = None, ke_vs_per_rad: float | None = None,
@@ -132,7 +151,7 @@ def speed_of_bench(logs, opts: Options, ra_ohm: float | None = None, ke_vs_per_r
     logs = [(p, df, meta, b if b is not None or not rf.path_for(p).exists() else rf.read(rf.path_for(p)))
             for p, df, meta, b in logs]
     got = [_count_log(p, df, meta, opts, ra_ohm, ke_vs_per_rad, b, model, rpm_range, "user") for p, df, meta, b in logs]
-    out = [g[:3] for g in got]
+    out = _prior_checked(got, opts, model, ke_vs_per_rad)
     if model is not None or ke_vs_per_rad:
         return out
     unchecked = [k for k, (est, _, _) in enumerate(out)
@@ -154,5 +173,6 @@ def speed_of_bench(logs, opts: Options, ra_ohm: float | None = None, ke_vs_per_r
                   f"{opts.ripples_per_rev} given, in {at} of their {shown} comb windows"
                   + (f"; to +-{ke_rel:.0%}" if math.isfinite(ke_rel) else "") + ")")
         p, df, meta, b = logs[k]
-        out[k] = speed_of_log(p, df, meta, opts, ra_ohm, ke, bursts=b, rpm_range=rpm_range, ke_source=source)
+        # (the figure is the combs' to check here, not this Ke's: it was told under the figure they confirm)
+        out[k] = _count_log(p, df, meta, opts, ra_ohm, ke, b, None, rpm_range, source)[:3]
     return out

@@ -7,6 +7,15 @@ import dataclasses
 from . import sync
 
 
+#: the largest error in a count that a wrong ripples per revolution may leave unsaid (relative): a speed range checks
+#: the figure given only where it is no wider than this (hi / lo - 1; speed_range.range_checks_figure), and a Ke
+#: given is at odds with it only where the figure the back-EMF speeds imply moves the count by more
+#: (line.prior_checks_figure). A count under a wrong figure is the true speed times N_true / N_given, inside any
+#: range wide enough to hold both (a 14-ripple motor given 7 under 500..3000 RPM was counted at twice its 900 RPM,
+#: 12 of 12 windows confident, no comb in the recording to check the figure; given 19 for 18 under 500..1500 RPM,
+#: 5.3 % low): only a range this narrow leaves no room for a count more than this off the truth it holds
+FIGURE_CHECK_REL = 0.05
+
 #: the reasons for no confident speed, by key (the texts of `Estimate.reason`)
 REASONS = {
     "coasting": "coasting: the drive is off (duty 0), no armature current to ripple",
@@ -22,7 +31,10 @@ REASONS = {
                  "figure sets the speed's scale (the back-EMF prior's Ke calibrated from the ripple, no prior, or a "
                  "speed range wide enough to hold a count under another figure), so the counts scale with it, and the "
                  "recording's rotation combs do not confirm it; give Ke (--ke-vs-per-rad) or a model (--model), a "
-                 "speed range (--rpm-range) no more than 5 % wide, or find the figure with --calibrate",
+                 f"speed range (--rpm-range) no more than {FIGURE_CHECK_REL:.0%} wide, or find the figure with --calibrate",
+    "ke_or_figure": "the Ke given and the ripples per revolution given disagree: the back-EMF speeds under that Ke "
+                    "put the ripple at another number per revolution, and without a rotation comb in the recording "
+                    "the data cannot tell which of the two is wrong",
     "rival": "another line inside the prior's spread may be the ripple as well (as strong; or any resolved line "
              "where no rotation comb places the chosen one; or, under a free-running PWM, the chosen line's sideband "
              "partner), and the data do not place it on the rotation comb: unresolved",

@@ -11,8 +11,20 @@ from __future__ import annotations
 
 import numpy as np
 
+from .options import FIGURE_CHECK_REL
+
 KEY_RANGE = "outside_range"
 REASON_RANGE = "the count lies outside the speed range given (--rpm-range)"
+
+
+def range_checks_figure(rpm_range) -> bool:
+    """Whether the speed range (lo, hi RPM, or None) is narrow enough to check the ripples per revolution given
+    (options.FIGURE_CHECK_REL): a wider one holds a count under another figure too."""
+    if rpm_range is None:
+        return False
+    lo, hi = (abs(float(x)) for x in rpm_range)
+    lo, hi = min(lo, hi), max(lo, hi)
+    return lo > 0 and hi / lo - 1.0 <= FIGURE_CHECK_REL
 
 
 def range_prior(rpm_range, n: int):
