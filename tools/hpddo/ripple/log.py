@@ -49,7 +49,9 @@ def speed_of_log(path, df, meta: dict, opts: Options, ra_ohm: float | None = Non
     is no back-EMF prior: rpm_range (lo, hi) RPM is the prior, or none (speed_range.range_prior), Ke
     NaN. Where rpm_range is given, a confident count outside it is not confident (within_range). Free-running
     bursts have their PWM-synchronous average removed first (sync.prepare). ke_source: where a Ke given
-    (ke_vs_per_rad) comes from, in words (speed_of_bench's Ke from other recordings of the motor)."""
+    (ke_vs_per_rad) comes from, in words (speed_of_bench's Ke from other recordings of the motor). Under a Ke
+    given or a model, the figure is checked against it (line.prior_checks_figure: `ke_or_figure` where the two
+    disagree); speed_of_bench checks it over a motor's recordings together, which a lone steady run cannot."""
     got = _count_log(path, df, meta, opts, ra_ohm, ke_vs_per_rad, bursts, model, rpm_range, ke_source)
     return _prior_checked([got], opts, model, ke_vs_per_rad)[0]
 
