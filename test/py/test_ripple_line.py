@@ -621,3 +621,18 @@ def test_a_ke_within_half_a_figure_of_the_counts_keeps_them_confident(symmetric_
     for ke in (0.95 * bench.ke_vs_per_rad, 1.05 * bench.ke_vs_per_rad):
         for est in _bench_counts(symmetric_rotor_bench, 6, ke):
             assert est["confident"].mean() > 0.6 and not (est["key"] == "ke_or_figure").any()
+
+
+@pytest.mark.parametrize("given", [6, 7])
+def test_a_steady_run_alone_cannot_check_the_figure_against_a_ke(symmetric_rotor_bench, given):
+    """The steady run alone (one operating point): the back-EMF speeds within a brush drop's allowance hold 5, 6
+    and 7, so whatever the figure given, right or not, nothing is confident and the reason says to count it beside
+    a sweep (7 given was confident, 14 % off, on the twin's low-duty steps before)."""
+    from hpddo.ripple.log import speed_of_log
+
+    logs, _, bench = symmetric_rotor_bench
+    name, log, meta, b = next(entry for entry in logs if entry[0] == "long.csv")
+    est, _, _ = speed_of_log(name, log, meta, Options(given, bench.gear_ratio), None, bench.ke_vs_per_rad, bursts=b)
+    assert not est["confident"].any()
+    un = est["key"] == "unchecked"
+    assert un.mean() > 0.9 and all("beside a sweep of the same motor" in r for r in est["reason"][un])

@@ -192,7 +192,9 @@ def prior_checks_figure(ests, sds, opts: Options, ke: float, ke_from: str) -> li
     FIGURE_CHECK_REL, the Ke and the figure disagree: one of them is wrong and the data cannot tell which (a
     symmetric rotor shows no comb), so every confident row is `ke_or_figure`, not confident. (On the twin with its
     rotor made symmetric, Ke given right, 5 and 7 given for 6 were counted 620 windows of 990 confident, 15-22 %
-    off, before this check.) Recordings whose combs confirm the figure are left as they are: there the data check
+    off, before this check.) Where they agree but cannot tell the figure from those neighbours (too few windows,
+    one operating point, a low speed: on the twin's low-duty steps 7 given for 6 agreed with the right Ke, 72
+    windows confident 14 % off), every confident row is `unchecked`. Recordings whose combs confirm the figure are left as they are: there the data check
     the figure and a disagreement is Ke's. ke (V s/rad) and where it came from (ke_from), for the reason. Returns
     copies, in order."""
     from .options import FIGURE_CHECK_REL
@@ -209,30 +211,45 @@ def prior_checks_figure(ests, sds, opts: Options, ke: float, ke_from: str) -> li
                           np.concatenate([e["rpm_prior"].to_numpy(float)[c] for e, c in zip(ests, conf)]),
                           np.concatenate([d[c, 0] for d, c in zip(sd, conf)]),
                           np.concatenate([d[c, 1] for d, c in zip(sd, conf)]), n)
+    said = f"{n} given; the back-EMF speeds under Ke {ke:.4g} V s/rad (from {ke_from})"
     if got is None:
-        return ests
+        return _demoted(ests, conf, "unchecked", f"{REASONS['unchecked']} ({said} over {n_conf} confident windows: "
+                        f"{PRIOR_CHECK_MIN_WINDOWS} needed to check the figure)")
     point, lo, hi = got
-    if point is not None:  # a slope: the figure nearest to it, where the interval leaves out the one given
-        if lo <= n <= hi or round(point) == n:
-            return ests
-        nearest = int(round(point))
-    else:  # an interval alone: every figure within half a step of the one given left out
-        if lo <= n + 0.5 and hi >= n - 0.5:
-            return ests
-        nearest = math.ceil(lo - 0.5) if lo > n else math.floor(hi + 0.5)
-    if nearest < 1 or abs(nearest / n - 1.0) <= FIGURE_CHECK_REL:
-        return ests
-    mid = point if point is not None else (math.sqrt(lo * hi) if math.isfinite(hi) else lo)
     span = ((f"{point:.2f} " if point is not None else "")
             + (f"({lo:.1f}..{hi:.1f})" if math.isfinite(hi) else f"(over {lo:.1f})"))
-    reason = (f"{REASONS['ke_or_figure']} ({n} given; the back-EMF speeds under Ke {ke:.4g} V s/rad (from {ke_from}) "
-              f"put it at {span} over {n_conf} windows, {nearest} the nearest: either the figure is {nearest} or that "
-              f"Ke is {(mid / n - 1) * 100:+.0f} % off the motor's; an encoder or tachometer run (hpddo ripple "
-              f"--calibrate), or a speed range no more than {FIGURE_CHECK_REL * 100:g} % wide, would tell)")
+    if point is not None:  # a slope: the figure nearest to it, where the interval leaves out the one given
+        nearest = int(round(point))
+        disagree = not lo <= n <= hi and nearest != n
+    else:  # an interval alone: every figure within half a step of the one given left out
+        nearest = math.ceil(lo - 0.5) if lo > n else math.floor(hi + 0.5)
+        disagree = not (lo <= n + 0.5 and hi >= n - 0.5)
+    if disagree and nearest >= 1 and abs(nearest / n - 1.0) > FIGURE_CHECK_REL:
+        mid = point if point is not None else (math.sqrt(lo * hi) if math.isfinite(hi) else lo)
+        return _demoted(ests, conf, "ke_or_figure", (
+            f"{REASONS['ke_or_figure']} ({said} put it at {span} over {n_conf} windows, {nearest} the nearest: either "
+            f"the figure is {nearest} or that Ke is {(mid / n - 1) * 100:+.0f} % off the motor's; an encoder or "
+            f"tachometer run (hpddo ripple --calibrate), or a speed range no more than {FIGURE_CHECK_REL * 100:g} % "
+            "wide, would tell)"))
+    # ... and where they agree, whether they tell the figure from the nearest that would move the count by more than
+    # FIGURE_CHECK_REL: a slope within one figure that points at the one given, or an interval short of halfway to
+    # those neighbours (one operating point: the ratio within a brush drop's allowance holds 5, 6 and 7 for 6)
+    below, above = math.ceil(n * (1.0 - FIGURE_CHECK_REL)) - 1, math.floor(n * (1.0 + FIGURE_CHECK_REL)) + 1
+    if (disagree or (point is not None and nearest == n and hi - lo < 1.0)
+            or (lo > below + 0.5 and hi < above - 0.5)):
+        return ests
+    return _demoted(ests, conf, "unchecked", (
+        f"{REASONS['unchecked']} ({said} put it at {span} over {n_conf} windows, which holds "
+        f"{below if lo <= below + 0.5 else above} as well: one operating point, or a low speed, cannot tell the figure "
+        "from a brush drop; count this recording beside a sweep of the same motor)"))
+
+
+def _demoted(ests, conf, key: str, reason: str) -> list:
+    """ests with their rows conf (a boolean array each) not confident, under key and reason."""
     for e, c in zip(ests, conf):
         idx = e.index[c]
         e.loc[idx, "confident"] = False
         e.loc[idx, "confidence"] = 0.0
-        e.loc[idx, "key"] = "ke_or_figure"
+        e.loc[idx, "key"] = key
         e.loc[idx, "reason"] = reason
     return ests

@@ -28,8 +28,9 @@ REASONS = {
                  "and the back-EMF prior cannot tell them apart",
     "multiple": "the data show another ripples per revolution than the one given",
     "unchecked": "the ripples per revolution given is not checked by the data: nothing but the ripple under that "
-                 "figure sets the speed's scale (the back-EMF prior's Ke calibrated from the ripple, no prior, or a "
-                 "speed range wide enough to hold a count under another figure), so the counts scale with it, and the "
+                 "figure sets the speed's scale (the back-EMF prior's Ke calibrated from the ripple, no prior, a "
+                 "speed range wide enough to hold a count under another figure, or a Ke given whose back-EMF speeds "
+                 "hold another figure as well), so the counts scale with it, and the "
                  "recording's rotation combs do not confirm it; give Ke (--ke-vs-per-rad) or a model (--model), a "
                  f"speed range (--rpm-range) no more than {FIGURE_CHECK_REL:.0%} wide, or find the figure with --calibrate",
     "ke_or_figure": "the Ke given and the ripples per revolution given disagree: the back-EMF speeds under that Ke "

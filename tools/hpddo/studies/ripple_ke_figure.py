@@ -4,9 +4,9 @@ at a fiftieth), 10 windows a second, with the rotor's asymmetry lines (f/2, f/3,
 rotation comb and only the Ke can check the figure. Counted as `hpddo ripple --ke-vs-per-rad` counts a motor's
 recordings (speed_of_bench), with 5, 6 (the twin's) and 7 ripples per revolution given, each under a Ke 0.90-1.10
 times the motor's. Scored against the twin's true window-mean speed: the confident windows, and those more than
-5 % off.
+5 % off. Then each recording counted alone (speed_of_log) under the motor's Ke.
 
-    cd tools && ../.venv/bin/python -m hpddo.studies.ripple_ke_figure   # ~2 min: prints the table
+    cd tools && ../.venv/bin/python -m hpddo.studies.ripple_ke_figure   # ~3 min: prints the tables
 """
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ import argparse
 import numpy as np
 
 from ..logs import ripple as rf
-from ..ripple.log import speed_of_bench
+from ..ripple.log import speed_of_bench, speed_of_log
 from ..ripple.options import FIGURE_CHECK_REL, Options
 
 PROTOCOLS = (("sweep", 0.25), ("load", 0.25), ("long", 0.02))  # (protocol, time scale)
@@ -61,6 +61,31 @@ def run(seed: int = 3) -> list:
     return rows
 
 
+def run_alone(seed: int = 3) -> list:
+    """Each recording counted alone (speed_of_log) under the motor's Ke, each figure: one row per (recording,
+    figure given) as run's, with `recording`."""
+    logs, truth, bench = bench_logs(seed)
+    rows = []
+    for name, log, meta, b in logs:
+        for n in FIGURES:
+            est, _, _ = speed_of_log(name, log, meta, Options(n, bench.gear_ratio), None, bench.ke_vs_per_rad, bursts=b)
+            c = est["confident"].to_numpy(bool)
+            e = np.abs(est["rpm"].to_numpy()[c] / truth[name][est["row"].to_numpy()[c]] - 1.0)
+            rows.append({"recording": name, "given": n, "windows": len(est), "confident": int(c.sum()),
+                         "off": int((e > FIGURE_CHECK_REL).sum()), "worst": float(e.max()) if len(e) else float("nan"),
+                         "keys": {k: int(v) for k, v in est["key"].value_counts().items()}})
+    return rows
+
+
+def table_alone(rows) -> str:
+    out = ["| recording alone | figure given | confident windows | more than 5 % off | ke_or_figure | unchecked |",
+           "|---|---|---|---|---|---|"]
+    for r in rows:
+        out.append(f"| {r['recording']} | {r['given']} | {r['confident']} of {r['windows']} | {r['off']} | "
+                   f"{r['keys'].get('ke_or_figure', 0)} | {r['keys'].get('unchecked', 0)} |")
+    return "\n".join(out)
+
+
 def table(rows) -> str:
     out = ["| figure given | Ke given / motor's | confident windows | more than 5 % off | worst | ke_or_figure |",
            "|---|---|---|---|---|---|"]
@@ -77,6 +102,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=int, default=3)
     args = ap.parse_args(argv)
     print(table(run(args.seed)))
+    print()
+    print(table_alone(run_alone(args.seed)))
     return 0
 
 
