@@ -185,12 +185,17 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
     # own included: a unit that alone shows an effect (the only warm-up shows the heating, the only
     # recording at 3 A the saturation) is missed when left out, but fits with the rest; one that
     # disagrees (another motor, a reversed channel) is missed either way
+    # Where nothing is named, the ranking may have found no effect because what one recording alone shows cannot be
+    # extrapolated from the rest (a warm-up sampled at 2 Hz through the motor's transients: every effect fitted on the
+    # training rows missed the held-out ones, and the only warm-up was called a disagreeing recording): there the
+    # joint model holds every effect of the library, and a unit it fits with the rest is no disagreement
+    joint_names = list(names) if names else (list(fx.NAMES) if alternatives else [])
     joint = None
     try:
-        if not names:
+        if not joint_names:
             raise ValueError("no effect named")
         everything = [dataclasses.replace(r, train=r.train | r.test) for r in inp.rows]
-        pj = fx.fit(everything, inp.m2, names)
+        pj = fx.fit(everything, inp.m2, joint_names)
         joint = [r.ref - fx.predict(r, pj) for r in inp.rows]
     except Exception:  # noqa: BLE001 (no joint fit: the left-out miss alone decides, as before)
         joint = None
@@ -411,10 +416,29 @@ def fit_model(inp: Inputs) -> ModelFit:
     base, res_base = ranking.scored(d, lambda rows, st: fx.fit(rows, inp.m2, inp.given, start=st))
     mse_base = ranking.held_out_mse(d, res_base)
     # a table that repeats no point: the selection starts from the row-to-row floor, and the
-    # floor is then what its final model leaves out of fold (refloor)
+    # floor is then what its final model leaves out of fold (refloor); neither more than what the
+    # model with every library effect leaves out of fold (all_effects_floor)
     nf = noise.floor(d, inp.recs, res_base, ranking.noise_var(d, res_base), inp.m2)
+    cap = all_effects_floor(inp) if nf.from_model else math.nan
+    if math.isfinite(cap):
+        nf = noise.floor(d, inp.recs, res_base, ranking.noise_var(d, res_base), inp.m2, cap)
     return ModelFit(model=model, base=base, res_model=res_model, res_base=res_base, sigma2=nf.var_rpm2,
-                    mse_base=mse_base, noise=nf)
+                    mse_base=mse_base, noise=nf, floor_all_rpm2=cap)
+
+
+def all_effects_floor(inp: Inputs) -> float:
+    """The held-out residual variance (ranking.noise_var) of the model with every library effect beside the given
+    ones, refitted per fold: on a table that repeats no operating point, a bound on the noise floor that does not
+    rest on the model under test (which leaves in its residual whatever effect it lacks: an independent dyno table
+    with saturation and a brush drop, Ra given 5 % high, had its floor at 73 RPM, the plain model's own out-of-fold
+    residual, and its residual called 0.5x the noise above it). NaN where that model cannot be fitted."""
+    names = list(dict.fromkeys(list(inp.given) + list(fx.NAMES)))
+    try:
+        _, res = ranking.scored(inp.data, lambda rows, st: fx.fit(rows, inp.m2, names, start=st))
+    except Exception:  # noqa: BLE001 (a table too small for every effect: no bound, the model's own floor stands)
+        return math.nan
+    var = ranking.noise_var(inp.data, res)
+    return float(var) if np.isfinite(var) and var > 0 else math.nan
 
 
 def refloor(inp: Inputs, mf: ModelFit, sel: "Selection") -> tuple[ModelFit, bool]:
@@ -430,7 +454,7 @@ def refloor(inp: Inputs, mf: ModelFit, sel: "Selection") -> tuple[ModelFit, bool
     res = ranking.held_out_residuals(inp.data, sel.final,
                                      lambda rs, st: ranking.fit_names(rs, inp.m2, names, mf.sigma2, start=st))
     mse = ranking.held_out_mse(inp.data, res)
-    nf = noise.floor(inp.data, inp.recs, res, mse, inp.m2)
+    nf = noise.floor(inp.data, inp.recs, res, mse, inp.m2, mf.floor_all_rpm2)
     moved = abs(nf.var_rpm2 - mf.sigma2) > REFLOOR_REL * mf.sigma2
     return dataclasses.replace(mf, sigma2=nf.var_rpm2, noise=nf), moved
 
@@ -1085,6 +1109,12 @@ def _speed_corr(inp: Inputs, model: ph.PhysicsParams, res) -> tuple[float, float
     return float(r0), float(p0)
 
 
+#: what ke_check's (value, lo, hi) of each estimate are
+KE_CHECK_SCOPE = ("each estimate (value, lo, hi) with the 95 % interval of its statistical scatter alone, under the "
+                  "model under test with Ra held at the reading and no effect: how far apart the two methods are, not "
+                  "an interval of the motor's Ke (that is intervals' ke_vs_per_rad, with its whole budget)")
+
+
 def ke_check(inp: Inputs, mf: ModelFit, ke_fit: str) -> dict:
     """Ke by eq. 20 against least squares (intervals.ke_two_ways), and the lag-0 correlation of
     the model under test's held-out residual with its own speed estimate (a biased Ke makes the
@@ -1107,10 +1137,14 @@ def ke_check(inp: Inputs, mf: ModelFit, ke_fit: str) -> dict:
     biased = correlated and (disagree or not (np.isfinite(r_ls) and abs(r_ls) > abs(r0) - KE_BIAS_DROP))
     parts = []
     if disagree:
-        (a, alo, ahi), (b, blo, bhi) = two["eq20"], two["lsq"]
-        parts.append(f"Ke by eq. 20 ({a:.4g} V s/rad, 95 % interval {alo:.4g}..{ahi:.4g}) and by least squares "
-                     f"({b:.4g}, {blo:.4g}..{bhi:.4g}) disagree: the model under test ({ke_fit}) misses the "
-                     f"held-out rows by {rmse_model:.3g} RPM, with Ke by least squares by {rmse_ls:.3g} RPM")
+        # (their intervals are the statistical scatter of each estimate under the model under test, Ra held: not
+        # intervals of the motor's Ke, which an independent simulator's benches showed them missing in 14 of 34; the
+        # Ke the verdict states is the one with its whole budget)
+        a, b = two["eq20"][0], two["lsq"][0]
+        parts.append(f"Ke by eq. 20 ({a:.4g} V s/rad) and by least squares ({b:.4g} V s/rad) disagree"
+                     + (" beyond the scatter of either" if two["apart"] else "")
+                     + f": the model under test ({ke_fit}) misses the held-out rows by {rmse_model:.3g} RPM, with Ke by "
+                       f"least squares by {rmse_ls:.3g} RPM")
     if biased:
         parts.append(f"its residual correlates with its speed estimate at lag 0 (r = {r0:+.2f}; {r_ls:+.2f} with Ke "
                      f"by least squares): the mark of a biased Ke")
@@ -1120,7 +1154,8 @@ def ke_check(inp: Inputs, mf: ModelFit, ke_fit: str) -> dict:
         text = text[0].upper() + text[1:]
         if ke_fit != "lsq":
             text += f" Trust {KE_TRUST}."
-    return {"eq20": list(two["eq20"]), "lsq": list(two["lsq"]), "apart": two["apart"], "clusters": two["clusters"],
+    return {"eq20": list(two["eq20"]), "lsq": list(two["lsq"]), "scope": KE_CHECK_SCOPE, "apart": two["apart"],
+            "clusters": two["clusters"],
             "rmse_model_rpm": rmse_model, "rmse_lsq_rpm": rmse_ls, "z": float(z), "disagree": disagree,
             "speed_r_lag0": r0, "speed_p": p0, "speed_r_lag0_lsq": r_ls, "biased": bool(biased), "ke_fit": ke_fit,
             "text": text}

@@ -195,10 +195,22 @@ def sensors(recs, rows, p) -> dict:
     return {key: v / n for key, v in sums.items()} if n else {}
 
 
-def floor(data, recs, res, mse_out_of_fold: float, p) -> NoiseFloor:
+#: how a table's floor is measured where the model with every library effect leaves less out of fold than the
+#: model the diagnosis starts from (core.fit_model)
+FROM_ALL_EFFECTS = ("the out-of-fold residual of the model with every library effect, less than the model under "
+                    "test's: the table repeats no operating point (repeat a few to measure the noise)")
+
+
+def floor(data, recs, res, mse_out_of_fold: float, p, cap_rpm2: float = math.nan) -> NoiseFloor:
     """The NoiseFloor of the held-out residual res of model p (mse_out_of_fold: its held-out
-    mean squared error, the floor of a table that repeats no point)."""
+    mean squared error, the floor of a table that repeats no point). cap_rpm2: the out-of-fold
+    residual variance of the model with every library effect; where the floor is a model's own
+    out-of-fold residual and the cap is less, the cap (FROM_ALL_EFFECTS): a model that lacks an
+    effect the table shows leaves that effect in its residual, and a floor made of it calls the
+    effect noise."""
     var, how, from_model = measured(data, res, mse_out_of_fold)
+    if from_model and math.isfinite(cap_rpm2) and cap_rpm2 < var:
+        var, how = cap_rpm2, FROM_ALL_EFFECTS
     parts = sensors(recs, data.rows, p)
     total = max(var if np.isfinite(var) else 0.0, float(sum(parts.values())))
     return NoiseFloor(var_rpm2=total if total > 0 else var, measured_rpm2=var, source=how, sensors=parts,

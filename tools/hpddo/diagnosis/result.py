@@ -249,6 +249,9 @@ class ModelFit:
     ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check(): eq. 20 against least squares
     channels: list = dataclasses.field(default_factory=list)  # channels.ChannelFault
     dynamics: object = None   # dynamics.Dynamics: the dynamic family from the fast recordings
+    # a table that repeats no point: the out-of-fold residual variance of the model with every library effect (a
+    # bound on the floor that no selection's model can raise; core.fit_model), NaN where not measured
+    floor_all_rpm2: float = float("nan")
 
 
 @dataclasses.dataclass
