@@ -190,18 +190,22 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
     # training rows missed the held-out ones, and the only warm-up was called a disagreeing recording): there the
     # joint model holds every effect of the library, and a unit it fits with the rest is no disagreement
     joint_names = list(names) if names else (list(fx.NAMES) if alternatives else [])
-    joint = None
-    try:
-        if not joint_names:
-            raise ValueError("no effect named")
-        everything = [dataclasses.replace(r, train=r.train | r.test) for r in inp.rows]
-        pj = fx.fit(everything, inp.m2, joint_names)
-        joint = [r.ref - fx.predict(r, pj) for r in inp.rows]
-    except Exception:  # noqa: BLE001 (no joint fit: the left-out miss alone decides, as before)
-        joint = None
+    fitted = {}  # the joint model's residuals, fitted the first time a unit needs them (None: no joint fit)
+
+    def joint():
+        if "res" not in fitted:
+            fitted["res"] = None
+            try:
+                if joint_names:
+                    everything = [dataclasses.replace(r, train=r.train | r.test) for r in inp.rows]
+                    pj = fx.fit(everything, inp.m2, joint_names)
+                    fitted["res"] = [r.ref - fx.predict(r, pj) for r in inp.rows]
+            except Exception:  # noqa: BLE001 (no joint fit: the left-out miss alone decides, as before)
+                fitted["res"] = None
+        return fitted["res"]
 
     def joint_mse(masks) -> float:
-        e = np.concatenate([x[m] for x, m in zip(joint, masks)])
+        e = np.concatenate([x[m] for x, m in zip(joint(), masks)])
         e = e[np.isfinite(e)]
         return float(np.mean(e * e)) if len(e) else math.nan
 
@@ -213,7 +217,7 @@ def consistency(inp: Inputs, sigma2: float, recordings: bool = False, names=None
         med = float(np.median(others))
         beyond_noise = mse - max(sigma2, 0.0) > CONSIST_Z * max(sigma2, 1e-12) * math.sqrt(2.0 / n)
         bad = mse > CONSIST_X ** 2 * max(med, sigma2 + pv) and beyond_noise
-        if bad and joint is not None:
+        if bad and joint() is not None:
             own = joint_mse(masks)
             rest = float(np.nanmedian([joint_mse(x[4]) for x in scored if x[0] != name]))
             bad = not (own <= CONSIST_X ** 2 * max(rest, sigma2))
