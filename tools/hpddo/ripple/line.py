@@ -106,36 +106,27 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
         # every confident row: a window's own comb at the figure given does not outweigh the recording's (a
         # free-running burst's PWM residue put a comb at half the rotation frequency under 2 of 16 comb windows of
         # a 6-ripple motor given 12, in the independent commutator simulation; the 14 others showed other figures)
-        demote = est["confident"].to_numpy(bool).copy()  # (a view of the column, which the lines below change)
-        idx = est.index[demote]
-        est.loc[idx, "confident"] = False
-        est.loc[idx, "confidence"] = 0.0
-        est.loc[idx, "key"] = "multiple"
+        demote = est["confident"].to_numpy(bool).copy()  # (a view of the column, which demote changes)
         head = (f"{REASONS['multiple']}: the ripple is {top} per revolution, not the {opts.ripples_per_rev} given, in "
                 f"{n_top} of the {n_shown} windows of this recording whose lines form a rotation comb"
                 if figure_confirmed(n_top, n_shown) else
                 f"{REASONS['multiple']}: {n_other} of the {n_shown} windows of this recording whose "
                 f"lines form a rotation comb show another number than the {opts.ripples_per_rev} given ({top} the "
                 f"commonest, in {n_top}); too few agree on one to name the motor's")
-        for j, k in zip(idx, m[demote]):
-            est.at[j, "reason"] = head + ("; this window shows none of its own" if k == 0
-                                          else f"; this window's own shows {k}")
-        return est
+        return demoted(est, demote, "multiple", [head + ("; this window shows none of its own" if k == 0
+                                                        else f"; this window's own shows {k}") for k in m[demote]])
     # ... and a comb window at the figure whose line the prior puts out of its reach (`far`) checks the figure but
     # contradicts the prior's Ke, calibrated under it from other windows: it confirms neither
     far = at & (est["key"].to_numpy() == "far")
     if not scale_checked and not figure_confirmed(int((at & ~far).sum()), int(shown.sum())):
-        idx = est.index[est["confident"].to_numpy(bool)]
-        est.loc[idx, "confident"] = False
-        est.loc[idx, "confidence"] = 0.0
-        est.loc[idx, "key"] = "unchecked"
         said = (f"none of the {len(est)} windows shows a comb" if not shown.any() else
                 f"{int(at.sum())} of the {int(shown.sum())} windows whose lines form a comb show it"
                 + (f", {int(far.sum())} of them with their line far from the prior (its Ke, calibrated from the "
                    "ripple, is not the motor's)" if far.any() else "")
                 + f"; {CALIBRATE_MIN_WINDOWS} in agreement with the prior and {CALIBRATE_AGREE:.0%} of the comb "
                   "windows needed")
-        est.loc[idx, "reason"] = f"{REASONS['unchecked']} ({opts.ripples_per_rev} given; {said})"
+        est = demoted(est, est["confident"].to_numpy(bool).copy(), "unchecked",
+                      f"{REASONS['unchecked']} ({opts.ripples_per_rev} given; {said})")
     return est
 
 
@@ -245,11 +236,16 @@ def prior_checks_figure(ests, sds, opts: Options, ke: float, ke_from: str) -> li
 
 
 def _demoted(ests, conf, key: str, reason: str) -> list:
-    """ests with their rows conf (a boolean array each) not confident, under key and reason."""
-    for e, c in zip(ests, conf):
-        idx = e.index[c]
-        e.loc[idx, "confident"] = False
-        e.loc[idx, "confidence"] = 0.0
-        e.loc[idx, "key"] = key
-        e.loc[idx, "reason"] = reason
-    return ests
+    """ests with their rows conf (a boolean array each) not confident, under key and reason (demoted)."""
+    return [demoted(e, c, key, reason) for e, c in zip(ests, conf)]
+
+
+def demoted(est, rows, key: str, reason):
+    """est (an estimate DataFrame, changed in place and returned) with its rows (a boolean array) not confident,
+    under key and reason (one text, or one a row)."""
+    idx = est.index[rows]
+    est.loc[idx, "confident"] = False
+    est.loc[idx, "confidence"] = 0.0
+    est.loc[idx, "key"] = key
+    est.loc[idx, "reason"] = reason
+    return est

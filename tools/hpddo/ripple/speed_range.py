@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .line import demoted
 from .options import FIGURE_CHECK_REL
 
 KEY_RANGE = "outside_range"
@@ -44,9 +45,4 @@ def within_range(est, rpm_range):
     est = est.copy()
     rpm = est["rpm"].to_numpy(float)
     out = est["confident"].to_numpy(bool) & ~((rpm >= lo) & (rpm <= hi))
-    idx = est.index[out]
-    est.loc[idx, "confident"] = False
-    est.loc[idx, "key"] = KEY_RANGE
-    est.loc[idx, "reason"] = [f"{REASON_RANGE} ({r:.1f} RPM, not in {lo:g}..{hi:g})" for r in rpm[out]]
-    est.loc[idx, "confidence"] = 0.0
-    return est
+    return demoted(est, out, KEY_RANGE, [f"{REASON_RANGE} ({r:.1f} RPM, not in {lo:g}..{hi:g})" for r in rpm[out]])
