@@ -78,8 +78,7 @@ def parser(prog: str = "hpddo ripple") -> argparse.ArgumentParser:
                    help="the output shaft's speed range (RPM): the prior where there is no back-EMF one (no Ra, a "
                         "current-only capture); a confident count outside it is not confident, and it checks the "
                         f"ripples per revolution given only where it is no more than {FIGURE_CHECK_REL * 100:g} %% wide "
-                        "(else the recording's "
-                        "rotation combs must confirm the figure)")
+                        "(else the recording's rotation combs must confirm the figure)")
     options.out(p, "output folder: new, empty, or a previous output of hpddo ripple")
     options.quiet(p)
     return p
