@@ -6,6 +6,8 @@ import dataclasses
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from hpddo import cli
 from hpddo.logs import capture_import as ci
@@ -66,16 +68,65 @@ def test_free_running_bursts_counted_after_the_pwm_average_is_removed_and_not_be
 
 
 def test_mains_comb_never_gives_a_confident_window_on_its_lines():
-    """With a rectified-mains comb (50 Hz) declared, no confident window sits at a multiple of 50 Hz,
-    those are said so, and no confident window is more than 5 % off."""
+    """With a rectified-mains comb (50 Hz) declared, no confident window sits within the mains' drift
+    (sync.MAINS_DRIFT_REL) of a multiple of 50 Hz; one within a resolution of it is confident only where the joint
+    fit (sync.beside_mains) tells the two apart, and then within 1 % of the truth; no confident window is more than
+    5 % off. The load run of seed 2 turns near 51 Hz of ripple for a third of its windows."""
     g, b = _free_run(seed=2, mains_hz=50.0)
     c, e, df = _errors(g, b)
     assert np.abs(e).max() < 0.05
     f = df["f_Hz"].to_numpy()[c]
     res = 1.0 / 0.5
-    assert (np.abs(f - 50.0 * np.round(f / 50.0)) > res).all()
-    assert (df["key"] == sync.KEY).any()
+    off = np.abs(f - 50.0 * np.round(f / 50.0))
+    assert (off > sync.MAINS_DRIFT_REL * f).all()
+    near = off <= res + 0.002 * f
+    assert near.any() and (np.abs(e[near]) < 0.01).all(), e[near]
     assert df.loc[df["key"] == sync.KEY, "reason"].str.contains("mains' 50 Hz").all()
+
+
+def _hum_and_line(hum_A, hum_hz, line_A, line_hz, noise_A, seed, fs=9600.0, n=3840):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / fs
+    return (1.0 + hum_A * np.sin(2 * np.pi * hum_hz * t + rng.uniform(0, 2 * np.pi))
+            + line_A * np.sin(2 * np.pi * line_hz * t + rng.uniform(0, 2 * np.pi))
+            + 0.3 * line_A * np.sin(2 * np.pi * line_hz * 5 / 6 * t)  # rotation lines beside it
+            + 0.2 * line_A * np.sin(2 * np.pi * line_hz * 7 / 6 * t)
+            + noise_A * rng.standard_normal(n))
+
+
+@settings(max_examples=150, deadline=None, derandomize=True)
+@given(h=st.integers(1, 6), drift=st.floats(-1.0, 1.0), hum=st.floats(-3.0, -0.5), line=st.floats(-2.5, -1.0),
+       offset=st.floats(0.0, 3.0), sign=st.sampled_from([-1, 1]), noise=st.floats(-3.5, -1.5),
+       present=st.booleans(), seed=st.integers(0, 2 ** 16))
+def test_a_line_beside_a_mains_multiple_is_told_from_it_only_where_it_is(h, drift, hum, line, offset, sign, noise,
+                                                                         present, seed):
+    """A burst of 0.4 s (a resolution of 2.5 Hz) holding hum at a multiple of 50 Hz, drifted within the mains'
+    allowance, and a shaft's line 0-3 Hz from it (or none), with rotation lines beside it and white noise: where the
+    joint fit calls the line apart from the mains line, a line is there, outside the drift allowance, and the fit
+    puts it within 3 % of its frequency (its precision, under the 5 % target: the rotation lines and a strong hum leak
+    into the fit; over 4,000 such draws 3 were more than 1 % off, the worst 2.3 %, and none called apart without a
+    line). The count must also agree with the fit within sync.MAINS_AGREE_REL to be confident."""
+    f_m = 50.0 * h
+    f_hum = f_m * (1 + sync.MAINS_DRIFT_REL * drift)
+    f_line = f_m + sign * offset
+    x = _hum_and_line(10 ** hum, f_hum, 10 ** line if present else 0.0, f_line, 10 ** noise, seed)
+    fit = sync.beside_mains(x, 9600.0, f_line if present else f_m + sign * 1.0, f_m, 2.5)
+    if fit["apart"]:
+        assert present and abs(f_line - f_m) > fit["drift_hz"], fit
+        assert abs(fit["f_hz"] / f_line - 1) < 0.03, fit
+
+
+def test_fixed_line_with_the_samples_lets_a_line_beside_the_mains_through_and_not_the_mains_line():
+    b = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.001", "mains_hz": "50"}, [0], [0.0],
+                   [np.zeros(3840, np.int64)])
+    both = _hum_and_line(0.05, 50.0, 0.05, 51.2, 0.002, 1)
+    assert sync.fixed_line(b, 0, 51.2, 2.5, x=both) is None
+    key, why = sync.fixed_line(b, 0, 51.2 * 1.01, 2.5, x=both)  # a count 1 % off the fit: the mains pulls it
+    assert key == sync.KEY and "pulls the count" in why
+    hum = _hum_and_line(0.05, 50.03, 0.0, 51.2, 0.002, 2)
+    key, why = sync.fixed_line(b, 0, 50.6, 2.5, x=hum)
+    assert key == sync.KEY and "not clear of the mains line" in why
+    assert sync.fixed_line(b, 0, 51.2, 2.5)[0] == sync.KEY  # without the samples: within a resolution, refused
 
 
 def test_fixed_line_names_pwm_harmonics_their_aliases_and_mains():

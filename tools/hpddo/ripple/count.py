@@ -290,7 +290,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
             z_line, z_still = prior_like([f_hz, 0.0], f_prior, sd_lo_own, sd_hi_own, opts.prior_rel_sd)[1]
         return abs(float(z_line)) <= opts.max_prior_z and (turning_given or not abs(float(z_still)) <= opts.max_prior_z)
 
-    fixed = sync.fixed_line(bursts, k, f_star, res, line_placed(f_star))  # a PWM or mains line, or a refused fold
+    # a PWM or mains line, or a refused fold; beside a mains line, the same line within a resolution of the fit's
+    fixed = sync.fixed_line(bursts, k, f_star, res, line_placed(f_star), x0, agree_hz=res)
     if fixed:
         out.update(key=fixed[0], f_Hz=f_star, reason=fixed[1])
         return out
@@ -407,7 +408,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}, {allowed:.1%} "
                    f"allowed with the count's noise; from the current, Ra dI / Ke, {spread_i:.1%})")
         return out
-    fixed = sync.fixed_line(bursts, k, f_count, res, line_placed(f_count))  # the counted line, too, off the PWM and mains lines
+    # the counted line, too, off the PWM and mains lines (beside a mains line: the count within MAINS_AGREE_REL of the fit)
+    fixed = sync.fixed_line(bursts, k, f_count, res, line_placed(f_count), x0)
     if fixed:
         out.update(key=fixed[0], reason=fixed[1])
         return out

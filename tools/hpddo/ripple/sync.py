@@ -16,6 +16,11 @@ file that declares how its samples sit against the PWM (hpddo.logs.ripple: `samp
   first PWM_HARMONICS harmonics) or of the mains frequency is a fixed line of the supply, not
   the shaft's: the window is never confident on it (estimate_window calls it with its
   candidate line).
+* `beside_mains`: a line within a resolution of a mains multiple is not that multiple where one
+  least-squares fit of the burst with both (the mains line at its declared frequency, within
+  the mains' drift, and the shaft's line free) puts the shaft's line clear of the mains' and
+  where the count agrees with it. A window's spectrum resolves 1 / T; two lines closer than that
+  are told apart by their fit, as far as the noise lets (its standard error, from the fit).
 """
 from __future__ import annotations
 
@@ -37,6 +42,18 @@ MIN_BINS = 16      # fewer bins cannot follow the PWM current's shape (its two e
 MAX_BINS = 512     # finer bins than this gain nothing at a kink of the PWM current (8 us at 490 Hz x 256)
 PWM_HARMONICS = 20  # the PWM harmonics whose aliases are checked: a PWM current's harmonic h falls as 1 / h^2
 #                     (its kinks), the 20th at 1/400 of the first
+
+#: the joint fit of a line beside a mains multiple (beside_mains)
+MAINS_APART_Z = 5.0       # the shaft's line lies this many of its standard errors beyond the mains line's drift
+MAINS_AGREE_REL = 0.005   # the count agrees with the joint fit within 0.5 % (a tenth of the 5 % a confident
+#                           window may be off): further, the mains line pulls the count
+MAINS_SEARCH_RES = 1.5    # the shaft's line is sought within 1.5 resolutions of the line found
+MAINS_GRID = 10           # grid steps per resolution for the shaft's line (then a parabola through the best three)
+MAINS_DRIFT_REL = 0.004   # the mains line's frequency is fitted within 0.4 % of the declared multiple (50 +- 0.2 Hz,
+#                           the limits a grid keeps in normal operation; comb.FIXED_REL_TOL's 0.1 % is the usual
+#                           drift): a line nearer than that to the multiple is never told from it
+HANN_NOISE_BW = 1.5       # the Hann window's equivalent noise bandwidth, in bins: the fit's weights widen its
+#                           standard error by about this much over an unweighted fit's
 
 KEY = "fixed_line"
 REASON = "the line sits at a multiple of the PWM or mains frequency (a fixed line of the supply, not the shaft's)"
@@ -102,13 +119,8 @@ def prepare(bursts, source: str = "bursts"):
     return dataclasses.replace(bursts, codes=codes, refused=tuple(refused))
 
 
-def fixed_lines(bursts, f_hz: float, either_mains: bool = False) -> list:
-    """The supply's fixed lines nearest f_hz as (Hz, what): the PWM's harmonics (and where they alias at
-    sample_hz) up to f_hz's neighbourhood, and the mains frequency's multiple nearest f_hz, where the file
-    declares them (whatever the declared mains frequency: a file may declare any positive one, 1 mHz too,
-    whose multiples near a line in the kHz are millions: the nearest is computed, not listed). With
-    either_mains, where the file declares no mains frequency, the nearest multiple of every mains
-    frequency (comb.MAINS_HZ: 50 and 60 Hz), since hum is in a current whether the file says so or not."""
+def pwm_lines(bursts) -> list:
+    """The PWM's harmonics up to PWM_HARMONICS as (Hz, what), where they alias at sample_hz; [] without a PWM."""
     fs = bursts.sample_hz
     out = []
     if math.isfinite(bursts.pwm_hz) and bursts.pwm_hz > 0:
@@ -117,22 +129,138 @@ def fixed_lines(bursts, f_hz: float, either_mains: bool = False) -> list:
             alias = abs((f + fs / 2) % fs - fs / 2)
             what = f"{h} x the PWM's {bursts.pwm_hz:g} Hz" + ("" if abs(alias - f) < 1e-9 else f", aliased at {fs:g} S/s")
             out.append((alias, what))
+    return out
+
+
+def mains_lines(bursts, f_hz: float, either_mains: bool = False) -> list:
+    """The mains frequency's multiple nearest f_hz as (Hz, what), where the file declares a mains frequency
+    (whatever it is: a file may declare any positive one, 1 mHz too, whose multiples near a line in the kHz
+    are millions: the nearest is computed, not listed). With either_mains, where the file declares none, the
+    nearest multiple of every mains frequency (comb.MAINS_HZ: 50 and 60 Hz), since hum is in a current
+    whether the file says so or not."""
     if math.isfinite(bursts.mains_hz):
         mains = [(bursts.mains_hz, "the mains' {:g} Hz".format(bursts.mains_hz))]
     elif either_mains:
         mains = [(m, f"{m:g} Hz, a mains frequency (the file declares none)") for m in MAINS_HZ]
     else:
         mains = []
+    out = []
     for m, name in mains:
         h = max(1, round(f_hz / m)) if math.isfinite(f_hz) else 1
         out.append((h * m, f"{h} x {name}"))
     return out
 
 
-def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float, placed: bool = True):
+def fixed_lines(bursts, f_hz: float, either_mains: bool = False) -> list:
+    """The supply's fixed lines nearest f_hz as (Hz, what): pwm_lines, then mains_lines."""
+    return pwm_lines(bursts) + mains_lines(bursts, f_hz, either_mains)
+
+
+def beside_mains(x, fs: float, f_line: float, f_mains: float, res_hz: float) -> dict:
+    """One burst x (A, at fs) fitted by least squares, Hann-weighted (the other lines' leakage held down),
+    as an offset, a slope, a sinusoid at the mains multiple f_mains (its frequency within the mains'
+    drift, MAINS_DRIFT_REL) and one sinusoid near f_line (within MAINS_SEARCH_RES resolutions): the
+    shaft's line told from the mains' where the two lie closer than the spectrum resolves. Returns
+    {f_hz: the shaft's line, se_hz: its standard error, drift_hz: the mains line's allowance,
+    apart: whether f_hz lies MAINS_APART_Z standard errors beyond that allowance}. The standard error
+    is the profile's curvature at the minimum with the residual's variance (times HANN_NOISE_BW for the
+    weights); a residual that holds other lines or coloured noise makes it an estimate, which the
+    margin (MAINS_APART_Z) allows for."""
+    x = np.asarray(x, float)
+    n = len(x)
+    drift = MAINS_DRIFT_REL * f_mains
+    out = {"f_hz": math.nan, "se_hz": math.inf, "drift_hz": drift, "apart": False}
+    if n < 16 or not (math.isfinite(f_line) and f_line > 0 and res_hz > 0):
+        return out
+    t = (np.arange(n) - (n - 1) / 2.0) / fs
+    w = np.hanning(n + 2)[1:-1]
+    f1 = f_line + res_hz * np.arange(-MAINS_SEARCH_RES * MAINS_GRID, MAINS_SEARCH_RES * MAINS_GRID + 1) / MAINS_GRID
+    f1 = f1[f1 > 0]
+    f2 = f_mains + drift * np.linspace(-1.0, 1.0, 9)
+
+    def tones(fr):
+        ph = 2 * math.pi * np.outer(t, fr)
+        return np.cos(ph), np.sin(ph)
+
+    base = np.column_stack([np.ones(n), t])
+    wb = w[:, None] * base                      # n x 2
+    g_bb = base.T @ wb                          # 2 x 2
+    y_b = wb.T @ x
+    xx = float(w @ (x * x))
+
+    def rss_of(f1, f2):
+        """The weighted residual's sum of squares at each pair (f1, f2): F1 x F2."""
+        c1, s1 = tones(f1)
+        c2, s2 = tones(f2)
+        T1 = np.stack([c1, s1], axis=-1)            # n x F1 x 2
+        T2 = np.stack([c2, s2], axis=-1)            # n x F2 x 2
+        F1, F2 = len(f1), len(f2)
+        A1, A2 = T1.reshape(n, 2 * F1), T2.reshape(n, 2 * F2)
+        wA1 = w[:, None] * A1
+        g_b1 = (wb.T @ A1).reshape(2, F1, 2).transpose(1, 0, 2)       # F1 x 2 x 2
+        g_b2 = (wb.T @ A2).reshape(2, F2, 2).transpose(1, 0, 2)       # F2 x 2 x 2
+        g_11 = np.einsum("nfk,nfl->fkl", wA1.reshape(n, F1, 2), T1)
+        g_22 = np.einsum("nfk,nfl->fkl", (w[:, None] * A2).reshape(n, F2, 2), T2)
+        g_12 = (wA1.T @ A2).reshape(F1, 2, F2, 2).transpose(0, 2, 1, 3)  # F1 x F2 x 2 x 2
+        y_1 = ((w * x) @ A1).reshape(F1, 2)
+        y_2 = ((w * x) @ A2).reshape(F2, 2)
+        # per pair (f1, f2) the normal equations of [offset, slope, cos f1, sin f1, cos f2, sin f2]
+        G = np.zeros((F1, F2, 6, 6))
+        G[:, :, :2, :2] = g_bb
+        G[:, :, :2, 2:4] = g_b1[:, None]
+        G[:, :, 2:4, :2] = np.swapaxes(g_b1, 1, 2)[:, None]
+        G[:, :, :2, 4:] = g_b2[None]
+        G[:, :, 4:, :2] = np.swapaxes(g_b2, 1, 2)[None]
+        G[:, :, 2:4, 2:4] = g_11[:, None]
+        G[:, :, 4:, 4:] = g_22[None]
+        G[:, :, 2:4, 4:] = g_12
+        G[:, :, 4:, 2:4] = np.swapaxes(g_12, 2, 3)
+        Y = np.zeros((F1, F2, 6))
+        Y[:, :, :2] = y_b
+        Y[:, :, 2:4] = y_1[:, None]
+        Y[:, :, 4:] = y_2[None]
+        ridge = 1e-12 * np.trace(G, axis1=2, axis2=3)[..., None, None] * np.eye(6)
+        coef = np.linalg.solve(G + ridge, Y[..., None])[..., 0]
+        return xx - np.einsum("abk,abk->ab", coef, Y)
+
+    rss = rss_of(f1, f2)
+    j, i = np.unravel_index(int(np.argmin(rss)), rss.shape)
+    if j == 0 or j == len(f1) - 1:  # the least at the search's edge: no line of its own found here
+        out["f_hz"] = float(f1[j])
+        return out
+    # then finer about the least, in both frequencies (a mains line a tenth of a grid step off leaves a part of
+    # itself as large as a weak ripple)
+    df2 = f2[1] - f2[0]
+    f1 = np.linspace(f1[j - 1], f1[j + 1], 2 * MAINS_GRID + 1)
+    f2 = np.clip(f2[i] + df2 * np.linspace(-1.0, 1.0, 2 * MAINS_GRID + 1), f_mains - drift, f_mains + drift)
+    profile = rss_of(f1, f2).min(axis=1)  # each f1 with the mains frequency at its best
+    j = int(np.argmin(profile))
+    if j == 0 or j == len(f1) - 1:  # the least at the search's edge: no line of its own found here
+        out["f_hz"] = float(f1[j])
+        return out
+    a, b, c = profile[j - 1], profile[j], profile[j + 1]
+    h = f1[1] - f1[0]
+    curv = (a - 2 * b + c) / (h * h)
+    if not curv > 0:
+        out["f_hz"] = float(f1[j])
+        return out
+    d = 0.5 * (a - c) / (a - 2 * b + c)
+    f_hat = float(f1[j] + d * h)
+    s_min = max(float(b - 0.25 * (a - c) * d), 0.0)
+    var = s_min / max(float(w.sum()) - 6.0, 1.0)   # the residual's variance per unit weight
+    se = math.sqrt(HANN_NOISE_BW * 2.0 * var / curv)
+    out.update(f_hz=f_hat, se_hz=se, apart=abs(f_hat - f_mains) > drift + MAINS_APART_Z * se)
+    return out
+
+
+def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float, placed: bool = True, x=None,
+               agree_hz: float | None = None):
     """Why window k cannot be confident on a line at f_hz (its spectrum resolving resolution_hz):
     (key, reason), or None. A refused fold (prepare), or a line within one resolution (and 0.2 %,
-    the comb grid's step) of a PWM or mains line (fixed_lines). Where the file declares no mains
+    the comb grid's step) of a PWM or mains line (fixed_lines). Near a mains line, where the window's
+    samples x are given, the line is the shaft's where a joint fit of both (beside_mains) puts it clear
+    of the mains line and within agree_hz of f_hz (the count agrees with the fit; None: MAINS_AGREE_REL
+    of f_hz). Where the file declares no mains
     frequency and nothing places the line (placed False: no rotation comb around it, which leaves the
     mains' multiples out, and no back-EMF prior or speed range, whose spread a fixed line far from the
     shaft's speed leaves), a line at a multiple of 50 or 60 Hz is taken for hum too: alone it cannot
@@ -150,7 +278,21 @@ def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float, placed: bool =
     if not math.isfinite(f_hz):
         return None
     tol = resolution_hz + 0.002 * f_hz
-    for f, what in fixed_lines(bursts, f_hz, either_mains=not placed):
+    for f, what in pwm_lines(bursts):
         if abs(f_hz - f) <= tol:
             return KEY, f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz)"
+    for f, what in mains_lines(bursts, f_hz, either_mains=not placed):
+        if abs(f_hz - f) > tol:
+            continue
+        if x is None:
+            return KEY, f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz)"
+        fit = beside_mains(x, bursts.sample_hz, f_hz, f, resolution_hz)
+        agree = MAINS_AGREE_REL * f_hz if agree_hz is None else agree_hz
+        if not fit["apart"]:
+            return KEY, (f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz; fitted beside it, the line is at "
+                         f"{fit['f_hz']:.2f} +- {fit['se_hz']:.2g} Hz: not clear of the mains line's "
+                         f"{fit['drift_hz']:.2g} Hz drift)")
+        if abs(fit["f_hz"] - f_hz) > agree:
+            return KEY, (f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz: the mains line pulls the count; fitted "
+                         f"beside it, the line is at {fit['f_hz']:.2f} Hz)")
     return None
