@@ -201,6 +201,12 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
     harmonics alone show no rotation. pwm: (PWM Hz, sample Hz) of a free-running burst whose PWM lies in the
     band (pwm_of): the PWM's sidebands around the commutation line (pwm_sidebands) are no rotation lines."""
     use = [ln for ln in found if not near_fixed(ln.hz, tuple(MAINS_HZ) + tuple(fixed_hz), fixed_tol_hz(ln.hz, res_hz))]
+    if pwm is not None:  # nor a PWM sideband of one of the strongest lines, left out or not (a 6-ripple motor's line
+        # at 60.8 Hz, left out as a 60 Hz multiple, put its sideband at 490.2 - 60.8 = 429.4 Hz at the head of the
+        # rest, and the comb about that line named a healthy commutator damaged in 11 of a low-speed run's windows)
+        strong = found[:COMB_ANCHORS]
+        use = [ln for ln in use if not any(o.power > ln.power and _sideband_of(ln.hz, o.hz, res_hz, pwm)
+                                           for o in strong)]
     if len(use) < COMB_MIN_LINES + 1:
         return None
     anchors = _anchors(use, res_hz) if pwm is None else use[:1]
