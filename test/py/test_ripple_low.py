@@ -212,3 +212,40 @@ def test_the_low_duty_run_with_ke_from_the_ripple_has_no_confident_window_where_
     assert "other recordings" in ke_from and est["confident"].to_numpy()[turning].mean() > 0.9, ke_from
     doubt = float(ke_from.split("to +-")[1].rstrip("%)")) / 100
     assert abs(ke / float(truth["ke_vs_per_rad"].median()) - 1) <= doubt <= KE_DOUBT_MAX, (ke, ke_from)
+
+
+def _stepped_bursts(seed, before=8, after=10, rpm=(10.7, 9.44), ripple_A=0.03, noise_A=0.004):
+    """Contiguous bursts at one duty with a step of load between them: `before` windows at rpm[0], then `after` at
+    rpm[1], the current up by the speed's fall over Ra / Ke (RPM_PER_A). Each window holds about 2.3 cycles."""
+    rng = np.random.default_rng(seed)
+    parts = []
+    for n_w, r in zip((before, after), rpm):
+        t = np.arange(n_w * N) / FS
+        i_A = 0.30 + (rpm[0] - r) / RPM_PER_A
+        parts.append(i_A + ripple_A * np.cos(2 * math.pi * PER_REV_OUT * r / 60.0 * t + rng.uniform(0, 2 * math.pi))
+                     + noise_A * rng.standard_normal(len(t)))
+    i = np.concatenate(parts)
+    codes = np.round(i / A_PER_CODE).astype(np.int64)
+    w = before + after
+    b = rf.Bursts({}, FS, A_PER_CODE, np.arange(w), np.arange(w) * WINDOW_S, [codes[k * N:(k + 1) * N] for k in range(w)])
+    return b, np.repeat(rpm, (before, after))
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_a_step_of_load_inside_a_run_of_slow_windows_is_counted_on_both_sides(seed, monkeypatch):
+    """A run of slow windows at one duty (each too few cycles alone) with a load step inside: counted as one span, its
+    two speeds are each other's rival and the run stays uncounted; counted either side of the step (spans._step),
+    the windows after the step's window are confident within 2 % of their own speed, and none more than 5 % off."""
+    from hpddo.ripple import count, spans
+
+    b, true = _stepped_bursts(seed)
+    duty = np.full(len(b), 0.2)
+    est0 = count.estimate(b, duty, true, OPTS, prior_sd=np.full(len(b), 3.0), rpm_per_A=RPM_PER_A)
+    assert not est0["confident"].any()  # each window alone: too few cycles
+    est = spans.count_steady_spans(b, duty, est0, OPTS, RPM_PER_A)
+    c = est["confident"].to_numpy()
+    err = np.abs(est["rpm"].to_numpy()[c] / true[c] - 1)
+    assert (err < 0.05).all(), err
+    assert c[1:8].all() and c[9:].sum() >= 8, est[["rpm", "key", "span"]]
+    monkeypatch.setattr(spans, "SPLIT_KEYS", ())
+    assert not spans.count_steady_spans(b, duty, est0, OPTS, RPM_PER_A)["confident"].any()

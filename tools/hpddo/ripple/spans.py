@@ -75,6 +75,22 @@ def _windows_apart(joined, bursts, a: int, e: int, r, rpm_per_A, opts: Options) 
     return bool(np.max(np.abs(means - np.median(means))) > allowed)
 
 
+#: a span whose count fails for these reasons (or whose windows' currents part: _windows_apart, key "") is counted
+#: again as two, either side of its largest step of current (_step): a load step at one duty inside a run of slow
+#: windows otherwise left the whole run uncounted (the twin's unseen run: 17 windows at 9.4 and 10.7 RPM, whose two
+#: lines 0.55 Hz apart over the span's 9.5 s were each the other's rival)
+SPLIT_KEYS = ("", "changing", "rival")
+
+
+def _step(bursts, a: int, e: int) -> int:
+    """Where the windows a..e (e - a >= 4) part best in two of two windows at least: the split s that leaves the least
+    sum of squares of the windows' mean currents about the mean of their side (one step of load)."""
+    means = np.array([float(np.mean(bursts.current_A(k))) for k in range(a, e)])
+    cost = [float(np.sum((means[:j] - means[:j].mean()) ** 2) + np.sum((means[j:] - means[j:].mean()) ** 2))
+            for j in range(2, e - a - 1)]
+    return a + 2 + int(np.argmin(cost))
+
+
 def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
     """The ripple counted over several consecutive windows where one window holds too few cycles or
     too little evidence (a slow shaft: at duty 0.2 the bench turns at 4-6 RPM, about one ripple
@@ -84,7 +100,7 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
     span's priors and of their sd, the window before the span as the speed before it), `far`,
     `ambiguous`, the line above the noise, at least opts.min_cycles cycles over the span, and the
     steadiness across the span (the counted quarters and the current's quarters, Ra dI / Ke, within
-    opts.max_spread). Where the span's count is confident, each of its windows takes its speed and
+    opts.max_spread); a span that fails the steadiness is counted again as two parts (SPLIT_KEYS, _step). Where the span's count is confident, each of its windows takes its speed and
     confidence (`span`: the number of windows counted together); elsewhere each window keeps its
     own estimate and reason. est: estimate()'s DataFrame for these bursts. Returns a copy."""
     est = est.copy()
@@ -94,7 +110,9 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
     prior = est["rpm_prior_used"].to_numpy(float)
     sd = est[["prior_sd_below", "prior_sd_above"]].to_numpy(float)
     glitch = est["prior_glitch"].to_numpy(float) if "prior_glitch" in est else np.zeros(len(est))
-    for a, e in steady_spans(bursts, duty, keys, opts):
+    todo = steady_spans(bursts, duty, keys, opts)[::-1]
+    while todo:
+        a, e = todo.pop()
         joined = bursts.one(a, np.concatenate(bursts.codes[a:e]))
         has_prior = bool(np.isfinite(prior[a:e]).any())
         pr = float(np.nanmedian(prior[a:e])) if has_prior else None
@@ -103,6 +121,9 @@ def count_steady_spans(bursts, duty, est, opts: Options, rpm_per_A=None):
         before = float(prior[a - 1]) if has_prior and a > 0 and np.isfinite(prior[a - 1]) else None
         r = estimate_window(joined, 0, float(np.asarray(duty, float)[a]), pr, opts, before, psd, rpm_per_A, pgl)
         if r["key"] or _windows_apart(joined, bursts, a, e, r, rpm_per_A, opts):
+            if r["key"] in SPLIT_KEYS and e - a >= 4:  # the speed moved inside: the two sides of its largest step
+                s = _step(bursts, a, e)
+                todo += [(s, e), (a, s)]
             continue
         idx = est.index[a:e]
         for c in ("rpm", "rpm_fft", "f_Hz", "f_strongest_Hz", "snr", "snr_wide", "spread", "spread_current", "spread_allowed",
