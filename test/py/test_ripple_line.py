@@ -454,9 +454,10 @@ def test_a_recordings_combs_at_scattered_numbers_name_no_figure():
 
 def test_damaged_windows_neither_name_nor_count_toward_another_figure():
     """A damaged commutator's even lines make a comb at the wrong spacing (line.comb_windows leaves those
-    windows out): they count neither toward the figure a recording's combs name (identity_of_recording) nor in
-    hpddo ripple's sentence (other_figure, the one count both use). Two comb windows at 36 beside three damaged
-    ones at 36 name no figure; before, the damaged three made it five and "the ripple is 36" was said."""
+    windows out): they count toward no figure a recording's combs name (identity_of_recording) nor in hpddo
+    ripple's sentence (other_figure, the one count both use), but among the comb windows that must agree
+    (line.damaged_windows). Two comb windows at 36 beside three damaged ones at 36 name no figure; before, the
+    damaged three made it five and "the ripple is 36" was said."""
     from hpddo.ripple.line import identity_of_recording, other_figure
     import pandas as pd
 
@@ -464,10 +465,10 @@ def test_damaged_windows_neither_name_nor_count_toward_another_figure():
     key = ["multiple", "multiple", "", "damaged", "damaged", "damaged"] + [""] * 6
     est = pd.DataFrame({"multiple": mult, "key": key, "confident": [k == "" for k in key],
                         "confidence": [float(k == "") for k in key], "reason": [""] * 12})
-    assert other_figure(est, Options(6, 1.0)) == (36, 2, 2, 3)
-    out = identity_of_recording(est, Options(6, 1.0))
+    assert other_figure(est, Options(6, 1.0)) == (36, 2, 2, 6)
+    out = identity_of_recording(est, Options(6, 1.0), scale_checked=False)
     said = out["reason"].iloc[6]
-    assert "the ripple is" not in said and "2 of the 3 windows" in said and "36 the commonest, in 2" in said, said
+    assert "the ripple is" not in said and "1 of the 6 windows" in said and "3 of them named damaged" in said, said
     assert other_figure(est.assign(multiple=[6, 6, 6, 36, 36, 36] + [0] * 6), Options(6, 1.0)) is None
 
 
@@ -636,3 +637,32 @@ def test_a_steady_run_alone_cannot_check_the_figure_against_a_ke(symmetric_rotor
     assert not est["confident"].any()
     un = est["key"] == "unchecked"
     assert un.mean() > 0.9 and all("beside a sweep of the same motor" in r for r in est["reason"][un])
+
+
+def test_a_damaged_commutators_other_windows_name_no_figure_from_their_combs(monkeypatch):
+    """Where the commutator is damaged, the windows whose health lines stay under the threshold may take the
+    fault's even lines for the rotation's too (the twin's worn segment: 163 windows named damaged, 78 of the rest at
+    3 for a 6-ripple motor, and --calibrate named 3). The damaged windows count among the comb windows that must
+    agree, on no figure: neither --calibrate (calibrate.calibrate) nor a recording (identity_of_recording) names 3
+    then, while the encoder still names 6."""
+    import pandas as pd
+
+    from hpddo.ripple.line import identity_of_recording
+
+    n_bad, n_three = 20, 8
+    mult = [3] * n_three + [6] * n_bad + [0] * 4
+    key = ["multiple"] * n_three + ["damaged"] * n_bad + [""] * 4
+    est = pd.DataFrame({"multiple": mult, "key": key, "confident": [k == "" for k in key],
+                        "confidence": [float(k == "") for k in key], "reason": [""] * len(key)})
+    said = identity_of_recording(est, Options(6, 1.0))["reason"].iloc[-1]
+    assert "the ripple is 3" not in said, said
+    # calibrate over the same windows: each window's comb (or its damage) as window_comb would give it
+    b = bursts_of([np.full(64, 0.5)] * len(key))
+    combs = [(None, rc.Comb(10.0, (), rc.Line(30.0, 1.0, 100.0), 3), 2.0, False)] * n_three \
+        + [(None, rc.Comb(10.0, (), rc.Line(60.0, 1.0, 100.0), 6), 2.0, True)] * n_bad + [([], None, 2.0, False)] * 4
+    monkeypatch.setattr(rcal, "window_comb", lambda bursts, k, opts: combs[k])
+    out = rcal.calibrate(b, np.full(len(key), 0.5), Options(6, 1.0, floor_A=0.1))
+    assert out["comb"]["ripples_per_rev"] == 0 and out["ripples_per_rev"] == 0, out["statement"]
+    assert "damaged 20 of 28" in out["statement"], out["statement"]
+    combs[n_three:n_three + n_bad] = [(None, None, 2.0, False)] * n_bad  # the same eight without the fault: named
+    assert rcal.calibrate(b, np.full(len(key), 0.5), Options(6, 1.0, floor_A=0.1))["comb"]["ripples_per_rev"] == 3

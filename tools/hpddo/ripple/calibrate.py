@@ -47,7 +47,8 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
     an encoder or tachometer speed per window (rpm_ref, output shaft), also the strongest line
     (mains and declared PWM multiples left out) over the motor's rotation frequency,
     rpm_ref x opts.gear_ratio / 60, where it lies within CALIBRATE_WHOLE of a whole number. Each
-    source names the number that CALIBRATE_AGREE of its windows (at least CALIBRATE_MIN_WINDOWS)
+    source names the number that CALIBRATE_AGREE of its windows (at least CALIBRATE_MIN_WINDOWS; for the
+    comb, the damaged windows among them, which agree on none: line.damaged_windows)
     agree on, or says that they do not agree; where the comb and the encoder name different
     numbers, the encoder's (a measurement of the revolutions) is named and the disagreement said. Returns a dict: per source the windows used and the counts of each number, the
     number named (0 where none), and a statement."""
@@ -84,7 +85,9 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
             continue
         used = int(sum(counts.values()))
         top, top_n = counts.most_common(1)[0] if counts else (0, 0)
-        named = int(top) if used >= CALIBRATE_MIN_WINDOWS and top_n >= CALIBRATE_AGREE * used else 0
+        # the damaged windows among the comb's: agreeing with no figure (line.damaged_windows)
+        among = used + (damaged if name == "comb" else 0)
+        named = int(top) if used >= CALIBRATE_MIN_WINDOWS and top_n >= CALIBRATE_AGREE * among else 0
         out[name] = {"windows": used, "counts": {str(m): int(c) for m, c in sorted(counts.items())},
                      "ripples_per_rev": named}
         if not used:
@@ -93,10 +96,11 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
             said.append(f"{how}: too few windows (" + ", ".join(f"{m} in {c}" for m, c in counts.most_common(4))
                         + f" of {used}, under {CALIBRATE_MIN_WINDOWS})")
         elif named:
-            said.append(f"{how}: {named} ripples per revolution ({top_n} of {used} windows)")
+            said.append(f"{how}: {named} ripples per revolution ({top_n} of {among} windows)")
         else:
             said.append(f"{how}: the windows do not agree (" + ", ".join(
-                f"{m} in {c}" for m, c in counts.most_common(4)) + f" of {used})")
+                f"{m} in {c}" for m, c in counts.most_common(4))
+                + (f", damaged {among - used}" if among > used else "") + f" of {among})")
     # the encoder measures the revolutions; the comb infers them: where both name a number and they differ,
     # the encoder's is named and the disagreement said
     names = {out[s]["ripples_per_rev"] for s in ("comb", "encoder") if s in out and out[s]["ripples_per_rev"]}

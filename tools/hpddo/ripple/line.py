@@ -44,6 +44,15 @@ def comb_windows(est) -> np.ndarray:
     return (est["multiple"].to_numpy(int) > 0) & (est["key"].to_numpy() != "damaged")
 
 
+def damaged_windows(est) -> np.ndarray:
+    """The windows of an estimate named `damaged`: a rotation comb whose health lines name a damaged commutator.
+    Their spacing is no rotation's to trust, and where the commutator is damaged the other windows' combs may
+    take the fault's even lines too (a worn segment: 163 windows damaged, 78 of the rest at 3 for a 6-ripple
+    motor, hpddo.studies.ripple_line): a figure is confirmed over the comb windows and these together, which
+    agree on none."""
+    return est["key"].to_numpy() == "damaged"
+
+
 def figure_confirmed(at: int, shown: int) -> bool:
     """Whether windows whose lines form a rotation comb confirm a ripples per revolution: at least
     CALIBRATE_MIN_WINDOWS of them place the line at it (at) and they are CALIBRATE_AGREE of all such
@@ -53,12 +62,12 @@ def figure_confirmed(at: int, shown: int) -> bool:
 
 def figure_shown(ests, opts: Options) -> tuple:
     """Whether the rotation combs of recordings (speed_of_log's estimates) confirm the ripples per revolution
-    given (figure_confirmed, over their comb windows together). Returns (confirmed, windows at the figure,
-    comb windows)."""
+    given (figure_confirmed, over their comb windows together, the damaged ones among them: damaged_windows).
+    Returns (confirmed, windows at the figure, comb windows with the damaged)."""
     at = shown = 0
     for est in ests:
         comb = comb_windows(est)
-        shown += int(comb.sum())
+        shown += int(comb.sum()) + int(damaged_windows(est).sum())
         at += int((comb & (est["multiple"].to_numpy(int) == opts.ripples_per_rev)).sum())
     return figure_confirmed(at, shown), at, shown
 
@@ -66,7 +75,8 @@ def figure_shown(ests, opts: Options) -> tuple:
 def other_figure(est, opts: Options):
     """Over an estimate's comb windows (comb_windows: not those named `damaged`), the commonest multiple other
     than opts.ripples_per_rev: (that multiple, the comb windows showing it, the comb windows showing any other
-    than the figure given, all comb windows); None where every comb window shows the figure given."""
+    than the figure given, all comb windows with the damaged ones: damaged_windows); None where every comb window
+    shows the figure given."""
     m = est["multiple"].to_numpy(int)
     shown = comb_windows(est)
     other = shown & (m != opts.ripples_per_rev)
@@ -74,7 +84,7 @@ def other_figure(est, opts: Options):
         return None
     vals, counts = np.unique(m[other], return_counts=True)
     top = int(vals[np.argmax(counts)])  # (the smallest of equally common ones)
-    return top, int((shown & (m == top)).sum()), int(other.sum()), int(shown.sum())
+    return top, int((shown & (m == top)).sum()), int(other.sum()), int(shown.sum()) + int(damaged_windows(est).sum())
 
 
 def identity_of_recording(est, opts: Options, scale_checked: bool = True):
@@ -118,9 +128,11 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     # ... and a comb window at the figure whose line the prior puts out of its reach (`far`) checks the figure but
     # contradicts the prior's Ke, calibrated under it from other windows: it confirms neither
     far = at & (est["key"].to_numpy() == "far")
-    if not scale_checked and not figure_confirmed(int((at & ~far).sum()), int(shown.sum())):
-        said = (f"none of the {len(est)} windows shows a comb" if not shown.any() else
-                f"{int(at.sum())} of the {int(shown.sum())} windows whose lines form a comb show it"
+    n_bad = int(damaged_windows(est).sum())
+    if not scale_checked and not figure_confirmed(int((at & ~far).sum()), int(shown.sum()) + n_bad):
+        said = (f"none of the {len(est)} windows shows a comb" if not shown.any() and not n_bad else
+                f"{int(at.sum())} of the {int(shown.sum()) + n_bad} windows whose lines form a comb show it"
+                + (f" ({n_bad} of them named damaged)" if n_bad else "")
                 + (f", {int(far.sum())} of them with their line far from the prior (its Ke, calibrated from the "
                    "ripple, is not the motor's)" if far.any() else "")
                 + f"; {CALIBRATE_MIN_WINDOWS} in agreement with the prior and {CALIBRATE_AGREE:.0%} of the comb "
