@@ -512,3 +512,17 @@ def test_a_recording_that_alone_shows_an_effect_is_no_disagreement_where_nothing
     assert not any(u.inconsistent for u in units.values())
     # ... and without the joint model (other_motors asks so: a scale sets another motor apart) it is flagged
     assert {u.name for u in core.consistency(inp, mf.sigma2, names=[], alternatives=False) if u.inconsistent} == {"warm"}
+
+
+def test_a_channels_gain_left_out_for_the_ras_doubt_leaves_the_ra_given_inside_the_data_alone_interval(tmp_path):
+    """A voltage channel 3 % high rescales V - I Ra: the rows fit Ra 3 % high without it as well as the Ra given with
+    it. core.through_zero leaves the gain out (its interval holds zero once the reading's tolerance is counted); the
+    data-alone Ra then reaches over the Ra given too (ra_alone's rivals_ohm): on an independent simulator's four
+    tables (test/fixtures/independent/vgain3, its README) it was 2.06 ohm (2.007..2.115) against the 2.0 that was
+    right."""
+    d = diagnose(sorted((ROOT / "test" / "fixtures" / "independent" / "vgain3").glob("*.csv")), 2.0)
+    res, text = check_truthful(d)
+    assert "v_gain" not in res["missing_effects"], res["verdict"]
+    da = res["ra_fit"]["data_alone"]
+    assert da["determined"] and da["value"] > 2.03, da
+    assert da["lo"] <= 2.0 <= da["hi"], da
