@@ -70,8 +70,10 @@ def run(args) -> int:
     b = ci.write_bursts(cap, args.out, args.a_per_unit, args.offset, args.window_s, pwm_hz=args.pwm_hz,
                         mains_hz=args.mains_hz, coupling=coupling, source_path=args.capture)
     n = sum(len(c) for c in b.codes)
-    print(f"{args.out}: {len(b)} windows of {args.window_s:g} s, {n} samples at {cap.sample_hz:g} Hz "
-          f"(from {cap.rate_from}), {cap.source} of {args.capture}; {rf.COUPLING}={coupling}, "
+    left = len(cap.values) - n  # the capture's last samples, fewer than a window can count (ci.MIN_SAMPLES)
+    print(f"{args.out}: {len(b)} windows of {float(b.meta['burst_s']):g} s, {n} samples at {cap.sample_hz:g} Hz "
+          f"(from {cap.rate_from})" + (f" (the last {left}, fewer than {ci.MIN_SAMPLES}, left out)" if left else "")
+          + f", {cap.source} of {args.capture}; {rf.COUPLING}={coupling}, "
           f"{rf.PWM_HZ}={args.pwm_hz:g}" + (f", {rf.MAINS_HZ}={args.mains_hz:g}" if args.mains_hz else ""))
     return 0
 

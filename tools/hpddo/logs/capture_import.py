@@ -30,6 +30,7 @@ KINDS = {".csv": "csv", ".txt": "csv", ".wav": "wav", ".mat": "mat"}
 #: a .mat variable holding the sample rate (Hz), where the file carries one
 MAT_RATE_NAMES = ("sample_hz", "fs", "Fs", "FS", "sample_rate", "SampleRate", "samplerate")
 FLOAT_STEPS = 2 ** 24  # float data are quantised at their span / this (far under any probe's resolution)
+CODE_RANGE = 2.0 ** 52  # the largest |code|: a double holds every integer up to it, and int64 does
 MIN_SAMPLES = 16       # a capture shorter than this holds no window the count could use
 UNIFORM_TOL = 0.25     # a time further than this share of a sample from the uniform grid is refused
 
@@ -289,16 +290,21 @@ def to_codes(values, integer: bool):
     if integer and np.abs(x).max() < 2 ** 62:
         return x.astype(np.int64), 1.0
     u = np.unique(x)
-    span = float(u[-1] - u[0]) if len(u) > 1 else max(abs(float(u[0])), 1.0)
-    fine = span / FLOAT_STEPS
-    d = np.diff(u)
+    with np.errstate(over="ignore"):  # (a span past the float range is inf, taken below)
+        span = float(u[-1] - u[0]) if len(u) > 1 else max(abs(float(u[0])), 1.0)
+        d = np.diff(u)
+    # the fine step, and never finer than the values' own float resolution at their largest magnitude
+    # (a small ripple on a large offset: 1e6 +- 1e-9 gave codes past the int64 range)
+    fine = max(span / FLOAT_STEPS, float(np.abs(x).max()) / CODE_RANGE)
     step = float(d.min()) if len(d) else span
     # the smallest difference is the data's own step (an instrument's LSB) where every value is a whole
     # number of it and it is coarser than the fine step; else the fine step
-    if not (step > fine and np.abs(x / step - np.round(x / step)).max() < 1e-3):
+    with np.errstate(over="ignore", invalid="ignore"):  # (a step so fine that x / step passes the float range)
+        whole = step > fine and np.abs(x / step - np.round(x / step)).max() < 1e-3
+    if not whole:
         step = fine
-    if not (step > 0 and math.isfinite(step)):
-        step = 1.0
+    if not (step > 0 and math.isfinite(step)):  # a span past the float range (values near +-1.8e308)
+        step = float(np.abs(x).max()) / CODE_RANGE or 1.0
     return np.round(x / step).astype(np.int64), step
 
 
@@ -321,6 +327,10 @@ def write_bursts(cap: Capture, out, a_per_unit: float, offset: float | None, win
     if offset is None:
         offset = float(np.mean(cap.values)) if coupling == rf.AC else 0.0
     n_w = max(1, int(round(window_s * cap.sample_hz)))
+    if n_w < MIN_SAMPLES and n_w < len(codes):  # (a capture shorter than one window is one window)
+        raise CaptureError(f"--window-s {window_s:g} at {cap.sample_hz:g} Hz: windows of {n_w} sample"
+                           f"{'s' if n_w > 1 else ''}, fewer than {MIN_SAMPLES}, nothing to count: give --window-s "
+                           f"{MIN_SAMPLES / cap.sample_hz:.3g} or more")
     cuts = list(range(0, len(codes), n_w))
     parts = [codes[a:a + n_w] for a in cuts]
     if len(parts) > 1 and len(parts[-1]) < MIN_SAMPLES:
