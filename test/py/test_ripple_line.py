@@ -654,8 +654,13 @@ def test_a_damaged_commutators_other_windows_name_no_figure_from_their_combs(mon
     key = ["multiple"] * n_three + ["damaged"] * n_bad + [""] * 4
     est = pd.DataFrame({"multiple": mult, "key": key, "confident": [k == "" for k in key],
                         "confidence": [float(k == "") for k in key], "reason": [""] * len(key)})
-    said = identity_of_recording(est, Options(6, 1.0))["reason"].iloc[-1]
+    out = identity_of_recording(est, Options(6, 1.0))
+    said = out["reason"].iloc[-1]
     assert "the ripple is 3" not in said, said
+    # each window whose own comb says 3 says too that the damage can make that comb (line.with_damage_said)
+    assert all("20 of this recording's windows are named damaged" in r and r.endswith("cannot tell which")
+               for r in out["reason"].iloc[:n_three]), out["reason"].iloc[0]
+    assert not identity_of_recording(est.iloc[:n_three], Options(6, 1.0))["reason"].str.contains("damaged").any()
     # calibrate over the same windows: each window's comb (or its damage) as window_comb would give it
     b = bursts_of([np.full(64, 0.5)] * len(key))
     combs = [(None, rc.Comb(10.0, (), rc.Line(30.0, 1.0, 100.0), 3), 2.0, False)] * n_three \

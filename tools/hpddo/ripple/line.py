@@ -87,6 +87,25 @@ def other_figure(est, opts: Options):
     return top, int((shown & (m == top)).sum()), int(other.sum()), int(shown.sum()) + int(damaged_windows(est).sum())
 
 
+def with_damage_said(est, opts: Options):
+    """est (changed in place and returned) with the reason of each window whose own comb names a sub-multiple of
+    the figure given (`multiple`: 3 for 6, 2 for 6) amended where windows of the same recording are named
+    `damaged` (damaged_windows): a damaged commutator's lines make such combs (a worn segment on the twin: 22
+    windows 'the ripple is 3 per revolution, not the 6 given' beside 163 damaged, where the motor's figure
+    was the 6 given, hpddo.studies.ripple_line), so the window's figure is one of two the data cannot tell apart."""
+    n_bad = int(damaged_windows(est).sum())
+    if not n_bad:
+        return est
+    m = est["multiple"].to_numpy(int)
+    sub = ((est["key"].to_numpy() == "multiple") & (m > 0) & (m < opts.ripples_per_rev)
+           & (opts.ripples_per_rev % np.maximum(m, 1) == 0))
+    if sub.any():
+        tail = (f"; but {n_bad} of this recording's windows are named damaged, and a damaged commutator's lines "
+                f"can make such a comb for a {opts.ripples_per_rev}-ripple motor: this window cannot tell which")
+        est.loc[est.index[sub], "reason"] = est["reason"][sub].astype(str) + tail
+    return est
+
+
 def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     """The line's identity over a whole recording: where most of the windows whose lines form a
     rotation comb (est's `multiple` > 0; not those named `damaged`) put the strongest line at another multiple than
@@ -106,7 +125,7 @@ def identity_of_recording(est, opts: Options, scale_checked: bool = True):
     line (10x the motor's) from counting that line confidently (independent commutator simulation,
     docs/ripple-independent.md).
     est: speed_of_log's DataFrame. Returns a copy."""
-    est = est.copy()
+    est = with_damage_said(est.copy(), opts)
     m = est["multiple"].to_numpy(int)
     shown = comb_windows(est)
     at = shown & (m == opts.ripples_per_rev)
