@@ -23,8 +23,8 @@ BENCH = params.preset("default")
 OPTS = Options(BENCH.ripples_per_rev, BENCH.gear_ratio)
 
 
-def _free_run(seed=1, mains_hz=0.0, protocol="load", time_scale=0.1, out_dir=None):
-    rpar = {**params.ripple_burst(sample_hz=9600), **ripple_free.ripple_free(pwm_hz=490.196, mains_hz=mains_hz)}
+def _free_run(seed=1, mains_hz=0.0, protocol="load", time_scale=0.1, out_dir=None, pwm_hz=490.196):
+    rpar = {**params.ripple_burst(sample_hz=9600), **ripple_free.ripple_free(pwm_hz=pwm_hz, mains_hz=mains_hz)}
     g = generate.generate(BENCH, protocol, 2.0, seed, time_scale=time_scale, ripple=rpar, out_dir=out_dir)
     t0, codes, meta = g["bursts"]
     return g, rf.of_meta(meta, g["log"]["seq"].to_numpy(), t0, codes)
@@ -65,6 +65,26 @@ def test_free_running_bursts_counted_after_the_pwm_average_is_removed_and_not_be
     assert (np.abs(e0) < 0.05).all(), e0  # the PWM's lines are not counted as the ripple with confidence
     c1, e1, _ = _errors(g, b)
     assert c1.mean() > 0.8 and np.abs(e1).max() < 0.05 and np.sqrt(np.mean(e1 ** 2)) < 0.01
+
+
+@pytest.mark.parametrize("true_hz, declared_hz", [(976.5625, 490.196), (490.196, 976.5625)])
+def test_a_pwm_declared_at_another_frequency_than_the_drives_is_named_with_the_one_the_data_show(true_hz, declared_hz):
+    """An UNO's pins 5 and 6 run their PWM at 976.5625 Hz, the others at 490.196: declared at the other, the
+    PWM's lines were neither removed nor known as fixed lines, and the windows said `multiple` (81 of 165) and
+    `damaged` (24) off those lines (none confident). The declared PWM's synchronous average holds nothing, a
+    steady line does: every window read off the lines is `pwm_unseen`, whose reason names the frequency the
+    data show (sync.pwm_unseen); declared right, none is."""
+    g, b = _free_run(protocol="sweep", time_scale=0.25, pwm_hz=true_hz)
+    wrong = dataclasses.replace(b, pwm_hz=declared_hz)
+    _, _, df = _errors(g, wrong)
+    assert not df["confident"].any()
+    keys = set(df["key"])
+    assert "pwm_unseen" in keys and not keys & {"multiple", "damaged", "rival", "ambiguous"}, keys
+    said = df.loc[df["key"] == "pwm_unseen", "reason"].iloc[0]
+    named = float(said.split("declare pwm_hz=")[1].split()[0])
+    assert named == pytest.approx(true_hz, rel=2e-4), said
+    _, _, right = _errors(g, b)
+    assert "pwm_unseen" not in set(right["key"]) and right["confident"].mean() > 0.6
 
 
 def test_mains_comb_never_gives_a_confident_window_on_its_lines():

@@ -86,7 +86,8 @@ def _count_log(path, df, meta: dict, opts: Options, ra_ohm, ke_vs_per_rad, burst
     if bursts is None and not bpath.exists():
         raise InputError(f"{path}: no current bursts beside it ({bpath.name}); record them in the ripple "
                          "mode (hpddo twin --ripple-hz, docs/ripple.md)")
-    b = sync.prepare(rf.read(bpath) if bursts is None else bursts, str(bpath))
+    raw = rf.read(bpath) if bursts is None else bursts
+    b = sync.prepare(raw, str(bpath))
     seq = df["seq"].to_numpy() if "seq" in df else np.arange(len(df))
     pos = {int(s): k for k, s in enumerate(seq)}
     rows = [pos.get(int(s)) for s in b.seq]
@@ -130,6 +131,7 @@ def _count_log(path, df, meta: dict, opts: Options, ra_ohm, ke_vs_per_rad, burst
     ke_given = model is not None or bool(ke_vs_per_rad)
     est = identity_of_recording(est, opts, scale_checked=ke_given or speed_range.range_checks_figure(rpm_range))
     est = speed_range.within_range(est, rpm_range)
+    est = sync.unseen_demoted(est, sync.pwm_unseen(raw), raw.pwm_hz)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from, placed, prior_sd if ke_given and prior is not None else None

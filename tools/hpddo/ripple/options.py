@@ -50,6 +50,7 @@ REASONS = {
              "back-EMF prior too low for a window's count: the shaft stands (0 RPM within rpm_bound)",
     sync.KEY: sync.REASON,
     sync.KEY_FOLD: sync.REASON_FOLD,
+    sync.KEY_UNSEEN: sync.REASON_UNSEEN,
 }
 
 

@@ -59,6 +59,19 @@ KEY = "fixed_line"
 REASON = "the line sits at a multiple of the PWM or mains frequency (a fixed line of the supply, not the shaft's)"
 KEY_FOLD = "pwm_fold"
 REASON_FOLD = "free-running burst too short to remove the PWM-synchronous average"
+KEY_UNSEEN = "pwm_unseen"
+REASON_UNSEEN = ("the PWM frequency declared (pwm_hz) does not show in the bursts and a steady line elsewhere does: "
+                 "wherever the PWM's lines are, they were neither removed nor known as fixed lines")
+
+#: the least share of a free-running burst's variance its PWM-synchronous average holds where the PWM is at the
+#: frequency declared (the twin, 9.6 kHz, 0.5 s: 0.91-0.97 at 490 Hz, 0.20-0.62 at 3.9 kHz; 490.196 declared for a
+#: 976.5625 Hz PWM, an UNO's pins 5 and 6: -0.02; 976.5625 declared for 490.196: 0.006)
+PWM_SHOWN_MIN = 0.05
+#: a line that is the strongest of a raw burst at one frequency (within a resolution) in this share of the
+#: bursts or more is steady: the supply's, or a shaft that never changes speed
+STEADY_SHARE = 0.5
+UNSEEN_MIN_BURSTS = 3  # fewer bursts that can fold tell nothing of the PWM
+UNSEEN_REFINE_BURSTS = 5  # the bursts whose fold places the steady line's frequency
 
 
 def holds_mean(bursts) -> bool:
@@ -91,6 +104,102 @@ def remove_pwm_average(x, sample_hz: float, pwm_hz: float):
     if used.sum() == 1:
         return x - means[0], int(used.sum())
     return x - np.interp(phase, centres, means, period=1.0), int(used.sum())
+
+
+def pwm_share(x, sample_hz: float, pwm_hz: float) -> float:
+    """The share of a burst's variance (about its mean) that its PWM-synchronous average at pwm_hz holds; NaN
+    where the burst is too short to fold (phase_bins) or constant. Under 0 where the interpolated average adds
+    more than it takes (no waveform at pwm_hz)."""
+    x = np.asarray(x, float)
+    x = x - x.mean() if len(x) else x
+    rest, _ = remove_pwm_average(x, sample_hz, pwm_hz)
+    v = float(x @ x) if len(x) else 0.0
+    if rest is None or not (v > 0 and math.isfinite(v)):
+        return math.nan
+    return (v - float(rest @ rest)) / v
+
+
+def strongest_hz(x, sample_hz: float) -> float:
+    """The frequency of a burst's strongest spectral line (Hann window, the mean removed), from 2 resolutions
+    up; NaN where the burst holds none."""
+    x = np.asarray(x, float)
+    n = len(x)
+    if n < 8:
+        return math.nan
+    a = np.abs(np.fft.rfft((x - x.mean()) * np.hanning(n)))
+    f = np.fft.rfftfreq(n, 1.0 / sample_hz)
+    band = f >= 2.0 * sample_hz / n
+    if not band.any() or not np.isfinite(a[band]).all() or a[band].max() <= 0:
+        return math.nan
+    return float(f[band][np.argmax(a[band])])
+
+
+def pwm_unseen(bursts) -> dict | None:
+    """Whether a free-running file's declared PWM frequency is not the PWM's: its synchronous average holds
+    under PWM_SHOWN_MIN of the variance in the median burst (of UNSEEN_MIN_BURSTS or more that fold) while
+    the raw bursts' strongest line sits at one frequency in STEADY_SHARE of them or more (a PWM at another
+    frequency: 490.196 Hz declared for an UNO's 976.5625 Hz pins on the twin, no window confident but 81
+    named `multiple` and 24 `damaged` from the PWM's lines). Returns {"share", "bursts", "steady_hz",
+    "steady_in"}, or None where the declared PWM shows, nothing steady does, or the file is not free-running
+    under a PWM. Where the declared PWM's ripple is only too small to show (a fast PWM behind the winding's
+    L / R), the shaft's line is the steady one only at one speed throughout."""
+    if bursts.sampling != rf.FREE or not (math.isfinite(bursts.pwm_hz) and bursts.pwm_hz > 0):
+        return None
+    fs = bursts.sample_hz
+    shares = np.array([pwm_share(c, fs, bursts.pwm_hz) for c in bursts.codes])
+    ok = np.isfinite(shares)
+    if ok.sum() < UNSEEN_MIN_BURSTS or float(np.median(shares[ok])) >= PWM_SHOWN_MIN:
+        return None
+    f1 = np.array([strongest_hz(c, fs) for c, k in zip(bursts.codes, ok) if k])
+    res = np.array([fs / len(c) for c, k in zip(bursts.codes, ok) if k])
+    have = np.isfinite(f1)
+    if not have.any():
+        return None
+    f1, res = f1[have], res[have]
+    near = np.abs(f1[:, None] - f1[None, :]) <= res[None, :]  # burst j's line within burst j's resolution of i's
+    j = int(np.argmax(near.sum(axis=1)))
+    n_at = int(near[j].sum())
+    if n_at < STEADY_SHARE * int(ok.sum()):
+        return None
+    # the steady line's frequency to a twentieth of a resolution, where its synchronous average holds most: the
+    # frequency to declare (a spectrum's bin put an UNO's 976.5625 Hz at 976.0, where a fold drifts a quarter
+    # period over a 0.5 s burst)
+    codes = [c for c, k in zip(bursts.codes, ok) if k]
+    at = [codes[i] for i in np.flatnonzero(have)[near[j]][:UNSEEN_REFINE_BURSTS]]
+    r = float(np.max(res[near[j]]))
+    grid = float(np.median(f1[near[j]])) + r * np.linspace(-1.0, 1.0, 41)
+    held = np.array([np.nanmean([pwm_share(c, fs, f) for c in at]) for f in grid])
+    k = int(np.nanargmax(held)) if np.isfinite(held).any() else len(grid) // 2
+    return {"share": float(np.median(shares[ok])), "bursts": int(ok.sum()), "steady_hz": float(grid[k]),
+            "steady_share": float(held[k]), "steady_in": n_at}
+
+
+#: the reasons a window keeps where the declared PWM does not show: they do not rest on the spectrum's lines
+KEPT_WHERE_UNSEEN = ("coasting", "floor", "few_cycles", KEY_FOLD, "stall", "creep")
+
+
+def unseen_demoted(est, unseen: dict | None, pwm_hz: float):
+    """est (an estimate DataFrame) where the declared PWM does not show (pwm_unseen's result, not None): every
+    window whose key rests on the spectrum's lines (confident, or not for a line's sake: `multiple`, `damaged`,
+    `rival` ... read off lines that may be the PWM's) `pwm_unseen`, with the figures and what to declare; those
+    of KEPT_WHERE_UNSEEN as they are. Returns a copy where it changes."""
+    if unseen is None:
+        return est
+    est = est.copy()
+    rows = est.index[~est["key"].isin(KEPT_WHERE_UNSEEN).to_numpy()]
+    if not len(rows):
+        return est
+    est.loc[rows, "confident"] = False
+    est.loc[rows, "confidence"] = 0.0
+    est.loc[rows, "key"] = KEY_UNSEEN
+    est.loc[rows, "reason"] = (
+        f"{REASON_UNSEEN} ({rf.PWM_HZ}={pwm_hz:.7g}: its synchronous average holds {unseen['share']:.1%} of the "
+        f"current's variance in the median burst; the strongest line is steady in {unseen['steady_in']} of "
+        f"{unseen['bursts']} bursts, and a synchronous average at {unseen['steady_hz']:.6g} Hz holds "
+        f"{unseen['steady_share']:.0%}: where that is the PWM, or its alias, declare {rf.PWM_HZ}="
+        f"{unseen['steady_hz']:.6g} (an UNO's pins 5 and 6 run at 976.5625 Hz, 3, 9, 10 and 11 at 490.196); where "
+        f"the PWM's ripple is filtered out of the band, {rf.PWM_HZ}=0)")
+    return est
 
 
 def prepare(bursts, source: str = "bursts"):
