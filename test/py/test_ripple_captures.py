@@ -85,6 +85,13 @@ def test_a_pwm_declared_at_another_frequency_than_the_drives_is_named_with_the_o
     assert named == pytest.approx(true_hz, rel=2e-4), said
     _, _, right = _errors(g, b)
     assert "pwm_unseen" not in set(right["key"]) and right["confident"].mean() > 0.6
+    # --calibrate names no figure from lines that may be the PWM's
+    from hpddo.ripple import calibrate as rcal
+    duty, ref = g["log"]["duty"].to_numpy(float), g["log"]["rpm_ref"].to_numpy(float)
+    c = rcal.calibrate(wrong, duty, OPTS, ref)
+    assert c["ripples_per_rev"] == 0 and c["statement"].startswith("the ripples per revolution are not determined: "
+                                                                    + sync.REASON_UNSEEN), c["statement"]
+    assert rcal.calibrate(b, duty, OPTS, ref)["ripples_per_rev"] == BENCH.ripples_per_rev
 
 
 def test_mains_comb_never_gives_a_confident_window_on_its_lines():

@@ -9,6 +9,7 @@ import math
 import numpy as np
 
 from . import comb as rc
+from . import sync
 from .count import estimate
 from .line import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, spectrum
 from .options import Options
@@ -116,6 +117,15 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
     out["statement"] = (f"{head}: " + "; ".join(said) + f" (of {driven} driven windows"
                         + (f"; {damaged} with a damaged commutator's lines, left out of the comb" if damaged else "")
                         + ")")
+    # a declared PWM the data do not show: both sources read lines that may be the PWM's (sync.pwm_unseen)
+    unseen = sync.pwm_unseen(bursts)
+    if unseen is not None:
+        for name in ("comb", "encoder"):
+            if name in out:
+                out[name]["ripples_per_rev"] = 0
+        out["ripples_per_rev"] = 0
+        out["statement"] = (f"the ripples per revolution are not determined: {sync.unseen_reason(unseen, bursts.pwm_hz)}"
+                            f"; what the lines would say: {out['statement']}")
     return out
 
 

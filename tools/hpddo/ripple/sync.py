@@ -192,14 +192,20 @@ def unseen_demoted(est, unseen: dict | None, pwm_hz: float):
     est.loc[rows, "confident"] = False
     est.loc[rows, "confidence"] = 0.0
     est.loc[rows, "key"] = KEY_UNSEEN
-    est.loc[rows, "reason"] = (
+    est.loc[rows, "reason"] = unseen_reason(unseen, pwm_hz)
+    return est
+
+
+def unseen_reason(unseen: dict, pwm_hz: float) -> str:
+    """The reason of a window, or of a recording, where the declared PWM does not show (pwm_unseen's result):
+    the figures and what to declare."""
+    return (
         f"{REASON_UNSEEN} ({rf.PWM_HZ}={pwm_hz:.7g}: its synchronous average holds {unseen['share']:.1%} of the "
         f"current's variance in the median burst; the strongest line is steady in {unseen['steady_in']} of "
         f"{unseen['bursts']} bursts, and a synchronous average at {unseen['steady_hz']:.6g} Hz holds "
         f"{unseen['steady_share']:.0%}: where that is the PWM, or its alias, declare {rf.PWM_HZ}="
         f"{unseen['steady_hz']:.6g} (an UNO's pins 5 and 6 run at 976.5625 Hz, 3, 9, 10 and 11 at 490.196); where "
         f"the PWM's ripple is filtered out of the band, {rf.PWM_HZ}=0)")
-    return est
 
 
 def prepare(bursts, source: str = "bursts"):
