@@ -114,6 +114,35 @@ def test_too_few_rows_to_split_names_the_file(tmp_path, capsys):
     assert "tiny.csv" in err and "only 6 usable rows" in err
 
 
+def _dyno_48v(path, declared: str = ""):
+    """A dyno table of a 48 V motor (Ra 2 ohm, Ke 0.12 V s/rad): settled points at 47 V, beyond the board's
+    40 V full scale."""
+    lines = ["# condition=dyno47V", "# kind=steady_state"] + ([declared] if declared else []) + [
+        "t_s,duty,v_V,i_A,rpm_ref"]
+    for k in range(30):
+        i = 0.2 + 0.1 * k
+        lines.append(f"{k},1,47.0,{i:.3f},{(47.0 - 2.0 * i) / 0.12 * 60 / (2 * np.pi):.2f}")
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def test_a_bench_declares_its_channels_full_scale(tmp_path, capsys):
+    """The board reads 40 V; a 48 V motor's bench reads further with its own divider. Undeclared, its rows are
+    beyond the channel's full scale and the refusal says which key declares the bench's; declared
+    (v_full_scale_V), they are readings: diagnosed, and a model trained on them accepts as far on the board."""
+    log = _dyno_48v(tmp_path / "d.csv")
+    assert diagnose.main([str(log), "--ra-ohm", "2", "--out", str(tmp_path / "o1"), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    _no_traceback(err)
+    assert "v_V=47 is beyond the channel's full scale (|v_V| <= 40, the board's" in err and "# v_full_scale_V=" in err
+    log = _dyno_48v(tmp_path / "d.csv", "# v_full_scale_V=60")
+    assert diagnose.main([str(log), "--ra-ohm", "2", "--out", str(tmp_path / "o2"), "--quiet"]) == 0
+    capsys.readouterr()
+    from hpddo import pipeline
+    recs = dataset.load_recordings([log])
+    assert pipeline.limits_of(recs).v_max_V == 60.0 and pipeline.limits_of(recs).i_max_A == dataset.LIMITS.i_max_A
+
+
 def test_rows_beyond_full_scale_are_named_not_called_glitches(tmp_path, capsys):
     """A log whose current is beyond the channel's full scale on every row (a motor larger than the
     board reads, or a wrong scale) is refused for that, with the first row's line, not as a log

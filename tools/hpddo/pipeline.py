@@ -84,12 +84,23 @@ def data_hash(paths) -> str:
     return h.hexdigest()
 
 
-def model_data(m1, m2, res: Residual, dynamics: dict | None = None) -> ModelData:
+def limits_of(recs) -> Limits:
+    """The readings the model's observer accepts: the board's (schema.Limits), the channels' full scale the
+    widest any training recording declares (dataset.full_scale: a bench's own divider or shunt, whose board
+    reads as far)."""
+    if not recs:
+        return Limits()
+    scales = [dataset.full_scale(r.meta, r.source) for r in recs]
+    return dataclasses.replace(Limits(), v_max_V=max(s["v_V"] for s in scales),
+                               i_max_A=max(s["i_A"] for s in scales))
+
+
+def model_data(m1, m2, res: Residual, dynamics: dict | None = None, recs=()) -> ModelData:
     layers = [(w.T.astype(np.float32), b.astype(np.float32)) for w, b in zip(res.mlp.coefs_, res.mlp.intercepts_)]
     return ModelData(physics=m2, dynamics=dynamics, scaler_mean=res.scaler.mean_.astype(np.float32),
                      scaler_scale=res.scaler.scale_.astype(np.float32), layers=layers,
                      env_lo=res.env_lo.astype(np.float32), env_hi=res.env_hi.astype(np.float32),
-                     gate=res.gate, clamp_rpm=float(np.float32(res.clamp_rpm)), limits=Limits(), nameplate=m1)
+                     gate=res.gate, clamp_rpm=float(np.float32(res.clamp_rpm)), limits=limits_of(recs), nameplate=m1)
 
 
 def golden_samples(recs):
@@ -185,7 +196,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     fam, dyn = identify_dynamics(recs, m2) if cfg.dynamics else (None, None)
     progress.stage(f"training M3 {cfg.train.hidden}, {cfg.train.max_iter} epochs")
     res = residual_or_physics_only(recs, m2, cfg.train, dyn)  # physics only below one batch of rows
-    model = model_data(m1, m2, res, dyn)
+    model = model_data(m1, m2, res, dyn, recs)
 
     out = pathlib.Path(out_dir)
     with outdir.staged(out, "gen_weights") as stage:

@@ -116,13 +116,26 @@ def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:
     return bad, reasons
 
 
-def outside_limits(df: pd.DataFrame) -> dict:
-    """{row index: reason} of the rows whose v_V or i_A the observer would refuse (LIMITS)."""
+def full_scale(meta: dict, source) -> dict:
+    """{column: the largest |value| its channel reads}: the log's declared full scale (v_full_scale_V,
+    i_full_scale_A: a bench's own divider or shunt), else the board's (schema.Limits)."""
+    sensors = sensor_meta(meta, source)
+    return {col: sensors.get(key, default) for col, key, default in FULL_SCALE}
+
+
+def outside_limits(df: pd.DataFrame, meta: dict | None = None, source=None) -> dict:
+    """{row index: reason} of the rows whose v_V or i_A lies beyond its channel's full scale (full_scale: the
+    log's declared, else the board's, which the observer refuses beyond)."""
     out = {}
-    for col, lim in (("i_A", LIMITS.i_max_A), ("v_V", LIMITS.v_max_V)):
+    scale = full_scale(meta or {}, source)
+    for col, key, default in FULL_SCALE:
+        lim = scale[col]
         x = df[col].to_numpy(float)
         for k in np.flatnonzero(np.abs(x) > lim):
-            out[int(k)] = f"{col}={x[k]:.6g} is beyond the channel's full scale (|{col}| <= {lim:g}, schema.Limits)"
+            out[int(k)] = (f"{col}={x[k]:.6g} is beyond the channel's full scale (|{col}| <= {lim:g}, "
+                           + (f"the log's {key}" if lim != default or key in (meta or {}) else
+                              f"the board's, schema.Limits; a bench whose channel reads further declares "
+                              f"# {key}=...") + ")")
     return dict(sorted(out.items()))
 
 
@@ -158,7 +171,7 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
     if "seq" not in df:
         df["seq"] = np.arange(len(df), dtype=np.int64)
     removed, warnings = [], []
-    outside = outside_limits(df)
+    outside = outside_limits(df, meta, path)
     if outside and not glitch_filter:
         k, why = next(iter(outside.items()))
         raise benchlog.BenchLogError(path, int(lines[k]), f"{why}; the board marks such a sample invalid and no "
@@ -286,7 +299,13 @@ SENSOR_KEYS = {
     "i_lsb_A": "the step of the logged current (its resolution), A",
     "v_cal_rel": "the voltage channel's calibration tolerance, relative (0.01: its gain within 1 %)",
     "i_cal_rel": "the current channel's calibration tolerance, relative (0.02: its gain within 2 %)",
+    "v_full_scale_V": "the largest |v_V| the logged voltage channel reads, V (default: the board's, "
+                      f"schema.Limits, {LIMITS.v_max_V:g} V)",
+    "i_full_scale_A": "the largest |i_A| the logged current channel reads, A (default: the board's, "
+                      f"schema.Limits, {LIMITS.i_max_A:g} A)",
 }
+#: the channels' full scale: (column, its SENSOR_KEYS key, the board's default)
+FULL_SCALE = (("i_A", "i_full_scale_A", LIMITS.i_max_A), ("v_V", "v_full_scale_V", LIMITS.v_max_V))
 
 
 # A column a log may carry beside the format's (an extra column to the readers, docs/bench-log.md,
