@@ -1207,7 +1207,21 @@ def physics_selection(inp: Inputs, opt: Options, mf: ModelFit | None = None, bac
     sel = through_faulty_channels(inp, sel, mf.channels, mf.noise)
     sel = through_zero(inp, unphysical(inp, sel, mf.noise), mf.noise)
     sel = beyond_plausible(inp, sel, mf.noise)
-    return inp, mf, ident, sel, conf
+    return inp, mf, ident, reading_a_rival(sel), conf
+
+
+def reading_a_rival(sel: Selection) -> Selection:
+    """sel with the data-alone Ra's interval reaching over the reading (intervals.reaching_over) where the Ra
+    fit says a wrong Ra explains the rows as well as effects (RaFit.confounded_with): the models with the
+    reading and those effects explain them as well, so the reading is one of the values the data leave open
+    (an independent probe's 0.98 V brush drop, Ra given right at 3.51 ohm: "a wrong Ra (... the data alone put
+    Ra at 3.77 ohm (95 % interval 3.61..3.93)) explains as well as brush_drop ..."). Taken last: whether the
+    reading is a mismatch was decided on the models without those effects, and the verdict says both."""
+    ra = sel.ra_fit
+    if ra is None or not ra.confounded_with or ra.data is None or not ra.data.determined:
+        return sel
+    return dataclasses.replace(sel, ra_fit=dataclasses.replace(ra, data=intervals.reaching_over(ra.data,
+                                                                                              [ra.given_ohm])))
 
 
 def physics_verdict(inp: Inputs, opt: Options, mf: ModelFit, ident, sel: Selection, conf,

@@ -494,6 +494,29 @@ def spread_u(value: float, alternatives) -> float:
     return max(d, default=0.0) / math.sqrt(3.0)
 
 
+def reaching_over(iv: "Interval", values) -> "Interval":
+    """iv (with_budget's) reaching over further models' values of its quantity too, each with iv's own
+    expanded half-width (half_without_models), as with_budget's models do: lo and hi widened to hold them, the
+    model part of the budget with their spread added (in quadrature: spread_u of the values about iv.value).
+    iv as it is where it has no budget or no value is finite."""
+    vals = [float(v) for v in values if math.isfinite(v)]
+    if iv is None or not vals or iv.half_without_models is None or iv.lo is None or iv.hi is None:
+        return iv
+    half = iv.half_without_models
+    lo, hi = min(iv.lo, min(vals) - half), max(iv.hi, max(vals) + half)
+    if lo == iv.lo and hi == iv.hi:
+        return iv
+    budget = dict(iv.budget)
+    budget["model"] = math.hypot(budget.get("model", 0.0), spread_u(iv.value, vals))
+    out = dataclasses.replace(iv, lo=lo, hi=hi, budget=budget)
+    _, unit, scale, phys, _, _ = _describe(iv.field)
+    if iv.determined and (lo <= phys[0] or hi >= phys[1]):
+        out = dataclasses.replace(out, determined=False, why=(
+            f"with its whole uncertainty budget its interval {lo * scale:.3g}..{hi * scale:.3g} {unit} reaches "
+            f"outside the physical {_rng(phys, scale, unit)}"))
+    return out
+
+
 def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_sens: float = 0.0,
                 given: str = "", models=(), sensors: tuple | None = None) -> "Interval":
     """iv with its uncertainty budget and the expanded interval (above); ra_u: the standard
