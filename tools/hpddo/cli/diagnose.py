@@ -187,7 +187,7 @@ def next_steps(d, args) -> str:
     dynamics = dynamics_named(res)
     if dynamics:
         words.append("--dynamics")
-    ra_named = bool(ra.get("mismatch")) and not ra.get("confounded_with")
+    ra_named = bool(ra.get("mismatch")) and not ra.get("confounded_with") and not ra.get("residual_left")
     if ra_named:
         words += ["--ra-ohm", f"{ra['supported_ohm']:.4g}"]
     elif args.ra_ohm is not None:

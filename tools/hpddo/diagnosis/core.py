@@ -43,7 +43,7 @@ from .result import (  # noqa: F401 (HYBRID_ITER, as core.HYBRID_ITER)
     _described, _score)
 from .verdict import (  # noqa: F401 (DYNAMICS_R and NOTHING, as core.X)
     DYNAMICS_R, ENCODER_NEEDS, NOTHING, RATES, RESTS_ON, BEYOND, UNPHYSICAL, HOLDS_ZERO, HOLDS_ZERO_WITH_RA,
-    verdict)
+    structured_residual, verdict)
 
 MIN_HELD_OUT_ROWS = 8  # fewer held-out labelled rows cannot rank anything
 
@@ -1229,6 +1229,8 @@ def physics_verdict(inp: Inputs, opt: Options, mf: ModelFit, ident, sel: Selecti
     """physics' stages from the named effects to the verdict: (Residuals, verdict text).
     after_model: residuals'."""
     resid = residuals(inp, mf, sel, after_model)
+    if sel.ra_fit is not None:  # an effect the library lacks can stand in for a wrong Ra: no Ra to pass then
+        sel.ra_fit.residual_left = structured_residual(resid.after, mf.sigma2)
     # the dynamic family (issue 21, item 8): identified from the fast recordings, the observer on the
     # model under test's speed for the held-out figure
     progress.stage("the dynamic family, Ke and the channels' health")

@@ -274,6 +274,9 @@ class RaFit:
     alongside: list = dataclasses.field(default_factory=list)  # effects fitted with it beyond the named ones
     held: bool = False  # an alternative alongside holds the reading (core.robust_ra)
     current_fault: str = ""  # a faulty current channel (channels.check): Ra cannot be concluded, no instruction
+    # a structured residual the named effects leave (verdict.structured_residual): an effect missing from the library
+    # can stand in for a wrong Ra, so no instruction to pass another Ra (core.physics_verdict)
+    residual_left: bool = False
 
     @property
     def determined(self) -> bool:
@@ -317,6 +320,7 @@ class RaFit:
                 "supported_at_bound": bool(min(abs(self.supported_ohm - self.given_ohm / 3.0),
                                                abs(self.supported_ohm - 3.0 * self.given_ohm)) <= 1e-6 * self.given_ohm),
                 "data_alone": self.data.to_json() if self.data is not None else None,
+                "residual_left": bool(self.residual_left),
                 "statement": ra_statement(self)}
 
 

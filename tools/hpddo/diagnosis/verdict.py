@@ -33,6 +33,15 @@ ENCODER_NEEDS = ("speed from encoder periods (the time between counts) or counts
                  "with more counts per revolution")
 
 
+#: a data-alone Ra this many times the reading (or under its inverse) is a reading's mistake (its unit, the leads)
+#: even where the model misses something: within it, a missing effect can stand in for the difference (an independent
+#: probe's levelling saturation put Ra at 0.61 times a right reading)
+RA_GROSS = 2.0
+#: where a structured residual remains, what the Ra sentence says instead of an Ra to pass
+LEFT_NO_RA = ("; these recordings give no Ra to pass: a structured residual remains that no library effect "
+              "explains (below), and a missing effect can stand in for a wrong Ra")
+
+
 def ra_verdict(ra: RaFit | None) -> str:
     """The verdict's sentence on Ra; "" when the reading fits (or the data cannot tell). With a
     faulty current channel, no instruction on Ra: what the recordings seem to say of it rests on
@@ -61,6 +70,19 @@ def _ra_verdict(ra: RaFit | None) -> str:
         band = ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance * ra.given_ohm  # the whole interval beyond it
         if ra.reading_inside or not (d.lo > ra.given_ohm + band or d.hi < ra.given_ohm - band):
             return ""  # within what a reading's error and the held-out test leave open: the summary says it
+        gross = not (1.0 / RA_GROSS <= d.value / ra.given_ohm <= RA_GROSS)
+        if ra.residual_left and gross:  # a unit's or the leads' mistake, but no value to pass: the model misses something
+            return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}, "
+                    f"{d.value / ra.given_ohm:.3g} times the reading: check the reading (its unit, the leads' "
+                    f"resistance) and re-measure it{LEFT_NO_RA}; the effects were looked for with the reading and "
+                    "may be wrong.")
+        if ra.residual_left:  # the model the data-alone Ra rests on misses something: no claim on the reading
+            return (f"{_alone(ra)[0].upper()}{_alone(ra)[1:]}, {d.value / ra.given_ohm:.3g} times the Ra you gave "
+                    f"({ra.given_ohm:.3g} ohm), beyond what the error of a reading explains "
+                    f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); but a structured residual remains that no "
+                    "library effect explains (below), and a missing effect can stand in for a wrong Ra, so whether "
+                    "the reading is wrong cannot be told from these recordings: check the reading (its unit, the "
+                    "leads' resistance); the effects were looked for with it.")
         return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}, "
                 f"{d.value / ra.given_ohm:.3g} times the reading, beyond what the error of a reading explains "
                 f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); the effects were looked for with the "
@@ -86,7 +108,9 @@ def _ra_verdict(ra: RaFit | None) -> str:
             f"{ra.tolerance:.0%} tolerance as a prior they support "
             f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error "
             "proportional to the current; the effects were looked for with Ra at that value. hpddo train still "
-            f"uses the Ra given: re-measure Ra, or pass --ra-ohm {ra.supported_ohm:.3g} if you trust these recordings.")
+            "uses the Ra given: re-measure Ra" + (f"{LEFT_NO_RA}." if ra.residual_left else
+                                                  f", or pass --ra-ohm {ra.supported_ohm:.3g} if you trust these "
+                                                  "recordings."))
 
 # the note of an effect named only with a recording that disagrees with the rest (core.resting_on)
 RESTS_ON = "named only with the recording that disagrees with the rest"
@@ -207,11 +231,17 @@ def dynamics(before: ResidualAnalysis, dt_s: float, family=None) -> str:
 ABOVE_SHARE = 0.5
 
 
+def structured_residual(after: ResidualAnalysis, sigma2: float) -> bool:
+    """Whether the residual after the named effects is above the noise floor (ABOVE_SHARE) and not white:
+    something the library does not hold is at work."""
+    return after.excess > ABOVE_SHARE * sigma2 and after.whiteness["white"] is False
+
+
 def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
              floor: noise.NoiseFloor | None = None) -> str:
     after = resid.after
     above = after.excess > ABOVE_SHARE * sigma2
-    structured_left = above and after.whiteness["white"] is False
+    structured_left = structured_residual(after, sigma2)
     if not sel.missing:
         if above and sel.ra_fit is not None and sel.ra_fit.confounded_with and not sel.ra_fit.mismatch:
             # the sentence before this one names what explains it: a wrong Ra or the effects it cannot be told from
