@@ -1207,7 +1207,19 @@ def physics_selection(inp: Inputs, opt: Options, mf: ModelFit | None = None, bac
     sel = through_faulty_channels(inp, sel, mf.channels, mf.noise)
     sel = through_zero(inp, unphysical(inp, sel, mf.noise), mf.noise)
     sel = beyond_plausible(inp, sel, mf.noise)
-    return inp, mf, ident, reading_a_rival(sel), conf
+    return inp, mf, ident, reading_a_rival(sel), of_the_named(conf, sel)
+
+
+def of_the_named(conf: Confounding, sel: Selection) -> Confounding:
+    """conf without the groups and pairs none of whose effects is named any more, and the told-apart pairs whose
+    named effect is not (the stages after the selection left it out: through_zero, unphysical, ...): an
+    independent probe's table said "v_gain and magnet_thermal cannot be told apart" beside "v_gain was selected,
+    but ... not named", with neither on the bench."""
+    named = set(sel.missing) | {ranking.RA_MISMATCH}
+    return dataclasses.replace(
+        conf, groups=[g for g in conf.groups if named & set(g)],
+        pairs=[p for p in conf.pairs if named & set(p.effects)],
+        told_apart=[a for a in conf.told_apart if a["effects"][0] in named])
 
 
 def reading_a_rival(sel: Selection) -> Selection:
