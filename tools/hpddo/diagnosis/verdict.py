@@ -294,6 +294,10 @@ def _size(e: EffectResult) -> str:
     """A named effect's size in words: its value and interval, or that the recordings do not
     determine it (its coefficient's interval, intervals.Interval)."""
     iv = next((iv for iv in e.intervals if iv.field == fx.LIBRARY[e.effect].field), None)
+    eff = fx.LIBRARY[e.effect]
+    if iv is None and eff.material is not None:  # its coefficient held at its material's, not fitted
+        return (f"{e.shown}, held at its material's coefficient ({eff.material_name}), not fitted: these recordings "
+                "show the heating's effect, not its coefficient")
     if iv is None:
         return e.shown
     if not iv.determined:
