@@ -48,11 +48,15 @@ def run(paths):
 def test_a_coarse_encoder_sets_the_noise_floor_and_each_part_is_shown(coarse, tmp_path):
     plain, meta, cpr, (v_lsb, i_lsb) = coarse
     before = run([plain]).to_json()["noise_floor"]
-    assert before["sensors_rpm2"] == {} and not before["limited_by_sensors"]
+    # undeclared, the speed's step is read off its rows, as a rounding (q^2 / 12): the declared encoder's two
+    # window ends (q^2 / 6) below
+    q = 60.0 / (cpr / RATE_HZ)  # one count per window, RPM
+    assert list(before["sensors_rpm"]) == ["speed resolution (its step as the rows show it)"]
+    assert before["sensors_rpm"]["speed resolution (its step as the rows show it)"] == pytest.approx(
+        q / math.sqrt(12.0), rel=0.02)
     d = run([meta])
     res = d.to_json()
     nf = res["noise_floor"]
-    q = 60.0 / (cpr / RATE_HZ)  # one count per window, RPM
     assert nf["encoder_step_rpm"] == pytest.approx(q)
     assert nf["sensors_rpm"]["encoder quantisation"] == pytest.approx(q / math.sqrt(6.0))
     ke, ra = res["model"]["ke_vs_per_rad"], res["model"]["ra_ohm"]

@@ -185,6 +185,11 @@ def sensors(recs, rows, p) -> dict:
         q = step_rpm(rec, r)
         if q is not None:
             parts["encoder quantisation"] = q * q / 6.0
+        else:  # no encoder declared: the speed's step as its rows show it, rounded (an independent probe's
+            # undeclared 62.5 RPM a count read as a residual 263x the floor that no effect explains)
+            q = dataset.grid_step(r.ref[m])
+            if q > 0:
+                parts["speed resolution (its step as the rows show it)"] = q * q / 12.0
         per = rpm_per_reading(p)
         if meta.get("v_lsb_V"):
             parts["voltage resolution"] = (meta["v_lsb_V"] * per["v"]) ** 2 / 12.0

@@ -92,6 +92,23 @@ def quantum(x: np.ndarray) -> float:
     return float(np.percentile(d, 10)) if d.size >= 20 else 0.0
 
 
+GRID_TOL = 0.02    # a value within this share of a step from a whole number of steps lies on the step's grid
+GRID_SHARE = 0.9   # ... and this share of the values doing so makes a grid
+
+
+def grid_step(x: np.ndarray) -> float:
+    """The step of a channel whose readings lie on a grid (an encoder's counts over a window, a rounded
+    display): quantum(x) where GRID_SHARE of the finite values are whole numbers of it within GRID_TOL; 0
+    elsewhere (a continuous channel, or a table's settled points, whose smallest steps are between points)."""
+    x = np.asarray(x, float)
+    x = x[np.isfinite(x)]
+    q = quantum(x)
+    if not q > 0:
+        return 0.0
+    k = x / q
+    return q if float(np.mean(np.abs(k - np.round(k)) <= GRID_TOL)) >= GRID_SHARE else 0.0
+
+
 def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:
     """Boolean mask of glitch rows and the reason for each."""
     n = len(df)
