@@ -64,6 +64,9 @@ def test_wrong_ra_with_thermal_ra_hidden_still_names_thermal_ra(root, seed, fact
     assert res["ra_fit"]["supported_ohm"] == pytest.approx(RA_TRUE, rel=0.05), res["ra_fit"]
     # what it cannot tell from a wrong Ra (an offset, a gain) is said, not named
     assert res["missing_effects"] == ["thermal_ra"], (res["missing_effects"], res["verdict"])
+    # its coefficient held at copper's is said as held, not as a fitted result (verdict._size)
+    assert "thermal_ra (+0.393 %/K, held at its material's coefficient (copper), not fitted" in res["verdict"], \
+        res["verdict"]
 
 
 @pytest.mark.parametrize("seed", SEEDS)
