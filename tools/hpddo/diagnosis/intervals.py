@@ -508,12 +508,17 @@ def reaching_over(iv: "Interval", values) -> "Interval":
         return iv
     budget = dict(iv.budget)
     budget["model"] = math.hypot(budget.get("model", 0.0), spread_u(iv.value, vals))
-    out = dataclasses.replace(iv, lo=lo, hi=hi, budget=budget)
+    return _inside_physical(iv, dataclasses.replace(iv, lo=lo, hi=hi, budget=budget))
+
+
+def _inside_physical(iv: "Interval", out: "Interval") -> "Interval":
+    """out (iv with its whole budget) not determined where its interval reaches outside the quantity's physical
+    range, though iv was."""
     _, unit, scale, phys, _, _ = _describe(iv.field)
-    if iv.determined and (lo <= phys[0] or hi >= phys[1]):
-        out = dataclasses.replace(out, determined=False, why=(
-            f"with its whole uncertainty budget its interval {lo * scale:.3g}..{hi * scale:.3g} {unit} reaches "
-            f"outside the physical {_rng(phys, scale, unit)}"))
+    if iv.determined and (out.lo <= phys[0] or out.hi >= phys[1]):
+        return dataclasses.replace(out, determined=False, why=(
+            f"with its whole uncertainty budget its interval {out.lo * scale:.3g}..{out.hi * scale:.3g} {unit} "
+            f"reaches outside the physical {_rng(phys, scale, unit)}"))
     return out
 
 
@@ -550,9 +555,4 @@ def with_budget(iv: "Interval", cal: dict, birge: float, ra_u: float = 0.0, ra_s
     out = dataclasses.replace(iv, lo=lo, hi=hi, budget=budget, given=given,
                               half_without_ra=math.sqrt(t_stat ** 2 + K_OTHER ** 2 * (u_sens ** 2 + u_birge ** 2)),
                               half_without_models=half)
-    _, unit, scale, phys, _, _ = _describe(iv.field)
-    if iv.determined and (lo <= phys[0] or hi >= phys[1]):  # the whole budget leaves what is physical
-        out = dataclasses.replace(out, determined=False, why=(
-            f"with its whole uncertainty budget its interval {lo * scale:.3g}..{hi * scale:.3g} {unit} reaches "
-            f"outside the physical {_rng(phys, scale, unit)}"))
-    return out
+    return _inside_physical(iv, out)  # the whole budget may leave what is physical

@@ -16,7 +16,7 @@ import numpy as np
 
 from . import sync
 from .count import estimate
-from .line import identity_of_recording
+from .line import identity_of_recording, unseen_demoted
 from .options import Options
 from .spans import count_steady_spans
 from .speed_range import range_checks_figure, range_prior, within_range
@@ -39,7 +39,7 @@ def speed_of_bursts(bursts, opts: Options, rpm_range=None, source: str = "bursts
     # only where it is too narrow to hold a count under another figure (range_checks_figure)
     est = identity_of_recording(est, opts, scale_checked=range_checks_figure(rpm_range))
     est = within_range(est, rpm_range)
-    est = sync.unseen_demoted(est, sync.pwm_unseen(bursts), bursts.pwm_hz)
+    est = unseen_demoted(est, sync.pwm_unseen(bursts), bursts.pwm_hz)
     est.insert(1, "t_s", np.asarray(b.t_s, float))
     est["rpm_prior"] = np.nan if prior is None else prior
     est["stall"] = False

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 
+from . import sync
 from .options import REASONS, Options
 
 
@@ -280,3 +281,21 @@ def demoted(est, rows, key: str, reason):
     est.loc[idx, "key"] = key
     est.loc[idx, "reason"] = reason
     return est
+
+
+#: the reasons a window keeps where the declared PWM does not show (sync.pwm_unseen): they do not rest on the
+#: spectrum's lines
+KEPT_WHERE_UNSEEN = ("coasting", "floor", "few_cycles", sync.KEY_FOLD, "stall", "creep")
+
+
+def unseen_demoted(est, unseen: dict | None, pwm_hz: float):
+    """est (an estimate DataFrame) where the declared PWM does not show (sync.pwm_unseen's result, not None): every
+    window whose key rests on the spectrum's lines (confident, or not for a line's sake: `multiple`, `damaged`,
+    `rival` ... read off lines that may be the PWM's) `pwm_unseen` (demoted), with the figures and what to declare;
+    those of KEPT_WHERE_UNSEEN as they are. Returns a copy where it changes."""
+    if unseen is None:
+        return est
+    rows = ~est["key"].isin(KEPT_WHERE_UNSEEN).to_numpy()
+    if not rows.any():
+        return est
+    return demoted(est.copy(), rows, sync.KEY_UNSEEN, sync.unseen_reason(unseen, pwm_hz))

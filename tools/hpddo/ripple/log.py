@@ -11,7 +11,7 @@ import numpy as np
 from . import sync
 from .calibrate import calibrated, ke_evidence, ke_of, placed_only
 from .count import count_settled_tails, estimate
-from .line import figure_shown, identity_of_recording, prior_checks_figure
+from .line import figure_shown, identity_of_recording, prior_checks_figure, unseen_demoted
 from .options import Options
 from .prior import ModelPrior, m2_prior_rpm, m2_prior_sd_rpm, rpm_per_amp
 from .spans import count_steady_spans
@@ -131,7 +131,7 @@ def _count_log(path, df, meta: dict, opts: Options, ra_ohm, ke_vs_per_rad, burst
     ke_given = model is not None or bool(ke_vs_per_rad)
     est = identity_of_recording(est, opts, scale_checked=ke_given or speed_range.range_checks_figure(rpm_range))
     est = speed_range.within_range(est, rpm_range)
-    est = sync.unseen_demoted(est, sync.pwm_unseen(raw), raw.pwm_hz)
+    est = unseen_demoted(est, sync.pwm_unseen(raw), raw.pwm_hz)
     est.insert(1, "row", np.asarray(rows, np.int64))
     est["rpm_prior"] = np.nan if prior is None else prior
     return est, ke, ke_from, placed, prior_sd if ke_given and prior is not None else None

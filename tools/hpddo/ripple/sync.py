@@ -174,28 +174,6 @@ def pwm_unseen(bursts) -> dict | None:
             "steady_share": float(held[k]), "steady_in": n_at}
 
 
-#: the reasons a window keeps where the declared PWM does not show: they do not rest on the spectrum's lines
-KEPT_WHERE_UNSEEN = ("coasting", "floor", "few_cycles", KEY_FOLD, "stall", "creep")
-
-
-def unseen_demoted(est, unseen: dict | None, pwm_hz: float):
-    """est (an estimate DataFrame) where the declared PWM does not show (pwm_unseen's result, not None): every
-    window whose key rests on the spectrum's lines (confident, or not for a line's sake: `multiple`, `damaged`,
-    `rival` ... read off lines that may be the PWM's) `pwm_unseen`, with the figures and what to declare; those
-    of KEPT_WHERE_UNSEEN as they are. Returns a copy where it changes."""
-    if unseen is None:
-        return est
-    est = est.copy()
-    rows = est.index[~est["key"].isin(KEPT_WHERE_UNSEEN).to_numpy()]
-    if not len(rows):
-        return est
-    est.loc[rows, "confident"] = False
-    est.loc[rows, "confidence"] = 0.0
-    est.loc[rows, "key"] = KEY_UNSEEN
-    est.loc[rows, "reason"] = unseen_reason(unseen, pwm_hz)
-    return est
-
-
 def unseen_reason(unseen: dict, pwm_hz: float) -> str:
     """The reason of a window, or of a recording, where the declared PWM does not show (pwm_unseen's result):
     the figures and what to declare."""
