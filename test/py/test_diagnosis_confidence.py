@@ -439,3 +439,21 @@ def test_an_effect_demoted_for_its_range_is_shown_with_the_value_that_left_it(tm
     assert m, js["verdict"]
     value, lo, hi = (float(x) for x in m.groups())
     assert value <= lo or value >= hi
+
+
+def test_the_report_states_what_the_sensors_part_assumes(tmp_path):
+    """Every interval's sensors' part rests on the channels' calibration tolerances: the report says
+    which it took, and whether a log declared them or they are the defaults (with the header line that
+    declares one), so that an interval too narrow for a worse channel is not read as a fact."""
+    rng = np.random.default_rng(11)
+    plain = core.sensors_assumed(dataset.load_recordings([_log(tmp_path / "a.csv", _table(rng))]))
+    assert (plain["v_cal_rel"], plain["i_cal_rel"], plain["declared"]) == (0.01, 0.02, [])
+    assert "within 1 %" in plain["text"] and "within 2 %" in plain["text"]
+    assert "no log declares v_cal_rel or i_cal_rel" in plain["text"] and "# v_cal_rel=" in plain["text"]
+    logs = [_log(tmp_path / "b.csv", _table(rng), meta=("# v_cal_rel=0.03",)), _log(tmp_path / "c.csv", _table(rng))]
+    said = core.sensors_assumed(dataset.load_recordings(logs))
+    assert (said["v_cal_rel"], said["declared"]) == (0.03, ["v_cal_rel"])
+    assert "voltage channel's gain as right within 3 %" in said["text"]
+    assert "no log declares i_cal_rel" in said["text"] and "# i_cal_rel=" in said["text"]
+    d = core.diagnose([tmp_path / "a.csv"], core.Options(ra_ohm=RA, bootstrap=0, hybrid=False))
+    assert d.to_json()["sensors"] == plain

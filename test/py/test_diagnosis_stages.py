@@ -214,7 +214,7 @@ def test_stages_on_the_bundled_recordings(default_stages):
     assert isinstance(res, core.Diagnosis) and res.verdict == text
     js = res.to_json()
     assert list(js) == ["recordings", "warnings", "ra_ohm", "ra_source", "ra_fit", "model_effects", "model",
-                        "missing_effects", "confounded", "separating_recordings", "told_apart", "rest_offsets",
+                        "missing_effects", "confounded", "separating_recordings", "told_apart", "rest_offsets", "sensors",
                         "intervals", "not_identifiable", "ranking", "verdict", "noise_rpm", "noise_floor", "consistency", "ke_check", "channels", "dynamics", "rmse_rpm", "after_model",
                         "thermal_node", "residual_before", "residual_after",
                         "steps", "thresholds", "runtime_s"]

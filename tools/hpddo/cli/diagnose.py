@@ -111,6 +111,8 @@ def summary(d) -> str:
             break
     if res.get("noise_floor"):
         lines.append(f"  {res['noise_floor']['text']}")
+    if (res.get("sensors") or {}).get("text"):
+        lines.append(f"  sensors: {res['sensors']['text']}")
     for kind, what in (("steady_state", "steady-state tables, no lag, dI/dt or whiteness statistics"),
                        ("time_series", "read as time series")):
         recs = [r for r in res.get("recordings", []) if r.get("kind") == kind

@@ -1437,7 +1437,12 @@ def alternative_models(inp: Inputs, sel: Selection, names, hold=None) -> list:
 
 def calibration(recs) -> dict:
     """{v_cal_rel, i_cal_rel}: the channels' calibration tolerances, the largest any recording
-    declares, else intervals.DEFAULT_CAL_REL; and "declared": which were declared."""
+    declares, else intervals.DEFAULT_CAL_REL."""
+    return _calibration(recs)[0]
+
+
+def _calibration(recs) -> tuple:
+    """(calibration(recs), the keys some recording declares)."""
     out, declared = dict(intervals.DEFAULT_CAL_REL), []
     for key in intervals.DEFAULT_CAL_REL:
         vals = [dataset.sensor_meta(r.meta, r.source).get(key) for r in recs]
@@ -1445,7 +1450,14 @@ def calibration(recs) -> dict:
         if vals:
             out[key] = max(vals)
             declared.append(key)
-    return out
+    return out, declared
+
+
+def sensors_assumed(recs) -> dict:
+    """What every interval's sensors' part takes of the channels' calibration: {v_cal_rel,
+    i_cal_rel, declared: the keys some log declares, text: the sentence the report prints}."""
+    cal, declared = _calibration(recs)
+    return {**cal, "declared": declared, "text": intervals.sensors_text(cal, declared)}
 
 
 def channel_steps(inp: Inputs) -> list:
@@ -1515,6 +1527,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         missing_effects=sel.missing, confounded=conf.groups, separating_recordings=conf.pairs,
         told_apart=conf.told_apart,
         rest_offsets={k: {"value": v, "se": se, "rows": n} for k, (v, se, n) in fx.rest_offsets(rows).items()},
+        sensors=sensors_assumed(inp.recs),
         not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
         ranking=sel.ranking, verdict=text, intervals=sel.intervals, noise_rpm=float(np.sqrt(mf.sigma2)),
         noise_floor=mf.noise.to_json() if mf.noise is not None else {}, ke_check=mf.ke_check,

@@ -327,6 +327,23 @@ K_OTHER = 1.959963984540054
 # Calibration tolerances assumed where the log declares none: a voltage divider of 1 % resistors
 # read by a 10-bit ADC against its supply; a shunt and amplifier of 2 %.
 DEFAULT_CAL_REL = {"v_cal_rel": 0.01, "i_cal_rel": 0.02}
+# each tolerance key's channel, as the report names it
+CAL_CHANNEL = {"v_cal_rel": "voltage", "i_cal_rel": "current"}
+
+
+def sensors_text(cal: dict, declared) -> str:
+    """The sentence that says what every interval's sensors' part takes of the channels (cal: their
+    calibration tolerances; declared: the keys a log declares, the others are DEFAULT_CAL_REL's)."""
+    gains = " and ".join(f"the {CAL_CHANNEL[k]} channel's gain as right within {100 * cal[k]:.3g} %"
+                         for k in DEFAULT_CAL_REL)
+    assumed = [k for k in DEFAULT_CAL_REL if k not in declared]
+    said = ("declared in the logs" if not assumed else
+            f"assumed: no log declares {' or '.join(assumed)}; a channel calibrated worse leaves the intervals too "
+            f"narrow: declare its tolerance in the logs (# {assumed[0]}=0.03, docs/bench-log.md)")
+    return (f"every interval takes {gains} ({said}), and each channel's zero as right (an offset too small to move "
+            "the speed beyond the noise is not seen, though it can move Ra from the data alone)")
+
+
 # field -> {tolerance key: exponent}: the quantity scales as gain_v^a gain_i^b under the channels'
 # gains (Ke w = V - I Ra: Ke with the voltage's gain; Ra = V / I with the voltage's over the
 # current's; a brush drop is a voltage; an offset of the current and the saturation per ampere

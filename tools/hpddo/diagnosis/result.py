@@ -394,6 +394,8 @@ class Diagnosis:
     told_apart: list = dataclasses.field(default_factory=list)  # Confounding.told_apart
     # the channel offsets read at rest (effects.rest_offsets): {effect: {value, se, rows}}
     rest_offsets: dict = dataclasses.field(default_factory=dict)
+    # what the intervals' sensors' part takes of the channels' calibration (core.sensors_assumed)
+    sensors: dict = dataclasses.field(default_factory=dict)
     # every quantity the model with the missing effects fitted (Ke, coefficients, shapes, the
     # winding node), with its interval from the data or "not determined" (intervals.Interval)
     intervals: list = dataclasses.field(default_factory=list)
@@ -425,6 +427,7 @@ class Diagnosis:
             "separating_recordings": [s.to_json() for s in self.separating_recordings],
             "told_apart": self.told_apart,
             "rest_offsets": self.rest_offsets,
+            "sensors": self.sensors,
             "intervals": [iv.to_json() for iv in self.intervals],
             "not_identifiable": self.not_identifiable,
             "ranking": [e.to_json() for e in self.ranking],
