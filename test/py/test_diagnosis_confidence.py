@@ -98,6 +98,26 @@ def test_the_summary_does_not_contradict_the_verdict_on_ra_through_a_faulty_curr
     assert "does not lower the held-out error enough" in plain and "not concluded" not in plain
 
 
+def test_a_residual_left_makes_no_claim_on_the_reading():
+    """verdict._ra_verdict: a data-alone Ra beyond what a reading's error explains, 0.61 times the reading,
+    while a structured residual remains (RaFit.residual_left): a missing effect can stand in for a wrong Ra,
+    so whether the reading is wrong cannot be told, and no Ra is given to pass; beyond a factor of 2 the
+    reading is called wrong, still with no value to pass; with no residual left, the instruction."""
+    from hpddo.diagnosis.result import RaFit
+    from hpddo.diagnosis.verdict import _ra_verdict
+    from hpddo.model.interval import Interval
+
+    data = Interval("Ra", "ra_ohm", "ohm", 1.10, 0.93, 1.27, True)
+    ra = RaFit(given_ohm=1.80, supported_ohm=1.8, tolerance=0.05, sigmas=0.0, mismatch=False, data=data,
+               residual_left=True)
+    said = _ra_verdict(ra)
+    assert "whether the reading is wrong cannot be told" in said and "--ra-ohm" not in said, said
+    gross = _ra_verdict(dataclasses.replace(ra, given_ohm=4.5))
+    assert "is not what these recordings show" in gross and "--ra-ohm" not in gross, gross
+    plain = _ra_verdict(dataclasses.replace(ra, residual_left=False))
+    assert "pass --ra-ohm 1.1" in plain, plain
+
+
 def test_no_effect_is_named_through_a_channel_stuck_in_every_recording(tmp_path):
     """A brush drop of 0.8 V under a current channel stuck at 0.5 A in both recordings: the
     selection takes a constant drop, but an effect whose term reads the current
@@ -267,7 +287,7 @@ def test_the_adc_step_part_is_what_other_roundings_of_the_same_codes_would_move_
     inp = _inputs(tmp_path, 0.05, 0.001, rng)
     names = ["saturation"]
     p = fx.fit(inp.data.rows, inp.m2, names)
-    cal = {"v_cal_rel": 0.0, "i_cal_rel": 0.0}
+    cal = {"v_cal_rel": 0.0, "i_cal_rel": 0.0, "v_zero_V": 0.0, "i_zero_A": 0.0}
     parts = intervals.sensors_of_fit(inp.data, p, names, core.channel_steps(inp), cal)
     fields = ["ke_vs_per_rad", "ke_sat_per_A"]
     assert all(parts[f][0] == 0.0 and parts[f][1] > 0 for f in fields), parts
@@ -294,7 +314,7 @@ def test_the_calibration_part_is_each_gain_error_carried_through_the_fit(tmp_pat
     rng = np.random.default_rng(5)
     inp = _inputs(tmp_path, 0.001, 0.002, rng)
     p = fx.fit(inp.data.rows, inp.m2, [])
-    cal = {"v_cal_rel": 0.01, "i_cal_rel": 0.02}
+    cal = {"v_cal_rel": 0.01, "i_cal_rel": 0.02, "v_zero_V": 0.0, "i_zero_A": 0.0}
     u_cal, _ = intervals.sensors_of_fit(inp.data, p, [], core.channel_steps(inp), cal)["ke_vs_per_rad"]
     moves = []
     for attr, key in (("v", "v_cal_rel"), ("i", "i_cal_rel")):
@@ -442,18 +462,38 @@ def test_an_effect_demoted_for_its_range_is_shown_with_the_value_that_left_it(tm
 
 
 def test_the_report_states_what_the_sensors_part_assumes(tmp_path):
-    """Every interval's sensors' part rests on the channels' calibration tolerances: the report says
-    which it took, and whether a log declared them or they are the defaults (with the header line that
-    declares one), so that an interval too narrow for a worse channel is not read as a fact."""
+    """Every interval's sensors' part rests on the channels' calibration: the report says what it took of
+    their gains and zeros, and where each comes from (declared, the default with the header line that
+    declares it, two of the channel's steps, the rows at rest), so that an interval too narrow for a worse
+    channel is not read as a fact."""
     rng = np.random.default_rng(11)
-    plain = core.sensors_assumed(dataset.load_recordings([_log(tmp_path / "a.csv", _table(rng))]))
+    opt = core.Options(ra_ohm=RA)
+    plain = core.sensors_assumed(core.load([_log(tmp_path / "a.csv", _table(rng), meta=("# i_lsb_A=0.005",))], opt), [])
     assert (plain["v_cal_rel"], plain["i_cal_rel"], plain["declared"]) == (0.01, 0.02, [])
-    assert "within 1 %" in plain["text"] and "within 2 %" in plain["text"]
-    assert "no log declares v_cal_rel or i_cal_rel" in plain["text"] and "# v_cal_rel=" in plain["text"]
-    logs = [_log(tmp_path / "b.csv", _table(rng), meta=("# v_cal_rel=0.03",)), _log(tmp_path / "c.csv", _table(rng))]
-    said = core.sensors_assumed(dataset.load_recordings(logs))
-    assert (said["v_cal_rel"], said["declared"]) == (0.03, ["v_cal_rel"])
-    assert "voltage channel's gain as right within 3 %" in said["text"]
-    assert "no log declares i_cal_rel" in said["text"] and "# i_cal_rel=" in said["text"]
+    assert plain["i_zero_A"] == pytest.approx(2 * 0.005) and plain["zero_from"]["i_zero_A"] == "steps"
+    assert "within 1 %" in plain["text"] and "within 2 %" in plain["text"] and "current's zero within 0.01 A" in plain["text"]
+    assert "no log declares v_cal_rel, i_cal_rel, v_zero_V, i_zero_A" in plain["text"] and "# v_cal_rel=" in plain["text"]
+    logs = [_log(tmp_path / "b.csv", _table(rng), meta=("# v_cal_rel=0.03", "# i_zero_A=0.004")),
+            _log(tmp_path / "c.csv", _table(rng))]
+    said = core.sensors_assumed(core.load(logs, opt), [])
+    assert (said["v_cal_rel"], said["i_zero_A"], said["declared"]) == (0.03, 0.004, ["v_cal_rel", "i_zero_A"])
+    assert "voltage channel's gain as right within 3 %" in said["text"] and "current's zero within 0.004 A (declared)" in said["text"]
+    assert "no log declares i_cal_rel, v_zero_V:" in said["text"]
+    carried = core.sensors_assumed(core.load(logs, opt), ["current_offset"])
+    assert carried["i_zero_A"] == 0.0 and "the current's zero from the offset the model fits" in carried["text"]
     d = core.diagnose([tmp_path / "a.csv"], core.Options(ra_ohm=RA, bootstrap=0, hybrid=False))
     assert d.to_json()["sensors"] == plain
+
+
+def test_a_channels_zero_is_carried_through_the_fit(tmp_path):
+    """The zero's part of the sensors' budget against refits: a current zero error of z moves Ke (Ra held)
+    by what a refit of the rows read z higher gives, taken as a rectangular half-width (over sqrt 3)."""
+    rng = np.random.default_rng(5)
+    inp = _inputs(tmp_path, 0.001, 0.002, rng)
+    p = fx.fit(inp.data.rows, inp.m2, [])
+    z = 0.01
+    cal = {"v_cal_rel": 0.0, "i_cal_rel": 0.0, "v_zero_V": 0.0, "i_zero_A": z}
+    u, _ = intervals.sensors_of_fit(inp.data, p, [], core.channel_steps(inp), cal)["ke_vs_per_rad"]
+    rows = [dataclasses.replace(r, i=r.i + z) for r in inp.data.rows]
+    move = fx.fit(rows, inp.m2, [], start=p).ke_vs_per_rad - p.ke_vs_per_rad
+    assert move != 0 and math.isclose(u, abs(move) / math.sqrt(3), rel_tol=0.05), (u, move)

@@ -718,7 +718,7 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
             and (not fx.LIBRARY[c].thermal or c == fx.COPPER)]
     models = [a.value for a in alts if a is not None and a.determined] + list(rivals_ohm)
     # (an alternative's Ra is read for its value only: its rounding part is not taken)
-    cal = calibration(inp.recs)
+    cal = calibration_of(inp, names)
     sens = {} if alternative else intervals.sensors_of_fit(inp.data, p, names, channel_steps(inp), cal,
                                                      ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     return intervals.with_budget(iv, cal, birge(inp, p, sigma2) if sigma2 else 1.0,
@@ -1437,14 +1437,14 @@ def alternative_models(inp: Inputs, sel: Selection, names, hold=None) -> list:
 
 def calibration(recs) -> dict:
     """{v_cal_rel, i_cal_rel}: the channels' calibration tolerances, the largest any recording
-    declares, else intervals.DEFAULT_CAL_REL."""
+    declares, else intervals.DEFAULT_CAL_REL; and v_zero_V, i_zero_A where a recording declares them."""
     return _calibration(recs)[0]
 
 
 def _calibration(recs) -> tuple:
     """(calibration(recs), the keys some recording declares)."""
     out, declared = dict(intervals.DEFAULT_CAL_REL), []
-    for key in intervals.DEFAULT_CAL_REL:
+    for key in (*intervals.DEFAULT_CAL_REL, *intervals.ZERO_KEY.values()):
         vals = [dataset.sensor_meta(r.meta, r.source).get(key) for r in recs]
         vals = [v for v in vals if v is not None]
         if vals:
@@ -1453,11 +1453,42 @@ def _calibration(recs) -> tuple:
     return out, declared
 
 
-def sensors_assumed(recs) -> dict:
-    """What every interval's sensors' part takes of the channels' calibration: {v_cal_rel,
-    i_cal_rel, declared: the keys some log declares, text: the sentence the report prints}."""
-    cal, declared = _calibration(recs)
-    return {**cal, "declared": declared, "text": intervals.sensors_text(cal, declared)}
+def zeros(inp: Inputs, names) -> dict:
+    """{Rows attribute "v"/"i": (the half-width of the channel's zero error, where it comes from:
+    intervals.ZERO_FROM's key)} for a model of the effects names: none where it carries the channel's
+    offset effect; declared; read at rest (effects.rest_offsets: |offset| + 2 standard errors); else
+    intervals.zero_tolerance's steps."""
+    cal, declared = _calibration(inp.recs)
+    rest = fx.rest_offsets(inp.rows)
+    out = {}
+    for attr in intervals.ZERO_KEY:
+        effect = next(n for n, ch in fx.REST_READ.items() if ch == attr)
+        if effect in names:
+            out[attr] = (0.0, "model")
+        elif intervals.ZERO_KEY[attr] in declared:
+            out[attr] = (cal[intervals.ZERO_KEY[attr]], "declared")
+        elif effect in rest:
+            out[attr] = (abs(rest[effect][0]) + 2.0 * rest[effect][1], "rest")
+        else:
+            out[attr] = (intervals.zero_tolerance(attr, {}, channel_steps(inp)), "steps")
+    return out
+
+
+def calibration_of(inp: Inputs, names) -> dict:
+    """calibration(inp.recs) with each channel's zero for a model of names (zeros)."""
+    return {**calibration(inp.recs), **{intervals.ZERO_KEY[a]: z for a, (z, _) in zeros(inp, names).items()}}
+
+
+def sensors_assumed(inp: Inputs, names) -> dict:
+    """What every interval's sensors' part takes of the channels' calibration (a model of names): {v_cal_rel,
+    i_cal_rel, v_zero_V, i_zero_A, zero_from: {v_zero_V, i_zero_A: where each comes from}, declared: the
+    keys some log declares, text: the sentence the report prints}."""
+    cal, declared = _calibration(inp.recs)
+    zs = zeros(inp, names)
+    steps_declared = all(dataset.sensor_meta(r.meta, r.source).get(lsb) for r in inp.recs for _, _, lsb in channels.CHANNELS)
+    return {**cal, **{intervals.ZERO_KEY[a]: z for a, (z, _) in zs.items()},
+            "zero_from": {intervals.ZERO_KEY[a]: src for a, (_, src) in zs.items()}, "declared": declared,
+            "text": intervals.sensors_text(cal, declared, zs, steps_declared)}
 
 
 def channel_steps(inp: Inputs) -> list:
@@ -1493,7 +1524,7 @@ def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigm
     the model's held-out excess and the spread of each quantity over the alternatives (models the data did not
     exclude: alternative_models), and the doubt of the Ra held (ra_doubt_ohm, rectangular), through each quantity's
     sensitivity to Ra (a refit at Ra moved by RA_SENS_REL)."""
-    cal = calibration(inp.recs)
+    cal = calibration_of(inp, names)
     b = birge(inp, p, sigma2) if sigma2 else 1.0
     ra = inp.m2.ra_ohm
     sens = {}
@@ -1527,7 +1558,7 @@ def _result(inp, mf, ident, sel, conf, resid, text, hyb, hyb_warnings, opt, t0) 
         missing_effects=sel.missing, confounded=conf.groups, separating_recordings=conf.pairs,
         told_apart=conf.told_apart,
         rest_offsets={k: {"value": v, "se": se, "rows": n} for k, (v, se, n) in fx.rest_offsets(rows).items()},
-        sensors=sensors_assumed(inp.recs),
+        sensors=sensors_assumed(inp, list(inp.given) + list(sel.missing)),
         not_identifiable=[{"effect": c, "needs": fx.LIBRARY[c].excited_by, "se": ident[c].se} for c in unseen],
         ranking=sel.ranking, verdict=text, intervals=sel.intervals, noise_rpm=float(np.sqrt(mf.sigma2)),
         noise_floor=mf.noise.to_json() if mf.noise is not None else {}, ke_check=mf.ke_check,

@@ -329,19 +329,48 @@ K_OTHER = 1.959963984540054
 DEFAULT_CAL_REL = {"v_cal_rel": 0.01, "i_cal_rel": 0.02}
 # each tolerance key's channel, as the report names it
 CAL_CHANNEL = {"v_cal_rel": "voltage", "i_cal_rel": "current"}
+# A channel's zero: declared (v_zero_V, i_zero_A), else as the rows at rest read it (effects.rest_offsets: its
+# offset's size and twice its standard error), else within ZERO_STEPS of its steps (an AVR's ADC reads 0 V as a
+# code within about 2 of 0: its offset error; none where no step is known), rectangular; none for a channel
+# whose offset effect the model carries (fitted, or held at its reading at rest). One error for every recording
+# (one board), carried through the fit as the gains are.
+ZERO_KEY = {"v": "v_zero_V", "i": "i_zero_A"}
+ZERO_STEPS = 2.0
+ZERO_FROM = {"declared": "declared", "rest": "as the rows at rest read it", "steps": f"{ZERO_STEPS:g} of its steps",
+             "model": "its offset in the model"}
 
 
-def sensors_text(cal: dict, declared) -> str:
+def zero_tolerance(attr: str, cal: dict, steps: list) -> float:
+    """The half-width of the zero error of channel attr ("v", "i"): cal[ZERO_KEY] where given (declared,
+    or core.zeros'), else ZERO_STEPS of its largest step over the recordings (steps: per recording {attr:
+    step})."""
+    z = cal.get(ZERO_KEY[attr])
+    return float(z) if z is not None else ZERO_STEPS * max((st.get(attr, 0.0) for st in steps), default=0.0)
+
+
+def sensors_text(cal: dict, declared, zeros: dict, steps_declared: bool) -> str:
     """The sentence that says what every interval's sensors' part takes of the channels (cal: their
-    calibration tolerances; declared: the keys a log declares, the others are DEFAULT_CAL_REL's)."""
-    gains = " and ".join(f"the {CAL_CHANNEL[k]} channel's gain as right within {100 * cal[k]:.3g} %"
-                         for k in DEFAULT_CAL_REL)
-    assumed = [k for k in DEFAULT_CAL_REL if k not in declared]
-    said = ("declared in the logs" if not assumed else
-            f"assumed: no log declares {' or '.join(assumed)}; a channel calibrated worse leaves the intervals too "
-            f"narrow: declare its tolerance in the logs (# {assumed[0]}=0.03, docs/bench-log.md)")
-    return (f"every interval takes {gains} ({said}), and each channel's zero as right (an offset too small to move "
-            "the speed beyond the noise is not seen, though it can move Ra from the data alone)")
+    gains' tolerances; declared: the keys a log declares, the others are the defaults; zeros: {Rows
+    attribute: (its zero's half-width, where it comes from: a ZERO_FROM key)}; steps_declared: whether
+    the logs declare the channels' steps, else they are read off the rows)."""
+    gains = (f"the voltage channel's gain as right within {100 * cal['v_cal_rel']:.3g} % and the current's within "
+             f"{100 * cal['i_cal_rel']:.3g} %")
+    units = {"v": "V", "i": "A"}
+    parts = []
+    for a, (z, src) in zeros.items():
+        what = f"the {CAL_CHANNEL[CAL_KEY[a]]}'s zero"
+        if src == "model":
+            parts.append(f"{what} from the offset the model fits")
+            continue
+        how = ZERO_FROM[src] + (("; the steps " + ("as the logs declare them" if steps_declared else "as the rows show "
+                                                   "them")) if src == "steps" else "")
+        parts.append(f"{what} within {z:.3g} {units[a]} ({how})")
+    assumed = [k for k in DEFAULT_CAL_REL if k not in declared] + [
+        ZERO_KEY[a] for a, (_, src) in zeros.items() if src == "steps"]
+    said = ("" if not assumed else
+            f"; assumed where no log declares {', '.join(assumed)}: a channel worse than that leaves the intervals too "
+            f"narrow; declare its tolerances in the logs, # {assumed[0]}= (docs/bench-log.md)")
+    return f"every interval takes {gains}, and {' and '.join(parts)}{said}"
 
 
 # field -> {tolerance key: exponent}: the quantity scales as gain_v^a gain_i^b under the channels'
@@ -467,6 +496,7 @@ def sensors_u(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict, s
         dn = predict_all([dataclasses.replace(r, **{attr: getattr(r, attr) - h}) for r in rows], masks, p)
         sens = np.where(np.isfinite(up - dn), (up - dn) / (2 * h), 0.0)  # d speed / d reading, per row
         var_cal += (proj @ (sens * x) * cal.get(key, 0.0)) ** 2 / 3.0
+        var_cal += (proj @ sens * zero_tolerance(attr, cal, steps)) ** 2 / 3.0
         weight = np.zeros(len(sens))  # per row: the standard rounding error its point's mean carries
         step_of = np.zeros(len(sens))  # per row: its channel's step (0: unknown) and the code it reads
         code_of = np.zeros(len(sens))
