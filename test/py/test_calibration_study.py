@@ -16,7 +16,7 @@ pytestmark = pytest.mark.slow
 
 
 def test_a_bench_without_effects_through_perfect_channels_is_the_plain_law(tmp_path):
-    b = dataclasses.replace(cal.draw(3), effects={}, gains={k: 0.0 for k in cal.TOL}, v_lsb_V=1e-6, i_lsb_A=1e-6,
+    b = dataclasses.replace(cal.draw(3), effects={}, gains={k: 0.0 for k in cal.TOL}, zeros={}, v_lsb_V=1e-6, i_lsb_A=1e-6,
                             other_motor=False, table=True)
     for path in cal.write(b, tmp_path):
         df = pd.read_csv(path, comment="#")

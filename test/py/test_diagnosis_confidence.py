@@ -193,9 +193,11 @@ def _quantised(rows, step):
 def test_a_held_top_load_read_as_one_code_is_not_a_saturated_channel(tmp_path):
     """The top load draws 1 A at every duty, and a 20 mA channel with 2 mA of noise reads it as one
     code: the top of what it reads, over four commands, but no clip: the holds do not dither short
-    of it, and the balance V = Ke w + Ra I says those rows drew what they read. Clipped at 0.9 A
-    instead, the balance puts the top rows 0.1 A above their reading, five steps (declared) more than
-    the rows below: saturated, and left out."""
+    of it, and with two levels of the current below it the balance cannot show whether it bends there
+    (a motor's saturation bends it by as much as a clip), so it says nothing. With five loads, clipped
+    at 1.7 A, the balance V = Ke w + Ra I through the four below (its bend tested, none) puts the top
+    rows 0.1 A above their reading, five steps (declared) more than the rows below: saturated, and left
+    out."""
     rng = np.random.default_rng(3)
     lsb = ("# i_lsb_A=0.02",)
     held = _log(tmp_path / "held.csv", _quantised(_table(rng), 0.02), meta=lsb)
@@ -203,7 +205,7 @@ def test_a_held_top_load_read_as_one_code_is_not_a_saturated_channel(tmp_path):
     cut, said = channels.clipped(rec, fx.rows_of(rec))
     assert not cut.any() and not said
     assert not [f for f in channels.check([rec], [fx.rows_of(rec)], 1.0) if f.fault == "saturated"]
-    clip = _log(tmp_path / "clip.csv", _quantised(_table(rng, i_top=0.9), 0.02), meta=lsb)
+    clip = _log(tmp_path / "clip.csv", _quantised(_table(rng, loads=(0, 1, 2, 3, 4), i_top=1.7), 0.02), meta=lsb)
     rec = dataset.load_recordings([clip])[0]
     cut, said = channels.clipped(rec, fx.rows_of(rec))
     at_top = rec.df["i_A"].to_numpy() == rec.df["i_A"].max()
@@ -365,7 +367,10 @@ def test_no_channel_of_the_calibration_benches_is_called_saturated(tmp_path):
     """No bench of the calibration study clips a channel (its readings have no range): over its first
     200 benches none is called saturated. Benches 181 and 196 were: the tail of a held load's noise
     taken for the dither of a clip, and a balance bent by one current code's rounding per operating
-    point, extrapolated to the top load without that doubt (channels.Balance)."""
+    point, extrapolated to the top load without that doubt (channels.Balance). With the channels' zero
+    errors drawn (within two steps), bench 193 was: a straight balance through its two loads below the
+    top, extrapolated past a saturation's bend (channels.implied: no balance where the rows cannot show
+    its bend)."""
     import pathlib
     from hpddo.logs.errors import USER_ERRORS
     from hpddo.studies import calibration as cal
@@ -436,7 +441,7 @@ def test_two_effects_that_act_together_are_found_a_step_ahead(tmp_path):
     has are named, the drift and the magnets are not (their intervals hold zero)."""
     import pathlib
     from hpddo.studies import calibration as cal
-    b = cal.draw(23)
+    b = dataclasses.replace(cal.draw(23), zeros={})  # (its channels' zeros exact, as the bench was found)
     assert set(b.effects) == {"thermal_ra", "saturation"} and b.table
     paths = cal.write(b, pathlib.Path(tmp_path))
     js = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False)).to_json()
@@ -451,7 +456,7 @@ def test_an_effect_demoted_for_its_range_is_shown_with_the_value_that_left_it(tm
     import pathlib
     import re
     from hpddo.studies import calibration as cal
-    b = cal.draw(66)
+    b = dataclasses.replace(cal.draw(66), zeros={})  # (its channels' zeros exact, as the bench was found)
     paths = cal.write(b, pathlib.Path(tmp_path))
     js = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False)).to_json()
     m = re.search(r"thermal_ra was selected \([^)]*\), but with the other named effects fitted alongside it moves to "

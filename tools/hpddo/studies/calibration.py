@@ -72,6 +72,9 @@ class Bench:
     declared_kind: bool
     other_motor: bool
     i_max_A: float
+    # the channels' zero errors (intervals.ZERO_KEY's keys), V and A: within ZERO_STEPS of their steps, the
+    # tolerance the diagnosis takes where a log declares none (one board: the same in every recording)
+    zeros: dict = dataclasses.field(default_factory=dict)
 
     def to_json(self) -> dict:
         return dataclasses.asdict(self)
@@ -82,13 +85,18 @@ def draw(seed: int) -> Bench:
     rng = np.random.default_rng(seed)
     ra = float(math.exp(rng.uniform(math.log(1.0), math.log(12.0))))
     effects = {n: float(size(rng)) for n, (_, size) in EFFECTS.items() if rng.random() < EFFECT_SHARE}
-    return Bench(seed=seed, ra_ohm=ra, ke_vs_per_rad=float(rng.uniform(0.05, 0.6)), effects=effects,
+    b = Bench(seed=seed, ra_ohm=ra, ke_vs_per_rad=float(rng.uniform(0.05, 0.6)), effects=effects,
                  gains={k: float(rng.uniform(-t, t)) for k, t in TOL.items()}, declared_cal=bool(rng.random() < 0.5),
                  v_lsb_V=float(rng.choice([0.005, 0.015, 0.05])), i_lsb_A=float(rng.choice([0.001, 0.005, 0.02])),
                  ra_given_ohm=ra * float(rng.uniform(1 - RA_OFF_MAX, 1 + RA_OFF_MAX)), table=bool(rng.random() < 0.5),
                  rate_hz=float(rng.choice(RATES_HZ)), rows=int(rng.integers(20, 201)),
                  declared_kind=bool(rng.random() < 0.5), other_motor=bool(rng.random() < OTHER_MOTOR_SHARE),
                  i_max_A=float(min(0.45 * 12.0 / ra, 3.0)))
+    from ..diagnosis.intervals import ZERO_KEY, ZERO_STEPS
+    steps = {"v": b.v_lsb_V, "i": b.i_lsb_A}
+    zero_rng = np.random.default_rng(seed + 2_000_003)  # (drawn apart: every other draw as it was)
+    return dataclasses.replace(b, zeros={ZERO_KEY[a]: float(zero_rng.uniform(-ZERO_STEPS, ZERO_STEPS) * steps[a])
+                                         for a in ("v", "i")})
 
 
 # The winding above the case (thermal_ra benches): the library's first-order node, 1.5 K/W and 20 s.
@@ -155,8 +163,9 @@ def write(b: Bench, folder: pathlib.Path) -> list:
         dt = 1.0 if b.table else 1.0 / b.rate_hz
         # the library's law read backwards: the model's speed of the true readings is the shaft's
         rpm = ph.physics_rpm(dataclasses.replace(p, v_offset_V=0.0), v, i, np.zeros(n), winding(p, i, dt, t, b.table))
-        v_read = v * (1 + b.gains["v_cal_rel"]) + b.effects.get("v_offset", 0.0) + rng.normal(0, NOISE["v_V"], n)
-        i_read = i * (1 + b.gains["i_cal_rel"]) + rng.normal(0, NOISE["i_A"], n)
+        v_read = (v * (1 + b.gains["v_cal_rel"]) + b.effects.get("v_offset", 0.0) + b.zeros.get("v_zero_V", 0.0)
+                  + rng.normal(0, NOISE["v_V"], n))
+        i_read = i * (1 + b.gains["i_cal_rel"]) + b.zeros.get("i_zero_A", 0.0) + rng.normal(0, NOISE["i_A"], n)
         v_read = np.round(v_read / b.v_lsb_V) * b.v_lsb_V
         i_read = np.round(i_read / b.i_lsb_A) * b.i_lsb_A
         rpm_read = rpm + rng.normal(0, NOISE["rpm"], n)
@@ -213,9 +222,12 @@ def score(b: Bench, js: dict, paths, effect_rms: float | None = None) -> dict:
     ivs = {iv["field"]: iv for iv in js.get("intervals", [])}
     out["covered"]["Ke"] = _covers(ivs.get("ke_vs_per_rad"), b.ke_vs_per_rad)
     out["covered"]["Ra (data alone)"] = _covers((js.get("ra_fit") or {}).get("data_alone"), b.ra_ohm)
+    # a channel's zero error (within its tolerance) is an offset of that channel: a named offset's truth holds it
+    zeros = getattr(b, "zeros", None) or {}
+    zero_of = {"v_offset": zeros.get("v_zero_V", 0.0), "current_offset": zeros.get("i_zero_A", 0.0)}
     for e in js.get("missing_effects", []):
         if e in b.effects and math.isfinite(b.effects[e]):
-            out["covered"][f"{e} coefficient"] = _covers(ivs.get(fx.LIBRARY[e].field), b.effects[e])
+            out["covered"][f"{e} coefficient"] = _covers(ivs.get(fx.LIBRARY[e].field), b.effects[e] + zero_of.get(e, 0.0))
     # every channel has its gain error (within its tolerance): a named v_gain is present where its interval holds the
     # bench's drawn error (or it has none to compare), and absent where it does not (a +4.9 % gain named on a
     # channel within 1 % of true is a false statement, not the channel's error found)
@@ -227,11 +239,19 @@ def score(b: Bench, js: dict, paths, effect_rms: float | None = None) -> dict:
             present.add("v_gain")
     elif v_true is None:
         present.add("v_gain")
+    for e, z in zero_of.items():  # ... and a named offset the bench has no effect of is its channel's zero, where it holds it
+        if e in js.get("missing_effects", []) and e not in b.effects and z:
+            out["covered"][f"{e} coefficient"] = _covers(ivs.get(fx.LIBRARY[e].field), z)
+            if out["covered"][f"{e} coefficient"] is not False:
+                present.add(e)
     # a named effect that the verdict says cannot be told from others (a confounded group: "X and Y
     # cannot be told apart on these recordings") states one of the group: absent only when all are
+    # (a channel's zero error of a code or more is that channel's offset, there on the bench, named or not)
+    steps = {"v_offset": getattr(b, "v_lsb_V", 0.0), "current_offset": getattr(b, "i_lsb_A", 0.0)}
+    there = present | {e for e, z in zero_of.items() if steps[e] and abs(z) >= steps[e]}
     groups = [set(g) for g in js.get("confounded", [])]
     absent_named = [e for e in js.get("missing_effects", []) if e not in present
-                    and not any(e in g and g & present for g in groups)]
+                    and not any(e in g and g & there for g in groups)]
     verdict = js.get("verdict", "")
     floor = float(js.get("noise_rpm") or 0.0)
     ra_said = [float(x.rstrip(".")) for x in re.findall(r"--ra-ohm ([0-9.eE+-]+)", verdict)]
