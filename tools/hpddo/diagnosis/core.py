@@ -1453,13 +1453,13 @@ def _calibration(recs) -> tuple:
     return out, declared
 
 
-def zeros(inp: Inputs, names) -> dict:
+def zeros(inp: Inputs, names, cal: dict, declared) -> dict:
     """{Rows attribute "v"/"i": (the half-width of the channel's zero error, where it comes from:
-    intervals.ZERO_FROM's key)} for a model of the effects names: none where it carries the channel's
-    offset effect; declared; read at rest (effects.rest_offsets: |offset| + 2 standard errors); else
-    intervals.zero_tolerance's steps."""
-    cal, declared = _calibration(inp.recs)
+    intervals.ZERO_FROM's key)} for a model of the effects names (cal, declared: _calibration's): none
+    where it carries the channel's offset effect; declared; read at rest (effects.rest_offsets: |offset|
+    + 2 standard errors); else intervals.zero_tolerance's steps."""
     rest = fx.rest_offsets(inp.rows)
+    steps = None
     out = {}
     for attr in intervals.ZERO_KEY:
         effect = next(n for n, ch in fx.REST_READ.items() if ch == attr)
@@ -1470,13 +1470,15 @@ def zeros(inp: Inputs, names) -> dict:
         elif effect in rest:
             out[attr] = (abs(rest[effect][0]) + 2.0 * rest[effect][1], "rest")
         else:
-            out[attr] = (intervals.zero_tolerance(attr, {}, channel_steps(inp)), "steps")
+            steps = channel_steps(inp) if steps is None else steps
+            out[attr] = (intervals.zero_tolerance(attr, {}, steps), "steps")
     return out
 
 
 def calibration_of(inp: Inputs, names) -> dict:
     """calibration(inp.recs) with each channel's zero for a model of names (zeros)."""
-    return {**calibration(inp.recs), **{intervals.ZERO_KEY[a]: z for a, (z, _) in zeros(inp, names).items()}}
+    cal, declared = _calibration(inp.recs)
+    return {**cal, **{intervals.ZERO_KEY[a]: z for a, (z, _) in zeros(inp, names, cal, declared).items()}}
 
 
 def sensors_assumed(inp: Inputs, names) -> dict:
@@ -1484,7 +1486,7 @@ def sensors_assumed(inp: Inputs, names) -> dict:
     i_cal_rel, v_zero_V, i_zero_A, zero_from: {v_zero_V, i_zero_A: where each comes from}, declared: the
     keys some log declares, text: the sentence the report prints}."""
     cal, declared = _calibration(inp.recs)
-    zs = zeros(inp, names)
+    zs = zeros(inp, names, cal, declared)
     steps_declared = all(dataset.sensor_meta(r.meta, r.source).get(lsb) for r in inp.recs for _, _, lsb in channels.CHANNELS)
     return {**cal, **{intervals.ZERO_KEY[a]: z for a, (z, _) in zs.items()},
             "zero_from": {intervals.ZERO_KEY[a]: src for a, (_, src) in zs.items()}, "declared": declared,

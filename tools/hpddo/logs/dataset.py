@@ -316,10 +316,10 @@ SENSOR_KEYS = {
     "i_lsb_A": "the step of the logged current (its resolution), A",
     "v_cal_rel": "the voltage channel's calibration tolerance, relative (0.01: its gain within 1 %)",
     "i_cal_rel": "the current channel's calibration tolerance, relative (0.02: its gain within 2 %)",
-    "v_zero_V": "the voltage channel's zero tolerance, V: it reads within this of 0 V at 0 V (default: two of its "
-                "steps, an ADC's offset error)",
-    "i_zero_A": "the current channel's zero tolerance, A: it reads within this of 0 A at 0 A (default: two of its "
-                "steps, an ADC's offset error)",
+    "v_zero_V": "the voltage channel's zero tolerance, V: it reads within this of 0 V at 0 V (default: as the "
+                "rows at rest read it, else two of its steps, an ADC's offset error)",
+    "i_zero_A": "the current channel's zero tolerance, A: it reads within this of 0 A at 0 A (default: as the "
+                "rows at rest read it, else two of its steps, an ADC's offset error)",
     "v_full_scale_V": "the largest |v_V| the logged voltage channel reads, V (default: the board's, "
                       f"schema.Limits, {LIMITS.v_max_V:g} V)",
     "i_full_scale_A": "the largest |i_A| the logged current channel reads, A (default: the board's, "

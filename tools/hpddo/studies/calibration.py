@@ -86,12 +86,12 @@ def draw(seed: int) -> Bench:
     ra = float(math.exp(rng.uniform(math.log(1.0), math.log(12.0))))
     effects = {n: float(size(rng)) for n, (_, size) in EFFECTS.items() if rng.random() < EFFECT_SHARE}
     b = Bench(seed=seed, ra_ohm=ra, ke_vs_per_rad=float(rng.uniform(0.05, 0.6)), effects=effects,
-                 gains={k: float(rng.uniform(-t, t)) for k, t in TOL.items()}, declared_cal=bool(rng.random() < 0.5),
-                 v_lsb_V=float(rng.choice([0.005, 0.015, 0.05])), i_lsb_A=float(rng.choice([0.001, 0.005, 0.02])),
-                 ra_given_ohm=ra * float(rng.uniform(1 - RA_OFF_MAX, 1 + RA_OFF_MAX)), table=bool(rng.random() < 0.5),
-                 rate_hz=float(rng.choice(RATES_HZ)), rows=int(rng.integers(20, 201)),
-                 declared_kind=bool(rng.random() < 0.5), other_motor=bool(rng.random() < OTHER_MOTOR_SHARE),
-                 i_max_A=float(min(0.45 * 12.0 / ra, 3.0)))
+          gains={k: float(rng.uniform(-t, t)) for k, t in TOL.items()}, declared_cal=bool(rng.random() < 0.5),
+          v_lsb_V=float(rng.choice([0.005, 0.015, 0.05])), i_lsb_A=float(rng.choice([0.001, 0.005, 0.02])),
+          ra_given_ohm=ra * float(rng.uniform(1 - RA_OFF_MAX, 1 + RA_OFF_MAX)), table=bool(rng.random() < 0.5),
+          rate_hz=float(rng.choice(RATES_HZ)), rows=int(rng.integers(20, 201)),
+          declared_kind=bool(rng.random() < 0.5), other_motor=bool(rng.random() < OTHER_MOTOR_SHARE),
+          i_max_A=float(min(0.45 * 12.0 / ra, 3.0)))
     from ..diagnosis.intervals import ZERO_KEY, ZERO_STEPS
     steps = {"v": b.v_lsb_V, "i": b.i_lsb_A}
     zero_rng = np.random.default_rng(seed + 2_000_003)  # (drawn apart: every other draw as it was)
