@@ -215,6 +215,7 @@ def score(b: Bench, js: dict, paths, effect_rms: float | None = None) -> dict:
     coefficient}, NaN where the bench's law is not the library's form and no coefficient is
     comparable); effect_rms: the RMS RPM by which its effects move the plain model (default
     effect_rms_rpm(b))."""
+    from ..diagnosis.intervals import ZERO_KEY
     from ..diagnosis.verdict import NOTHING
     from ..model import effects as fx
 
@@ -224,7 +225,7 @@ def score(b: Bench, js: dict, paths, effect_rms: float | None = None) -> dict:
     out["covered"]["Ra (data alone)"] = _covers((js.get("ra_fit") or {}).get("data_alone"), b.ra_ohm)
     # a channel's zero error (within its tolerance) is an offset of that channel: a named offset's truth holds it
     zeros = getattr(b, "zeros", None) or {}
-    zero_of = {"v_offset": zeros.get("v_zero_V", 0.0), "current_offset": zeros.get("i_zero_A", 0.0)}
+    zero_of = {e: zeros.get(ZERO_KEY[ch], 0.0) for e, ch in fx.REST_READ.items()}
     for e in js.get("missing_effects", []):
         if e in b.effects and math.isfinite(b.effects[e]):
             out["covered"][f"{e} coefficient"] = _covers(ivs.get(fx.LIBRARY[e].field), b.effects[e] + zero_of.get(e, 0.0))
@@ -247,7 +248,7 @@ def score(b: Bench, js: dict, paths, effect_rms: float | None = None) -> dict:
     # a named effect that the verdict says cannot be told from others (a confounded group: "X and Y
     # cannot be told apart on these recordings") states one of the group: absent only when all are
     # (a channel's zero error of a code or more is that channel's offset, there on the bench, named or not)
-    steps = {"v_offset": getattr(b, "v_lsb_V", 0.0), "current_offset": getattr(b, "i_lsb_A", 0.0)}
+    steps = {e: getattr(b, {"v": "v_lsb_V", "i": "i_lsb_A"}[ch], 0.0) for e, ch in fx.REST_READ.items()}
     there = present | {e for e, z in zero_of.items() if steps[e] and abs(z) >= steps[e]}
     groups = [set(g) for g in js.get("confounded", [])]
     absent_named = [e for e in js.get("missing_effects", []) if e not in present
