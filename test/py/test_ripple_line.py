@@ -671,3 +671,110 @@ def test_a_damaged_commutators_other_windows_name_no_figure_from_their_combs(mon
     assert "damaged 20 of 28" in out["statement"], out["statement"]
     combs[n_three:n_three + n_bad] = [(None, None, 2.0, False)] * n_bad  # the same eight without the fault: named
     assert rcal.calibrate(b, np.full(len(key), 0.5), Options(6, 1.0, floor_A=0.1))["comb"]["ripples_per_rev"] == 3
+
+
+# --- an independent probe's cases (session 26): the encoder's line on a mains multiple, a rotation line the
+# strongest, a smeared commutation line, a comb that chance alone would hold, --calibrate on a capture
+
+def test_calibrate_with_an_encoder_takes_a_ripple_that_sits_on_an_undeclared_mains_multiple():
+    """An 18-ripple motor at 5000 RPM puts its ripple on 1500 Hz (30 x 50, 25 x 60): with no hum beside it the line
+    is the ripple, not the rotation line after it ("1 per revolution" before)."""
+    rot = 5000 / 60.0
+    lines = {1: 0.02, 2: 0.006, 18: 0.1}
+    b = bursts_of([motor_current(rot, lines, seed=k) for k in range(6)])
+    c = rcal.calibrate(b, np.full(6, 0.5), Options(9, 1.0), np.full(6, rot * 60))
+    assert c["encoder"]["ripples_per_rev"] == 18 and c["ripples_per_rev"] == 18, c["statement"]
+    assert "not the 9 given" in c["statement"]
+
+
+def test_calibrate_with_an_encoder_names_no_figure_where_a_rotation_line_is_the_strongest():
+    """A shorted coil's line at twice the rotation frequency six times the ripple's amplitude: no commutator ripples
+    twice a revolution, so no figure is named, and the statement says what the strongest line is."""
+    rot = 31.0
+    lines = {1: 0.01, 2: 0.3, 3: 0.01, 12: 0.05}
+    b = bursts_of([motor_current(rot * (1 + 0.03 * k), lines, seed=k) for k in range(6)])
+    c = rcal.calibrate(b, np.full(6, 0.5), Options(0, 1.0), np.array([rot * (1 + 0.03 * k) * 60 for k in range(6)]))
+    assert c["encoder"]["ripples_per_rev"] == 0 and c["ripples_per_rev"] != 2, c["statement"]
+    assert c["rotation_line_windows"] == 6
+    assert "a rotation line the strongest in 6" in c["statement"]
+
+
+def _chirp(rot0, rot1, lines, seconds=0.5, seed=0, noise=0.002):
+    """A current whose rotation frequency sweeps linearly from rot0 to rot1 Hz over the window, lines {multiple: A}."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * FS)) / FS
+    phase = 2 * math.pi * (rot0 * t + 0.5 * (rot1 - rot0) / seconds * t * t)
+    x = 1.0 + noise * rng.standard_normal(len(t))
+    for m, a in lines.items():
+        x = x + a * np.cos(m * phase + rng.uniform(0, 2 * math.pi))
+    return x
+
+
+def test_a_healthy_commutator_on_a_ramp_is_not_named_damaged():
+    """4 % of the speed inside the window spreads an 18-ripple line over many resolutions while the rotation lines
+    keep their peaks: the peaks do not compare (health NaN), and the window is not `damaged`."""
+    lines = {1: 0.004, 2: 0.002, 3: 0.003, 18: 0.08}
+    x = _chirp(40.0, 41.6, lines)
+    f, p = spectrum(x, FS)
+    assert rc.line_width_res(f, p, 18 * 40.8, 2.0) > rc.SMEAR_RES
+    r = one(x, 18, 40.8 * 60)
+    assert r["key"] != "damaged", r["reason"]
+    assert not np.isfinite(r["rot2_rel"])
+    steady = one(motor_current(40.8, lines), 18, 40.8 * 60)
+    assert steady["key"] == "" and np.isfinite(steady["rot2_rel"])
+    f, p = spectrum(motor_current(40.8, lines), FS)
+    assert rc.line_width_res(f, p, 18 * 40.8, 2.0) < rc.SMEAR_RES
+
+
+def test_a_comb_that_chance_would_hold_is_no_comb():
+    """Two weak lines that happen to lie near the 13th and 29th multiples of a narrow spacing under a line with no
+    rotation lines of its own: as likely by chance over the spacings tried, so no comb names '60 per revolution'."""
+    f_c = 705.2
+    g = f_c / 60
+    x = motor_current(1.0, {}, extra=((f_c, 0.1), (13 * g + 0.4, 0.01), (29 * g - 0.5, 0.01)))
+    f, p = spectrum(x, FS)
+    found = rc.lines(f, p, 4.0, FS / 4.4, 2.0, Options(14, 1.0).min_snr)
+    assert rc.rotation_comb(found, 2.0, Options(14, 1.0).min_snr) is None
+    # a healthy motor's comb of three rotation lines stands
+    x = motor_current(23.0, HEALTHY_6)
+    f, p = spectrum(x, FS)
+    found = rc.lines(f, p, 4.0, FS / 4.4, 2.0, Options(6, 1.0).min_snr)
+    assert rc.rotation_comb(found, 2.0, Options(6, 1.0).min_snr).multiple == 6
+
+
+def test_hpddo_ripple_calibrate_reads_a_capture_without_a_bench_log(tmp_path, capsys):
+    """--calibrate on a burst file hpddo import wrote (no bench log beside it): its combs, every window driven; an
+    AC-coupled capture has no mean current to hold to the floor. A traceback-free refusal before ("missing required
+    column(s) duty, v_V, i_A")."""
+    from hpddo.cli import main as cli_main
+
+    rot = 23.0
+    t = np.arange(int(4.0 * FS)) / FS
+    rng = np.random.default_rng(3)
+    x = 0.002 * rng.standard_normal(len(t))
+    for m, a in HEALTHY_6.items():
+        x = x + a * np.cos(2 * math.pi * m * rot * t + rng.uniform(0, 6.3))
+    src = tmp_path / "scope.csv"
+    src.write_text("t_s,i_A\n" + "".join(f"{ti:.8f},{xi:.6f}\n" for ti, xi in zip(t, x)))
+    cap = tmp_path / "run1.ripple.csv"
+    assert cli_main(["import", str(src), "--a-per-unit", "1", "--pwm-hz", "0", "--coupling", "ac", "--out", str(cap),
+                     "--quiet"]) == 0
+    capsys.readouterr()
+    assert cli_main(["ripple", str(cap), "--calibrate", "--gear-ratio", "1", "--ripples-per-rev", "12",
+                     "--out", str(tmp_path / "c"), "--quiet"]) == 0
+    said = capsys.readouterr().out
+    assert "run1: the ripple is 6 per revolution" in said and "not the 12 given" in said
+    summary = json.loads((tmp_path / "c" / "summary.json").read_text())
+    assert summary["run1"]["ripples_per_rev"] == 6 and summary["run1"]["driven_windows"] == 8
+
+
+def test_a_comb_whose_finer_spacing_was_left_out_as_a_mains_multiple_names_no_other_figure():
+    """A 14-ripple motor at 59.17 Hz: its once-per-revolution line lies within the tolerance of 60 Hz and is left out
+    of the comb, whose even lines alone made "the ripple is 7 per revolution, not the 14 given"."""
+    rot = 59.17
+    x = motor_current(rot, {1: 0.01, 2: 0.006, 4: 0.005, 6: 0.004, 14: 0.08, 28: 0.02})
+    r = one(x, 14, rot * 60)
+    assert r["key"] != "multiple", r["reason"]
+    # the same motor off the mains' multiples: its comb, at 14
+    r = one(motor_current(57.3, {1: 0.01, 2: 0.006, 4: 0.005, 6: 0.004, 14: 0.08, 28: 0.02}), 14, 57.3 * 60)
+    assert r["key"] == "" and r["multiple"] == 14, r["reason"]

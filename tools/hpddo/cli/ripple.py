@@ -386,6 +386,13 @@ def _calibrate(args, opts) -> int:
     with outdir.staged(args.out, TOOL) as stage:
         for k, path in enumerate(args.logs):
             progress.stage(f"{path}: finding the ripples per revolution ({k + 1}/{len(args.logs)})")
+            if path.name.endswith(rf.SUFFIX):  # a current-only capture (hpddo import): its combs alone, every window
+                b = rf.read(path)  # taken as driven, no encoder
+                name = b.meta.get("condition") or path.name[:-len(rf.SUFFIX)]
+                c = rcal.calibrate(b, np.ones(len(b)), opts, None)
+                summary[name] = c
+                print(f"{name}: {c['statement']}")
+                continue
             log = benchlog.read_log(path)
             bpath = rf.path_for(path)
             if not bpath.exists():

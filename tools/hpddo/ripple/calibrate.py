@@ -31,12 +31,23 @@ def window_comb(bursts, k: int, opts):
     bad = False
     if comb is not None:
         p_max = maximum_filter1d(p, size=max(1, int(round(res / (f[1] - f[0])))) | 1)
-        bad = rc.damaged(*rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res))
+        bad = rc.damaged(*rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p))
     return found, comb, res, bad
 
 
 #: calibrate with an encoder: a window's line within this share of a whole number of ripples per revolution
 CALIBRATE_WHOLE = 0.03
+
+
+def encoder_lines(found, bursts, res: float) -> list:
+    """The lines of a window (strongest first) that may be the commutation line against an encoder: not on a
+    multiple of a declared PWM, nor on a multiple of 50 or 60 Hz that the window bears out as hum (comb.hum_shows;
+    a declared mains' are out already, comb.without_fixed). A line on a mains multiple that nothing shows to be hum is
+    kept: a healthy 18-ripple motor at 5000 RPM puts its ripple on 1500 Hz, and the next line, the rotation's own,
+    named "1 per revolution"."""
+    fixed = rc.fixed_hz_of(bursts)
+    return [ln for ln in found if not rc.near_fixed(ln.hz, fixed, rc.fixed_tol_hz(ln.hz, res))
+            and not (rc.on_mains(ln.hz, res) and rc.hum_shows(found, ln, res))]
 
 
 def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
@@ -56,13 +67,16 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
     import collections
 
     n = len(bursts)
+    raw = bursts
+    bursts = sync.prepare(bursts)  # as the count sees them: a free-running PWM's synchronous average off
     duty = np.full(n, np.nan) if duty is None else np.asarray(duty, float)
     ref = None if rpm_ref is None else np.asarray(rpm_ref, float)
     comb_m, enc_m = collections.Counter(), collections.Counter()
-    driven = damaged = 0
+    driven = damaged = rotation = 0
     for k in range(n):
         x = bursts.current_A(k)
-        if len(x) < 16 or not (np.isfinite(duty[k]) and duty[k] > 0) or x.mean() < opts.floor_A:
+        if len(x) < 16 or bursts.refusal(k) or not (np.isfinite(duty[k]) and duty[k] > 0) \
+                or (sync.holds_mean(bursts) and abs(x.mean()) < opts.floor_A):  # an AC-coupled capture holds no mean
             continue
         driven += 1
         found, comb, res, bad = window_comb(bursts, k, opts)
@@ -71,14 +85,15 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
         elif comb is not None:
             comb_m[comb.multiple] += 1
         if ref is not None and np.isfinite(ref[k]) and ref[k] > 0:
-            fixed = tuple(rc.MAINS_HZ) + rc.fixed_hz_of(bursts)
-            strong = [ln for ln in found if not rc.near_fixed(ln.hz, fixed, rc.fixed_tol_hz(ln.hz, res))]
+            strong = encoder_lines(found, bursts, res)
             if strong:
                 per_rev = strong[0].hz / (ref[k] * opts.gear_ratio / 60.0)
                 whole = round(per_rev)
-                if whole >= 1 and abs(per_rev / whole - 1.0) <= CALIBRATE_WHOLE:
+                if 1 <= whole < rc.COMMUTATION_MIN_MULTIPLE and abs(per_rev / whole - 1.0) <= CALIBRATE_WHOLE:
+                    rotation += 1  # a rotation line is the strongest: no commutator ripples so few times a turn
+                elif whole >= 1 and abs(per_rev / whole - 1.0) <= CALIBRATE_WHOLE:
                     enc_m[int(whole)] += 1
-    out = {"driven_windows": driven, "damaged_windows": damaged}
+    out = {"driven_windows": driven, "damaged_windows": damaged, "rotation_line_windows": rotation}
     said = []
     for name, counts, how in (("comb", comb_m, "the comb of rotation lines"),
                               ("encoder", enc_m, "the strongest line against the encoder's speed")):
@@ -86,22 +101,28 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
             continue
         used = int(sum(counts.values()))
         top, top_n = counts.most_common(1)[0] if counts else (0, 0)
-        # the damaged windows among the comb's: agreeing with no figure (line.damaged_windows)
-        among = used + (damaged if name == "comb" else 0)
+        # the damaged windows among the comb's, and the encoder's windows whose strongest line is a rotation line:
+        # agreeing with no figure (line.damaged_windows)
+        other = damaged if name == "comb" else rotation
+        other_text = ((f"damaged {damaged}" if name == "comb" else
+                       f"a rotation line the strongest in {rotation} (once or twice a revolution: an asymmetry "
+                       "stronger than the ripple, a damaged commutator, a shorted coil or a load that pulses with the "
+                       "shaft)") if other else "")
+        among = used + other
         named = int(top) if used >= CALIBRATE_MIN_WINDOWS and top_n >= CALIBRATE_AGREE * among else 0
         out[name] = {"windows": used, "counts": {str(m): int(c) for m, c in sorted(counts.items())},
                      "ripples_per_rev": named}
         if not used:
-            said.append(f"{how}: no window shows it")
+            said.append(f"{how}: no window shows it" + (f" ({other_text} of {among})" if other else ""))
         elif used < CALIBRATE_MIN_WINDOWS:
             said.append(f"{how}: too few windows (" + ", ".join(f"{m} in {c}" for m, c in counts.most_common(4))
-                        + f" of {used}, under {CALIBRATE_MIN_WINDOWS})")
+                        + f" of {used}, under {CALIBRATE_MIN_WINDOWS}" + (f"; {other_text}" if other else "") + ")")
         elif named:
             said.append(f"{how}: {named} ripples per revolution ({top_n} of {among} windows)")
         else:
             said.append(f"{how}: the windows do not agree (" + ", ".join(
-                f"{m} in {c}" for m, c in counts.most_common(4))
-                + (f", damaged {among - used}" if among > used else "") + f" of {among})")
+                f"{m} in {c}" for m, c in counts.most_common(4)) + (f", {other_text}" if other else "")
+                + f" of {among})")
     # the encoder measures the revolutions; the comb infers them: where both name a number and they differ,
     # the encoder's is named and the disagreement said
     names = {out[s]["ripples_per_rev"] for s in ("comb", "encoder") if s in out and out[s]["ripples_per_rev"]}
@@ -118,7 +139,7 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
                         + (f"; {damaged} with a damaged commutator's lines, left out of the comb" if damaged else "")
                         + ")")
     # a declared PWM the data do not show: both sources read lines that may be the PWM's (sync.pwm_unseen)
-    unseen = sync.pwm_unseen(bursts)
+    unseen = sync.pwm_unseen(raw)
     if unseen is not None:
         for name in ("comb", "encoder"):
             if name in out:

@@ -211,7 +211,30 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
         return None
     anchors = _anchors(use, res_hz) if pwm is None else use[:1]
     combs = [cb for cb in (_comb_about(c, use, res_hz, min_snr, pwm) for c in anchors) if cb is not None]
-    return max(combs, key=lambda sc: sc[0])[1] if combs else None
+    if not combs:
+        return None
+    comb = max(combs, key=lambda sc: sc[0])[1]
+    left = [ln for ln in found if ln not in use and ln.snr >= COMB_LINE_SNR * min_snr]
+    return None if _finer_left_out(comb, left, res_hz) else comb
+
+
+#: the finer spacings (f_rot / d) whose lines rotation_comb's mains rule may have left out (_finer_left_out)
+FINER_DIVISORS = (2, 3)
+
+
+def _finer_left_out(comb: Comb, left, res_hz: float) -> bool:
+    """Whether a line left out of the comb (on a multiple of 50 or 60 Hz, or a PWM sideband) lies where a comb of a
+    finer spacing f_rot / d would put its lines under the comb's first (k f_rot / d, k < d): the rotation may be
+    that finer spacing, its own line left out, and the comb cannot say how many ripples a revolution holds. An independent probe's 14-ripple motor at 59.17 Hz had its once-per-revolution
+    line left out as a 60 Hz multiple, and the comb of its even lines said "the ripple is 7 per revolution, not the
+    14 given" in 5 windows."""
+    for d in FINER_DIVISORS:
+        g = comb.rot_hz / d
+        for ln in left:
+            k = int(round(ln.hz / g))
+            if 1 <= k < d and abs(ln.hz - k * g) <= tol_hz(ln.hz, res_hz):
+                return True
+    return False
 
 
 #: the lines tried as the commutation line (rotation_comb), strongest first
@@ -313,6 +336,8 @@ def _comb_about(c, use, res_hz: float, min_snr: float, pwm):
     if not scored:
         return None
     _, m, on = _widest_explaining(scored, c.hz, res_hz)
+    if _by_chance(on, m, c.hz, res_hz):
+        return None
     # f_rot refined: the least-squares spacing of the lines on the comb, weighted by their power
     return _surprise(on, m, res_hz), Comb(_spacing(on, [ln.power for ln, _ in on]), tuple(on), c, int(m))
 
@@ -320,6 +345,27 @@ def _comb_about(c, use, res_hz: float, min_snr: float, pwm):
 #: a narrower spacing takes a wider one's place (_widest_explaining) only where the lines it adds under the commutation
 #: line would lie that near its multiples by chance with at most this probability
 COMB_CHANCE = 0.1
+
+
+def _chance(lines_k, g: float, res_hz: float) -> float:
+    """The chance that lines (Line, multiple) lie within tol_hz of a multiple of the spacing g wherever they sit:
+    each 2 tol_hz / g."""
+    chance = 1.0
+    for ln, _ in lines_k:
+        chance *= min(1.0, 2.0 * tol_hz(ln.hz, res_hz) / g)
+    return chance
+
+
+def _by_chance(on, m: int, comm_hz: float, res_hz: float) -> bool:
+    """Whether a comb's lines under its commutation line (not its harmonics) lie near the multiples of its spacing
+    comm_hz / m as any lines would by chance, over every spacing tried up to it (from COMMUTATION_MIN_MULTIPLE on):
+    the chance of one of them holding its lines (_chance, times the spacings tried) over COMB_CHANCE. The widest
+    spacing that holds COMB_MIN_LINES lines is otherwise taken whatever its chance: an independent probe's
+    free-running capture, its rotation lines on the 50 Hz mains' multiples and left out, took two of the PWM's
+    intermodulation lines for the 13th and 29th multiples of 11.75 Hz ("the ripple is 60 per revolution, not the
+    14 given", chance 0.08 each time, 58 spacings tried), and such windows outvoted those whose comb showed 14."""
+    under = [(ln, k) for ln, k in on if k < m]
+    return _chance(under, comm_hz / m, res_hz) * (m - COMMUTATION_MIN_MULTIPLE + 1) > COMB_CHANCE
 
 
 def _widest_explaining(scored, comm_hz: float, res_hz: float):
@@ -338,11 +384,8 @@ def _widest_explaining(scored, comm_hz: float, res_hz: float):
         if best[0] >= COMB_EXPLAINED * cand[0]:
             continue
         held = {id(ln) for ln, _ in best[2]}
-        g = comm_hz / cand[1]
-        chance = 1.0
-        for ln, k in cand[2]:
-            if k < cand[1] and id(ln) not in held:
-                chance *= min(1.0, 2.0 * tol_hz(ln.hz, res_hz) / g)
+        chance = _chance([(ln, k) for ln, k in cand[2] if k < cand[1] and id(ln) not in held], comm_hz / cand[1],
+                         res_hz)
         if chance <= COMB_CHANCE:
             best = cand
     return best
@@ -557,15 +600,40 @@ def hidden_line_mirrors(found, f_hz: float, res_hz: float, pwm, in_spread, share
     return sorted(out, key=lambda gl: -gl[1].power)
 
 
-def health(f, p_max, rot_hz: float, comm_hz: float, res_hz: float) -> tuple:
+#: a line whose power stays within 6 dB of its peak over more than this many resolutions is smeared: the speed
+#: moved inside the window (a steady line under the Hann window spans 2; an independent probe's ramp, 4 % of the
+#: speed in a window, 22-28)
+SMEAR_RES = 3.0
+
+
+def line_width_res(f, p, hz: float, res_hz: float) -> float:
+    """The width, in resolutions, over which the line nearest hz (its peak within a resolution, p the spectrum's
+    power on the grid f) stays at a quarter of its peak power or more."""
+    step = float(f[1] - f[0])
+    w = max(1, int(round(res_hz / step)))
+    j = int(np.argmin(np.abs(f - hz)))
+    lo, hi = max(0, j - w), min(len(p), j + w + 1)
+    j = lo + int(np.argmax(p[lo:hi]))
+    above = p >= p[j] / 4.0
+    left = j - (np.argmin(above[j::-1]) if not above[j::-1].all() else j)
+    right = j + (np.argmin(above[j:]) if not above[j:].all() else len(p) - 1 - j)
+    return float(f[min(right, len(p) - 1)] - f[max(left, 0)]) / res_hz
+
+
+def health(f, p_max, rot_hz: float, comm_hz: float, res_hz: float, p=None) -> tuple:
     """The commutator's health lines of one window: the power at once and twice the rotation
     frequency (the strongest bin within half a resolution, p_max) relative to the commutation
     line's. An eccentric rotor and a worn or damaged bar (one segment with a raised contact
     resistance, a shorted coil) raise them; a healthy commutator's are small. NaN where the
     rotation frequency is under 2 resolutions (res_hz): its line is not resolved from the
-    spectrum's lowest bins."""
+    spectrum's lowest bins; and, given the spectrum p, where the commutation line is smeared (SMEAR_RES): the
+    speed moved inside the window, which spreads the commutation line's power N times as wide as the rotation
+    line's, and their peaks do not compare (an independent probe's healthy 18-ripple motor on a ramp, 4 % of its
+    speed in each window, was named damaged in 9 of 16 windows)."""
     pc = float(np.interp(comm_hz, f, p_max))
     if not (pc > 0 and rot_hz >= 2.0 * res_hz):
+        return math.nan, math.nan
+    if p is not None and line_width_res(f, p, comm_hz, res_hz) > SMEAR_RES:
         return math.nan, math.nan
     return (float(np.interp(rot_hz, f, p_max)) / pc, float(np.interp(2 * rot_hz, f, p_max)) / pc)
 

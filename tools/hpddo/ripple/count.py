@@ -248,7 +248,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), pwm)
     if comb is not None:  # the line's identity from the data: the comb of rotation lines
         out.update(rot_hz=comb.rot_hz, multiple=comb.multiple)
-        out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res)
+        out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p)
         if rc.damaged(out["rot1_rel"], out["rot2_rel"]):
             out.update(key="damaged", f_Hz=comb.commutation.hz, snr=comb.commutation.snr,
                        reason=rc.damaged_reason(REASONS["damaged"], out["rot1_rel"], out["rot2_rel"], comb.rot_hz))
@@ -357,7 +357,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if comb is None:  # the health lines where the user's ripples per revolution put the rotation: reported, but
         # a damaged commutator is named only where the comb shows the rotation (a wrong figure given would put
         # these lines elsewhere)
-        out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, f_star / opts.ripples_per_rev, f_star, res)
+        out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, f_star / opts.ripples_per_rev, f_star, res, p)
 
     # 3. counting demodulated cycles
     xx, s0, nw = _window(bursts, k, fs)
