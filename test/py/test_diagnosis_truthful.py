@@ -16,6 +16,7 @@ from twin_benches import RA_OHM, dyno_table
 
 from hpddo.cli import diagnose as diagnose_cli
 from hpddo.diagnosis import core, intervals, ranking
+from hpddo.model import effects as fx
 
 BUNDLED = [ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]
 
@@ -583,3 +584,38 @@ def test_a_confounded_group_none_of_them_named_is_not_said():
     assert all(named & set(g) for g in res.confounded), (res.confounded, res.missing_effects)
     assert "cannot be told apart" not in res.verdict or any(
         f"{e} and" in res.verdict or f"and {e}" in res.verdict for e in res.missing_effects), res.verdict
+
+
+@pytest.mark.slow
+def test_the_stages_that_leave_effects_out_run_again_until_every_named_interval_is_clear_of_zero():
+    """An independent simulator's warm-up (test/fixtures/independent/heat33, Ra given right): the stages that leave
+    an effect out (unphysical, through_zero, beyond_plausible) fit the rest again, which moves the others' intervals;
+    run once, thermal_ra was named at -0.27..+1.06 %/K (and on another bench v_gain at -13.2..+5.35 %, once
+    thermal_ra was left out as implausible). Now they run again until none leaves an effect out."""
+    d = ROOT / "test" / "fixtures" / "independent" / "heat33"
+    truth = json.loads((d / "truth.json").read_text())
+    res = core.diagnose(sorted(str(p) for p in d.glob("*.csv")),
+                        core.Options(ra_ohm=round(truth["ra25_ohm"], 2), bootstrap=0, hybrid=False))
+    fields = {fx.LIBRARY[e].field: e for e in res.missing_effects}
+    for iv in res.intervals:
+        if iv.field in fields and iv.lo is not None and iv.hi is not None:
+            assert not (iv.lo <= 0.0 <= iv.hi), (fields[iv.field], iv.lo, iv.hi, res.verdict)
+    assert "holds zero" in res.verdict or not res.missing_effects
+
+
+@pytest.mark.slow
+def test_ra_from_the_data_alone_is_not_stated_where_the_winding_node_stops_beyond_the_nodes_range():
+    """An independent simulator's large motor (test/fixtures/independent/heat02: 0.34 K/W from winding to ambient,
+    below the node's range): the winding node stopped at an edge, and Ra from the data alone was stated as 0.702 ohm
+    (0.659..0.746) against 1.29. An Ra at the reference temperature resting on an edge's temperature is not
+    determined (core._node_at_edge); where it is stated, it holds the truth."""
+    d = ROOT / "test" / "fixtures" / "independent" / "heat02"
+    truth = json.loads((d / "truth.json").read_text())
+    for given in (1.0, 0.9):
+        res = core.diagnose(sorted(str(p) for p in d.glob("*.csv")),
+                            core.Options(ra_ohm=round(truth["ra25_ohm"] * given, 3), bootstrap=0, hybrid=False))
+        iv = res.ra_fit.data
+        assert iv is not None
+        assert not iv.determined or iv.lo <= truth["ra25_ohm"] <= iv.hi, (iv, res.verdict)
+        assert "pass --ra-ohm" not in res.verdict or abs(float(re.search(r"pass --ra-ohm ([0-9.]+)", res.verdict)
+                                                           .group(1)) / truth["ra25_ohm"] - 1) <= 0.10, res.verdict

@@ -112,6 +112,19 @@ def test_too_few_rows_to_split_names_the_file(tmp_path, capsys):
     assert gen_weights.main([str(log), "--out", str(tmp_path / "o"), "--quiet"]) == 1
     err = capsys.readouterr().err
     assert "tiny.csv" in err and "only 6 usable rows" in err
+    assert "one log per supply voltage" not in err  # a recording of the bench, not a table
+
+
+def test_a_table_split_one_log_per_voltage_too_short_says_to_put_its_rows_into_one_log(tmp_path, capsys):
+    """An independent probe's dyno tables, 7 settled points per supply voltage in a log each, were refused with "at
+    least 10 are needed to split train/test" and no word of what to do: the refusal says to merge them."""
+    log = tmp_path / "dyno12V.csv"
+    log.write_text("# condition=dyno12V\n# kind=steady_state\n# ra_ohm=2\nt_s,duty,v_V,i_A,rpm_ref\n"
+                   + "".join(f"{k}.0,1.000,12.00,{0.2 + 0.1 * k:.3f},{300 - 5 * k}\n" for k in range(7)))
+    assert gen_weights.main([str(log), "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    err = capsys.readouterr().err
+    assert "dyno12V.csv" in err and "only 7 usable rows" in err and "put its rows into one log" in err
+    assert not (tmp_path / "o").exists()
 
 
 def _dyno_48v(path, declared: str = ""):

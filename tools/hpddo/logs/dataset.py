@@ -217,7 +217,11 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
     if len(df) < MIN_ROWS:
         raise benchlog.BenchLogError(path, None, f"only {len(df)} usable rows"
                                      + removed_text(removed, {int(lines[k]) for k in outside})
-                                     + f": at least {MIN_ROWS} are needed to split train/test")
+                                     + f": at least {MIN_ROWS} are needed to split train/test"
+                                     + ("; a table of settled points split one log per supply voltage or load: put its "
+                                        "rows into one log, the voltage and the load as columns (a table is scored "
+                                        "across all its rows; docs/diagnose-table.md)"
+                                        if meta.get("kind") == "steady_state" or "sample_rate_hz" not in meta else ""))
     n_train = int(np.floor(train_fraction * len(df)))
     return Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df,
                      removed=removed, n_train=n_train, rows_in_file=rows_in_file, warnings=warnings,
