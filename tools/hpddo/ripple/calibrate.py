@@ -51,19 +51,19 @@ def encoder_lines(found, bursts, res: float) -> list:
 
 
 def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
-    """The ripples per motor revolution from the data (hpddo ripple --calibrate): over the driven
-    windows (duty > 0, mean current at or above opts.floor_A) whose lines form a rotation comb (not
-    those whose health lines name a damaged commutator: a bar's fault puts lines at the even
-    multiples, whose spacing is twice the rotation),
-    the multiple of the rotation frequency at which the strongest line sits (comb.rotation_comb); with
-    an encoder or tachometer speed per window (rpm_ref, output shaft), also the strongest line
-    (mains and declared PWM multiples left out) over the motor's rotation frequency,
-    rpm_ref x opts.gear_ratio / 60, where it lies within CALIBRATE_WHOLE of a whole number. Each
-    source names the number that CALIBRATE_AGREE of its windows (at least CALIBRATE_MIN_WINDOWS; for the
-    comb, the damaged windows among them, which agree on none: line.damaged_windows)
-    agree on, or says that they do not agree; where the comb and the encoder name different
-    numbers, the encoder's (a measurement of the revolutions) is named and the disagreement said. Returns a dict: per source the windows used and the counts of each number, the
-    number named (0 where none), and a statement."""
+    """The ripples per motor revolution from the data (hpddo ripple --calibrate), on the bursts as the count sees
+    them (sync.prepare): over the driven windows (duty > 0; a mean current of opts.floor_A or more, in either
+    direction, where the bursts hold the mean) whose lines form a rotation comb (not those whose health lines name
+    a damaged commutator: a bar's fault puts lines at the even multiples, whose spacing is twice the rotation), the
+    multiple of the rotation frequency at which the strongest line sits (comb.rotation_comb); with an encoder or
+    tachometer speed per window (rpm_ref, output shaft), also the strongest line (encoder_lines) over the motor's
+    rotation frequency, rpm_ref x opts.gear_ratio / 60, where it lies within CALIBRATE_WHOLE of a whole number; a
+    window where that number is under COMMUTATION_MIN_MULTIPLE has a rotation line the strongest and names none.
+    Each source names the number that CALIBRATE_AGREE of its windows (at least CALIBRATE_MIN_WINDOWS; the comb's
+    damaged windows and the encoder's rotation-line windows among them, which agree on none: line.damaged_windows)
+    agree on, or says that they do not agree; where the comb and the encoder name different numbers, the
+    encoder's (a measurement of the revolutions) is named and the disagreement said. Returns a dict: per source the
+    windows used and the counts of each number, the number named (0 where none), and a statement."""
     import collections
 
     n = len(bursts)

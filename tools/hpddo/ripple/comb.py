@@ -225,9 +225,9 @@ FINER_DIVISORS = (2, 3)
 def _finer_left_out(comb: Comb, left, res_hz: float) -> bool:
     """Whether a line left out of the comb (on a multiple of 50 or 60 Hz, or a PWM sideband) lies where a comb of a
     finer spacing f_rot / d would put its lines under the comb's first (k f_rot / d, k < d): the rotation may be
-    that finer spacing, its own line left out, and the comb cannot say how many ripples a revolution holds. An independent probe's 14-ripple motor at 59.17 Hz had its once-per-revolution
-    line left out as a 60 Hz multiple, and the comb of its even lines said "the ripple is 7 per revolution, not the
-    14 given" in 5 windows."""
+    that finer spacing, its own line left out, and the comb cannot say how many ripples a revolution holds. An
+    independent probe's 14-ripple motor at 59.17 Hz had its once-per-revolution line left out as a 60 Hz multiple,
+    and the comb of its even lines said "the ripple is 7 per revolution, not the 14 given" in 5 windows."""
     for d in FINER_DIVISORS:
         g = comb.rot_hz / d
         for ln in left:
