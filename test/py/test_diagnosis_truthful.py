@@ -608,7 +608,7 @@ def test_ra_from_the_data_alone_is_not_stated_where_the_winding_node_stops_beyon
     """An independent simulator's large motor (test/fixtures/independent/heat02: 0.34 K/W from winding to ambient,
     below the node's range): the winding node stopped at an edge, and Ra from the data alone was stated as 0.702 ohm
     (0.659..0.746) against 1.29. An Ra at the reference temperature resting on an edge's temperature is not
-    determined (core._node_at_edge); where it is stated, it holds the truth."""
+    determined (intervals._thermal_needs_its_node); where it is stated, it holds the truth."""
     d = ROOT / "test" / "fixtures" / "independent" / "heat02"
     truth = json.loads((d / "truth.json").read_text())
     for given in (1.0, 0.9):

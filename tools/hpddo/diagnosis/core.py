@@ -706,12 +706,6 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")
-    node = _node_at_edge(p, inp)
-    if node and iv.determined:  # Ra at the reference temperature rests on the winding temperature the node gives
-        iv = dataclasses.replace(iv, determined=False, needs=intervals.THERMAL_NEEDS,
-                                 why=f"the winding node it is fitted through stopped at the edge of its range ({node})"
-                                     ", and Ra at the reference temperature rests on the winding temperature the "
-                                     "node gives")
     if alternative and not iv.determined:
         return None
     # The copper heats in every motor that carries current: on settled rows (steady-state tables) it is at
@@ -729,20 +723,6 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
                                                      ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     return intervals.with_budget(iv, cal, birge(inp, p, sigma2) if sigma2 else 1.0,
                                  models=models, sensors=sens.get("ra_ohm"))
-
-
-def _node_at_edge(p: ph.PhysicsParams, inp: Inputs) -> str:
-    """Where p heats its winding through a node whose thermal resistance stopped at an edge of the range it is
-    fitted in: its value and range (text); else "". An independent probe's large motor, 0.34 K/W from winding to
-    ambient, had its node stopped at the range's 1.5 K/W and Ra from the data alone printed as 0.70 ohm (0.66..0.75)
-    against the motor's 1.29: the winding temperature the node gives is the range's end, not the data's."""
-    if not p.thermal_enabled():
-        return ""
-    r_node, _ = fx.node_params(inp.blind)
-    r = float(getattr(p, r_node.field))
-    if r_node.at_bound(r) or not (r_node.physical[0] <= r <= r_node.physical[1]):
-        return f"{r_node.field} = {r:.3g}, range {r_node.physical[0]:g}..{r_node.physical[1]:g}"
-    return ""
 
 
 def _node_a_winding_has(p: ph.PhysicsParams, inp: Inputs) -> bool:

@@ -200,18 +200,21 @@ EDGE_WHY = "the fit stopped at the edge"
 
 
 def _thermal_needs_its_node(ivs: list) -> list:
-    """ivs with a thermal effect's coefficient not determined where the winding node's thermal
-    resistance it is fitted through stopped at the edge of its range: the winding's rise over the
-    case is then not what the data say but the range's end, and the coefficient (the copper's
-    change per kelvin of that rise) would be a value that was not fitted."""
+    """ivs with a thermal effect's coefficient, and Ra where the fit moved it, not determined where the winding
+    node's thermal resistance they are fitted through stopped at the edge of its range: the winding's rise over
+    the case is then not what the data say but the range's end, and the coefficient (the copper's change per
+    kelvin of that rise) would be a value that was not fitted, and so would Ra at the reference temperature (an
+    independent probe's large motor, 0.34 K/W from winding to ambient, below the range's 1.5 K/W: Ra from the
+    data alone 0.702 ohm, 0.659..0.746, against the motor's 1.29)."""
     node = [iv for iv in ivs if iv.field == "th_r_K_per_W" and not iv.determined and iv.why.startswith(EDGE_WHY)]
     if not node:
         return ivs
-    thermal = {e.field for e in schema.EFFECTS if e.thermal}
-    why = (f"the winding node it is fitted through is not determined ({node[0].field}: {node[0].why}), and the "
-           "coefficient depends on the winding temperature the node gives")
-    return [dataclasses.replace(iv, determined=False, why=why, needs=THERMAL_NEEDS)
-            if iv.field in thermal and iv.determined else iv for iv in ivs]
+    head = f"the winding node it is fitted through is not determined ({node[0].field}: {node[0].why}), and "
+    why = {e.field: head + "the coefficient depends on the winding temperature the node gives"
+           for e in schema.EFFECTS if e.thermal}
+    why["ra_ohm"] = head + "Ra at the reference temperature rests on the winding temperature the node gives"
+    return [dataclasses.replace(iv, determined=False, why=why[iv.field], needs=THERMAL_NEEDS)
+            if iv.field in why and iv.determined else iv for iv in ivs]
 
 
 def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> list:
