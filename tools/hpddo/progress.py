@@ -34,9 +34,11 @@ class Reporter:
         self.t0 = time.perf_counter()
 
     def stage(self, text: str) -> None:
-        if self.enabled:
-            print(f"hpddo {self.tool}: [{time.perf_counter() - self.t0:6.1f} s] {text}",
-                  file=self.stream or sys.stderr, flush=True)
+        if self.enabled:  # the line and its end in one write: print writes them apart, and a signal's handler run
+            # between the two left the line open, so the tool's "stopped by" line joined it (test_interrupt, demo)
+            stream = self.stream or sys.stderr
+            stream.write(f"hpddo {self.tool}: [{time.perf_counter() - self.t0:6.1f} s] {text}\n")
+            stream.flush()
 
 
 @contextlib.contextmanager
