@@ -109,7 +109,7 @@ def test_cli_writes_report_and_json_and_refuses_bad_logs(root, tmp_path, capsys)
     for e in res["ranking"]:
         assert 0.0 <= e["score"] <= 1.0 and "params" in e
     assert "saturation" in res["missing_effects"]
-    assert "rmse_rpm_hybrid" in res
+    assert "rmse_rpm_hybrid" in res and res["rmse_rpm_hybrid"]["iterations"] == 30  # --epochs given: exactly
     assert "<img" in (out / "index.html").read_text()
     bad = tmp_path / "bad.csv"
     bad.write_text("# condition=x\n# ra_ohm=4.5\nt_s,duty,v_V,i_A,rpm_ref\n0.0,0.1,1.0,0.1,2\n0.5,1.5,1.0,0.1,2\n")

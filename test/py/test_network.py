@@ -85,3 +85,26 @@ def test_matmul_cols_is_matmul_to_the_byte(k, m, rows, transposed):
     w = rng.normal(size=(m, k)).T if transposed else rng.normal(size=(k, m))
     want = nw.matmul(np.ascontiguousarray(a_t.T), w)
     assert np.ascontiguousarray(nw.matmul_cols(w, a_t).T).tobytes() == np.ascontiguousarray(want).tobytes()
+
+
+@pytest.mark.parametrize("n,batch,max_iter,max_steps,want", [
+    (6759, 200, 150, 5100, 150),    # the bundled recordings: 34 batches an epoch, the budget's own figure
+    (10889, 200, 150, 5100, 93),    # 55 batches an epoch: the fewest epochs that reach 5100 steps
+    (10889, 200, 150, None, 150),   # no budget: the epochs given whatever the rows
+    (10889, 200, 10, 5100, 10),     # the epochs given bound it first
+    (150, 200, 7, 1, 1),            # one step: one epoch at least
+])
+def test_a_step_budget_cuts_the_epochs_to_the_fewest_that_reach_it(n, batch, max_iter, max_steps, want):
+    cfg = nw.AdamConfig(batch_size=batch, max_iter=max_iter, max_steps=max_steps)
+    assert nw.epochs(cfg, n) == want
+    z = np.random.default_rng(1).normal(size=(n, 2))
+    if n < 1000:  # the training runs that many epochs, each the one it runs without a budget
+        cut, losses = nw.train(z, z[:, 0], cfg)
+        whole, whole_losses = nw.train(z, z[:, 0], nw.AdamConfig(batch_size=batch, max_iter=want))
+        assert losses == whole_losses and len(losses) == want
+        assert all(a.tobytes() == b.tobytes() for a, b in zip(cut.coefs_, whole.coefs_))
+
+
+def test_the_lockstep_training_refuses_a_step_budget():
+    with pytest.raises(ValueError, match="max_steps"):
+        nw.train_lockstep([np.zeros((10, 2))], [np.zeros(10)], nw.AdamConfig(max_steps=5))

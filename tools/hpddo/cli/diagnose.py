@@ -37,7 +37,10 @@ def parser(prog: str = "hpddo diagnose") -> argparse.ArgumentParser:
                    help=f"block-bootstrap resamples for the inclusion frequency (default {core.ranking.BOOTSTRAP}; "
                         "0: none)")
     p.add_argument("--no-hybrid", action="store_true", help="skip retraining the hybrid before/after")
-    options.epochs(p, core.HYBRID_ITER, "the hybrid before and after")
+    p.add_argument("--epochs", type=options.positive_int, default=None, metavar="N",
+                   help=f"training epochs of the hybrid before and after, no early stop (default {core.HYBRID_ITER}, "
+                        f"fewer where the rows make more than {core.HYBRID_MAX_STEPS} Adam steps; given: N epochs "
+                        "whatever the rows)")
     options.seed(p, "the bootstrap and the network")
     options.glitch_filter(p)
     options.leave_one_out(p)
@@ -50,7 +53,8 @@ def options_of(args):
     """The diagnosis options a command line gives."""
     from ..diagnosis import core
     return core.Options(effects=args.effects, ra_ohm=args.ra_ohm, bootstrap=args.bootstrap,
-                        hybrid=not args.no_hybrid, hybrid_iter=args.epochs, seed=args.seed,
+                        hybrid=not args.no_hybrid, seed=args.seed,
+                        **({} if args.epochs is None else {"hybrid_iter": args.epochs, "hybrid_max_steps": None}),
                         glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
                         ke_fit=args.ke_fit, reference=options.reference_of(args))
 

@@ -37,8 +37,8 @@ from . import analysis, channels, intervals, noise, ranking
 from ..model import dynamics as dynamics_family
 # The stages' values and the verdict's text live in result.py and verdict.py; core.X names
 # them too, for the callers that take them from the diagnosis as a whole.
-from .result import (  # noqa: F401 (HYBRID_ITER, as core.HYBRID_ITER)
-    HYBRID_ITER, ConfoundedPair, Confounding, Diagnosis, EffectResult, Hybrid, Identifiability, Inputs,
+from .result import (  # noqa: F401 (HYBRID_ITER, HYBRID_MAX_STEPS, as core.*)
+    HYBRID_ITER, HYBRID_MAX_STEPS, ConfoundedPair, Confounding, Diagnosis, EffectResult, Hybrid, Identifiability, Inputs,
     MaterialCheck, ModelFit, Options, RaFit, RankingStep, ResidualAnalysis, Residuals, Selection,
     _described, _score)
 from .verdict import (  # noqa: F401 (DYNAMICS_R and NOTHING, as core.X)
@@ -903,12 +903,19 @@ def _rmse_by_condition(rows, res) -> dict:
 
 
 def _hybrid(job):
-    """M3 on top of physics p, job = (recordings, p, epochs, seed): trained on the training rows;
-    estimates for every row with the observer's clamp, envelope fallback and novelty gate
-    (train.hybrid_rpm)."""
-    recs, p, cfg_iter, seed = job
-    res = train_residual(recs, p, TrainConfig(hidden=(16, 8), max_iter=cfg_iter, seed=seed, progress=False))
-    return [hybrid_rpm(res, r, p) for r in recs]
+    """M3 on top of physics p, job = (recordings, p, epochs, Adam steps at the most, seed): trained on the
+    training rows; (estimates for every row with the observer's clamp, envelope fallback and novelty gate
+    (train.hybrid_rpm), the epochs it ran)."""
+    recs, p, cfg_iter, max_steps, seed = job
+    res = train_residual(recs, p, TrainConfig(hidden=(16, 8), max_iter=cfg_iter, max_steps=max_steps, seed=seed,
+                                              progress=False))
+    return [hybrid_rpm(res, r, p) for r in recs], len(res.loss_curve)
+
+
+def hybrid_budget(opt: Options) -> str:
+    """The hybrid's training as the options set it, in words."""
+    steps = "" if opt.hybrid_max_steps is None else f" and {opt.hybrid_max_steps} Adam steps"
+    return f"at most {opt.hybrid_iter} epochs{steps}" if steps else f"{opt.hybrid_iter} epochs"
 
 
 # Where the hybrid's trainings queue among a Background's jobs (the lowest first): the one on the model
@@ -919,7 +926,7 @@ HYBRID_BEFORE_PRIORITY = 1
 
 def start_hybrid(background, recs, p: ph.PhysicsParams, opt: Options, priority: int):
     """The hybrid's training on physics p (_hybrid) given to background (interrupt.Background): its Task."""
-    return background.submit(_hybrid, (recs, p, opt.hybrid_iter, opt.seed), priority)
+    return background.submit(_hybrid, (recs, p, opt.hybrid_iter, opt.hybrid_max_steps, opt.seed), priority)
 
 
 def hybrid(inp: Inputs, model: ph.PhysicsParams, after_model: ph.PhysicsParams, changed: bool,
@@ -936,13 +943,13 @@ def hybrid(inp: Inputs, model: ph.PhysicsParams, after_model: ph.PhysicsParams, 
     if after is None:
         after = start_hybrid(background, inp.recs, after_model, opt, HYBRID_AFTER_PRIORITY) if changed else before
     try:
-        hb, ha = before.result(), after.result()
+        (hb, epochs), (ha, _) = before.result(), after.result()  # the same rows: the same epochs
     except TrainingError as exc:  # too few rows for a network: the physics verdict stands alone
         return None, [f"hybrid before/after not computed: {exc}"]
     rows = inp.rows
     return Hybrid(rmse_before=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, hb)]),
                   rmse_after=_rmse_by_condition(rows, [r.ref - h for r, h in zip(rows, ha)]),
-                  iterations=opt.hybrid_iter, est_before=hb, est_after=ha), []
+                  iterations=epochs, est_before=hb, est_after=ha), []
 
 
 def leave_one_out(inp: Inputs, missing: list) -> dict:
@@ -1040,7 +1047,7 @@ def _diagnose(paths, opt: Options, bg, t0: float) -> Diagnosis:
     text += after
     sel = with_inclusion(sel)
     if opt.hybrid:
-        progress.stage(f"retraining the hybrid before and after ({opt.hybrid_iter} epochs each, "
+        progress.stage(f"retraining the hybrid before and after ({hybrid_budget(opt)} each, "
                        "started beside the stages above)")
     hyb, hyb_warnings = hybrid(inp, mf.model, resid.after_model, changed, opt, bg, hyb_before, hyb_after) \
         if opt.hybrid else (None, [])

@@ -112,7 +112,9 @@ class Network:
 @dataclasses.dataclass
 class AdamConfig:
     """The network and its training: hidden sizes, Adam's step, rows per batch, epochs
-    (max_iter: full passes over the rows, no early stop), seed, L2 penalty."""
+    (max_iter: full passes over the rows, no early stop), seed, L2 penalty, and the Adam steps at
+    the most (max_steps: the epochs cut to the fewest whose batches reach it; None: max_iter
+    epochs whatever the rows)."""
 
     hidden: tuple = (16, 8)
     learning_rate: float = 1e-3
@@ -120,6 +122,16 @@ class AdamConfig:
     max_iter: int = 2000
     seed: int = 1
     alpha: float = L2_ALPHA
+    max_steps: int | None = None
+
+
+def epochs(cfg: AdamConfig, n: int) -> int:
+    """The epochs a training of n rows runs: cfg.max_iter, cut where cfg.max_steps is given to the
+    fewest whose batches (ceil(n / batch_size) an epoch) reach it."""
+    if cfg.max_steps is None:
+        return cfg.max_iter
+    per_epoch = max(1, -(-n // cfg.batch_size))
+    return max(1, min(cfg.max_iter, -(-cfg.max_steps // per_epoch)))
 
 
 class _Flat:
@@ -204,8 +216,8 @@ def train(z: np.ndarray, y: np.ndarray, cfg: AdamConfig, progress=None, weight=N
     # layer's inputs (matmul_cols). Every number is the same bits as the row-major arithmetic of
     # network.activations and matmul (test_network: trained to the byte).
     z_t = np.ascontiguousarray(z.T)
-    epochs = range(cfg.max_iter) if progress is None else progress(range(cfg.max_iter))
-    for _ in epochs:
+    n_epochs = epochs(cfg, n)
+    for _ in range(n_epochs) if progress is None else progress(range(n_epochs)):
         order = rng.permutation(n)
         zs, zs_t, ys = z[order], z_t[:, order], y[order]
         wts = None if wt is None else wt[order]
@@ -279,6 +291,8 @@ def train_lockstep(zs: list, ys: list, cfg: AdamConfig, hiddens: list | None = N
         for l in range(L):
             W[l][k, : sz[l], : sz[l + 1]] = ws[l]
             b[l][k, : sz[l + 1]] = bs[l]
+    if cfg.max_steps is not None:
+        raise ValueError("train_lockstep runs max_iter epochs; a step budget (max_steps) is train's")
     n_in = widest[0]
     B = cfg.batch_size
     params = W + b
