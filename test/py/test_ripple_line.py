@@ -778,3 +778,36 @@ def test_a_comb_whose_finer_spacing_was_left_out_as_a_mains_multiple_names_no_ot
     # the same motor off the mains' multiples: its comb, at 14
     r = one(motor_current(57.3, {1: 0.01, 2: 0.006, 4: 0.005, 6: 0.004, 14: 0.08, 28: 0.02}), 14, 57.3 * 60)
     assert r["key"] == "" and r["multiple"] == 14, r["reason"]
+
+
+# An independent probe's window (18 ripples a revolution at 2000 RPM, f_c 600 Hz, under a 976.6 Hz PWM sampled
+# free at 9.6 kS/s, 50 Hz hum): its lines as comb.lines found them (Hz, power, snr), strongest first. The
+# commutation line at 600 Hz is under the noise; its PWM sidebands at 376.6 and 1576.6 Hz are the strongest lines.
+HIDDEN_LINE_WINDOW = [(99.989, 583.4, 6473), (376.560, 55.99, 928.1), (1576.586, 51.32, 1371), (142.220, 10.67, 76.77),
+                      (223.276, 10.44, 143.5), (2176.619, 10.02, 253.3), (132.854, 6.677, 47.41),
+                      (559.490, 4.578, 83.48), (1352.825, 4.18, 108.7), (33.238, 4.021, 42.11), (275.028, 1.709, 29.07),
+                      (284.437, 1.554, 26.77), (66.683, 1.546, 45.32), (1393.670, 1.196, 32.69),
+                      (466.686, 0.8076, 14.17), (823.340, 0.7727, 15.5), (1118.102, 0.4292, 10.29),
+                      (1535.974, 0.3558, 10.07)]
+
+
+def test_a_comb_about_a_sideband_of_a_line_under_the_noise_is_no_comb(monkeypatch):
+    """The window above made a comb about the 376.6 Hz sideband, 8.36 Hz apart ("45 per revolution"), of lines that
+    fall near that grid by chance, and its health lines named the healthy commutator damaged. The sideband's
+    mirror (1576.6 Hz) shows and the line between them (600 Hz) does not: no comb. A true line with its own
+    sidebands keeps its comb: its lower sideband f_pwm - f_c is a line of its own, no hidden line."""
+    pwm = (976.562, 9600.0)
+    found = [rc.Line(*ln) for ln in HIDDEN_LINE_WINDOW]
+    assert rc.rotation_comb(found, 2.0, 10.0, (976.562,), pwm) is None
+    with monkeypatch.context() as m:  # without the rule the same lines make the comb that named it damaged
+        m.setattr(rc, "_sideband_of_hidden", lambda *a: False)
+        cb = rc.rotation_comb(found, 2.0, 10.0, (976.562,), pwm)
+        assert cb is not None and cb.multiple == 45 and abs(cb.commutation.hz - 376.56) < 0.01
+    # a line that shows, the strongest, with both its sidebands: the comb its rotation lines make about it stands
+    # (at 630 Hz: 600 Hz is a multiple of 50 and 60 Hz, never a comb's line)
+    for f_c in (612.0, 630.0, 648.0):
+        rot = f_c / 18
+        lines = [rc.Line(f_c, 80.0, 1500.0), rc.Line(pwm[0] - f_c, 30.0, 600.0), rc.Line(pwm[0] + f_c, 28.0, 700.0),
+                 rc.Line(rot, 4.0, 40.0), rc.Line(2 * rot, 3.0, 35.0), rc.Line(3 * rot, 2.0, 30.0)]
+        cb = rc.rotation_comb(lines, 2.0, 10.0, (976.562,), pwm)
+        assert cb is not None and cb.multiple == 18 and abs(cb.commutation.hz - f_c) < 0.01, cb

@@ -215,7 +215,25 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
         return None
     comb = max(combs, key=lambda sc: sc[0])[1]
     left = [ln for ln in found if ln not in use and ln.snr >= COMB_LINE_SNR * min_snr]
-    return None if _finer_left_out(comb, left, res_hz) else comb
+    if _finer_left_out(comb, left, res_hz) or _sideband_of_hidden(comb, found, res_hz, pwm):
+        return None
+    return comb
+
+
+def _sideband_of_hidden(comb: Comb, found, res_hz: float, pwm) -> bool:
+    """Whether the comb's commutation line may be a free-running PWM's sideband of a line that does not show: its
+    mirror sideband shows (hidden_line_mirrors) about a line g in the band the count searches (up to the sample
+    rate's half over COMB_SPAN) where no line lies. Then the comb rests on a line of the PWM's, and its spacing on
+    lines that fall near its grid by chance: an independent probe's 18-ripple motor under a 976.6 Hz PWM sampled
+    free at 9.6 kS/s, its commutation line at 600 Hz under the noise and its sidebands at 376.6 and 1576.6 Hz the
+    strongest lines, made a comb about 376.6 Hz 8.36 Hz apart ("45 per revolution") that named the healthy
+    commutator damaged. A true commutation line's own sideband f_pwm - f_c shows as a line of its own, so that g
+    is no hidden line and its comb stands."""
+    if pwm is None:
+        return False
+    top_hz = pwm[1] / 2.0 / COMB_SPAN
+    return any(g <= top_hz and not any(abs(ln.hz - g) <= tol_hz(g, res_hz) for ln in found)
+               for g, _ in hidden_line_mirrors(found, comb.commutation.hz, res_hz, pwm, lambda hz: True))
 
 
 #: the finer spacings (f_rot / d) whose lines rotation_comb's mains rule may have left out (_finer_left_out)
