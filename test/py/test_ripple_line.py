@@ -492,11 +492,32 @@ def test_the_logs_commutator_sentence_says_uneven_or_damaged_as_its_windows_read
     from hpddo.cli.ripple import _commutator
 
     est = pd.DataFrame({"rot1_rel": [0.01, 0.02, 0.01], "rot2_rel": [0.004, 0.03, 0.045],
-                        "key": ["", "damaged", "damaged"]})
+                        "key": ["", "damaged", "damaged"], "multiple": [6, 3, 3]})
     said = _commutator(est)["statement"]
     assert said.startswith("the commutator looks uneven in 2 of 3 windows") and "coils a few % unequal" in said, said
     est.loc[2, "rot2_rel"] = 0.3
     assert _commutator(est)["statement"].startswith("the commutator looks damaged in 2 of 3 windows")
+
+
+def test_the_logs_commutator_sentence_judges_the_comb_windows_alone():
+    """A window without a rotation comb reads its health lines where the figure given puts the rotation, and names
+    nothing (count.estimate_window): the log's sentence judges the comb windows. An independent probe's healthy
+    18-ripple motor said "looks healthy (4 windows read, ... at most 0.0136 ..., under 0.012)": the 0.0136 was a
+    comb-less window's. It is said beside, as not judged; where no window has a comb nothing is judged."""
+    import pandas as pd
+
+    from hpddo.cli.ripple import _commutator
+
+    est = pd.DataFrame({"rot1_rel": [0.01] * 4, "rot2_rel": [0.004, 0.006, 0.0136, float("nan")],
+                        "key": ["", "", "rival", "floor"], "multiple": [18, 18, 0, 0]})
+    out = _commutator(est)
+    said = out["statement"]
+    assert said.startswith("the commutator looks healthy (2 windows judged") and "at most 0.006 " in said, said
+    assert "1 of the 1 windows without a rotation comb read up to 0.0136" in said and "not judged" in said, said
+    assert out["windows_read"] == 3 and out["windows_judged"] == 2 and out["rot2_rel_max"] == 0.006
+    est["multiple"] = 0
+    said = _commutator(est)["statement"]
+    assert said.startswith("the commutator's health not judged: no window's lines form a rotation comb"), said
 
 
 # An undeclared fixed line (a PWM of another pin, a supply's) inside the prior's spread: 976.6 Hz beside a 6-ripple

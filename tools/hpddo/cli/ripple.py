@@ -339,35 +339,47 @@ def _no_estimate(est, reasons: dict) -> str:
 
 def _commutator(est) -> dict:
     """The commutator's health over a log's windows (ripple.comb.health): the windows where
-    it was read, those named damaged, the median and largest power at twice the rotation frequency
-    relative to the commutation line, and a statement."""
+    it was read, those where it was judged (their rotation comb places the lines: `multiple` > 0; a window without
+    a comb reads them where the figure given puts the rotation, and names nothing), those named damaged, the
+    median and largest power at twice the rotation frequency relative to the commutation line over the judged
+    windows, and a statement."""
     import numpy as np
 
     from ..ripple import comb as rc
 
     r2 = est["rot2_rel"].to_numpy(float)
     read = np.isfinite(r2)
+    judged = read & (est["multiple"].to_numpy(float) > 0 if "multiple" in est else True)
     bad = int((est["key"] == "damaged").sum())
-    out = {"windows_read": int(read.sum()), "windows_damaged": bad, "rot2_rel_max_allowed": rc.HEALTH_ROT2_MAX,
-           "rot2_rel_median": float(np.median(r2[read])) if read.any() else None,
-           "rot2_rel_max": float(np.max(r2[read])) if read.any() else None}
+    out = {"windows_read": int(read.sum()), "windows_judged": int(judged.sum()), "windows_damaged": bad,
+           "rot2_rel_max_allowed": rc.HEALTH_ROT2_MAX,
+           "rot2_rel_median": float(np.median(r2[judged])) if judged.any() else None,
+           "rot2_rel_max": float(np.max(r2[judged])) if judged.any() else None}
+    unjudged = read & ~judged
+    over = unjudged & (r2 > rc.HEALTH_ROT2_MAX)
+    aside = (f"; {int(over.sum())} of the {int(unjudged.sum())} windows without a rotation comb read up to "
+             f"{np.max(r2[over]):.3g} at the rotation the figure given puts, which no comb confirms: not judged"
+             if over.any() else "")
     if not read.any():
         out["statement"] = "the commutator's health not read (no window resolves the rotation's lines)"
+    elif not judged.any():
+        out["statement"] = ("the commutator's health not judged: no window's lines form a rotation comb, which places "
+                            "the lines at once and twice the rotation frequency" + aside)
     elif bad:
         dmg = est["key"].to_numpy() == "damaged"
         r1 = est["rot1_rel"].to_numpy(float)
         uneven = all(rc.uneven_only(a, b) for a, b in zip(r1[dmg], r2[dmg]))
-        out["statement"] = (f"the commutator looks {'uneven' if uneven else 'damaged'} in {bad} of {read.sum()} "
-                            f"windows read (the line at twice the rotation frequency up to {out['rot2_rel_max']:.3g} "
+        out["statement"] = (f"the commutator looks {'uneven' if uneven else 'damaged'} in {bad} of {judged.sum()} "
+                            f"windows judged (the line at twice the rotation frequency up to {out['rot2_rel_max']:.3g} "
                             f"of the commutation line's power, over {rc.HEALTH_ROT2_MAX:g}): "
                             + (f"a worn bar, or coils a few % unequal as in a healthy motor, which this line does not "
                                f"tell apart under {rc.HEALTH_ROT2_UNEVEN_MAX:g}" if uneven else
                                "a worn or burnt bar, a shorted coil")
-                            + "; those windows are not counted")
+                            + "; those windows are not counted" + aside)
     else:
-        out["statement"] = (f"the commutator looks healthy ({read.sum()} windows read, the line at twice the rotation "
-                            f"frequency at most {out['rot2_rel_max']:.3g} of the commutation line's power, under "
-                            f"{rc.HEALTH_ROT2_MAX:g})")
+        out["statement"] = (f"the commutator looks healthy ({judged.sum()} windows judged, the line at twice the "
+                            f"rotation frequency at most {out['rot2_rel_max']:.3g} of the commutation line's power, "
+                            f"under {rc.HEALTH_ROT2_MAX:g})" + aside)
     return out
 
 
