@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from . import physics as ph
-from ..logs.dataset import Recording
+from ..logs.dataset import Recording, kind
 from ..logs.errors import InputError
 
 RAD_S_PER_RPM = 2.0 * np.pi / 60.0  # the paper's 0.10472
@@ -98,7 +98,7 @@ def ke_rows(recs: list[Recording]):
     weighted = any(r.weight is not None for r in labelled)
     parts = [window_means(r.part("train"), weight=(None if not weighted else
                                                    np.ones(r.n_train) if r.weight is None else r.weight[:r.n_train]),
-                          cols=("v_V", "i_A", "rpm_ref", "duty"))
+                          cols=("v_V", "i_A", "rpm_ref", "duty"), settled=kind(r)[0] == "steady_state")
              for r in labelled]
     v = np.concatenate([p[0] for p in parts])
     i = np.concatenate([p[1] for p in parts])
@@ -113,23 +113,35 @@ def ke_rows(recs: list[Recording]):
     group = np.concatenate(group)
     keep = np.isfinite(n) & (n > MIN_RPM)
     if keep.sum() < 5:
+        turning = sum(int((np.nan_to_num(r.part("train")["rpm_ref"].to_numpy(float)) > MIN_RPM).sum()) for r in labelled)
+        if turning >= 5:  # the rows are there, their windows are not: a time series shorter than a few windows
+            raise IdentificationError(
+                f"only {int(keep.sum())} training window(s) with rpm_ref > {MIN_RPM} RPM in "
+                f"{', '.join(str(r.source) for r in labelled)} ({turning} turning rows, averaged over windows of "
+                f"{IDENT_WINDOW_S:g} s of t_s as a time series' are): M2 needs at least 5; record longer, or, for a "
+                "table of settled points, declare # kind=steady_state (docs/bench-log.md)")
         raise IdentificationError(f"only {int(keep.sum())} training rows with rpm_ref > {MIN_RPM} RPM in "
                                   f"{', '.join(str(r.source) for r in labelled)}: M2 needs a labelled recording "
                                   "of the motor turning")
     return v[keep], i[keep], n[keep], (None if w is None else w[keep]), group[keep]
 
 
-def window_means(part, window_s: float = IDENT_WINDOW_S, weight=None, cols=("v_V", "i_A", "rpm_ref")):
+def window_means(part, window_s: float = IDENT_WINDOW_S, weight=None, cols=("v_V", "i_A", "rpm_ref"),
+                 settled: bool = False):
     """(v, i, rpm_ref) (the columns cols) of a recording part as means over consecutive windows
-    of about window_s (rows with no rpm_ref left out); at 2 Hz and slower, the rows themselves.
-    With a weight per row of the part, the weight last, meaned as the rest."""
+    of about window_s (rows with no rpm_ref left out); at 2 Hz and slower, the rows themselves, and
+    so for a table of settled points (settled: its t_s is no clock, whatever its steps); a window
+    holds the part's rows at the most. With a weight per row of the part, the weight last, meaned
+    as the rest."""
     t = part["t_s"].to_numpy(float)
     keep = np.isfinite(part["rpm_ref"].to_numpy(float))
     cols = [part[c].to_numpy(float)[keep] for c in cols]
     if weight is not None:
         cols.append(np.asarray(weight, float)[keep])
+    if settled:
+        return cols
     dt = float(np.median(np.diff(t))) if len(t) > 1 else window_s
-    k = max(1, int(round(window_s / dt))) if dt > 0 else 1
+    k = int(min(max(1.0, round(window_s / dt)), max(len(cols[0]), 1))) if dt > 0 else 1
     if k == 1:
         return cols
     m = len(cols[0]) // k
