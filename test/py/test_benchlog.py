@@ -184,8 +184,10 @@ def test_writer_refuses_bad_frames(tmp_path):
         write_log(tmp_path / "a.csv", good, {"note": "two\nlines"})
     with pytest.raises(ValueError):
         write_log(tmp_path / "a.csv", good, {"my key": "x"})
-    with pytest.raises(ValueError):  # increasing in float, equal once written with 4 decimals
-        write_log(tmp_path / "a.csv", good.assign(t_s=[0.00001, 0.00002]), {})
+    # increasing in float, equal once written with COLUMN_FORMATS' 4 decimals: written with the decimals it needs
+    fast = write_log(tmp_path / "a.csv", good.assign(t_s=[0.00001, 0.00002]), {})
+    assert read_log(fast).df["t_s"].tolist() == [0.00001, 0.00002]
+    fast.unlink()
     with pytest.raises(ValueError):
         write_log(tmp_path / "a.csv", good.assign(rpm_ref=[1.0, np.inf]), {})
     with pytest.raises(ValueError):
@@ -254,3 +256,43 @@ def test_json_text_writes_what_is_not_finite_as_null():
                     "nested": [{"x": None}]}
     finite = {"a": [1, 2.0, "s", None, True]}
     assert benchlog.json_text(finite, indent=1) == json.dumps(finite, indent=1) + "\n"
+
+
+def test_a_copy_written_exactly_holds_the_numbers_it_was_read_with(tmp_path):
+    """write_log(exact=True), the copy of a log the tools write beside their work (dataset.write_clean: the
+    native replay's input): every number reads back as the same double. COLUMN_FORMATS' fixed decimals rounded a
+    log of microamps to 0.000001 A, and hpddo train's M2 reported 26.38 RPM where the diagnosis of the same
+    rows gave 4.09."""
+    import numpy as np
+    import pandas as pd
+
+    from hpddo.logs import benchlog
+
+    rng = np.random.default_rng(1)
+    df = pd.DataFrame({"t_s": np.cumsum(rng.uniform(1e-6, 1e-3, 50)), "duty": rng.uniform(0, 1, 50),
+                       "v_V": rng.normal(0, 1, 50) * 1e-6, "i_A": rng.normal(0, 1, 50) * 1e-7,
+                       "rpm_ref": rng.normal(100, 30, 50), "temp_C": rng.normal(30, 3, 50)})
+    df.loc[3, "rpm_ref"] = float("nan")
+    path = benchlog.write_log(tmp_path / "x.csv", df, {"condition": "x"}, exact=True)
+    back = benchlog.read_log(path).df
+    for c in df.columns:
+        assert np.array_equal(back[c].to_numpy(float), df[c].to_numpy(float), equal_nan=True), c
+
+
+@pytest.mark.parametrize("rate_hz", [12_000.0, 20_000.0, 1e6])
+def test_a_fast_logs_clock_is_written_with_the_decimals_it_needs(tmp_path, rate_hz):
+    """t_s at COLUMN_FORMATS' 4 decimals repeats itself above 10 kHz (hpddo twin --rate-hz 12000 and hpddo
+    evaluate of a 20 kHz log ended in "t_s not increasing: 0.0001 after 0.0001"): it takes the decimals that
+    keep it increasing; the other columns keep their formats."""
+    import numpy as np
+    import pandas as pd
+
+    from hpddo.logs import benchlog
+
+    n = 40
+    df = pd.DataFrame({"t_s": np.arange(n) / rate_hz, "duty": np.full(n, 0.5), "v_V": np.full(n, 6.0),
+                       "i_A": np.full(n, 0.2)})
+    path = benchlog.write_log(tmp_path / "x.csv", df, {"condition": "x"})
+    back = benchlog.read_log(path).df
+    assert (np.diff(back["t_s"].to_numpy(float)) > 0).all()
+    assert path.read_text().splitlines()[2].split(",")[2] == "6.000000"  # v_V as COLUMN_FORMATS writes it

@@ -83,8 +83,10 @@ def test_an_early_fault_in_a_large_file_is_refused_from_its_first_chunk(tmp_path
 
 def test_write_log_checks_each_chunk_and_across_the_cut(tmp_path, monkeypatch):
     """write_log formats and reads back a chunk at a time: two t_s equal once written, inside a
-    chunk or across a cut, are refused with the file line, and nothing is written."""
+    chunk or across a cut, are refused with the file line, and nothing is written (t_s held to 4 decimals here:
+    write_log itself takes the decimals a strictly increasing t_s needs, benchlog._time_format)."""
     monkeypatch.setattr(benchlog, "WRITE_CHUNK_ROWS", 7)
+    monkeypatch.setattr(benchlog, "_time_format", lambda t: "%.4f")
     for row in (20, 21):  # chunks of rows 14..20 and 21..27: inside one, and the first of the next
         t = np.arange(30) * 0.5
         t[row] = t[row - 1] + 1e-5

@@ -141,8 +141,8 @@ def run(args) -> int:
     for w in res.metrics["warnings"]:
         print(f"hpddo train: WARNING: {w}", file=sys.stderr)
     ident = res.metrics["identification"]
-    print(f"Ra = {ident['ra_ohm']:.4g} ohm ({ident['ra_source']}); M1 Ke = {ident['ke_m1_vs_per_rad']:.4f} V s/rad "
-          f"(nameplate); M2 Ke = {ident['ke_m2_vs_per_rad']:.4f} V s/rad ({args.ke_fit})")
+    print(f"Ra = {ident['ra_ohm']:.4g} ohm ({ident['ra_source']}); M1 Ke = {ident['ke_m1_vs_per_rad']:.5g} V s/rad "
+          f"(nameplate); M2 Ke = {ident['ke_m2_vs_per_rad']:.5g} V s/rad ({args.ke_fit})")
     for e, val in ident["effects"].items():
         print(f"  effect {e}: {physics.EFFECT_BITS[e][1]} = {val:.5g}")
     if "dynamics" in ident:

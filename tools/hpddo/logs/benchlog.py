@@ -588,12 +588,19 @@ def _extra(vals):
 # ----------------------------------------------------------------------------- writing
 
 
-def _format_column(name: str, values) -> list:
-    fmt = COLUMN_FORMATS.get(name)
+#: write_log's format of a float column written exactly (exact=True): the shortest text that reads back as the same
+#: double (Python's repr), so a copy of a log holds the numbers it was read with
+EXACT = "repr"
+
+
+def _format_column(name: str, values, fmt: str | None = None) -> list:
+    fmt = fmt or COLUMN_FORMATS.get(name)
     s = pd.Series(values)
     if fmt == "%d":
         return ["" if pd.isna(v) else "%d" % int(v) for v in s.tolist()]
     if fmt is not None or pd.api.types.is_float_dtype(s):
+        if fmt == EXACT:
+            return ["" if math.isnan(v) else repr(v) for v in s.astype(float).tolist()]
         fmt = fmt or "%.10g"
         return ["" if (v is None or (isinstance(v, float) and math.isnan(v))) else fmt % v
                 for v in s.astype(float).tolist()]
@@ -608,11 +615,25 @@ def _format_column(name: str, values) -> list:
     return out
 
 
-def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
+def _time_format(t) -> str:
+    """The format of t_s: COLUMN_FORMATS' decimals, or as many more as keep a strictly increasing t_s strictly
+    increasing once written (a log faster than 10 kHz); ValueError where none up to 17 does."""
+    t = np.asarray(t, float)
+    for dec in range(4, 18):
+        fmt = f"%.{dec}f"
+        if len(t) < 2 or (np.diff(np.array([float(fmt % v) for v in t.tolist()])) > 0).all():
+            return fmt
+    raise ValueError("t_s not strictly increasing once written with 17 decimals")
+
+
+def write_log(path, df: pd.DataFrame, meta: dict | None = None, exact: bool = False) -> pathlib.Path:
     """Write ``df`` (and ``meta`` as ``# key=value`` lines) as a bench log, atomically.
 
     Known columns are written in the order of docs/bench-log.md (t_s, duty, v_V, i_A,
-    rpm_ref, temp_C, load, seq), extra columns after them in ``df`` order. NaN in
+    rpm_ref, temp_C, load, seq), extra columns after them in ``df`` order, each float column
+    with its COLUMN_FORMATS (t_s with more decimals where a fast log needs them: _time_format),
+    or, with ``exact``, as the shortest text of the same double (a copy of a log read in, which
+    must hold the numbers it was read with: 1e-6 A is no 0.000001 rounded). NaN in
     rpm_ref, temp_C or an extra column is written as an empty cell. Raises ValueError
     for data the format cannot hold (missing or non-finite required values, t_s not
     increasing once written, duty outside 0..1, infinite rpm_ref/temp_C, missing,
@@ -663,18 +684,23 @@ def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
     if len(set(names)) != len(names):
         raise ValueError("two columns have the same name")
     head = "".join(f"# {k}={v}\n" for k, v in meta.items()) + ",".join(names) + "\n"
+    fmts = {c: (EXACT if exact and COLUMN_FORMATS.get(c) != "%d" and (c in COLUMN_FORMATS or
+                                                                       pd.api.types.is_float_dtype(df[c]))
+                else None) for c in cols}
+    if not exact:
+        fmts["t_s"] = _time_format(df["t_s"].to_numpy(float))
     chunks = [(a, min(a + WRITE_CHUNK_ROWS, len(df))) for a in range(0, len(df), WRITE_CHUNK_ROWS)]
     # the first chunk is formatted and read back before the file is opened (a refusal of small
     # data costs no file); each chunk is read back, after the last row of the one before it (t_s
     # increasing across the cut), before it is written: what is written reads back
-    first_text = _checked_chunk(df, cols, head, *chunks[0], head.count("\n"), None)
+    first_text = _checked_chunk(df, cols, head, *chunks[0], head.count("\n"), None, fmts)
 
     def write(fh):
         fh.write(head.encode("utf-8"))
         fh.write(first_text[0].encode("utf-8"))
         last = first_text[1]
         for a, b in chunks[1:]:
-            text, last = _checked_chunk(df, cols, head, a, b, head.count("\n") + a, last)
+            text, last = _checked_chunk(df, cols, head, a, b, head.count("\n") + a, last, fmts)
             fh.write(text.encode("utf-8"))
 
     return write_bytes_atomic(path, write)
@@ -684,11 +710,11 @@ def write_log(path, df: pd.DataFrame, meta: dict | None = None) -> pathlib.Path:
 WRITE_CHUNK_ROWS = 100_000
 
 
-def _checked_chunk(df, cols, head: str, a: int, b: int, line0: int, last: str | None):
+def _checked_chunk(df, cols, head: str, a: int, b: int, line0: int, last: str | None, fmts=None):
     """The text of rows a..b of df (their file lines from line0 + 1) and its last line, read
     back as a bench log (after the last line of the chunk before, if any); a ValueError naming
     the file line where the text would not be a valid bench log."""
-    formatted = [_format_column(c, df[c].iloc[a:b]) for c in cols]
+    formatted = [_format_column(c, df[c].iloc[a:b], (fmts or {}).get(c)) for c in cols]
     rows = [",".join(row) for row in zip(*formatted)]
     del formatted
     text = "\n".join(rows) + "\n"

@@ -480,11 +480,11 @@ def encoder_count_rpm(sensors: dict, window_s: float | None) -> float | None:
 
 
 def write_clean(rec: Recording, path) -> pathlib.Path:
-    """Writes the cleaned rows as a bench log (the file the native replay reads)."""
+    """Writes the cleaned rows as a bench log (the file the native replay reads), each number as it was read."""
     meta = dict(rec.meta)
     meta["condition"] = rec.name
     split = (f"train rows 0..{rec.n_train - 1}, test rows {rec.n_train}..{rec.n - 1}" if rec.n_train
              else f"no training rows, test rows 0..{rec.n - 1}")
     meta["note"] = f"cleaned from {rec.source.name}: {len(rec.removed)} glitch rows removed; {split}"
     meta["split_row"] = str(rec.n_train)
-    return benchlog.write_log(path, rec.df, meta)
+    return benchlog.write_log(path, rec.df, meta, exact=True)  # the numbers it was read with

@@ -52,7 +52,7 @@ def training_log(rec: dataset.Recording, path: pathlib.Path) -> pathlib.Path:
     meta["note"] = f"training rows 0..{rec.n_train - 1} of {rec.source.name} (cleaned), for tuning"
     meta["split_row"] = str(part.n)
     from ...logs import benchlog
-    return benchlog.write_log(path, part.df, meta)
+    return benchlog.write_log(path, part.df, meta, exact=True)  # the numbers it was read with
 
 
 def tune_observers(jobs: dict, work: pathlib.Path, coarse: bool = False, ripple: dict | None = None) -> dict:
