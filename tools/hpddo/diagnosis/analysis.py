@@ -33,6 +33,9 @@ def parts(rows, res, arrays=None, which: str = "test") -> list[np.ndarray]:
     return [a[c] for r, e, a in zip(rows, res, arrays) for c in runs(getattr(r, which) & np.isfinite(e))]
 
 
+MIN_DIFFERENCES = 5  # robust_noise_var's differences at the least (else NaN: not measured)
+
+
 def robust_noise_var(e_parts) -> float:
     """Variance of the white part of the residual from first differences within each
     contiguous part: a slow structured error hardly moves from one row to the next, a
@@ -44,7 +47,7 @@ def robust_noise_var(e_parts) -> float:
     diffs = [np.diff(e) for e in e_parts if len(e) > 2]
     d = np.concatenate(diffs) if diffs else np.zeros(0)
     d = d[d != 0.0]
-    if len(d) < 5:
+    if len(d) < MIN_DIFFERENCES:
         return float("nan")
     mad = MAD_NORMAL * float(stats.median_abs_deviation(d))
     return float(mad * mad / 2.0)

@@ -34,6 +34,12 @@ REPEAT_MIN = 5
 TRUNCATED_MAX = 0.02
 
 
+# Why a floor is what the model leaves out of fold (NoiseFloor.unmeasured), and the measurement that would give one
+NO_REPEATS = ("this table repeats no operating point", "repeat a few operating points to measure the noise")
+FEW_DIFFERENCES = (f"fewer than {analysis.MIN_DIFFERENCES} consecutive rows with rpm_ref read differ in the held-out "
+                   "residual", "log rpm_ref on consecutive rows to measure the noise")
+
+
 @dataclasses.dataclass
 class NoiseFloor:
     """The noise floor (variance, RPM^2) and its parts."""
@@ -42,7 +48,8 @@ class NoiseFloor:
     measured_rpm2: float   # the floor measured on the residual
     source: str            # how it was measured, in words
     sensors: dict          # {part: variance RPM^2} from the log's metadata (may be empty)
-    from_model: bool = False  # the measured floor is the model's own out-of-fold residual
+    from_model: bool = False  # the measured floor is the model's own out-of-fold residual ...
+    unmeasured: tuple = NO_REPEATS  # ... because (why, what would measure it): NO_REPEATS or FEW_DIFFERENCES
     encoder_step_rpm: float = 0.0  # one encoder count per window, RPM (the coarsest recording's)
     truncated_share: float = 0.0   # driven rows reading at most MIN_RPM, of all driven rows
 
@@ -106,15 +113,21 @@ def repeats(rows, res) -> tuple[np.ndarray, list]:
 REPEAT_OUTLIER = 5.0
 
 
-def measured(data, res, mse_out_of_fold: float) -> tuple[float, str, bool]:
-    """(variance RPM^2, how, from the model) of the noise measured on the held-out residual res:
+def measured(data, res, mse_out_of_fold: float) -> tuple[float, str, tuple]:
+    """(variance RPM^2, how, why not measured: () where it is) of the noise measured on the held-out residual res:
     first differences where the rows are a time series; on steady-state tables the repeated
-    operating points (their robust spread, the outlying pairs named), else the model's
-    out-of-fold mean squared error mse_out_of_fold."""
+    operating points (their robust spread, the outlying pairs named); else (a table that repeats none, a time
+    series with too few consecutive labelled rows that differ) the model's out-of-fold mean squared error
+    mse_out_of_fold."""
     rows = data.rows
     if not any(r.steady for r in rows):
-        return (analysis.robust_noise_var(analysis.parts(rows, res)),
-                "the white part of the held-out residual, from row-to-row differences", False)
+        var = analysis.robust_noise_var(analysis.parts(rows, res))
+        if math.isfinite(var):
+            return var, "the white part of the held-out residual, from row-to-row differences", ()
+        # too few consecutive labelled rows that differ (an encoder read on every other row, or slower than the
+        # logger): nothing measures the white part, and the floor is what the model leaves, as on a table
+        return (float(mse_out_of_fold), f"the model's own out-of-fold residual: {FEW_DIFFERENCES[0]} "
+                f"({FEW_DIFFERENCES[1]})", FEW_DIFFERENCES)
     d, where = repeats(rows, res)
     if len(d) >= REPEAT_MIN:
         sd = analysis.MAD_NORMAL * float(np.median(np.abs(d)))  # a pair's difference is centred on zero
@@ -125,11 +138,11 @@ def measured(data, res, mse_out_of_fold: float) -> tuple[float, str, bool]:
                     + ", ".join(f"{where[k]}, {abs(d[k]):.3g} RPM" for k in far[:5])
                     + (", ..." if len(far) > 5 else "") + ")")
         if sd > 0:
-            return sd * sd / 2.0, how, False
-        return float(np.mean(d * d) / 2.0), f"{len(d)} repeated operating points of the table", False
+            return sd * sd / 2.0, how, ()
+        return float(np.mean(d * d) / 2.0), f"{len(d)} repeated operating points of the table", ()
     return (float(mse_out_of_fold),
             "the model's own out-of-fold residual: the table repeats no operating point (repeat a few to "
-            "measure the noise)", True)
+            "measure the noise)", NO_REPEATS)
 
 
 def step_rpm(rec, r) -> float | None:
@@ -203,7 +216,7 @@ def sensors(recs, rows, p) -> dict:
 #: how a table's floor is measured where the model with every library effect leaves less out of fold than the
 #: model the diagnosis starts from (core.fit_model)
 FROM_ALL_EFFECTS = ("the out-of-fold residual of the model with every library effect, less than the model under "
-                    "test's: the table repeats no operating point (repeat a few to measure the noise)")
+                    "test's")
 
 
 def floor(data, recs, res, mse_out_of_fold: float, p, cap_rpm2: float = math.nan) -> NoiseFloor:
@@ -213,11 +226,12 @@ def floor(data, recs, res, mse_out_of_fold: float, p, cap_rpm2: float = math.nan
     out-of-fold residual and the cap is less, the cap (FROM_ALL_EFFECTS): a model that lacks an
     effect the table shows leaves that effect in its residual, and a floor made of it calls the
     effect noise."""
-    var, how, from_model = measured(data, res, mse_out_of_fold)
+    var, how, why = measured(data, res, mse_out_of_fold)
+    from_model = bool(why)
     if from_model and math.isfinite(cap_rpm2) and cap_rpm2 < var:
-        var, how = cap_rpm2, FROM_ALL_EFFECTS
+        var, how = cap_rpm2, f"{FROM_ALL_EFFECTS}: {why[0]} ({why[1]})"
     parts = sensors(recs, data.rows, p)
     total = max(var if np.isfinite(var) else 0.0, float(sum(parts.values())))
     return NoiseFloor(var_rpm2=total if total > 0 else var, measured_rpm2=var, source=how, sensors=parts,
-                      from_model=from_model and not total > var,
+                      from_model=from_model and not total > var, unmeasured=why or NO_REPEATS,
                       encoder_step_rpm=encoder_step_rpm(recs, data.rows), truncated_share=truncated_share(data.rows))

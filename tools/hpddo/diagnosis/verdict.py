@@ -251,17 +251,16 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
         if floor is not None and floor.from_model and above:
             # the floor is what the selected model leaves out of fold: a residual this far above it is something
             # the recordings hold that no named effect explains (what was selected and not named, said after this)
-            whose = ("the model with every library effect" if floor.source == noise.FROM_ALL_EFFECTS
+            whose = ("the model with every library effect" if floor.source.startswith(noise.FROM_ALL_EFFECTS)
                      else "the selected model")
             return ("No library effect is named for the residual, which stays "
                     f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the floor "
-                    f"({math.sqrt(floor.measured_rpm2):.3g} RPM, what {whose} leaves out of fold: this "
-                    "table repeats no operating point): something these recordings hold is missing from the model.")
+                    f"({math.sqrt(floor.measured_rpm2):.3g} RPM, what {whose} leaves out of fold: "
+                    f"{floor.unmeasured[0]}): something these recordings hold is missing from the model.")
         if floor is not None and floor.from_model:
             return ("No library effect is named. Whether anything is missing below "
-                    f"{math.sqrt(floor.measured_rpm2):.3g} RPM cannot be told: this table repeats no operating "
-                    "point, so its noise floor is what the model leaves out of fold; repeat a few operating "
-                    "points to measure the noise.")
+                    f"{math.sqrt(floor.measured_rpm2):.3g} RPM cannot be told: {floor.unmeasured[0]}, so its "
+                    f"noise floor is what the model leaves out of fold; {floor.unmeasured[1]}.")
         if above and after.whiteness["white"] is None:
             return ("No library effect explains the residual, which is "
                     f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor; whether "

@@ -1,0 +1,23 @@
+"""diagnosis/noise.py: where the white part of a time series' held-out residual cannot be measured (fewer than
+analysis.MIN_DIFFERENCES consecutive labelled rows that differ: an encoder read on every other row), the floor is
+what the model leaves out of fold, as on a table that repeats no operating point, and the verdict says why;
+never a NaN floor. The diagnosis of such a log printed "noise floor nan RPM: measured nan RPM" under "Nothing
+missing: the residual is consistent with measurement noise" (found by a fuzzing helper)."""
+import math
+
+from hpddo.diagnosis import core
+from hpddo.logs import benchlog
+from hpddo.schema import ROOT
+
+
+def test_a_floor_that_cannot_be_measured_is_the_models_own_and_said_so(tmp_path):
+    log = benchlog.read_log(ROOT / "data" / "default" / "sweep.csv")
+    df = log.df.copy()
+    df.loc[df.index % 2 == 1, "rpm_ref"] = float("nan")  # read at half the logger's rate: empty is "not measured"
+    path = benchlog.write_log(tmp_path / "sweep.csv", df, log.meta, exact=True)
+    res = core.diagnose([path], core.Options(bootstrap=0, hybrid=False)).to_json()
+    nf = res["noise_floor"]
+    assert math.isfinite(nf["rpm"]) and nf["rpm"] > 0 and nf["from_model"], nf
+    assert "fewer than 5 consecutive rows with rpm_ref read differ" in nf["text"], nf["text"]
+    assert "nan" not in nf["text"] and "consistent with measurement noise" not in res["verdict"], res["verdict"]
+    assert "rows with rpm_ref read differ" in res["verdict"], res["verdict"]
