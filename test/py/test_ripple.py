@@ -80,6 +80,23 @@ def test_a_bad_burst_file_is_a_user_error_with_its_line(tmp_path):
     assert ":5:" in str(exc.value)
 
 
+def test_a_burst_file_reads_as_a_bench_logs_grammar_does(tmp_path):
+    """A byte-order mark before its first line is read past, as in a bench log (it was refused: "missing metadata
+    format"); a key given twice is refused with its line, as in a bench log (the last value won)."""
+    text = "# format=hpddo-ripple 1\n# sample_hz=10000\n# a_per_code=0.01\nseq,t_s,n,codes\n0,0.0,3,1 2 3\n"
+    p = tmp_path / "x.ripple.csv"
+    p.write_bytes(b"\xef\xbb\xbf" + text.encode())
+    assert rf.read(p).sample_hz == 10000.0
+    p.write_text(text.replace("# a_per_code=0.01\n", "# a_per_code=0.01\n# sample_hz=20000\n"))
+    with pytest.raises(USER_ERRORS) as exc:
+        rf.read(p)
+    assert ":4: metadata sample_hz given again (first on line 2)" in str(exc.value)
+    p.write_text(text + "0,0.5,3,1 2 3\n")  # two bursts of one log row (seq 0): every burst at seq 0 was taken,
+    with pytest.raises(USER_ERRORS) as exc:  # and the gear ratio said to be another than the nameplate's
+        rf.read(p)
+    assert ":6: seq 0 given again (first on line 5)" in str(exc.value)
+
+
 def test_twin_cli_ripple_hz_writes_the_bursts(tmp_path):
     out = tmp_path / "r"
     subprocess.run([sys.executable, "-m", "hpddo", "twin", "--protocol", "sweep", "--time-scale", "0.02",
@@ -834,3 +851,17 @@ def test_ke_from_the_ripple_states_a_doubt_that_holds_the_truth_on_the_twins_run
                                 float(g["meta"]["ra_ohm"]), Options(6, 4.4))
     truth = float(g["truth"]["ke_vs_per_rad"].median())
     assert n > 20 and abs(ke / truth - 1) <= doubt <= KE_DOUBT_MAX, (ke, truth, doubt)
+
+
+def test_the_references_line_says_no_prior_where_no_window_gave_ke():
+    """A burst file whose codes are all zero gives no window a line and no back-EMF prior: the reference's line
+    says so, never "prior Ke nan V s/rad" (hpddo evaluate --reference ripple printed it; found by a fuzzing
+    helper), and its record holds no NaN."""
+    from hpddo.ripple import reference
+
+    rec = {"ripples_per_rev": 6, "gear_ratio": 4.4, "ke_prior_vs_per_rad": None, "ke_from": "ripple (0 windows)",
+           "kept": 0, "rows": 120, "left_out": 120, "left_out_by_reason": {"floor": 120}}
+    said = reference.line("load", rec)
+    assert "no back-EMF prior (ripple (0 windows))" in said and "nan" not in said, said
+    rec["ke_prior_vs_per_rad"] = 0.0123
+    assert "prior Ke 0.0123 V s/rad from ripple (0 windows)" in reference.line("load", rec)

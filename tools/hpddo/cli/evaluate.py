@@ -62,7 +62,9 @@ def run(args) -> int:
             print(reference.line(r.name, r.reference))
     for r in ev.recordings:
         if "rpm_ref" not in r.df or not r.df["rpm_ref"].notna().any():
-            print(f"hpddo evaluate: {r.source}: no encoder readings (rpm_ref): its estimates are written "
+            what = ("no row kept by the ripple reference (the line above)" if r.reference is not None
+                    else "no encoder readings (rpm_ref)")
+            print(f"hpddo evaluate: {r.source}: {what}: its estimates are written "
                   f"({args.out / 'work' / 'estimates'}), there is nothing to score them against")
     print(ev.table, end="")
     if not args.quiet:

@@ -106,7 +106,7 @@ def head(path, error, required, fmt: str, header: str) -> tuple:
     the fault: unreadable, malformed or missing metadata, another format, no header."""
     path = pathlib.Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        text = path.read_text(encoding="utf-8-sig")  # a byte-order mark, as a bench log may begin with one
     except (OSError, UnicodeDecodeError) as exc:
         raise error(f"{path}: cannot read: {exc}") from None
     lines = text.split("\n")
@@ -117,6 +117,8 @@ def head(path, error, required, fmt: str, header: str) -> tuple:
         m = _META.match(lines[i])
         if not m:
             raise error(f"{path}:{i + 1}: malformed metadata")
+        if m.group(1) in meta:  # one value a key, as in a bench log
+            raise error(f"{path}:{i + 1}: metadata {m.group(1)} given again (first on line {where[m.group(1)]})")
         meta[m.group(1)] = m.group(2).strip()
         where[m.group(1)] = i + 1
         i += 1
@@ -151,7 +153,7 @@ def read(path) -> Bursts:
     """Reads a burst file; a RippleFileError names the line and the fault."""
     path = pathlib.Path(path)
     lines, meta, where, i = head(path, RippleFileError, REQUIRED_META, FORMAT, HEADER)
-    seq, t, codes = [], [], []
+    seq, t, codes, line_of = [], [], [], {}
     for j in range(i + 1, len(lines)):
         parts = lines[j].split(",")
         try:
@@ -163,6 +165,10 @@ def read(path) -> Bursts:
             raise RippleFileError(f"{path}:{j + 1}: {exc}") from None
         if t and tt <= t[-1]:
             raise RippleFileError(f"{path}:{j + 1}: t_s not increasing")
+        if s in line_of:  # a burst is its log row's (seq): two bursts of one row are no file of this format
+            raise RippleFileError(f"{path}:{j + 1}: seq {s} given again (first on line {line_of[s]}): each burst "
+                                  "is the one of its log row's seq")
+        line_of[s] = j + 1
         seq.append(s)
         t.append(tt)
         codes.append(c)

@@ -26,6 +26,7 @@ count), the rows take 0 RPM weighted by the stall's confidence, counted as `stal
 from __future__ import annotations
 
 import dataclasses
+import math
 import pathlib
 
 import numpy as np
@@ -127,7 +128,7 @@ def swap(path, df, meta: dict, ref: Ripple):
     left = {k: int(c) for k, c in zip(*np.unique(key[~kept].astype(str), return_counts=True))}
     w = weight[kept]
     record = {**ref.to_json(), "bursts": path_for(path).name,
-              "ke_prior_vs_per_rad": ke, "ke_from": ke_from, "rows": n, "kept": int(kept.sum()),
+              "ke_prior_vs_per_rad": ke if math.isfinite(ke) else None, "ke_from": ke_from, "rows": n, "kept": int(kept.sum()),
               "standing_labelled": int(still.sum()), "standing_V": ref.options().standing_V,
               "stall_labelled": int(stall.sum()),
               "left_out": int((~kept).sum()), "left_out_by_reason": left,
@@ -161,8 +162,11 @@ def pooled(records: dict) -> dict | None:
 def line(name: str, record: dict) -> str:
     """One printed line: where the reference came from and the rows left out, by reason."""
     why = ", ".join(f"{k} {c}" for k, c in sorted(record["left_out_by_reason"].items()))
+    ke = record.get("ke_prior_vs_per_rad")
+    prior = (f"prior Ke {ke:.4f} V s/rad from {record['ke_from']}" if ke is not None and math.isfinite(ke)
+             else f"no back-EMF prior ({record['ke_from']})")
     return (f"{name}: reference ripple ({record['ripples_per_rev']} x {record['gear_ratio']:g} per output "
-            f"revolution, prior Ke {record['ke_prior_vs_per_rad']:.4f} V s/rad from {record['ke_from']}): "
+            f"revolution, {prior}): "
             f"{record['kept']} of {record['rows']} rows kept"
             + (f" ({record['standing_labelled']} of them standing: 0 RPM from the back-EMF, drive off, no "
                f"current, |V| < {1000 * record['standing_V']:g} mV)" if record.get("standing_labelled") else "")

@@ -183,8 +183,10 @@ def tables(r: dict) -> str:
     for name, pr in ref["per_recording"].items():
         w = ", ".join(f"{k} {c}" for k, c in sorted(pr["left_out_by_reason"].items())) or "none"
         ck = pr["confidence_kept"]
-        lines.append(f"  {name}: {pr['rows']} rows, left out: {w}; standing {pr.get('standing_labelled', 0)}; prior Ke {pr['ke_prior_vs_per_rad']:.4f} V s/rad; "
-                     f"kept rows' confidence median {ck['median']:.2f}, min {ck['min']:.2f}")
+        ke = pr["ke_prior_vs_per_rad"]
+        lines.append(f"  {name}: {pr['rows']} rows, left out: {w}; standing {pr.get('standing_labelled', 0)}; prior Ke "
+                     + (f"{ke:.4f} V s/rad" if ke is not None else "none")
+                     + f"; kept rows' confidence median {ck['median']:.2f}, min {ck['min']:.2f}")
     lines.append("")
     lines.append("| model | trained from | RMSE unseen | RMSE hot | average | ripple / encoder |")
     lines.append("|---|---|---|---|---|---|")
