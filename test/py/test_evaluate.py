@@ -213,3 +213,16 @@ def test_a_recording_without_encoder_speeds_has_no_rmse_and_no_part_in_the_avera
     assert row.split()[1:4] == ["-", "-", "-"] and "nan" not in text
     none = metrics.score([("without", np.full(n, np.nan), est, np.ones(n, bool))], "test")
     assert none["rmse_rpm"]["M3"]["average"] is None
+
+
+def test_a_recording_of_a_few_rows_is_scored_whole(tmp_path):
+    """evaluate scores every row and splits none, so a recording needs a row, not the ten a train/test split
+    needs (it was refused: "at least 10 are needed to split train/test")."""
+    lines = (ROOT / "data" / "validation" / "unseen.csv").read_text().splitlines()
+    n_head = next(k for k, ln in enumerate(lines) if not ln.startswith("#")) + 1
+    short = tmp_path / "short.csv"
+    short.write_text("\n".join(lines[:n_head] + lines[n_head + 200: n_head + 203]) + "\n")
+    out = tmp_path / "out"
+    assert cli.main(["--model", str(MODEL), str(short), "--out", str(out), "--quiet"]) == 0
+    m = json.loads((out / "metrics.json").read_text())
+    assert m["test_rows"]["unseen"] == 3 and np.isfinite(m["rmse_rpm"]["M3"]["unseen"]), m
