@@ -21,3 +21,24 @@ def test_a_floor_that_cannot_be_measured_is_the_models_own_and_said_so(tmp_path)
     assert "fewer than 5 consecutive rows with rpm_ref read differ" in nf["text"], nf["text"]
     assert "nan" not in nf["text"] and "consistent with measurement noise" not in res["verdict"], res["verdict"]
     assert "rows with rpm_ref read differ" in res["verdict"], res["verdict"]
+
+
+def test_a_white_residual_far_above_the_floor_is_not_called_noise():
+    """No effect named, the residual white but 72x the noise variance above the floor: the verdict said "Nothing
+    missing: the residual is consistent with measurement noise" while the next-command line said it stays above
+    the floor (a fuzzing helper's three twin recordings of different benches). It says what is left; a residual
+    within the floor is still noise."""
+    from hpddo.diagnosis import verdict
+    from hpddo.diagnosis.result import Confounding, ResidualAnalysis, Residuals, Selection
+
+    def said(excess: float) -> str:
+        after = ResidualAnalysis(mse=excess + 1.0, noise_var=1.0, excess=excess, whiteness={"white": True},
+                                 correlates=[])
+        resid = Residuals(after_model=None, res_after=[], before=after, after=after)
+        sel = Selection(steps=[], final=None, steps_final=None, missing=[], ranking=[])
+        return verdict._verdict(sel, Confounding(groups=[], pairs=[]), resid, 1.0)
+
+    far = said(72.0)
+    assert far.startswith("No library effect is named, but the residual is not measurement noise") and "72.0x" in far
+    assert "consistent with measurement noise" not in far
+    assert said(0.01) == verdict.NOTHING

@@ -271,7 +271,14 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
                     "and not white. Its strongest correlates: " +
                     ", ".join(f"{c['input']} (r = {c['peak']:+.2f} at lag {c['peak_lag']})"
                               for c in after.correlates[:3] if c["significant"]) + ".")
-        if sel.ra_fit is not None and sel.ra_fit.mismatch:
+        corrected = sel.ra_fit is not None and sel.ra_fit.mismatch
+        if above:  # white (a structured or an untested residual is said above): above the floor all the same
+            return (f"No library effect is named{' once Ra is corrected' if corrected else ''}, but the residual is "
+                    f"not measurement noise: it stays {after.excess / max(sigma2, 1e-12):.1f}x the noise variance "
+                    "above the noise floor, white, so no library effect's structure shows in it: an effect outside "
+                    "the library, a channel's gain or an operating point the model does not hold; or a floor "
+                    "measured too low (a speed channel smoothed from row to row).")
+        if corrected:
             return "No effect missing once Ra is corrected: the residual is then consistent with measurement noise."
         return NOTHING
     text = "Missing: " + ", ".join(f"{e.effect} ({_size(e)})" for e in sel.ranking if e.named) + "."
