@@ -259,6 +259,21 @@ def test_hpddo_ripple_on_twin_logs_scores_and_checks_the_ratio(tmp_path, capsys)
     assert (out / "load.ripple_speed.csv").read_text().startswith("seq,t_s,rpm_ripple,confidence,confident,reason")
 
 
+def test_hpddo_ripple_refuses_two_logs_of_one_condition(tmp_path, capsys):
+    """Two logs of one condition would write one OUT/<condition>.ripple_speed.csv and one summary entry: one
+    count was lost without a word (a fuzzing helper's copies of a twin log). Refused before any output, as train
+    and diagnose refuse them."""
+    from hpddo import cli
+
+    for d in ("a", "b"):
+        generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=tmp_path / d, time_scale=0.05,
+                          ripple=params.ripple_burst())
+    status = cli.main(["ripple", str(tmp_path / "a" / "load.csv"), str(tmp_path / "b" / "load.csv"),
+                       "--ripples-per-rev", "6", "--gear-ratio", "4.4", "--out", str(tmp_path / "o")])
+    assert status == 1 and "are both condition 'load'" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
 def test_hpddo_ripple_without_bursts_is_a_user_error(tmp_path, capsys):
     from hpddo import cli
 

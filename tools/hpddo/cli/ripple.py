@@ -121,6 +121,7 @@ def run(args) -> int:
     for k, path in enumerate(logs):
         progress.stage(f"{path}: reading the log ({k + 1}/{len(logs)})")
         read[path] = benchlog.read_log(path)
+    _one_name_each({path: read[path].condition for path in logs})
     # the logs are recordings of one motor: the ripples per revolution given is checked over all of them
     progress.stage(f"counting the ripple of {len(logs)} logs' bursts")
     counted = dict(zip(logs, speed_of_bench([(p, read[p].df, read[p].meta, None) for p in logs], opts,
@@ -130,6 +131,9 @@ def run(args) -> int:
             if path.name.endswith(rf.SUFFIX):  # a current-only capture, no bench log
                 progress.stage(f"{path}: reading the capture, counting its ripple ({k + 1}/{len(args.logs)})")
                 name, s_cap = _capture(path, opts, args, stage)
+                if name in summary:  # (the output refused whole: staged)
+                    raise InputError(f"{path}: its condition {name!r} is another input's too; each writes "
+                                     f"OUT/<condition>.ripple_speed.csv: give each recording its own # condition=")
                 summary[name] = s_cap
                 continue
             log = read[path]
@@ -321,6 +325,19 @@ def _capture(path, opts, args, stage):
     if not args.quiet:
         print(_no_estimate(est, s["reasons"]), file=sys.stderr)
     return name, s
+
+
+def _one_name_each(names: dict) -> None:
+    """Refuses two logs of one condition ({path: condition}): each writes OUT/<condition>.ripple_speed.csv and its
+    summary under that name, so one would be lost (as train and diagnose refuse them)."""
+    from ..logs.errors import InputError
+
+    seen = {}
+    for path, name in names.items():
+        if name in seen:
+            raise InputError(f"{path} and {seen[name]} are both condition {name!r}; each writes "
+                             f"OUT/<condition>.ripple_speed.csv: give each recording its own # condition=")
+        seen[name] = path
 
 
 def _no_estimate(est, reasons: dict) -> str:
