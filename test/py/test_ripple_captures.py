@@ -469,3 +469,14 @@ def test_a_time_column_in_the_unit_its_name_states(tmp_path, name, per):
     cap = ci.read_csv(p, column="current", time_column=name)
     assert cap.sample_hz == pytest.approx(20000.0, rel=1e-6)
     assert ("by its name" in cap.rate_from) == (per != 1.0), cap.rate_from
+
+
+def test_a_capture_shorter_than_a_window_is_one_window_of_its_length(tmp_path, capsys):
+    """A capture of 120 samples at 10 kHz (12 ms) under the default 0.5 s windows is one window, and it is said
+    and written as 12 ms long (it was "1 windows of 0.5 s" and # burst_s=0.5; found by a fuzzing helper)."""
+    np.savetxt(tmp_path / "c.csv", np.sin(np.arange(120) / 3.0))
+    out = tmp_path / "c.ripple.csv"
+    assert cli.main(["import", str(tmp_path / "c.csv"), "--a-per-unit", "1", "--pwm-hz", "0", "--sample-hz", "10000",
+                     "--out", str(out)]) == 0
+    assert "1 windows of 0.012 s, 120 samples at 10000 Hz" in capsys.readouterr().out
+    assert "# burst_s=0.012\n" in out.read_text()

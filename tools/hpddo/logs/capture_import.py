@@ -327,7 +327,9 @@ def write_bursts(cap: Capture, out, a_per_unit: float, offset: float | None, win
     if offset is None:
         offset = float(np.mean(cap.values)) if coupling == rf.AC else 0.0
     n_w = max(1, int(round(window_s * cap.sample_hz)))
-    if n_w < MIN_SAMPLES and n_w < len(codes):  # (a capture shorter than one window is one window)
+    if n_w >= len(codes):  # a capture shorter than one window is one window, as long as the capture
+        n_w = max(len(codes), 1)
+    elif n_w < MIN_SAMPLES:
         raise CaptureError(f"--window-s {window_s:g} at {cap.sample_hz:g} Hz: windows of {n_w} sample"
                            f"{'s' if n_w > 1 else ''}, fewer than {MIN_SAMPLES}, nothing to count: give --window-s "
                            f"{MIN_SAMPLES / cap.sample_hz:.3g} or more")
