@@ -140,6 +140,26 @@ def test_leave_one_out_trains_without_the_recording_it_scores(tmp_path):
                              "--leave-one-out"]) == 0
 
 
+def test_a_fold_whose_others_cannot_be_fitted_is_said_not_scored(tmp_path, capsys):
+    """train --leave-one-out with a recording that has no encoder speeds beside one that has: the model on both
+    trains, the fold trained on the unlabelled one alone cannot be. The whole run ended in that fold's refusal,
+    nothing written (a fuzzing helper's); the fold is now said not scored, with why, and the model is written."""
+    import gen_weights
+    from hpddo.logs import benchlog
+
+    log = benchlog.read_log(ROOT / "data" / "default" / "load.csv")
+    meta = dict(log.meta, condition="load_norpm")
+    unlabelled = benchlog.write_log(tmp_path / "load_norpm.csv", log.df.drop(columns=["rpm_ref"]), meta, exact=True)
+    out = tmp_path / "m"
+    assert gen_weights.main([str(unlabelled), str(ROOT / "data" / "default" / "sweep.csv"), "--out", str(out),
+                             "--epochs", "3", "--quiet", "--leave-one-out"]) == 0
+    printed = capsys.readouterr().out
+    assert "(sweep: not scored: the others alone cannot be fitted: " in printed, printed
+    loo = json.loads((out / "metrics.json").read_text())["leave_one_out"]
+    assert set(loo["not_scored"]) == {"sweep"} and loo["recordings"]["sweep"]["M2"] is None
+    assert loo["average"]["M2"] is None
+
+
 def test_leave_one_out_of_one_recording_is_refused_before_any_work(tmp_path, capsys):
     import gen_weights
     out = tmp_path / "m"

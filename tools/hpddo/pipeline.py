@@ -277,20 +277,30 @@ def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
     out = pathlib.Path(out_dir)
     if cfg.reference is not None and hasattr(cfg.reference, "over"):  # the ripple counted once over every recording
         cfg = dataclasses.replace(cfg, reference=cfg.reference.over(paths))
-    scores = {}
+    scores, why = {}, {}
     for k, held in enumerate(paths):
         others = paths[:k] + paths[k + 1:]
         stem = held.stem
         progress.stage(f"leave one out {k + 1}/{len(paths)}: trained without {held.name}, scored on it")
-        res = run(others, out / stem / "model", dataclasses.replace(cfg, command=f"{cfg.command} (leave out {held.name})"))
+        try:
+            res = run(others, out / stem / "model",
+                      dataclasses.replace(cfg, command=f"{cfg.command} (leave out {held.name})"))
+        except InputError as exc:  # the others alone cannot be fitted (the model on every recording could be)
+            name = benchlog.read_log(held).condition
+            scores[name], why[name] = None, f"the others alone cannot be fitted: {exc}"
+            continue
         ev = evaluate(res.out, [held], out / stem / "evaluation", glitch_filter=cfg.glitch_filter,
                       reference=cfg.reference)
         name = ev.recordings[0].name
         scores[name] = {m: v[name] for m, v in ev.metrics["rmse_rpm"].items()}
-    models = list(next(iter(scores.values())))
+    models = list(next((s for s in scores.values() if s is not None), {m: None for m in LOO_MODELS}))
+    scores = {c: s if s is not None else {m: None for m in models} for c, s in scores.items()}
     avg = {m: metrics_mod.figure(sum(s[m] for s in scores.values()) / len(scores))
            if all(s[m] is not None for s in scores.values()) else None for m in models}
-    return {"recordings": scores, "average": avg}
+    return {"recordings": scores, "average": avg, "not_scored": why}
+
+
+LOO_MODELS = ("M1", "M2", "M3", "lookup")  # leave_one_out's columns where no fold could be scored
 
 
 def leave_one_out_table(loo: dict) -> str:
@@ -301,4 +311,5 @@ def leave_one_out_table(loo: dict) -> str:
              f"{'left out':<10s} " + " ".join(f"{m:>10s}" for m in models)]
     lines += [f"{c:<10s} " + " ".join(num(s[m]) for m in models) for c, s in loo["recordings"].items()]
     lines.append(f"{'average':<10s} " + " ".join(num(loo['average'][m]) for m in models))
+    lines += [f"({c}: not scored: {w})" for c, w in loo.get("not_scored", {}).items()]
     return "\n".join(lines) + "\n"
