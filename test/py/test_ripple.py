@@ -880,3 +880,43 @@ def test_the_references_line_says_no_prior_where_no_window_gave_ke():
     assert "no back-EMF prior (ripple (0 windows))" in said and "nan" not in said, said
     rec["ke_prior_vs_per_rad"] = 0.0123
     assert "prior Ke 0.0123 V s/rad from ripple (0 windows)" in reference.line("load", rec)
+
+
+def test_a_reversed_shafts_ripple_speed_takes_the_back_emfs_sign(tmp_path, capsys):
+    """The ripple counts a speed, not its direction. A twin log run in reverse (V, I, rpm_ref and the burst codes
+    negated): the count was labelled +179 RPM where the encoder read -179, and train --reference ripple wrote a
+    model with M2 Ke 0.099 V s/rad (0.37 from the encoder) without a warning (a fuzzing helper's). The label takes
+    the terminal voltage's sign (reference.direction): the same speeds as the encoder, signs and all."""
+    import pandas as pd
+
+    from hpddo import cli
+    from hpddo.logs import benchlog
+    from hpddo.ripple import reference
+
+    fwd = tmp_path / "fwd"
+    generate.generate(params.preset("default"), "load", 2.0, 1, out_dir=fwd, time_scale=0.3,
+                      ripple=params.ripple_burst())
+    rev = tmp_path / "rev"
+    rev.mkdir()
+    log = benchlog.read_log(fwd / "load.csv")
+    df = log.df.copy()
+    for c in ("v_V", "i_A", "rpm_ref"):
+        df[c] = -df[c]
+    benchlog.write_log(rev / "load.csv", df, log.meta, exact=True)
+    lines = (fwd / "load.ripple.csv").read_text().splitlines()
+    out = [ln if not ln[:1].isdigit() else ",".join(ln.split(",", 3)[:3] + [" ".join(str(-int(v)) for v in
+                                                                               ln.split(",", 3)[3].split())])
+           for ln in lines]
+    (rev / "load.ripple.csv").write_text("\n".join(out) + "\n")
+    assert cli.main(["ripple", str(rev / "load.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                     "--out", str(tmp_path / "o"), "--quiet"]) == 0
+    said = capsys.readouterr().out
+    assert "against the encoder RMS" in said and "the gear ratio 4.4:1 agrees with the data" in said, said
+    est = pd.read_csv(tmp_path / "o" / "load.ripple_speed.csv")
+    conf = est[est["confident"]]
+    assert len(conf) > 10 and (conf["rpm_ripple"] < 0).all()
+    ref = reference.Ripple(ripples_per_rev=6, gear_ratio=4.4)
+    swapped, _, _, _ = ref(rev / "load.csv", df, log.meta)
+    got, enc = swapped["rpm_ref"].to_numpy(), df["rpm_ref"].to_numpy()
+    ok = np.isfinite(got) & (np.abs(enc) > 20)
+    assert ok.sum() > 10 and np.all(np.abs(got[ok] / enc[ok] - 1) < 0.05)

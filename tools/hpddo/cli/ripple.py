@@ -93,6 +93,7 @@ def run(args) -> int:
     from ..logs import benchlog, dataset, outdir
     from ..logs import ripple as rf
     from ..logs.errors import InputError
+    from ..ripple import reference
     from ..ripple.encoder import check_ratio, span_reference
     from ..ripple.log import speed_of_bench
     from ..ripple.line import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, figure_confirmed, other_figure
@@ -141,11 +142,15 @@ def run(args) -> int:
             est, ke, ke_from = counted[path]
             rows = est["row"].to_numpy()
             est.insert(1, "t_s", df["t_s"].to_numpy()[rows])
+            # the count is a speed; its direction is the back-EMF's (a reversed shaft's speed negative, as its
+            # encoder reads it)
+            est["rpm"] = est["rpm"].to_numpy(float) * reference.direction(
+                df.iloc[rows], args.ra_ohm if args.ra_ohm is not None else reference.ra_of(log.meta)) + 0.0
             name = log.condition
             est[list(COLUMNS)].rename(columns={"rpm": "rpm_ripple"}).to_csv(stage / f"{name}.ripple_speed.csv", index=False,
                                                                     float_format="%.6g")
             conf = est["confident"].to_numpy()
-            above = est["i_mean_A"].to_numpy() >= opts.floor_A
+            above = np.abs(est["i_mean_A"].to_numpy()) >= opts.floor_A  # (either direction, as the count's floor)
             s = {"windows": len(est), "confident": int(conf.sum()), "above_floor": int(above.sum()),
                  "stalls": int(est["stall"].sum()),
                  "ke_prior_vs_per_rad": ke if math.isfinite(ke) else None, "ke_from": ke_from,
@@ -158,7 +163,7 @@ def run(args) -> int:
                 s["glitch_rows_left_out"] = int(glitch.sum())
                 # a span's count against the encoder over the same span (ripple.span_reference)
                 ref_span = span_reference(est, ref)
-                ok = conf & np.isfinite(ref_span) & (ref_span > 0)
+                ok = conf & np.isfinite(ref_span) & (ref_span != 0)
                 if ok.any():
                     e = est["rpm"].to_numpy()[ok] / ref_span[ok] - 1
                     s["rms_vs_encoder_pct"] = float(100 * np.sqrt(np.mean(e ** 2)))

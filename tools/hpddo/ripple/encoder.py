@@ -40,7 +40,7 @@ def check_ratio(df, rpm_ref, window_s: float, opts: Options, tol: float = 0.001,
     where it declares the encoder, else encoder_step_from_readings), a standard deviation of
     step / sqrt(6) per window, independent across windows, which a slow run's few counts make
     large (118 windows at 5 RPM with a 0.62 RPM step: 0.33 %)."""
-    ref = np.asarray(rpm_ref, float)
+    ref = np.abs(np.asarray(rpm_ref, float))  # the ripple counts a speed, not its direction: a reversed shaft's too
     ok = df["confident"].to_numpy() & np.isfinite(ref) & (ref > 0)
     if ok.sum() == 0:
         return {"windows": 0, "statement": "no confident window with an encoder speed: the ratio is not checked"}
