@@ -480,3 +480,21 @@ def test_a_capture_shorter_than_a_window_is_one_window_of_its_length(tmp_path, c
                      "--out", str(out)]) == 0
     assert "1 windows of 0.012 s, 120 samples at 10000 Hz" in capsys.readouterr().out
     assert "# burst_s=0.012\n" in out.read_text()
+
+
+def test_a_current_no_motor_draws_is_refused_before_anything_is_written(tmp_path, capsys):
+    """--a-per-unit 1e300 (or an offset of 1e300) made currents of 1e300 A: the spectrum overflowed (numpy's
+    warnings printed) and every window read a made-up reason (a fuzzing helper's). Over logs.ripple.MAX_CURRENT_A
+    the import refuses before it writes, and the burst file's reader refuses such a file with its line."""
+    from hpddo.logs import ripple as rf
+
+    np.savetxt(tmp_path / "c.csv", np.sin(np.arange(2000) / 3.0))
+    out = tmp_path / "c.ripple.csv"
+    for flags in (["--a-per-unit", "1e300"], ["--a-per-unit", "1", "--offset", "1e300"]):
+        assert cli.main(["import", str(tmp_path / "c.csv"), *flags, "--pwm-hz", "0", "--sample-hz", "10000",
+                         "--out", str(out)]) == 1
+        err = capsys.readouterr().err
+        assert "c.csv: --a-per-unit" in err and "over any motor's 1e+06 A" in err and not out.exists(), err
+    out.write_text("# format=hpddo-ripple 1\n# sample_hz=10000\n# a_per_code=1e300\nseq,t_s,n,codes\n0,0.0,3,1 2 3\n")
+    with pytest.raises(rf.RippleFileError, match=r":3: a_per_code=1e300 and offset_code=0 make currents of 3e\+300 A"):
+        rf.read(out)

@@ -22,6 +22,9 @@ SUFFIX = ".ripple.csv"
 FORMAT = "hpddo-ripple 1"
 HEADER = "seq,t_s,n,codes"
 REQUIRED_META = ("format", "sample_hz", "a_per_code")
+#: a burst's current (code - offset_code) x a_per_code beyond this is no motor's: a scale or an offset gone wrong
+#: (1e300 A made the spectrum overflow, and every window a made-up reason)
+MAX_CURRENT_A = 1e6
 # the optional keys the reader interprets (any other key is kept as it is)
 SAMPLING = "sampling"            # how the samples sit against the PWM
 SYNCHRONOUS, FREE = "synchronous", "free"  # one sample per PWM period at a fixed phase / free-running
@@ -196,6 +199,11 @@ def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = Non
     for key, allowed in ((SAMPLING, SAMPLINGS), (COUPLING, COUPLINGS)):
         if key in meta and meta[key] not in allowed:
             raise RippleFileError(f"{path}: metadata {key}={meta[key]!r}, expected one of {', '.join(allowed)}")
+    extreme = max((float(np.max(np.abs(np.asarray(c, float) - offset))) for c in codes if len(c)), default=0.0) * lsb
+    if not extreme <= MAX_CURRENT_A:
+        raise RippleFileError(f"{path}:{where['a_per_code']}: a_per_code={meta['a_per_code']} and "
+                              f"{OFFSET_CODE}={offset:g} make currents of {extreme:.3g} A, over any motor's "
+                              f"{MAX_CURRENT_A:g} A (the spectrum would overflow): check the scale and the offset")
     return Bursts(dict(meta), fs, lsb, np.asarray(seq, np.int64), np.asarray(t_s, float), list(codes), offset_code=offset,
                   sampling=meta.get(SAMPLING, SYNCHRONOUS), pwm_hz=declared.get(PWM_HZ, math.nan),
                   mains_hz=declared.get(MAINS_HZ, math.nan), coupling=meta.get(COUPLING, DC))
