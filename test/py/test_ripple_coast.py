@@ -338,10 +338,19 @@ def test_ripple_coast_refuses_what_it_cannot_use(coast_files, tmp_path, capsys):
              (["--ra-ref", "4.5", "31", "--ke-vs-per-rad", "0.35", "--out", str(tmp_path / "b")], "apply with --coast"),
              (["--winding-tolerance-k", "5", "--ke-vs-per-rad", "0.35", "--out", str(tmp_path / "b")],
               "apply with --coast"),
-             (["--coast", "--ke-vs-per-rad", "0.35", "--ra-ref", "-1", "20", "--out", str(tmp_path / "c")], "--ra-ref")]
+             (["--coast", "--ke-vs-per-rad", "0.35", "--ra-ref", "-1", "20", "--out", str(tmp_path / "c")], "--ra-ref"),
+             (["--coast", "--ke-vs-per-rad", "0.35", "--ra-ref", "4.5", "-300", "--out", str(tmp_path / "c")],
+              "above absolute zero (-273.15 C)")]
     for extra, said in cases:
         assert cli.main(base + extra) == 1
         assert said in capsys.readouterr().err
+    # a capture alone: it has no coast probes (it was read as a bench log: "missing required column(s) duty, v_V, i_A")
+    cap = tmp_path / "cap"
+    cap.mkdir()
+    (cap / "cap.ripple.csv").write_bytes(paths["ripple"].read_bytes())
+    assert cli.main(["ripple", str(cap / "cap.ripple.csv"), "--ripples-per-rev", "6", "--gear-ratio", "4.4",
+                     "--coast", "--ke-vs-per-rad", "0.35", "--out", str(tmp_path / "c")]) == 1
+    assert "a current-only capture has no coast probes" in capsys.readouterr().err
     lone = tmp_path / "lone"
     lone.mkdir()
     (lone / "coast.csv").write_bytes(paths["log"].read_bytes())

@@ -234,8 +234,14 @@ def _coast(args, opts) -> int:
     if model is None and not args.ke_vs_per_rad:
         raise InputError("--coast needs the nominal Ke that places the ripple's line: --ke-vs-per-rad KE or "
                          "--model DIR (a model of hpddo train)")
-    if args.ra_ref is not None and not (args.ra_ref[0] > 0 and np.isfinite(args.ra_ref).all()):
-        raise InputError(f"--ra-ref {args.ra_ref[0]:g} {args.ra_ref[1]:g}: Ra must be > 0 and both finite")
+    if args.ra_ref is not None and not (args.ra_ref[0] > 0 and np.isfinite(args.ra_ref).all()
+                                        and args.ra_ref[1] > ABSOLUTE_ZERO_C):
+        raise InputError(f"--ra-ref {args.ra_ref[0]:g} {args.ra_ref[1]:g}: Ra must be > 0 and the temperature above "
+                         f"absolute zero ({ABSOLUTE_ZERO_C:g} C), both finite")
+    captures = [p for p in args.logs if p.name.endswith(rf.SUFFIX)]
+    if captures:  # (read as a bench log, a burst file was refused for its missing columns)
+        raise InputError(f"{captures[0]}: a current-only capture has no coast probes: --coast reads a bench log with "
+                         "its <condition>.ripple.csv and <condition>.coast.csv beside it (docs/ripple-coast.md)")
     copts = CoastOptions(brush_drop_V=args.brush_drop_v or 0.0)
     if args.winding_tolerance_k is not None:
         copts = dataclasses.replace(copts, winding_tolerance_K=float(args.winding_tolerance_k))
@@ -330,6 +336,9 @@ def _capture(path, opts, args, stage):
     if not args.quiet:
         print(_no_estimate(est, s["reasons"]), file=sys.stderr)
     return name, s
+
+
+ABSOLUTE_ZERO_C = -273.15
 
 
 def _one_name_each(names: dict) -> None:
