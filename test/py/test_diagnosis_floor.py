@@ -42,3 +42,23 @@ def test_a_white_residual_far_above_the_floor_is_not_called_noise():
     assert far.startswith("No library effect is named, but the residual is not measurement noise") and "72.0x" in far
     assert "consistent with measurement noise" not in far
     assert said(0.01) == verdict.NOTHING
+
+
+def test_a_structured_residual_without_a_significant_correlate_says_so():
+    """A structured residual (above the floor, not white) whose correlates are all within their bands: the verdict
+    printed "Its strongest correlates: ." (a fuzzing helper's short twin sweep). It says none correlates, and
+    names the inputs tested; with one significant, it names it."""
+    from hpddo.diagnosis import verdict
+    from hpddo.diagnosis.result import Confounding, ResidualAnalysis, Residuals, Selection
+
+    corr = [{"input": "I", "peak": 0.1, "peak_lag": 0, "significant": False},
+            {"input": "V", "peak": 0.05, "peak_lag": 2, "significant": False}]
+    after = ResidualAnalysis(mse=9.0, noise_var=1.0, excess=8.0, whiteness={"white": False}, correlates=corr)
+    resid = Residuals(after_model=None, res_after=[], before=after, after=after)
+    sel = Selection(steps=[], final=None, steps_final=None, missing=[], ranking=[])
+    said = verdict._verdict(sel, Confounding(groups=[], pairs=[]), resid, 1.0)
+    assert "correlates: ." not in said and "None of the logged inputs correlates with it beyond its band" in said
+    assert "(I, V)" in said, said
+    corr[1]["significant"] = True
+    assert "Its strongest correlates: V (r = +0.05 at lag 2)." in verdict._verdict(
+        sel, Confounding(groups=[], pairs=[]), resid, 1.0)

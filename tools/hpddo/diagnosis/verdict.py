@@ -268,9 +268,7 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
         if structured_left:
             return ("No library effect explains the residual, but it is not noise: it is "
                     f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor "
-                    "and not white. Its strongest correlates: " +
-                    ", ".join(f"{c['input']} (r = {c['peak']:+.2f} at lag {c['peak_lag']})"
-                              for c in after.correlates[:3] if c["significant"]) + ".")
+                    "and not white. " + _correlates(after))
         corrected = sel.ra_fit is not None and sel.ra_fit.mismatch
         if above:  # white (a structured or an untested residual is said above): above the floor all the same
             return (f"No library effect is named{' once Ra is corrected' if corrected else ''}, but the residual is "
@@ -289,11 +287,23 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
             f"{a['effects'][1]} explains much of what {a['effects'][0]} does, but these recordings tell "
             f"the two apart (z = {a['z']:.1f})." for a in conf.told_apart)
     if structured_left:
+        sig = [c for c in after.correlates[:3] if c["significant"]]
         text += (" A structured residual remains that no library effect explains "
-                 f"({after.excess / max(sigma2, 1e-12):.1f}x the noise variance); strongest correlates: " +
-                 ", ".join(f"{c['input']} (r = {c['peak']:+.2f})" for c in after.correlates[:3]
-                           if c["significant"]) + ".")
+                 f"({after.excess / max(sigma2, 1e-12):.1f}x the noise variance)"
+                 + ("; strongest correlates: " + ", ".join(f"{c['input']} (r = {c['peak']:+.2f})" for c in sig) + "."
+                    if sig else ". " + _correlates(after)))
     return text
+
+
+def _correlates(after: ResidualAnalysis) -> str:
+    """The residual's strongest significant correlates among the logged inputs, as a sentence; where none is
+    significant, that none is (what drives the residual is not among the logged inputs)."""
+    sig = [c for c in after.correlates[:3] if c["significant"]]
+    if not sig:
+        return ("None of the logged inputs correlates with it beyond its band: what drives it is not among "
+                f"them ({', '.join(c['input'] for c in after.correlates) or 'none tested'}).")
+    return "Its strongest correlates: " + ", ".join(
+        f"{c['input']} (r = {c['peak']:+.2f} at lag {c['peak_lag']})" for c in sig) + "."
 
 
 def _size(e: EffectResult) -> str:
