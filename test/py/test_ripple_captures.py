@@ -498,3 +498,29 @@ def test_a_current_no_motor_draws_is_refused_before_anything_is_written(tmp_path
     out.write_text("# format=hpddo-ripple 1\n# sample_hz=10000\n# a_per_code=1e300\nseq,t_s,n,codes\n0,0.0,3,1 2 3\n")
     with pytest.raises(rf.RippleFileError, match=r":3: a_per_code=1e300 and offset_code=0 make currents of 3e\+300 A"):
         rf.read(out)
+
+
+
+def test_a_changing_windows_reason_says_each_figure_with_its_threshold(tmp_path):
+    """A capture whose speed sweeps 7 % a window: every window is `changing`, and its reason gives the quarters'
+    spread with what is allowed, and says the current's share is not read where no Ra or Ke is known (it printed
+    'from the current, Ra dI / Ke, 0.0%', never computed; found by a fuzzing helper)."""
+    import pandas as pd
+
+    fs, n = 10000.0, 50000
+    t = np.arange(n) / fs
+    ph = 2 * np.pi * (150.0 * t + 180.0 / (2 * t[-1]) * t ** 2)  # the commutation line from 150 to 330 Hz
+    rot = ph / 6
+    x = (0.5 + 0.05 * np.cos(ph) + 0.004 * np.cos(rot) + 0.003 * np.cos(2 * rot) + 0.005 * np.cos(3 * rot)
+         + np.random.default_rng(1).normal(0, 0.002, n))
+    np.savetxt(tmp_path / "chirp.csv", x)
+    cap = tmp_path / "chirp.ripple.csv"
+    assert cli.main(["import", str(tmp_path / "chirp.csv"), "--a-per-unit", "1", "--pwm-hz", "0", "--sample-hz",
+                     "10000", "--out", str(cap), "--quiet"]) == 0
+    assert cli.main(["ripple", str(cap), "--ripples-per-rev", "6", "--gear-ratio", "1", "--out", str(tmp_path / "o"),
+                     "--quiet"]) == 0
+    est = pd.read_csv(tmp_path / "o" / "chirp.ripple_speed.csv")
+    changing = est[est["reason"].str.startswith("the speed changed inside the window")]
+    assert len(changing) >= 5
+    assert changing["reason"].str.contains(r"quarters spread [0-9.]+%, [0-9.]+% allowed with the count's noise; "
+                                           r"the current's share not read: no Ra or Ke").all()

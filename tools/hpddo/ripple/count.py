@@ -405,8 +405,10 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
         return out
     out["spread_allowed"] = allowed
     if spread > allowed or spread_i > opts.max_spread:
+        from_i = (f"from the current, Ra dI / Ke, {spread_i:.1%}, {opts.max_spread:.1%} allowed"
+                  if rpm_per_A is not None and np.isfinite(rpm_per_A) else "the current's share not read: no Ra or Ke")
         out.update(key="changing", reason=f"{REASONS['changing']} (quarters spread {spread:.1%}, {allowed:.1%} "
-                   f"allowed with the count's noise; from the current, Ra dI / Ke, {spread_i:.1%})")
+                   f"allowed with the count's noise; {from_i})")
         return out
     # the counted line, too, off the PWM and mains lines (beside a mains line: the count within MAINS_AGREE_REL of the fit)
     fixed = sync.fixed_line(bursts, k, f_count, res, line_placed(f_count), x0)

@@ -21,7 +21,7 @@ REASONS = {
     "coasting": "coasting: the drive is off (duty 0), no armature current to ripple",
     "floor": "mean current under the floor",
     "few_cycles": "too few ripple cycles in the window for a count",
-    "not_found": "the ripple line not found (no line above the noise near the back-EMF prior)",
+    "not_found": "the ripple line not found (no line above the noise near the prior: the back-EMF's, or the speed range given)",
     "far": "the strongest line is too far from the back-EMF prior to be the ripple (a fixed line: interference, "
            "while the shaft stands or turns too slowly for its ripple)",
     "ambiguous": "sub-harmonic ambiguity unresolved: another line of the family fits the data as well "
