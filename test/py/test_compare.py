@@ -254,3 +254,22 @@ def test_docs_quote_the_committed_figures():
     doc = (ROOT / "docs" / "compare.md").read_text()
     for line in tables.splitlines():
         assert line in doc, line
+
+
+def test_the_papers_average_stands_only_under_a_table_of_its_conditions():
+    """The paper's average is over its three conditions: under a table of two of them it was printed in the
+    average column as if it were theirs (a fuzzing helper's load + sweep run). It stands under a table of the
+    same conditions, in every rendering (the report's rows, the printed text, the markdown)."""
+    from hpddo.reports.compare import paper_value, rmse_rows
+    from hpddo.studies.compare.text import _md_rmse, rmse_text
+
+    paper = {"M3": {"load": 3.51, "long": 5.0, "sweep": 4.19, "average": 4.11}}
+    two = {"M3": {"load": 1.0, "sweep": 2.0, "average": 1.5}}
+    three = {"M3": {"load": 1.0, "long": 3.0, "sweep": 2.0, "average": 2.0}}
+    assert paper_value(paper["M3"], "average", ["load", "sweep", "average"]) is None
+    assert paper_value(paper["M3"], "average", ["load", "long", "sweep", "average"]) == 4.11
+    cols, rows = rmse_rows(two, paper)
+    assert rows[1]["values"] == [3.51, 4.19, None]
+    assert rmse_rows(three, paper)[1][1]["values"][-1] == 4.11
+    assert "4.11" not in rmse_text("t", two, paper) and "4.11" in rmse_text("t", three, paper)
+    assert "4.11" not in "\n".join(_md_rmse(two, paper)) and "4.11" in "\n".join(_md_rmse(three, paper))

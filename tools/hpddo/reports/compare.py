@@ -14,6 +14,15 @@ def shown_name(method: str, effects) -> str:
     return f"M2 + {', '.join(effects)}" if method == EFFECTS_ROW and effects else method
 
 
+def paper_value(row: dict, cond: str, conds) -> float | None:
+    """The paper's figure of a method (row: {condition: rmse}) under a table's column cond (conds: its columns):
+    its average is over its own conditions, so it stands only under a table of the same ones (a table of two of
+    them printed the paper's three-condition average under their column)."""
+    if cond == "average" and {c for c in row if c != "average"} != {c for c in conds if c != "average"}:
+        return None
+    return row.get(cond)
+
+
 def rmse_rows(rm: dict, paper: dict | None = None, effects=()) -> tuple[list, list]:
     """(columns, rows) of an RMSE table {method: {condition: rmse}}; a paper row under each
     method the paper reports."""
@@ -22,7 +31,8 @@ def rmse_rows(rm: dict, paper: dict | None = None, effects=()) -> tuple[list, li
     for m, v in rm.items():
         rows.append({"name": shown_name(m, effects), "values": [v.get(c) for c in cols], "paper": False})
         if paper and m in paper:
-            rows.append({"name": f"{m} (paper)", "values": [paper[m].get(c) for c in cols], "paper": True})
+            rows.append({"name": f"{m} (paper)", "values": [paper_value(paper[m], c, cols) for c in cols],
+                         "paper": True})
     return cols, rows
 
 

@@ -8,6 +8,7 @@ import shlex
 
 from ...evaluation import metrics as metrics_mod
 from ...logs.errors import InputError
+from ...reports.compare import paper_value
 
 
 def _cell(x) -> str:
@@ -20,7 +21,7 @@ def rmse_text(title: str, rm: dict, paper: dict | None = None) -> str:
     for m, v in rm.items():
         lines.append(f"{m:<32s}" + "".join(_cell(v.get(c)) for c in conds))
         if paper and m in paper:
-            lines.append(f"{'  paper':<32s}" + "".join(_cell(paper[m].get(c)) for c in conds))
+            lines.append(f"{'  paper':<32s}" + "".join(_cell(paper_value(paper[m], c, conds)) for c in conds))
     return "\n".join(lines) + "\n"
 
 
@@ -69,7 +70,8 @@ def _md_rmse(rm: dict, paper: dict | None = None, conds=None) -> list:
     for m, v in rm.items():
         lines.append(f"| {m} | " + " | ".join(f(v.get(c)) for c in conds) + " |")
         if paper and m in paper:
-            lines.append(f"| *{m}, paper* | " + " | ".join(f"*{f(paper[m].get(c))}*" if paper[m].get(c) is not None
+            lines.append(f"| *{m}, paper* | " + " | ".join(f"*{f(paper_value(paper[m], c, conds))}*"
+                                                              if paper_value(paper[m], c, conds) is not None
                                                               else "–" for c in conds) + " |")
     return lines
 
