@@ -832,3 +832,11 @@ def test_a_comb_about_a_sideband_of_a_line_under_the_noise_is_no_comb(monkeypatc
                  rc.Line(rot, 4.0, 40.0), rc.Line(2 * rot, 3.0, 35.0), rc.Line(3 * rot, 2.0, 30.0)]
         cb = rc.rotation_comb(lines, 2.0, 10.0, (976.562,), pwm)
         assert cb is not None and cb.multiple == 18 and abs(cb.commutation.hz - f_c) < 0.01, cb
+
+
+def test_a_burst_too_short_to_count_still_reads_its_mean_current():
+    """A window of fewer than 16 samples is `few_cycles`, but its mean current is read: a log of one-sample bursts
+    at 0.4-1.2 A said "confident 0 (- of the 0 above 0.1 A)" (a fuzzing helper's)."""
+    x = np.full(3, 0.8)
+    r = estimate_window(bursts_of([x]), 0, 0.5, 100.0, Options(6, 1.0))
+    assert r["key"] == "few_cycles" and abs(r["i_mean_A"] - 0.8) < 0.02, r

@@ -196,11 +196,12 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
                i_mean_A=math.nan, rot_hz=math.nan, multiple=0, rot1_rel=math.nan, rot2_rel=math.nan, confidence=0.0, reason="", key="")
     x0 = bursts.current_A(k)
     n = len(x0)
+    if n:  # (the mean current of a burst too short to count is read all the same: the log's floor count says it)
+        out["i_mean_A"] = float(x0.mean())
     if n < 16:
         out.update(key="few_cycles", reason=REASONS["few_cycles"])
         return out
-    i_mean = float(x0.mean())
-    out["i_mean_A"] = i_mean
+    i_mean = out["i_mean_A"]
     if duty is not None and duty == 0.0:
         out.update(key="coasting", reason=REASONS["coasting"])
         return out
