@@ -619,3 +619,13 @@ def test_ra_from_the_data_alone_is_not_stated_where_the_winding_node_stops_beyon
         assert not iv.determined or iv.lo <= truth["ra25_ohm"] <= iv.hi, (iv, res.verdict)
         assert "pass --ra-ohm" not in res.verdict or abs(float(re.search(r"pass --ra-ohm ([0-9.]+)", res.verdict)
                                                            .group(1)) / truth["ra25_ohm"] - 1) <= 0.10, res.verdict
+
+
+def test_a_pure_numbers_range_is_written_without_a_unit_of_1():
+    """brush_order (unit 1) at the edge of its range printed "the range allowed, 1..2 1:" (a fuzzing helper's); a
+    quantity with a unit keeps it."""
+    from hpddo.diagnosis import intervals
+
+    assert intervals._rng((1.0, 2.0), 1.0, "1") == "1..2"
+    assert intervals._rng((0.05, 2.5), 1.0, "V") == "0.05..2.5 V"
+    assert intervals._rng((0.0, math.inf), 1.0, "ohm") == "above 0 ohm"

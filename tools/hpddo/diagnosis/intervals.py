@@ -187,7 +187,7 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
         elif not math.isfinite(se):
             why = "the objective is flat along it: these rows do not move the speed estimate with it"
         elif lo <= phys[0] or hi >= phys[1]:
-            why = (f"its interval {lo * scale:.3g}..{hi * scale:.3g} {unit} reaches outside the physical "
+            why = (f"its interval {_rng((lo, hi), scale, unit)} reaches outside the physical "
                    f"{_rng(phys, scale, unit)}")
         out.append(Interval(q, f, si, v, lo if math.isfinite(se) else None, hi if math.isfinite(se) else None,
                             determined=not why, why=why, needs=needs, clusters=clusters,
@@ -249,7 +249,8 @@ def on_edge(v: float, b: tuple) -> bool:
 
 def _rng(b: tuple, scale: float, unit: str) -> str:
     lo, hi = b
-    return f"{lo * scale:.3g}..{hi * scale:.3g} {unit}" if math.isfinite(hi) else f"above {lo * scale:.3g} {unit}"
+    u = "" if unit == "1" else f" {unit}"  # (a pure number's unit, 1, is not written)
+    return f"{lo * scale:.3g}..{hi * scale:.3g}{u}" if math.isfinite(hi) else f"above {lo * scale:.3g}{u}"
 
 
 def fitted_fields(rows, names, hold=None, ra_bounds=None, widen=()) -> tuple[list, dict]:
