@@ -95,7 +95,7 @@ def run(args) -> int:
     from ..logs.errors import InputError
     from ..ripple import reference
     from ..ripple.encoder import check_ratio, span_reference
-    from ..ripple.log import speed_of_bench
+    from ..ripple.log import ra_of, speed_of_bench
     from ..ripple.line import CALIBRATE_AGREE, CALIBRATE_MIN_WINDOWS, figure_confirmed, other_figure
     from ..ripple.options import Options
 
@@ -144,8 +144,8 @@ def run(args) -> int:
             est.insert(1, "t_s", df["t_s"].to_numpy()[rows])
             # the count is a speed; its direction is the back-EMF's (a reversed shaft's speed negative, as its
             # encoder reads it)
-            est["rpm"] = est["rpm"].to_numpy(float) * reference.direction(
-                df.iloc[rows], args.ra_ohm if args.ra_ohm is not None else reference.ra_of(log.meta)) + 0.0
+            est["rpm"] = est["rpm"].to_numpy(float) * reference.direction(df.iloc[rows],
+                                                                         ra_of(log.meta, args.ra_ohm)) + 0.0
             name = log.condition
             est[list(COLUMNS)].rename(columns={"rpm": "rpm_ripple"}).to_csv(stage / f"{name}.ripple_speed.csv", index=False,
                                                                     float_format="%.6g")

@@ -32,7 +32,7 @@ import pathlib
 import numpy as np
 
 from ..logs.ripple import path_for
-from .log import speed_of_bench, speed_of_log
+from .log import ra_of, speed_of_bench, speed_of_log
 from .options import Options
 from .prior import ModelPrior
 from .stall import STANDING_CONFIDENCE, standing
@@ -96,21 +96,13 @@ class Ripple:
                 "prior_model": None if self.model is None else self.model.to_json()}
 
 
-def ra_of(meta: dict):
-    """The log's ra_ohm metadata as a number, or None."""
-    try:
-        ra = float(meta.get("ra_ohm"))
-    except (TypeError, ValueError):
-        return None
-    return ra if math.isfinite(ra) and ra > 0 else None
-
-
-def direction(df, ra_ohm, standing_V: float = Options.standing_V) -> np.ndarray:
+def direction(df, ra_ohm: float, standing_V: float = Options.standing_V) -> np.ndarray:
     """Each row's direction of rotation, +1 or -1: the terminal voltage's sign where it shows (|V| of standing_V or
     more: the drive's polarity, or the open terminals' back-EMF; an Ra a little off near a stall does not turn it),
-    else the back-EMF V - I Ra's where Ra is known; +1 where neither says (a shaft at rest: 0 either way)."""
+    else the back-EMF V - I Ra's where Ra is known (ra_ohm: log.ra_of's, NaN or not > 0 where it is not); +1 where
+    neither says (a shaft at rest: 0 either way)."""
     v = df["v_V"].to_numpy(float)
-    emf = v - df["i_A"].to_numpy(float) * ra_ohm if ra_ohm is not None else v
+    emf = v - df["i_A"].to_numpy(float) * ra_ohm if math.isfinite(ra_ohm) and ra_ohm > 0 else v
     return np.where(np.abs(v) >= standing_V, np.where(v < 0.0, -1.0, 1.0), np.where(emf < 0.0, -1.0, 1.0))
 
 
@@ -141,7 +133,7 @@ def swap(path, df, meta: dict, ref: Ripple):
     weight[rows[stall]] = est["confidence"].to_numpy(float)[stall]
     # the ripple counts a speed, not its direction: the back-EMF's sign gives it (V - I Ra; V alone without Ra, the
     # drive's polarity), so a reversed shaft is labelled as its encoder would label it, not as one turning forward
-    rpm = rpm * direction(df, ref.ra_ohm if ref.ra_ohm is not None else ra_of(meta)) + 0.0  # (+ 0.0: no -0.0)
+    rpm = rpm * direction(df, ra_of(meta, ref.ra_ohm)) + 0.0  # (+ 0.0: no -0.0)
     kept = np.isfinite(rpm)
     out = df.copy()
     had_encoder = "rpm_ref" in out and bool(np.isfinite(out["rpm_ref"].to_numpy(float)).any())
