@@ -352,7 +352,7 @@ def write_bursts(cap: Capture, out, a_per_unit: float, offset: float | None, win
                      "sample_hz_from": "_".join(cap.rate_from.split()).replace("'", ""),
                      "a_per_unit": repr(a_per_unit), "unit_per_code": repr(step)})
     t_s = [cap.t0_s + a / cap.sample_hz for a in cuts]
-    extreme = float(np.max(np.abs(np.asarray(cap.values, float) - offset))) * a_per_unit if len(cap.values) else 0.0
+    extreme = rf.largest_current_A(parts, offset / step, a_per_unit * step)  # the codes and scale written
     if not extreme <= rf.MAX_CURRENT_A:  # (the burst file's reader refuses such currents: nothing is written)
         raise CaptureError(f"{source_path or out}: --a-per-unit {a_per_unit:g} and the offset {offset:g} make currents "
                            f"of {extreme:.3g} A "

@@ -199,7 +199,7 @@ def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = Non
     for key, allowed in ((SAMPLING, SAMPLINGS), (COUPLING, COUPLINGS)):
         if key in meta and meta[key] not in allowed:
             raise RippleFileError(f"{path}: metadata {key}={meta[key]!r}, expected one of {', '.join(allowed)}")
-    extreme = max((float(np.max(np.abs(np.asarray(c, float) - offset))) for c in codes if len(c)), default=0.0) * lsb
+    extreme = largest_current_A(codes, offset, lsb)
     if not extreme <= MAX_CURRENT_A:
         raise RippleFileError(f"{path}:{where['a_per_code']}: a_per_code={meta['a_per_code']} and "
                               f"{OFFSET_CODE}={offset:g} make currents of {extreme:.3g} A, over any motor's "
@@ -207,6 +207,12 @@ def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = Non
     return Bursts(dict(meta), fs, lsb, np.asarray(seq, np.int64), np.asarray(t_s, float), list(codes), offset_code=offset,
                   sampling=meta.get(SAMPLING, SYNCHRONOUS), pwm_hz=declared.get(PWM_HZ, math.nan),
                   mains_hz=declared.get(MAINS_HZ, math.nan), coupling=meta.get(COUPLING, DC))
+
+
+def largest_current_A(codes, offset_code: float, a_per_code: float) -> float:
+    """The largest |current| the bursts' codes hold, (code - offset_code) x a_per_code, A (0 without a code)."""
+    return max((float(np.max(np.abs(np.asarray(c, float) - offset_code))) for c in codes if len(c)),
+               default=0.0) * a_per_code
 
 
 def number(path, meta: dict, where: dict, key: str, error=RippleFileError) -> float:
