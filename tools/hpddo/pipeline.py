@@ -293,14 +293,12 @@ def leave_one_out(log_paths, out_dir, cfg: PipelineConfig) -> dict:
                       reference=cfg.reference)
         name = ev.recordings[0].name
         scores[name] = {m: v[name] for m, v in ev.metrics["rmse_rpm"].items()}
-    models = list(next((s for s in scores.values() if s is not None), {m: None for m in LOO_MODELS}))
+    models = list(next((s for s in scores.values() if s is not None), metrics_mod.MODELS))  # (none scored: all)
     scores = {c: s if s is not None else {m: None for m in models} for c, s in scores.items()}
     avg = {m: metrics_mod.figure(sum(s[m] for s in scores.values()) / len(scores))
            if all(s[m] is not None for s in scores.values()) else None for m in models}
     return {"recordings": scores, "average": avg, "not_scored": why}
 
-
-LOO_MODELS = ("M1", "M2", "M3", "lookup")  # leave_one_out's columns where no fold could be scored
 
 
 def leave_one_out_table(loo: dict) -> str:

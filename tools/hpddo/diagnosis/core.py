@@ -914,8 +914,9 @@ def _hybrid(job):
 
 def hybrid_budget(opt: Options) -> str:
     """The hybrid's training as the options set it, in words."""
-    steps = "" if opt.hybrid_max_steps is None else f" and {opt.hybrid_max_steps} Adam steps"
-    return f"at most {opt.hybrid_iter} epochs{steps}" if steps else f"{opt.hybrid_iter} epochs"
+    if opt.hybrid_max_steps is None:
+        return f"{opt.hybrid_iter} epochs"
+    return f"at most {opt.hybrid_iter} epochs and {opt.hybrid_max_steps} Adam steps"
 
 
 # Where the hybrid's trainings queue among a Background's jobs (the lowest first): the one on the model
