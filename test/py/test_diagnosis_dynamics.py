@@ -82,3 +82,19 @@ def test_the_report_page_shows_the_dynamics_and_their_table(fast):
     for q in res["dynamics"]["quantities"]:
         assert f'<td class="l">{q["quantity"]}</td>' in html
     assert "not determined by these recordings" in html   # La at 100 Hz
+
+
+def test_an_undetermined_quantity_keeps_no_value_the_quantity_cannot_take():
+    """A fuzzing helper's metrics.json held La = -3.1 mH, not determined: a negative inductance is no value of La.
+    An undetermined quantity keeps its fitted value only within its physical range; a determined one is as before."""
+    import numpy as np
+
+    boot = np.full(dynamics.BOOT, 2.0e-3)
+    neg = dynamics._interval("la_H", -3.1e-3, boot, "too fast for the rows")
+    assert neg.value is None and not neg.determined and "not determined" in neg.text()
+    pos = dynamics._interval("la_H", 2.5e-3, boot, "too fast for the rows")
+    assert pos.value == 2.5e-3 and not pos.determined
+    spread = dynamics._interval("la_H", -1.0e-3, np.linspace(-3e-3, 1e-3, dynamics.BOOT), clusters=6)
+    assert spread.value is None and spread.lo is None and not spread.determined, spread
+    held = dynamics._interval("j_kgm2", 3.0e-4, np.linspace(2.9e-4, 3.1e-4, dynamics.BOOT), clusters=6)
+    assert held.determined and held.lo <= 3.0e-4 <= held.hi

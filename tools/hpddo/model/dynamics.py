@@ -294,8 +294,11 @@ def _interval(field: str, value: float, boot: np.ndarray, why_not: str = "", clu
         e = schema.BY_NAME[schema.DYNAMICS_INDUCTANCE]
         name, unit, scale, show_unit, phys, needs = "La", e.unit, e.show_scale, e.show_unit, e.physical, LA_NEEDS
     boot = boot[np.isfinite(boot)]
+    # an undetermined quantity keeps its fitted value only where the quantity can take it: a negative inductance
+    # (a fuzzing helper's metrics.json) is no value of La
+    fitted = float(value) if np.isfinite(value) and phys[0] <= value <= phys[1] else None
     if why_not or not np.isfinite(value) or len(boot) < BOOT // 2:
-        return Interval(name, field, unit, float(value) if np.isfinite(value) else None, None, None, False,
+        return Interval(name, field, unit, fitted, None, None, False,
                         why=why_not or "too few steps or segments hold it", needs=needs, method="bootstrap",
                         show_scale=scale, show_unit=show_unit)
     # the bootstrap's standard error with Student's t on (clusters - 1) degrees of freedom: with a handful of
@@ -305,6 +308,9 @@ def _interval(field: str, value: float, boot: np.ndarray, why_not: str = "", clu
     ok = phys[0] <= lo and hi <= phys[1]
     why = "" if ok else (f"its interval {lo * scale:.3g}..{hi * scale:.3g} {show_unit} reaches outside the physical "
                          f"{phys[0] * scale:.3g}..{phys[1] * scale:.3g} {show_unit}")
+    if fitted is None:
+        return Interval(name, field, unit, None, None, None, False, why=why, needs=needs, clusters=clusters,
+                        method="bootstrap over whole segments, Student's t", show_scale=scale, show_unit=show_unit)
     return Interval(name, field, unit, float(value), lo, hi, ok, why=why, needs="" if ok else needs,
                     clusters=clusters, method="bootstrap over whole segments, Student's t", show_scale=scale, show_unit=show_unit)
 
