@@ -98,6 +98,23 @@ def test_the_summary_does_not_contradict_the_verdict_on_ra_through_a_faulty_curr
     assert "does not lower the held-out error enough" in plain and "not concluded" not in plain
 
 
+def test_the_summary_names_a_mismatch_only_with_the_effects_a_reading_is_not_told_from():
+    """The hot and unseen validation recordings, Ra given right (a fuzzing helper's): the verdict said "does not fit
+    these recordings unless brush_drop is at work", and the summary's clause, beside a data-alone interval
+    4.04..6.08 that holds the reading, "5.49 ohm (+4.4 x the tolerance): a mismatch". It now says "unless brush_drop
+    is at work" too; a mismatch no effect stands in for is said as before."""
+    from hpddo.diagnosis.result import RaFit, ra_statement
+    from hpddo.model.interval import Interval
+
+    data = Interval("Ra", "ra_ohm", "ohm", 5.489, 4.039, 6.079, True)
+    ra = RaFit(given_ohm=4.5, supported_ohm=5.488, tolerance=0.05, sigmas=4.39, mismatch=True, data=data,
+               confounded_with=["brush_drop"])
+    said = ra_statement(ra)
+    assert said.endswith("a mismatch unless brush_drop is at work (not told apart)"), said
+    plain = ra_statement(dataclasses.replace(ra, confounded_with=[]))
+    assert plain.endswith("(+4.4 x the tolerance): a mismatch"), plain
+
+
 def test_a_residual_left_makes_no_claim_on_the_reading():
     """verdict._ra_verdict: a data-alone Ra beyond what a reading's error explains, 0.61 times the reading,
     while a structured residual remains (RaFit.residual_left): a missing effect can stand in for a wrong Ra,

@@ -488,8 +488,11 @@ def ra_statement(ra: RaFit | None) -> str:
                 f"whether the reading is right cannot be told; what would determine it: {ra.data.needs}")
     head = f"{ra.given_ohm:.3g} ohm given; " + (_alone(ra) + "; " if ra.data is not None else "")
     if ra.mismatch:
+        # where a model with the reading and an effect explains the rows as well (confounded_with), the data-alone
+        # interval reaches over the reading (core.reading_a_rival) and the mismatch holds only without that effect
+        unless = f" unless {' or '.join(ra.confounded_with)} is at work (not told apart)" if ra.confounded_with else ""
         return head + (f"with the reading's {100 * ra.tolerance:.0f} % tolerance as a prior {ra.supported_ohm:.3g} "
-                       f"ohm ({ra.sigmas:+.1f} x the tolerance): a mismatch")
+                       f"ohm ({ra.sigmas:+.1f} x the tolerance): a mismatch{unless}")
     if ra.confounded_with:
         return head + "not told apart from " + " or ".join(ra.confounded_with)
     if ra.reading_inside:
