@@ -629,3 +629,21 @@ def test_a_pure_numbers_range_is_written_without_a_unit_of_1():
     assert intervals._rng((1.0, 2.0), 1.0, "1") == "1..2"
     assert intervals._rng((0.05, 2.5), 1.0, "V") == "0.05..2.5 V"
     assert intervals._rng((0.0, math.inf), 1.0, "ohm") == "above 0 ohm"
+
+
+@pytest.mark.slow
+def test_an_effect_whose_size_rests_on_a_reading_the_data_do_not_bear_out_is_not_named():
+    """The hot and unseen validation recordings with Ra given 3.15 ohm (a fuzzing helper's; the data alone put Ra at
+    4.1-7.3 ohm): "Missing: brush_drop (fitted +3.21 V ... 95 % interval -3.78..+10.2 V)", the interval through zero
+    once the doubt on the reading is counted, and the drop outside what brushes take. Where the data alone put Ra
+    outside the reading, a named effect's interval, that doubt counted, is clear of zero."""
+    val = ROOT / "data" / "validation"
+    res = diagnose([val / "hot.csv", val / "unseen.csv"], 3.15)
+    d = res.ra_fit.data
+    assert d is not None and d.determined and not d.lo <= 3.15 <= d.hi, d
+    fields = {fx.LIBRARY[e].field: e for e in res.missing_effects}
+    for iv in res.intervals:
+        if iv.field in fields and iv.lo is not None and iv.hi is not None:
+            assert not (iv.lo <= 0.0 <= iv.hi), (fields[iv.field], iv.lo, iv.hi, res.verdict)
+    assert "brush_drop" not in res.missing_effects, res.verdict
+    assert "brush_drop was selected" in res.verdict and "doubt on the Ra given" in res.verdict, res.verdict

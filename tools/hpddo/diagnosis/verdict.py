@@ -120,6 +120,8 @@ RESTS_ON = "named only with the recording that disagrees with the rest"
 HOLDS_ZERO = "holds zero"
 # ... once the doubt on the Ra given is counted (core.through_zero)
 HOLDS_ZERO_WITH_RA = "holds zero once the tolerance of the Ra given is counted"
+# ... once the doubt on the Ra given is counted, where the data alone put Ra outside the reading (core.through_zero)
+HOLDS_ZERO_RA_DOUBTED = "holds zero once the doubt on the Ra given is counted"
 # the note of an effect whose final coefficient is on or beyond its physical range (core.unphysical)
 UNPHYSICAL = "with the other named effects fitted alongside reaches the end of what the effect can be"
 # the note of an effect whose whole interval lies outside its plausible range (core.beyond_plausible)
@@ -137,6 +139,10 @@ NOT_NAMED = (
                                    "the Ra given is counted: a wrong Ra within that tolerance explains these "
                                    f"recordings as well, so it is not named; to tell them apart, "
                                    f"{ranking.RA_SEPARATOR}."),
+    (HOLDS_ZERO_RA_DOUBTED, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero once the doubt on the "
+                                      "Ra given is counted (the data alone put Ra outside the reading, above): its "
+                                      "size rests on a reading these recordings do not bear out, so it is not named; "
+                                      f"to settle Ra, {ranking.RA_SEPARATOR}."),
     (HOLDS_ZERO, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
                              "tell it from its absence: not named."),
     (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it moves to {_final(e)}, the end of "
