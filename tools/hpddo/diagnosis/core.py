@@ -1310,13 +1310,15 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
     # motor) are named with that doubt in their interval, as before (the same rule for them cost the calibration
     # study a third of the brush drops it found, 48 -> 33 of 56 benches)
     with_ra = lambda iv: iv.half_without_models if iv.half_without_models is not None else half(iv)  # noqa: E731
-    # ... and so are the motor's own effects where the data alone put Ra outside the reading (its interval, with the
-    # named effects alongside, does not hold it): their size then rests on a reading the rows do not bear out, and
-    # the budget's Ra part reaches to where the data put Ra (ra_doubt_ohm). (A fuzzed bench, Ra given 3.15 ohm
-    # where the data put it at 4.13..7.34: a brush drop of +3.21 V named, its interval -3.78..+10.2 V.)
+    # ... and so are the motor's own effects where the data alone put Ra beyond the reading's own band (their whole
+    # interval, with the named effects alongside, outside the reading's tolerance): their size then rests on a
+    # reading the rows do not bear out, and the budget's Ra part reaches to where the data put Ra (ra_doubt_ohm).
+    # (A fuzzed bench, Ra given 3.15 ohm where the data put it at 4.13..7.34: a brush drop of +3.21 V named, its
+    # interval -3.78..+10.2 V.) Within that band the doubt is the tolerance's, and the rule above stands.
     ra, d = sel.ra_fit, (sel.ra_fit.data if sel.ra_fit is not None else None)
+    band = ranking.RA_MISMATCH_SIGMAS * ranking.RA_TOLERANCE * inp.m2.ra_ohm
     doubted = (ra is not None and not ra.mismatch and d is not None and d.determined and d.lo is not None
-               and not d.lo <= ra.given_ohm <= d.hi)
+               and (d.lo > ra.given_ohm + band or d.hi < ra.given_ohm - band))
     notes = {}
     given_too = False  # a channel's calibration left out for the Ra given's doubt: that Ra explains the rows as well
     for iv in sel.intervals:

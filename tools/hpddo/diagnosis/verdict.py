@@ -140,7 +140,7 @@ NOT_NAMED = (
                                    f"recordings as well, so it is not named; to tell them apart, "
                                    f"{ranking.RA_SEPARATOR}."),
     (HOLDS_ZERO_RA_DOUBTED, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero once the doubt on the "
-                                      "Ra given is counted (the data alone put Ra outside the reading, above): its "
+                                      "Ra given is counted (the data alone put Ra beyond the reading's tolerance, above): its "
                                       "size rests on a reading these recordings do not bear out, so it is not named; "
                                       f"to settle Ra, {ranking.RA_SEPARATOR}."),
     (HOLDS_ZERO, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
