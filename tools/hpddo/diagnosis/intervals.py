@@ -367,7 +367,7 @@ def sensors_text(cal: dict, declared, zeros: dict, steps_declared: bool) -> str:
             parts.append(f"{what} from the offset the model fits")
             continue
         how = ZERO_FROM[src] + (("; the steps " + ("as the logs declare them" if steps_declared else "as the rows show "
-                                                   "them")) if src == "steps" else "")
+                                                   "them: their grid, else the decimals written")) if src == "steps" else "")
         parts.append(f"{what} within {z:.3g} {units[a]} ({how})")
     assumed = [k for k in DEFAULT_CAL_REL if k not in declared] + [
         ZERO_KEY[a] for a, (_, src) in zeros.items() if src == "steps"]
