@@ -103,7 +103,7 @@ def _ra_verdict(ra: RaFit | None) -> str:
                 f"to the current. These recordings cannot tell a wrong Ra from {others}, so "
                 f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect (the effects "
                 f"were looked for with Ra at {ra.supported_ohm:.3g} ohm); to separate them: {ranking.RA_SEPARATOR}. "
-                "hpddo train still uses the Ra given.")
+                "hpddo train uses the Ra it is given: the next commands below are one for each model that fits.")
     return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings{alone}: with the reading's "
             f"{ra.tolerance:.0%} tolerance as a prior they support "
             f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error "
