@@ -476,8 +476,8 @@ def test_an_effect_demoted_for_its_range_is_shown_with_the_value_that_left_it(tm
     b = dataclasses.replace(cal.draw(66), zeros={})  # (its channels' zeros exact, as the bench was found)
     paths = cal.write(b, pathlib.Path(tmp_path))
     js = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False)).to_json()
-    m = re.search(r"thermal_ra was selected \([^)]*\), but with the other named effects fitted alongside it moves to "
-                  r"([+-][0-9.]+) %/K, the end of the ([0-9.]+)\.\.([0-9.]+) %/K it can take, or beyond", js["verdict"])
+    m = re.search(r"thermal_ra was selected \([^)]*\), but with the other named effects fitted alongside it is "
+                  r"([+-][0-9.]+) %/K, at the end of the ([0-9.]+)\.\.([0-9.]+) %/K it can take, or beyond", js["verdict"])
     assert m, js["verdict"]
     value, lo, hi = (float(x) for x in m.groups())
     assert value <= lo or value >= hi

@@ -83,6 +83,9 @@ def test_a_pwm_declared_at_another_frequency_than_the_drives_is_named_with_the_o
     said = df.loc[df["key"] == "pwm_unseen", "reason"].iloc[0]
     named = float(said.split("declare pwm_hz=")[1].split()[0])
     assert named == pytest.approx(true_hz, rel=2e-4), said
+    # (a fuzzing helper's capture: the steady line was the ripple of a steady speed, and declared as the PWM it hid
+    # every window: the reason says a steady line may be the ripple)
+    assert "a motor at a steady speed shows its ripple as a steady line too" in said, said
     _, _, right = _errors(g, b)
     assert "pwm_unseen" not in set(right["key"]) and right["confident"].mean() > 0.6
     # --calibrate names no figure from lines that may be the PWM's

@@ -124,7 +124,9 @@ def run(args) -> int:
         read[path] = benchlog.read_log(path)
     _one_name_each({path: read[path].condition for path in logs})
     # the logs are recordings of one motor: the ripples per revolution given is checked over all of them
-    progress.stage(f"counting the ripple of {len(logs)} logs' bursts")
+    if logs:  # (captures alone: each counted below, with its own stage line)
+        progress.stage(f"counting the ripple of {len(logs)} logs' bursts" if len(logs) > 1
+                       else f"counting the ripple of {logs[0]}'s bursts")
     counted = dict(zip(logs, speed_of_bench([(p, read[p].df, read[p].meta, None) for p in logs], opts,
                                             args.ra_ohm, args.ke_vs_per_rad, model=model, rpm_range=args.rpm_range)))
     with outdir.staged(args.out, TOOL) as stage:

@@ -1565,7 +1565,10 @@ def budgeted(inp: Inputs, p: ph.PhysicsParams, names, ivs: list, hold=None, sigm
         sens = {}
     doubt = ra_doubt_ohm(ra, ra_fit)
     ra_u = doubt / math.sqrt(3.0)
-    given = f"Ra = {ra:.4g} ohm held, within {doubt:.3g} ohm in the budget"
+    # (where the selection moved Ra, it holds the value the data support, not the reading: said, a fuzzing helper's
+    # "given Ra = 7.999 ohm held" read as the Ra given, which was 8.8)
+    support = "" if math.isclose(ra, inp.ra, rel_tol=1e-9) else f" (the value the data support; {inp.ra:.4g} ohm given)"
+    given = f"Ra = {ra:.4g} ohm held{support}, within {doubt:.3g} ohm in the budget"
     through = intervals.sensors_of_fit(inp.data, p, names, channel_steps(inp), cal, hold)
     return [intervals.with_budget(iv, cal, b, ra_u, sens.get(iv.field, 0.0),
                                   given if iv.field in sens else "", sensors=through.get(iv.field),

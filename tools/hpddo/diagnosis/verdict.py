@@ -92,7 +92,9 @@ def _ra_verdict(ra: RaFit | None) -> str:
     alone = f" ({_alone(ra)})" if ra.data is not None else ""
     if not ra.mismatch:
         return (f"An error proportional to the current remains that a wrong Ra{alone} explains as well as "
-                f"{' or '.join(ra.confounded_with)}, so neither is named; to separate them: {ranking.RA_SEPARATOR}.")
+                f"{' or '.join(ra.confounded_with)}, so "
+                f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named; to separate them: "
+                f"{ranking.RA_SEPARATOR}.")
     if ra.confounded_with:
         # an instruction only where it holds across the models that explain the rows about as well: with
         # Ra at the reading, each effect of confounded_with does (core.select, core.robust_ra): no --ra-ohm
@@ -145,7 +147,7 @@ NOT_NAMED = (
                                       f"to settle Ra, {ranking.RA_SEPARATOR}."),
     (HOLDS_ZERO, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
                              "tell it from its absence: not named."),
-    (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it moves to {_final(e)}, the end of "
+    (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it is {_final(e)}, at the end of "
                            f"the {_range(e, 'physical')} it can take, or beyond: the fit traded it against them, "
                            "so it is not named."),
     (BEYOND, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval lies outside the {_range(e, 'plausible')} it "

@@ -340,7 +340,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
                    f"{ln.power / max(line_power(f, p_max, f_star), 1e-300):.2g} of its power: no rotation comb places "
                    "either, and power does not name the ripple"
                    + ("; one of them lies on a multiple of 50 or 60 Hz: where that is hum, declare the mains (hpddo "
-                      "import --mains-hz)" if rc.on_mains(f_star, res) or rc.on_mains(ln.hz, res) else "") + ")")
+                      "import --mains-hz)" if not math.isfinite(bursts.mains_hz)  # (a declared mains: nothing to add)
+                      and (rc.on_mains(f_star, res) or rc.on_mains(ln.hz, res)) else "") + ")")
         return out
     # rivals in the family where no comb places the line: the data's own evidence at f* x r, weighted by the prior
     alt = ALTERNATIVES

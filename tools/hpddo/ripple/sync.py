@@ -181,9 +181,10 @@ def unseen_reason(unseen: dict, pwm_hz: float) -> str:
         f"{REASON_UNSEEN} ({rf.PWM_HZ}={pwm_hz:.7g}: its synchronous average holds {unseen['share']:.1%} of the "
         f"current's variance in the median burst; the strongest line is steady in {unseen['steady_in']} of "
         f"{unseen['bursts']} bursts, and a synchronous average at {unseen['steady_hz']:.6g} Hz holds "
-        f"{unseen['steady_share']:.0%}: where that is the PWM, or its alias, declare {rf.PWM_HZ}="
-        f"{unseen['steady_hz']:.6g} (an UNO's pins 5 and 6 run at 976.5625 Hz, 3, 9, 10 and 11 at 490.196); where "
-        f"the PWM's ripple is filtered out of the band, {rf.PWM_HZ}=0)")
+        f"{unseen['steady_share']:.0%}: where the driver's PWM runs there, or aliases there at this sample rate, "
+        f"declare {rf.PWM_HZ}={unseen['steady_hz']:.6g} (an UNO's pins 5 and 6 run at 976.5625 Hz, 3, 9, 10 and 11 "
+        f"at 490.196); a motor at a steady speed shows its ripple as a steady line too, so declare it only where the "
+        f"PWM is known to be there; where the PWM's ripple is filtered out of the band, {rf.PWM_HZ}=0)")
 
 
 def prepare(bursts, source: str = "bursts"):
