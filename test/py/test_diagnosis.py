@@ -297,3 +297,23 @@ def test_a_recording_without_encoder_speeds_is_not_scored_and_nothing_reads_nan(
     assert loo["recordings"]["noref"]["before"] is None
     assert loo["average"]["before"] == pytest.approx(
         (loo["recordings"]["load"]["before"] + loo["recordings"]["sweep"]["before"]) / 2, rel=1e-5)
+
+
+@pytest.mark.parametrize("check, fit", [({"disagree": True, "biased": False, "ke_fit": "eq20"}, "lsq"),
+                                        ({"disagree": False, "biased": True, "ke_fit": "eq20"}, "lsq"),
+                                        ({"disagree": False, "biased": False, "ke_fit": "eq20"}, "eq20"),
+                                        ({}, "eq20")])
+def test_the_next_command_takes_the_ke_fit_the_report_advises(check, fit):
+    """A fuzzing round: "Trust least squares (--ke-fit lsq)" in seven reports whose next command kept eq. 20. Where
+    the Ke check advises least squares (core.ke_check: the two disagree, or eq. 20's Ke is biased), the command
+    carries it."""
+    import shlex
+    from types import SimpleNamespace
+
+    from hpddo import cli
+    from hpddo.cli.diagnose import next_steps
+    args = cli.parser("diagnose").parse_args(["a.csv", "--out", "d"])
+    res = {"missing_effects": ["brush_drop"], "verdict": "", "ra_fit": {"mismatch": False}, "ke_check": check}
+    lines = next_steps(SimpleNamespace(to_json=lambda: res), args).splitlines()
+    trained = cli.parser("train").parse_args(shlex.split(lines[1])[2:])
+    assert trained.ke_fit == fit, lines[1]
