@@ -647,3 +647,21 @@ def test_an_effect_whose_size_rests_on_a_reading_the_data_do_not_bear_out_is_not
             assert not (iv.lo <= 0.0 <= iv.hi), (fields[iv.field], iv.lo, iv.hi, res.verdict)
     assert "brush_drop" not in res.missing_effects, res.verdict
     assert "brush_drop was selected" in res.verdict and "doubt on the Ra given" in res.verdict, res.verdict
+
+
+@pytest.mark.slow
+def test_a_plain_heating_is_named_with_the_copper_held_where_its_free_coefficient_is_not_determined():
+    """An independent simulator's bench (test/fixtures/independent/copper100: a winding 100 K over its case, Ra given
+    right): thermal_ra took 99.5 % of the error but its free coefficient's interval, -2.15..+2.57 %/K, held zero (it
+    trades with the node's resistance), and nothing was named. Held at copper's 0.393 %/K (the model explains the
+    held-out rows as well), it is named (core.copper_held); the effects left out are still left out."""
+    d = ROOT / "test" / "fixtures" / "independent" / "copper100"
+    truth = json.loads((d / "truth.json").read_text())
+    res = diagnose([d / "thermal.csv"], truth["Ra"])
+    assert res.missing_effects == ["thermal_ra"], res.verdict
+    assert "held at its material's coefficient (copper)" in res.verdict, res.verdict
+    row = next(e for e in res.ranking if e.effect == "thermal_ra")
+    assert row.named and row.params["ra_tc_per_K"] == pytest.approx(0.00393), row
+    ke = next(iv for iv in res.intervals if iv.field == "ke_vs_per_rad")
+    assert ke.lo <= truth["Ke"] <= ke.hi, ke
+    check_truthful(res)

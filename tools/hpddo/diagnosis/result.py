@@ -344,6 +344,8 @@ class Selection:
     # the bootstrap's resamples still running on the other cores (ranking.PendingBootstrap), each
     # inclusion a ranking.Pending until core.with_inclusion; None once known, or without one
     bootstrap: object | None = dataclasses.field(default=None, repr=False, compare=False)
+    # {effect: coefficient} held at its material's in the final model and its intervals (core.copper_held)
+    held: dict = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass
