@@ -39,7 +39,7 @@ def fig_overlays(res, plot):
         ax.legend(fontsize=7, loc="lower left", ncol=4)
     axes[-1, 0].set_xlabel("t (s)")
     fig.tight_layout()
-    return png(fig)
+    return png(fig, crop=False)
 
 
 def fig_where(res, plot):
@@ -83,7 +83,7 @@ def fig_where(res, plot):
     else:  # no temperature read (a dyno table)
         axes[2].text(0.5, 0.5, "no temperature read", ha="center", va="center", transform=axes[2].transAxes)
     fig.tight_layout()
-    return png(fig)
+    return png(fig, crop=False)
 
 
 # the correlograms' lags as lines of this width (points), one collection an axis: a bar chart's patch a lag took
@@ -112,7 +112,7 @@ def fig_corr(an, title):
         ax.set_ylim(-1, 1)
     fig.suptitle(title, fontsize=10)
     fig.tight_layout()
-    return png(fig)
+    return png(fig, crop=False)
 
 
 def rmse_rows(res) -> tuple[list[str], list[tuple[str, dict]]]:
