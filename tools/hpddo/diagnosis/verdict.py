@@ -142,9 +142,9 @@ NOT_NAMED = (
                                    f"recordings as well, so it is not named; to tell them apart, "
                                    f"{ranking.RA_SEPARATOR}."),
     (HOLDS_ZERO_RA_DOUBTED, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero once the doubt on the "
-                                      "Ra given is counted (the data alone put Ra beyond the reading's tolerance, above): its "
-                                      "size rests on a reading these recordings do not bear out, so it is not named; "
-                                      f"to settle Ra, {ranking.RA_SEPARATOR}."),
+                                      "Ra given is counted (the data alone put Ra beyond the reading's tolerance "
+                                      "without it): its size rests on a reading these recordings do not bear out, so "
+                                      f"it is not named; to settle Ra, {ranking.RA_SEPARATOR}."),
     (HOLDS_ZERO, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval holds zero, so these recordings do not "
                              "tell it from its absence: not named."),
     (UNPHYSICAL, lambda e: f"with the other named effects fitted alongside it is {_final(e)}, at the end of "
