@@ -193,6 +193,13 @@ def next_steps(d, args) -> str:
     # a mismatch that effects explain as well (the verdict: "does not fit ... unless X is at work"): the Ra the data
     # support and the reading with each such effect are the models that fit, and only a new reading tells which
     either = bool(ra.get("mismatch")) and bool(ra.get("confounded_with")) and not ra.get("residual_left")
+    given = options.number_word(args.ra_ohm) if args.ra_ohm is not None else None
+    supported = f"{ra['supported_ohm']:.4g}" if ra.get("supported_ohm") is not None else None
+    # the Ke fit the report advises (core.ke_check: "Trust least squares (--ke-fit lsq)"), as the command's: it was
+    # said in seven of a fuzzing round's reports whose next command kept eq. 20
+    kc = res.get("ke_check") or {}
+    ke_fit = "lsq" if (kc.get("disagree") or kc.get("biased")) and kc.get("ke_fit") != "lsq" else args.ke_fit
+    from ..model.identify import KE_FITS
 
     def train(ra_word, more=()):
         words = ["hpddo", "train", *map(str, args.logs), "--out", "MODEL"]
@@ -206,19 +213,12 @@ def next_steps(d, args) -> str:
         for flag, v in (("--rated-v", args.rated_v), ("--rated-rpm", args.rated_rpm)):
             if v is not None:
                 words += [flag, options.number_word(v)]
-        from ..model.identify import KE_FITS
         if ke_fit != KE_FITS[0]:
             words += ["--ke-fit", ke_fit]
         if args.no_glitch_filter:
             words.append("--no-glitch-filter")
         return shlex.join(words + options.reference_words(args))
 
-    given = options.number_word(args.ra_ohm) if args.ra_ohm is not None else None
-    # the Ke fit the report advises (core.ke_check: "Trust least squares (--ke-fit lsq)"), as the command's: it was
-    # said in seven of a fuzzing round's reports whose next command kept eq. 20
-    kc = res.get("ke_check") or {}
-    ke_fit = "lsq" if (kc.get("disagree") or kc.get("biased")) and kc.get("ke_fit") != "lsq" else args.ke_fit
-    supported = f"{ra['supported_ohm']:.4g}" if ra.get("supported_ohm") is not None else None
     from ..diagnosis.verdict import ABOVE_SHARE
     after = res.get("residual_after") or {}
     left = (after.get("excess") or 0.0) > ABOVE_SHARE * (after.get("noise_var") or float("inf"))

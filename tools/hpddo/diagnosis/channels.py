@@ -335,8 +335,8 @@ TRUNCATED_SD = 4.0  # rows this many noise standard deviations from a clipping e
 
 def _step(meta: dict, lsb_key: str, levels: np.ndarray) -> float:
     """A channel's step: the declared resolution, else the grid its values lie on (levels: its distinct
-    values, two or more): the smallest step between them where dataset.GRID_SHARE of them lie whole numbers
-    of it above the lowest (within dataset.GRID_TOL: a converter's codes, whatever its offset), else the
+    values, two or more): the smallest step between them where they lie on its grid above the lowest
+    (dataset.on_grid: a converter's codes, whatever its offset), else the
     resolution the values are written with (written_step). A table's settled means lie on no grid, and
     their smallest step is between two loads: an independent bench's loads 0.27 A apart, logged to 1 uA,
     were taken for the current's step, its zero's doubt 0.545 A, and a 0.8 V brush drop went unnamed."""
@@ -345,10 +345,7 @@ def _step(meta: dict, lsb_key: str, levels: np.ndarray) -> float:
     step = float(np.min(np.diff(levels)))
     if len(levels) <= 2 or not step > 0:
         return step
-    k = (levels - levels[0]) / step
-    if float(np.mean(np.abs(k - np.round(k)) <= dataset.GRID_TOL)) >= dataset.GRID_SHARE:
-        return step
-    return written_step(levels)
+    return step if dataset.on_grid(levels, step, levels[0]) else written_step(levels)
 
 
 WRITTEN_DECIMALS = 12  # at most this many decimals are looked for (written_step)

@@ -1315,17 +1315,17 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
     # reading the rows do not bear out, and the budget's Ra part reaches to where the data put Ra (ra_doubt_ohm).
     # (A fuzzed bench, Ra given 3.15 ohm where the data put it at 4.13..7.34: a brush drop of +3.21 V named, its
     # interval -3.78..+10.2 V.) Within that band the doubt is the tolerance's, and the rule above stands.
-    ra, d = sel.ra_fit, (sel.ra_fit.data if sel.ra_fit is not None else None)
-    band = ranking.RA_MISMATCH_SIGMAS * ranking.RA_TOLERANCE * inp.m2.ra_ohm
-    doubted = (ra is not None and not ra.mismatch and d is not None and d.determined and d.lo is not None
-               and (d.lo > ra.given_ohm + band or d.hi < ra.given_ohm - band))
+    ra = sel.ra_fit
+    doubted = ra is not None and not ra.mismatch and ra.data_beyond(ranking.RA_MISMATCH_SIGMAS)
     notes = {}
+    zero = []  # the effects of the plain rule (copper_held may hold the copper's coefficient instead)
     given_too = False  # a channel's calibration left out for the Ra given's doubt: that Ra explains the rows as well
     for iv in sel.intervals:
         if iv.field not in field or iv.lo is None or iv.hi is None or not math.isfinite(half(iv)):
             continue
         if abs(iv.value) <= half(iv):
             notes[field[iv.field]] = f"fitted, but its {100 * intervals.LEVEL:.0f} % interval {HOLDS_ZERO}: not named"
+            zero.append(field[iv.field])
         elif fx.LIBRARY[field[iv.field]].calibration and math.isfinite(with_ra(iv)) and abs(iv.value) <= with_ra(iv):
             notes[field[iv.field]] = (f"fitted, but its {100 * intervals.LEVEL:.0f} % interval {HOLDS_ZERO_WITH_RA}: "
                                       "not named")
@@ -1333,7 +1333,6 @@ def through_zero(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = N
         elif doubted and math.isfinite(with_ra(iv)) and abs(iv.value) <= with_ra(iv):
             notes[field[iv.field]] = (f"fitted, but its {100 * intervals.LEVEL:.0f} % interval {HOLDS_ZERO_RA_DOUBTED}: "
                                       "not named")
-    zero = [e for e, note in notes.items() if note.endswith(f"{HOLDS_ZERO}: not named")]
     held = copper_held(inp, sel, zero, floor)
     if held is not None:  # the copper's heating named with its material's coefficient: the rest judged again on it
         return through_zero(inp, held, floor)

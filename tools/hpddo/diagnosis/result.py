@@ -287,6 +287,14 @@ class RaFit:
     def determined(self) -> bool:
         return self.data is None or self.data.determined
 
+    def data_beyond(self, sigmas: float) -> bool:
+        """Whether the data-alone interval (determined) lies wholly beyond sigmas tolerances of the reading."""
+        d = self.data
+        if d is None or not d.determined or d.lo is None:
+            return False
+        band = sigmas * self.tolerance * self.given_ohm
+        return d.lo > self.given_ohm + band or d.hi < self.given_ohm - band
+
     @property
     def reading_inside(self) -> bool:
         """The data-alone value lies within the reading's own band (RA_MISMATCH_SIGMAS tolerances

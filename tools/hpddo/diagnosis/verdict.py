@@ -67,8 +67,7 @@ def _ra_verdict(ra: RaFit | None) -> str:
                 f"determine Ra: {ra.data.needs}; to separate them: {ranking.RA_SEPARATOR}.")
     if not ra.mismatch and not ra.confounded_with:
         d = ra.data
-        band = ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance * ra.given_ohm  # the whole interval beyond it
-        if ra.reading_inside or not (d.lo > ra.given_ohm + band or d.hi < ra.given_ohm - band):
+        if ra.reading_inside or not ra.data_beyond(ranking.RA_PLAUSIBLE_SIGMAS):  # the whole interval beyond it
             return ""  # within what a reading's error and the held-out test leave open: the summary says it
         gross = not (1.0 / RA_GROSS <= d.value / ra.given_ohm <= RA_GROSS)
         if ra.residual_left and gross:  # a unit's or the leads' mistake, but no value to pass: the model misses something

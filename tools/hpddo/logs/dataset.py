@@ -105,8 +105,13 @@ def grid_step(x: np.ndarray) -> float:
     q = quantum(x)
     if not q > 0:
         return 0.0
-    k = x / q
-    return q if float(np.mean(np.abs(k - np.round(k)) <= GRID_TOL)) >= GRID_SHARE else 0.0
+    return q if on_grid(x, q) else 0.0
+
+
+def on_grid(x: np.ndarray, step: float, origin: float = 0.0) -> bool:
+    """Whether GRID_SHARE of the values x lie whole numbers of step from origin, within GRID_TOL of a step."""
+    k = (np.asarray(x, float) - origin) / step
+    return float(np.mean(np.abs(k - np.round(k)) <= GRID_TOL)) >= GRID_SHARE
 
 
 def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:

@@ -70,9 +70,8 @@ def _md_rmse(rm: dict, paper: dict | None = None, conds=None) -> list:
     for m, v in rm.items():
         lines.append(f"| {m} | " + " | ".join(f(v.get(c)) for c in conds) + " |")
         if paper and m in paper:
-            lines.append(f"| *{m}, paper* | " + " | ".join(f"*{f(paper_value(paper[m], c, conds))}*"
-                                                              if paper_value(paper[m], c, conds) is not None
-                                                              else "–" for c in conds) + " |")
+            shown = [paper_value(paper[m], c, conds) for c in conds]
+            lines.append(f"| *{m}, paper* | " + " | ".join(f"*{f(x)}*" if x is not None else "–" for x in shown) + " |")
     return lines
 
 
