@@ -662,6 +662,7 @@ def test_a_plain_heating_is_named_with_the_copper_held_where_its_free_coefficien
     assert "held at its material's coefficient (copper)" in res.verdict, res.verdict
     row = next(e for e in res.ranking if e.effect == "thermal_ra")
     assert row.named and row.params["ra_tc_per_K"] == pytest.approx(0.00393), row
+    assert res.to_json()["held_effects"] == {"thermal_ra": 0.00393}  # the next command holds it (--hold)
     ke = next(iv for iv in res.intervals if iv.field == "ke_vs_per_rad")
     assert ke.lo <= truth["Ke"] <= ke.hi, ke
     check_truthful(res)

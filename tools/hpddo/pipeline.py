@@ -37,6 +37,7 @@ class PipelineConfig:
     nameplate_source: str = "default"
     ke_fit: str = "eq20"
     effects: tuple = ()
+    hold: dict = dataclasses.field(default_factory=dict)  # {effect: coefficient} held, not fitted (--hold)
     # the dynamic family (inertia, viscous and Coulomb friction; schema.DYNAMICS): identified from the
     # training rows of recordings at 50 Hz and up and computed by the model (hpddo train --dynamics)
     dynamics: bool = False
@@ -179,6 +180,10 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
     outdir.check(out_dir, "gen_weights")  # before the work: a refused folder costs nothing
     if cfg.leave_one_out:
         _check_leave_one_out(log_paths)  # before the work
+    stray = [n for n in cfg.hold if n not in cfg.effects]
+    if stray:  # before the work: a hold without its effect would be dropped without a word
+        raise InputError(f"--hold {', '.join(stray)}: not among --effects ({', '.join(cfg.effects) or 'none'}); "
+                         "add it there")
     recs = dataset.load_recordings(log_paths, cfg.train_fraction, cfg.glitch_filter, cfg.reference)
     progress.stage("identifying M1 and M2" + (f" with {', '.join(cfg.effects)}" if cfg.effects else ""))
     ra, ra_source = identify.ra_from_logs(recs, cfg.ra_ohm)
@@ -189,7 +194,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
         m2 = identify.m2_params(recs, ra, cfg.ke_fit)
         if cfg.effects:
             from .model import effects
-            m2 = effects.identify(recs, m2, cfg.effects)
+            m2 = effects.identify(recs, m2, cfg.effects, cfg.hold)
             check_physical(recs, m2, cfg.effects)
     if cfg.dynamics:
         progress.stage("identifying the dynamic family (J, B, Tc)")
@@ -232,6 +237,7 @@ def run(log_paths, out_dir, cfg: PipelineConfig) -> PipelineResult:
             "ra_ohm": ra, "ra_source": ra_source, "ke_m1_vs_per_rad": m1.ke_vs_per_rad,
             "ke_m2_vs_per_rad": m2.ke_vs_per_rad, "ke_fit": cfg.ke_fit, "t_ref_C": m2.t_ref_C,
             "effects": {e: getattr(m2, ph.EFFECT_BITS[e][1]) for e in m2.effect_names()},
+            **({"held": dict(cfg.hold)} if cfg.hold else {}),  # --hold (absent without: the same bytes as before)
             "clamp_rpm": model.clamp_rpm, "hidden": list(cfg.train.hidden), "train_rows": res.n_train,
             "final_loss": res.loss_curve[-1] if res.loss_curve else None,
             "nameplate": nameplate_record(cfg),

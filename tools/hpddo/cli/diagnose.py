@@ -200,12 +200,16 @@ def next_steps(d, args) -> str:
     kc = res.get("ke_check") or {}
     ke_fit = "lsq" if (kc.get("disagree") or kc.get("biased")) and kc.get("ke_fit") != "lsq" else args.ke_fit
     from ..model.identify import KE_FITS
+    from .train import hold_word
+    held = {e: v for e, v in (res.get("held_effects") or {}).items() if e in effects}
 
     def train(ra_word, more=()):
         words = ["hpddo", "train", *map(str, args.logs), "--out", "MODEL"]
         names = effects + [e for e in more if e not in effects]
         if names:
             words += ["--effects", ",".join(names)]
+        if held:  # the coefficients the diagnosis held at their material's (train would fit them free)
+            words += ["--hold", hold_word(held)]
         if dynamics:
             words.append("--dynamics")
         if ra_word is not None:

@@ -87,6 +87,16 @@ def effects(p, what: str) -> None:
                    help=f"{what}, comma separated: {', '.join(fx.NAMES)}")
 
 
+def hold(p) -> None:
+    """--hold NAME=VALUE,...: effects of --effects whose coefficient is held, not fitted (a material's, or a
+    number in the effect's unit; hpddo/model/effects.py parse_holds)."""
+    from ..model import effects as fx
+    p.add_argument("--hold", type=fx.parse_holds, default={}, metavar="NAME=VALUE[,...]",
+                   help="hold the coefficient of effects in --effects instead of fitting it: the name of its "
+                        f"material ({fx.COPPER}=copper, +0.393 %%/K) or a number in the unit it is shown in "
+                        "(hpddo diagnose says where the recordings show a heating's effect, not its coefficient)")
+
+
 def dynamics(p, what: str) -> None:
     """--dynamics: the dynamic family (inertia, viscous and Coulomb friction at the output shaft;
     tools/hpddo/schema.py), from recordings at 50 Hz and up (docs/dynamics.md)."""

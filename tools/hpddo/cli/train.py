@@ -59,6 +59,7 @@ def parser(prog: str = "hpddo train") -> argparse.ArgumentParser:
     options.nameplate(p)  # None: not given, the default nameplate (pipeline.DEFAULT_RATED_V/RPM), which the run says
     options.ke_fit(p)
     options.effects(p, "effect terms to add to the physics model M2")
+    options.hold(p)
     options.dynamics(p, "add to the model")
     p.add_argument("--hidden", type=options.hidden_sizes, default=(16, 8), metavar="N[,N]",
                    help="hidden layer sizes of M3 (default 16,8; the paper's is 128,64)")
@@ -86,6 +87,17 @@ def _shown_path(path) -> str:
         return str(path)
 
 
+def hold_word(hold: dict) -> str:
+    """--hold's value for {effect: coefficient}: a material's name where the coefficient is its material's,
+    else the number in the effect's unit (what parse_holds reads back)."""
+    from ..model import effects as fx
+    words = []
+    for name, x in hold.items():
+        eff = fx.LIBRARY[name]
+        words.append(f"{name}={eff.material_name if eff.material is not None and x == eff.material else repr(x * eff.show_scale)}")
+    return ",".join(words)
+
+
 def provenance(args) -> str:
     """The command that regenerates the header, from the repository root, with every
     option that changes the result (--out is the folder the header sits in)."""
@@ -94,6 +106,7 @@ def provenance(args) -> str:
     for flag, key, show in (("--ra-ohm", "ra_ohm", str), ("--rated-v", "rated_v", str),
                             ("--rated-rpm", "rated_rpm", str), ("--ke-fit", "ke_fit", str),
                             ("--effects", "effects", ",".join),
+                            ("--hold", "hold", hold_word),
                             ("--hidden", "hidden", lambda h: ",".join(map(str, h))),
                             ("--epochs", "epochs", str), ("--split", "split", str)):
         if getattr(args, key) != getattr(defaults, key):
@@ -124,7 +137,7 @@ def run(args) -> int:
                          rated_V=DEFAULT_RATED_V if args.rated_v is None else args.rated_v,
                          rated_rpm=DEFAULT_RATED_RPM if args.rated_rpm is None else args.rated_rpm,
                          nameplate_source=("default", "partly given", "given")[given],
-                         ke_fit=args.ke_fit, effects=args.effects, dynamics=args.dynamics, train_fraction=args.split,
+                         ke_fit=args.ke_fit, effects=args.effects, hold=args.hold, dynamics=args.dynamics, train_fraction=args.split,
                          glitch_filter=not args.no_glitch_filter, leave_one_out=args.leave_one_out,
                          train=TrainConfig(hidden=args.hidden, max_iter=args.epochs, seed=args.seed,
                                            gate=not args.no_gate, progress=not args.quiet),

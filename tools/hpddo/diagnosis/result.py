@@ -421,6 +421,8 @@ class Diagnosis:
     ke_check: dict = dataclasses.field(default_factory=dict)  # ke_check()
     channels: list = dataclasses.field(default_factory=list)  # channels.ChannelFault.to_json()
     dynamics: dict = dataclasses.field(default_factory=dict)  # dynamics.Dynamics.to_json()
+    # {named effect: coefficient} held at its material's where hpddo train would fit it free (Selection.held)
+    held: dict = dataclasses.field(default_factory=dict)
     # for the report's figures (not in the JSON)
     rows: list = dataclasses.field(repr=False, default_factory=list)
     est_before: list = dataclasses.field(repr=False, default_factory=list)
@@ -438,6 +440,7 @@ class Diagnosis:
             "model_effects": self.model_effects,
             "model": dataclasses.asdict(self.model),
             "missing_effects": self.missing_effects,
+            **({"held_effects": self.held} if self.held else {}),  # absent where none: the bytes of before
             "confounded": self.confounded,
             "separating_recordings": [s.to_json() for s in self.separating_recordings],
             "told_apart": self.told_apart,

@@ -67,6 +67,39 @@ def parse_names(text: str) -> tuple:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def parse_holds(text: str) -> dict:
+    """{effect: coefficient in SI} from an option value NAME=VALUE[,NAME=VALUE...] (an argparse type): VALUE is
+    the name of the effect's material (thermal_ra=copper: schema.Effect.material_name) or a number in the unit the
+    effect is shown in (thermal_ra=0.393, %/K), within the effect's physical range."""
+    import argparse
+    out = {}
+    for item in (s.strip() for s in text.split(",") if s.strip()):
+        name, sep, value = (w.strip() for w in item.partition("="))
+        if not sep or not value:
+            raise argparse.ArgumentTypeError(f"{item!r}: expected NAME=VALUE (e.g. {COPPER}=copper)")
+        try:
+            eff = LIBRARY[check_names([name])[0]]
+        except IdentificationError as exc:
+            raise argparse.ArgumentTypeError(str(exc)) from None
+        if name in out:
+            raise argparse.ArgumentTypeError(f"{name} is held twice")
+        if eff.material is not None and value.lower() == eff.material_name.lower():
+            out[name] = eff.material
+            continue
+        try:
+            x = float(value) / eff.show_scale
+        except ValueError:
+            x = float("nan")
+        materials = f"its material's name ({eff.material_name}) or " if eff.material is not None else ""
+        if not (np.isfinite(x) and eff.is_physical(x)):
+            lo, hi = eff.physical
+            raise argparse.ArgumentTypeError(
+                f"{name}={value}: expected {materials}a number in {eff.show_unit} within its physical range "
+                f"{lo * eff.show_scale:.3g}..{hi * eff.show_scale:.3g} {eff.show_unit}")
+        out[name] = x
+    return out
+
+
 # ---------------------------------------------------------------------------------------
 # Rows: what the physics model sees, per recording
 
@@ -709,12 +742,17 @@ def settle_digits(p: ph.PhysicsParams) -> ph.PhysicsParams:
     return dataclasses.replace(p, **kw)
 
 
-def identify(recs: list[Recording], m2_plain: ph.PhysicsParams, names) -> ph.PhysicsParams:
+def identify(recs: list[Recording], m2_plain: ph.PhysicsParams, names, hold=None) -> ph.PhysicsParams:
     """M2 with effects: Ke and the named coefficients fitted on the training rows
-    (rpm_ref > 10), Ra held at its measured value; sets the effect bits."""
+    (rpm_ref > 10), Ra held at its measured value, those in hold ({effect: coefficient},
+    each among names) held at theirs; sets the effect bits."""
     names = check_names(names)
+    stray = [n for n in (hold or {}) if n not in names]
+    if stray:
+        raise IdentificationError(f"--hold {', '.join(stray)}: not among the effects of the model "
+                                  f"({', '.join(names) or 'none'}); add it to --effects")
     rows = [rows_of(r) for r in recs]
-    p = settle_digits(fit(rows, m2_plain, names))
+    p = settle_digits(fit(rows, m2_plain, names, hold=hold))
     if not p.ke_vs_per_rad > 0:
         raise IdentificationError(f"identified Ke = {p.ke_vs_per_rad:.4g} V s/rad is not positive")
     return p
