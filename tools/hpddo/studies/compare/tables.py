@@ -226,7 +226,7 @@ def cv_folds(recs, ra, seed: int) -> dict:
         ke = identify.ke_eq20(flat_v[keep], flat_i[keep], flat_ref[keep], ra)
         identify.check_ke(ke, flat_v[keep], flat_i[keep], ra)
         p = ph.PhysicsParams(ra_ohm=ra, ke_vs_per_rad=ke, t_ref_C=identify.reference_temp_C(recs),
-                             t_amb_C=identify.reference_temp_C(recs))
+                             t_amb_C=identify.ambient_C(recs))
         xs, n2s = zip(*[train_mod.features(r, p) for r in recs])
         x, n2 = np.concatenate(xs), np.concatenate(n2s)
         e = flat_ref - n2
