@@ -218,8 +218,9 @@ def test_the_diagnosis_prints_the_train_command_that_adds_what_it_named(tmp_path
         assert args.ra_ohm is None
 
 
+@pytest.mark.parametrize("left", [False, True])
 @pytest.mark.parametrize("confounded", [[], ["v_gain"], ["saturation", "v_gain"]])
-def test_the_next_command_passes_the_supported_ra_only_where_the_verdict_does(confounded):
+def test_the_next_command_passes_the_supported_ra_only_where_the_verdict_does(confounded, left):
     """A mismatch that effects explain as well (RaFit.confounded_with) is no instruction: the verdict says these
     recordings cannot tell which, and the printed commands are one for each model that fits, the Ra the data
     support and the reading with each such effect, to be chosen by a new reading (a fuzzing helper's bench, Ra given
@@ -232,10 +233,15 @@ def test_the_next_command_passes_the_supported_ra_only_where_the_verdict_does(co
     from hpddo.cli.diagnose import next_steps
     args = cli.parser("diagnose").parse_args(["a.csv", "--out", "d", "--ra-ohm", "8.8"])
     res = {"missing_effects": [], "verdict": "",
-           "ra_fit": {"mismatch": True, "supported_ohm": 8.0, "confounded_with": confounded}}
+           "ra_fit": {"mismatch": True, "supported_ohm": 8.0, "confounded_with": confounded, "residual_left": left}}
     lines = next_steps(SimpleNamespace(to_json=lambda: res), args).splitlines()
     commands = [shlex.split(ln)[2:] for ln in lines if ln.strip().startswith("hpddo train")]
     trained = [cli.parser("train").parse_args(c) for c in commands]
+    if left and not confounded:  # the verdict: re-measure Ra, no value to pass (a structured residual is left)
+        assert [t.ra_ohm for t in trained] == [pytest.approx(8.8)], lines
+        return
+    # with a residual left the verdict still promises one command for each model that fits (a fuzzing round's
+    # bench: the rejected reading alone was printed under that promise)
     assert [t.ra_ohm for t in trained] == [pytest.approx(8.0)] + [pytest.approx(8.8)] * len(confounded), lines
     assert [list(t.effects) for t in trained[1:]] == [[e] for e in confounded], lines
     if confounded:
