@@ -225,6 +225,25 @@ def test_stages_on_the_bundled_recordings(default_stages):
     assert plot["hybrid"] == {} and len(plot["rows"]) == 3
 
 
+@pytest.mark.parametrize("extra", ["v_offset", "current_offset"])
+def test_an_effect_selected_only_beside_one_left_out_is_not_named(default_stages, extra):
+    """core.only_beside: the selection replayed on the effects still named once a later stage left one out
+    (here magnet_thermal, selected first): the winding's heating, which the bundled recordings hold, stays named;
+    an offset they do not need, named beside it, is not, with the reason in its ranking row."""
+    paths, opt, inp, mf, ident, sel, conf = default_stages
+    assert core.only_beside(inp, sel, mf.noise) is sel  # nothing left out: nothing replayed
+    names = inp.given + ["thermal_ra", extra]
+    step = sel.steps[0]
+    fake = dataclasses.replace(sel, steps=[dataclasses.replace(step, name=n) for n in ("magnet_thermal", *names)],
+                               missing=["thermal_ra", extra], final=fx.fit(inp.rows, inp.m2, names))
+    out = core.only_beside(inp, fake, mf.noise)
+    assert out.missing == ["thermal_ra"]
+    row = next(e for e in out.ranking if e.effect == extra)
+    assert row.kind == "candidate" and core.ONLY_BESIDE + " magnet_thermal" in row.note
+    assert "selected beside magnet_thermal, which is not named" in core.verdict(
+        out, conf, core.residuals(inp, mf, out), mf.sigma2)
+
+
 def test_leave_one_out_fits_without_the_recording_it_scores():
     """The leave-one-out stage: for each recording, M2 and the effects fitted on the others
     only, scored on every row of the one left out (recomputed here independently)."""

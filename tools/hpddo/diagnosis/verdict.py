@@ -127,6 +127,8 @@ HOLDS_ZERO_RA_DOUBTED = "holds zero once the doubt on the Ra given is counted"
 UNPHYSICAL = "with the other named effects fitted alongside reaches the end of what the effect can be"
 # the note of an effect whose whole interval lies outside its plausible range (core.beyond_plausible)
 BEYOND = "lies outside the range the effect takes on a motor"
+# the note of an effect that explained the held-out rows only beside effects no longer named (core.only_beside)
+ONLY_BESIDE = "explained the held-out rows only beside"
 
 
 def _range(e, which: str) -> str:
@@ -152,6 +154,9 @@ NOT_NAMED = (
     (BEYOND, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval lies outside the {_range(e, 'plausible')} it "
                        "takes on a motor: its term stands for something else these recordings hold, so it is not "
                        "named."),
+    (ONLY_BESIDE, lambda e: f"it was selected beside {_beside(e)}, which is not named, and without it the model "
+                            "with it predicts the held-out rows no better than the model without it (or worse): "
+                            "not named."),
     (RESTS_ON, lambda e: "only with the recording that disagrees with the rest (below); without it, it is not: "
                          "not named."),
     (channels.BLIND_NOTE, lambda e: f"it acts through the {fx.LIBRARY[e.effect].reads} channel, which is stuck, or "
@@ -163,6 +168,12 @@ def _final(e) -> str:
     """The coefficient with which a demoted effect's note says it left its range (core.unphysical's
     note: "fitted <value>, which ...")."""
     return e.note.split(", which", 1)[0].removeprefix("fitted ")
+
+
+def _beside(e) -> str:
+    """The effects beside which a demoted effect was selected (core.only_beside's note:
+    "... only beside <names> (...)")."""
+    return e.note.split(ONLY_BESIDE + " ", 1)[-1].split(" (", 1)[0]
 
 
 def _why_not_named(e) -> str:
