@@ -56,6 +56,9 @@ def stopped_line(label: str, signame: str) -> str:
 _psutil = None
 
 
+STOP_SCANS = 20  # stop_descendants: scans of the process tree at the most while holding it still
+
+
 def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
     """Ends every process this one started, and theirs (SIGTERM, then SIGKILL after
     grace_s); returns how many there were. It waits for them without reaping them: the
@@ -65,17 +68,38 @@ def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
     psutil = _psutil
     if psutil is None:
         return 0
-    try:
-        kids = psutil.Process().children(recursive=True)
-    except psutil.Error:
-        return 0
-
     def gone(p) -> bool:
         try:
             return not p.is_running() or p.status() == psutil.STATUS_ZOMBIE
         except psutil.Error:
             return True
 
+    # the tree held still first (SIGSTOP, scanned again until no new process shows): a process that a
+    # child starts between one scan and the signals would lose its parent and run on (a compiler that the
+    # native build's make started as the tool was stopped: a test's evaluate left a cc1plus running)
+    kids, seen = [], set()
+    for _ in range(STOP_SCANS):
+        try:
+            new = [p for p in psutil.Process().children(recursive=True) if p.pid not in seen]
+        except psutil.Error:
+            break
+        if not new:
+            break
+        for p in new:
+            seen.add(p.pid)
+            try:
+                p.suspend()
+            except psutil.Error:
+                pass
+        kids += new
+    if not kids:
+        return 0
+    for p in kids:  # each told to end, then let run to do so
+        try:
+            p.terminate()
+            p.resume()
+        except psutil.Error:
+            pass
     for sig in ("terminate", "kill"):
         for p in kids:
             if not gone(p):
