@@ -1,7 +1,8 @@
 """The diagnosis on bench-twin recordings: an effect hidden alone is named (or shown in a
 confounded group with the separating recording), no hidden effect gives an empty verdict,
 two hidden effects are both named, and adding the named effects brings the physics RMSE at
-least half way down to the same bench without the effect. Two seeds each."""
+least half way down to the same bench without the effect. Two seeds each; a family of cases takes
+them in turn (twin_benches.alternating)."""
 import json
 import pathlib
 import shutil
@@ -63,8 +64,7 @@ def _halfway(res, ideal):
     return after <= before - 0.5 * (before - floor), (before, after, floor)
 
 
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("name", sorted(SINGLE))
+@pytest.mark.parametrize("name,seed", twin_benches.alternating(sorted(SINGLE), SEEDS))
 def test_single_effect_is_named_and_the_error_falls(root, name, seed):
     """Each effect named (or in a stated group) and the error at least halfway to the ideal bench's;
     a voltage gain error of 2 % may instead be selected with an interval that holds zero: with Ra

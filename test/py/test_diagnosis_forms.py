@@ -4,7 +4,7 @@ shape fitted (schema.Shape), and a voltage offset is named from the rows at rest
 effect that 2 Hz recordings show is hidden in a form other than the twin's default (the
 magnets at the winding's temperature or lagging the case, sensor offsets that drift while
 the electronics warm, a bowed voltage gain) besides its default form (test_diagnosis.py);
-inductance is not seen at 2 Hz in any form (test_diagnosis.py). Two seeds each."""
+inductance is not seen at 2 Hz in any form (test_diagnosis.py). Two seeds: a family of cases takes them in turn (twin_benches.alternating)."""
 import dataclasses
 
 import pytest
@@ -55,8 +55,7 @@ def root(tmp_path_factory):
 run = twin_benches.diagnosed
 
 
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("key", sorted(CASES))
+@pytest.mark.parametrize("key,seed", twin_benches.alternating(sorted(CASES), SEEDS))
 def test_an_effect_in_another_form_is_named_alone(root, key, seed):
     """Named alone; or, for an effect that with Ke fitted is a wrong Ra (RA_TWINS), either named
     or said not told apart from a wrong reading of Ra, or selected with an interval that holds
@@ -178,8 +177,7 @@ def _no_silent_edge(res) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("key", sorted(LAWS))
+@pytest.mark.parametrize("key,seed", twin_benches.alternating(sorted(LAWS), SEEDS))
 def test_an_effect_outside_the_library_is_named_and_its_physics_comes_within_1_2_of_the_true_model(root, key, seed):
     law, want, size = LAWS[key]
     paths = law_benches.write(root / f"law_{key}_{seed}", law, seed)
@@ -196,8 +194,7 @@ def test_an_effect_outside_the_library_is_named_and_its_physics_comes_within_1_2
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("key", ["brush_tanh_200mA", "brush_exp_500mA"])
+@pytest.mark.parametrize("key,seed", twin_benches.alternating(["brush_tanh_200mA", "brush_exp_500mA"], SEEDS))
 def test_a_smooth_brush_drop_with_ra_given_10_percent_high_gets_no_spurious_saturation(root, key, seed):
     """Before the widened family: brush_drop, saturation (its shape at an edge) and a current
     offset were named for a tanh drop with Ra given 10 % high."""
@@ -237,8 +234,7 @@ def _drift_pairs_said(res) -> list:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("key", sorted(DRIFTS))
+@pytest.mark.parametrize("key,seed", twin_benches.alternating(sorted(DRIFTS), SEEDS))
 def test_a_drifting_offset_leaves_the_physics_within_1_2_of_the_true_model(root, key, seed):
     """An offset drifting with the case during the hour's warm-up at one operating point is
     the same speed error as a temperature effect: the thermal effect is named (the motor's
@@ -268,8 +264,8 @@ def _drift_size(law) -> float:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("key", ["current_offset_follows_the_case", "v_offset_follows_the_case"])
+@pytest.mark.parametrize("key,seed", twin_benches.alternating(["current_offset_follows_the_case",
+                                                               "v_offset_follows_the_case"], SEEDS))
 def test_a_drifting_offset_with_load_steps_while_warm_is_named_and_told_from_the_thermal_effects(root, key, seed):
     """The same benches with load steps while warm (law_benches.write(warm_steps=True): 0.1..1.2 A
     at 8 and 12 V after 40 and 48 min): an offset's drift shifts V - I Ra alike at every current,
@@ -294,8 +290,7 @@ TWIN_DRIFTS = {"current": ({"current_offset": 20.0}, {"current_offset": "case"})
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("key", sorted(TWIN_DRIFTS))
+@pytest.mark.parametrize("key,seed", twin_benches.alternating(sorted(TWIN_DRIFTS), SEEDS))
 def test_an_offset_drifting_with_the_case_on_the_twin_is_named(root, key, seed):
     """The twin's current or voltage offset in its "case" form (twin/params.py: none at
     ambient, all of it 30 K above): current_offset_drift is named at the drift's size (20 mA

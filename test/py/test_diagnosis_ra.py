@@ -31,8 +31,7 @@ def run(paths, ra):
     return core.diagnose(paths, core.Options(bootstrap=0, hybrid=False, ra_ohm=ra)).to_json()
 
 
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("factor", (1.1, 0.9))
+@pytest.mark.parametrize("factor,seed", twin_benches.alternating((1.1, 0.9), SEEDS))
 def test_wrong_ra_alone_names_no_effect_and_reports_the_supported_ra(root, seed, factor):
     res = run(bench_dir(root, "ideal", {}, seed), RA_TRUE * factor)
     fit = res["ra_fit"]
@@ -55,8 +54,7 @@ def test_wrong_ra_alone_names_no_effect_and_reports_the_supported_ra(root, seed,
     assert res["rmse_rpm"]["after"]["average"] <= 1.05 * ok["rmse_rpm"]["before"]["average"]
 
 
-@pytest.mark.parametrize("seed", SEEDS)
-@pytest.mark.parametrize("factor", (1.1, 0.9))
+@pytest.mark.parametrize("factor,seed", twin_benches.alternating((0.9, 1.1), SEEDS))
 def test_wrong_ra_with_thermal_ra_hidden_still_names_thermal_ra(root, seed, factor):
     res = run(bench_dir(root, "thermal_ra", {"thermal_ra": 0.393}, seed), RA_TRUE * factor)
     assert "thermal_ra" in res["missing_effects"], (res["missing_effects"], res["verdict"])

@@ -168,8 +168,8 @@ LOW_DUTY_STEPS = ((0.0, 0), (0.08, 0), (0.12, 0), (0.18, 0), (0.24, 0), (0.3, 0)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("seed", [1, 2])
-@pytest.mark.parametrize("free", [False, True], ids=["synchronous", "free"])
+# each mode on one of the two seeds (synchronous on 1, free-running on 2): half the runs of both modes on both
+@pytest.mark.parametrize("free,seed", [(False, 1), (True, 2)], ids=["synchronous-1", "free-2"])
 def test_the_low_duty_run_with_ke_from_the_ripple_has_no_confident_window_where_the_shaft_stands(monkeypatch, seed, free):
     """hpddo ripple's path (speed_of_bench, Ke calibrated from the ripple) on the low-duty run, synchronous and
     free-running: the hum of the standing windows once set Ke at 0.043 V s/rad (true 0.355) and 156 standing

@@ -10,6 +10,13 @@ import numpy as np
 from hpddo.twin import generate, params
 
 TRAINING = ("sweep", "load", "long")
+
+
+def alternating(keys, seeds) -> list:
+    """[(key, seed), ...]: each key of a family of cases on one of the seeds, in turn, so that every
+    seed is drawn across the family while each case is diagnosed once (the suite's time: the
+    property across many draws is the calibration studies', docs/diagnosis-limits.md)."""
+    return [(k, seeds[n % len(seeds)]) for n, k in enumerate(keys)]
 _written = {}
 
 
