@@ -155,8 +155,7 @@ NOT_NAMED = (
                        "takes on a motor: its term stands for something else these recordings hold, so it is not "
                        "named."),
     (ONLY_BESIDE, lambda e: f"it was selected beside {_beside(e)}, which is not named, and without it the model "
-                            "with it predicts the held-out rows no better than the model without it (or worse): "
-                            "not named."),
+                            "with it predicts the held-out rows worse than the model without it: not named."),
     (RESTS_ON, lambda e: "only with the recording that disagrees with the rest (below); without it, it is not: "
                          "not named."),
     (channels.BLIND_NOTE, lambda e: f"it acts through the {fx.LIBRARY[e.effect].reads} channel, which is stuck, or "
