@@ -154,8 +154,10 @@ NOT_NAMED = (
     (BEYOND, lambda e: f"its {100 * intervals.LEVEL:.0f} % interval lies outside the {_range(e, 'plausible')} it "
                        "takes on a motor: its term stands for something else these recordings hold, so it is not "
                        "named."),
-    (ONLY_BESIDE, lambda e: f"it was selected beside {_beside(e)}, which is not named, and without it the model "
-                            "with it predicts the held-out rows worse than the model without it: not named."),
+    (ONLY_BESIDE, lambda e: f"it was selected beside {_beside(e)}, "
+                            f"{'which are' if ',' in _beside(e) else 'which is'} not named, and without "
+                            f"{'them' if ',' in _beside(e) else 'it'} the model with it predicts the held-out rows "
+                            "worse than the model without it: not named."),
     (RESTS_ON, lambda e: "only with the recording that disagrees with the rest (below); without it, it is not: "
                          "not named."),
     (channels.BLIND_NOTE, lambda e: f"it acts through the {fx.LIBRARY[e.effect].reads} channel, which is stuck, or "
