@@ -227,9 +227,10 @@ def test_stages_on_the_bundled_recordings(default_stages):
 
 @pytest.mark.parametrize("extra", ["v_offset", "current_offset"])
 def test_an_effect_selected_only_beside_one_left_out_is_not_named(default_stages, extra):
-    """core.only_beside: the selection replayed on the effects still named once a later stage left one out
-    (here magnet_thermal, selected first): the winding's heating, which the bundled recordings hold, stays named;
-    an offset they do not need, named beside it, is not, with the reason in its ranking row."""
+    """core.only_beside: once a later stage left out an effect the selection chose (here magnet_thermal, selected
+    first), each named effect is taken out of the model of those still named: an offset the bundled recordings do
+    not need, named beside their winding's heating, lowers the held-out MSE when taken out, so it is not named, with
+    the reason in its ranking row; the heating stays."""
     paths, opt, inp, mf, ident, sel, conf = default_stages
     assert core.only_beside(inp, sel, mf.noise) is sel  # nothing left out: nothing replayed
     names = inp.given + ["thermal_ra", extra]
