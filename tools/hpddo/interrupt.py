@@ -68,6 +68,7 @@ def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
     psutil = _psutil
     if psutil is None:
         return 0
+
     def gone(p) -> bool:
         try:
             return not p.is_running() or p.status() == psutil.STATUS_ZOMBIE
@@ -92,19 +93,13 @@ def stop_descendants(grace_s: float = KILL_GRACE_S) -> int:
             except psutil.Error:
                 pass
         kids += new
-    if not kids:
-        return 0
-    for p in kids:  # each told to end, then let run to do so
-        try:
-            p.terminate()
-            p.resume()
-        except psutil.Error:
-            pass
     for sig in ("terminate", "kill"):
         for p in kids:
             if not gone(p):
                 try:
                     getattr(p, sig)()
+                    if sig == "terminate":  # then let run (it is held still) to end
+                        p.resume()
                 except psutil.Error:
                     pass
         deadline = time.monotonic() + grace_s
