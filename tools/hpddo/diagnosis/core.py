@@ -1364,8 +1364,8 @@ def only_beside(inp: Inputs, sel: Selection, floor: noise.NoiseFloor | None = No
     names = inp.given + sel.missing
 
     def held_out(ns):
-        fit = lambda rs, st: fx.fit(rs, inp.m2, ns, hold=holds_of(sel, ns), start=st)  # noqa: E731
-        return ranking.held_out_residuals(inp.data, fit(inp.rows, sel.final), fit)
+        return ranking.scored(inp.data, lambda rs, st: fx.fit(rs, inp.m2, ns, hold=holds_of(sel, ns), start=st),
+                              sel.final)[1]
 
     try:
         res_all = held_out(names)
