@@ -17,6 +17,8 @@ def alternating(keys, seeds) -> list:
     seed is drawn across the family while each case is diagnosed once (the suite's time: the
     property across many draws is the calibration studies', docs/diagnosis-limits.md)."""
     return [(k, seeds[n % len(seeds)]) for n, k in enumerate(keys)]
+
+
 _written = {}
 
 
