@@ -666,3 +666,25 @@ def test_a_plain_heating_is_named_with_the_copper_held_where_its_free_coefficien
     ke = next(iv for iv in res.intervals if iv.field == "ke_vs_per_rad")
     assert ke.lo <= truth["Ke"] <= ke.hi, ke
     check_truthful(res)
+
+
+@pytest.mark.slow
+def test_a_lagging_case_sensor_names_no_magnet_heating_and_the_copper_stays_within_the_interval():
+    """An independent simulator's bench (test/fixtures/independent/lagcase: a brush drop and copper heating, the
+    case read 0.7 of the winding's rise and 300 s late, Ke independent of temperature; Ra given right). The node
+    cannot read the winding exactly from that case, and magnet_thermal, beside copper held, took up the misfit: it
+    was named at -0.129 %/K with an interval excluding zero for a held-out gain of 0.05 % of the starting error.
+    The material check names it only past the selection's bar (ranking.a_step), and the copper model it tried is
+    kept as a model that fits (Selection.also_fit), so thermal_ra's interval reaches the copper's coefficient."""
+    d = ROOT / "test" / "fixtures" / "independent" / "lagcase"
+    truth = json.loads((d / "truth.json").read_text())
+    res = diagnose([d / f"{n}.csv" for n in ("sweep", "load", "long")], truth["Ra"])
+    assert "magnet_thermal" not in res.missing_effects, res.verdict
+    row = next(e for e in res.ranking if e.effect == "magnet_thermal")
+    assert not row.named, row
+    tra = next((iv for iv in res.intervals if iv.field == "ra_tc_per_K"), None)
+    if tra is not None and tra.determined:
+        assert tra.lo <= truth["alpha"] <= tra.hi, tra
+    ke = next(iv for iv in res.intervals if iv.field == "ke_vs_per_rad")
+    assert ke.lo <= truth["Ke"] <= ke.hi, ke
+    check_truthful(res)

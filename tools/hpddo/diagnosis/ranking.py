@@ -570,6 +570,16 @@ def motor_physics_first(d: Data, m2: ph.PhysicsParams, given, steps, p, candidat
     return False
 
 
+def a_step(gain: float, z: float, mse_now: float, mse_start: float, sigma2: float, z_min: float = Z_MIN,
+           ra: bool = False) -> bool:
+    """Whether a held-out gain (RPM^2, z its standard errors) names an effect added to a model of
+    held-out MSE mse_now, in a selection that started from mse_start: the bar of the module's
+    docstring (Z_MIN, REL_MIN, EXCESS_MIN, SCORE_MIN; a wrong Ra is exempt from SCORE_MIN). One
+    bar for every stage that names an effect (the forward selection, core.material_check)."""
+    return (z >= z_min and gain >= REL_MIN * mse_now and gain >= EXCESS_MIN * max(mse_now - sigma2, 0.0)
+            and (gain >= SCORE_MIN * mse_start or ra))
+
+
 def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: float, weights=None,
                     start=None, exclude=(), fits=None, starts=None) -> tuple[list, ph.PhysicsParams]:
     starts = starts or {}
@@ -591,9 +601,8 @@ def _forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: fl
 
     def passes(t, mse_now, z_min=Z_MIN):
         """Whether a trial (_trials) is a step from a model of held-out MSE mse_now."""
-        return (t[0] not in exclude and t[3] and t[2] >= z_min and t[1] >= REL_MIN * mse_now
-                and t[1] >= EXCESS_MIN * max(mse_now - sigma2, 0.0)
-                and (t[1] >= SCORE_MIN * mse_start or t[0] == RA_MISMATCH))
+        return (t[0] not in exclude and t[3]
+                and a_step(t[1], t[2], mse_now, mse_start, sigma2, z_min=z_min, ra=t[0] == RA_MISMATCH))
 
     while remaining:
         tried = _trials(d, m2, sigma2, fit_from, chosen, remaining, p, res)

@@ -354,6 +354,10 @@ class Selection:
     bootstrap: object | None = dataclasses.field(default=None, repr=False, compare=False)
     # {effect: coefficient} held at its material's in the final model and its intervals (core.copper_held)
     held: dict = dataclasses.field(default_factory=dict)
+    # fitted models (ph.PhysicsParams) a stage found to explain the held-out rows about as well as the
+    # selection's without naming their effect (core.material_check): the model part of each budget
+    # reaches over their values (core.alternative_models)
+    also_fit: tuple = ()
 
 
 @dataclasses.dataclass
