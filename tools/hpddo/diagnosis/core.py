@@ -814,7 +814,7 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
         res_held = ranking.scored(d, lambda rs, st: fx.fit(rs, m2, given + missing, hold={name: eff.material},
                                                            start=st))[1]
         g, z = ranking.gain_z(d, res_held, res_alt, sigma2)
-        if not ranking.a_step(g, z, ranking.held_out_mse(d, res_held), mf.mse_base, sigma2):
+        if not ranking.a_step(g, z, ranking.held_out_mse(d, res_held), mf.mse_base, sigma2, excess=False):
             also.append(alt)  # not named, not excluded: the material's coefficient is one of the values that fit
             continue
         missing.append(other)
