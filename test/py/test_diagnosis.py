@@ -250,6 +250,34 @@ def test_the_next_command_passes_the_supported_ra_only_where_the_verdict_does(co
         assert lines[0].startswith("next (add what"), lines[0]
 
 
+@pytest.mark.parametrize("left", [False, True])
+@pytest.mark.parametrize("confounded", [[], ["v_gain"], ["current_offset", "v_gain"]])
+def test_without_a_mismatch_a_residual_a_wrong_ra_explains_gets_a_command_for_each_model(confounded, left):
+    """No mismatch concluded, but a wrong Ra explains as well as effects (RaFit.confounded_with) and a residual is
+    left above the floor: the reading alone is one of the models that fit, not the instruction (a fuzzing round's
+    tiny motor, its reading 10 % high: the reading alone was printed, 113 RPM on an unseen run against 32 at the
+    true Ra). One command per model, the supported Ra first; no residual left or nothing confounded: the reading."""
+    import shlex
+    from types import SimpleNamespace
+
+    from hpddo import cli
+    from hpddo.cli.diagnose import next_steps
+    from hpddo.diagnosis.verdict import ABOVE_SHARE
+    args = cli.parser("diagnose").parse_args(["a.csv", "--out", "d", "--ra-ohm", "44"])
+    res = {"missing_effects": [], "verdict": "",
+           "ra_fit": {"mismatch": False, "supported_ohm": 40.75, "confounded_with": confounded, "residual_left": left},
+           "residual_after": {"excess": 2.0 * ABOVE_SHARE if left else 0.0, "noise_var": 1.0}}
+    lines = next_steps(SimpleNamespace(to_json=lambda: res), args).splitlines()
+    trained = [cli.parser("train").parse_args(shlex.split(ln)[2:]) for ln in lines if ln.strip().startswith("hpddo train")]
+    if not (left and confounded):
+        assert [t.ra_ohm for t in trained] == [pytest.approx(44)], lines
+        return
+    assert [t.ra_ohm for t in trained] == [pytest.approx(40.75)] + [pytest.approx(44)] * len(confounded), lines
+    assert [list(t.effects) for t in trained[1:]] == [[e] for e in confounded], lines
+    assert lines[0].startswith("next (these recordings cannot tell a wrong Ra from"), lines[0]
+    assert not any("'after' row" in ln for ln in lines), lines  # that row is the reading's model here
+
+
 @pytest.mark.parametrize("given", [
     ["--ra-ohm", "4.5", "--rated-v", "12", "--rated-rpm", "240"],
     ["--rated-v", "24.5", "--ke-fit", "lsq", "--no-glitch-filter", "--effects", "brush_drop"],

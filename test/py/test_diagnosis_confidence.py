@@ -135,6 +135,25 @@ def test_a_residual_left_makes_no_claim_on_the_reading():
     assert "pass --ra-ohm 1.1" in plain, plain
 
 
+def test_an_effect_named_beside_the_corrected_ra_is_not_said_unnamed():
+    """verdict._ra_verdict: a mismatch that brush_drop explains as well (RaFit.confounded_with), where the selection
+    also named brush_drop beside the corrected Ra (an independent probe's dyno tables, Ra given 10 % low: "so
+    neither is named as an effect" beside "Missing: brush_drop (+1.08 V ...)"). Named, the sentence says at which
+    Ra its size holds; not named, "neither is named" as before."""
+    from hpddo.diagnosis.result import RaFit
+    from hpddo.diagnosis.verdict import _ra_verdict
+    from hpddo.model.interval import Interval
+
+    data = Interval("Ra", "ra_ohm", "ohm", 2.90, 2.55, 2.98, True)
+    ra = RaFit(given_ohm=2.63, supported_ohm=2.893, tolerance=0.05, sigmas=2.0, mismatch=True, data=data,
+               confounded_with=["brush_drop"])
+    named = _ra_verdict(ra, ["brush_drop"])
+    assert "neither is named" not in named and "brush_drop is named below" in named and "2.89 ohm" in named, named
+    assert "one for each model that fits" in named, named
+    unnamed = _ra_verdict(ra, [])
+    assert "neither is named as an effect" in unnamed and "named below" not in unnamed, unnamed
+
+
 def test_no_effect_is_named_through_a_channel_stuck_in_every_recording(tmp_path):
     """A brush drop of 0.8 V under a current channel stuck at 0.5 A in both recordings: the
     selection takes a constant drop, but an effect whose term reads the current

@@ -159,6 +159,16 @@ def test_fixed_line_with_the_samples_lets_a_line_beside_the_mains_through_and_no
     assert sync.fixed_line(b, 0, 51.2, 2.5)[0] == sync.KEY  # without the samples: within a resolution, refused
 
 
+def test_a_hum_with_no_line_beside_it_is_said_so_not_given_an_infinite_error():
+    """Hum alone at 50 Hz, a count at 51.2 Hz: where the joint fit finds no line of its own (its least at the
+    search's edge), the reason says that; a fuzzing round's reason read "the line is at 295.94 +- inf Hz"."""
+    b = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.001", "mains_hz": "50"}, [0], [0.0],
+                   [np.zeros(3840, np.int64)])
+    reasons = [sync.fixed_line(b, 0, 51.2, 2.5, x=_hum_and_line(0.05, 50.0, 0.0, 51.2, 0.002, s)) for s in range(8)]
+    assert all(key == sync.KEY and "inf" not in why for key, why in reasons), reasons
+    assert sum("no line of its own" in why for _, why in reasons) >= 3, reasons
+
+
 def test_fixed_line_names_pwm_harmonics_their_aliases_and_mains():
     b = rf.of_meta({"sample_hz": "9600", "a_per_code": "0.01", "pwm_hz": "490.196", "mains_hz": "60"},
                    [0], [0.0], [np.zeros(4800, np.int64)])

@@ -42,11 +42,11 @@ LEFT_NO_RA = ("; these recordings give no Ra to pass: a structured residual rema
               "explains (below), and a missing effect can stand in for a wrong Ra")
 
 
-def ra_verdict(ra: RaFit | None) -> str:
+def ra_verdict(ra: RaFit | None, named=()) -> str:
     """The verdict's sentence on Ra; "" when the reading fits (or the data cannot tell). With a
     faulty current channel, no instruction on Ra: what the recordings seem to say of it rests on
-    the readings that channel spoils."""
-    text = _ra_verdict(ra)
+    the readings that channel spoils. named: the effects the verdict names."""
+    text = _ra_verdict(ra, named)
     if ra is not None and ra.current_fault and text and (ra.mismatch or "--ra-ohm" in text):
         return (f"Whether the Ra you gave ({ra.given_ohm:.3g} ohm) is right cannot be concluded from these "
                 f"recordings: {ra.current_fault} (Channel health, below), and Ra rests on it; the effects were "
@@ -54,7 +54,7 @@ def ra_verdict(ra: RaFit | None) -> str:
     return text
 
 
-def _ra_verdict(ra: RaFit | None) -> str:
+def _ra_verdict(ra: RaFit | None, named=()) -> str:
     if ra is None:
         return ""
     if not ra.determined:
@@ -98,13 +98,23 @@ def _ra_verdict(ra: RaFit | None) -> str:
         # an instruction only where it holds across the models that explain the rows about as well: with
         # Ra at the reading, each effect of confounded_with does (core.select, core.robust_ra): no --ra-ohm
         others = " or ".join(ra.confounded_with)
+        # an effect named beside the corrected Ra (select: named beyond Ra) and told from a wrong Ra by neither: it is
+        # named at the size it takes with Ra corrected (an independent probe's brush drop, Ra given 10 % low, was
+        # "neither is named" beside "Missing: brush_drop")
+        both = [e for e in ra.confounded_with if e in named]
+        if both:
+            which = (f"so the mismatch is no instruction, and {' and '.join(both)} {'is' if len(both) == 1 else 'are'}"
+                     f" named below at the size {'it takes' if len(both) == 1 else 'they take'} with Ra at "
+                     f"{ra.supported_ohm:.3g} ohm (with the reading, another)")
+        else:
+            which = (f"so {'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect (the "
+                     f"effects were looked for with Ra at {ra.supported_ohm:.3g} ohm)")
         return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings unless {others} is at work"
                 f"{alone}: with the reading's {ra.tolerance:.0%} tolerance as a prior and none of them, they support "
                 f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error proportional "
-                f"to the current. These recordings cannot tell a wrong Ra from {others}, so "
-                f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named as an effect (the effects "
-                f"were looked for with Ra at {ra.supported_ohm:.3g} ohm); to separate them: {ranking.RA_SEPARATOR}. "
-                "hpddo train uses the Ra it is given: the next commands below are one for each model that fits.")
+                f"to the current. These recordings cannot tell a wrong Ra from {others}, {which}; to separate them: "
+                f"{ranking.RA_SEPARATOR}. hpddo train uses the Ra it is given: the next commands below are one for "
+                "each model that fits.")
     return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) does not fit these recordings{alone}: with the reading's "
             f"{ra.tolerance:.0%} tolerance as a prior they support "
             f"{ra.supported_ohm:.3g} ohm ({rel:+.1%}, {abs(ra.sigmas):.1f}x the tolerance), an error "
@@ -185,7 +195,7 @@ def _why_not_named(e) -> str:
 def verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
             floor: noise.NoiseFloor | None = None, family=None) -> str:
     """The verdict's text; family: the dynamic family from the fast recordings (dynamics.Dynamics)."""
-    ra = ra_verdict(sel.ra_fit)
+    ra = ra_verdict(sel.ra_fit, sel.missing)
     text = _verdict(sel, conf, resid, sigma2, floor)
     held = [e for e in sel.ranking if e.kind == "candidate" and e.note and _why_not_named(e)]
     if held and text.startswith("No library effect explains the residual"):  # one was selected: said below
@@ -266,7 +276,8 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
             # the sentence before this one names what explains it: a wrong Ra or the effects it cannot be told from
             return (f"With Ra held at the reading and none of them named, the residual stays "
                     f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor: the "
-                    "measurement named above settles which of them it is.")
+                    "measurement named above settles which of them it is; the next commands below are one for each "
+                    "model that fits.")
         if floor is not None and floor.from_model and above:
             # the floor is what the selected model leaves out of fold: a residual this far above it is something
             # the recordings hold that no named effect explains (what was selected and not named, said after this)

@@ -382,6 +382,9 @@ def fixed_line(bursts, k: int, f_hz: float, resolution_hz: float, placed: bool =
             return KEY, f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz)"
         fit = beside_mains(x, bursts.sample_hz, f_hz, f, resolution_hz)
         agree = MAINS_AGREE_REL * f_hz if agree_hz is None else agree_hz
+        if not fit["apart"] and not math.isfinite(fit["se_hz"]):  # (a fuzzing round printed "295.94 +- inf Hz")
+            return KEY, (f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz; fitted beside it, no line of its own "
+                         f"within {MAINS_SEARCH_RES} resolutions of the count)")
         if not fit["apart"]:
             return KEY, (f"{REASON} ({f_hz:.1f} Hz, {what} at {f:.1f} Hz; fitted beside it, the line is at "
                          f"{fit['f_hz']:.2f} +- {fit['se_hz']:.2g} Hz: not clear of the mains line's "
