@@ -107,6 +107,23 @@ def test_a_damaged_commutator_is_named_on_the_twin_and_a_healthy_one_is_not():
     assert (keys[study.BAR_FAULT_PCT] == "damaged").mean() > 0.8
 
 
+HEALTHY_10 = {1: 0.003, 2: 0.002, 9: 0.003, 11: 0.003, 10: 0.08, 20: 0.02}
+
+
+@pytest.mark.parametrize("prior", [None, 1800.0])
+def test_a_healthy_motor_whose_line_sits_on_a_mains_multiple_is_not_called_damaged(prior):
+    """A healthy 10-ripple motor at 1,800 RPM: its 300 Hz line and every even rotation line lie on multiples of 50 or
+    60 Hz, which the comb leaves out, and the comb about its weak 11th rotation line compared the health lines with
+    that one: "damaged" in 4 of 6 windows (rc._stronger_left_on_comb). No window is damaged or confident off the
+    truth; at 1,902 RPM, where no line meets a mains multiple, every window counts within 0.1 %."""
+    for seed in range(6):
+        r = one(motor_current(30.0, HEALTHY_10, seed=seed), 10, prior)
+        assert r["key"] != "damaged", r["reason"]
+        assert r["key"] != "" or abs(r["rpm"] / 1800.0 - 1) < 0.05, r
+        r = one(motor_current(31.7, HEALTHY_10, seed=seed), 10, prior and 1902.0)
+        assert r["key"] == "" and abs(r["rpm"] / 1902.0 - 1) < 0.001, r
+
+
 def test_the_twin_healthy_bytes_are_those_without_the_fault_parameter():
     from hpddo.twin import generate, params
 
@@ -822,6 +839,10 @@ def test_a_comb_about_a_sideband_of_a_line_under_the_noise_is_no_comb(monkeypatc
     assert rc.rotation_comb(found, 2.0, 10.0, (976.562,), pwm) is None
     with monkeypatch.context() as m:  # without the rule the same lines make the comb that named it damaged
         m.setattr(rc, "_sideband_of_hidden", lambda *a: False)
+        # (the 100 Hz line, left out as a multiple of the mains, lies on that comb's grid, stronger than its line: the rule of
+        # comb._stronger_left_on_comb refuses it too)
+        assert rc.rotation_comb(found, 2.0, 10.0, (976.562,), pwm) is None
+        m.setattr(rc, "_stronger_left_on_comb", lambda *a: False)
         cb = rc.rotation_comb(found, 2.0, 10.0, (976.562,), pwm)
         assert cb is not None and cb.multiple == 45 and abs(cb.commutation.hz - 376.56) < 0.01
     # a line that shows, the strongest, with both its sidebands: the comb its rotation lines make about it stands

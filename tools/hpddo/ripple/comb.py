@@ -215,9 +215,27 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
         return None
     comb = max(combs, key=lambda sc: sc[0])[1]
     left = [ln for ln in found if ln not in use and ln.snr >= COMB_LINE_SNR * min_snr]
-    if _finer_left_out(comb, left, res_hz) or _sideband_of_hidden(comb, found, res_hz, pwm):
+    if (_finer_left_out(comb, left, res_hz) or _sideband_of_hidden(comb, found, res_hz, pwm)
+            or _stronger_left_on_comb(comb, left, res_hz)):
         return None
     return comb
+
+
+def _stronger_left_on_comb(comb: Comb, left, res_hz: float) -> bool:
+    """Whether a line left out of the comb as a multiple of 50 or 60 Hz is stronger than the comb's commutation line and
+    lies on the comb's grid (a multiple of f_rot from COMMUTATION_MIN_MULTIPLE on): the commutation line is the
+    comb's strongest, so the left-out line may be the ripple itself, or hum on the grid by chance, and the comb cannot
+    say which line is the commutation's. At 30 Hz of rotation every even multiple is one of 60 Hz: a 10-ripple motor
+    at 1,800 RPM, its 300 Hz line left out, got a comb about its weak 11th rotation line, and the health lines
+    against that line named a healthy commutator damaged (4 of 6 synthetic windows; a fuzzing round's damaged
+    commutator at that speed went unnamed)."""
+    for ln in left:
+        if ln.power <= comb.commutation.power or not near_fixed(ln.hz, MAINS_HZ, fixed_tol_hz(ln.hz, res_hz)):
+            continue
+        k = int(round(ln.hz / comb.rot_hz))
+        if k >= COMMUTATION_MIN_MULTIPLE and abs(ln.hz - k * comb.rot_hz) <= tol_hz(ln.hz, res_hz):
+            return True
+    return False
 
 
 def _sideband_of_hidden(comb: Comb, found, res_hz: float, pwm) -> bool:
