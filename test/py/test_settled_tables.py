@@ -59,3 +59,17 @@ def test_a_steady_table_sees_the_settled_winding_and_holds_the_copper(tmp_path):
     # a time series keeps the copper's coefficient free where it reads the case temperature
     ts = dataclasses.replace(r, steady=False)
     assert "ra_tc_per_K" in fx.spec_for([ts], [fx.COPPER]).free
+
+
+def test_a_tables_intervals_say_its_rows_are_settled_points_not_a_count_of_clock_blocks():
+    """A one-voltage steady-state table of 30 settled points (test/fixtures/independent/vgain3, dyno12V alone): its
+    rows are blocked by duty, load and 30 s of the table's made-up clock (ranking.op_blocks), too few blocks for the
+    cluster-robust variance, and the intervals said "rows taken as independent (only 2 operating points)" (and "only
+    1 operating points"); a fuzzing round's 32-point table read "only 4". The method names the table's settled
+    points."""
+    from conftest import ROOT
+    from hpddo.diagnosis import core
+    log = ROOT / "test" / "fixtures" / "independent" / "vgain3" / "dyno12V.csv"
+    res = core.diagnose([log], core.Options(bootstrap=0, hybrid=False, ra_ohm=2.0)).to_json()
+    methods = {iv["method"] for iv in res["intervals"]} | {res["ra_fit"]["data_alone"]["method"]}
+    assert methods == {"rows taken as independent (30 settled points of a table)"}, methods

@@ -160,6 +160,11 @@ def free_covariance(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: d
     e = ref - predict_all(rows, masks, p)
     groups = np.concatenate(groups)
     cov, df, method = covariance(jacobian(rows, masks, p, free), e, groups)
+    if method.startswith("rows taken as independent") and rows and all(r.steady for r in rows):
+        # a table's rows are settled points, each its own operating point: its blocks (ranking.op_blocks: runs of one
+        # duty and load, split by the made-up clock) are not (a fuzzing round's one-voltage table of 32 settled
+        # points read "only 4 operating points")
+        method = f"rows taken as independent ({int(np.isfinite(e).sum())} settled points of a table)"
     return free, cov, df, method, len(np.unique(groups))
 
 
