@@ -175,6 +175,25 @@ def test_a_table_that_repeats_its_points_measures_its_noise_there(tmp_path):
     assert res["verdict"].startswith("Nothing missing"), res["verdict"]
 
 
+def test_rows_copied_by_the_logger_are_no_repeats_of_their_point(tmp_path):
+    """The same twice-measured table with most rows written two or three times over, every channel the same (a
+    logger that flushed each point more than once): a copy paired with its original differs by exactly zero, and
+    the copies had shrunk the repeats' spread below the tachometer's noise, so the residual of the right model
+    was said to stand above the floor. Each copy is taken once, and said."""
+    first = dyno_table(tmp_path / "a.csv", 40, 3).read_text().splitlines()
+    second = dyno_table(tmp_path / "b.csv", 40, 5).read_text().splitlines()
+    head = [line for line in first if not line[0].isdigit()]
+    rows = [r for pair in zip(first[len(head):], second[len(head):]) for r in pair]
+    rows = [r.split(",", 1)[1] for k, r in enumerate(rows) for _ in range(1 + (k % 3 != 0) + (k % 4 == 1))]
+    log = tmp_path / "copied.csv"
+    log.write_text("\n".join(head + [f"{k:.1f},{r}" for k, r in enumerate(rows)]) + "\n")
+    res = diagnose([log], RA_OHM).to_json()
+    nf = res["noise_floor"]
+    assert "repeated operating points" in nf["source"] and "row(s) that copy an earlier row" in nf["source"], nf
+    assert 1.5 < nf["rpm"] < 2.8, nf
+    assert res["verdict"].startswith("Nothing missing"), res["verdict"]
+
+
 def test_a_bad_kind_is_refused_with_its_file_and_line(tmp_path):
     from hpddo.logs import benchlog
     log = dyno_table(tmp_path / "dyno.csv", 20, 3, meta=("kind=table",))
