@@ -138,6 +138,99 @@ def glitch_mask(df: pd.DataFrame) -> tuple[np.ndarray, list]:
     return bad, reasons
 
 
+# A steady-state table's rows are settled points whose order says nothing (docs/bench-log.md), so a misread speed
+# is judged against the table's own curve, not against its neighbours in the file: within one duty (one supply
+# voltage of a dyno table), n = (V - I Ra) / Ke bends only gently with the effects (a brush drop shifts it, heating
+# and saturation bend it), so a quadratic in the current, linear in the voltage, follows it. Each row is judged by
+# the curve through the other rows (its deleted residual: a misread row at the end of the current's range pulls a
+# curve fitted through it onto itself), the worst row judged first and, where misread, left out of the curve for the
+# next; a row departing from it by more than GLITCH_SIGMAS robust standard deviations of the rows kept, by more than the speed's
+# GLITCH_FLOOR and by more than GLITCH_QUANTA of its steps is a misread reading (a digit lost or doubled, a
+# tachometer read on the wrong range). Judged only where a duty has at least TABLE_CURVE_MIN_ROWS rows with speed,
+# voltage and current read, and only where at most TABLE_MISREAD_MAX of them are misread (else the curve is not
+# this shape, and nothing is judged).
+TABLE_CURVE_MIN_ROWS = 8
+TABLE_MISREAD_MAX = 0.2
+
+
+def _deleted_residuals(x: np.ndarray, y: np.ndarray, keep: np.ndarray) -> np.ndarray:
+    """y less the least-squares fit through the rows keep of (x, y) with the row itself left out: for a kept row
+    e / (1 - h) (its hat value h), for another the fit's residual there. NaN where the rows kept do not determine
+    the fit (h at 1)."""
+    xk = x[keep]
+    beta, *_ = np.linalg.lstsq(xk, y[keep], rcond=None)
+    e = y - x @ beta
+    g = np.linalg.pinv(xk.T @ xk)
+    h = np.einsum("ij,jk,ik->i", x, g, x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(keep, np.where(h < 1 - 1e-9, e / (1 - h), np.nan), e)
+
+
+def _curve_columns(*cols) -> np.ndarray:
+    """The design of a curve: a constant and each of cols centred and scaled, those that do not vary (a fixed
+    supply's voltage) left to the constant."""
+    out = [np.ones(len(cols[0]))]
+    for c in cols:
+        c = c - c.mean()
+        if np.ptp(c) > 0:
+            out.append(c / np.max(np.abs(c)))
+    return np.column_stack(out)
+
+
+def _misread(x: np.ndarray, y: np.ndarray, q: float) -> dict:
+    """{row: (departure, threshold)} of the rows of (x, y) misread against the curve through the others
+    (TABLE_MISREAD_MAX; table_misreads), the worst judged first and, where misread, left out for the next;
+    {} where more are, or the rows do not determine the curve."""
+    if len(y) < max(TABLE_CURVE_MIN_ROWS, 3 * x.shape[1]) or np.linalg.matrix_rank(x) < x.shape[1]:
+        return {}
+    bad = {}
+    while len(bad) <= TABLE_MISREAD_MAX * len(y):
+        out = np.zeros(len(y), bool)
+        out[list(bad)] = True
+        dr = _deleted_residuals(x, y, ~out)
+        cand = int(np.nanargmax(np.where(out, np.nan, np.abs(dr))))
+        out[cand] = True
+        dr = _deleted_residuals(x, y, ~out)
+        rest = np.abs(dr[~out])
+        scale = 1.4826 * float(np.median(rest[np.isfinite(rest)])) if np.isfinite(rest).any() else np.inf
+        thresh = max(GLITCH_SIGMAS * scale, GLITCH_FLOOR["rpm_ref"], GLITCH_QUANTA * q)
+        if not abs(dr[cand]) > thresh:
+            return bad
+        bad[cand] = (abs(float(dr[cand])), thresh)
+    return {}
+
+
+def table_misreads(df: pd.DataFrame) -> dict:
+    """{row index: reason} of a steady-state table's rows whose speed departs from its duty's speed-current
+    curve (TABLE_CURVE_MIN_ROWS, TABLE_MISREAD_MAX; _misread): the rows the neighbours' rule of glitch_mask
+    cannot judge where the table is in no order, or too short to estimate the tail it allows for. A table with
+    no duty of that many rows (a duty per row) is judged whole, by a curve in the voltage and the current
+    (n = (V - I Ra) / Ke: linear in both, bent by a saturation's V I and a heating's I^2)."""
+    n = df["rpm_ref"].to_numpy(float)
+    i = df["i_A"].to_numpy(float)
+    v = df["v_V"].to_numpy(float)
+    duty = df["duty"].to_numpy(float)
+    q = grid_step(n)  # (not quantum: a table's smallest steps are between its points)
+    ok = np.isfinite(n) & np.isfinite(i) & np.isfinite(v) & np.isfinite(duty)
+    groups = [(f"at duty {d:g}", np.flatnonzero(ok & (duty == d))) for d in np.unique(duty[ok])]
+    groups = [(what, idx) for what, idx in groups if len(idx) >= TABLE_CURVE_MIN_ROWS]
+    whole = not groups
+    if whole and ok.sum() >= TABLE_CURVE_MIN_ROWS:
+        groups = [("over its duties", np.flatnonzero(ok))]
+    out = {}
+    for what, idx in groups:
+        ii, vv = i[idx], v[idx]
+        with np.errstate(all="ignore"):  # (readings near the format's largest: their products overflow)
+            x = _curve_columns(vv, ii, vv * ii, ii * ii) if whole else _curve_columns(ii, ii * ii, vv)
+        if not (np.isfinite(x).all() and np.isfinite(n[idx]).all() and np.ptp(n[idx]) < 1e150):
+            continue  # no curve through readings that overflow it
+        for k, (dev, thresh) in _misread(x, n[idx], q).items():
+            out[int(idx[k])] = (f"rpm_ref={n[idx[k]]:.6g} departs {dev:.3g} from the table's speed-current curve "
+                                f"{what} (through its other {len(idx) - 1} rows; threshold {thresh:.3g}): a misread "
+                                "speed")
+    return dict(sorted(out.items()))
+
+
 def full_scale(meta: dict, source) -> dict:
     """{column: the largest |value| its channel reads}: the log's declared full scale (v_full_scale_V,
     i_full_scale_A: a bench's own divider or shunt), else the board's (schema.Limits)."""
@@ -201,6 +294,12 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
                                      "let the glitch filter remove them (drop --no-glitch-filter)")
     if glitch_filter:
         bad, reasons = glitch_mask(df)
+        misread = {}
+        if kind(Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df, removed=[],
+                          n_train=0))[0] == "steady_state":
+            misread = {k: why for k, why in table_misreads(df).items() if not bad[k]}
+            for k, why in misread.items():
+                bad[k], reasons[k] = True, why
         for k, why in outside.items():
             bad[k], reasons[k] = True, why
         removed = [(int(lines[k]), reasons[k]) for k in np.flatnonzero(bad)]
@@ -209,7 +308,10 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
         if weight is not None:
             weight = weight[~bad]
         share = len(removed) / max(rows_in_file, 1)
-        if share > GLITCH_WARN_SHARE:
+        if misread:  # a table's row is an operating point of its own: each one left out is named
+            warnings.append(f"{path}: " + "; ".join(f"line {int(lines[k])}: {why}" for k, why in misread.items())
+                            + " - left out (keep every row with --no-glitch-filter)")
+        if share > GLITCH_WARN_SHARE and len(removed) > len(misread):
             warnings.append(f"{path}: the glitch filter removed {len(removed)} of {rows_in_file} rows "
                             f"({100 * share:.1f} %), more than glitches should be; look at the rows it names, "
                             "or keep every row with --no-glitch-filter")
