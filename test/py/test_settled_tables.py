@@ -165,3 +165,21 @@ def test_a_table_of_a_duty_per_row_is_judged_whole(seed):
     j = int(np.argmax(n))  # the fastest row read double: beyond the floor at any draw
     df.loc[j, "rpm_ref"] *= 2
     assert list(dataset.table_misreads(df)) == [j] and "over its duties" in dataset.table_misreads(df)[j]
+
+
+def test_a_slow_ramp_of_the_duty_is_a_time_series_not_a_table(tmp_path):
+    """A 2 Hz run whose duty ramps a little at every sample (0.3 -> 1.0 over 300 s; an independent simulator's
+    bench read "only 0 % of consecutive rows hold their operating point ... settled points"): the duty, like the
+    channels, holds within 2 % of its size, so the rows are read as samples of one run."""
+    from hpddo.logs import dataset
+    rng = np.random.default_rng(5)
+    k = 600
+    duty = np.linspace(0.3, 1.0, k)
+    v = 12.0 * duty + rng.normal(0, 0.01, k)
+    i = 0.2 + 0.1 * duty + rng.normal(0, 0.002, k)
+    n = (v - 4.5 * i) / 0.4 * 60 / (2 * np.pi) + rng.normal(0, 0.3, k)
+    lines = ["# condition=ramp", "# sample_rate_hz=2", "t_s,duty,v_V,i_A,rpm_ref"]
+    lines += [f"{j * 0.5:.1f},{duty[j]:.4f},{v[j]:.4f},{i[j]:.5f},{n[j]:.3f}" for j in range(k)]
+    (tmp_path / "ramp.csv").write_text("\n".join(lines) + "\n")
+    kind, why = dataset.kind(dataset.load_recording(tmp_path / "ramp.csv"))
+    assert kind == "time_series", why

@@ -239,6 +239,16 @@ def next_steps(d, args) -> str:
         lines.append(f"  if the Ra you gave is wrong{row}:\n    {train(supported)}")
         for e in others:
             lines.append(f"  if it is right, with {e}:\n    {train(given, [e])}")
+    elif ra.get("stand_ins") and not ra.get("mismatch"):
+        # a channel's calibration left out because an Ra within the reading's doubt explains the rows as well
+        # (core.ra_stands_in): both models fit, the reading alone with neither does not (an independent simulator's
+        # voltage gain of -3 %: the model as it was left 1.35 RPM, either of the two 0.35)
+        stand = ra["stand_ins"]
+        lines.append(f"next (these recordings cannot tell a wrong Ra from {' or '.join(stand)}: re-measure Ra, as the "
+                     "verdict says, and train the model that holds with it):")
+        for e, ohm in stand.items():
+            lines.append(f"  if the Ra you gave is off within its tolerance (not {e}):\n    {train(f'{ohm:.4g}')}")
+            lines.append(f"  if it is right, with {e}:\n    {train(given, [e])}")
     else:
         what = ("add what the diagnosis named" if effects != list(args.effects) or ra_named or dynamics
                 else "nothing named to add: the residual stays above the noise floor (the verdict above); the model "

@@ -53,6 +53,10 @@ class NoiseFloor:
     unmeasured: tuple = NO_REPEATS  # ... because (why, what would measure it): NO_REPEATS or FEW_DIFFERENCES
     encoder_step_rpm: float = 0.0  # one encoder count per window, RPM (the coarsest recording's)
     truncated_share: float = 0.0   # driven rows reading at most MIN_RPM, of all driven rows
+    # where the floor is the bound of the model with every library effect (FROM_ALL_EFFECTS): whether that model
+    # explains the held-out rows better than the final one (core.refloor), so that a residual above it is evidence
+    # of something missing
+    bound_evidence: bool = True
 
     @property
     def truncated(self) -> str:

@@ -257,6 +257,7 @@ class ModelFit:
     # a table that repeats no point: the out-of-fold residual variance of the model with every library effect (a
     # bound on the floor that no selection's model can raise; core.fit_model), NaN where not measured
     floor_all_rpm2: float = float("nan")
+    floor_all_res: list | None = dataclasses.field(default=None, repr=False)  # that model's held-out residuals
 
 
 @dataclasses.dataclass
@@ -282,6 +283,9 @@ class RaFit:
     # a structured residual the named effects leave (verdict.structured_residual): an effect missing from the library
     # can stand in for a wrong Ra, so no instruction to pass another Ra (core.physics_verdict)
     residual_left: bool = False
+    # {a channel's calibration left out for the doubt on the Ra given: the Ra (ohm) within that doubt that explains the
+    # rows as well without it} (core.ra_stands_in): two models that fit, one command each (cli.diagnose.next_steps)
+    stand_ins: dict = dataclasses.field(default_factory=dict)
 
     @property
     def determined(self) -> bool:
@@ -333,7 +337,7 @@ class RaFit:
                 "supported_at_bound": bool(min(abs(self.supported_ohm - self.given_ohm / 3.0),
                                                abs(self.supported_ohm - 3.0 * self.given_ohm)) <= 1e-6 * self.given_ohm),
                 "data_alone": self.data.to_json() if self.data is not None else None,
-                "residual_left": bool(self.residual_left),
+                "residual_left": bool(self.residual_left), "stand_ins": dict(self.stand_ins),
                 "statement": ra_statement(self)}
 
 

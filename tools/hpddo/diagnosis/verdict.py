@@ -278,7 +278,7 @@ def _verdict(sel: Selection, conf: Confounding, resid: Residuals, sigma2: float,
                     f"{after.excess / max(sigma2, 1e-12):.1f}x the noise variance above the noise floor: the "
                     "measurement named above settles which of them it is; the next commands below are one for each "
                     "model that fits.")
-        if floor is not None and floor.from_model and above:
+        if floor is not None and floor.from_model and above and floor.bound_evidence:
             # the floor is what the selected model leaves out of fold: a residual this far above it is something
             # the recordings hold that no named effect explains (what was selected and not named, said after this)
             whose = ("the model with every library effect" if floor.source.startswith(noise.FROM_ALL_EFFECTS)
@@ -350,7 +350,14 @@ def _size(e: EffectResult) -> str:
         rng = (f": {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g} "
                f"{iv.show_unit}" if iv.lo is not None else "")
         return f"fitted {e.shown}, but its size is not determined by these recordings{rng}"
-    return f"{e.shown}, {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g}"
+    text = f"{e.shown}, {100 * intervals.LEVEL:.0f} % interval {iv.lo * iv.show_scale:+.3g}..{iv.hi * iv.show_scale:+.3g}"
+    if iv.lo <= 0.0 <= iv.hi and iv.half_without_ra is not None and abs(iv.value) > iv.half_without_ra:
+        # named with an interval through zero: only the doubt on the Ra given takes it there (core.through_zero); for a
+        # channel's calibration an Ra within that doubt was fitted without it, and missed (core.ra_stands_in)
+        text += (", which reaches zero only through the doubt on the Ra given"
+                 + (": an Ra within that doubt without it misses the held-out rows" if eff.calibration else
+                    "; a re-measured Ra narrows it"))
+    return text
 
 
 def _pair_sentence(s: ConfoundedPair) -> str:

@@ -517,11 +517,9 @@ def hold_share(rec: Recording) -> float:
     if rec.n < 3:
         return float("nan")
     same = np.ones(rec.n - 1, bool)
-    for col in ("duty", "load"):
-        if col in df:
-            x = df[col].to_numpy(float)
-            same &= np.diff(x) == 0
-    for col in ("v_V", "i_A", "rpm_ref"):
+    if "load" in df:  # a command: held exactly
+        same &= np.diff(df["load"].to_numpy(float)) == 0
+    for col in ("duty", "v_V", "i_A", "rpm_ref"):  # the duty too: a ramp of it moves a little at every sample
         if col not in df:
             continue
         x = df[col].to_numpy(float)
