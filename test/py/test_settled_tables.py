@@ -183,3 +183,27 @@ def test_a_slow_ramp_of_the_duty_is_a_time_series_not_a_table(tmp_path):
     (tmp_path / "ramp.csv").write_text("\n".join(lines) + "\n")
     kind, why = dataset.kind(dataset.load_recording(tmp_path / "ramp.csv"))
     assert kind == "time_series", why
+
+
+@settings(max_examples=30, deadline=None, derandomize=True)
+@given(seed=st.integers(0, 2**16), volts=st.sampled_from([6.0, 9.0, 12.0]), rows=st.integers(12, 30),
+       share=st.floats(0.05, 0.6), twice=st.booleans())
+def test_a_table_whose_logger_wrote_rows_again_is_still_a_table(tmp_path_factory, seed, volts, rows, share, twice):
+    """A dyno table without its kind whose logger wrote some rows again, every channel the same (an independent
+    simulator's table, a fifth of its points written twice, held its point in 21 % of its consecutive pairs and
+    was read as a time series): a row written again is no sample holding a point (dataset.repeated_rows), so the
+    pairs it makes are left out of the share, and the table is read as one. (Up to 30 points over the current's
+    range: a denser curve moves by under 2 % of its size from row to row, as a slow ramp does, and is read as a
+    time series with the line that declares the other, written or not.)"""
+    from hpddo.logs import dataset
+    rng = np.random.default_rng(seed)
+    path, _, _ = _dyno_log(tmp_path_factory.mktemp("dup") / "dyno.csv", volts, rng, rows=rows)
+    lines = [ln for ln in path.read_text().splitlines() if not ln.startswith("# kind")]
+    head, body = lines[:2], [ln.split(",", 1)[1] for ln in lines[2:]]
+    again = rng.random(len(body)) < share
+    body = [r for r, a in zip(body, again) for _ in range(1 + int(a) * (2 if twice else 1))]
+    path.write_text("\n".join(head + [f"{k},{r}" for k, r in enumerate(body)]) + "\n")
+    rec = dataset.load_recordings([path])[0]
+    kind, how = dataset.kind(rec)
+    assert kind == "steady_state" and "# kind=time_series" in how, how
+    assert int(dataset.repeated_rows(rec).sum()) == len(body) - rows

@@ -510,11 +510,29 @@ HOLD_MAX_SHARE = 0.2
 HOLD_MIN_DT_S = 0.5
 
 
+#: the columns a row is read in: a row equal to the one before in each of them is the same reading written again
+CHANNELS = ("duty", "load", "v_V", "i_A", "rpm_ref", "temp_C")
+
+
+def repeated_rows(rec: Recording) -> np.ndarray:
+    """Per pair of consecutive rows: True where the second equals the first in every channel (CHANNELS that the
+    log has; a missing reading equal to a missing one): a logger that wrote the row again, not a second sample."""
+    cols = [c for c in CHANNELS if c in rec.df]
+    if rec.n < 2 or not cols:
+        return np.zeros(max(rec.n - 1, 0), bool)
+    x = rec.df[cols].to_numpy(float)
+    return np.all((x[1:] == x[:-1]) | (np.isnan(x[1:]) & np.isnan(x[:-1])), axis=1)
+
+
 def hold_share(rec: Recording) -> float:
-    """Share of consecutive row pairs that hold their operating point (HOLD_REL); NaN with
-    fewer than three rows."""
+    """Share of consecutive row pairs that hold their operating point (HOLD_REL), the rows written again
+    (repeated_rows) left out: a dyno table whose logger wrote a fifth of its points twice held them in 21 % of
+    its pairs, and was read as a time series. NaN with fewer than three rows or pairs left."""
     df = rec.df
     if rec.n < 3:
+        return float("nan")
+    again = repeated_rows(rec)
+    if int((~again).sum()) < 2:
         return float("nan")
     same = np.ones(rec.n - 1, bool)
     if "load" in df:  # a command: held exactly
@@ -528,7 +546,7 @@ def hold_share(rec: Recording) -> float:
             continue
         size = float(np.percentile(np.abs(x[ok]), 95))
         same &= ~(np.abs(np.diff(x)) > HOLD_REL * size)  # a missing reading neither holds nor moves
-    return float(np.mean(same))
+    return float(np.mean(same[~again]))
 
 
 def detect_kind(rec: Recording) -> tuple[str, str]:
