@@ -93,6 +93,8 @@ def summary(d) -> str:
             if incl and res["thresholds"].get("bootstrap_blocks", 99) < FEW_BLOCKS:
                 incl += f" (of {res['thresholds']['bootstrap_blocks']} operating points: means little)"
             lines.append(f"  {e['effect']:15s} {e['shown']:>14s}  score {e['score']:.3f}{incl}; {e['plausibility']}")
+            if e.get("note"):
+                lines.append(f"    {e['note']}")
             for iv in e.get("intervals", []):
                 lines.append(f"    {iv['text']}")
     ra = res.get("ra_fit")

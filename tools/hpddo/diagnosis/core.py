@@ -488,6 +488,37 @@ def identifiability(inp: Inputs, mf: ModelFit) -> dict:
     return out
 
 
+class _EveryEffectMse:
+    """The held-out MSE of the model with every library effect (all_effects_floor's residuals; ModelFit's where it
+    measured them), measured the first time it is asked for (ranking.forward_select's bound: most selections never
+    ask); measured: that value, None before it was asked for or where the model cannot be fitted."""
+
+    def __init__(self, inp: Inputs, mf: ModelFit):
+        self.inp, self.mf, self.asked, self.measured = inp, mf, False, None
+
+    def __call__(self) -> float | None:
+        if not self.asked:
+            self.asked = True
+            res = self.mf.floor_all_res if self.mf.floor_all_res is not None else all_effects_floor(self.inp)[1]
+            self.measured = None if res is None else float(ranking.held_out_mse(self.inp.data, res))
+        return self.measured
+
+
+def _named_row(s: ranking.Step, steps: list, mse_base: float, boot: dict, described: dict) -> EffectResult:
+    """The ranking table's row of a named step. The first of a pair taken together (ranking._look_ahead)
+    may lower the held-out error only beside the second: its score is the pair's, and its note says so."""
+    gain, note = s.gain, None
+    if s.pair_with:
+        second = next((x for x in steps if x.name == s.pair_with), None)
+        if second is not None:
+            gain = s.gain + second.gain
+            other = "a corrected Ra" if s.pair_with == ranking.RA_MISMATCH else s.pair_with
+            note = (f"taken with {other} as a pair (alone it changes the held-out mean squared error by "
+                    f"{-s.gain:+.3g} RPM^2; the two together lower it by {gain:.3g} RPM^2): its score is the pair's")
+    return EffectResult(s.name, "named", score=_score(gain, mse_base), gain_rpm2=s.gain, z=s.z,
+                        inclusion=boot.get(s.name), note=note, **described)
+
+
 def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options, background=None) -> Selection:
     """Forward selection on the identifiable effects, the bootstrap's inclusion frequencies,
     and the ranking table: the named effects, the other candidates' gains on the final
@@ -497,17 +528,18 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options, background=None
     d, rows, m2, given, sigma2 = inp.data, inp.rows, inp.m2, inp.given, mf.sigma2
     RA = ranking.RA_MISMATCH
     candidates = [c for c in ident if ident[c].identifiable] + [RA]
-    fits = {}
-    steps, final = ranking.forward_select(d, m2, given, candidates, sigma2, fits=fits)
+    fits, bound = {}, _EveryEffectMse(inp, mf)
+    steps, final = ranking.forward_select(d, m2, given, candidates, sigma2, fits=fits, bound=bound)
     chosen = [s.name for s in steps if s.name]
     missing = [c for c in chosen if c != RA]
     if opt.bootstrap and background is not None:  # on the other cores, collected at the end (with_inclusion)
         boot = ranking.PendingBootstrap(background, d, m2, given, candidates, sigma2, final, opt.bootstrap,
-                                        seed=opt.seed, starts=fits)
+                                        seed=opt.seed, starts=fits, bound=bound.measured)
     else:
         if opt.bootstrap:
             progress.stage(f"the forward selection again on {opt.bootstrap} bootstrap resamples")
-        boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed, starts=fits)
+        boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed, starts=fits,
+                                 bound=bound.measured)
     # An effect named at a step where a wrong Ra passed every test too is told apart from it
     # only when its held-out gain over the wrong-Ra model is Z_MIN standard errors or more;
     # otherwise neither is named (RaFit.confounded_with).
@@ -580,8 +612,7 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options, background=None
 
     # single-effect gains on the base model (the first step's trial) for the ranking table
     first = {a[0]: a for a in steps[0].alternatives} if steps else {}
-    table = [EffectResult(s.name, "named", score=_score(s.gain, mf.mse_base), gain_rpm2=s.gain, z=s.z,
-                          inclusion=boot.get(s.name), **_described(s.name, final, inp.blind))
+    table = [_named_row(s, steps, mf.mse_base, boot, _described(s.name, final, inp.blind))
              for s in steps if s.name in missing]
     res_final = None
     for c in candidates:
@@ -851,6 +882,62 @@ def material_check(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding)
                                      alongside=[])
     return (dataclasses.replace(sel, final=final, missing=missing, ranking=table, ra_fit=ra_fit, also_fit=tuple(also)),
             Confounding(groups=groups, pairs=pairs, told_apart=conf.told_apart))
+
+
+def plausible_rival(inp: Inputs, mf: ModelFit, sel: Selection, conf: Confounding) -> tuple[Selection, Confounding]:
+    """sel with a named effect whose coefficient lies beyond the range it takes on a motor replaced by the effect
+    a confounded pair says these recordings cannot tell from it, where that one is plausible in its place and the
+    final model with it misses the held-out rows by less than Z_MIN standard errors more (ranking.apart_z): the
+    selection's plausible_first at the end of the selection, on the final model. A step is judged beside the
+    effects named before it: an independent bench's 0.4 V brush drop with Ra given 10 % high was named as a
+    +402 mV voltage offset (plausible at most 300 mV), since at its step beside a saturation named first, later
+    left out, the offset was plausible; with Ra corrected the brush drop in its place fits at +0.4 V."""
+    d, m2, given, sigma2 = inp.data, inp.m2, inp.given, mf.sigma2
+    missing, final, table, pairs = list(sel.missing), sel.final, list(sel.ranking), list(conf.pairs)
+    res_sel = None
+    for e in list(missing):
+        eff = fx.LIBRARY.get(e)
+        if eff is None or eff.plausibility(getattr(final, eff.field))[0]:
+            continue
+        for k, pair in enumerate(pairs):
+            r = pair.effects[1]
+            if (pair.effects[0] != e or r not in fx.LIBRARY or r in given + missing
+                    or (pair.z_apart is not None and pair.z_apart >= ranking.Z_MIN)):
+                continue
+            names = [r if n == e else n for n in given + missing]
+            hold = holds_of(sel, names)
+            try:
+                alt, res_alt = ranking.scored(d, lambda rs, st: fx.fit(rs, m2, names, hold=hold, start=st))
+            except Exception:  # noqa: BLE001 (a degenerate fit is no rival)
+                continue
+            reff = fx.LIBRARY[r]
+            if not reff.plausibility(getattr(alt, reff.field))[0]:
+                continue
+            if res_sel is None:
+                res_sel = ranking.held_out_residuals(d, final, lambda rs, st: fx.fit(
+                    rs, m2, given + missing, hold=holds_of(sel, given + missing), start=st))
+            if ranking.apart_z(d, res_alt, res_sel, sigma2) >= ranking.Z_MIN:
+                continue
+            old = next(x for x in table if x.effect == e)
+            missing = [r if n == e else n for n in missing]
+            final = alt
+            rest = [x.at(final, inp.blind) if x.named else x for x in table if x.effect not in (e, r)]
+            named = [x for x in rest if x.named]
+            table = named + [
+                EffectResult(r, "named", score=old.score, gain_rpm2=old.gain_rpm2, z=old.z, inclusion=None,
+                             note=f"named in place of {e} ({old.plausibility}), which these recordings "
+                                  "cannot tell from it; not bootstrapped", **_described(r, final, inp.blind)),
+                EffectResult(e, "candidate", score=0.0, gain_rpm2=None, z=None, physical=False,
+                             note=f"{r} named in its place (a coefficient beyond those a motor takes)",
+                             **_described(e, sel.final, inp.blind))] + \
+                [x for x in rest if not x.named]
+            pairs[k] = dataclasses.replace(pair, effects=[r, e])
+            break
+    if missing == sel.missing:
+        return sel, conf
+    groups = [[r for r in missing if r in g] + [x for x in g if x not in missing] for g in conf.groups]
+    return (dataclasses.replace(sel, final=final, missing=missing, ranking=table),
+            dataclasses.replace(conf, groups=groups, pairs=pairs))
 
 
 # the inputs the residual is cross-correlated with: (name, Rows attribute)
@@ -1234,6 +1321,7 @@ def physics_selection(inp: Inputs, opt: Options, mf: ModelFit | None = None, bac
     if sel.ra_fit.mismatch:  # from here on, Ra is held at the value the data support
         inp = dataclasses.replace(inp, m2=dataclasses.replace(inp.m2, ra_ohm=sel.ra_fit.supported_ohm))
     sel, conf = material_check(inp, mf, sel, conf)
+    sel, conf = plausible_rival(inp, mf, sel, conf)
     sel = with_intervals(inp, sel, mf.noise)
     sel = through_faulty_channels(inp, sel, mf.channels, mf.noise)
     # each stage leaves effects out and fits the rest again, which moves the others' intervals: again until none is

@@ -256,8 +256,7 @@ def dynamics(before: ResidualAnalysis, dt_s: float, family=None) -> str:
             "named on this recording may stand in for them: confirm them on settled rows (a 2 Hz recording).")
 
 
-#: the residual is above the noise floor where its excess over the noise variance is more than this share of it
-ABOVE_SHARE = 0.5
+ABOVE_SHARE = ranking.ABOVE_SHARE
 
 
 def structured_residual(after: ResidualAnalysis, sigma2: float) -> bool:
