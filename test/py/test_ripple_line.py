@@ -489,6 +489,30 @@ def test_damaged_windows_neither_name_nor_count_toward_another_figure():
     assert other_figure(est.assign(multiple=[6, 6, 6, 36, 36, 36] + [0] * 6), Options(6, 1.0)) is None
 
 
+def test_a_bar_fault_whose_narrow_dip_leaves_the_low_rotation_lines_weak_is_named_damaged():
+    """Fuzz round 7 (v13_damaged_severe, v06_damaged): one bar's dip 2.5 times as deep and the opposite one 2.2 times,
+    narrow zero-mean dips, so the line twice a revolution reads under 0.012 of the commutation line's power:
+    counted confidently, the commutator not named. The fault's power lies in the rotation lines between the
+    commutation line and its second harmonic (comb.fault_rel); the same motor without the fault shows none there."""
+    rot = 41.17
+    depth = np.ones(10)
+    depth[0], depth[5] = 2.5, 2.2
+    r = one(study.commutation_current(rot, 10, depth, {1: 0.3, 2: 0.05}, seed=3), 10, rot * 60)
+    assert r["key"] == "damaged", r["reason"]
+    assert r["rot2_rel"] < rc.HEALTH_ROT2_MAX and r["fault_rel"] > rc.HEALTH_FAULT_MAX, r
+    assert not r["reason"].startswith(rc.UNEVEN), r["reason"]
+    healthy = one(study.commutation_current(rot, 10, None, {1: 0.3, 2: 0.05}, seed=3), 10, rot * 60)
+    assert healthy["key"] == "" and healthy["fault_rel"] < rc.HEALTH_FAULT_MAX, healthy["reason"]
+
+
+def test_the_health_study_names_faults_and_counts_none_wrong():
+    """run_health's draws: bar faults with narrow dips named (2 of 60 before the fault's lines), none confident and
+    more than 5 % off; healthy motors with smooth modulations are never named by the fault's lines."""
+    out = study.run_health(20)
+    assert out["fault"]["damaged_said"] >= 5 and out["fault"]["wrong"] == 0, out
+    assert out["healthy"]["wrong"] == 0 and out["healthy"]["fault_named"] == 0, out
+
+
 @pytest.mark.parametrize("rot1,rot2,uneven", [(0.01, 0.03, True), (0.01, 0.059, True), (0.01, 0.2, False),
                                               (1.5, 0.03, False)])
 def test_a_twice_per_revolution_line_that_coils_a_few_percent_unequal_also_make_is_called_uneven(rot1, rot2, uneven):
@@ -498,7 +522,7 @@ def test_a_twice_per_revolution_line_that_coils_a_few_percent_unequal_also_make_
     above, or with the once-per-revolution line over its bound, it is damaged."""
     from hpddo.ripple.options import REASONS
 
-    said = rc.damaged_reason(REASONS["damaged"], rot1, rot2, 20.0)
+    said = rc.damaged_reason(REASONS["damaged"], rot1, rot2, math.nan, 20.0)
     assert said.startswith(rc.UNEVEN if uneven else REASONS["damaged"]), said
     assert rc.damaged(rot1, rot2)
 

@@ -209,7 +209,8 @@ def run(args) -> int:
 
 
 COLUMNS = ("seq", "t_s", "rpm", "confidence", "confident", "reason", "f_Hz", "cycles", "i_mean_A", "rpm_prior",
-           "rpm_fft", "stall", "rpm_bound", "rot_hz", "multiple", "rot1_rel", "rot2_rel")  # OUT/<condition>.ripple_speed.csv, rpm written rpm_ripple
+           "rpm_fft", "stall", "rpm_bound", "rot_hz", "multiple", "rot1_rel", "rot2_rel",
+           "fault_rel")  # OUT/<condition>.ripple_speed.csv, rpm written rpm_ripple
 
 
 COAST_COLUMNS = ("t_s", "row", "e_V", "e_sd_V", "rpm_cut", "rpm_sd", "ke_vs_per_rad", "ke_sd", "ra_ohm", "ra_sd_ohm",
@@ -401,13 +402,17 @@ def _commutator(est) -> dict:
     elif bad:
         dmg = est["key"].to_numpy() == "damaged"
         r1 = est["rot1_rel"].to_numpy(float)
-        uneven = all(rc.uneven_only(a, b) for a, b in zip(r1[dmg], r2[dmg]))
+        fault = est["fault_rel"].to_numpy(float) if "fault_rel" in est else np.full(len(est), np.nan)
+        uneven = all(rc.uneven_only(a, b, c) for a, b, c in zip(r1[dmg], r2[dmg], fault[dmg]))
         out["statement"] = (f"the commutator looks {'uneven' if uneven else 'damaged'} in {bad} of {judged.sum()} "
                             f"windows judged (the line at twice the rotation frequency up to {out['rot2_rel_max']:.3g} "
                             f"of the commutation line's power, over {rc.HEALTH_ROT2_MAX:g}): "
                             + (f"a worn bar, or coils a few % unequal as in a healthy motor, which this line does not "
                                f"tell apart under {rc.HEALTH_ROT2_UNEVEN_MAX:g}" if uneven else
-                               "a worn or burnt bar, a shorted coil")
+                               "a worn or burnt bar, a shorted coil (its lines between the commutation line and its "
+                               f"second harmonic up to {np.nanmax(fault[dmg]):.3g} of the line, over "
+                               f"{rc.HEALTH_FAULT_MAX:g}, or the lines once or twice a revolution)"
+                               if np.isfinite(fault[dmg]).any() else "a worn or burnt bar, a shorted coil")
                             + "; those windows are not counted" + aside)
     else:
         out["statement"] = (f"the commutator looks healthy ({judged.sum()} windows judged, the line at twice the "

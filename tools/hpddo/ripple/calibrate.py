@@ -31,7 +31,7 @@ def window_comb(bursts, k: int, opts):
     bad = False
     if comb is not None:
         p_max = maximum_filter1d(p, size=max(1, int(round(res / (f[1] - f[0])))) | 1)
-        bad = rc.damaged(*rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p))
+        bad = rc.damaged(*rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p, found, opts.min_snr))
     return found, comb, res, bad
 
 

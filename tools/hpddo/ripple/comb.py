@@ -36,17 +36,31 @@ COMB_EXPLAINED = 0.95
 COMB_LINE_SNR = math.e  # a comb line stands e times over the line threshold (log(snr / min_snr) >= 1): noise,
 #                         which reaches the threshold now and then, does not reach this in a window's spectrum
 COMB_SPAN = 2.2         # the comb's lines: up to the commutation line's second harmonic
-#: the commutator's health (health()): the power at twice the rotation frequency relative to the commutation
-#: line's above which a window names a damaged commutator. With two brushes a segment passes under a brush twice
-#: a revolution, so a bar with a raised contact resistance (or a shorted coil) shows at 2 f_rot and its
-#: multiples. Set on the twin, between the healthy windows' largest and a worn segment's (+10 % of the loop
-#: resistance) smallest (hpddo.studies.ripple_line, docs/figures/ripple_line.json: each case's percentiles)
+#: the commutator's health (health(), damaged(); docs/ripple-line.md step 5). A bar fault (a segment with a raised
+#: contact resistance, a shorted coil, a burnt bar) changes the current over that segment's arc, once or twice a
+#: revolution: a pattern with edges at the commutation instants, whose power spreads over many rotation harmonics,
+#: up to and beyond the commutation line. A smooth modulation (an eccentric rotor, magnets or coils a little unequal)
+#: puts lines at the first few multiples of the rotation only. So the fault's lines are read between the
+#: commutation line and its second harmonic (k f_rot, N < k <= COMB_SPAN N, k not a multiple of N), where no smooth
+#: modulation reaches: their summed power relative to the commutation line's (fault_rel) over HEALTH_FAULT_MAX, in
+#: HEALTH_FAULT_MIN_LINES lines or more (a fault spreads its power; one line there may be chance or another's),
+#: names a damaged commutator. Set on the twin (its bar fault, one segment +30 % of the loop resistance: 0.0087 at
+#: 5 % on the load run; healthy windows 0.0062 at the most) and an independent capture simulator's bar faults
+#: (0.068 and over; healthy, eccentric and asymmetric rotors 0.0018 at the most): hpddo.studies.ripple_line
+HEALTH_FAULT_MAX = 0.007
+HEALTH_FAULT_MIN_LINES = 2
+#: ... and the line at twice the rotation frequency: with two brushes a segment passes under a brush twice a
+#: revolution, so a bar with a raised contact resistance (or a shorted coil) shows at 2 f_rot and its multiples. Set
+#: on the twin, between the healthy windows' largest and a worn segment's (+10 % of the loop resistance) smallest
+#: (hpddo.studies.ripple_line, docs/figures/ripple_line.json: each case's percentiles)
 HEALTH_ROT2_MAX = 0.012
-#: ... but up to this, the line does not tell a worn bar from coils a few % unequal, as a healthy motor's are: on
-#: the independent commutator simulation (studies/commutator.py, coils' resistance and EMF 1-3 % sd apart, no
-#: fault) the synchronous benches' comb windows read 0.005-0.056, over the twin's worn segment (+10 % of the loop
-#: resistance: 0.007 at 1 %, 0.028 median); the twin's damaged segment reads 0.065 at 1 %, 0.22 median. Between the
-#: two a window is `damaged` all the same (its even lines make the comb's spacing 2 f_rot), but said to be uneven
+#: ... but up to this, the line does not tell a worn bar from coils a few % unequal, as a healthy motor's are, nor from
+#: a smooth modulation twice a revolution (an eccentric or asymmetric rotor): on the independent commutator
+#: simulation (studies/commutator.py, coils' resistance and EMF 1-3 % sd apart, no fault) the synchronous benches'
+#: comb windows read 0.005-0.056, over the twin's worn segment (+10 % of the loop resistance: 0.007 at 1 %, 0.028
+#: median); the twin's damaged segment reads 0.065 at 1 %, 0.22 median. Between the two a window is `damaged` all the
+#: same (the twin's worn segment's even lines make the comb's spacing 2 f_rot, and its windows said "3 per revolution"
+#: wherever this line alone was let through: docs/ripple-line.md step 5), but said to be uneven
 HEALTH_ROT2_UNEVEN_MAX = 0.06
 #: the once-per-revolution line (eccentricity, a bent shaft, one brush's contact) is common in healthy motors:
 #: named only where it is as strong as the commutation line (healthy twin windows: 0.026 at the most)
@@ -656,11 +670,14 @@ def line_width_res(f, p, hz: float, res_hz: float) -> float:
     return float(f[min(right, len(p) - 1)] - f[max(left, 0)]) / res_hz
 
 
-def health(f, p_max, rot_hz: float, comm_hz: float, res_hz: float, p=None) -> tuple:
+def health(f, p_max, rot_hz: float, comm_hz: float, res_hz: float, p=None, found=None, min_snr: float = 10.0) -> tuple:
     """The commutator's health lines of one window: the power at once and twice the rotation
     frequency (the strongest bin within half a resolution, p_max) relative to the commutation
-    line's. An eccentric rotor and a worn or damaged bar (one segment with a raised contact
-    resistance, a shorted coil) raise them; a healthy commutator's are small. NaN where the
+    line's, and the fault's lines (fault_rel: the lines of found, resolved (COMB_LINE_SNR times min_snr, the line
+    threshold), on the rotation's multiples between the
+    commutation line and its second harmonic, off its multiples, summed, relative to it; 0 with fewer than
+    HEALTH_FAULT_MIN_LINES of them; NaN without found). An eccentric rotor and a worn or damaged bar raise the first
+    two; a bar fault alone the third (HEALTH_FAULT_MAX). NaN where the
     rotation frequency is under 2 resolutions (res_hz): its line is not resolved from the
     spectrum's lowest bins; and, given the spectrum p, where the commutation line is smeared (SMEAR_RES): the
     speed moved inside the window, which spreads the commutation line's power N times as wide as the rotation
@@ -668,34 +685,55 @@ def health(f, p_max, rot_hz: float, comm_hz: float, res_hz: float, p=None) -> tu
     speed in each window, was named damaged in 9 of 16 windows)."""
     pc = float(np.interp(comm_hz, f, p_max))
     if not (pc > 0 and rot_hz >= 2.0 * res_hz):
-        return math.nan, math.nan
+        return math.nan, math.nan, math.nan
     if p is not None and line_width_res(f, p, comm_hz, res_hz) > SMEAR_RES:
-        return math.nan, math.nan
-    return (float(np.interp(rot_hz, f, p_max)) / pc, float(np.interp(2 * rot_hz, f, p_max)) / pc)
+        return math.nan, math.nan, math.nan
+    return (float(np.interp(rot_hz, f, p_max)) / pc, float(np.interp(2 * rot_hz, f, p_max)) / pc,
+            fault_rel(found, rot_hz, comm_hz, res_hz, pc, min_snr) if found is not None else math.nan)
 
 
-def damaged(rot1_rel: float, rot2_rel: float) -> bool:
-    """Whether a window's health lines (health()) name a damaged commutator: either over its
-    threshold (HEALTH_ROT1_MAX, HEALTH_ROT2_MAX)."""
+def fault_rel(found, rot_hz: float, comm_hz: float, res_hz: float, comm_power: float, min_snr: float) -> float:
+    """The power of the lines of found that stand COMB_LINE_SNR times over min_snr (as a comb's lines: noise reaches
+    the threshold now and then, and two such near the multiples named a synthetic healthy motor damaged in 7 of 468
+    windows; hpddo.studies.ripple_line.run_tones) (strongest within a comb's tolerance of each multiple) at k rot_hz,
+    N < k <= COMB_SPAN N and k not a multiple of N (N = comm_hz / rot_hz), summed and relative to comm_power; 0
+    where fewer than HEALTH_FAULT_MIN_LINES lines lie there."""
+    n = max(1, int(round(comm_hz / rot_hz)))
+    powers = []
+    for k in range(n + 1, int(COMB_SPAN * n) + 1):
+        if k % n:
+            hz = k * rot_hz
+            near = [ln.power for ln in found
+                    if abs(ln.hz - hz) <= tol_hz(hz, res_hz) and ln.snr >= COMB_LINE_SNR * min_snr]
+            if near:
+                powers.append(max(near))
+    return float(sum(powers) / comm_power) if len(powers) >= HEALTH_FAULT_MIN_LINES else 0.0
+
+
+def damaged(rot1_rel: float, rot2_rel: float, fault: float = math.nan) -> bool:
+    """Whether a window's health lines (health()) name a damaged commutator: any over its threshold
+    (HEALTH_ROT1_MAX, HEALTH_ROT2_MAX, HEALTH_FAULT_MAX)."""
     return bool((np.isfinite(rot1_rel) and rot1_rel > HEALTH_ROT1_MAX)
-                or (np.isfinite(rot2_rel) and rot2_rel > HEALTH_ROT2_MAX))
+                or (np.isfinite(rot2_rel) and rot2_rel > HEALTH_ROT2_MAX)
+                or (np.isfinite(fault) and fault > HEALTH_FAULT_MAX))
 
 
-def uneven_only(rot1_rel: float, rot2_rel: float) -> bool:
-    """Whether health lines over the threshold (damaged) stay where a worn bar and coils a few % unequal read
-    alike (HEALTH_ROT2_UNEVEN_MAX): the once-per-revolution line within its bound, the twice within that."""
+def uneven_only(rot1_rel: float, rot2_rel: float, fault: float = math.nan) -> bool:
+    """Whether health lines over the threshold (damaged) stay where a worn bar, coils a few % unequal and a smooth
+    modulation read alike (HEALTH_ROT2_UNEVEN_MAX): the once-per-revolution line within its bound, the twice within
+    that, and no fault's lines over theirs."""
     return not (np.isfinite(rot1_rel) and rot1_rel > HEALTH_ROT1_MAX) and np.isfinite(rot2_rel) \
-        and rot2_rel <= HEALTH_ROT2_UNEVEN_MAX
+        and rot2_rel <= HEALTH_ROT2_UNEVEN_MAX and not (np.isfinite(fault) and fault > HEALTH_FAULT_MAX)
 
 
 UNEVEN = ("an uneven commutator: the line at twice the rotation frequency is strong against the commutation line, "
-          "as a worn bar makes it and as coils a few % unequal do in a healthy motor (this line does not tell the "
-          "two apart); the ripple is not counted through it")
+          "as a worn bar makes it and as coils a few % unequal or a smooth modulation twice a revolution do in a "
+          "healthy motor (this line does not tell them apart); the ripple is not counted through it")
 
 
-def damaged_reason(head: str, rot1_rel: float, rot2_rel: float, rot_hz: float) -> str:
+def damaged_reason(head: str, rot1_rel: float, rot2_rel: float, fault: float, rot_hz: float) -> str:
     """The reason of a window named damaged: head, or UNEVEN where the lines stay below what tells a fault
     (uneven_only), with the lines' powers and the thresholds."""
-    return (f"{UNEVEN if uneven_only(rot1_rel, rot2_rel) else head} (at {rot_hz:.2f} and {2 * rot_hz:.2f} Hz "
-            f"{rot1_rel:.3g} and {rot2_rel:.3g} of its power, over {HEALTH_ROT1_MAX:g} and {HEALTH_ROT2_MAX:g})")
-
+    return (f"{UNEVEN if uneven_only(rot1_rel, rot2_rel, fault) else head} (at {rot_hz:.2f} and {2 * rot_hz:.2f} Hz "
+            f"{rot1_rel:.3g} and {rot2_rel:.3g} of its power, over {HEALTH_ROT1_MAX:g} and {HEALTH_ROT2_MAX:g}; the "
+            f"fault's lines between it and its second harmonic {fault:.3g}, over {HEALTH_FAULT_MAX:g})")

@@ -193,7 +193,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     fs = bursts.sample_hz
     out = dict(rpm=math.nan, rpm_fft=math.nan, f_Hz=math.nan, f_strongest_Hz=math.nan, cycles=math.nan, snr=math.nan,
                spread=math.nan, spread_current=math.nan, spread_allowed=math.nan, snr_wide=math.nan,
-               i_mean_A=math.nan, rot_hz=math.nan, multiple=0, rot1_rel=math.nan, rot2_rel=math.nan, confidence=0.0, reason="", key="")
+               i_mean_A=math.nan, rot_hz=math.nan, multiple=0, rot1_rel=math.nan, rot2_rel=math.nan,
+               fault_rel=math.nan, confidence=0.0, reason="", key="")
     x0 = bursts.current_A(k)
     n = len(x0)
     if n:  # (the mean current of a burst too short to count is read all the same: the log's floor count says it)
@@ -249,10 +250,11 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), pwm)
     if comb is not None:  # the line's identity from the data: the comb of rotation lines
         out.update(rot_hz=comb.rot_hz, multiple=comb.multiple)
-        out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p)
-        if rc.damaged(out["rot1_rel"], out["rot2_rel"]):
+        health = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p, found, opts.min_snr)
+        out["rot1_rel"], out["rot2_rel"], out["fault_rel"] = health
+        if rc.damaged(*health):
             out.update(key="damaged", f_Hz=comb.commutation.hz, snr=comb.commutation.snr,
-                       reason=rc.damaged_reason(REASONS["damaged"], out["rot1_rel"], out["rot2_rel"], comb.rot_hz))
+                       reason=rc.damaged_reason(REASONS["damaged"], *health, comb.rot_hz))
             return out
         if comb.multiple != opts.ripples_per_rev:
             out.update(key="multiple", f_Hz=comb.commutation.hz, snr=comb.commutation.snr,
@@ -359,7 +361,8 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     if comb is None:  # the health lines where the user's ripples per revolution put the rotation: reported, but
         # a damaged commutator is named only where the comb shows the rotation (a wrong figure given would put
         # these lines elsewhere)
-        out["rot1_rel"], out["rot2_rel"] = rc.health(f, p_max, f_star / opts.ripples_per_rev, f_star, res, p)
+        out["rot1_rel"], out["rot2_rel"], out["fault_rel"] = rc.health(f, p_max, f_star / opts.ripples_per_rev, f_star,
+                                                                       res, p, found, opts.min_snr)
 
     # 3. counting demodulated cycles
     xx, s0, nw = _window(bursts, k, fs)

@@ -39,8 +39,9 @@ REASONS = {
     "rival": "another line inside the prior's spread may be the ripple as well (as strong; or any resolved line "
              "where no rotation comb places the chosen one; or, under a free-running PWM, the chosen line's sideband "
              "partner), and the data do not place it on the rotation comb: unresolved",
-    "damaged": "a damaged commutator: the lines at once or twice the rotation frequency are too strong against "
-               "the commutation line (a worn or burnt bar, a shorted coil, a badly eccentric rotor); the ripple is not "
+    "damaged": "a damaged commutator: the rotation lines between the commutation line and its second harmonic (a "
+               "fault's edges), or those at once or twice the rotation frequency, are too strong against the "
+               "commutation line (a worn or burnt bar, a shorted coil, a badly eccentric rotor); the ripple is not "
                "counted through it",
     "changing": "the speed changed inside the window (inrush, spin-up or a load step)",
     "creep": "creep: the drive on and current flowing, a ripple line over a span of steady windows but none fast "

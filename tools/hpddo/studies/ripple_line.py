@@ -80,7 +80,8 @@ def _score(est, log, truth, bench, opts) -> dict:
             "driven_3_cycles": int(base.sum()),
             "confident_share_driven_3_cycles": float((conf & base).sum() / base.sum()) if base.sum() else math.nan,
             "multiple_said": int((keys == "multiple").sum()), "damaged_said": int((keys == "damaged").sum()),
-            "rot1_rel": est["rot1_rel"].to_numpy(float), "rot2_rel": est["rot2_rel"].to_numpy(float)}
+            "rot1_rel": est["rot1_rel"].to_numpy(float), "rot2_rel": est["rot2_rel"].to_numpy(float),
+            "fault_rel": est["fault_rel"].to_numpy(float)}
 
 
 def run_case(case: Case, quiet: bool = True) -> dict:
@@ -105,7 +106,8 @@ def _merge(case: Case, parts: list, cal: dict) -> dict:
     share = [p["confident_share_driven_3_cycles"] * p["driven_3_cycles"] for p in parts if p["driven_3_cycles"]]
     rot2 = np.concatenate([p["rot2_rel"] for p in parts])
     rot1 = np.concatenate([p["rot1_rel"] for p in parts])
-    flagged = (np.nan_to_num(rot2) > rc.HEALTH_ROT2_MAX) | (np.nan_to_num(rot1) > rc.HEALTH_ROT1_MAX)
+    fault = np.concatenate([p["fault_rel"] for p in parts])
+    flagged = np.array([rc.damaged(a, b, c) for a, b, c in zip(rot1, rot2, fault)], bool)
     read = np.isfinite(rot2)
     return {"case": case.name, "what": case.what, "windows": sum(p["windows"] for p in parts), "confident": conf,
             "wrong": sum(p["wrong"] for p in parts),
@@ -118,6 +120,9 @@ def _merge(case: Case, parts: list, cal: dict) -> dict:
             "rot2_rel_median": float(np.nanmedian(rot2)) if read.any() else math.nan,
             "rot2_rel_p99": float(np.nanpercentile(rot2, 99)) if read.any() else math.nan,
             "rot2_rel_p01": float(np.nanpercentile(rot2, 1)) if read.any() else math.nan,
+            "fault_rel_p01": float(np.nanpercentile(fault, 1)) if read.any() else math.nan,
+            "fault_rel_median": float(np.nanmedian(fault)) if read.any() else math.nan,
+            "fault_rel_p99": float(np.nanpercentile(fault, 99)) if read.any() else math.nan,
             "calibrate": cal}
 
 
@@ -170,6 +175,74 @@ def synthetic_current(rot_hz, lines, seconds=0.5, i_mean=1.0, noise=0.002, seed=
     for hz, a in extra:
         x = x + a * np.cos(2 * math.pi * hz * t + rng.uniform(0, 2 * math.pi))
     return x
+
+
+def commutation_current(rot_hz, n, depth=None, smooth=None, dip_width=0.12, line_a=0.02, seconds=0.5, noise=0.01,
+                        seed=0, fs=SYNTH_FS):
+    """A current (A) whose commutation events are narrow dips, n a revolution, each a Gaussian of dip_width of a
+    ripple's period on a pedestal that gives it zero mean (a change of one event's depth adds no mean to its
+    segment, so a bar fault puts little power at once and twice the rotation frequency), the j-th event of a
+    revolution depth[j] deep (1: healthy), scaled so the commutation line's amplitude is line_a A; plus a smooth
+    modulation {multiple: amplitude as a share of line_a} (an eccentric or asymmetric rotor), white noise of sd noise A."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(int(seconds * fs)) / fs
+    th = 2 * math.pi * rot_hz * t + rng.uniform(0, 2 * math.pi)
+    ph = th * n / (2 * math.pi)
+    idx = np.floor(ph).astype(int) % n
+    loc = ph - np.floor(ph)
+    shape = np.exp(-((loc - 0.5) / dip_width) ** 2) - dip_width * math.sqrt(math.pi)
+    fundamental = 2 * dip_width * math.sqrt(math.pi) * math.exp(-(math.pi * dip_width) ** 2)  # of a unit dip
+    d = np.ones(n) if depth is None else np.asarray(depth, float)
+    x = 1.0 - line_a / fundamental * d[idx] * shape + noise * rng.standard_normal(len(t))
+    for m, a in (smooth or {}).items():
+        x = x + a * line_a * np.cos(m * th + rng.uniform(0, 2 * math.pi))
+    return x
+
+
+HEALTH_DRAWS = 60  # windows per kind (healthy with a smooth modulation; a bar fault) of run_health
+
+
+def health_draw(kind: str, seed: int) -> tuple:
+    """One window of run_health: (current A, ripples per revolution, true rotation Hz). A healthy motor: bars within
+    1 % of each other, a smooth modulation once (10-50 % of the commutation line's amplitude) and twice (5-25 %) a
+    revolution; a bar fault: one bar (or two half a turn apart) 1.3-2.5 times as deep or 0.1-0.7 times, the
+    rotation lines at 1-5 % of the line. Dips 0.04-0.15 of a ripple's period wide, 6, 10 or 14 ripples a
+    revolution, 25-60 Hz of rotation."""
+    rng = np.random.default_rng([seed, 7])
+    n = int(rng.choice([6, 10, 14]))
+    rot = float(rng.uniform(25.0, 60.0))
+    depth = 1 + 0.01 * rng.standard_normal(n)
+    if kind == "healthy":
+        smooth = {1: rng.uniform(0.10, 0.50), 2: rng.uniform(0.05, 0.25)}
+    else:
+        smooth = {1: rng.uniform(0.01, 0.05), 2: rng.uniform(0.01, 0.05)}
+        f = rng.uniform(1.3, 2.5) if rng.uniform() < 0.5 else rng.uniform(0.1, 0.7)
+        depth[0] *= f
+        if rng.uniform() < 0.5:
+            depth[n // 2] *= 1 + 0.8 * (f - 1)
+    x = commutation_current(rot, n, depth, smooth, dip_width=float(rng.uniform(0.04, 0.15)), seed=seed)
+    return x, n, rot
+
+
+def run_health(draws: int = HEALTH_DRAWS) -> dict:
+    """Windows of synthetic commutators (health_draw), each counted with the right figure and the true speed as the
+    prior: per kind, the windows, those named damaged (of them by the fault's lines, comb.fault_rel), those confident
+    and more than 5 % off."""
+    from ..ripple.count import estimate_window
+
+    out = {}
+    for kind in ("healthy", "fault"):
+        named = by_fault = confident = wrong = 0
+        for seed in range(draws):
+            x, n, rot = health_draw(kind, seed)
+            r = estimate_window(synthetic_bursts([x]), 0, 0.5, rot * 60.0, Options(n, 1.0))
+            named += r["key"] == "damaged"
+            by_fault += r["key"] == "damaged" and r["fault_rel"] > rc.HEALTH_FAULT_MAX
+            confident += r["key"] == ""
+            wrong += r["key"] == "" and abs(r["rpm"] / (rot * 60.0) - 1) > WRONG
+        out[kind] = {"windows": draws, "damaged_said": int(named), "fault_named": int(by_fault),
+                     "confident": int(confident), "wrong": int(wrong)}
+    return out
 
 
 # A free-running 490 Hz PWM sampled at 9.6 kS/s around a 6-ripple motor without rotation lines (no comb places
@@ -265,21 +338,25 @@ def run(quiet: bool = True) -> dict:
                        "../docs/figures/ripple_line.json",
             "protocols": list(PROTOCOLS), "time_scale": TIME_SCALE, "seed": SEED, "window_s": WINDOW_S,
             "health_rot1_max": rc.HEALTH_ROT1_MAX, "health_rot2_max": rc.HEALTH_ROT2_MAX,
-            "cases": cases, "priors": run_priors(quiet), "sidebands": run_sidebands(), "tones": run_tones()}
+            "health_fault_max": rc.HEALTH_FAULT_MAX,
+            "cases": cases, "priors": run_priors(quiet), "sidebands": run_sidebands(), "tones": run_tones(),
+            "health": run_health()}
 
 
 def block(res: dict) -> str:
     """docs/ripple-line.md's table of this study (under "Measured: the line's identity"), from the JSON."""
     rows = ["| case | confident | more than 5 % off | worst % | confident of driven windows with >= 3 cycles | "
             "'another multiple' said | 'damaged' said | ripples per rev named (comb / encoder), sweep; load | "
-            "windows with rot2_rel over the threshold, of those read | rot2_rel 1st / 50th / 99th percentile |",
-            "|---|---|---|---|---|---|---|---|---|---|"]
+            "windows over a health threshold, of those read | rot2_rel 1st / 50th / 99th percentile | "
+            "fault_rel 1st / 50th / 99th percentile |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
     for c in res["cases"]:
         named = "; ".join(f"{v['comb'] or '-'} / {v['encoder'] or '-'}" for v in c["calibrate"].values())
         rows.append(f"| {c['case']}: {c['what']} | {c['confident']} of {c['windows']} | {c['wrong']} | "
                     f"{c['max_error_pct']:.2f} | {100 * c['confident_share_driven_3_cycles']:.1f} % of "
                     f"{c['driven_3_cycles']} | {c['multiple_said']} | {c['damaged_said']} | {named} | {c['health_flagged']} of "
-                    f"{c['health_read']} | {c['rot2_rel_p01']:.3g} / {c['rot2_rel_median']:.3g} / {c['rot2_rel_p99']:.3g} |")
+                    f"{c['health_read']} | {c['rot2_rel_p01']:.3g} / {c['rot2_rel_median']:.3g} / {c['rot2_rel_p99']:.3g} | "
+                    f"{c['fault_rel_p01']:.3g} / {c['fault_rel_median']:.3g} / {c['fault_rel_p99']:.3g} |")
     p = res["priors"]
     rows.append("")
     rows.append(f"Two priors, Ke {p['prior_ke_ratio']:g}x apart, on the same {p['windows']} windows: confident under "
@@ -300,6 +377,16 @@ def block(res: dict) -> str:
         rows.append(f"| {'yes' if v['comb'] else 'no'} | {'stronger' if v['tone_stronger'] else 'weaker'} | "
                     f"{v['windows']} | {v['confident']} | {v['wrong']} | {v['multiple_said']} | "
                     f"{v['confident_without_tone']} |")
+    h = res["health"]
+    rows += ["", f"Synthetic commutators, narrow dips, the right figure and the true speed given ({h['healthy']['windows']} "
+                 "windows a kind, `run_health`):", "",
+             "| motor | windows | 'damaged' said (of them by the fault's lines) | confident | more than 5 % off |",
+             "|---|---|---|---|---|"]
+    for kind, what in (("healthy", "healthy, smooth modulations once and twice a revolution"),
+                       ("fault", "a bar fault: one bar, or two opposite, deeper or shallower")):
+        v = h[kind]
+        rows.append(f"| {what} | {v['windows']} | {v['damaged_said']} ({v['fault_named']}) | {v['confident']} | "
+                    f"{v['wrong']} |")
     return "\n".join(rows) + "\n"
 
 
