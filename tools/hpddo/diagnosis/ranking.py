@@ -528,7 +528,7 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
     None: pairs are tried only beside a candidate that helps alone."""
     steps, p = _forward_select(d, m2, given, candidates, sigma2, weights, start, exclude, fits, starts, bound)
     if not exclude and motor_physics_first(d, m2, given, steps, p, candidates, sigma2, weights):
-        drifts = tuple(c for c in candidates if c in fx.LIBRARY and fx.LIBRARY[c].case_temperature)
+        drifts = tuple(c for c in candidates if _drifts(c))
         return _forward_select(d, m2, given, candidates, sigma2, weights, start, drifts, fits, starts, bound)
     return steps, p
 
@@ -549,7 +549,7 @@ def motor_physics_first(d: Data, m2: ph.PhysicsParams, given, steps, p, candidat
     its plausible range gives way also where the recordings tell it apart, to a physical
     thermal effect that removes CONFOUND_GAIN of what it removes."""
     names = [s.name for s in steps if s.name]
-    drifts = [n for n in names if n in fx.LIBRARY and fx.LIBRARY[n].case_temperature]
+    drifts = [n for n in names if _drifts(n)]
     if not drifts:
         return False
     res = held_out_residuals(d, p, lambda rows, st: fit_names(rows, m2, list(given) + names, sigma2,
@@ -721,12 +721,15 @@ def _look_ahead(d: Data, m2: ph.PhysicsParams, sigma2: float, res, mse: float, t
         c1, _, _, _, p1, r1 = first
         mse1 = held_out_mse(d, r1)
         tried_next = _trials(d, m2, sigma2, fit_from, chosen + [c1], [c for c in remaining if c != c1], p1, r1)
-        ok = [t for t in tried_next if passes(t, mse1) and gain_z(d, res, t[5], sigma2)[1] >= Z_MIN
-              and _physical(c1, _value(c1, t[4]), m2)
-              # where neither helps alone, the pair is one step from the model before it: the step's every test
-              # (an independent bench's -0.44 V offset with a wrong Ra took 0.2 % of the starting error, standing
-              # in for a saturation that levels off: the reading, right, was called 15 % high)
-              and (near or (not _drifts(t[0]) and passes((c1,) + gain_z(d, res, t[5], sigma2) + (True,), mse)))]
+        ok = []
+        for t in tried_next:
+            pair = gain_z(d, res, t[5], sigma2)  # the pair's gain over the model without either
+            # where neither helps alone, the pair is one step from the model before it: the step's every test
+            # (an independent bench's -0.44 V offset with a wrong Ra took 0.2 % of the starting error, standing
+            # in for a saturation that levels off: the reading, right, was called 15 % high)
+            if (passes(t, mse1) and pair[1] >= Z_MIN and _physical(c1, _value(c1, t[4]), m2)
+                    and (near or (not _drifts(t[0]) and passes((c1, *pair, True), mse)))):
+                ok.append(t)
         if ok:
             return first, tried_next, max(ok, key=lambda t: t[1])
     return None
