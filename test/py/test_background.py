@@ -75,6 +75,18 @@ def test_a_cancelled_job_never_runs_and_leaving_drops_the_queue():
     assert ran == [] and t.state == "cancelled"
 
 
+@pytest.mark.parametrize("workers", [0, 1])
+def test_a_cancelled_job_asked_for_after_all_runs_here(workers):
+    """A job cancelled as not needed (the diagnosis's every-effect fit once a recording is left out) whose
+    result is then asked for runs in this process: result() does not wait for a job no one will run."""
+    with interrupt.Background(workers) as bg:
+        t = bg.submit(_square, 5)
+        if workers:
+            bg.submit(_square, 6).result()  # (the worker busy first, so that t is still queued)
+        t.cancel()
+        assert t.result() == 25 and t.state == "done"
+
+
 
 def _blas_threads(_):
     import threadpoolctl

@@ -268,7 +268,15 @@ class Task:
         """Its result, once done. Meanwhile this process does queued jobs itself, the first in the
         queue each time (the lowest priority number: the one the caller waits for last but longest
         to run starts first, and the cores finish together), and waits only where every job left
-        is already running."""
+        is already running. A cancelled job whose result is asked for after all runs here."""
+        with self.owner._lock:
+            if self.state == "cancelled":
+                self.state = "running"
+                here = True
+            else:
+                here = False
+        if here:
+            self._run_here()
         while not self._done.is_set():
             job = self.owner._take()
             if job is not None:
@@ -280,7 +288,7 @@ class Task:
         return self._value
 
     def cancel(self) -> None:
-        """Not run where it has not started (its result() is then never asked for)."""
+        """Not run where it has not started (unless its result() is asked for after all)."""
         with self.owner._lock:
             if self.state == "queued":
                 self.state = "cancelled"

@@ -413,8 +413,10 @@ def without(inp: Inputs, unit: Unit, opt: Options) -> Inputs:
     return inputs_of(recs, dataclasses.replace(opt, ra_ohm=inp.ra))
 
 
-def fit_model(inp: Inputs) -> ModelFit:
-    """The model under test, its least-squares reference and the noise floor."""
+def fit_model(inp: Inputs, every=None) -> ModelFit:
+    """The model under test, its least-squares reference and the noise floor. every: a Task
+    (interrupt.Background) of every_effects_job on these inputs, where one was started, whose result
+    all_effects_floor would give."""
     d = inp.data
     model = fx.identify(inp.recs, inp.m2, inp.given) if inp.given else inp.m2
     res_model = ranking.residuals(d, model)
@@ -424,11 +426,12 @@ def fit_model(inp: Inputs) -> ModelFit:
     # floor is then what its final model leaves out of fold (refloor); neither more than what the
     # model with every library effect leaves out of fold (all_effects_floor)
     nf = noise.floor(d, inp.recs, res_base, ranking.noise_var(d, res_base), inp.m2)
-    cap, res_all = all_effects_floor(inp) if nf.from_model else (math.nan, None)
+    cap, res_all = (every.result() if every is not None else all_effects_floor(inp)) if nf.from_model \
+        else (math.nan, None)
     if math.isfinite(cap):
         nf = noise.floor(d, inp.recs, res_base, ranking.noise_var(d, res_base), inp.m2, cap)
     return ModelFit(model=model, base=base, res_model=res_model, res_base=res_base, sigma2=nf.var_rpm2,
-                    mse_base=mse_base, noise=nf, floor_all_rpm2=cap, floor_all_res=res_all)
+                    mse_base=mse_base, noise=nf, floor_all_rpm2=cap, floor_all_res=res_all, every=every)
 
 
 def all_effects_floor(inp: Inputs) -> tuple:
@@ -438,12 +441,21 @@ def all_effects_floor(inp: Inputs) -> tuple:
     with saturation and a brush drop, Ra given 5 % high, had its floor at 73 RPM, the plain model's own out-of-fold
     residual, and its residual called 0.5x the noise above it), and that model's held-out residuals; (NaN, None)
     where that model cannot be fitted."""
-    names = list(dict.fromkeys(list(inp.given) + list(fx.NAMES)))
+    return every_effects_job((inp.data, inp.m2, inp.given))
+
+
+def every_effects_job(job) -> tuple:
+    """all_effects_floor of (ranking.Data, the model under test's PhysicsParams, its given effects): a job for
+    interrupt.Background, started as soon as the recordings are read (_diagnose): a table's noise floor waits for
+    it, and the look-ahead's bound (ranking.LibraryBound) asks for it in most time series (its fit took 2 of the
+    main process's 8.6 CPU-s on the bundled recordings, while a worker waited for the bootstrap)."""
+    d, m2, given = job
+    names = list(dict.fromkeys(list(given) + list(fx.NAMES)))
     try:
-        _, res = ranking.scored(inp.data, lambda rows, st: fx.fit(rows, inp.m2, names, start=st))
+        _, res = ranking.scored(d, lambda rows, st: fx.fit(rows, m2, names, start=st))
     except Exception:  # noqa: BLE001 (a table too small for every effect: no bound, the model's own floor stands)
         return math.nan, None
-    var = ranking.noise_var(inp.data, res)
+    var = ranking.noise_var(d, res)
     return (float(var), res) if np.isfinite(var) and var > 0 else (math.nan, None)
 
 
@@ -488,20 +500,14 @@ def identifiability(inp: Inputs, mf: ModelFit) -> dict:
     return out
 
 
-class _EveryEffectMse:
-    """The held-out MSE of the model with every library effect (all_effects_floor's residuals; ModelFit's where it
-    measured them), measured the first time it is asked for (ranking.forward_select's bound: most selections never
-    ask); measured: that value, None before it was asked for or where the model cannot be fitted."""
-
-    def __init__(self, inp: Inputs, mf: ModelFit):
-        self.inp, self.mf, self.asked, self.measured = inp, mf, False, None
-
-    def __call__(self) -> float | None:
-        if not self.asked:
-            self.asked = True
-            res = self.mf.floor_all_res if self.mf.floor_all_res is not None else all_effects_floor(self.inp)[1]
-            self.measured = None if res is None else float(ranking.held_out_mse(self.inp.data, res))
-        return self.measured
+def _every_effect_mse(inp: Inputs, mf: ModelFit):
+    """A function giving the held-out MSE of the model with every library effect (all_effects_floor's residuals;
+    ModelFit's where it measured them), or None where that model cannot be fitted (ranking.LibraryBound)."""
+    def measure():
+        res = mf.floor_all_res if mf.floor_all_res is not None else \
+            (mf.every.result() if mf.every is not None else all_effects_floor(inp))[1]
+        return None if res is None else float(ranking.held_out_mse(inp.data, res))
+    return measure
 
 
 def _named_row(s: ranking.Step, steps: list, mse_base: float, boot: dict, described: dict) -> EffectResult:
@@ -528,18 +534,18 @@ def select(inp: Inputs, mf: ModelFit, ident: dict, opt: Options, background=None
     d, rows, m2, given, sigma2 = inp.data, inp.rows, inp.m2, inp.given, mf.sigma2
     RA = ranking.RA_MISMATCH
     candidates = [c for c in ident if ident[c].identifiable] + [RA]
-    fits, bound = {}, _EveryEffectMse(inp, mf)
+    fits, bound = {}, ranking.LibraryBound(_every_effect_mse(inp, mf))
     steps, final = ranking.forward_select(d, m2, given, candidates, sigma2, fits=fits, bound=bound)
     chosen = [s.name for s in steps if s.name]
     missing = [c for c in chosen if c != RA]
     if opt.bootstrap and background is not None:  # on the other cores, collected at the end (with_inclusion)
         boot = ranking.PendingBootstrap(background, d, m2, given, candidates, sigma2, final, opt.bootstrap,
-                                        seed=opt.seed, starts=fits, bound=bound.measured)
+                                        seed=opt.seed, starts=fits, bound=bound.for_resamples())
     else:
         if opt.bootstrap:
             progress.stage(f"the forward selection again on {opt.bootstrap} bootstrap resamples")
         boot = ranking.bootstrap(d, m2, given, candidates, sigma2, final, opt.bootstrap, seed=opt.seed, starts=fits,
-                                 bound=bound.measured)
+                                 bound=bound.for_resamples())
     # An effect named at a step where a wrong Ra passed every test too is told apart from it
     # only when its held-out gain over the wrong-Ra model is Z_MIN standard errors or more;
     # otherwise neither is named (RaFit.confounded_with).
@@ -1028,6 +1034,7 @@ def hybrid_budget(opt: Options) -> str:
 
 # Where the hybrid's trainings queue among a Background's jobs (the lowest first): the one on the model
 # with the missing effects can start only once they are known, and the diagnosis then waits for it first
+EVERY_EFFECTS_PRIORITY = -1
 HYBRID_AFTER_PRIORITY = 0
 HYBRID_BEFORE_PRIORITY = 1
 
@@ -1104,9 +1111,11 @@ def diagnose(paths, opt: Options) -> Diagnosis:
 
 def _diagnose(paths, opt: Options, bg, t0: float) -> Diagnosis:
     inp = load(paths, opt)
+    # the model with every library effect, fitted on a worker from the start (every_effects_job)
+    every = bg.submit(every_effects_job, (inp.data, inp.m2, inp.given), EVERY_EFFECTS_PRIORITY)
     # another motor, or another sensor scale, named before any effect is ranked, and left out
     progress.stage("fitting the physics model with every effect of the library")
-    mf0 = fit_model(inp)
+    mf0 = fit_model(inp, every)
     progress.stage("checking each recording for another motor or another sensor scale")
     others = other_motors(inp, mf0.sigma2) if opt.consistency else []
     # a recording with a faulty channel is explained by the channel, said under Channel health
@@ -1118,6 +1127,8 @@ def _diagnose(paths, opt: Options, bg, t0: float) -> Diagnosis:
         except InputError:  # too little left without it: the diagnosis of all goes on, said below
             others = []
             break
+    if others:  # fitted on rows the diagnosis leaves out: fitted again on the rest where asked for
+        every.cancel()
     # the hybrid on the model under test needs nothing of the selection: it trains beside it
     hyb_before = start_hybrid(bg, inp.recs, mf0.model, opt, HYBRID_BEFORE_PRIORITY) if opt.hybrid and not others \
         else None

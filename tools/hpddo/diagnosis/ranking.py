@@ -523,9 +523,9 @@ def forward_select(d: Data, m2: ph.PhysicsParams, given, candidates, sigma2: flo
     fits: a dict filled with every model fitted along the way, {frozenset of its effects:
     params}; starts: such a dict of another selection on the same recordings (the bootstrap's
     of the selection on all rows), each model's fit started there where it holds the model.
-    bound: the held-out MSE of the model with every library effect (a number, or a function that
-    gives it, None where it cannot be fitted), which decides where pairs are tried (_look_ahead);
-    None: pairs are tried only beside a candidate that helps alone."""
+    bound: the held-out MSE of the model with every library effect (a number, or a LibraryBound; None where
+    it cannot be fitted), which decides where pairs are tried (_look_ahead); None: pairs are tried only
+    beside a candidate that helps alone."""
     steps, p = _forward_select(d, m2, given, candidates, sigma2, weights, start, exclude, fits, starts, bound)
     if not exclude and motor_physics_first(d, m2, given, steps, p, candidates, sigma2, weights):
         drifts = tuple(c for c in candidates if _drifts(c))
@@ -741,10 +741,40 @@ def _drifts(name: str) -> bool:
 
 
 def _library_explains(mse: float, sigma2: float, bound) -> bool:
-    """Whether the model with every library effect (bound: its held-out MSE, or a function that gives it, as
-    forward_select's) removes PAIR_SHARE or more of what a model of held-out MSE mse leaves above the noise."""
-    b = bound() if callable(bound) else bound
-    return b is not None and math.isfinite(b) and mse - b >= PAIR_SHARE * (mse - sigma2)
+    """Whether the model with every library effect (bound: its held-out MSE, or a LibraryBound) removes
+    PAIR_SHARE or more of what a model of held-out MSE mse leaves above the noise."""
+    if isinstance(bound, LibraryBound):
+        return bound.explains(mse, sigma2)
+    return bound is not None and math.isfinite(bound) and mse - bound >= PAIR_SHARE * (mse - sigma2)
+
+
+class LibraryBound:
+    """The held-out MSE of the model with every library effect, measured (measure() -> the MSE, or None where
+    that model cannot be fitted) the first time a selection asks for it: most selections never ask.
+    opened: whether it removed PAIR_SHARE or more of what a step's model left above the noise, so that pairs
+    were tried where no candidate helps alone (_look_ahead). for_resamples(): the bound the bootstrap's
+    resamples judge by, the measured MSE where the selection on all rows opened that search, else None (they
+    try pairs only beside a candidate that helps alone): a resample whose selection stops earlier than the
+    one on all rows leaves more above the noise, the library removes more of it, and the pairs its search
+    then tried cost the bundled recordings' twelve resamples 10 CPU-s without naming one."""
+
+    def __init__(self, measure):
+        self._measure, self.asked, self.measured, self.opened = measure, False, None, False
+
+    def value(self) -> float | None:
+        if not self.asked:
+            self.asked = True
+            self.measured = self._measure()
+        return self.measured
+
+    def explains(self, mse: float, sigma2: float) -> bool:
+        b = self.value()
+        ok = b is not None and math.isfinite(b) and mse - b >= PAIR_SHARE * (mse - sigma2)
+        self.opened = self.opened or ok
+        return ok
+
+    def for_resamples(self) -> float | None:
+        return self.measured if self.opened else None
 
 
 def apart_z(d: Data, res_alt, res_named, sigma2: float) -> float:

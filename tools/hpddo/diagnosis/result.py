@@ -258,6 +258,8 @@ class ModelFit:
     # bound on the floor that no selection's model can raise; core.fit_model), NaN where not measured
     floor_all_rpm2: float = float("nan")
     floor_all_res: list | None = dataclasses.field(default=None, repr=False)  # that model's held-out residuals
+    # a Task (interrupt.Background) giving core.all_effects_floor of these inputs, where one was started
+    every: object = dataclasses.field(default=None, repr=False, compare=False)
 
 
 @dataclasses.dataclass
