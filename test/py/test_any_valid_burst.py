@@ -35,7 +35,7 @@ def burst_spec(draw):
         "offset": draw(st.sampled_from((None, 0.0, -3.5, 1e12, 1e-9, 2048.0))),
         "sampling": draw(st.sampled_from((None, "synchronous", "free"))),
         "pwm_hz": draw(st.sampled_from((None, 0.0, 490.196, "fs", 1e-3, 1e9))),
-        "mains_hz": draw(st.sampled_from((None, 50.0, 60.0, 1e-3))),
+        "mains_hz": draw(st.sampled_from((None, 50.0, 60.0, 1e-3, 0.0))),
         "coupling": draw(st.sampled_from((None, "dc", "ac"))),
         "gaps": draw(st.booleans()),
         "varying_n": draw(st.booleans()),

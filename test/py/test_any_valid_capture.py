@@ -50,7 +50,7 @@ def capture_spec(draw):
         # import and count
         "window_s": draw(st.sampled_from((1e-3, 0.05, 0.5, 1e4))),
         "pwm_hz": draw(st.sampled_from((0.0, 490.196, 1e9))),
-        "mains_hz": draw(st.sampled_from((None, 50.0, 1e-3))),
+        "mains_hz": draw(st.sampled_from((None, 50.0, 1e-3, 0.0))),
         "coupling": draw(st.sampled_from((None, "dc", "ac"))),
         "seed": draw(st.integers(min_value=0, max_value=2 ** 16)),
     }
@@ -131,7 +131,7 @@ def test_any_capture_imports_and_counts_to_a_result_or_a_user_error(tmp_path_fac
     path, flags, x = write_capture(d, s)
     out = d / "cap.ripple.csv"
     more = ["--window-s", repr(s["window_s"]), "--pwm-hz", repr(s["pwm_hz"])]
-    more += ["--mains-hz", repr(s["mains_hz"])] if s["mains_hz"] else []
+    more += ["--mains-hz", repr(s["mains_hz"])] if s["mains_hz"] is not None else []
     more += ["--coupling", s["coupling"]] if s["coupling"] else []
     status = cli.main(["import", str(path), "--a-per-unit", "0.01", "--out", str(out), "--quiet", *flags, *more])
     err = capsys.readouterr().err

@@ -247,7 +247,7 @@ def test_offset_signed_codes_and_ac_coupling(tmp_path):
 @pytest.mark.parametrize("meta, fault", [
     ({"sampling": "sometimes"}, "expected one of synchronous, free"),
     ({"pwm_hz": "-1"}, "pwm_hz=-1 must be > 0 (0: no PWM)"),
-    ({"mains_hz": "0"}, "mains_hz=0 must be > 0"),
+    ({"mains_hz": "-50"}, "mains_hz=-50 must be > 0 (0: no mains)"),
     ({"offset_code": "nan"}, "offset_code='nan' is not a finite number"),
     ({"coupling": "AC"}, "expected one of dc, ac"),
 ])

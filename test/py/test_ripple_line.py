@@ -216,6 +216,24 @@ def test_a_lone_line_at_a_mains_multiple_is_never_confident_where_the_file_decla
     assert (r60["key"] == "fixed_line") == (hz % 60 == 0), r60["reason"]
 
 
+@pytest.mark.parametrize("rot", [50.0, 30.0, 25.0, 20.0])
+def test_a_motor_on_a_battery_whose_lines_all_sit_on_mains_multiples_counts_where_the_file_declares_no_mains(rot):
+    """At 50, 30, 25 or 20 rev/s every rotation line and the commutation line lie on multiples of 50 or 60 Hz.
+    Undeclared, hum may be there (a current-only capture without a prior: no window confident); a file that
+    declares mains_hz=0 (a battery, nothing mains-powered near) lets the comb and the line be the motor's, counted
+    within 0.2 %."""
+    x = motor_current(rot, HEALTHY_6)
+    undeclared = one(x, 6, None)
+    assert undeclared["confidence"] == 0.0 and "a mains frequency (the file declares none)" in undeclared["reason"]
+    battery = estimate_window(dataclasses.replace(bursts_of([x]), mains_hz=0.0), 0, 0.5, None, Options(6, 1.0))
+    assert battery["key"] == "" and battery["confidence"] > 0.5, battery["reason"]
+    assert battery["multiple"] == 6 and abs(battery["rpm"] / (rot * 60) - 1) < 0.002
+    # the same declaration, where a 100 Hz hum is in the current after all, does not put the count on the hum
+    hum = x + 0.02 * np.sin(2 * math.pi * 100.0 * np.arange(len(x)) / FS)
+    r = estimate_window(dataclasses.replace(bursts_of([hum]), mains_hz=0.0), 0, 0.5, None, Options(6, 1.0))
+    assert r["confidence"] == 0.0 or abs(r["rpm"] / (rot * 60) - 1) < 0.005, r
+
+
 def test_ke_from_the_ripple_leaves_out_windows_whose_back_emf_is_within_what_the_prior_cannot_know():
     """calibrate_ke: a shaft standing with the drive on (the current through Ra and a brush drop, E = V - I Ra
     a brush drop) under a fixed 37 Hz line (a bus aliased into the band, not a mains multiple), beside windows

@@ -43,9 +43,11 @@ def parser(prog: str = "hpddo import") -> argparse.ArgumentParser:
     p.add_argument("--pwm-hz", type=options.non_negative_float, required=True, metavar="HZ",
                    help="the drive's PWM frequency, 0 for none (a DC supply): its synchronous average is "
                         "removed before counting (the UNO's analogWrite: 490.196)")
-    p.add_argument("--mains-hz", type=options.positive_float, default=None, metavar="HZ",
+    p.add_argument("--mains-hz", type=options.non_negative_float, default=None, metavar="HZ",
                    help="the mains frequency (50 or 60) where its harmonics may be in the current: a line at "
-                        "one of its multiples is never a confident count")
+                        "one of its multiples is never a confident count; 0 where no mains is near the motor (a "
+                        "battery): lines on multiples of 50 or 60 Hz are then the motor's. Default: not declared, "
+                        "hum at 50 or 60 Hz taken as possible")
     p.add_argument("--window-s", type=options.positive_float, default=0.5, metavar="S",
                    help="the windows the capture is cut into, each counted on its own (default 0.5)")
     p.add_argument("--column", default=None, metavar="NAME|INDEX", help="CSV: the current's column")
@@ -74,7 +76,7 @@ def run(args) -> int:
     print(f"{args.out}: {len(b)} windows of {float(b.meta['burst_s']):g} s, {n} samples at {cap.sample_hz:g} Hz "
           f"(from {cap.rate_from})" + (f" (the last {left}, fewer than {ci.MIN_SAMPLES}, left out)" if left else "")
           + f", {cap.source} of {args.capture}; {rf.COUPLING}={coupling}, "
-          f"{rf.PWM_HZ}={args.pwm_hz:g}" + (f", {rf.MAINS_HZ}={args.mains_hz:g}" if args.mains_hz else ""))
+          f"{rf.PWM_HZ}={args.pwm_hz:g}" + (f", {rf.MAINS_HZ}={args.mains_hz:g}" if args.mains_hz is not None else ""))
     return 0
 
 

@@ -343,7 +343,7 @@ def write_bursts(cap: Capture, out, a_per_unit: float, offset: float | None, win
     meta[rf.PWM_HZ] = repr(float(pwm_hz)) if pwm_hz is not None else None
     if meta[rf.PWM_HZ] is None:
         del meta[rf.PWM_HZ]
-    if mains_hz:
+    if mains_hz is not None:  # (0: no mains, declared)
         meta[rf.MAINS_HZ] = repr(float(mains_hz))
     if source_path is not None:
         p = pathlib.Path(source_path)

@@ -30,7 +30,7 @@ SAMPLING = "sampling"            # how the samples sit against the PWM
 SYNCHRONOUS, FREE = "synchronous", "free"  # one sample per PWM period at a fixed phase / free-running
 SAMPLINGS = (SYNCHRONOUS, FREE)
 PWM_HZ = "pwm_hz"                # the PWM frequency (Hz), 0 for none (a DC supply): needed where sampling is free
-MAINS_HZ = "mains_hz"            # the mains frequency (Hz) whose harmonics may be in the current: 50 or 60
+MAINS_HZ = "mains_hz"            # the mains frequency (Hz) whose harmonics may be in the current: 50 or 60; 0: none
 OFFSET_CODE = "offset_code"      # the code of zero current (an AC-coupled or offset channel); default 0
 COUPLING = "coupling"            # dc (the default: the mean current is in the codes) or ac (it is not)
 DC, AC = "dc", "ac"
@@ -55,7 +55,7 @@ class Bursts:
     offset_code: float = 0.0  # the code of zero current
     sampling: str = SYNCHRONOUS
     pwm_hz: float = float("nan")  # NaN: not declared
-    mains_hz: float = float("nan")  # NaN: not declared
+    mains_hz: float = float("nan")  # NaN: not declared; 0: declared absent
     coupling: str = DC
     refused: tuple = ()  # per window, why no count of it can be confident ("": none); set by the
     #                      estimator's preparation (ripple/sync.py), empty as read
@@ -189,12 +189,14 @@ def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = Non
     if not (fs > 0 and lsb > 0):
         raise RippleFileError(f"{path}: sample_hz and a_per_code must be > 0")
     declared = {}
-    for key, least in ((PWM_HZ, 0.0), (MAINS_HZ, None)):  # pwm_hz=0: no PWM (a DC supply)
+    # pwm_hz=0: no PWM (a DC supply); mains_hz=0: no mains near the motor (a battery, nothing mains-powered beside it)
+    for key, least in ((PWM_HZ, 0.0), (MAINS_HZ, 0.0)):
         if key in meta:
             declared[key] = number(path, meta, where, key)
             if not (declared[key] > 0 or declared[key] == least):
                 raise RippleFileError(f"{path}:{where[key]}: metadata {key}={meta[key]} must be > 0"
-                                      + (" (0: no PWM)" if least == 0 else "") + "; leave the key out where unknown")
+                                      + (" (0: no PWM)" if key == PWM_HZ else " (0: no mains)")
+                                      + "; leave the key out where unknown")
     offset = number(path, meta, where, OFFSET_CODE) if OFFSET_CODE in meta else 0.0
     for key, allowed in ((SAMPLING, SAMPLINGS), (COUPLING, COUPLINGS)):
         if key in meta and meta[key] not in allowed:

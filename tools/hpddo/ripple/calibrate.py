@@ -27,7 +27,7 @@ def window_comb(bursts, k: int, opts):
     f, p = spectrum(x, fs)
     found = rc.lines(f, p, max(2.0 * res, 0.5), fs / 2.0 / 2.2, res, opts.min_snr)
     found = rc.without_fixed(found, bursts, res)
-    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), rc.pwm_of(bursts))
+    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), rc.pwm_of(bursts), rc.mains_of(bursts))
     bad = False
     if comb is not None:
         p_max = maximum_filter1d(p, size=max(1, int(round(res / (f[1] - f[0])))) | 1)
@@ -45,9 +45,9 @@ def encoder_lines(found, bursts, res: float) -> list:
     a declared mains' are out already, comb.without_fixed). A line on a mains multiple that nothing shows to be hum is
     kept: a healthy 18-ripple motor at 5000 RPM puts its ripple on 1500 Hz, and the next line, the rotation's own,
     named "1 per revolution"."""
-    fixed = rc.fixed_hz_of(bursts)
+    fixed, mains = rc.fixed_hz_of(bursts), rc.mains_of(bursts)
     return [ln for ln in found if not rc.near_fixed(ln.hz, fixed, rc.fixed_tol_hz(ln.hz, res))
-            and not (rc.on_mains(ln.hz, res) and rc.hum_shows(found, ln, res))]
+            and not (rc.on_mains(ln.hz, res, mains) and rc.hum_shows(found, ln, res, mains))]
 
 
 def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:

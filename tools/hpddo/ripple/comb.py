@@ -11,7 +11,8 @@ third multiple or above (the first two are the commutator's health lines: an ecc
 bar with a raised contact resistance). Where it is not, the data show another multiple, and the
 window says which, never confident.
 
-Lines at multiples of the mains (MAINS_HZ) are not rotation lines: left out of the comb. A line
+Lines at multiples of the mains (MAINS_HZ, or the one the burst file declares: mains_of) are not rotation
+lines: left out of the comb. A line
 the acquisition puts there (a free-running PWM) is another's: `fixed_hz` takes those frequencies
 (the hook for the PWM/mains check of the burst's sampling).
 """
@@ -145,10 +146,19 @@ def lines(f, p, f_lo: float, f_hi: float, res_hz: float, min_snr: float) -> list
     return sorted(out, key=lambda ln: -ln.power)
 
 
-def on_mains(hz: float, res_hz: float) -> bool:
-    """Whether hz lies on a multiple of 50 or 60 Hz (MAINS_HZ), within fixed_tol_hz: hum may be there, declared or
-    not."""
-    return near_fixed(hz, MAINS_HZ, fixed_tol_hz(hz, res_hz))
+def mains_of(bursts) -> tuple:
+    """The mains frequencies whose hum may be in the bursts' current, Hz: 50 and 60 (MAINS_HZ) whether the file
+    declares one or not (hum is in a current declared or not, and a declared frequency's own multiples are out of
+    the lines already: without_fixed), none where the file declares mains_hz=0 (no mains near the motor: a
+    battery, nothing mains-powered beside it). A motor on a battery turning at 50 rev/s puts every rotation line
+    on a multiple of 50 Hz: undeclared, its comb is left out and no window confident without a prior."""
+    return () if getattr(bursts, "mains_hz", math.nan) == 0 else MAINS_HZ
+
+
+def on_mains(hz: float, res_hz: float, mains=MAINS_HZ) -> bool:
+    """Whether hz lies on a multiple of one of mains (mains_of: 50 or 60 Hz, or none), within fixed_tol_hz: hum may
+    be there, declared or not."""
+    return near_fixed(hz, tuple(mains), fixed_tol_hz(hz, res_hz))
 
 
 def tol_hz(hz: float, res_hz: float) -> float:
@@ -195,7 +205,7 @@ def pwm_sidebands(comm_hz: float, pwm_hz: float, sample_hz: float) -> list:
             for h in range(1, MIX_PWM_HARMONICS + 1) for j in range(1, MIX_ORDERS + 1) for sign in (-1, 1)]
 
 
-def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -> Comb | None:
+def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None, mains=MAINS_HZ) -> Comb | None:
     """The rotation comb of a window's lines (lines()), or None where the lines do not form one.
 
     The commutation line is the strongest line of the comb (lines at multiples of the mains or of fixed_hz
@@ -213,8 +223,9 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
     leaves lines out, a narrower one (f_rot / 2) explains the same lines with more empty multiples.
     A comb needs at least COMB_MIN_LINES lines under the commutation line: a line and its
     harmonics alone show no rotation. pwm: (PWM Hz, sample Hz) of a free-running burst whose PWM lies in the
-    band (pwm_of): the PWM's sidebands around the commutation line (pwm_sidebands) are no rotation lines."""
-    use = [ln for ln in found if not near_fixed(ln.hz, tuple(MAINS_HZ) + tuple(fixed_hz), fixed_tol_hz(ln.hz, res_hz))]
+    band (pwm_of): the PWM's sidebands around the commutation line (pwm_sidebands) are no rotation lines. mains:
+    the mains frequencies whose multiples are left out (mains_of)."""
+    use = [ln for ln in found if not near_fixed(ln.hz, tuple(mains) + tuple(fixed_hz), fixed_tol_hz(ln.hz, res_hz))]
     if pwm is not None:  # nor a PWM sideband of one of the strongest lines, left out or not (a 6-ripple motor's line
         # at 60.8 Hz, left out as a 60 Hz multiple, put its sideband at 490.2 - 60.8 = 429.4 Hz at the head of the
         # rest, and the comb about that line named a healthy commutator damaged in 11 of a low-speed run's windows)
@@ -230,12 +241,12 @@ def rotation_comb(found, res_hz: float, min_snr: float, fixed_hz=(), pwm=None) -
     comb = max(combs, key=lambda sc: sc[0])[1]
     left = [ln for ln in found if ln not in use and ln.snr >= COMB_LINE_SNR * min_snr]
     if (_finer_left_out(comb, left, res_hz) or _sideband_of_hidden(comb, found, res_hz, pwm)
-            or _stronger_left_on_comb(comb, left, res_hz)):
+            or _stronger_left_on_comb(comb, left, res_hz, mains)):
         return None
     return comb
 
 
-def _stronger_left_on_comb(comb: Comb, left, res_hz: float) -> bool:
+def _stronger_left_on_comb(comb: Comb, left, res_hz: float, mains=MAINS_HZ) -> bool:
     """Whether a line left out of the comb as a multiple of 50 or 60 Hz is stronger than the comb's commutation line and
     lies on the comb's grid (a multiple of f_rot from COMMUTATION_MIN_MULTIPLE on): the commutation line is the
     comb's strongest, so the left-out line may be the ripple itself, or hum on the grid by chance, and the comb cannot
@@ -244,7 +255,7 @@ def _stronger_left_on_comb(comb: Comb, left, res_hz: float) -> bool:
     against that line named a healthy commutator damaged (4 of 6 synthetic windows; a fuzzing round's damaged
     commutator at that speed went unnamed)."""
     for ln in left:
-        if ln.power <= comb.commutation.power or not near_fixed(ln.hz, MAINS_HZ, fixed_tol_hz(ln.hz, res_hz)):
+        if ln.power <= comb.commutation.power or not near_fixed(ln.hz, tuple(mains), fixed_tol_hz(ln.hz, res_hz)):
             continue
         k = int(round(ln.hz / comb.rot_hz))
         if k >= COMMUTATION_MIN_MULTIPLE and abs(ln.hz - k * comb.rot_hz) <= tol_hz(ln.hz, res_hz):
@@ -538,15 +549,15 @@ def _sideband_of(hz: float, comm_hz: float, res_hz: float, pwm) -> bool:
 MAINS_RIVAL_SHARE = 0.01
 
 
-def hum_shows(found, line, res_hz: float) -> bool:
-    """Whether the window bears a line on a multiple k of 50 or 60 Hz (MAINS_HZ) out as hum: its order is the hum's
+def hum_shows(found, line, res_hz: float, mains=MAINS_HZ) -> bool:
+    """Whether the window bears a line on a multiple k of 50 or 60 Hz (mains: mains_of) out as hum: its order is the hum's
     first (k = 1, a stray field's line; k = 2, a rectified supply's), or a line at a lower multiple of the same mains
     frequency stands at least as strong (hum's lines fall with their order: a rectified supply's as 3 / (4 k^2 - 1)).
     A line on a high multiple standing over every lower one is not shown to be hum, and may be a ripple that sits
     there (360 Hz, at a hundredth of the power of an undeclared line beside it, was left out for hum and the other
     line counted, confidently and more than 5 % off)."""
     tol = fixed_tol_hz(line.hz, res_hz)
-    for f0 in MAINS_HZ:
+    for f0 in mains:
         k = round(line.hz / f0)
         if k < 1 or abs(line.hz - k * f0) > tol:
             continue
@@ -556,7 +567,7 @@ def hum_shows(found, line, res_hz: float) -> bool:
     return False
 
 
-def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float, family=()) -> list:
+def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float, family=(), mains=MAINS_HZ) -> list:
     """Where no comb places the chosen line at f_hz, the other lines that could be the ripple as well: every line of
     found (lines()) standing COMB_LINE_SNR times over the line threshold (a resolved line: noise does not reach it),
     inside the back-EMF prior's spread (in_spread: Hz -> bool), whatever its power, but the chosen line's own family
@@ -578,7 +589,7 @@ def unplaced_rivals(found, f_hz: float, res_hz: float, in_spread, min_snr: float
             continue
         if any(abs(ln.hz - r * f_line) <= max(r, 1.0) * tol_hz(f_line, res_hz) for r in family):
             continue
-        if on_mains(ln.hz, res_hz) and ln.power < MAINS_RIVAL_SHARE * p0 and hum_shows(found, ln, res_hz):
+        if on_mains(ln.hz, res_hz, mains) and ln.power < MAINS_RIVAL_SHARE * p0 and hum_shows(found, ln, res_hz, mains):
             continue
         out.append(ln)
     return rivals(out, f_hz, res_hz, in_spread, 0.0)

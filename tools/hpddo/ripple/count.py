@@ -247,7 +247,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     found = rc.lines(f, p, f_lo, f_hi, res, opts.min_snr)
     found = rc.without_fixed(found, bursts, res)
     pwm = rc.pwm_of(bursts)  # (a free-running burst's in-band PWM, or None)
-    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), pwm)
+    comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), pwm, rc.mains_of(bursts))
     if comb is not None:  # the line's identity from the data: the comb of rotation lines
         out.update(rot_hz=comb.rot_hz, multiple=comb.multiple)
         health = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p, found, opts.min_snr)
@@ -334,7 +334,7 @@ def estimate_window(bursts, k, duty, rpm_prior, opts: Options, prior_before=None
     # prior alone cannot say which of two lines is the ripple, and the stronger may be another's (comb.unplaced_rivals).
     # Without a prior the spread is the whole band, whose noise reaches a resolved line's power now and then (1 window
     # in 10 of a lone 150 Hz line); such windows are checked over the recording instead (line.identity_of_recording)
-    unplaced = (rc.unplaced_rivals(found, f_star, res, in_spread, opts.min_snr, ALTERNATIVES)
+    unplaced = (rc.unplaced_rivals(found, f_star, res, in_spread, opts.min_snr, ALTERNATIVES, rc.mains_of(bursts))
                 if comb is None and math.isfinite(f_prior) else [])
     if unplaced:
         ln = unplaced[0]
