@@ -292,7 +292,8 @@ def run_one(seed: int) -> dict:
         try:
             d = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False))
         except USER_ERRORS as exc:
-            return {"bench": b.to_json(), "refused": str(exc)}
+            # (the bench's folder, a temporary one, named BENCH: no random name in the study's JSON)
+            return {"bench": b.to_json(), "refused": str(exc).replace(tmp, "BENCH")}
         js = d.to_json()
         return {"bench": b.to_json(), "score": score(b, js, paths), "runtime_s": js.get("runtime_s")}
 

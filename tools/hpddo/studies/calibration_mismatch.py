@@ -253,7 +253,7 @@ def run_one(seed: int) -> dict:
         try:
             d = core.diagnose(paths, core.Options(ra_ohm=b.ra_given_ohm, bootstrap=0, hybrid=False))
         except USER_ERRORS as exc:
-            return {"bench": b.to_json(), "refused": str(exc)}
+            return {"bench": b.to_json(), "refused": str(exc).replace(tmp, "BENCH")}  # (as calibration's)
         js = d.to_json()
         return {"bench": b.to_json(), "score": cal.score(b, js, paths, effect_rms=rms), "runtime_s": js.get("runtime_s"),
                 "verdict": js.get("verdict", "")}
