@@ -270,11 +270,9 @@ class Task:
         to run starts first, and the cores finish together), and waits only where every job left
         is already running. A cancelled job whose result is asked for after all runs here."""
         with self.owner._lock:
-            if self.state == "cancelled":
+            here = self.state == "cancelled"
+            if here:
                 self.state = "running"
-                here = True
-            else:
-                here = False
         if here:
             self._run_here()
         while not self._done.is_set():

@@ -426,8 +426,7 @@ def fit_model(inp: Inputs, every=None) -> ModelFit:
     # floor is then what its final model leaves out of fold (refloor); neither more than what the
     # model with every library effect leaves out of fold (all_effects_floor)
     nf = noise.floor(d, inp.recs, res_base, ranking.noise_var(d, res_base), inp.m2)
-    cap, res_all = (every.result() if every is not None else all_effects_floor(inp)) if nf.from_model \
-        else (math.nan, None)
+    cap, res_all = _every_effects(inp, every) if nf.from_model else (math.nan, None)
     if math.isfinite(cap):
         nf = noise.floor(d, inp.recs, res_base, ranking.noise_var(d, res_base), inp.m2, cap)
     return ModelFit(model=model, base=base, res_model=res_model, res_base=res_base, sigma2=nf.var_rpm2,
@@ -442,6 +441,12 @@ def all_effects_floor(inp: Inputs) -> tuple:
     residual, and its residual called 0.5x the noise above it), and that model's held-out residuals; (NaN, None)
     where that model cannot be fitted."""
     return every_effects_job((inp.data, inp.m2, inp.given))
+
+
+def _every_effects(inp: Inputs, every) -> tuple:
+    """all_effects_floor(inp): every's result where that job was started on these inputs (a Task of
+    every_effects_job), else fitted here."""
+    return every.result() if every is not None else all_effects_floor(inp)
 
 
 def every_effects_job(job) -> tuple:
@@ -504,8 +509,7 @@ def _every_effect_mse(inp: Inputs, mf: ModelFit):
     """A function giving the held-out MSE of the model with every library effect (all_effects_floor's residuals;
     ModelFit's where it measured them), or None where that model cannot be fitted (ranking.LibraryBound)."""
     def measure():
-        res = mf.floor_all_res if mf.floor_all_res is not None else \
-            (mf.every.result() if mf.every is not None else all_effects_floor(inp))[1]
+        res = mf.floor_all_res if mf.floor_all_res is not None else _every_effects(inp, mf.every)[1]
         return None if res is None else float(ranking.held_out_mse(inp.data, res))
     return measure
 

@@ -768,8 +768,7 @@ class LibraryBound:
         return self.measured
 
     def explains(self, mse: float, sigma2: float) -> bool:
-        b = self.value()
-        ok = b is not None and math.isfinite(b) and mse - b >= PAIR_SHARE * (mse - sigma2)
+        ok = _library_explains(mse, sigma2, self.value())
         self.opened = self.opened or ok
         return ok
 

@@ -190,10 +190,10 @@ def of_meta(meta: dict, seq, t_s, codes, path="bursts", where: dict | None = Non
         raise RippleFileError(f"{path}: sample_hz and a_per_code must be > 0")
     declared = {}
     # pwm_hz=0: no PWM (a DC supply); mains_hz=0: no mains near the motor (a battery, nothing mains-powered beside it)
-    for key, least in ((PWM_HZ, 0.0), (MAINS_HZ, 0.0)):
+    for key in (PWM_HZ, MAINS_HZ):
         if key in meta:
             declared[key] = number(path, meta, where, key)
-            if not (declared[key] > 0 or declared[key] == least):
+            if not declared[key] >= 0:
                 raise RippleFileError(f"{path}:{where[key]}: metadata {key}={meta[key]} must be > 0"
                                       + (" (0: no PWM)" if key == PWM_HZ else " (0: no mains)")
                                       + "; leave the key out where unknown")

@@ -31,7 +31,7 @@ import numpy as np
 
 from ..logs import ripple as rf
 from ..logs.errors import InputError
-from .comb import MAINS_HZ
+from .comb import mains_of
 
 MIN_PER_BIN = 32   # samples a phase bin holds on average: its mean carries the commutation ripple and the
 #                    noise over sqrt(32) into the subtracted average, where fewer, finer bins follow the PWM
@@ -231,13 +231,11 @@ def mains_lines(bursts, f_hz: float, either_mains: bool = False) -> list:
     (whatever it is: a file may declare any positive one, 1 mHz too, whose multiples near a line in the kHz
     are millions: the nearest is computed, not listed). With either_mains, where the file declares none, the
     nearest multiple of every mains frequency (comb.MAINS_HZ: 50 and 60 Hz), since hum is in a current
-    whether the file says so or not; none where it declares mains_hz=0 (no mains)."""
-    if bursts.mains_hz == 0:
-        mains = []
-    elif math.isfinite(bursts.mains_hz):
+    whether the file says so or not (comb.mains_of: none where it declares mains_hz=0, no mains)."""
+    if math.isfinite(bursts.mains_hz) and bursts.mains_hz > 0:
         mains = [(bursts.mains_hz, "the mains' {:g} Hz".format(bursts.mains_hz))]
     elif either_mains:
-        mains = [(m, f"{m:g} Hz, a mains frequency (the file declares none)") for m in MAINS_HZ]
+        mains = [(m, f"{m:g} Hz, a mains frequency (the file declares none)") for m in mains_of(bursts)]
     else:
         mains = []
     out = []
