@@ -653,6 +653,40 @@ def test_a_pure_numbers_range_is_written_without_a_unit_of_1():
     assert intervals._rng((0.0, math.inf), 1.0, "ohm") == "above 0 ohm"
 
 
+def test_the_winding_nodes_interval_is_judged_by_the_range_of_its_heat_path(tmp_path):
+    """A recording without a temperature column fits the winding node along the ambient path (30..7200 s, 1.5..80
+    K/W, schema.NODE), yet its intervals were judged against the case path's (4..600 s, 0.25..24 K/W): an
+    independent 10 Hz bench's "-3.77..112 s reaches outside the physical 4..600 s", and a node of 1200 s would
+    have been called outside what is physical for it. Each node interval carries its path's range, and says it."""
+    from hpddo import schema
+
+    src = ROOT / "data" / "default" / "long.csv"
+    lines = src.read_text().splitlines()
+    head = [ln for ln in lines if ln.startswith("#")]
+    cols = lines[len(head)].split(",")
+    k = cols.index("temp_C")
+    body = [",".join(c for j, c in enumerate(ln.split(",")) if j != k) for ln in lines[len(head):]]
+    log = tmp_path / "long.csv"
+    log.write_text("\n".join(head + body) + "\n")
+    inp = core.load([log], core.Options())
+    assert all(r.needs_state for r in inp.rows)
+    p = fx.fit(inp.rows, inp.m2, ["thermal_ra"])
+    node = {n.field: n for n in schema.NODE if n.path == "ambient"}
+    ivs = {iv.field: iv for iv in intervals.of_fit(inp.data, p, ["thermal_ra"])}
+    for field, n in node.items():
+        iv = ivs[field]
+        assert iv.physical == n.physical, iv
+        lo, hi = n.physical
+        assert not iv.determined or lo < iv.lo and iv.hi < hi, iv
+        if "physical" in iv.why:
+            assert intervals._rng(n.physical, 1.0, n.show_unit) in iv.why, iv.why
+    # an interval inside the ambient path's range and outside the case path's stays determined
+    tau = node["th_tau_s"]
+    iv = dataclasses.replace(ivs["th_tau_s"], value=1200.0, lo=1000.0, hi=1400.0, determined=True, why="")
+    assert intervals._inside_physical(iv, dataclasses.replace(iv, lo=900.0, hi=1500.0)).determined
+    assert not intervals._inside_physical(iv, dataclasses.replace(iv, lo=0.5 * tau.physical[0], hi=1500.0)).determined
+
+
 @pytest.mark.slow
 def test_an_effect_whose_size_rests_on_a_reading_the_data_do_not_bear_out_is_not_named():
     """The hot and unseen validation recordings with Ra given 3.15 ohm (a fuzzing helper's; the data alone put Ra at

@@ -51,8 +51,10 @@ _OTHER = {
 }
 
 
-def _describe(field: str) -> tuple:
-    """(quantity, unit shown, show scale, physical range, needs, SI unit) of a fitted field."""
+def _describe(field: str, path: str | None = None) -> tuple:
+    """(quantity, unit shown, show scale, physical range, needs, SI unit) of a fitted field; a field of the
+    winding's thermal node along the heat path `path` (effects.node_path: "case" where the rows read the case
+    temperature, "ambient" where some do not), whose ranges differ by path (schema.NODE)."""
     if field in _OTHER:
         q, u, s, phys, needs = _OTHER[field]
         return q, u, s, phys, needs, u
@@ -65,7 +67,7 @@ def _describe(field: str) -> tuple:
             if sh.field == field:
                 return f"{e.name} shape {field}", sh.unit, 1.0, sh.widened or sh.bounds, needs, sh.unit
     for n in schema.NODE:
-        if n.field == field:
+        if n.field == field and (path is None or n.path == path):
             return f"winding node {field}", n.show_unit, 1.0, n.physical, THERMAL_NEEDS, n.show_unit
     return field, "", 1.0, (-math.inf, math.inf), "", ""
 
@@ -177,8 +179,9 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
     t = float(stats.t.ppf(0.5 + LEVEL / 2, df))
     var = dict(zip(free, np.diag(cov)))
     out = []
+    path = fx.node_path(any(r.needs_state for r in rows))  # the node's path, as fx.spec_for takes it
     for f in fields:
-        q, unit, scale, phys, needs, si = _describe(f)
+        q, unit, scale, phys, needs, si = _describe(f, path)
         v = float(getattr(p, f))
         c = var.get(f, math.nan)
         se = float(np.sqrt(c)) if np.isfinite(c) and c >= 0 else math.inf
@@ -196,7 +199,7 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
                    f"{_rng(phys, scale, unit)}")
         out.append(Interval(q, f, si, v, lo if math.isfinite(se) else None, hi if math.isfinite(se) else None,
                             determined=not why, why=why, needs=needs, clusters=clusters,
-                            method=method, show_scale=scale, show_unit=unit,
+                            method=method, show_scale=scale, show_unit=unit, physical=phys,
                             budget={"statistical": se} if math.isfinite(se) else {}))
     return _thermal_needs_its_node(_sizes_of_unfixed_forms(out, p, bounds))
 
@@ -571,6 +574,7 @@ def _inside_physical(iv: "Interval", out: "Interval") -> "Interval":
     """out (iv with its whole budget) not determined where its interval reaches outside the quantity's physical
     range, though iv was."""
     _, unit, scale, phys, _, _ = _describe(iv.field)
+    phys = iv.physical if iv.physical is not None else phys
     if iv.determined and (out.lo <= phys[0] or out.hi >= phys[1]):
         return dataclasses.replace(out, determined=False, why=(
             f"with its whole uncertainty budget its interval {out.lo * scale:.3g}..{out.hi * scale:.3g} {unit} "

@@ -33,6 +33,8 @@ class Interval:
     half_without_ra: float | None = None  # the expanded half-width without the held Ra's doubt
     # the expanded half-width without the spread of the candidate models (intervals.spread_u)
     half_without_models: float | None = None
+    # the range physical for it (lo, hi), SI, where it depends on the fit (the winding node's, by heat path)
+    physical: tuple | None = None
 
     def to_json(self) -> dict:
         return {"quantity": self.quantity, "field": self.field, "unit": self.unit, "value": self.value,
