@@ -407,8 +407,8 @@ def _commutator(est) -> dict:
         out["statement"] = (f"the commutator looks {'uneven' if uneven else 'damaged'} in {bad} of {judged.sum()} "
                             f"windows judged (the line at twice the rotation frequency up to {out['rot2_rel_max']:.3g} "
                             f"of the commutation line's power, over {rc.HEALTH_ROT2_MAX:g}): "
-                            + (f"a worn bar, or coils a few % unequal as in a healthy motor, which this line does not "
-                               f"tell apart under {rc.HEALTH_ROT2_UNEVEN_MAX:g}" if uneven else
+                            + ("a worn bar, or coils a few % unequal as in a healthy motor, or a smooth modulation twice "
+                               "a revolution (a rotor's or a load's), which this line does not tell apart" if uneven else
                                "a worn or burnt bar, a shorted coil (its lines between the commutation line and its "
                                f"second harmonic up to {np.nanmax(fault[dmg]):.3g} of the line, over "
                                f"{rc.HEALTH_FAULT_MAX:g}, or the lines once or twice a revolution)"

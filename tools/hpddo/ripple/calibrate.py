@@ -28,11 +28,24 @@ def window_comb(bursts, k: int, opts):
     found = rc.lines(f, p, max(2.0 * res, 0.5), fs / 2.0 / 2.2, res, opts.min_snr)
     found = rc.without_fixed(found, bursts, res)
     comb = rc.rotation_comb(found, res, opts.min_snr, rc.fixed_hz_of(bursts), rc.pwm_of(bursts), rc.mains_of(bursts))
-    bad = False
+    bad = ""
     if comb is not None:
         p_max = maximum_filter1d(p, size=max(1, int(round(res / (f[1] - f[0])))) | 1)
-        bad = rc.damaged(*rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p, found, opts.min_snr))
+        lines = rc.health(f, p_max, comb.rot_hz, comb.commutation.hz, res, p, found, opts.min_snr)
+        if rc.damaged(*lines):
+            bad = "uneven" if rc.uneven_only(*lines) else "damaged"
     return found, comb, res, bad
+
+
+def _health_lines(damaged: int, uneven: int) -> str:
+    """What the health lines of the `damaged` windows left out of the comb say, `uneven` of them only that the line
+    twice a revolution is strong (comb.uneven_only), which a healthy motor's may be too."""
+    if not uneven:
+        return "a damaged commutator's lines"
+    why = "a worn bar, coils a few % unequal or a smooth modulation twice a revolution, which that line does not tell apart"
+    if uneven < damaged:
+        return f"an uneven or damaged commutator's lines ({uneven} uneven: {why})"
+    return f"an uneven commutator's lines ({why})"
 
 
 #: calibrate with an encoder: a window's line within this share of a whole number of ripples per revolution
@@ -72,7 +85,7 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
     duty = np.full(n, np.nan) if duty is None else np.asarray(duty, float)
     ref = None if rpm_ref is None else np.asarray(rpm_ref, float)
     comb_m, enc_m = collections.Counter(), collections.Counter()
-    driven = damaged = rotation = 0
+    driven = damaged = uneven = rotation = 0
     for k in range(n):
         x = bursts.current_A(k)
         if len(x) < 16 or bursts.refusal(k) or not (np.isfinite(duty[k]) and duty[k] > 0) \
@@ -80,8 +93,9 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
             continue
         driven += 1
         found, comb, res, bad = window_comb(bursts, k, opts)
-        if bad:  # a damaged commutator's lines are not the rotation's comb
+        if bad:  # a damaged commutator's lines are not the rotation's comb (nor an uneven one's: it may be damaged)
             damaged += 1
+            uneven += bad == "uneven"
         elif comb is not None:
             comb_m[comb.multiple] += 1
         if ref is not None and np.isfinite(ref[k]) and ref[k] > 0:
@@ -93,7 +107,9 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
                     rotation += 1  # a rotation line is the strongest: no commutator ripples so few times a turn
                 elif whole >= 1 and abs(per_rev / whole - 1.0) <= CALIBRATE_WHOLE:
                     enc_m[int(whole)] += 1
-    out = {"driven_windows": driven, "damaged_windows": damaged, "rotation_line_windows": rotation}
+    out = {"driven_windows": driven, "damaged_windows": damaged, "uneven_windows": uneven,
+           "rotation_line_windows": rotation}
+    health = ("uneven or damaged" if uneven < damaged else "uneven") if uneven else "damaged"
     said = []
     for name, counts, how in (("comb", comb_m, "the comb of rotation lines"),
                               ("encoder", enc_m, "the strongest line against the encoder's speed")):
@@ -104,7 +120,7 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
         # the damaged windows among the comb's, and the encoder's windows whose strongest line is a rotation line:
         # agreeing with no figure (line.damaged_windows)
         other = damaged if name == "comb" else rotation
-        other_text = ((f"damaged {damaged}" if name == "comb" else
+        other_text = ((f"{health} {damaged}" if name == "comb" else
                        f"a rotation line the strongest in {rotation} (once or twice a revolution: an asymmetry "
                        "stronger than the ripple, a damaged commutator, a shorted coil or a load that pulses with the "
                        "shaft)") if other else "")
@@ -136,7 +152,7 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
     if out["ripples_per_rev"] and given and given != out["ripples_per_rev"]:
         head += f", not the {given} given"
     out["statement"] = (f"{head}: " + "; ".join(said) + f" (of {driven} driven windows"
-                        + (f"; {damaged} with a damaged commutator's lines, left out of the comb" if damaged else "")
+                        + (f"; {damaged} with {_health_lines(damaged, uneven)}, left out of the comb" if damaged else "")
                         + ")")
     # a declared PWM the data do not show: both sources read lines that may be the PWM's (sync.pwm_unseen)
     unseen = sync.pwm_unseen(raw)

@@ -55,14 +55,16 @@ HEALTH_FAULT_MIN_LINES = 2
 #: on the twin, between the healthy windows' largest and a worn segment's (+10 % of the loop resistance) smallest
 #: (hpddo.studies.ripple_line, docs/figures/ripple_line.json: each case's percentiles)
 HEALTH_ROT2_MAX = 0.012
-#: ... but up to this, the line does not tell a worn bar from coils a few % unequal, as a healthy motor's are, nor from
-#: a smooth modulation twice a revolution (an eccentric or asymmetric rotor): on the independent commutator
-#: simulation (studies/commutator.py, coils' resistance and EMF 1-3 % sd apart, no fault) the synchronous benches'
-#: comb windows read 0.005-0.056, over the twin's worn segment (+10 % of the loop resistance: 0.007 at 1 %, 0.028
-#: median); the twin's damaged segment reads 0.065 at 1 %, 0.22 median. Between the two a window is `damaged` all the
-#: same (the twin's worn segment's even lines make the comb's spacing 2 f_rot, and its windows said "3 per revolution"
-#: wherever this line alone was let through: docs/ripple-line.md step 5), but said to be uneven
-HEALTH_ROT2_UNEVEN_MAX = 0.06
+#: ... but the line does not tell a worn bar from coils a few % unequal, as a healthy motor's are, nor from a smooth
+#: modulation twice a revolution (an eccentric or asymmetric rotor, a load that pulses twice a turn), whatever its size:
+#: on the independent commutator simulation (studies/commutator.py, coils' resistance and EMF 1-3 % sd apart, no fault)
+#: the synchronous benches' comb windows read 0.005-0.056, over the twin's worn segment (+10 % of the loop resistance:
+#: 0.007 at 1 %, 0.028 median); a capture simulator's healthy rotor modulated smoothly twice a revolution at 15-22 % of
+#: the line's amplitude read 0.03-0.073, over the twin's damaged segment's 1st percentile (0.065). So a window over
+#: HEALTH_ROT2_MAX is `damaged` all the same (not counted: the twin's worn segment's even lines make the comb's spacing
+#: 2 f_rot, and its windows said "3 per revolution" wherever this line alone was let through: docs/ripple-line.md
+#: step 5), but said to be uneven (uneven_only) unless a fault's own lines (fault_rel: edges at the commutation
+#: instants) or the once-per-revolution line say more
 #: the once-per-revolution line (eccentricity, a bent shaft, one brush's contact) is common in healthy motors:
 #: named only where it is as strong as the commutation line (healthy twin windows: 0.026 at the most)
 HEALTH_ROT1_MAX = 1.0
@@ -730,11 +732,12 @@ def damaged(rot1_rel: float, rot2_rel: float, fault: float = math.nan) -> bool:
 
 
 def uneven_only(rot1_rel: float, rot2_rel: float, fault: float = math.nan) -> bool:
-    """Whether health lines over the threshold (damaged) stay where a worn bar, coils a few % unequal and a smooth
-    modulation read alike (HEALTH_ROT2_UNEVEN_MAX): the once-per-revolution line within its bound, the twice within
-    that, and no fault's lines over theirs."""
+    """Whether health lines over the threshold (damaged) are only what a worn bar, coils a few % unequal and a smooth
+    modulation twice a revolution all make: the line at twice the rotation frequency read, the once-per-revolution
+    line within its bound, and no fault's lines over theirs (what tells a fault from a smooth modulation is where its
+    lines lie, not how strong the line twice a revolution is)."""
     return not (np.isfinite(rot1_rel) and rot1_rel > HEALTH_ROT1_MAX) and np.isfinite(rot2_rel) \
-        and rot2_rel <= HEALTH_ROT2_UNEVEN_MAX and not (np.isfinite(fault) and fault > HEALTH_FAULT_MAX)
+        and not (np.isfinite(fault) and fault > HEALTH_FAULT_MAX)
 
 
 UNEVEN = ("an uneven commutator: the line at twice the rotation frequency is strong against the commutation line, "
