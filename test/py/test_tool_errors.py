@@ -125,6 +125,11 @@ def test_a_table_split_one_log_per_voltage_too_short_says_to_put_its_rows_into_o
     err = capsys.readouterr().err
     assert "dyno12V.csv" in err and "only 7 usable rows" in err and "put its rows into one log" in err
     assert not (tmp_path / "o").exists()
+    # ... and where the table declares no kind but a made-up clock, read as a table from its rows (dataset.kind)
+    log.write_text("# condition=dyno12V\n# sample_rate_hz=1\n# ra_ohm=2\nt_s,duty,v_V,i_A,rpm_ref\n"
+                   + "".join(f"{k}.0,1.000,12.00,{0.2 + 0.1 * k:.3f},{300 - 5 * k}\n" for k in range(7)))
+    assert gen_weights.main([str(log), "--out", str(tmp_path / "o"), "--quiet"]) == 1
+    assert "put its rows into one log" in capsys.readouterr().err
 
 
 def _dyno_48v(path, declared: str = ""):

@@ -292,11 +292,13 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
         raise benchlog.BenchLogError(path, int(lines[k]), f"{why}; the board marks such a sample invalid and no "
                                      f"model is fitted to it ({len(outside)} such row(s)): correct the row(s), or "
                                      "let the glitch filter remove them (drop --no-glitch-filter)")
+    # a table of settled points, declared or as its rows read (kind)
+    table = kind(Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df, removed=[],
+                           n_train=0))[0] == "steady_state"
     if glitch_filter:
         bad, reasons = glitch_mask(df)
         misread = {}
-        if kind(Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df, removed=[],
-                          n_train=0))[0] == "steady_state":
+        if table:
             misread = {k: why for k, why in table_misreads(df).items() if not bad[k]}
             for k, why in misread.items():
                 bad[k], reasons[k] = True, why
@@ -328,7 +330,8 @@ def load_recording(path, train_fraction: float = TRAIN_FRACTION, glitch_filter: 
                                      + ("; a table of settled points split one log per supply voltage or load: put its "
                                         "rows into one log, the voltage and the load as columns (a table is scored "
                                         "across all its rows; docs/diagnose-table.md)"
-                                        if meta.get("kind") == "steady_state" or "sample_rate_hz" not in meta else ""))
+                                        if table or meta.get("kind") == "steady_state" or "sample_rate_hz" not in meta
+                                        else ""))
     n_train = int(np.floor(train_fraction * len(df)))
     return Recording(name=log.condition, source=pathlib.Path(path), meta=meta, df=df,
                      removed=removed, n_train=n_train, rows_in_file=rows_in_file, warnings=warnings,
