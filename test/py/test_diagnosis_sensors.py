@@ -117,3 +117,15 @@ def test_a_fast_recording_whose_residual_follows_the_dynamics_says_so(tmp_path):
     assert core.NOTHING not in res["verdict"] and "No library effect explains" not in res["verdict"]
     bundled = run([ROOT / "data" / "default" / f"{n}.csv" for n in ("load", "long", "sweep")]).to_json()
     assert "motor's dynamics" not in bundled["verdict"]
+
+
+def test_a_channel_held_at_one_level_in_every_recording_has_its_zero_said_as_not_counted():
+    """A dyno table as users convert one, a log per supply voltage with the voltage fixed in each: no recording
+    shows the voltage's step, so no error of its zero is counted; the sentence said "the voltage's zero within 0 V
+    (2 of its steps ...)", a tolerance that reads as measured. It says what is taken and why, and asks for it."""
+    from hpddo.diagnosis import intervals
+
+    cal = dict(intervals.DEFAULT_CAL_REL)
+    said = intervals.sensors_text(cal, [], {"v": (0.0, "steps"), "i": (2e-4, "steps")}, False)
+    assert "within 0 V" not in said and "the voltage's zero as exact (no recording shows two levels of it" in said
+    assert "the current's zero within 0.0002 A (2 of its steps" in said and "v_zero_V" in said, said

@@ -374,6 +374,10 @@ def sensors_text(cal: dict, declared, zeros: dict, steps_declared: bool) -> str:
         if src == "model":
             parts.append(f"{what} from the offset the model fits")
             continue
+        if src == "steps" and not z > 0:  # (zero_tolerance: no step known, so no zero error counted)
+            parts.append(f"{what} as exact (no recording shows two levels of it, as a supply held fixed in each does, "
+                         "and no log declares its step: no error of its zero is counted)")
+            continue
         how = ZERO_FROM[src] + (("; the steps " + ("as the logs declare them" if steps_declared else "as the rows show "
                                                    "them: their grid, else the decimals written")) if src == "steps" else "")
         parts.append(f"{what} within {z:.3g} {units[a]} ({how})")
