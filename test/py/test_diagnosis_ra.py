@@ -49,6 +49,12 @@ def test_wrong_ra_alone_names_no_effect_and_reports_the_supported_ra(root, seed,
     else:
         assert f"--ra-ohm {fit['supported_ohm']:.3g}" in res["verdict"], res["verdict"]
     assert "ra_mismatch" in [s["effect"] for s in res["steps"]]
+    # Ke's check is made at the Ra the data support, where the wrong reading's held-out errors say nothing of eq. 20
+    # (an independent bench, Ra 12 % high: "Ke by eq. 20 (0.4) and by least squares (0.4, -0.01 %) disagree ... a
+    # biased Ke"): a disagreement only where the two Ke themselves are apart
+    ke = res["ke_check"]
+    assert ke["at_reading"] is False and ke["ra_ohm"] == pytest.approx(fit["supported_ohm"]), ke
+    assert ke["biased"] is False and ke["disagree"] == (ke["apart"] and abs(ke["eq20"][0] / ke["lsq"][0] - 1) >= 0.02)
     # the corrected Ra brings the physics error down to the effect-free bench's
     ok = run(bench_dir(root, "ideal", {}, seed), RA_TRUE)
     assert res["rmse_rpm"]["after"]["average"] <= 1.05 * ok["rmse_rpm"]["before"]["average"]

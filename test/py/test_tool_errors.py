@@ -390,3 +390,21 @@ def test_no_progress_bar_goes_into_a_redirected_log(tmp_path):
     assert res.returncode == 0, res.stderr
     assert "\r" not in res.stderr and "epoch/s" not in res.stderr, res.stderr[:500]
     assert "RMSE" in res.stdout
+
+
+def test_a_reader_that_leaves_the_pipe_ends_the_command_without_a_traceback(monkeypatch, capsys):
+    """`hpddo diagnose ... | head`: the reader left after the first line, and the next print raised BrokenPipeError
+    out of the command as a traceback (its files were whole). It ends with 141, as a shell reports it, and no text."""
+    import argparse
+    import types
+
+    from hpddo import cli
+
+    def run(args):
+        raise BrokenPipeError(32, "Broken pipe")
+
+    fake = types.SimpleNamespace(parser=lambda prog: argparse.ArgumentParser(prog=prog), run=run)
+    monkeypatch.setattr(cli, "_module", lambda name: fake)
+    assert cli.run("diagnose", []) == cli.BROKEN_PIPE_STATUS
+    out = capsys.readouterr()
+    assert "Traceback" not in out.err + out.out

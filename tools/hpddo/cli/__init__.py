@@ -91,6 +91,27 @@ def run(name: str, argv=None) -> int:
         signum = exc.signum if isinstance(exc, interrupt.Interrupted) else interrupt.SIGINT
         print(interrupt.stopped_line(f"hpddo {name}", interrupt.NAMES[signum]), file=sys.stderr)
         return interrupt.STATUS[signum]
+    except BrokenPipeError:
+        # the reader of the standard output went away (`hpddo diagnose ... | head`): nothing more is printed, and no
+        # traceback; the command's files are whole (each is written aside and renamed into place) or not there
+        _quiet_stdout()
+        return BROKEN_PIPE_STATUS
+
+
+BROKEN_PIPE_STATUS = 141  # 128 + SIGPIPE, as a shell reports a command its pipe's reader left
+
+
+def _quiet_stdout() -> None:
+    """The standard output pointed at the null device: the interpreter's own flush at exit would raise again."""
+    import os
+
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # (a captured stream: nothing to point elsewhere)
+        return
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, fd)
+    os.close(devnull)
 
 
 def top_parser() -> argparse.ArgumentParser:
