@@ -11,7 +11,7 @@ from conftest import ROOT
 import twin_benches
 
 from hpddo.cli import diagnose as diagnose_cli
-from hpddo.diagnosis import core
+from hpddo.diagnosis import core, noise
 from hpddo.twin import generate
 
 RATE_HZ = 50.0
@@ -51,8 +51,8 @@ def test_a_coarse_encoder_sets_the_noise_floor_and_each_part_is_shown(coarse, tm
     # undeclared, the speed's step is read off its rows, as a rounding (q^2 / 12): the declared encoder's two
     # window ends (q^2 / 6) below
     q = 60.0 / (cpr / RATE_HZ)  # one count per window, RPM
-    assert list(before["sensors_rpm"]) == ["speed resolution (its step as the rows show it)"]
-    assert before["sensors_rpm"]["speed resolution (its step as the rows show it)"] == pytest.approx(
+    assert list(before["sensors_rpm"]) == [noise.SPEED_GRID_PART]
+    assert before["sensors_rpm"][noise.SPEED_GRID_PART] == pytest.approx(
         q / math.sqrt(12.0), rel=0.02)
     d = run([meta])
     res = d.to_json()

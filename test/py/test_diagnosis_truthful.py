@@ -925,3 +925,14 @@ def test_a_warm_up_pair_of_copper_and_magnets_is_found_after_other_steps():
     assert magnets.params["ke_tc_per_K"] == pytest.approx(truth["effects"]["magnet"], abs=0.0004), magnets
     rm = res.to_json()["rmse_rpm"]
     assert rm["after"]["average"] < 0.5 < rm["before"]["average"], rm
+
+
+@pytest.mark.parametrize("x,said", [(1.08, "about 1.1 times"), (3.456, "about 3.5 times"), (10.2, "about 10 times"),
+                                    (123.4, "about 123 times")])
+def test_how_much_more_data_would_separate_a_pair_is_written_with_its_digits(x, said):
+    """"about 1 times as much of it would tell them apart" (z = 2.4 against 2.5, a fuzzing round's table)."""
+    from hpddo.diagnosis import verdict
+    from hpddo.diagnosis.result import ConfoundedPair
+
+    pair = ConfoundedPair(["brush_drop", "v_offset"], "coasting", 0.9, z_apart=2.4, more_data_x=x)
+    assert said in verdict._pair_sentence(pair), verdict._pair_sentence(pair)

@@ -200,6 +200,11 @@ def rpm_per_reading(p) -> dict:
     return {"v": per_v, "i": p.ra_ohm * per_v}
 
 
+#: the part of an undeclared speed grid: its step q as the rows show it, read as a rounding (q^2 / 12); the figure
+#: shown is its RMS, not the step (a fuzzing round's "(its step as the rows show it) 4.47 RPM" on rows 15.5 RPM apart)
+SPEED_GRID_PART = "speed rounding (the rows' grid step / sqrt 12)"
+
+
 def sensors(recs, rows, p) -> dict:
     """{part: variance RPM^2} of the speed error that the sensors' resolution alone gives, from
     each recording's metadata (dataset.sensor_meta), pooled over the labelled rows: the
@@ -223,7 +228,7 @@ def sensors(recs, rows, p) -> dict:
             # undeclared 62.5 RPM a count read as a residual 263x the floor that no effect explains)
             q = dataset.grid_step(r.ref[m])
             if q > 0:
-                parts["speed resolution (its step as the rows show it)"] = q * q / 12.0
+                parts[SPEED_GRID_PART] = q * q / 12.0
         per = rpm_per_reading(p)
         if meta.get("v_lsb_V"):
             parts["voltage resolution"] = (meta["v_lsb_V"] * per["v"]) ** 2 / 12.0
