@@ -936,3 +936,21 @@ def test_how_much_more_data_would_separate_a_pair_is_written_with_its_digits(x, 
 
     pair = ConfoundedPair(["brush_drop", "v_offset"], "coasting", 0.9, z_apart=2.4, more_data_x=x)
     assert said in verdict._pair_sentence(pair), verdict._pair_sentence(pair)
+
+
+def test_a_channel_is_the_boards_so_a_recording_that_holds_it_still_is_no_fault_of_it():
+    """ideal5mA (fuzz round 8's S04: nothing missing, the current in 4.9 mA steps): the no-load sweep moves the
+    current over 16 steps, the load steps beside it over hundreds; "the current channel of sweep is too coarse ...
+    Ra and every effect that acts through the current cannot be concluded from it" was said of a channel that
+    resolves the motor. Alone, the sweep's channel is still too coarse for what it shows."""
+    from hpddo.diagnosis import channels
+
+    d, logs, truth = _fixture("ideal5mA")
+    res = diagnose(logs, truth["ra_given"])
+    assert not [f for f in res.to_json()["channels"] if f["fault"] == "too coarse"], res.verdict
+    assert res.missing_effects == [] and res.verdict.startswith("Nothing missing"), res.verdict
+    assert not res.ra_fit.mismatch
+    check_truthful(res)
+    inp = core.load([d / "sweep.csv"], core.Options(ra_ohm=truth["ra_given"]))
+    alone = channels.check(inp.recs, inp.rows, 1.0)
+    assert [(f.channel, f.fault) for f in alone] == [("current", "too coarse")], alone

@@ -442,7 +442,9 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
     return mask, said
 
 
-def _faults(rec, r, sigma2: float) -> list:
+def _faults(rec, r, sigma2: float, moved: dict | None = None) -> list:
+    """The faults of one recording's channels; moved: {channel: the most levels any recording of the run moves it
+    over} (check), else this recording's own."""
     driven = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i)
     if driven.sum() < SATURATED_MIN_ROWS:
         return []
@@ -469,7 +471,8 @@ def _faults(rec, r, sigma2: float) -> list:
         step = _step(meta, lsb_key, levels)
         span = float(np.ptp(x))
         # too coarse for the range its commands move it over (one command: its range is its noise)
-        if commands >= SATURATED_COMMANDS and step > 0 and span > 0 and span / step < COARSE_LEVELS:
+        most = max(span / step if step > 0 else 0.0, (moved or {}).get(name, 0.0))
+        if commands >= SATURATED_COMMANDS and step > 0 and span > 0 and most < COARSE_LEVELS:
             out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
                                     f"{span / step:.0f} levels"))
             continue  # a coarse channel repeats its extremes as it repeats every level
@@ -505,5 +508,26 @@ def _faults(rec, r, sigma2: float) -> list:
 
 
 def check(recs, rows, sigma2: float) -> list:
-    """[ChannelFault] over the recordings (rows: effects.Rows of each; sigma2: the noise floor)."""
-    return [f for rec, r in zip(recs, rows) for f in _faults(rec, r, sigma2)]
+    """[ChannelFault] over the recordings (rows: effects.Rows of each; sigma2: the noise floor). A channel is the
+    board's, not a recording's: it is too coarse only where no recording of the run moves it over COARSE_LEVELS of
+    its steps (levels_moved); one that does shows the channel resolves the motor, and a recording that holds it within
+    a few steps (a sweep at no load, its current the friction's alone) holds the motor still on it, no fault of the
+    channel (a fuzzing round's 4.9 mA current channel, 16 levels over a no-load sweep and hundreds over the load
+    steps beside it, was called too coarse, and the Ra the data support was set aside for it)."""
+    moved = {name: max((levels_moved(rec, r, name) for rec, r in zip(recs, rows)), default=0.0)
+             for name, _, _ in CHANNELS}
+    return [f for rec, r in zip(recs, rows) for f in _faults(rec, r, sigma2, moved)]
+
+
+def levels_moved(rec, r, name: str) -> float:
+    """How many of its steps channel `name` moves over on a recording's driven rows (its range over its step); 0
+    where it holds one value or its step is not known."""
+    driven = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i)
+    col, lsb_key = next((c, k) for n, c, k in CHANNELS if n == name)
+    x = rec.df[col].to_numpy(float)[driven]
+    x = x[np.isfinite(x)]
+    levels = np.unique(x)
+    if len(levels) < 2:
+        return 0.0
+    step = _step(dataset.sensor_meta(rec.meta, rec.source), lsb_key, levels)
+    return float(np.ptp(x) / step) if step > 0 else 0.0

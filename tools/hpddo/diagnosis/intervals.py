@@ -195,7 +195,7 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
         elif not math.isfinite(se):
             why = "the objective is flat along it: these rows do not move the speed estimate with it"
         elif lo <= phys[0] or hi >= phys[1]:
-            why = (f"its interval {_rng((lo, hi), scale, unit)} reaches outside the physical "
+            why = (f"{OUTSIDE_WHY} {_rng((lo, hi), scale, unit)} reaches outside the physical "
                    f"{_rng(phys, scale, unit)}")
         out.append(Interval(q, f, si, v, lo if math.isfinite(se) else None, hi if math.isfinite(se) else None,
                             determined=not why, why=why, needs=needs, clusters=clusters,
@@ -205,6 +205,7 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
 
 
 EDGE_WHY = "the fit stopped at the edge"
+OUTSIDE_WHY = "its interval"  # (the head of the reason of an interval that reaches outside the physical range)
 
 
 def _thermal_needs_its_node(ivs: list) -> list:
@@ -579,7 +580,10 @@ def _inside_physical(iv: "Interval", out: "Interval") -> "Interval":
     range, though iv was."""
     _, unit, scale, phys, _, _ = _describe(iv.field)
     phys = iv.physical if iv.physical is not None else phys
-    if iv.determined and (out.lo <= phys[0] or out.hi >= phys[1]):
+    # (an interval already outside on its statistical part alone says so again with the interval it now has: the
+    # report printed -0.778..-0.305 %/K in the reason beside -1.16..+0.617 %/K as the interval, a fuzzing round's)
+    again = not iv.determined and iv.why.startswith(OUTSIDE_WHY)
+    if (iv.determined or again) and (out.lo <= phys[0] or out.hi >= phys[1]):
         return dataclasses.replace(out, determined=False, why=(
             f"with its whole uncertainty budget its interval {out.lo * scale:.3g}..{out.hi * scale:.3g} {unit} "
             f"reaches outside the physical {_rng(phys, scale, unit)}"))

@@ -54,6 +54,19 @@ def ra_verdict(ra: RaFit | None, named=()) -> str:
     return text
 
 
+def _so_named(confounded, named) -> str:
+    """What is named of the effects a wrong Ra explains as well as (RaFit.confounded_with), where the reading is
+    kept: none of them, or those the verdict names all the same (a later stage named them at the reading's Ra),
+    said as such: a fuzzing round's "... so none of them is named" stood beside "Missing: magnet_thermal"."""
+    both = [e for e in confounded if e in named]
+    if not both:
+        return f"so {'neither' if len(confounded) == 1 else 'none of them'} is named"
+    rest = [e for e in confounded if e not in both]
+    return (f"and {' and '.join(both)} {'is' if len(both) == 1 else 'are'} named below at the size "
+            f"{'it takes' if len(both) == 1 else 'they take'} with the Ra you gave (with another Ra, another or none)"
+            + (f", {' and '.join(rest)} not" if rest else ""))
+
+
 def _ra_verdict(ra: RaFit | None, named=()) -> str:
     if ra is None:
         return ""
@@ -61,7 +74,7 @@ def _ra_verdict(ra: RaFit | None, named=()) -> str:
         if not ra.confounded_with:
             return ""
         return (f"An error proportional to the current remains that a wrong Ra explains as well as "
-                f"{' or '.join(ra.confounded_with)}, so none of them is named; whether the Ra you gave "
+                f"{' or '.join(ra.confounded_with)}, {_so_named(ra.confounded_with, named)}; whether the Ra you gave "
                 f"({ra.given_ohm:.3g} ohm) is right cannot be told: Ra is not determined "
                 f"by these recordings{_with(ra)} ({ra.data.why}); the effects were looked for with the reading. What would "
                 f"determine Ra: {ra.data.needs}; to separate them: {ranking.RA_SEPARATOR}.")
@@ -91,8 +104,7 @@ def _ra_verdict(ra: RaFit | None, named=()) -> str:
     alone = f" ({_alone(ra)})" if ra.data is not None else ""
     if not ra.mismatch:
         return (f"An error proportional to the current remains that a wrong Ra{alone} explains as well as "
-                f"{' or '.join(ra.confounded_with)}, so "
-                f"{'neither' if len(ra.confounded_with) == 1 else 'none of them'} is named; to separate them: "
+                f"{' or '.join(ra.confounded_with)}, {_so_named(ra.confounded_with, named)}; to separate them: "
                 f"{ranking.RA_SEPARATOR}.")
     if ra.confounded_with:
         # an instruction only where it holds across the models that explain the rows about as well: with
