@@ -954,3 +954,27 @@ def test_a_channel_is_the_boards_so_a_recording_that_holds_it_still_is_no_fault_
     inp = core.load([d / "sweep.csv"], core.Options(ra_ohm=truth["ra_given"]))
     alone = channels.check(inp.recs, inp.rows, 1.0)
     assert [(f.channel, f.fault) for f in alone] == [("current", "too coarse")], alone
+
+
+def test_the_ra_sentence_says_which_of_the_effects_a_wrong_ra_stands_in_for_are_named_all_the_same():
+    """Fuzz round 8's S07: "a wrong Ra explains as well as magnet_thermal or v_gain or current_offset_drift, so none
+    of them is named" beside "Missing: magnet_thermal"."""
+    from hpddo.diagnosis import verdict
+
+    said = verdict._so_named(["magnet_thermal", "v_gain", "current_offset_drift"], ["magnet_thermal"])
+    assert "none of them is named" not in said and said.startswith("and magnet_thermal is named below"), said
+    assert said.endswith("v_gain and current_offset_drift not"), said
+    assert verdict._so_named(["v_gain"], []) == "so neither is named"
+    assert verdict._so_named(["v_gain", "v_offset"], ["brush_drop"]) == "so none of them is named"
+
+
+def test_an_interval_outside_the_physical_range_says_so_with_the_interval_it_states():
+    """Fuzz round 8's S07: the reason quoted the statistical interval (-0.778..-0.305 %/K) where the report stated
+    the interval with its whole budget (-1.16..+0.617 %/K)."""
+    iv = intervals.Interval("magnet_thermal", "ke_tc_per_K", "1/K", -0.0054, -0.0078, -0.0031, False,
+                            why="its interval -0.778..-0.305 %/K reaches outside the physical -0.7..0 %/K",
+                            show_scale=100.0, show_unit="%/K", physical=(-0.007, 0.0))
+    out = intervals._inside_physical(iv, dataclasses.replace(iv, lo=-0.0116, hi=0.00617))
+    assert not out.determined and "-1.16..0.617 %/K" in out.why and "-0.778" not in out.why, out.why
+    edge = dataclasses.replace(iv, why=intervals.EDGE_WHY + " of the range allowed")  # another reason: kept
+    assert intervals._inside_physical(edge, dataclasses.replace(edge, lo=-0.0116)).why == edge.why
