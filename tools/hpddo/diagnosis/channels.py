@@ -442,9 +442,9 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
     return mask, said
 
 
-def _faults(rec, r, sigma2: float, moved: dict | None = None) -> list:
+def _faults(rec, r, sigma2: float, moved: dict) -> list:
     """The faults of one recording's channels; moved: {channel: the most levels any recording of the run moves it
-    over} (check), else this recording's own."""
+    over, this one's among them} (check)."""
     driven = (r.duty > 0) & np.isfinite(r.v) & np.isfinite(r.i)
     if driven.sum() < SATURATED_MIN_ROWS:
         return []
@@ -471,8 +471,7 @@ def _faults(rec, r, sigma2: float, moved: dict | None = None) -> list:
         step = _step(meta, lsb_key, levels)
         span = float(np.ptp(x))
         # too coarse for the range its commands move it over (one command: its range is its noise)
-        most = max(span / step if step > 0 else 0.0, (moved or {}).get(name, 0.0))
-        if commands >= SATURATED_COMMANDS and step > 0 and span > 0 and most < COARSE_LEVELS:
+        if commands >= SATURATED_COMMANDS and step > 0 and span > 0 and moved[name] < COARSE_LEVELS:
             out.append(ChannelFault(rec.name, name, "too coarse", f"steps of {step:.3g} over a range of {span:.3g}: "
                                     f"{span / step:.0f} levels"))
             continue  # a coarse channel repeats its extremes as it repeats every level

@@ -37,15 +37,19 @@ def window_comb(bursts, k: int, opts):
     return found, comb, res, bad
 
 
+def _health_word(damaged: int, uneven: int) -> str:
+    """What the `damaged` windows left out of the comb are called, `uneven` of them only for the line twice a
+    revolution (comb.uneven_only), which a healthy motor's may be too."""
+    return ("uneven or damaged" if uneven < damaged else "uneven") if uneven else "damaged"
+
+
 def _health_lines(damaged: int, uneven: int) -> str:
-    """What the health lines of the `damaged` windows left out of the comb say, `uneven` of them only that the line
-    twice a revolution is strong (comb.uneven_only), which a healthy motor's may be too."""
+    """The statement's words on those windows' lines (_health_word, and why an uneven one is no fault named)."""
+    word = _health_word(damaged, uneven)
     if not uneven:
-        return "a damaged commutator's lines"
+        return f"a {word} commutator's lines"
     why = "a worn bar, coils a few % unequal or a smooth modulation twice a revolution, which that line does not tell apart"
-    if uneven < damaged:
-        return f"an uneven or damaged commutator's lines ({uneven} uneven: {why})"
-    return f"an uneven commutator's lines ({why})"
+    return f"an {word} commutator's lines ({f'{uneven} uneven: ' if uneven < damaged else ''}{why})"
 
 
 #: calibrate with an encoder: a window's line within this share of a whole number of ripples per revolution
@@ -109,7 +113,7 @@ def calibrate(bursts, duty, opts, rpm_ref=None) -> dict:
                     enc_m[int(whole)] += 1
     out = {"driven_windows": driven, "damaged_windows": damaged, "uneven_windows": uneven,
            "rotation_line_windows": rotation}
-    health = ("uneven or damaged" if uneven < damaged else "uneven") if uneven else "damaged"
+    health = _health_word(damaged, uneven)
     said = []
     for name, counts, how in (("comb", comb_m, "the comb of rotation lines"),
                               ("encoder", enc_m, "the strongest line against the encoder's speed")):
