@@ -978,3 +978,31 @@ def test_an_interval_outside_the_physical_range_says_so_with_the_interval_it_sta
     assert not out.determined and "-1.16..0.617 %/K" in out.why and "-0.778" not in out.why, out.why
     edge = dataclasses.replace(iv, why=intervals.EDGE_WHY + " of the range allowed")  # another reason: kept
     assert intervals._inside_physical(edge, dataclasses.replace(edge, lo=-0.0116)).why == edge.why
+
+
+
+def _other_motors(folder: str, ra_ohm: float) -> tuple:
+    paths = sorted((ROOT / "test" / "fixtures" / "independent" / folder).glob("*.csv"))
+    inp = core.load(paths, core.Options(ra_ohm=ra_ohm))
+    return inp, core.fit_model(inp).sigma2
+
+
+def test_a_warm_up_of_the_same_motor_is_not_another_motor(monkeypatch):
+    """core.other_motors on an independent simulator's bench (test/fixtures/independent/warm05, its README): the long
+    run's winding 30 K warmer than the others', no temperature column, so its rows lie within the others' range; its
+    own Ke, 1.07 times theirs, takes up most of the others' model's miss, and it was called another motor and left
+    out of the ranking. The copper's heating fitted on every recording removes as much (core.same_motor_explains)."""
+    inp, sigma2 = _other_motors("warm05", 13.26)
+    assert core.other_motors(inp, sigma2) == []
+    monkeypatch.setattr(core, "same_motor_explains", lambda *a, **k: False)
+    assert [o.unit.name for o in core.other_motors(inp, sigma2)] == ["long"]  # what it was without the check
+
+
+def test_another_motors_sweep_is_named_against_the_model_its_ke_is_fitted_beside():
+    """core.other_motors on an independent simulator's bench (test/fixtures/independent/other17, its README): the
+    sweep is of another motor (Ke +9 %). Its own Ke leaves 5.1 RPM of the others' model's (Ra free) 52.6, but the
+    share was judged against consistency's miss with Ra held (9.4 RPM) and it went unnamed."""
+    inp, sigma2 = _other_motors("other17", 9.079)
+    named = core.other_motors(inp, sigma2)
+    assert [o.unit.name for o in named] == ["sweep"]
+    assert 1.05 < named[0].ke_ratio < 1.15, named[0].ke_ratio

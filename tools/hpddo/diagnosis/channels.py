@@ -333,10 +333,11 @@ def _saturated(x: np.ndarray, command: np.ndarray, step: float = 0.0, balance=No
 TRUNCATED_SD = 4.0  # rows this many noise standard deviations from a clipping edge are its truncated sample
 
 
-def _step(meta: dict, lsb_key: str, levels: np.ndarray) -> float:
+def _step(meta: dict, lsb_key: str, levels: np.ndarray, readings: int = 0) -> float:
     """A channel's step: the declared resolution, else the grid its values lie on (levels: its distinct
-    values, two or more): the smallest step between them where they lie on its grid above the lowest
-    (dataset.on_grid: a converter's codes, whatever its offset), else the
+    values, two or more, of `readings` readings): the smallest step between them where they lie on its
+    grid above the lowest (dataset.on_grid: a converter's codes, whatever its offset; refitted,
+    dataset.refined_step, where they are written with fewer decimals than the step has), else the
     resolution the values are written with (written_step). A table's settled means lie on no grid, and
     their smallest step is between two loads: an independent bench's loads 0.27 A apart, logged to 1 uA,
     were taken for the current's step, its zero's doubt 0.545 A, and a 0.8 V brush drop went unnamed."""
@@ -345,7 +346,19 @@ def _step(meta: dict, lsb_key: str, levels: np.ndarray) -> float:
     step = float(np.min(np.diff(levels)))
     if len(levels) <= 2 or not step > 0:
         return step
-    return step if dataset.on_grid(levels, step, levels[0]) else written_step(levels)
+    if dataset.on_grid(levels, step, levels[0]):
+        return step
+    # a converter's codes written with fewer decimals: refitted where enough levels make a grid no chance gives
+    # (a few settled means fit some grid once its step is fitted to them) and the readings come back to them (a
+    # converter reads each code again and again; a table's settled means, of loads evenly spaced, are each read
+    # once, and their spacing is no step)
+    refit = len(levels) >= GRID_REFIT_LEVELS and readings >= GRID_REFIT_REPEATS * len(levels)
+    fitted = dataset.refined_step(levels, step, levels[0]) if refit else 0.0
+    return fitted if fitted > 0 and dataset.on_grid(levels, fitted, levels[0]) else written_step(levels)
+
+
+GRID_REFIT_LEVELS = 8   # (_step)
+GRID_REFIT_REPEATS = 2  # (_step: readings per level)
 
 
 WRITTEN_DECIMALS = 12  # at most this many decimals are looked for (written_step)
@@ -377,9 +390,10 @@ def steps(rec, r) -> dict:
     meta = dataset.sensor_meta(rec.meta, rec.source)
     out = {}
     for name, col, lsb_key in CHANNELS:
-        levels = np.unique(rec.df[col].to_numpy(float)[driven])
-        levels = levels[np.isfinite(levels)]
-        out[ROW_ATTR[name]] = float(_step(meta, lsb_key, levels)) if meta.get(lsb_key) or len(levels) > 1 else 0.0
+        x = rec.df[col].to_numpy(float)[driven]
+        x = x[np.isfinite(x)]
+        levels = np.unique(x)
+        out[ROW_ATTR[name]] = float(_step(meta, lsb_key, levels, len(x))) if meta.get(lsb_key) or len(levels) > 1 else 0.0
     return out
 
 
@@ -421,7 +435,7 @@ def clipped(rec, r) -> tuple[np.ndarray, list]:
             continue
         command_all = _command_rows(r, load, name)
         command = command_all[driven]
-        step = _step(meta, lsb_key, levels)
+        step = _step(meta, lsb_key, levels, len(x))
         fine = np.ptp(x) / step >= COARSE_LEVELS
         balance = implied(r, name, command_all).take(driven)
         hold = _holds(command)
@@ -468,7 +482,7 @@ def _faults(rec, r, sigma2: float, moved: dict) -> list:
         command_all = _command_rows(r, load, name)
         command = command_all[driven]
         commands = len(np.unique(command, axis=0))
-        step = _step(meta, lsb_key, levels)
+        step = _step(meta, lsb_key, levels, len(x))
         span = float(np.ptp(x))
         # too coarse for the range its commands move it over (one command: its range is its noise)
         if commands >= SATURATED_COMMANDS and step > 0 and span > 0 and moved[name] < COARSE_LEVELS:
@@ -528,5 +542,5 @@ def levels_moved(rec, r, name: str) -> float:
     levels = np.unique(x)
     if len(levels) < 2:
         return 0.0
-    step = _step(dataset.sensor_meta(rec.meta, rec.source), lsb_key, levels)
+    step = _step(dataset.sensor_meta(rec.meta, rec.source), lsb_key, levels, len(x))
     return float(np.ptp(x) / step) if step > 0 else 0.0

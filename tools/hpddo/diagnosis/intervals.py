@@ -201,10 +201,32 @@ def intervals(rows, groups_per_rec, p: ph.PhysicsParams, fields, bounds: dict | 
                             determined=not why, why=why, needs=needs, clusters=clusters,
                             method=method, show_scale=scale, show_unit=unit, physical=phys,
                             budget={"statistical": se} if math.isfinite(se) else {}))
-    return _thermal_needs_its_node(_sizes_of_unfixed_forms(out, p, bounds))
+    return _thermal_needs_its_node(_sizes_of_unfixed_forms(_node_within_insulation(out, rows, p), p, bounds))
 
 
 EDGE_WHY = "the fit stopped at the edge"
+
+
+def _node_within_insulation(ivs: list, rows, p: ph.PhysicsParams) -> list:
+    """ivs with the winding node's thermal resistance not determined (an edge, EDGE_WHY, so that
+    _thermal_needs_its_node takes the thermal coefficients and Ra with it) where p's node holds the winding at
+    the hottest insulation class's limit (physics.WINDING_MAX_C, where the node's rise is held) on some row: the
+    fit then uses the limit as a plateau of the resistance, a heating no winding survives, and the node's value
+    inside its range is not what the data say (an independent probe's large motor with a brush drop: the data-
+    alone fit held the winding at the limit on most rows with 80 K/W and put Ra at 0.239 ohm, 0.158..0.287,
+    against the motor's 0.35; its node's own interval, reaching past the range, had said only that)."""
+    if not p.thermal_enabled() or not any(iv.field == "th_r_K_per_W" for iv in ivs):
+        return ivs
+    hot = total = 0
+    for r in rows:
+        w = np.asarray(fx.temperature(r, p).winding_C, float)
+        hot += int(np.count_nonzero(w >= ph.WINDING_MAX_C - 1e-6))
+        total += w.size
+    if not hot:
+        return ivs
+    why = (f"{EDGE_WHY} of what a winding survives: the node holds the winding at {ph.WINDING_MAX_C:g} C, the "
+           f"hottest insulation class's limit, on {hot} of {total} rows, a heating traded for the other terms")
+    return [dataclasses.replace(iv, determined=False, why=why) if iv.field == "th_r_K_per_W" else iv for iv in ivs]
 OUTSIDE_WHY = "its interval"  # (the head of the reason of an interval that reaches outside the physical range)
 
 

@@ -330,14 +330,20 @@ class RaFit:
         half = self.data.half_without_models
         return abs(self.data.value - self.given_ohm) <= (band * band + half * half) ** 0.5
 
+    @property
+    def supported_at_bound(self) -> bool:
+        """The fit with the prior stopped at its range (a third or three times the reading):
+        supported_ohm is then that edge, not a value the data support."""
+        return bool(min(abs(self.supported_ohm - self.given_ohm / 3.0),
+                        abs(self.supported_ohm - 3.0 * self.given_ohm)) <= 1e-6 * self.given_ohm)
+
     def to_json(self) -> dict:
         return {"given_ohm": self.given_ohm, "supported_ohm": self.supported_ohm, "tolerance": self.tolerance,
                 "sigmas": self.sigmas, "mismatch": bool(self.mismatch), "inclusion": self.inclusion,
                 "confounded_with": list(self.confounded_with), "determined": bool(self.determined),
                 # the fit with the prior stopped at its range (a third or three times the reading):
                 # supported_ohm is then that edge, not a value the data support
-                "supported_at_bound": bool(min(abs(self.supported_ohm - self.given_ohm / 3.0),
-                                               abs(self.supported_ohm - 3.0 * self.given_ohm)) <= 1e-6 * self.given_ohm),
+                "supported_at_bound": self.supported_at_bound,
                 "data_alone": self.data.to_json() if self.data is not None else None,
                 "residual_left": bool(self.residual_left), "stand_ins": dict(self.stand_ins),
                 "statement": ra_statement(self)}

@@ -95,11 +95,21 @@ def _ra_verdict(ra: RaFit | None, named=()) -> str:
                     "library effect explains (below), and a missing effect can stand in for a wrong Ra, so whether "
                     "the reading is wrong cannot be told from these recordings: check the reading (its unit, the "
                     "leads' resistance); the effects were looked for with it.")
-        return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}, "
-                f"{d.value / ra.given_ohm:.3g} times the reading, beyond what the error of a reading explains "
-                f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); the effects were looked for with the "
-                "reading and may be wrong: check the reading (its unit, the leads' resistance), or pass "
-                f"--ra-ohm {d.value:.3g} if you trust these recordings.")
+        if ra.supported_at_bound:  # the held-out test could not reach the data's Ra (its prior's range ends first)
+            return (f"The Ra you gave ({ra.given_ohm:.3g} ohm) is not what these recordings show: {_alone(ra)}, "
+                    f"{d.value / ra.given_ohm:.3g} times the reading, beyond what the error of a reading explains "
+                    f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); the effects were looked for with the "
+                    "reading and may be wrong: check the reading (its unit, the leads' resistance), or pass "
+                    f"--ra-ohm {d.value:.3g} if you trust these recordings.")
+        # the held-out test reached the data's Ra and did not take it: the data-alone value rests on the model
+        # fitted beside it, and moving Ra does not predict the held-out rows better, so no value to pass (an
+        # independent probe's large motor, its reading right: "pass --ra-ohm 0.239" for 0.35 ohm)
+        return (f"{_alone(ra)[0].upper()}{_alone(ra)[1:]}, {d.value / ra.given_ohm:.3g} times the Ra you gave "
+                f"({ra.given_ohm:.3g} ohm), beyond what the error of a reading explains "
+                f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); but moving Ra from the reading does not "
+                "predict the held-out rows better, so that value rests on the model fitted beside it and is no Ra "
+                "to pass: whether the reading is wrong is not concluded from these recordings; the effects were "
+                f"looked for with the reading. To settle Ra: {ranking.RA_SEPARATOR}.")
     rel = ra.supported_ohm / ra.given_ohm - 1.0
     alone = f" ({_alone(ra)})" if ra.data is not None else ""
     if not ra.mismatch:
