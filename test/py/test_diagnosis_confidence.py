@@ -140,6 +140,12 @@ def test_a_residual_left_makes_no_claim_on_the_reading():
     # the data's Ra: the instruction
     edge = _ra_verdict(dataclasses.replace(ra, residual_left=False, supported_ohm=1.8 / 3.0))
     assert "pass --ra-ohm 1.1" in edge, edge
+    # ... and with a faulty current channel, neither: Ra rests on that channel (the calibration_mismatch study's
+    # bench 21, a stuck current channel, said the data-alone Ra instead)
+    from hpddo.diagnosis.verdict import ra_verdict
+    for r in (ra, dataclasses.replace(ra, supported_ohm=1.8 / 3.0)):
+        faulty = ra_verdict(dataclasses.replace(r, residual_left=False, current_fault="the current channel of x is stuck"))
+        assert faulty.startswith("Whether the Ra you gave (1.8 ohm) is right cannot be concluded"), faulty
 
 
 def test_an_effect_named_beside_the_corrected_ra_is_not_said_unnamed():

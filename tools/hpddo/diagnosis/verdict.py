@@ -47,7 +47,7 @@ def ra_verdict(ra: RaFit | None, named=()) -> str:
     faulty current channel, no instruction on Ra: what the recordings seem to say of it rests on
     the readings that channel spoils. named: the effects the verdict names."""
     text = _ra_verdict(ra, named)
-    if ra is not None and ra.current_fault and text and (ra.mismatch or "--ra-ohm" in text):
+    if ra is not None and ra.current_fault and text and (ra.mismatch or any(w in text for w in ("--ra-ohm", NO_RA_TO_PASS))):
         return (f"Whether the Ra you gave ({ra.given_ohm:.3g} ohm) is right cannot be concluded from these "
                 f"recordings: {ra.current_fault} (Channel health, below), and Ra rests on it; the effects were "
                 "looked for with the reading.")
@@ -65,6 +65,11 @@ def _so_named(confounded, named) -> str:
     return (f"and {' and '.join(both)} {'is' if len(both) == 1 else 'are'} named below at the size "
             f"{'it takes' if len(both) == 1 else 'they take'} with the Ra you gave (with another Ra, another or none)"
             + (f", {' and '.join(rest)} not" if rest else ""))
+
+
+# (the plain branch's words where the data-alone Ra is no value to pass: a faulty current channel's sentence replaces
+# them, as it does an instruction)
+NO_RA_TO_PASS = "is no Ra to pass"
 
 
 def _ra_verdict(ra: RaFit | None, named=()) -> str:
@@ -107,8 +112,8 @@ def _ra_verdict(ra: RaFit | None, named=()) -> str:
         return (f"{_alone(ra)[0].upper()}{_alone(ra)[1:]}, {d.value / ra.given_ohm:.3g} times the Ra you gave "
                 f"({ra.given_ohm:.3g} ohm), beyond what the error of a reading explains "
                 f"({ranking.RA_PLAUSIBLE_SIGMAS * ra.tolerance:.0%}); but moving Ra from the reading does not "
-                "predict the held-out rows better, so that value rests on the model fitted beside it and is no Ra "
-                "to pass: whether the reading is wrong is not concluded from these recordings; the effects were "
+                "predict the held-out rows better, so that value rests on the model fitted beside it and "
+                f"{NO_RA_TO_PASS}: whether the reading is wrong is not concluded from these recordings; the effects were "
                 f"looked for with the reading. To settle Ra: {ranking.RA_SEPARATOR}.")
     rel = ra.supported_ohm / ra.given_ohm - 1.0
     alone = f" ({_alone(ra)})" if ra.data is not None else ""
