@@ -991,7 +991,8 @@ def test_a_warm_up_of_the_same_motor_is_not_another_motor(monkeypatch):
     """core.other_motors on an independent simulator's bench (test/fixtures/independent/warm05, its README): the long
     run's winding 30 K warmer than the others', no temperature column, so its rows lie within the others' range; its
     own Ke, 1.07 times theirs, takes up most of the others' model's miss, and it was called another motor and left
-    out of the ranking. The copper's heating fitted on every recording removes as much (core.same_motor_explains)."""
+    out of the ranking. One motor with the copper's heating, fitted on every recording, leaves less on all of them
+    than the others' model with the long run's own Ke (core.same_motor_explains)."""
     inp, sigma2 = _other_motors("warm05", 13.26)
     assert core.other_motors(inp, sigma2) == []
     monkeypatch.setattr(core, "same_motor_explains", lambda *a, **k: False)

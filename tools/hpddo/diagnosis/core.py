@@ -374,7 +374,8 @@ def _other_motor(inp: Inputs, sigma2: float, u: Unit, outside: bool) -> OtherMot
     miss_in = _mse(inp.rows[k], p_rest, judged)
     if not _mse(inp.rows[k], p_own, judged) <= (1.0 - OTHER_MOTOR_SHARE) * miss_in:
         return None
-    if same_motor_explains(inp, k, judged, fx.NAMES if outside else THERMAL):
+    split = _sse(inp.rows[k], p_own, judged) + sum(_sse(r, p_rest, _labelled(r)) for j, r in enumerate(inp.rows) if j != k)
+    if same_motor_explains(inp, k, judged, fx.NAMES if outside else THERMAL, split):
         return None
     if u.inconsistent and miss_in > CONSIST_X ** 2 * max(u.others_rpm ** 2, sigma2):
         return OtherMotor(u, float(ratio), math.sqrt(mse_own))
@@ -396,18 +397,14 @@ def _other_motor(inp: Inputs, sigma2: float, u: Unit, outside: bool) -> OtherMot
 THERMAL = tuple(e.name for e in schema.EFFECTS if e.thermal)
 
 
-def same_motor_explains(inp: Inputs, k: int, mask: np.ndarray, effects) -> bool:
-    """Whether one effect of `effects` that the motor may have, fitted on every recording with recording k among
-    them (Ra free, the copper's coefficient held), leaves at most 1 - OTHER_MOTOR_SHARE of what the same model
-    without it leaves on k's rows in mask, the share another motor's Ke must remove: the same motor, not another
-    one. (Both fitted on every recording: a model fitted with k's rows in it fits them better than the others'
-    alone, effect or not.) A long run that heats the winding 35..72 K above the others was called another motor
-    (its Ke 1.07..1.14 times theirs) and left out of the ranking in a fuzzing round; another motor's Ke scales its
-    speed at every current, which no effect shared by every recording does for one alone."""
-    try:
-        base = _mse(inp.rows[k], ranking.fit_ra_free(inp.rows, inp.m2, inp.given), mask)
-    except Exception:  # noqa: BLE001 (no model of them all: nothing to compare with)
-        return False
+def same_motor_explains(inp: Inputs, k: int, mask: np.ndarray, effects, split: float) -> bool:
+    """Whether one motor with one effect of `effects` explains every recording as well as another motor does: fitted
+    on every recording (Ra free, the copper's coefficient held), its squared error over recording k's rows in mask
+    and the others' labelled rows at most `split`, the same sum for the others' model on their rows and recording
+    k's own Ke on its rows (the hypothesis that k is another motor). A long run that heats the winding 35..72 K above
+    the others was called another motor (its Ke 1.07..1.14 times theirs) and left out of the ranking in a fuzzing
+    round; one motor with the copper's heating left less on all of them than the split did. Another motor's Ke
+    scales its speed at every current, which no effect shared by every recording does for one alone."""
     for e in effects:
         if e in inp.given:
             continue
@@ -415,9 +412,18 @@ def same_motor_explains(inp: Inputs, k: int, mask: np.ndarray, effects) -> bool:
             p = ranking.fit_ra_free(inp.rows, inp.m2, [*inp.given, e])
         except Exception:  # noqa: BLE001 (an effect that cannot be fitted explains nothing)
             continue
-        if _mse(inp.rows[k], p, mask) <= (1.0 - OTHER_MOTOR_SHARE) * base:
+        if _sse(inp.rows[k], p, mask) + sum(_sse(r, p, _labelled(r)) for j, r in enumerate(inp.rows) if j != k) <= split:
             return True
     return False
+
+
+def _sse(r, p: ph.PhysicsParams, mask: np.ndarray) -> float:
+    e = (r.ref - fx.predict(r, p))[mask]
+    return float(np.sum(e[np.isfinite(e)] ** 2))
+
+
+def _labelled(r) -> np.ndarray:
+    return (r.train | r.test) & np.isfinite(r.ref)
 
 
 # The share of a recording's rows that must lie within the others' operating range for it to be
