@@ -107,23 +107,70 @@ def repeats(rows, res) -> tuple[np.ndarray, list, int]:
     """(differences, where, copies) of the residual res between rows of a steady-state table that repeat
     one operating point (the same duty and load, currents within REPEAT_I_REL / REPEAT_I_A),
     taking consecutive repeats pairwise, labelled rows only, each copy of an earlier row (copies) left
-    out and counted; where: "recording rows a and b" of each pair (1-based data rows)."""
+    out and counted; where: "recording rows a and b" of each pair (1-based data rows). Without a load
+    column the current is the only mark of the load: rows within the tolerance of each other repeat a point
+    only where they stand apart from the table's other rows at that duty (_told_apart)."""
     out, where, n_copies = [], [], 0
     for r, e in zip(rows, res):
         if not r.steady:
             continue
         df = r.rec.df
-        load = df["load"].to_numpy() if "load" in df else np.zeros(len(r.i))
+        has_load = "load" in df
+        load = df["load"].to_numpy() if has_load else np.zeros(len(r.i))
         ok = (r.train | r.test) & np.isfinite(e)
         dup = copies(r) & ok
         n_copies += int(dup.sum())
         key = sorted(np.flatnonzero(ok & ~dup), key=lambda k: (r.duty[k], load[k], r.i[k]))
-        for a, b in zip(key[:-1], key[1:]):
-            if (r.duty[a] == r.duty[b] and load[a] == load[b]
-                    and abs(r.i[a] - r.i[b]) <= max(REPEAT_I_A, REPEAT_I_REL * abs(r.i[a]))):
+        for group in _points(key, r, load, has_load):
+            for a, b in zip(group[:-1], group[1:]):
                 out.append(e[a] - e[b])
                 where.append(f"{r.rec.name} rows {min(a, b) + 1} and {max(a, b) + 1}")
     return np.asarray(out, float), where, n_copies
+
+
+def _tol(i: float) -> float:
+    return max(REPEAT_I_A, REPEAT_I_REL * abs(i))
+
+
+def _points(key: list, r, load, has_load: bool) -> list:
+    """The groups of rows (indices, sorted as key: by duty, load and current) that repeat one operating point:
+    runs of rows of one duty and load, each within the current's tolerance of the one before; without a load
+    column, only the runs whose currents lie within one tolerance of their first and whose nearest other row of
+    that duty lies REPEAT_APART tolerances or more beyond (_told_apart: a sweep of loads as close as the current's
+    noise puts neighbouring loads within the tolerance by chance; an independent simulator's dyno tables, 16
+    loads a log, read a floor twice the noise from such pairs)."""
+    runs, run = [], []
+    for k in key:
+        if run and (r.duty[k] == r.duty[run[-1]] and load[k] == load[run[-1]]
+                    and abs(r.i[k] - r.i[run[-1]]) <= _tol(r.i[run[-1]])):
+            run.append(k)
+            continue
+        if len(run) > 1:
+            runs.append(run)
+        run = [k]
+    if len(run) > 1:
+        runs.append(run)
+    if has_load:
+        return runs
+    return [g for g in runs if _told_apart(g, key, r)]
+
+
+def _told_apart(group: list, key: list, r) -> bool:
+    """Whether a run of rows (of one duty, within the current's tolerance of each other) is one operating point
+    told from the table's other rows of that duty by the current alone: its currents within one tolerance of its
+    first, and every other row of the duty REPEAT_APART tolerances or more from its nearest."""
+    i = np.array([r.i[k] for k in group])
+    tol = _tol(float(np.median(i)))
+    if np.ptp(i) > tol:
+        return False
+    others = np.array([r.i[k] for k in key if r.duty[k] == r.duty[group[0]] and k not in group])
+    return not len(others) or float(np.min(np.minimum(np.abs(others - i.min()), np.abs(others - i.max())))) \
+        >= REPEAT_APART * tol
+
+
+# (_told_apart) without a load column, a repeated point's rows stand this many current tolerances clear of the
+# table's other rows at its duty
+REPEAT_APART = 4.0
 
 
 # A repeated pair further apart than REPEAT_OUTLIER robust standard deviations of the pairs'
