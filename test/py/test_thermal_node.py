@@ -96,7 +96,8 @@ def test_summary_shows_node():
     text = diagnose_cli.summary(D())
     assert "winding node (case path" in text
     assert "th_tau_s" in text and "edge of the physical 4..600 s" in text
-    assert "th_r_K_per_W" in text and "within the plausible 0.5..12 K/W" in text
+    lo, hi = schema.node_param("case", "th_r_K_per_W").plausible
+    assert "th_r_K_per_W" in text and f"within the plausible {lo:.3g}..{hi:.3g} K/W" in text
 
 
 def default_model():

@@ -419,13 +419,20 @@ class NodeParam:
 # constant (C_w R_wc) of 8 s to a few minutes, and the motor's (case and winding to ambient) of
 # minutes to an hour. The twin (twin/params.py): 6 J/K, 1.5 K/W to the case (9 s), 220 J/K and
 # 6.3 K/W case to ambient (the slow mode 1424 s, 7.8 K/W in series).
+# The resistances fall as a motor grows (a larger surface, a fan, a heat sink or a dyno's plate)
+# while its heat capacities grow, so the time constants stay in the same ranges: a motor of a few
+# hundred watts has some 0.1..0.5 K/W to its housing and 0.2..2 K/W to ambient. The lower ends
+# take those motors in: a fixed small-motor range held a 24 V, 0.48 ohm motor's warm-up (0.46 K/W
+# to ambient) at its edge, and the warm-up was then told from the same motor's other recordings
+# as "another motor" (fuzz round 9's x02).
 NODE = (
-    NodeParam("th_r_K_per_W", "case", "K/W", (0.5, 12.0), (0.25, 24.0), 2.0,
-              "winding-to-housing resistance of small DC motors, about 1..10 K/W"),
+    NodeParam("th_r_K_per_W", "case", "K/W", (0.1, 12.0), (0.05, 24.0), 2.0,
+              "winding-to-housing resistance: about 1..10 K/W for small DC motors, down to 0.1 for some hundred watts"),
     NodeParam("th_tau_s", "case", "s", (8.0, 300.0), (4.0, 600.0), 30.0,
               "armature heat capacity 5..30 J/K x 1.5..10 K/W to the housing"),
-    NodeParam("th_r_K_per_W", "ambient", "K/W", (3.0, 40.0), (1.5, 80.0), 10.0,
-              "winding to housing plus housing to ambient (5..30 K/W without heat sink)"),
+    NodeParam("th_r_K_per_W", "ambient", "K/W", (0.2, 40.0), (0.1, 80.0), 10.0,
+              "winding to housing plus housing to ambient: 5..30 K/W for a small motor without heat sink, "
+              "down to 0.2 for some hundred watts with a fan or a heat sink"),
     NodeParam("th_tau_s", "ambient", "s", (60.0, 3600.0), (30.0, 7200.0), 600.0,
               "the housing's heat capacity (100..500 J/K) x its path to ambient: minutes to an hour"),
 )

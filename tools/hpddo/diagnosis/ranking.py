@@ -400,9 +400,11 @@ def noise_var(d: Data, res) -> float:
     return analysis.robust_noise_var(analysis.parts(d.rows, res))
 
 
-# the winding node assumed where no temperature is read and no node was fitted yet: the
-# fit's starting values on the ambient path (schema.NODE)
-_AMBIENT = fx.node_params(True)
+def _ambient_node(rows, p: ph.PhysicsParams) -> ph.PhysicsParams:
+    """p with the winding node assumed where no temperature is read and no node was fitted yet: the
+    fit's starting values on the ambient path (effects.node_start over the labelled rows)."""
+    r0, tau0 = fx.node_start(rows, [r.train | r.test for r in rows], p, True)
+    return dataclasses.replace(p, th_r_K_per_W=r0, th_tau_s=tau0)
 
 
 def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, others) -> dict:
@@ -419,7 +421,7 @@ def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, othe
         for k in [name] + list(others):
             pk = p
             if k == name and fx.LIBRARY[k].thermal and r.needs_state and not p.thermal_enabled():
-                pk = dataclasses.replace(p, th_r_K_per_W=_AMBIENT[0].start, th_tau_s=_AMBIENT[1].start)
+                pk = _ambient_node(d.rows, p)
             cols[k].append(fx.regressor(r, pk, k)[m])
     x = {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
     target = x.pop(name)
@@ -464,7 +466,7 @@ def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
             continue
         pp = p
         if r.needs_state and not p.thermal_enabled():
-            pp = dataclasses.replace(p, th_r_K_per_W=_AMBIENT[0].start, th_tau_s=_AMBIENT[1].start)
+            pp = _ambient_node(d.rows, p)
         t = fx.temperature(r, pp)
         xa.append(_regressor(r, pp, a, t)[m])
         xb.append(_regressor(r, pp, b, t)[m])
