@@ -7,6 +7,7 @@ ten times too low."""
 import json
 import dataclasses
 import math
+import pathlib
 import re
 
 import pytest
@@ -1007,6 +1008,27 @@ def test_another_motors_sweep_is_named_against_the_model_its_ke_is_fitted_beside
     named = core.other_motors(inp, sigma2)
     assert [o.unit.name for o in named] == ["sweep"]
     assert 1.05 < named[0].ke_ratio < 1.15, named[0].ke_ratio
+    assert pathlib.Path(named[0].to_json()["file"]).name == "sweep.csv"
+
+
+def test_the_next_command_trains_without_a_recording_named_another_motor():
+    """The diagnosis leaves a recording named another motor out of its ranking, but the command it printed next
+    trained on every log given, the other motor's too (fuzzing round 9): Ke pulled between two motors."""
+    import shlex
+    from types import SimpleNamespace
+
+    from hpddo import cli
+    logs = ["a.csv", "b.csv", "c.csv"]
+    args = cli.parser("diagnose").parse_args([*logs, "--out", "d", "--ra-ohm", "4.5"])
+    res = {"missing_effects": ["thermal_ra"], "ra_fit": {"mismatch": False}, "verdict": "",
+           "consistency": {"other_motors": [{"recording": "bee", "file": "b.csv"}]}}
+    lines = diagnose_cli.next_steps(SimpleNamespace(to_json=lambda: res), args).splitlines()
+    trains = [shlex.split(ln) for ln in lines if ln.strip().startswith("hpddo train")]
+    assert len(trains) == 1 and cli.parser("train").parse_args(trains[0][2:]).logs == [pathlib.Path("a.csv"), pathlib.Path("c.csv")], lines
+    assert any("without bee: named another motor" in ln for ln in lines), lines
+    res["consistency"]["other_motors"] = []
+    lines = diagnose_cli.next_steps(SimpleNamespace(to_json=lambda: res), args).splitlines()
+    assert [ln for ln in lines if "hpddo train" in ln][0].split()[2:5] == logs
 
 
 def test_close_loads_without_a_load_column_are_no_repeats():

@@ -206,8 +206,14 @@ def next_steps(d, args) -> str:
     from .train import hold_word
     held = {e: v for e, v in (res.get("held_effects") or {}).items() if e in effects}
 
+    # a recording named another motor is left out of the ranking, and out of the model: trained on, it would pull
+    # Ke between two motors (a fuzzing round's command listed it beside the recordings of the motor diagnosed)
+    other = {pathlib.Path(o["file"]).resolve(): o["recording"]
+             for o in (res.get("consistency") or {}).get("other_motors", []) if o.get("file")}
+    logs = [p for p in args.logs if pathlib.Path(p).resolve() not in other]
+
     def train(ra_word, more=()):
-        words = ["hpddo", "train", *map(str, args.logs), "--out", "MODEL"]
+        words = ["hpddo", "train", *map(str, logs), "--out", "MODEL"]
         names = effects + [e for e in more if e not in effects]
         if names:
             words += ["--effects", ",".join(names)]
@@ -256,6 +262,9 @@ def next_steps(d, args) -> str:
                 else "nothing named to add: the residual stays above the noise floor (the verdict above); the model "
                      "as it is" if left else "nothing to add: train the model as it is")
         lines.append(f"next ({what}):\n  {train(supported if ra_named else given)}")
+    if other:
+        lines.append(f"  (without {', '.join(sorted(other.values()))}: named another motor above; a model of it is "
+                     "trained on it alone)")
     lines.append("then score it on a recording it never saw:\n  "
                  + shlex.join(["hpddo", "evaluate", "--model", "MODEL", "NEW_RUN.csv", "--out", "EVAL",
                                *options.reference_words(args)]))

@@ -302,9 +302,10 @@ class OtherMotor:
     ke_ratio: float      # its own Ke over the others'
     rmse_own_rpm: float  # its rows with its own Ke
     agree_rpm: float | None = None  # the others' own fit on their rows, where that sets it apart (other_motors)
+    file: str = ""  # the log it was read from
 
     def to_json(self) -> dict:
-        return {"recording": self.unit.name, "rmse_rpm": self.unit.rmse_rpm, "others_rpm": self.unit.others_rpm,
+        return {"recording": self.unit.name, "file": self.file, "rmse_rpm": self.unit.rmse_rpm, "others_rpm": self.unit.others_rpm,
                 "others_agree_rpm": self.agree_rpm, "ke_ratio": self.ke_ratio, "rmse_own_ke_rpm": self.rmse_own_rpm,
                 "text": self.text()}
 
@@ -378,7 +379,7 @@ def _other_motor(inp: Inputs, sigma2: float, u: Unit, outside: bool) -> OtherMot
     if same_motor_explains(inp, k, judged, fx.NAMES if outside else THERMAL, split):
         return None
     if u.inconsistent and miss_in > CONSIST_X ** 2 * max(u.others_rpm ** 2, sigma2):
-        return OtherMotor(u, float(ratio), math.sqrt(mse_own))
+        return OtherMotor(u, float(ratio), math.sqrt(mse_own), file=str(inp.recs[k].source))
     # ... or against how well the others agree among themselves (their own fit's error on their rows): each
     # other's left-out miss holds the odd one in the model it is scored by, so with three recordings one of
     # another motor spoils the others' misses as much as its own (an independent simulator's dyno table: two
@@ -388,7 +389,7 @@ def _other_motor(inp: Inputs, sigma2: float, u: Unit, outside: bool) -> OtherMot
     sq = sq[np.isfinite(sq)]
     agree = float(np.mean(sq)) if len(sq) else math.inf  # (no row of theirs to agree on: nothing sets it apart)
     if miss_in > OTHER_MOTOR_APART_X ** 2 * max(agree, sigma2):
-        return OtherMotor(u, float(ratio), math.sqrt(mse_own), math.sqrt(agree))
+        return OtherMotor(u, float(ratio), math.sqrt(mse_own), math.sqrt(agree), file=str(inp.recs[k].source))
     return None
 
 
