@@ -20,6 +20,8 @@
 #include <system_error>
 #include <vector>
 
+#include "hpddo/limits.h"
+
 namespace hpddo_host {
 
 /// A format fault; what() is "file:line: message", fault() the keyword of docs/bench-log.md.
@@ -357,6 +359,37 @@ inline BenchLog read_bench_log(const std::string& path) {
   ss << in.rdbuf();
   const std::string text = ss.str();
   return parse_bench_log(path, text);
+}
+
+/// The case temperature per row as the observer takes it from the acquisition board: the
+/// row's reading where it lies within [lo_C, hi_C] (the sensor's range), else the last such
+/// reading up to hpddo::kTempMaxAge_ms before it by the log's clock (the board repeats its
+/// last reading that long), NaN elsewhere; a log declaring kind=steady_state (rows points
+/// apart) has no hold. tools/hpddo/logs/dataset.py temp_read_C reads a log so (it also
+/// takes a table it detects as one without the hold).
+inline std::vector<double> held_temperatures(const BenchLog& log, double lo_C, double hi_C) {
+  const double max_age_s = static_cast<double>(hpddo::kTempMaxAge_ms) / 1000.0;
+  auto kind = log.meta.find("kind");
+  const bool table = kind != log.meta.end() && kind->second == "steady_state";
+  std::vector<double> out(log.size(), std::nan(""));
+  size_t last = log.size();  // none yet
+  for (size_t k = 0; k < log.size(); ++k) {
+    const double t = log.temp_C[k];
+    if (std::isfinite(t) && t >= lo_C && t <= hi_C) {
+      out[k] = t;
+      last = k;
+    } else if (!table && last < log.size()) {
+      const double age = log.t_s[k] - log.t_s[last];
+      if (age >= 0.0 && age <= max_age_s) out[k] = log.temp_C[last];
+    }
+  }
+  return out;
+}
+
+/// The log with its temperatures as the observer takes them (held_temperatures).
+inline BenchLog as_observed(BenchLog log, double lo_C, double hi_C) {
+  log.temp_C = held_temperatures(log, lo_C, hi_C);
+  return log;
 }
 
 /// The first row of a log's test part: its metadata split_row where that is a row of it

@@ -158,7 +158,10 @@ struct TimedFrame {
 };
 
 std::vector<TimedFrame> frames_of_log(const std::string& path, double rate_hz) {
-  const hpddo_host::BenchLog log = hpddo_host::read_bench_log(path);
+  // the temperatures as the acquisition board sends them: its last reading repeated until it is too old
+  const hpddo_host::BenchLog log = hpddo_host::as_observed(hpddo_host::read_bench_log(path),
+                                                           hpddo_model_default::kModel.limits.temp_min_C,
+                                                           hpddo_model_default::kModel.limits.temp_max_C);
   std::vector<TimedFrame> out;
   const size_t n = log.size();
   for (size_t k = 0; k < n; ++k) {

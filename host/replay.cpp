@@ -213,7 +213,9 @@ int main(int argc, char** argv) {
 
   std::vector<hpddo_host::BenchLog> logs;
   try {
-    for (const auto& p : paths) logs.push_back(hpddo_host::read_bench_log(p));
+    for (const auto& p : paths)  // the temperatures as the acquisition board passes them on (held)
+      logs.push_back(hpddo_host::as_observed(hpddo_host::read_bench_log(p), model::kModel.limits.temp_min_C,
+                                             model::kModel.limits.temp_max_C));
   } catch (const hpddo_host::LogError& e) {
     std::fprintf(stderr, "replay: %s\n", e.what());
     return 1;

@@ -6,6 +6,8 @@
 
 #include <stdint.h>
 
+#include "hpddo/limits.h"
+
 namespace acq {
 
 /// Maxim/Dallas CRC-8 (poly x^8 + x^5 + x^4 + 1, reflected 0x8C, init 0).
@@ -43,7 +45,7 @@ class TempSchedule {
  public:
   static const uint16_t kConvertMs = 800;   ///< 12-bit conversion takes 750 ms
   static const uint16_t kIntervalMs = 1000; ///< one reading a second
-  static const uint16_t kMaxAgeMs = 2500;   ///< older readings are reported as absent
+  static const uint16_t kMaxAgeMs = hpddo::kTempMaxAge_ms;  ///< older readings are reported as absent
 
   enum Action : uint8_t { kIdle = 0, kStartConversion = 1, kReadScratchpad = 2 };
 

@@ -162,3 +162,24 @@ TEST(BenchLog, MissingFileIsAnError) {
     EXPECT_STREQ(e.what(), "/nonexistent/x.csv: cannot open");
   }
 }
+
+TEST(BenchLog, HoldsATemperatureReadingAsTheBoardDoes) {
+  // a reading once a second at 4 Hz, one outside the sensor's range, and a gap longer than the board holds
+  const std::string text =
+      "# condition=x\nt_s,duty,v_V,i_A,temp_C\n"
+      "0.00,0.1,1,0.1,\n0.25,0.1,1,0.1,30\n0.50,0.1,1,0.1,\n1.25,0.1,1,0.1,200\n2.75,0.1,1,0.1,\n"
+      "2.80,0.1,1,0.1,\n3.00,0.1,1,0.1,31\n";
+  const hpddo_host::BenchLog log = hpddo_host::read_bench_log(write_tmp("held.csv", text));
+  const std::vector<double> t = hpddo_host::held_temperatures(log, -55.0, 125.0);
+  ASSERT_EQ(t.size(), 7u);
+  EXPECT_TRUE(std::isnan(t[0]));  // nothing read yet
+  EXPECT_EQ(t[1], 30.0);
+  EXPECT_EQ(t[2], 30.0);
+  EXPECT_EQ(t[3], 30.0);          // outside the sensor's range: the last good reading, 1.0 s old
+  EXPECT_EQ(t[4], 30.0);          // 2.5 s old: still held (hpddo::kTempMaxAge_ms)
+  EXPECT_TRUE(std::isnan(t[5]));  // 2.55 s old: too old
+  EXPECT_EQ(t[6], 31.0);
+  EXPECT_TRUE(std::isnan(hpddo_host::read_bench_log(write_tmp("raw.csv", text)).temp_C[2]));  // the reader: as written
+  const hpddo_host::BenchLog table = hpddo_host::read_bench_log(write_tmp("table.csv", "# kind=steady_state\n" + text));
+  EXPECT_TRUE(std::isnan(hpddo_host::held_temperatures(table, -55.0, 125.0)[2]));  // a table's rows are points apart
+}

@@ -433,13 +433,37 @@ def rate_per_s(rec: Recording, col: str) -> np.ndarray:
         return np.where(starts, 0.0, (x - lagged(x, starts)) / dt_s(rec))
 
 
+# A case temperature reading stands for the case until it is TEMP_MAX_AGE_S old (hpddo/limits.h,
+# kTempMaxAge_ms): the acquisition board repeats its last DS18B20 reading (one a second) at every sample
+# until then, so the observer never sees the gaps between conversions. A log written elsewhere with a
+# reading once a second and none between (an independent simulator's at 10 Hz) is read as the board would
+# have passed it on: without the hold, nine rows in ten read no temperature, the winding node ran along the
+# ambient path, and its reference jumped from the ambient to the case and back at every reading.
+TEMP_MAX_AGE_S = 2.5
+
+
 def temp_read_C(rec: Recording) -> np.ndarray:
     """The case temperature per row as the observer takes it: the reading where the log has
-    one within the sensor's range (TEMP_RANGE_C), NaN elsewhere."""
+    one within the sensor's range (TEMP_RANGE_C), else the last such reading up to
+    TEMP_MAX_AGE_S before it by the log's clock (held_readings; not in a steady-state table,
+    whose rows are points apart), NaN elsewhere."""
     if "temp_C" not in rec.df:
         return np.full(rec.n, np.nan)
     t = rec.df["temp_C"].to_numpy(float)
-    return np.where(np.isfinite(t) & (t >= TEMP_RANGE_C[0]) & (t <= TEMP_RANGE_C[1]), t, np.nan)
+    t = np.where(np.isfinite(t) & (t >= TEMP_RANGE_C[0]) & (t <= TEMP_RANGE_C[1]), t, np.nan)
+    read = np.isfinite(t)
+    if read.all() or not read.any() or kind(rec)[0] == "steady_state":
+        return t
+    return held_readings(t, rec.df["t_s"].to_numpy(float), TEMP_MAX_AGE_S)
+
+
+def held_readings(x: np.ndarray, t_s: np.ndarray, max_age_s: float) -> np.ndarray:
+    """x (NaN where nothing was read) with each row that read nothing given the last reading before it, where
+    that is at most max_age_s older by the clock t_s (and not later: a clock that steps back holds nothing)."""
+    last = np.maximum.accumulate(np.where(np.isfinite(x), np.arange(len(x)), -1))
+    src = np.maximum(last, 0)
+    age = t_s - t_s[src]
+    return np.where((last >= 0) & (age >= 0.0) & (age <= max_age_s), x[src], np.nan)
 
 
 # What a log may declare about itself in its metadata (docs/bench-log.md, Known keys), read

@@ -35,6 +35,12 @@ constexpr float kPeriodMax_s = 10.0f;
 /// for the hottest copper (Ra x 1.86 at 250 C) and 2 for the weakest magnets (Ke x 0.56).
 constexpr float kSpeedLimitFactor = 4.0f;
 
+/// Oldest a case temperature reading may be and still stand for the case, ms: the
+/// DS18B20 converts once a second and the acquisition board repeats its last reading
+/// at every sample until it is this old (two and a half conversions: one failed
+/// conversion is bridged); a log read on the host holds its readings as long.
+constexpr uint16_t kTempMaxAge_ms = 2500;
+
 /// Sample rates the acquisition board's `rate` command accepts, Hz.
 constexpr float kAcqRateMin_Hz = 0.5f;
 constexpr float kAcqRateMax_Hz = 1000.0f;
