@@ -295,7 +295,8 @@ def run_one(seed: int) -> dict:
             # (the bench's folder, a temporary one, named BENCH: no random name in the study's JSON)
             return {"bench": b.to_json(), "refused": str(exc).replace(tmp, "BENCH")}
         js = d.to_json()
-        return {"bench": b.to_json(), "score": score(b, js, paths), "runtime_s": js.get("runtime_s")}
+        # (no runtime: the committed run is the same bytes on any machine; hpddo bench --diagnose times the diagnosis)
+        return {"bench": b.to_json(), "score": score(b, js, paths)}
 
 
 def summarise(results: list) -> dict:

@@ -255,8 +255,8 @@ def run_one(seed: int) -> dict:
         except USER_ERRORS as exc:
             return {"bench": b.to_json(), "refused": str(exc).replace(tmp, "BENCH")}  # (as calibration's)
         js = d.to_json()
-        return {"bench": b.to_json(), "score": cal.score(b, js, paths, effect_rms=rms), "runtime_s": js.get("runtime_s"),
-                "verdict": js.get("verdict", "")}
+        # (no runtime: the file is the same bytes on any machine, as calibration's)
+        return {"bench": b.to_json(), "score": cal.score(b, js, paths, effect_rms=rms), "verdict": js.get("verdict", "")}
 
 
 FIGURES = "docs/figures/calibration_mismatch.json"   # the committed run (--json), its command inside
