@@ -61,25 +61,31 @@ def test_glitch_filter_removes_exactly_the_twins_glitches():
 def test_a_steps_transient_is_no_glitch(tmp_path):
     """A duty step's inrush at 50 Hz (an independent simulator's 24 V motor: 0.9 A, then 5.8 and 4.8 A, decaying
     over the shaft's 55 ms) departs from its neighbours' median as a glitch does; the filter took the two rows after
-    every step, and the shaft's inertia came out 2.4 times low. The rows of a step's transient stay; a spike of the
-    same size between steps, or in a table (whose every row is a point), is still a glitch."""
+    every step, and the shaft's inertia came out 2.4 times low. A current departing the way the step drives it stays;
+    a spike of the same size between steps, a current spike against the step, a doubled speed reading in a step's
+    row (the twin's validation run, seed 8, row 321) and, in a table (whose every row is a point), the inrush
+    itself are still glitches."""
     rng = np.random.default_rng(3)
     n, T = 400, 0.02
-    duty = np.where(np.arange(n) < 200, 0.2, 0.3)
+    duty = np.where(np.arange(n) < 200, 0.2, np.where(np.arange(n) < 350, 0.3, 0.2))
     k = np.arange(n) - 200
     i = np.where(k >= 0, 1.3 + 4.8 * np.exp(-np.maximum(k, 0) * T / 0.025), 0.94) + rng.normal(0, 0.04, n)
+    i[350:] = 0.94 + rng.normal(0, 0.04, 50)
     i[300] += 5.0  # a misread current between steps
-    rows = "\n".join(f"{j * T:.3f},{duty[j]:.3f},{24 * duty[j]:.4f},{i[j]:.5f},{800 + 400 * (k[j] >= 0):.1f}"
-                      for j in range(n))
+    i[351] += 5.0  # a current spike against a step down
+    rpm = 800 + 400 * ((k >= 0) & (k < 150))
+    rpm = rpm.astype(float)
+    rpm[201] *= 2  # a doubled speed reading in a step's row
+    rows = "\n".join(f"{j * T:.3f},{duty[j]:.3f},{24 * duty[j]:.4f},{i[j]:.5f},{rpm[j]:.1f}" for j in range(n))
     log = tmp_path / "step.csv"
     log.write_text("# condition=step\n# sample_rate_hz=50\nt_s,duty,v_V,i_A,rpm_ref\n" + rows + "\n")
     bad, _ = dataset.glitch_mask(pd.read_csv(log, comment="#"))
-    assert np.flatnonzero(bad).tolist() == [300]
+    assert np.flatnonzero(bad).tolist() == [201, 300, 351]
     rec = dataset.load_recording(log)
-    assert [ln for ln, _ in rec.removed] == [300 + 4]  # its file line
+    assert [ln for ln, _ in rec.removed] == [201 + 4, 300 + 4, 351 + 4]  # their file lines
     assert rec.df["i_A"].iloc[200] > 5.0
     unexempt, _ = dataset.glitch_mask(pd.read_csv(log, comment="#"), steps=False)
-    assert {200, 300} <= set(np.flatnonzero(unexempt).tolist())  # what the filter took before
+    assert {200, 300} <= set(np.flatnonzero(unexempt).tolist())  # what the filter took before, as in a table
 
 
 @pytest.fixture(scope="module")

@@ -37,13 +37,15 @@ GLITCH_FLOOR = {"v_V": 0.5, "i_A": 0.15, "rpm_ref": 25.0}
 GLITCH_QUANTA = 3.0
 GLITCH_TAIL = 2.0
 GLITCH_WARN_SHARE = 0.01
-# ... but a step of the command (duty or load) moves the channels within a row or two, faster than the
-# neighbourhood's median follows them: at 50 Hz a 24 V motor's inrush after a duty step read 5.8 and 4.8 A
-# where the rows around read 0.9 and 3.6, and the filter took the two rows after every step for glitches,
-# and with them the impulse that the shaft's inertia is measured by (J 2.4x low and "determined", an
-# independent simulator's bench). The GLITCH_STEP_ROWS rows from a change of command on are the step's
-# transient, not judged against their neighbours (in a time series: a table's rows, each its own point,
-# are judged against the table's curve instead, table_misreads).
+# ... but a step of the command (duty or load) drives the current within a row or two faster than the
+# neighbourhood's median follows: at 50 Hz a 24 V motor's inrush after a duty step read 5.8 and 4.8 A where
+# the rows around read 0.9 and 3.6, and the filter took the two rows after every step for glitches, and with
+# them the impulse that the shaft's inertia is measured by (J 2.4x low and "determined", an independent
+# simulator's bench). In the GLITCH_STEP_ROWS rows from a change of command on, a current that departs the
+# way the step drives it (up after a step up of duty or load, down after a step down) is the step's
+# transient, not judged against its neighbours (in a time series: a table's rows, each its own point, are
+# judged against the table's curve instead, table_misreads). A departure the other way, or in the voltage or
+# the speed, is judged as anywhere: the twin's doubled speed reading in the row after a duty step is a glitch.
 GLITCH_STEP_ROWS = 2
 LIMITS = schema.Limits()  # the readings the observer accepts
 TEMP_RANGE_C = (LIMITS.temp_min_C, LIMITS.temp_max_C)  # a reading outside it is taken as not read,
@@ -145,12 +147,13 @@ def on_grid(x: np.ndarray, step: float, origin: float = 0.0) -> bool:
 
 
 def glitch_mask(df: pd.DataFrame, steps: bool = True) -> tuple[np.ndarray, list]:
-    """Boolean mask of glitch rows and the reason for each; steps: the rows of a step's transient
-    (step_rows) are no glitch (a time series; False for a table, whose every row is a point)."""
+    """Boolean mask of glitch rows and the reason for each; steps: a current departing the way a
+    command step drives it in the rows after the step (step_rows) is no glitch (a time series;
+    False for a table, whose every row is a point)."""
     n = len(df)
     bad = np.zeros(n, bool)
     reasons = [""] * n
-    transient = step_rows(df) if steps else np.zeros(n, bool)
+    drive = step_rows(df) if steps else np.zeros(n, int)
     for col, floor in GLITCH_FLOOR.items():
         if col not in df or n < 5:
             continue
@@ -163,7 +166,9 @@ def glitch_mask(df: pd.DataFrame, steps: bool = True) -> tuple[np.ndarray, list]
         sigma = 1.4826 * np.median(dev[finite])
         thresh = max(GLITCH_SIGMAS * sigma, floor, GLITCH_QUANTA * quantum(x),
                      GLITCH_TAIL * float(np.percentile(dev[finite], 99)))
-        hit = finite & (dev > thresh) & ~transient
+        hit = finite & (dev > thresh)
+        if col == "i_A":  # the step's transient: the current departing the way the step drives it
+            hit &= ~((drive != 0) & (np.sign(x - med) == drive))
         for k in np.flatnonzero(hit & ~bad):
             reasons[k] = f"{col}={x[k]:.6g} departs {dev[k]:.3g} from its neighbours' median (threshold {thresh:.3g})"
         bad |= hit
@@ -171,16 +176,19 @@ def glitch_mask(df: pd.DataFrame, steps: bool = True) -> tuple[np.ndarray, list]
 
 
 def step_rows(df: pd.DataFrame) -> np.ndarray:
-    """Per row: whether the command (duty, or load where the log has it) changed at it or at one of the
-    GLITCH_STEP_ROWS - 1 rows before it."""
+    """Per row: the way a change of command drives the current (+1: duty or load up, -1: down; the duty's
+    where both change) where one happened at the row or at one of the GLITCH_STEP_ROWS - 1 rows before it,
+    else 0."""
     n = len(df)
-    change = np.zeros(n, bool)
-    for col in ("duty", "load"):
-        if col in df and n > 1:
-            change[1:] |= np.diff(df[col].to_numpy(float)) != 0
-    out = change.copy()
+    way = np.zeros(n, int)
+    if n > 1:
+        for col in ("load", "duty"):  # (the duty's last: it decides where both change)
+            if col in df:
+                d = np.sign(np.diff(df[col].to_numpy(float))).astype(int)
+                way[1:] = np.where(d != 0, d, way[1:])
+    out = way.copy()
     for k in range(1, GLITCH_STEP_ROWS):
-        out[k:] |= change[:-k]
+        out[k:] = np.where(out[k:] != 0, out[k:], way[:-k])
     return out
 
 
