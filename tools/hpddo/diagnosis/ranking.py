@@ -413,15 +413,15 @@ def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, othe
     identifiable when the plausible magnitude is IDENT_SIGMAS standard errors or more."""
     eff = fx.LIBRARY[name]
     cols = {k: [] for k in ["ke_vs_per_rad", name] + list(others)}
+    # (one assumed node for every recording that reads no temperature: it depends on all their rows, not on one)
+    ambient = _ambient_node(d.rows, p) if eff.thermal and not p.thermal_enabled() else p
     for r in d.rows:
         m = r.train
         if not m.any():
             continue
         cols["ke_vs_per_rad"].append(fx.ke_regressor(r, p)[m])
         for k in [name] + list(others):
-            pk = p
-            if k == name and fx.LIBRARY[k].thermal and r.needs_state and not p.thermal_enabled():
-                pk = _ambient_node(d.rows, p)
+            pk = ambient if k == name and r.needs_state else p
             cols[k].append(fx.regressor(r, pk, k)[m])
     x = {k: np.concatenate(v) if v else np.zeros(0) for k, v in cols.items()}
     target = x.pop(name)
@@ -460,13 +460,12 @@ def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
     """Correlation of the regressors of a and b on the training and held-out rows after
     Ke and the `given` effects are projected out."""
     xa, xb, xo = [], [], []
+    ambient = p if p.thermal_enabled() else _ambient_node(d.rows, p)  # (one for all, as in identifiability)
     for r in d.rows:
         m = r.train | r.test
         if not m.any():
             continue
-        pp = p
-        if r.needs_state and not p.thermal_enabled():
-            pp = _ambient_node(d.rows, p)
+        pp = ambient if r.needs_state else p
         t = fx.temperature(r, pp)
         xa.append(_regressor(r, pp, a, t)[m])
         xb.append(_regressor(r, pp, b, t)[m])

@@ -573,13 +573,16 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
           for f in spec.free]
     scales = list(spec.scales)
     node = node_params(spec.blind) if spec.thermal_state else ()
+    sel = [getattr(r, mask) for r in rows]
     if spec.thermal_state:
-        starts = node_start(rows, [getattr(r, mask) for r in rows], p0, spec.blind)
+        # (node_start only where the start holds no node: it reads every fitted row's current, and most fits
+        # start from a model that has one)
+        has_node = p0.th_r_K_per_W > 0 and p0.th_tau_s > 0
+        starts = (p0.th_r_K_per_W, p0.th_tau_s) if has_node else node_start(rows, sel, p0, spec.blind)
         r0 = p0.th_r_K_per_W if p0.th_r_K_per_W > 0 else starts[0]
         tau0 = p0.th_tau_s if p0.th_tau_s > 0 else starts[1]
         x0 += [math.log(r0), math.log(tau0)]
         scales += [1.0, 1.0]
-    sel = [getattr(r, mask) for r in rows]
     if sum(int(m.sum()) for m in sel) < len(x0) + 5:
         raise IdentificationError(f"too few labelled rows above {MIN_RPM} RPM to fit {', '.join(spec.free)}")
     if weights is not None:
