@@ -190,7 +190,14 @@ static void rip_adc_start(struct avr_irq_t* irq, uint32_t value, void* param) {
     const avr_cycle_count_t open = n_windows ? windows[n_windows - 1].close : 0;
     const unsigned period = (avr->data[0x86] | (avr->data[0x87] << 8)) + 1u; /* ICR1 + 1 */
     const long w = n_windows % rip_n_feed;
-    long j = (long)((t->trig - open) / period);
+    /* the period of the window: its start (the last TOV1) counted from the window's close, to
+       the nearest period, as check_uno_ripple.py counts it: the close's marker is written a
+       little after the period boundary the firmware closes on (the main loop's latency, tens to
+       hundreds of cycles, which moves with the code's layout), so the trigger's own cycle
+       counted from the marker falls a period short whenever that latency exceeds the compare
+       match's offset in its period */
+    const long long since = (long long)t->period_start - (long long)open;
+    long j = since <= 0 ? 0 : (long)((since + period / 2) / period);
     if (j >= rip_feed_len[w]) j = rip_feed_len[w] - 1;
     t->mv = rip_feed[w][j];
     t->ch = e.mux.src == 0 ? 0 : 1; /* a coast probe's voltage sample converts A0 */
