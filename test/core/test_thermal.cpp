@@ -80,29 +80,6 @@ TEST(Thermal, TheWindingRisesAboveAMovingReference) {
   EXPECT_NEAR(warm.temp_C(50.0f) - cold.temp_C(30.0f), 20.0f + warm.rise_K() - cold.rise_K(), 1e-4);
 }
 
-TEST(Thermal, TheWindingFollowsAWarmingCaseWithTheNodesLag) {
-  // The winding sheds its heat to the case: when the case warms, the copper warms
-  // through the same node, with its time constant, not in the same instant. A case
-  // 10 K warmer from one step on: over a step of tau / 2 the winding has made
-  // 1 - exp(-0.5) of that way (and of its own rise's), then settles 10 K higher.
-  hpddo::PhysicsParams p = params();
-  p.ra_tc_per_K = 0.0f;  // a constant loss: the closed form of the linear node
-  hpddo::ThermalEstimator t;
-  for (int k = 0; k < 20000; ++k) t.step(p, 1.0f, 0.5f, 30.0f);
-  const double settled_K = 8.0 * 1.0 * 4.5;
-  ASSERT_NEAR(t.rise_K(), settled_K, 0.01);  // (float steps: within 10 mK)
-  t.step(p, 1.0f, 300.0f, 40.0f);
-  EXPECT_NEAR(t.temp_C(40.0f), 40.0 + settled_K - 10.0 * std::exp(-0.5), 0.01);
-  for (int k = 0; k < 20000; ++k) t.step(p, 1.0f, 0.5f, 40.0f);
-  EXPECT_NEAR(t.temp_C(40.0f), 40.0 + settled_K, 0.01);
-  // after reset() the first step starts from its own reference, as at the start
-  hpddo::ThermalEstimator fresh;
-  fresh.step(p, 1.0f, 300.0f, 40.0f);
-  t.reset();
-  t.step(p, 1.0f, 300.0f, 40.0f);
-  EXPECT_EQ(t.rise_K(), fresh.rise_K());
-}
-
 TEST(Thermal, ResetReturnsToTheReference) {
   const hpddo::PhysicsParams p = params();
   hpddo::ThermalEstimator t;

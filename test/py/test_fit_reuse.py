@@ -19,11 +19,10 @@ def _rise_by_steps(p, i, dt, ref, rise0):
     """The node step by step, as the boards run it (ThermalEstimator::step), in float64."""
     out, x = np.empty(len(i)), rise0
     for k in range(len(i)):
-        before = ref[k - 1] if k else ref[0]
         if dt[k] > 0:
             d = math.exp(-dt[k] / p.th_tau_s)
-            loss = i[k] * i[k] * p.ra_ohm * (1.0 + p.ra_tc_per_K * (before + x - p.t_ref_C))
-            x = p.th_r_K_per_W * loss + (x + before - ref[k] - p.th_r_K_per_W * loss) * d
+            loss = i[k] * i[k] * p.ra_ohm * (1.0 + p.ra_tc_per_K * (ref[k] + x - p.t_ref_C))
+            x = p.th_r_K_per_W * loss + (x - p.th_r_K_per_W * loss) * d
             x = min(max(x, 0.0), ph.WINDING_MAX_C - ref[k])
         out[k] = x
     return out

@@ -102,26 +102,3 @@ def test_summary_shows_node():
 
 def default_model():
     return schema.PhysicsParams(ra_ohm=4.5, ke_vs_per_rad=0.37, effects=fx.LIBRARY["thermal_ra"].bit)
-
-
-def test_the_winding_follows_a_warming_case_with_its_lag():
-    """The node is the winding shedding its heat to the case it sits in: tau dT_w/dt = T_case + r i^2 Ra - T_w.
-    A winding and a case integrated as two nodes (the case warming from its own heat source at a steady rate, the
-    winding heated by a constant loss through r) is the node's trajectory, the case read as its reference: the
-    winding lags the warming case by rate x tau once settled, where taking the case's rise at once would not."""
-    import numpy as np
-    from hpddo.model import physics as ph
-    p = ph.PhysicsParams(ra_ohm=4.5, ke_vs_per_rad=0.4, ra_tc_per_K=0.0, t_ref_C=25.0, t_amb_C=25.0,
-                         th_r_K_per_W=2.0, th_tau_s=30.0)
-    dt, n, rate_K_per_s, i_A = 0.01, 60000, 0.02, 1.0
-    case = 25.0 + rate_K_per_s * dt * np.arange(n)
-    # the two nodes by small explicit steps: the winding's loss i^2 Ra through r to the case
-    w = np.empty(n)
-    x = 25.0
-    for k in range(n):
-        x += dt / p.th_tau_s * (case[k] + p.th_r_K_per_W * i_A * i_A * p.ra_ohm - x)
-        w[k] = x
-    node = ph.thermal_trajectory(p, np.full(n, i_A), np.full(n, dt), ref_C=case)
-    assert np.max(np.abs(node - w)[n // 2:]) < 0.01
-    settled = p.th_r_K_per_W * i_A * i_A * p.ra_ohm - rate_K_per_s * p.th_tau_s  # 9 K less the lag's 0.6 K
-    assert node[-1] - case[-1] == pytest.approx(settled, abs=0.01)

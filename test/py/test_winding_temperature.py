@@ -30,7 +30,7 @@ CONDITIONS = ("load", "long", "sweep")
 SEED = 5
 MAX_ITER = 30
 # measured RMSE and max |error| over every row of the three recordings, K (docs/diagnosis.md)
-MEASURED = {"case": {"rmse": 0.45, "max": 3.26}, "blind": {"rmse": 4.17, "max": 8.29}}
+MEASURED = {"case": {"rmse": 0.53, "max": 3.21}, "blind": {"rmse": 4.17, "max": 8.29}}
 MARGIN = 1.25  # 25 %: a retrained node of another fit may move a little (not tuned to pass)
 
 

@@ -93,7 +93,6 @@ class ReferenceObserver:
         self.i_lag = F32(0)
         self.m2_lag = F32(0)
         self.rise_K = F32(0)
-        self.ref_C = None  # the node's reference at its last step (None: none yet)
         self.dyn = dynamics_ref.DynamicsObserver()
         self.last = dict(rpm=F32(0), rpm_m2=F32(0), residual_rpm=F32(0), temp_C=F32(0), confidence=F32(0))
 
@@ -123,8 +122,7 @@ class ReferenceObserver:
         ref = F32(temp_C) if t_read else F32(p.t_amb_C)
         if p.thermal_enabled():
             t_w, self.rise_K = ph.thermal_trajectory(p, [i_true], [dt], F32, ref_C=[ref], start_rise_K=self.rise_K,
-                                                     final_rise=True, start_ref_C=self.ref_C)
-            self.ref_C = ref
+                                                     final_rise=True)
             temp_used = F32(t_w[0])
             magnet = ref if t_read else temp_used
         else:

@@ -233,15 +233,13 @@ def _periods(dt):
     return step, periods, where.reshape(np.shape(dt))
 
 
-def _rise_float64(p, i, dt, ref, rise0: float, ref0=None) -> np.ndarray:
+def _rise_float64(p, i, dt, ref, rise0: float) -> np.ndarray:
     """The rise of thermal_trajectory in float64, vectorised. Each step is linear in the
-    previous rise, rise_k = alpha_k rise_(k-1) + beta_k, with (exp step d, loss at Ra of the
-    winding before the step, ref_(k-1) + rise_(k-1))
-        alpha_k = d_k + (1 - d_k) r i_k^2 Ra a,
-        beta_k = (1 - d_k) r i_k^2 Ra (1 + a (ref_(k-1) - T_ref)) + d_k (ref_(k-1) - ref_k),
+    previous rise, rise_k = alpha_k rise_(k-1) + beta_k, with (exp step d, loss at Ra(T_w))
+        alpha_k = d_k + (1 - d_k) r i_k^2 Ra a,   beta_k = (1 - d_k) r i_k^2 Ra (1 + a (ref_k - T_ref)),
     so blocks of it are cumulative products and sums (equal to the step-by-step loop to
     rounding). A block whose rise leaves [0, WINDING_MAX_C - ref] is redone step by step
-    with the bound applied after each step. ref_(-1) is ref0 (None: ref_0, no change).
+    with the bound applied after each step.
 
     Several parameter sets at once (the columns of a fit's finite-difference Jacobian,
     effects._solve): each of r, tau, Ra, a, T_ref a column of values (k x 1) or one value,
@@ -252,12 +250,6 @@ def _rise_float64(p, i, dt, ref, rise0: float, ref0=None) -> np.ndarray:
     r, tau, ra, a, tref = p.th_r_K_per_W, p.th_tau_s, p.ra_ohm, p.ra_tc_per_K, p.t_ref_C
     step, d, omd, every = _decay(dt, tau)
     omdq = omd * (r * i * i * ra)  # (1 - d) q, q = r i^2 Ra
-    # the reference before each step (the sample before's), and its change over the step, which the
-    # winding follows with the node's lag
-    prev = _previous(ref, ref0)
-    moved = prev - ref
-    if not moved.any():
-        moved = None
     shape = np.broadcast_shapes(omdq.shape, np.shape(a), ref.shape, np.shape(tref)) if (
         omdq.ndim > 1 or np.ndim(a) or ref.ndim > 1 or np.ndim(tref)) else omdq.shape
     k, n = (1, *shape) if len(shape) == 1 else shape
@@ -270,27 +262,15 @@ def _rise_float64(p, i, dt, ref, rise0: float, ref0=None) -> np.ndarray:
     alpha, beta = al[:, :n], be[:, :n]
     if every:  # (every sample a step, as on a log whose periods are all positive)
         np.add(d, omdq * a, out=alpha)
-        np.multiply(omdq, 1.0 + a * (prev - tref), out=beta)
-        if moved is not None:
-            beta += d * moved
+        np.multiply(omdq, 1.0 + a * (ref - tref), out=beta)
     else:
         alpha[:] = np.where(step, d + omdq * a, 1.0)
-        beta[:] = np.where(step, omdq * (1.0 + a * (prev - tref)) + (0.0 if moved is None else d * moved), 0.0)
+        beta[:] = np.where(step, omdq * (1.0 + a * (ref - tref)), 0.0)
     if len(shape) == 1 and n <= _BLOCK:  # one set in one block: _rise_blocks does it with fewer steps
         return _rise_blocks(alpha[0], beta[0], step, ref, rise0, np.empty(n), 0)
     np.subtract(WINDING_MAX_C, ref, out=lim[:, :n])
     out = _rise_rows(al, be, lim, step, np.broadcast_to(ref, (k, n)), n, rise0)
     return out[0] if len(shape) == 1 else out
-
-
-def _previous(ref, ref0=None):
-    """Each sample's reference before its step: the sample before's (along the last axis), ref0 before
-    the first (None: the first's own)."""
-    prev = np.empty_like(ref)
-    if ref.shape[-1]:
-        prev[..., 1:] = ref[..., :-1]
-        prev[..., 0] = ref[..., 0] if ref0 is None else ref0
-    return prev
 
 
 def _rise_rows(al, be, lim, step, ref, n: int, rise0: float) -> np.ndarray:
@@ -376,15 +356,11 @@ def _node_runs(p):
     return bool(on.all()) if on.all() or not on.any() else None
 
 
-def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_rise_K=0.0, final_rise=False,
-                       start_ref_C=None):
+def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_rise_K=0.0, final_rise=False):
     """Winding temperature per sample, as hpddo::ThermalEstimator::step before each sample:
-    a first-order node heated by i^2 Ra(T_w) above its reference ref_C (per sample: the case
-    reading where read, else t_amb; None: t_amb throughout), whose winding follows the
-    reference itself with the same lag (tau dT_w/dt = ref + r i^2 Ra(T_w) - T_w: the winding
-    and the case it sheds its heat to), given as ref + rise, the rise held within
-    [0, WINDING_MAX_C - ref] after each step. start_ref_C: the reference before the first
-    sample (None: the first's own), start_rise_K the rise above it.
+    ref + rise, the rise a first-order node heated by i^2 Ra(T_w) above the reference
+    ref_C (per sample: the case reading where read, else t_amb; None: t_amb throughout),
+    held within [0, WINDING_MAX_C - ref] after each step.
     With final_rise, also returns the rise after the last sample."""
     i = np.asarray(i_true_A, dtype)
     # the periods themselves where they are of dtype already: their decays are kept per array (_decay, by
@@ -402,21 +378,19 @@ def thermal_trajectory(p, i_true_A, dt_s, dtype=np.float64, ref_C=None, start_ri
         out = ref + rise
         return (out, rise) if final_rise else out
     if np.dtype(dtype) == np.float64:
-        out = ref + _rise_float64(p, i, dt, ref, float(rise), None if start_ref_C is None else float(start_ref_C))
+        out = ref + _rise_float64(p, i, dt, ref, float(rise))
         return (out, float(out[-1] - ref[-1]) if n else float(rise)) if final_rise else out
     out = np.empty(n, dtype)
     r = dtype(p.th_r_K_per_W)
     tau = dtype(p.th_tau_s)
     hottest = dtype(WINDING_MAX_C)
-    prev = ref[0] if start_ref_C is None or n == 0 else dtype(start_ref_C)
     for k in range(n):
         if dt[k] > 0:
-            loss = i[k] * i[k] * ra_at_ohm(p, prev + rise, dtype)
+            loss = i[k] * i[k] * ra_at_ohm(p, ref[k] + rise, dtype)
             target = dtype(r * loss)
-            rise = dtype(target + (dtype(rise + dtype(prev - ref[k])) - target) * dtype(exp(-dt[k] / tau)))
+            rise = dtype(target + (rise - target) * dtype(exp(-dt[k] / tau)))
             rise = min(rise, dtype(hottest - ref[k]))
             rise = rise if rise >= 0 else dtype(0)
-        prev = ref[k]
         out[k] = ref[k] + rise
     return (out, rise) if final_rise else out
 

@@ -1,15 +1,11 @@
 // Winding temperature from copper losses, for the thermal effects: the winding
-// is a first-order node heated by i^2 Ra and shedding its heat to a reference,
-// the case reading where the sample carries one (the DS18B20 sits on the case,
-// the copper runs hotter under load), else the ambient:
-//   tau dT_w/dt = reference + r_th i^2 Ra(T_w) - T_w,      T_w = reference + rise,
-// advanced with the exact step of the linear ODE over dt (losses and reference
-// held over the step, the loss at the winding's temperature before it). The
-// winding follows a warming case with the node's lag, not at once: over a step
-// the rise above the new reference is
-//   rise' = target + (rise + ref_before - ref - target) exp(-dt / tau).
-// With a case reading, r_th and tau are the winding-to-case path (seconds);
-// without, the winding-to-ambient path (minutes).
+// is a first-order node heated by i^2 Ra above a reference, the case reading
+// where the sample carries one (the DS18B20 sits on the case, the copper runs
+// hotter under load), else the ambient:
+//   tau d(rise)/dt = r_th i^2 Ra(T_w) - rise,      T_w = reference + rise,
+// advanced with the exact step of the linear ODE over dt (losses held). With a
+// case reading, r_th and tau are the winding-to-case path (seconds); without,
+// the winding-to-ambient path (minutes).
 //
 // Copper's Ra(T) makes the node unstable at high current (the loss grows faster
 // than the node sheds it: a runaway), so after each step the rise is held
@@ -30,8 +26,7 @@ namespace hpddo {
 /// First-order thermal rise of the winding above its reference, K.
 class ThermalEstimator {
  public:
-  constexpr ThermalEstimator()
-      : rise_K_(0.0f), ref_C_(0.0f), has_ref_(false), decay_dt_s_(0.0f), decay_tau_s_(0.0f), decay_(1.0f) {}
+  constexpr ThermalEstimator() : rise_K_(0.0f), decay_dt_s_(0.0f), decay_tau_s_(0.0f), decay_(1.0f) {}
 
   /// True when the model has a thermal network to run.
   static constexpr bool enabled(const PhysicsParams& p) { return p.th_r_K_per_W > 0.0f && p.th_tau_s > 0.0f; }
@@ -43,21 +38,14 @@ class ThermalEstimator {
   float temp_C(float ref_C) const { return ref_C + rise_K_; }
 
   /// Restarts with the winding at its reference.
-  void reset() {
-    rise_K_ = 0.0f;
-    has_ref_ = false;
-  }
+  void reset() { rise_K_ = 0.0f; }
 
   /// Advances by dt_s with the true armature current i_A held over the step,
-  /// above the reference ref_C of this sample (the winding starts the step at
-  /// the last sample's reference plus its rise); the rise stays within
+  /// above the reference ref_C of this sample; the rise stays within
   /// [0, kWindingMax_C - ref_C].
   void step(const PhysicsParams& p, float i_A, float dt_s, float ref_C) {
-    const float before_C = has_ref_ ? ref_C_ : ref_C;
-    ref_C_ = ref_C;
-    has_ref_ = true;
     if (!enabled(p) || !(dt_s > 0.0f)) return;
-    const float loss_W = i_A * i_A * ra_at_ohm(p, before_C + rise_K_);
+    const float loss_W = i_A * i_A * ra_at_ohm(p, ref_C + rise_K_);
     const float target_K = p.th_r_K_per_W * loss_W;
     // exp(-dt / tau) once per period and time constant: at a steady rate every step
     // reuses it (the same float as recomputing: no division, no expf per step).
@@ -67,7 +55,7 @@ class ThermalEstimator {
       decay_tau_s_ = p.th_tau_s;
     }
     const float decay = decay_;
-    float next_K = target_K + ((rise_K_ + (before_C - ref_C)) - target_K) * decay;
+    float next_K = target_K + (rise_K_ - target_K) * decay;
     const float hottest_K = kWindingMax_C - ref_C;
     if (next_K > hottest_K) next_K = hottest_K;
     if (!(next_K >= 0.0f)) next_K = 0.0f;  // also catches a NaN
@@ -76,8 +64,6 @@ class ThermalEstimator {
 
  private:
   float rise_K_;
-  float ref_C_;        ///< the reference of the last step, C (has_ref_)
-  bool has_ref_;       ///< a step was taken since the start or reset()
   float decay_dt_s_;   ///< period of the cached decay, s (0: none yet)
   float decay_tau_s_;  ///< time constant of the cached decay, s
   float decay_;        ///< exp(-decay_dt_s_ / decay_tau_s_)
