@@ -414,7 +414,8 @@ def identifiability(d: Data, p: ph.PhysicsParams, name: str, sigma2: float, othe
     eff = fx.LIBRARY[name]
     cols = {k: [] for k in ["ke_vs_per_rad", name] + list(others)}
     # (one assumed node for every recording that reads no temperature: it depends on all their rows, not on one)
-    ambient = _ambient_node(d.rows, p) if eff.thermal and not p.thermal_enabled() else p
+    ambient = (_ambient_node(d.rows, p) if eff.thermal and not p.thermal_enabled()
+               and any(r.needs_state for r in d.rows) else p)
     for r in d.rows:
         m = r.train
         if not m.any():
@@ -460,7 +461,8 @@ def partial_corr(d: Data, p: ph.PhysicsParams, a: str, b: str, given) -> float:
     """Correlation of the regressors of a and b on the training and held-out rows after
     Ke and the `given` effects are projected out."""
     xa, xb, xo = [], [], []
-    ambient = p if p.thermal_enabled() else _ambient_node(d.rows, p)  # (one for all, as in identifiability)
+    # (one for all, as in identifiability, and only where some recording reads no temperature)
+    ambient = p if p.thermal_enabled() or not any(r.needs_state for r in d.rows) else _ambient_node(d.rows, p)
     for r in d.rows:
         m = r.train | r.test
         if not m.any():

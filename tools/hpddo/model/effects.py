@@ -575,12 +575,13 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     node = node_params(spec.blind) if spec.thermal_state else ()
     sel = [getattr(r, mask) for r in rows]
     if spec.thermal_state:
-        # (node_start only where the start holds no node: it reads every fitted row's current, and most fits
-        # start from a model that has one)
-        has_node = p0.th_r_K_per_W > 0 and p0.th_tau_s > 0
-        starts = (p0.th_r_K_per_W, p0.th_tau_s) if has_node else node_start(rows, sel, p0, spec.blind)
-        r0 = p0.th_r_K_per_W if p0.th_r_K_per_W > 0 else starts[0]
-        tau0 = p0.th_tau_s if p0.th_tau_s > 0 else starts[1]
+        # each parameter the start's node holds, the assumed start (node_start) for those it does not: node_start
+        # reads every fitted row's current, and most fits start from a model that has a node
+        r0, tau0 = p0.th_r_K_per_W, p0.th_tau_s
+        if not p0.thermal_enabled():
+            r_start, tau_start = node_start(rows, sel, p0, spec.blind)
+            r0 = r0 if r0 > 0 else r_start
+            tau0 = tau0 if tau0 > 0 else tau_start
         x0 += [math.log(r0), math.log(tau0)]
         scales += [1.0, 1.0]
     if sum(int(m.sum()) for m in sel) < len(x0) + 5:
