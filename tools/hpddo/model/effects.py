@@ -120,6 +120,9 @@ class Rows:
     test: np.ndarray      # bool: held-out row usable for scoring (rpm_ref > MIN_RPM)
     duty: np.ndarray
     steady: bool = False  # a steady-state table (dataset.kind): settled rows, no clock, dI/dt 0
+    # the node's other form (physics.lagged_case): the winding follows the case reading through the node's lag; a
+    # rival model the diagnosis weighs (core.node_form_rival), never the boards'
+    winding_lags_case: bool = False
 
     @property
     def dv_dt(self) -> np.ndarray:
@@ -180,7 +183,7 @@ def temperature(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> ph.Tem
     hit = _temp_cache.get(key)
     if hit is not None and hit[0] is r:
         return hit[1]
-    t = ph.temperatures(p, i, dt, temp, settled=r.steady)
+    t = ph.temperatures(p, i, dt, temp, settled=r.steady, lag=r.winding_lags_case)
     if len(_temp_cache) > 64:
         _temp_cache.clear()
     _temp_cache[key] = (r, t)
@@ -191,7 +194,7 @@ def temperature_cols(r: Rows, p: ph.PhysicsParams, upto: int | None = None) -> p
     """temperature() for parameters with columns of values (k x 1, the columns of a fit's Jacobian): one
     row per column, each the same bits as temperature() of that column alone; not kept."""
     _, (i, dt, temp) = _node_inputs(r, upto)
-    return ph.temperatures(p, i, dt, temp, settled=r.steady)
+    return ph.temperatures(p, i, dt, temp, settled=r.steady, lag=r.winding_lags_case)
 
 
 def _node_inputs(r: Rows, upto: int | None) -> tuple:

@@ -333,6 +333,52 @@ def _rise_blocks(alpha, beta, step, ref, x: float, out, s_from: int):
     return out
 
 
+_LAG_BLOCK = 64  # samples per block of lagged_case's recursion: exp(-dt / tau) of 64 steps stays a float64 for
+# dt / tau below 9 (past it the block goes step by step)
+
+
+def lagged_case(ref_C, dt, tau) -> np.ndarray:
+    """The case reading as a winding that sheds its heat to the case follows it: tau dL/dt = ref - L, L
+    starting at the first reading, each step exact for the reading held at its new value over the step
+    (L_k = ref_k + d_k (L_(k-1) - ref_k), d_k = exp(-dt_k / tau); held where no step). The node's other form
+    (docs/diagnosis.md, "A limit of the node's form"): the winding at L plus the rise, where the boards take
+    the case's rise into the winding at once. Host only, a rival model the diagnosis weighs
+    (core.node_form_rival), not the boards' model. tau a column (k x 1): one row per tau (k x n).
+    Linear in the lag e = L - ref, e_k = d_k (e_(k-1) + ref_(k-1) - ref_k): blocks of cumulative
+    products and sums, as _rise_float64's."""
+    ref = np.asarray(ref_C, float)
+    n = ref.shape[-1]
+    if n == 0:
+        return ref.copy()
+    _, d, _, _ = _decay(dt, tau)
+    d = np.atleast_2d(d)
+    move = np.zeros(ref.shape)
+    move[..., 1:] = ref[..., :-1] - ref[..., 1:]
+    beta = np.broadcast_to(d * move, np.broadcast_shapes(d.shape, np.atleast_2d(move).shape))
+    k = beta.shape[0]
+    nb = -(-n // _LAG_BLOCK)
+    al, be = np.ones((k, nb * _LAG_BLOCK)), np.zeros((k, nb * _LAG_BLOCK))
+    al[:, :n], be[:, :n] = np.broadcast_to(d, (k, n)), beta
+    al3, be3 = al.reshape(k, nb, _LAG_BLOCK), be.reshape(k, nb, _LAG_BLOCK)
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+        prod = np.cumprod(al3, axis=2)
+        sums = np.cumsum(be3 / prod, axis=2)
+    usable = prod.min(axis=2) > 1e-250
+    e = np.empty((k, nb, _LAG_BLOCK))
+    for c in range(k):
+        x = 0.0
+        for b in range(nb):
+            if usable[c, b]:
+                e[c, b] = prod[c, b] * (x + sums[c, b])
+            else:  # the decays underflow over the block: step by step
+                for j in range(_LAG_BLOCK):
+                    x = al3[c, b, j] * x + be3[c, b, j]
+                    e[c, b, j] = x
+            x = float(e[c, b, -1])
+    lag = e.reshape(k, nb * _LAG_BLOCK)[:, :n]
+    return ref + (lag if np.ndim(tau) or ref.ndim > 1 else lag[0])
+
+
 def _columns(p) -> int:
     """How many sets of parameters p holds: 1 where every field is one value, k where some are
     columns of values (k x 1, the columns of a fit's finite-difference Jacobian: effects._solve)."""
@@ -423,25 +469,29 @@ def settled_rise(p, i_true_A, ref_C) -> np.ndarray:
     return np.where(rise >= 0.0, rise, 0.0)
 
 
-def temperatures(p, i_A, dt_s, temp_read_C, settled: bool = False) -> Temps:
+def temperatures(p, i_A, dt_s, temp_read_C, settled: bool = False, lag: bool = False) -> Temps:
     """What the observer feeds the thermal effects, per sample (observer.h): temp_read_C
     is the case reading, NaN where none (or out of the sensor's range). With a thermal
     network, the winding is the estimate above the reading (above t_amb where none); the
     magnets follow the reading, else the winding estimate. Without a network, both are
     the reading, else t_ref. settled: the rows are settled operating points (a steady-state
     table, no clock): the winding is at each row's settled rise (settled_rise), where the
-    observer would arrive holding that point."""
+    observer would arrive holding that point. lag: the node's other form, the winding's
+    reference the reading through the node's lag (lagged_case), a rival the diagnosis weighs;
+    the boards' form without it."""
     t = np.asarray(temp_read_C, float)
     read = np.isfinite(t)
     runs = _node_runs(p)
     if runs is None:  # columns of parameters (k x 1) that disagree: each column on its own, the same bits
-        cols = [temperatures(column(p, c), i_A, dt_s, temp_read_C, settled) for c in range(_columns(p))]
+        cols = [temperatures(column(p, c), i_A, dt_s, temp_read_C, settled, lag) for c in range(_columns(p))]
         return Temps(np.stack([c.winding_C for c in cols]), np.stack([c.magnet_C for c in cols]))
     if runs:
         ref = np.where(read, t, p.t_amb_C)
         if settled:
             winding = ref + settled_rise(p, true_current_A(p, i_A), ref)
         else:
+            if lag:
+                ref = lagged_case(ref, dt_s, p.th_tau_s)
             winding = thermal_trajectory(p, true_current_A(p, i_A), dt_s, ref_C=ref)
         return Temps(winding, np.where(read, t, winding))
     both = np.where(read, t, p.t_ref_C)
