@@ -114,6 +114,9 @@ def summary(d) -> str:
                     lines.append(f"    {q['field']:13s} {q['shown']:>14s}  {q['plausibility']}")
                 else:
                     lines.append(f"    {q['field']:13s} not determined by these recordings ({iv['why']})")
+            form = node.get("form")
+            if form:
+                lines.append(f"    {node_form_text(form)}")
             break
     if res.get("noise_floor"):
         lines.append(f"  {res['noise_floor']['text']}")
@@ -157,6 +160,19 @@ def summary(d) -> str:
             if loo["recordings"][c].get("why"):
                 lines.append(f"  ({c}: {loo['recordings'][c]['why']})")
     return "\n".join(lines)
+
+
+def node_form_text(form: dict) -> str:
+    """The line under the winding node on its other form (core.node_form_rival, diagnosis.json thermal_node.form)."""
+    mse = form["held_out_mse_rpm2"]
+    other = ("the node's other form (the winding following the case reading through the node's lag, where the "
+             "boards' node takes the case's rise at once)")
+    if form["as_well"]:
+        return (f"its form: {other} explains the held-out rows as well (MSE {mse['lagging']:.4g} against "
+                f"{mse['boards']:.4g} RPM^2): these recordings do not tell the two forms apart, and every interval "
+                "reaches over both forms' values")
+    return (f"its form: {other} misses the held-out rows by more (MSE {mse['lagging']:.4g} against {mse['boards']:.4g} "
+            "RPM^2): the boards' form is kept")
 
 
 def hybrid_note(d) -> str | None:

@@ -370,6 +370,9 @@ class Selection:
     # selection's without naming their effect (core.material_check): the model part of each budget
     # reaches over their values (core.alternative_models)
     also_fit: tuple = ()
+    # the node's other form weighed (core.node_form_rival): {"held_out_mse_rpm2": {"boards": .., "lagging": ..},
+    # "as_well": whether it joined also_fit}; empty where no time series reads a case temperature that moves
+    node_form: dict = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass

@@ -341,7 +341,7 @@ def lagged_case(ref_C, dt, tau) -> np.ndarray:
     """The case reading as a winding that sheds its heat to the case follows it: tau dL/dt = ref - L, L
     starting at the first reading, each step exact for the reading held at its new value over the step
     (L_k = ref_k + d_k (L_(k-1) - ref_k), d_k = exp(-dt_k / tau); held where no step). The node's other form
-    (docs/diagnosis.md, "A limit of the node's form"): the winding at L plus the rise, where the boards take
+    (docs/diagnosis.md: the node's form): the winding at L plus the rise, where the boards take
     the case's rise into the winding at once. Host only, a rival model the diagnosis weighs
     (core.node_form_rival), not the boards' model. tau a column (k x 1): one row per tau (k x n).
     Linear in the lag e = L - ref, e_k = d_k (e_(k-1) + ref_(k-1) - ref_k): blocks of cumulative
