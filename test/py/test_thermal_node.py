@@ -140,6 +140,17 @@ def test_node_form_the_winding_lags_its_case():
     for c, tau in enumerate((30.0, 60.0)):
         alone = ph.temperatures(dataclasses.replace(p, th_tau_s=tau), i, dt, case, lag=True).winding_C
         np.testing.assert_allclose(both[c], alone, rtol=0, atol=1e-12)
+    # the lag step by step, where the decays of a block underflow too (periods long against tau) and where no
+    # time passes (a period of 0: the lag held)
+    gaps = dt.copy()
+    gaps[300:400], gaps[700] = 9.0, 0.0
+    for tau in (0.2, 60.0):
+        want, x = np.empty(n), case[0]
+        for k in range(n):
+            if gaps[k] > 0:
+                x = case[k] + np.exp(-gaps[k] / tau) * (x - case[k])
+            want[k] = x
+        np.testing.assert_allclose(ph.lagged_case(case, gaps, tau), want, rtol=0, atol=1e-9)
     # a case that does not move: the two forms the same
     flat = np.full(n, 25.0)
     np.testing.assert_allclose(ph.temperatures(p, i, dt, flat, lag=True).winding_C,

@@ -364,13 +364,24 @@ def lagged_case(ref_C, dt, tau) -> np.ndarray:
         prod = np.cumprod(al3, axis=2)
         sums = np.cumsum(be3 / prod, axis=2)
     usable = prod.min(axis=2) > 1e-250
-    e = np.empty((k, nb, _LAG_BLOCK))
-    for c in range(k):
+    # the lag entering each block, block by block from the lag leaving the one before (0 before the first)
+    starts = np.zeros((k, nb))
+    for c, (pc, sc) in enumerate(zip(prod[:, :, -1].tolist(), sums[:, :, -1].tolist())):
+        x = 0.0
+        for b, (pb, sb) in enumerate(zip(pc, sc)):
+            starts[c, b] = x
+            x = pb * (x + sb) if usable[c, b] else math.nan
+    with np.errstate(invalid="ignore"):
+        e = prod * (starts[:, :, None] + sums)
+    for c in np.flatnonzero(~usable.all(axis=1)).tolist():  # decays that underflow over a block: step by step
         x = 0.0
         for b in range(nb):
+            if usable[c, b] and math.isfinite(starts[c, b]):  # (up to the first that underflows: as above)
+                x = float(e[c, b, -1])
+                continue
             if usable[c, b]:
                 e[c, b] = prod[c, b] * (x + sums[c, b])
-            else:  # the decays underflow over the block: step by step
+            else:
                 for j in range(_LAG_BLOCK):
                     x = al3[c, b, j] * x + be3[c, b, j]
                     e[c, b, j] = x
