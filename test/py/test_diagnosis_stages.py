@@ -206,6 +206,14 @@ def test_stages_on_the_bundled_recordings(default_stages):
     # the brush drop, selected at +0.1 V (0.5 V on the bench, Ke takes most of it at 2 Hz): its
     # interval holds zero, so it is said and not named
     assert "brush_drop" not in sel2.missing and "brush_drop" in sel.missing
+    # the node's time constant held at other values: the models the held-out rows leave open (core.node_profile)
+    # widen the magnets' interval; nothing is named or left out by them
+    sel3 = core.node_profile(inp, mf, core.node_form_rival(inp, mf, sel2))
+    assert sel3.missing == sel2.missing and sel3.node_profile["fitted_tau_s"] == pytest.approx(sel2.final.th_tau_s)
+    assert any(t["as_well"] for t in sel3.node_profile["tried"]) and len(sel3.also_fit) > len(sel2.also_fit)
+    mag = [next(iv for iv in s.intervals if iv.quantity == "magnet_thermal") for s in (sel2, sel3)]
+    assert mag[1].lo < mag[0].lo and mag[1].hi == pytest.approx(mag[0].hi)
+    sel2 = sel3
     resid = core.residuals(inp, mf, sel2)
     text = core.verdict(sel2, conf2, resid, mf.sigma2)
     assert text.startswith("Missing: thermal_ra")

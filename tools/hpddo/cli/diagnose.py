@@ -117,6 +117,8 @@ def summary(d) -> str:
             form = node.get("form")
             if form:
                 lines.append(f"    {node_form_text(form)}")
+            if node.get("profile"):
+                lines.append(f"    {node_profile_text(node['profile'])}")
             break
     if res.get("noise_floor"):
         lines.append(f"  {res['noise_floor']['text']}")
@@ -173,6 +175,20 @@ def node_form_text(form: dict) -> str:
                 "reaches over both forms' values")
     return (f"its form: {other} misses the held-out rows by more (MSE {mse['lagging']:.4g} against {mse['boards']:.4g} "
             "RPM^2): the boards' form is kept")
+
+
+def node_profile_text(profile: dict) -> str:
+    """The line under the winding node on its time constant held at other values (core.node_profile,
+    diagnosis.json thermal_node.profile)."""
+    ok = [t["tau_s"] for t in profile["tried"] if t["as_well"]]
+    out = [t["tau_s"] for t in profile["tried"] if not t["as_well"]]
+    told = f"; {', '.join(f'{t:.3g}' for t in out)} s missed them by more" if out else ""
+    if not ok:
+        return (f"its time constant: held at other values ({', '.join(f'{t:.3g}' for t in out)} s), the model misses "
+                f"the held-out rows by more than at {profile['fitted_tau_s']:.3g} s")
+    span = f"{min(ok + [profile['fitted_tau_s']]):.3g}..{max(ok + [profile['fitted_tau_s']]):.3g} s"
+    return (f"its time constant: held anywhere in {span} the model explains the held-out rows as well{told}; "
+            "every interval reaches over those models' values")
 
 
 def hybrid_note(d) -> str | None:

@@ -292,6 +292,8 @@ def fitted_fields(rows, names, hold=None, ra_bounds=None, widen=()) -> tuple[lis
     fields, bounds = list(spec.free), dict(spec.bounds)
     if spec.thermal_state:
         for n in fx.node_params(spec.blind):
+            if n.field not in spec.node_free:  # held (a profile's fit)
+                continue
             fields.append(n.field)
             bounds[n.field] = n.physical
     if ra_bounds is not None:

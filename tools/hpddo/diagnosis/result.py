@@ -373,6 +373,9 @@ class Selection:
     # the node's other form weighed (core.node_form_rival): {"held_out_mse_rpm2": {"boards": .., "lagging": ..},
     # "as_well": whether it joined also_fit}; empty where no time series reads a case temperature that moves
     node_form: dict = dataclasses.field(default_factory=dict)
+    # the profile over the node's time constant (core.node_profile): {"fitted_tau_s", "step", "tried": [{"tau_s", "z",
+    # "as_well"}]}, each value held tried against the final model's held-out error; those as well joined also_fit
+    node_profile: dict = dataclasses.field(default_factory=dict)
 
 
 @dataclasses.dataclass

@@ -237,6 +237,11 @@ def ke_regressor(r: Rows, p: ph.PhysicsParams, temp=None) -> np.ndarray:
 # Fitting
 
 
+# The winding node's fields, in the order a fit moves them (after every other parameter). A fit may hold
+# one of them at a value (hold={"th_tau_s": 60.0}: the diagnosis' profile over the node's time constant).
+NODE_FIELDS = ("th_r_K_per_W", "th_tau_s")
+
+
 @dataclasses.dataclass
 class FitSpec:
     """Which parameters a fit moves, and how they map onto PhysicsParams."""
@@ -249,6 +254,7 @@ class FitSpec:
     thermal_state: bool   # th_r_K_per_W, th_tau_s fitted too (log-parametrised)
     blind: bool = False   # some rows read no temperature: the node is the rise above ambient
     base_forms: dict = dataclasses.field(default_factory=dict)  # extension shapes held at the base form
+    node_free: tuple = NODE_FIELDS  # the node's fields fitted (log-parametrised, after free); the others in fixed
 
 
 # Channel offsets read where the truth is known: at standstill with the supply off (duty 0,
@@ -299,7 +305,8 @@ def widened_in(p: ph.PhysicsParams, names) -> tuple:
 
 
 def spec_for(rows: list[Rows], names, hold=None, widen=()) -> FitSpec:
-    """hold: {effect: coefficient} held at a value instead of fitted. An offset effect is
+    """hold: {effect: coefficient} held at a value instead of fitted (and {node field: value} for a field of the
+    winding node, NODE_FIELDS, where a thermal effect brings it). An offset effect is
     held at its reading at rest where the rows have one (rest_offsets). widen: the effects
     fitted in their widened family (schema.Shape.widened; their extension shapes free, held
     at the base form for the others)."""
@@ -352,8 +359,12 @@ def spec_for(rows: list[Rows], names, hold=None, widen=()) -> FitSpec:
             free.append(sh.field)
             scales.append(sh.scale)
             bounds[sh.field] = shape_bounds(sh, n in widen)
+    node_free = NODE_FIELDS
+    if state:
+        fixed.update({f: float(hold[f]) for f in NODE_FIELDS if f in hold})
+        node_free = tuple(f for f in NODE_FIELDS if f not in hold)
     return FitSpec(names=names, free=free, scales=scales, fixed=fixed, thermal_state=state, blind=blind,
-                   bounds=bounds, base_forms=base_forms)
+                   bounds=bounds, base_forms=base_forms, node_free=node_free)
 
 
 def node_path(blind: bool) -> str:
@@ -416,8 +427,8 @@ def _params(base: ph.PhysicsParams, spec: FitSpec, x: np.ndarray) -> ph.PhysicsP
     kw.update(spec.fixed)
     kw.update(spec.base_forms)
     if spec.thermal_state:
-        kw["th_r_K_per_W"] = float(math.exp(x[len(spec.free)]))
-        kw["th_tau_s"] = float(math.exp(x[len(spec.free) + 1]))
+        for j, f in enumerate(spec.node_free):
+            kw[f] = float(math.exp(x[len(spec.free) + j]))
     # dataclasses.replace(base, **kw) without its checks, once per evaluation of a fit (PhysicsParams has
     # no __post_init__: a copy with the fields set is the same value)
     p = copy.copy(base)
@@ -442,8 +453,8 @@ def _params_cols(base: ph.PhysicsParams, spec: FitSpec, xs: np.ndarray) -> ph.Ph
     kw.update(spec.fixed)
     kw.update(spec.base_forms)
     if spec.thermal_state:  # math.exp of each value, as _params takes it (numpy's exp may differ in the last bit)
-        kw["th_r_K_per_W"] = _column([math.exp(v) for v in xs[:, nf].tolist()])
-        kw["th_tau_s"] = _column([math.exp(v) for v in xs[:, nf + 1].tolist()])
+        for j, f in enumerate(spec.node_free):
+            kw[f] = _column([math.exp(v) for v in xs[:, nf + j].tolist()])
     p = copy.copy(base)
     p.__dict__.update(kw)
     return p
@@ -575,7 +586,7 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
     x0 = [getattr(p0, f) if (start is not None or f in ("ke_vs_per_rad", "ra_ohm") or f in spec.bounds) else 0.0
           for f in spec.free]
     scales = list(spec.scales)
-    node = node_params(spec.blind) if spec.thermal_state else ()
+    node = tuple(n for n in node_params(spec.blind) if n.field in spec.node_free) if spec.thermal_state else ()
     sel = [getattr(r, mask) for r in rows]
     if spec.thermal_state:
         # each parameter the start's node holds, the assumed start (node_start) for those it does not: node_start
@@ -585,8 +596,9 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
             r_start, tau_start = node_start(rows, sel, p0, spec.blind)
             r0 = r0 if r0 > 0 else r_start
             tau0 = tau0 if tau0 > 0 else tau_start
-        x0 += [math.log(r0), math.log(tau0)]
-        scales += [1.0, 1.0]
+        start_at = {"th_r_K_per_W": r0, "th_tau_s": tau0}
+        x0 += [math.log(start_at[n.field]) for n in node]
+        scales += [1.0] * len(node)
     if sum(int(m.sum()) for m in sel) < len(x0) + 5:
         raise IdentificationError(f"too few labelled rows above {MIN_RPM} RPM to fit {', '.join(spec.free)}")
     if weights is not None:
@@ -647,7 +659,7 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
         return f
 
     # which parameters the temperatures depend on (the node's two, log-parametrised, last)
-    thermal = np.array([f in _THERMAL_FIELDS for f in spec.free] + [True, True] * spec.thermal_state)
+    thermal = np.array([f in _THERMAL_FIELDS for f in spec.free] + [True] * len(node), dtype=bool)
 
     def columns(xs):
         """resid at each row of xs, one row each (the points of a finite-difference Jacobian: x with one
@@ -686,7 +698,7 @@ def _solve(rows: list[Rows], base: ph.PhysicsParams, names, mask: str = "train",
             lo[k], hi[k] = spec.bounds[f]
             x0[k] = min(max(x0[k], lo[k] + 1e-9), hi[k] - 1e-9)
     if spec.thermal_state:  # the node within its physical range (schema.NODE)
-        for k, n in zip((-2, -1), node):
+        for k, n in zip(range(len(x0) - len(node), len(x0)), node):
             lo[k], hi[k] = math.log(n.physical[0]), math.log(n.physical[1])
             x0[k] = min(max(x0[k], lo[k] + 1e-9), hi[k] - 1e-9)
     lo_a, hi_a = np.asarray(lo, float), np.asarray(hi, float)
