@@ -340,6 +340,32 @@ def test_a_current_channel_that_explains_nothing_of_the_load_is_named(tmp_path):
     assert diagnose(BUNDLED, None).to_json()["channels"] == []
 
 
+def test_a_current_that_moves_with_the_voltage_is_no_dead_channel(tmp_path):
+    """Dyno tables at one supply each, the terminal voltage sagging with the load through the driver's 0.8 ohm (V and
+    I a straight line of each other, r = -0.9999): the voltage carries the load as the current does, and the speed's
+    variation beyond it (the winding's heating, i^2) is nobody's to explain linearly; the current channel is no
+    fault (an independent simulator's table: "the current channel ... explains nothing of the load", with Ra and every
+    effect through the current set aside). The check still names the dead channel of the test above."""
+    import numpy as np
+
+    rng = np.random.default_rng(3)
+    paths = []
+    for vs in (8.0, 10.0, 12.0):
+        rows = []
+        for k in range(25):
+            i = 0.1 + 1.9 * k / 24 * vs / 12
+            v = vs - 0.8 * i
+            ra_hot = 3.0 * (1 + 0.00393 * 8.0 * i * i * 3.0)
+            rpm = (v - i * ra_hot) / 0.05 * 60 / (2 * math.pi) + rng.normal(0, 1.0)
+            rows.append(f"{k:.1f},1.0,{v + rng.normal(0, 0.002):.4f},{i + rng.normal(0, 0.0005):.5f},{rpm:.1f}")
+        p = tmp_path / f"dyno{int(vs)}V.csv"
+        p.write_text(f"# condition=dyno{int(vs)}V\n# kind=steady_state\nt_s,duty,v_V,i_A,rpm_ref\n" + "\n".join(rows) + "\n")
+        paths.append(p)
+    res = diagnose(paths, 3.0).to_json()
+    assert not [f for f in res["channels"] if f["channel"] == "current"], res["channels"]
+    assert CURRENT_CANNOT not in res["verdict"], res["verdict"]
+
+
 def test_what_ke_absorbs_is_said_when_nothing_is_named(tmp_path):
     """A 60-row table of a motor with saturation of the wrong sign (Ke rising 3 %/A): at the
     noise floor, nothing is named; the verdict says that these recordings would not show a

@@ -31,6 +31,13 @@ COARSE_LEVELS = 20       # fewer steps than this over the range of the driven ro
 # (in a recording whose load column, if it has one, holds more than one state).
 LOAD_SHARE = 0.10
 LOAD_MIN_NOISE = 4.0
+# ... unless the current moves with the voltage over those rows (its share of variance explained by a straight
+# line in the voltage at least LOAD_COLLINEAR_R2): at one supply the terminal voltage sags with the load through the
+# driver's and the leads' resistance, so the voltage carries the load as the current does, and nothing is left for
+# the current to explain beyond it; the rows cannot judge the channel (an independent simulator's dyno table, one
+# supply, the current 0.07..2.13 A and the speed 6086..2180 RPM with it, corr(V, I) = -0.9997: "the current channel
+# ... explains nothing of the load", and Ra and every effect through the current set aside).
+LOAD_COLLINEAR_R2 = 0.99
 
 CHANNELS = (("current", "i_A", "i_lsb_A"), ("voltage", "v_V", "v_lsb_V"))
 # what cannot be concluded from a faulty channel: the effects whose term reads it (schema.Effect.reads)
@@ -507,11 +514,14 @@ def _faults(rec, r, sigma2: float, moved: dict) -> list:
             warnings.simplefilter("ignore", SingularMatrixWarning)
             sse_v = float(np.sum(OLS(y, xv).fit().resid ** 2))
             sse_vi = float(np.sum(OLS(y, np.column_stack([xv, r.i[lab]])).fit().resid ** 2))
+            i_lab = r.i[lab]
+            ss_i = float(np.sum((i_lab - np.mean(i_lab)) ** 2))
+            r2_iv = 1.0 - float(np.sum(OLS(i_lab, xv).fit().resid ** 2)) / ss_i if ss_i > 0 else 0.0
         # ... beyond the noise of the speed's own channel too: a coarse encoder's rounding (q^2 / 12 a row, its step
         # q as the rows show it) is no load the current should explain (an independent probe's 62.5 RPM a count,
         # undeclared: "the current ... explains nothing of the load" of 23.2 RPM RMS, its rounding 18 RPM)
         q = dataset.grid_step(r.ref[lab])
-        if sse_v > LOAD_MIN_NOISE * max(sigma2, q * q / 12.0, 1e-12) * lab.sum():
+        if sse_v > LOAD_MIN_NOISE * max(sigma2, q * q / 12.0, 1e-12) * lab.sum() and r2_iv < LOAD_COLLINEAR_R2:
             share = 1.0 - sse_vi / sse_v
             if share < LOAD_SHARE:
                 out.append(ChannelFault(rec.name, "current", "explains nothing of the load",
