@@ -123,7 +123,8 @@ class Unit:
     def text(self) -> str:
         return (f"{self.kind} {self.name} disagrees with the rest: the model identified without it misses its "
                 f"{self.rows} rows by {self.rmse_rpm:.3g} RPM RMS, the others (each left out in turn) by "
-                f"{self.others_rpm:.3g} RPM (median)")
+                f"{self.others_rpm:.3g} RPM (median), and no model of the library that explains the others predicts it "
+                "(another motor, a channel read otherwise, or physics the library does not hold that acts on it alone)")
 
 
 def _units(rows, recordings: bool = False) -> list:
