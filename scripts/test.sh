@@ -50,7 +50,7 @@ if ((quick)); then
   run_ctest build -E '^firmware\.fuzz\.'
   docs_site
   echo "== pytest (quick: not the slow tests)"
-  exec .venv/bin/python -m pytest -q -rs -n "$jobs" -m "not slow" test/py
+  exec .venv/bin/python -m pytest -q -rs -n "$jobs" -m "not slow and not realtime" test/py
 fi
 run_ctest build
 docs_site
@@ -69,4 +69,9 @@ echo "== benchmark (prints its figures; the targets are judged against peers mea
 .venv/bin/hpddo bench --diagnose
 
 echo "== pytest"
-.venv/bin/python -m pytest -q -rs -n "$jobs" test/py
+rc=0
+.venv/bin/python -m pytest -q -rs -n "$jobs" -m "not realtime" test/py || rc=$?
+# the tests timed against the wall clock, one at a time with the cores to themselves
+echo "== pytest (realtime, alone)"
+.venv/bin/python -m pytest -q -rs -p no:xdist -m realtime test/py || rc=$((rc ? rc : $?))
+exit "$rc"

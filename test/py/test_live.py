@@ -194,6 +194,7 @@ def what_capture_writes(lines: list[str], path: pathlib.Path) -> bytes:
 # ---------------------------------------------------------------- the page and the recording
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_live_records_what_capture_would_and_the_page_shows_the_points(tmp_path):
     from hpddo.reports import browser
 
@@ -398,6 +399,7 @@ def test_a_signal_ends_it_with_one_line_and_releases_the_port(tmp_path, signum):
 
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_a_page_that_holds_its_process_does_not_stop_the_recording_and_the_partial_keeps_up(tmp_path):
     """The page's session build made to spin 4 s holding its interpreter (reports/live.py's
     BUSY_ENV hook: a page built on a busy machine; with the reader in the same process its

@@ -99,6 +99,7 @@ def live_run(tmp_path, name: str, lines: list[str], n_rows: int, esp, esp_port: 
 
 
 @pytest.mark.slow
+@pytest.mark.realtime
 def test_a_model_trained_with_new_effects_reaches_the_running_esp8266_and_its_error_falls_in_the_live_view(tmp_path):
     from test_upload import esp_host
 
