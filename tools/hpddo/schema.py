@@ -81,6 +81,11 @@ class Shape:
     # effect's `extension` shapes (held at their default, the base form, otherwise) free.
     widened: tuple | None = None  # (lo, hi) of the widened family, containing bounds
     extension: bool = False     # fitted only in the widened family
+    # The edge ("lo", "hi"; "" for neither) toward which the term becomes a straight line in its
+    # input over any range of it: a brush drop's knee far beyond the currents run is brush_V / knee
+    # times the current, a resistance. A current's form stopped there trades against I Ra itself
+    # (diagnosis intervals._sizes_of_unfixed_forms).
+    straight_at: str = ""
 
     def param(self, effect: str) -> Param:
         return Param(self.field, self.unit, f"{effect} shape: {self.meaning}", self.default)
@@ -239,7 +244,7 @@ EFFECTS = (
                      0.02, (0.002, 0.3), 0.02,
                      "brush_V i / (|i| + knee): a drop that switches on within a few mA (hard carbon) "
                      "to one that builds up over a few hundred mA (soft graphite, film); widened: up to 1 A",
-                     widened=(0.002, 1.0)),
+                     widened=(0.002, 1.0), straight_at="hi"),
                # A brush drop that levels off smoothly (tanh, 1 - exp) is none of i / (|i| + knee):
                # on such a bench the base form stopped at its 300 mA knee and left the physics
                # 1.26..1.42 x the true model's held-out error (docs/diagnosis-forms.md, Forms outside the

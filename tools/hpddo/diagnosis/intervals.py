@@ -248,11 +248,22 @@ def _thermal_needs_its_node(ivs: list) -> list:
             if iv.field in why and iv.determined else iv for iv in ivs]
 
 
+FORM_WHY = "it trades against"  # (the head of the reason of an Ra that rests on a form stopped at its edge)
+
+
 def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> list:
     """ivs with the coefficient of an effect fitted in its widened family (schema.Shape.widened)
     not determined where one of its shapes stops at an edge of the widest range (but the base
     form's): the data pull the form beyond every form allowed, and the size depends on the
-    form, so a narrow interval of the size at the edge's form would be a silent edge."""
+    form, so a narrow interval of the size at the edge's form would be a silent edge.
+    Where that effect's term is a function of the current (schema.Effect.reads) and the shape stopped at
+    the edge toward which the term becomes a straight line in the current (schema.Shape.straight_at: a
+    brush drop's knee beyond the currents run, a resistance), Ra fitted beside it is not determined
+    either: the data want more of the drop straight in the current than any form allowed, and how much
+    of it is the form's and how much I Ra's they do not say (an independent bench's tanh brush drop,
+    knee 1.14 A: the knee stopped at 1 A, and Ra from the data alone was 0.546 ohm, 0.534..0.558 before
+    its budget, against the motor's 0.591). Stopped at the other edge (a drop that levels off sharper
+    than any form allowed) the drop is level over most currents and Ra is the slope beside it."""
     by_field = {iv.field: k for k, iv in enumerate(ivs)}
     for e in schema.EFFECTS:
         if e.field not in by_field or e.name not in fx.widened_in(p, [e.name]):
@@ -262,12 +273,20 @@ def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> lis
             if sh.field not in bounds or v == sh.default or not on_edge(v, bounds[sh.field]):
                 continue
             k = by_field[e.field]
+            edge = (f"{sh.field} = {schema.quantity(v, sh.unit)}, range {_rng(bounds[sh.field], 1.0, sh.unit)}")
             if ivs[k].determined:
                 ivs[k] = dataclasses.replace(
                     ivs[k], determined=False,
-                    why=(f"its form stopped at the edge of the forms allowed ({sh.field} = "
-                         f"{schema.quantity(v, sh.unit)}, range {_rng(bounds[sh.field], 1.0, sh.unit)}) and its "
-                         f"size depends on the form"))
+                    why=f"its form stopped at the edge of the forms allowed ({edge}) and its size depends on the form")
+            ra = by_field.get("ra_ohm")
+            straight = sh.straight_at and abs(v - bounds[sh.field][sh.straight_at == "hi"]) <= abs(
+                v - bounds[sh.field][sh.straight_at != "hi"])  # (on the edge nearer the straight line)
+            if straight and e.reads == "current" and ra is not None and ivs[ra].determined:
+                ivs[ra] = dataclasses.replace(
+                    ivs[ra], determined=False,
+                    why=(f"{FORM_WHY} the form of {e.name}, which stopped at the edge where it turns into a "
+                         f"straight line in the current as I Ra is ({edge}): the data want more of the drop "
+                         f"straight in the current than any form allowed, and do not say how much of it is Ra's"))
             break
     return ivs
 
