@@ -641,3 +641,29 @@ def test_a_node_that_holds_the_winding_at_the_insulation_limit_determines_nothin
     cool = dataclasses.replace(hot, th_r_K_per_W=3.0)
     assert np.max(fx.temperature(rows[0], cool).winding_C) < ph.WINDING_MAX_C
     assert intervals._thermal_needs_its_node(intervals._node_within_insulation(ivs, rows, cool)) == ivs
+
+
+def test_ra_beside_a_current_drop_stopped_where_it_turns_straight_is_not_determined():
+    """intervals._sizes_of_unfixed_forms: a brush drop fitted in its widened family with its knee at the widened
+    range's top (1 A, where brush_V i / (|i| + knee) becomes a resistance over the currents run) trades against
+    I Ra, so Ra fitted beside it is not determined (an independent bench's tanh drop with a 1.14 A knee: Ra
+    0.514..0.572 against 0.591, and a reading 11 % low called consistent). With the order at its edge and the knee
+    inside (a drop levelling off sharper than any form allowed) Ra stays determined; the drop's size is not, either
+    way."""
+    from hpddo.diagnosis import intervals
+    from hpddo.model import physics as ph
+    from hpddo.model.interval import Interval
+
+    knee = next(sh for sh in fx.LIBRARY["brush_drop"].shapes if sh.field == "brush_knee_A")
+    order = next(sh for sh in fx.LIBRARY["brush_drop"].shapes if sh.field == "brush_order")
+    bounds = {knee.field: knee.widened, order.field: order.bounds}
+    ivs = [Interval("Ra", "ra_ohm", "ohm", 0.546, 0.534, 0.558, True),
+           Interval("brush_drop", "brush_V", "V", 0.67, 0.61, 0.73, True)]
+    soft = ph.PhysicsParams(ra_ohm=0.546, ke_vs_per_rad=0.39, brush_V=0.67, brush_knee_A=knee.widened[1],
+                            brush_order=order.bounds[1])
+    out = intervals._sizes_of_unfixed_forms(ivs, soft, bounds)
+    assert not out[0].determined and out[0].why.startswith(intervals.FORM_WHY), out[0]
+    assert "brush_knee_A = 1 A" in out[0].why and not out[1].determined, out
+    sharp = dataclasses.replace(soft, brush_knee_A=0.5)
+    out = intervals._sizes_of_unfixed_forms(ivs, sharp, bounds)
+    assert out[0] == ivs[0] and not out[1].determined, out
