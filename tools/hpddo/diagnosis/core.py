@@ -820,8 +820,7 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
         return None
     ivs = intervals.of_fit(inp.data, p, names, ranking.material_holds(names), ranking.ra_data_bounds(inp.m2))
     iv = next(iv for iv in ivs if iv.field == "ra_ohm")
-    if alternative and not iv.determined and not iv.why.startswith(intervals.FORM_WHY):
-        # (a model whose Ra rests on a form at its edge still explains the rows: its Ra joins the spread)
+    if alternative and not intervals.value_stands(iv):
         return None
     # The copper heats in every motor that carries current: on settled rows (steady-state tables) it is at
     # each row's settled rise, r i^2 Ra above the reading, on a time series at its node's trajectory. A
@@ -831,8 +830,7 @@ def ra_alone(inp: Inputs, names, sigma2: float | None = None, physical: bool = F
     alts = [ra_alone(inp, list(names) + [c], physical=True, alternative=True) for c in alternatives
             if c not in names and c != ranking.RA_MISMATCH and not fx.LIBRARY[c].case_temperature
             and (not fx.LIBRARY[c].thermal or c == fx.COPPER)]
-    models = [a.value for a in alts if a is not None and (a.determined or a.why.startswith(intervals.FORM_WHY))
-              ] + list(rivals_ohm)
+    models = [a.value for a in alts if a is not None and intervals.value_stands(a)] + list(rivals_ohm)
     # (an alternative's Ra is read for its value only: its rounding part is not taken)
     cal = calibration_of(inp, names)
     sens = {} if alternative else intervals.sensors_of_fit(inp.data, p, names, channel_steps(inp), cal,

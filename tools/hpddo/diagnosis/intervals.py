@@ -251,6 +251,12 @@ def _thermal_needs_its_node(ivs: list) -> list:
 FORM_WHY = "it trades against"  # (the head of the reason of an Ra that rests on a form stopped at its edge)
 
 
+def value_stands(iv: "Interval") -> bool:
+    """Whether iv's value is what a model that explains the rows gives: determined, or not determined only
+    because it rests on a form stopped at its edge (FORM_WHY), a model the data did not exclude all the same."""
+    return iv.determined or iv.why.startswith(FORM_WHY)
+
+
 def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> list:
     """ivs with the coefficient of an effect fitted in its widened family (schema.Shape.widened)
     not determined where one of its shapes stops at an edge of the widest range (but the base
@@ -279,8 +285,9 @@ def _sizes_of_unfixed_forms(ivs: list, p: ph.PhysicsParams, bounds: dict) -> lis
                     ivs[k], determined=False,
                     why=f"its form stopped at the edge of the forms allowed ({edge}) and its size depends on the form")
             ra = by_field.get("ra_ohm")
-            straight = sh.straight_at and abs(v - bounds[sh.field][sh.straight_at == "hi"]) <= abs(
-                v - bounds[sh.field][sh.straight_at != "hi"])  # (on the edge nearer the straight line)
+            lo, hi = bounds[sh.field]
+            straight = (sh.straight_at == "hi" and abs(v - hi) <= abs(v - lo)) or (
+                sh.straight_at == "lo" and abs(v - lo) <= abs(v - hi))  # (on the edge of the straight line)
             if straight and e.reads == "current" and ra is not None and ivs[ra].determined:
                 ivs[ra] = dataclasses.replace(
                     ivs[ra], determined=False,
